@@ -1,0 +1,63 @@
+"""Kinematic relations between the centre of mass and the hoop, for scalars or arrays.
+
+The one place that converts centre-of-mass coordinates (X, Y, theta and rates) into the
+quantities the detectors read: hoop-centre clearance, slip velocity and energy.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from models.scene import Scene
+
+__all__ = [
+    "centre_position",
+    "centre_velocity",
+    "clearance",
+    "energy_per_mass",
+    "slip_velocity",
+]
+
+
+def centre_position(
+    scene: Scene, X: ArrayLike, Y: ArrayLike, theta: ArrayLike
+) -> tuple[NDArray, NDArray]:
+    """Hoop centre (x, y), m, from the centre of mass (X, Y), m, and theta, rad."""
+    r = scene.com_offset
+    return np.asarray(X) - r * np.sin(theta), np.asarray(Y) - r * np.cos(theta)
+
+
+def centre_velocity(
+    scene: Scene, Xdot: ArrayLike, Ydot: ArrayLike, theta: ArrayLike, thetadot: ArrayLike
+) -> tuple[NDArray, NDArray]:
+    """Hoop-centre velocity (xdot, ydot), m/s."""
+    r = scene.com_offset
+    thetadot = np.asarray(thetadot)
+    return (
+        np.asarray(Xdot) - r * np.cos(theta) * thetadot,
+        np.asarray(Ydot) + r * np.sin(theta) * thetadot,
+    )
+
+
+def clearance(scene: Scene, Y: ArrayLike, theta: ArrayLike) -> NDArray:
+    """Height of the hoop centre above its resting height, y - a, m (> 0 in flight)."""
+    return np.asarray(Y) - scene.com_offset * np.cos(theta) - scene.a
+
+
+def slip_velocity(scene: Scene, Xdot: ArrayLike, theta: ArrayLike, thetadot: ArrayLike) -> NDArray:
+    """Velocity of the rim point at the floor, xdot - a*thetadot, m/s (0 when rolling)."""
+    thetadot = np.asarray(thetadot)
+    return np.asarray(Xdot) - scene.com_offset * np.cos(theta) * thetadot - scene.a * thetadot
+
+
+def energy_per_mass(
+    scene: Scene, Y: ArrayLike, Xdot: ArrayLike, Ydot: ArrayLike, thetadot: ArrayLike
+) -> NDArray:
+    """Mechanical energy per unit mass, J/kg, with the floor at zero potential."""
+    Xdot, Ydot, thetadot = np.asarray(Xdot), np.asarray(Ydot), np.asarray(thetadot)
+    return (
+        scene.g * np.asarray(Y)
+        + 0.5 * (Xdot**2 + Ydot**2)
+        + 0.5 * scene.k * scene.a**2 * thetadot**2
+    )

@@ -1,0 +1,145 @@
+"""The normalised trajectory every engine, and the reference, returns."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from numpy.typing import ArrayLike, NDArray
+
+from models import kinematics
+from models.scene import Scene
+
+__all__ = ["COLUMNS", "FORMAT_VERSION", "Trajectory"]
+
+FORMAT_VERSION = 1
+"""Version of the trajectory file layout (CSV comment line / Parquet metadata)."""
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """Samples of one run, one row per time, SI units, theta clockwise from the top.
+
+    Every array has shape (n,). Build it with :meth:`from_state` so that the derived
+    columns (clearance, slip velocity, energy) come from :mod:`models.kinematics`.
+    """
+
+    t: NDArray
+    """Time, s."""
+    X: NDArray
+    """Centre-of-mass horizontal position, m."""
+    Y: NDArray
+    """Centre-of-mass height above the floor, m."""
+    theta: NDArray
+    """Angle of the weight from the upward vertical, rad, clockwise positive (unwrapped)."""
+    Xdot: NDArray
+    """Centre-of-mass horizontal velocity, m/s."""
+    Ydot: NDArray
+    """Centre-of-mass vertical velocity, m/s."""
+    thetadot: NDArray
+    """Angular velocity, rad/s, clockwise positive."""
+    clearance: NDArray
+    """Hoop-centre height minus radius, y - a, m (penetration is negative)."""
+    slip_velocity: NDArray
+    """Hoop-centre horizontal velocity minus a*thetadot, m/s."""
+    normal_force: NDArray
+    """Normal contact force per unit mass, m/s^2 (0 in flight)."""
+    friction_force: NDArray
+    """Horizontal contact force per unit mass, m/s^2, +x positive."""
+    contact: NDArray
+    """True where the engine (or the reference) reports a contact force, bool."""
+    energy: NDArray
+    """Mechanical energy per unit mass, J/kg."""
+
+    @classmethod
+    def from_state(
+        cls,
+        scene: Scene,
+        *,
+        t: ArrayLike,
+        X: ArrayLike,
+        Y: ArrayLike,
+        theta: ArrayLike,
+        Xdot: ArrayLike,
+        Ydot: ArrayLike,
+        thetadot: ArrayLike,
+        normal_force: ArrayLike,
+        friction_force: ArrayLike,
+        contact: ArrayLike | None = None,
+    ) -> Trajectory:
+        """Build from centre-of-mass states and contact forces; derive the rest."""
+        arr = {
+            name: np.asarray(value, dtype=float)
+            for name, value in dict(
+                t=t,
+                X=X,
+                Y=Y,
+                theta=theta,
+                Xdot=Xdot,
+                Ydot=Ydot,
+                thetadot=thetadot,
+                normal_force=normal_force,
+                friction_force=friction_force,
+            ).items()
+        }
+        n = arr["t"].shape
+        for name, value in arr.items():
+            if value.shape != n:
+                raise ValueError(f"{name} has shape {value.shape}, expected {n}")
+        if contact is None:
+            contact = arr["normal_force"] > 0
+        return cls(
+            **arr,
+            clearance=kinematics.clearance(scene, arr["Y"], arr["theta"]),
+            slip_velocity=kinematics.slip_velocity(
+                scene, arr["Xdot"], arr["theta"], arr["thetadot"]
+            ),
+            contact=np.asarray(contact, dtype=bool),
+            energy=kinematics.energy_per_mass(
+                scene, arr["Y"], arr["Xdot"], arr["Ydot"], arr["thetadot"]
+            ),
+        )
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    def to_frame(self) -> pd.DataFrame:
+        """One row per sample, one column per variable (names as in COLUMNS)."""
+        return pd.DataFrame({name: getattr(self, name) for name in COLUMNS})
+
+    @classmethod
+    def from_frame(cls, frame: pd.DataFrame) -> Trajectory:
+        missing = [c for c in COLUMNS if c not in frame.columns]
+        if missing:
+            raise ValueError(f"trajectory table lacks columns {missing}")
+        values = {c: frame[c].to_numpy() for c in COLUMNS}
+        values["contact"] = values["contact"].astype(bool)
+        values = {c: v if c == "contact" else v.astype(float) for c, v in values.items()}
+        return cls(**values)
+
+    def write(self, path: str | Path) -> Path:
+        """Write as CSV (with a format-version comment) or Parquet, chosen by the suffix."""
+        path = Path(path)
+        frame = self.to_frame()
+        if path.suffix == ".parquet":
+            frame.attrs["hoopbench_trajectory_format"] = FORMAT_VERSION
+            frame.to_parquet(path, index=False)
+        elif path.suffix == ".csv":
+            with path.open("w", newline="") as fh:
+                fh.write(f"# hoopbench trajectory format {FORMAT_VERSION}; SI units\n")
+                frame.to_csv(fh, index=False, float_format="%.17g")
+        else:
+            raise ValueError(f"trajectory file must end in .csv or .parquet, got {path.name!r}")
+        return path
+
+    @classmethod
+    def read(cls, path: str | Path) -> Trajectory:
+        path = Path(path)
+        if path.suffix == ".parquet":
+            return cls.from_frame(pd.read_parquet(path))
+        return cls.from_frame(pd.read_csv(path, comment="#"))
+
+
+COLUMNS: tuple[str, ...] = tuple(f.name for f in fields(Trajectory))
