@@ -196,7 +196,7 @@ class Scene:
     @property
     def energy_per_mass(self) -> float:
         """Initial mechanical energy per unit mass, J/kg (floor at zero potential)."""
-        X, Y, _, Xdot, Ydot, thetadot = self.initial_state()
+        _X, Y, _, Xdot, Ydot, thetadot = self.initial_state()
         return self.g * Y + 0.5 * (Xdot**2 + Ydot**2) + 0.5 * self.k * self.a**2 * thetadot**2
 
     def to_dict(self) -> dict[str, float | str | None]:

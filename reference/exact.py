@@ -270,7 +270,7 @@ def _flight_phase(scene: Scene, t0: float, state: State) -> tuple[Segment, float
     tau_max = (Ydot + math.sqrt(max(disc, 0.0))) / g + 1e-9
     spin_period = 2.0 * math.pi / abs(thetadot) if thetadot != 0 else math.inf
     h = min(tau_max, spin_period) / 400.0
-    grid = np.arange(1, int(math.ceil(tau_max / h)) + 2) * h
+    grid = np.arange(1, math.ceil(tau_max / h) + 2) * h
     c = clear(grid)
     below = np.nonzero(c < 0.0)[0]
     if below.size == 0:  # cannot happen: tau_max is past the fall
