@@ -1,0 +1,169 @@
+"""The one set of event detectors, applied to every engine's trajectory and to the reference's.
+
+Engines do not tell us when a hoop starts to slip or leaves the floor; we read it off the
+normalised trajectory with thresholds, the same way for every engine, so that differences are
+the engines' and not the detectors'. Applied to the reference sampled on the same grid, the
+detectors' own bias against the exact events can be measured (see reports).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from models.events import Events, Outcome
+from models.trajectory import Trajectory
+
+__all__ = ["DetectorSettings", "detect_events", "refined_onset"]
+
+
+@dataclass(frozen=True)
+class DetectorSettings:
+    """Detector thresholds. Defaults are documented here and nowhere else."""
+
+    slip_threshold: float = 1e-3
+    """|slip velocity| above which the hoop slips, m/s."""
+    restick_threshold: float = 1e-3
+    """|slip velocity| below which a slipping hoop counts as rolling again, m/s."""
+    restick_sustain: float = 5e-3
+    """How long |slip velocity| must stay below restick_threshold to call a re-stick, s."""
+    lift_clearance: float = 1e-4
+    """Hoop-centre clearance y - a above which the hoop may be airborne, m."""
+    lift_sustain: float = 5e-3
+    """How long the clearance must stay above lift_clearance to call a lift-off, s.
+    Soft contacts lose contact for single steps after slip onset without lifting off."""
+
+    def __post_init__(self) -> None:
+        for name in ("slip_threshold", "restick_threshold", "lift_clearance"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be > 0, got {value}")
+        for name in ("restick_sustain", "lift_sustain"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be >= 0, got {value}")
+
+
+def _crossing_time(t: NDArray, y: NDArray, i: int, level: float) -> float:
+    """Linear interpolation of the time at which y crosses level between samples i-1 and i."""
+    if i == 0:
+        return float(t[0])
+    y0, y1 = y[i - 1], y[i]
+    if y1 == y0:
+        return float(t[i])
+    frac = (level - y0) / (y1 - y0)
+    return float(t[i - 1] + min(max(frac, 0.0), 1.0) * (t[i] - t[i - 1]))
+
+
+def _first_sustained(mask: NDArray, t: NDArray, start: int, duration: float) -> int | None:
+    """First index >= start where mask holds and keeps holding for ``duration`` seconds."""
+    idx = start
+    n = len(mask)
+    while idx < n:
+        hits = np.nonzero(mask[idx:])[0]
+        if hits.size == 0:
+            return None
+        i = idx + int(hits[0])
+        misses = np.nonzero(~mask[i:])[0]
+        j = n if misses.size == 0 else i + int(misses[0])
+        # Sustained if it holds for duration, or holds until the end of the record.
+        if j == n or t[j - 1] - t[i] >= duration:
+            return i
+        idx = j
+    return None
+
+
+def refined_onset(t: NDArray, s: NDArray, i: int, threshold: float) -> float:
+    """Slip onset extrapolated back from the crossings of threshold, 2x and 4x.
+
+    If |s| grows like c (t - t0)^p after onset, the crossing times t1, t2, t3 of the levels
+    1, 2 and 4 thresholds satisfy (t3 - t2) / (t2 - t1) = 2^(1/p), whatever c and p:
+    t0 = t1 - (t2 - t1) / (r - 1). Falls back on the threshold crossing where the signal
+    does not look like a power law (noise, or growth faster than any power).
+    """
+    abs_s = np.abs(s)
+    t1 = _crossing_time(t, abs_s, i, threshold)
+    times = [t1]
+    for level in (2 * threshold, 4 * threshold):
+        later = np.nonzero(abs_s[i:] > level)[0]
+        if later.size == 0:
+            return t1
+        k = i + int(later[0])
+        times.append(_crossing_time(t, abs_s, k, level))
+    d1, d2 = times[1] - times[0], times[2] - times[1]
+    if d1 <= 0 or d2 <= 0:
+        return t1
+    r = d2 / d1
+    if not (1.05 < r < 16.0):  # p between 0.25 and 14: anything else is not an onset
+        return t1
+    return max(float(t[0]), t1 - d1 / (r - 1.0))
+
+
+def detect_events(traj: Trajectory, settings: DetectorSettings | None = None) -> Events:
+    """Slip onset (threshold and refined), re-stick, lift-off, hop height, impact.
+
+    Slip counts only while the hoop is on the floor (before any lift-off). The returned
+    Events carry both slip estimates: ``t_slip`` is the refined one, the raw threshold time
+    is in ``extra['t_slip_threshold']``; theta and thetadot are interpolated at t_slip.
+    """
+    cfg = settings or DetectorSettings()
+    t, s, clear = traj.t, traj.slip_velocity, traj.clearance
+    if len(t) < 2:
+        raise ValueError("a trajectory needs at least two samples for event detection")
+    extra: dict[str, float | None] = {}
+
+    # Lift-off: clearance above lift_clearance, sustained.
+    up = clear > cfg.lift_clearance
+    i_up = _first_sustained(up, t, 0, cfg.lift_sustain)
+    t_lift = t_impact = hop_height = None
+    end_contact = len(t)
+    if i_up is not None:
+        # The hop starts where the clearance last left the floor level before the excursion.
+        before = np.nonzero(clear[: i_up + 1] <= 0.0)[0]
+        i0 = int(before[-1]) + 1 if before.size else 0
+        t_lift = _crossing_time(t, clear, i0, 0.0) if i0 > 0 else float(t[0])
+        extra["t_lift_threshold"] = _crossing_time(t, clear, i_up, cfg.lift_clearance)
+        down = np.nonzero(clear[i_up:] <= 0.0)[0]
+        if down.size:
+            k = i_up + int(down[0])
+            t_impact = _crossing_time(t, clear, k, 0.0)
+            hop_height = float(np.max(clear[i0:k]))
+        else:
+            hop_height = float(np.max(clear[i0:]))
+        end_contact = i0
+
+    # Slip onset while on the floor.
+    slipping = np.abs(s[:end_contact]) > cfg.slip_threshold
+    hits = np.nonzero(slipping)[0]
+    t_slip = theta_slip = thetadot_slip = t_restick = None
+    if hits.size:
+        i = int(hits[0])
+        extra["t_slip_threshold"] = _crossing_time(t, np.abs(s), i, cfg.slip_threshold)
+        t_slip = refined_onset(t[:end_contact], s[:end_contact], i, cfg.slip_threshold)
+        theta_slip = float(np.interp(t_slip, t, traj.theta))
+        thetadot_slip = float(np.interp(t_slip, t, traj.thetadot))
+        stuck = np.abs(s[:end_contact]) < cfg.restick_threshold
+        j = _first_sustained(stuck, t[:end_contact], i, cfg.restick_sustain)
+        if j is not None:
+            t_restick = float(t[j])
+
+    if t_lift is not None:
+        outcome = Outcome.LIFTS_AT_START if t_lift <= t[0] else Outcome.HOPS
+    elif t_slip is not None:
+        outcome = Outcome.SLIPS
+    else:
+        outcome = Outcome.ROLLS
+    return Events(
+        outcome=outcome,
+        t_slip=t_slip,
+        theta_slip=theta_slip,
+        thetadot_slip=thetadot_slip,
+        t_restick=t_restick,
+        t_lift=t_lift,
+        hop_height=hop_height,
+        t_impact=t_impact,
+        extra=extra,
+    )
