@@ -1,0 +1,114 @@
+"""The shared detectors on synthetic signals and on the reference sampled like an engine."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from engines.detectors import DetectorSettings, detect_events, refined_onset
+from models.events import Outcome
+from models.scene import Scene
+from models.trajectory import Trajectory
+from reference.exact import solve_exact
+
+SEED = Scene.from_chi(0.1, lam=0.95, eps=0.01, mus=0.8, muk=0.7)
+
+
+def _synthetic(t, s, clearance=None):
+    """A trajectory whose slip velocity and clearance are given (other columns dummy)."""
+    zeros = np.zeros_like(t)
+    clearance = zeros if clearance is None else clearance
+    return Trajectory(
+        t=t,
+        X=zeros,
+        Y=zeros,
+        theta=t,
+        Xdot=zeros,
+        Ydot=zeros,
+        thetadot=np.ones_like(t),
+        clearance=clearance,
+        slip_velocity=s,
+        normal_force=np.where(clearance > 0, 0.0, 9.8),
+        friction_force=zeros,
+        contact=clearance <= 0,
+        energy=zeros,
+    )
+
+
+@pytest.mark.parametrize("power", [1.0, 1.5, 2.0, 3.0])
+def test_refined_onset_recovers_power_law_start(power):
+    t = np.arange(0.0, 1.0, 1e-4)
+    t0 = 0.4321
+    s = 0.5 * np.clip(t - t0, 0.0, None) ** power
+    i = int(np.nonzero(s > 1e-3)[0][0])
+    estimate = refined_onset(t, s, i, 1e-3)
+    threshold_time = t[i]
+    assert abs(estimate - t0) < 0.05 * (threshold_time - t0)
+
+
+def test_refined_onset_falls_back_on_noise():
+    t = np.arange(0.0, 1.0, 1e-3)
+    s = np.where(t > 0.5, 1.0, 0.0)  # a jump: no power law to extrapolate
+    i = int(np.nonzero(s > 1e-3)[0][0])
+    assert refined_onset(t, s, i, 1e-3) == pytest.approx(t[i - 1], abs=1e-3)
+
+
+def test_single_step_contact_loss_is_not_a_lift_off():
+    """A spike of clearance shorter than lift_sustain is ignored (MuJoCo after slip)."""
+    t = np.arange(0.0, 0.5, 1e-4)
+    clearance = np.where((t > 0.2) & (t < 0.2 + 3e-3), 1e-3, -1e-6)
+    events = detect_events(_synthetic(t, np.zeros_like(t), clearance))
+    assert events.outcome is Outcome.ROLLS
+    assert events.t_lift is None
+
+
+def test_sustained_clearance_is_a_hop():
+    t = np.arange(0.0, 0.5, 1e-4)
+    tau = t - 0.2
+    clearance = np.where((tau > 0) & (tau < 0.1), 4.0 * tau * (0.1 - tau), -1e-6)
+    events = detect_events(_synthetic(t, np.zeros_like(t), clearance))
+    assert events.outcome is Outcome.HOPS
+    assert events.t_lift == pytest.approx(0.2, abs=2e-4)
+    assert events.t_impact == pytest.approx(0.3, abs=2e-4)
+    assert events.hop_height == pytest.approx(0.01, rel=1e-3)
+
+
+def test_bad_thresholds_are_rejected():
+    with pytest.raises(ValueError, match="slip_threshold must be > 0"):
+        DetectorSettings(slip_threshold=0.0)
+    with pytest.raises(ValueError, match="lift_sustain must be >= 0"):
+        DetectorSettings(lift_sustain=-1.0)
+
+
+@pytest.mark.parametrize(
+    ("muk", "dt", "max_fraction"),
+    [
+        # mus = muk (what engines can represent): |s| grows like a power law, the
+        # extrapolation removes almost all of the threshold lag.
+        (0.8, 1e-4, 0.02),
+        (0.8, 1e-3, 0.05),
+        # muk < mus (the seed): |s| grows like c1 t + c2 t^2, no single power; measured
+        # 18 % of the lag left at dt = 1e-4. Stated here, not hidden.
+        (0.7, 1e-4, 0.25),
+        (0.7, 1e-3, 0.25),
+    ],
+)
+def test_detector_bias_on_the_reference(muk, dt, max_fraction):
+    """Detectors on the exact solution sampled like an engine: distance to the exact events.
+
+    The threshold onset is late by several ms (engines.md: about 5 ms in the seed scene);
+    the refined onset must remove most of that lag.
+    """
+    solution = solve_exact(SEED.with_(muk=muk))
+    events = detect_events(solution.sample_uniform(dt))
+    exact = solution.events
+    lag = events.extra["t_slip_threshold"] - exact.t_slip
+    refined_error = abs(events.t_slip - exact.t_slip)
+    print(f"muk={muk} dt={dt}: lag {lag * 1e3:.3f} ms, refined error {refined_error * 1e3:.4f} ms")
+    assert 2e-3 < lag < 20e-3
+    assert refined_error < max_fraction * lag
+    assert math.degrees(abs(events.theta_slip - exact.theta_slip)) < 0.2
+    assert events.outcome is Outcome.SLIPS
+    assert events.t_restick == pytest.approx(exact.t_restick, abs=10 * dt + 6e-3)

@@ -1,0 +1,178 @@
+"""Every engine against the exact reference, with the tolerances of reports/tolerances.toml.
+
+One run per (engine, scene) is cached for the whole module: the engines are the slow part.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import cache
+
+import numpy as np
+import pytest
+
+from engines.base import EngineUnavailableError, RunResult, RunStatus
+from engines.registry import ENGINE_NAMES, get_engine
+from engines.settings import RunSettings
+from models.catalogue import get_scene, scene_names
+from models.scene import Scene
+from reference.exact import solve_exact
+from reports.tolerances import tolerances
+
+TOL = tolerances()
+ENGINES = [name for name in ENGINE_NAMES if name != "reference"]
+HOP_SCENES = [name for name in scene_names() if name.startswith("hop")]
+SEED_MU = 0.8
+TIMESTEP = 1e-4
+
+
+def seed_scene() -> Scene:
+    """The seed scene with one friction coefficient, as every engine can represent it."""
+    return get_scene("seed").with_(mus=SEED_MU, muk=SEED_MU, t_end=1.6)
+
+
+@cache
+def run(engine: str, scene_name: str, timestep: float = TIMESTEP) -> RunResult:
+    scene = seed_scene() if scene_name == "seed" else get_scene(scene_name)
+    result = get_engine(engine).run(scene, RunSettings(timestep=timestep))
+    if result.info.status is RunStatus.UNAVAILABLE:
+        pytest.skip(f"{engine} unavailable: {result.info.message}")
+    return result
+
+
+@cache
+def exact(scene_name: str):
+    scene = seed_scene() if scene_name == "seed" else get_scene(scene_name)
+    return solve_exact(scene.with_(muk=scene.mus)).events
+
+
+def test_hop_scenes_exist():
+    assert len(HOP_SCENES) >= 2, "the catalogue must hold at least two hop scenes"
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_seed_runs_clean(engine):
+    result = run(engine, "seed")
+    assert result.info.status is RunStatus.OK, result.info.message
+    traj = result.trajectory
+    assert np.isfinite(traj.to_frame().drop(columns="contact").to_numpy()).all()
+    assert result.info.n_steps == pytest.approx(seed_scene().t_end / TIMESTEP, abs=1)
+    assert result.info.mu == SEED_MU
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_seed_slip_onset(engine):
+    """Refined slip onset within [slip] t_s and theta_deg of the exact onset for the same mu."""
+    events = run(engine, "seed").events
+    ref = exact("seed")
+    assert events.t_slip is not None, "no slip detected"
+    assert abs(events.t_slip - ref.t_slip) <= TOL["slip"]["t_s"], (events.t_slip, ref.t_slip)
+    dtheta = math.degrees(abs(events.theta_slip - ref.theta_slip))
+    assert dtheta <= TOL["slip"]["theta_deg"], f"slip angle off by {dtheta:.3f} deg"
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_energy_before_slip(engine):
+    result = run(engine, "seed")
+    traj = result.trajectory
+    before = traj.t < result.events.t_slip
+    rise = (traj.energy[before].max() - traj.energy[0]) / traj.energy[0]
+    assert rise <= TOL["slip"]["energy_rise"], f"energy rose by {rise:.2%} before slip"
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_rolling_conventions(engine):
+    """Rolling from the top: theta increases, no slip, hoop centre on the floor."""
+    traj = run(engine, "seed").trajectory
+    rolling = traj.t < 0.5
+    assert np.all(np.diff(traj.theta[rolling]) > 0)
+    assert np.max(np.abs(traj.slip_velocity[rolling])) < 1e-3
+    assert np.max(np.abs(traj.clearance[rolling])) < 1e-3
+    assert np.all(traj.contact[rolling])
+    assert np.median(traj.normal_force[rolling]) > 0
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_friction_coefficient_is_mu(engine):
+    """During a slip |f|/n is the pair's coefficient: the combination rule is undone."""
+    result = run(engine, "seed")
+    traj, ref = result.trajectory, exact("seed")
+    slip_end = ref.phases[1].t_end
+    window = (traj.t > ref.t_slip + 0.03) & (traj.t < slip_end - 0.03)
+    window &= traj.normal_force > 0.2 * get_scene("seed").g
+    assert window.sum() > 100
+    ratio = np.median(np.abs(traj.friction_force[window]) / traj.normal_force[window])
+    assert ratio == pytest.approx(SEED_MU, rel=TOL["friction"]["ratio_rel"])
+
+
+def _hop_cases():
+    for engine in ["reference", *ENGINES]:
+        xfails = TOL["hop"].get(engine, {}).get("xfail", {})
+        for scene in HOP_SCENES:
+            marks = []
+            if scene in xfails:
+                marks.append(pytest.mark.xfail(strict=True, reason=xfails[scene]))
+            yield pytest.param(engine, scene, marks=marks, id=f"{engine}-{scene}")
+
+
+@pytest.mark.parametrize(("engine", "scene_name"), list(_hop_cases()))
+def test_hop(engine, scene_name):
+    """Lift-off, hop height and impact against the exact solver, [hop.<engine>] tolerances."""
+    result = run(engine, scene_name)
+    assert result.info.status is RunStatus.OK, result.info.message
+    ref = exact(scene_name)
+    assert ref.t_lift is not None
+    tol = TOL["hop"][engine]
+    events = result.events
+    assert events.t_lift is not None, "no lift-off detected"
+    assert events.t_impact is not None, "no impact detected"
+    assert abs(events.t_lift - ref.t_lift) <= tol["t_lift_s"], (events.t_lift, ref.t_lift)
+    assert abs(events.t_impact - ref.t_impact) <= tol["t_impact_s"], (
+        events.t_impact,
+        ref.t_impact,
+    )
+    assert events.hop_height == pytest.approx(ref.hop_height, rel=tol["hop_height_rel"])
+
+
+@pytest.mark.parametrize("engine", ["reference", *ENGINES])
+def test_unknown_setting_is_an_error(engine):
+    with pytest.raises(ValueError, match=r"unknown .* setting.*no_such_knob"):
+        get_engine(engine).run(seed_scene(), RunSettings(options={"no_such_knob": 1}))
+
+
+@pytest.mark.parametrize("engine", ["reference", *ENGINES])
+def test_unknown_geometry_is_an_error(engine):
+    with pytest.raises(ValueError, match="geometry 'teapot' is not available"):
+        get_engine(engine).run(seed_scene(), RunSettings(geometry="teapot"))
+
+
+def test_unknown_engine_is_an_error():
+    with pytest.raises(ValueError, match="unknown engine 'bullet3'; known: reference, mujoco"):
+        get_engine("bullet3")
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_missing_engine_is_reported(engine, monkeypatch):
+    adapter = get_engine(engine)
+
+    def missing():
+        raise EngineUnavailableError(f"{engine} is not installed")
+
+    monkeypatch.setattr(adapter, "_import", missing)
+    result = adapter.run(seed_scene())
+    assert result.info.status is RunStatus.UNAVAILABLE
+    assert result.info.message == f"{engine} is not installed"
+    assert result.trajectory is None
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_failing_engine_is_reported(engine, monkeypatch):
+    adapter = get_engine(engine)
+
+    def boom(*args, **kwargs):
+        raise RuntimeError("solver exploded")
+
+    monkeypatch.setattr(adapter, "_simulate", boom)
+    result = adapter.run(seed_scene())
+    assert result.info.status is RunStatus.ERROR
+    assert result.info.message == "RuntimeError: solver exploded"
