@@ -1,0 +1,126 @@
+"""Figures: the hoop's path (the seed's Figure 3/5 kind) and engine comparisons."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")  # files only; no display is assumed
+import matplotlib.pyplot as plt
+import numpy as np
+
+from models import kinematics
+from models.scene import Scene
+from models.trajectory import Trajectory
+
+__all__ = ["clearance_figure", "error_vs_time_figure", "hoop_figure"]
+
+
+def _solve(scene: Scene, method: str) -> tuple[Trajectory, object]:
+    if method == "exact":
+        from reference.exact import solve_exact
+
+        solution = solve_exact(scene)
+        t = np.linspace(0.0, solution.t_final, 2001)
+        return solution.sample(t), solution.events
+    from reference.seed_euler import solve_seed_euler
+
+    result = solve_seed_euler(scene)
+    return result.trajectory(scene), result.events
+
+
+def hoop_figure(
+    scene: Scene, out: str | Path, *, method: str = "exact", n_frames: int = 40
+) -> Path:
+    """Centre-of-mass path with hoop centre, spoke and weight at equal time steps.
+
+    Top: the path in the plane (the seed's Figure 3/5 kind). Bottom: hoop-centre clearance
+    y - a and slip velocity against time, with the phases shaded.
+    """
+    traj, events = _solve(scene, method)
+    x, y = kinematics.centre_position(scene, traj.X, traj.Y, traj.theta)
+    fig, (ax, ax2) = plt.subplots(
+        2, 1, figsize=(9, 6.5), gridspec_kw={"height_ratios": [2.2, 1]}, constrained_layout=True
+    )
+    frames = np.linspace(0, len(traj) - 1, n_frames + 1).astype(int)
+    ax.axhline(0.0, color="0.3", lw=1.0)
+    for i in frames:
+        wx = x[i] + scene.a * np.sin(traj.theta[i])
+        wy = y[i] + scene.a * np.cos(traj.theta[i])
+        ax.plot([x[i], wx], [y[i], wy], color="0.6", lw=0.6)
+        ax.plot(wx, wy, "o", color="tab:red", ms=4)
+        ax.plot(x[i], y[i], "o", color="k", ms=2)
+    for i in frames[:: max(1, n_frames // 4)]:
+        ax.add_patch(plt.Circle((x[i], y[i]), scene.a, fill=False, color="tab:blue", lw=0.6))
+    ax.plot(traj.X, traj.Y, color="tab:green", lw=1.5, label="centre of mass")
+    ax.plot([], [], "o", color="tab:red", ms=4, label="weight")
+    ax.plot([], [], "o", color="k", ms=2, label="hoop centre")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    title = scene.name or "scene"
+    ax.set_title(
+        f"{title} ({method}): lam={scene.lam}, chi={scene.chi:.3g}, mus={scene.mus}, "
+        f"muk={scene.muk}: {events.outcome}"
+    )
+    ax.legend(loc="upper right", fontsize=8)
+
+    colours = {"roll": "white", "slip": "tab:orange", "flight": "tab:cyan"}
+    for phase in events.phases:
+        ax2.axvspan(phase.t_start, phase.t_end, color=colours[str(phase.kind)], alpha=0.25, lw=0)
+    # Round-off in y - a (1e-13 m) would fill the axis with noise when nothing lifts off.
+    clearance_mm = np.where(np.abs(traj.clearance) < 1e-12, 0.0, traj.clearance) * 1e3
+    ax2.plot(traj.t, clearance_mm, color="tab:blue", label="clearance y - a (mm)")
+    ax2.set_ylim(min(clearance_mm.min(), 0.0) - 0.05, max(clearance_mm.max(), 1.0) * 1.05)
+    ax2.set_xlabel("t (s)")
+    ax2.set_ylabel("clearance (mm)", color="tab:blue")
+    ax3 = ax2.twinx()
+    ax3.plot(traj.t, traj.slip_velocity, color="tab:orange", lw=1.0, label="slip velocity")
+    ax3.set_ylabel("slip velocity (m/s)", color="tab:orange")
+    ax2.set_title("phases: white roll, orange slip, cyan flight", fontsize=9)
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
+def clearance_figure(
+    runs: Mapping[str, Trajectory], out: str | Path, *, title: str, t_window=None
+) -> Path:
+    """Hoop-centre clearance against time for several engines on one scene."""
+    fig, ax = plt.subplots(figsize=(8, 4), constrained_layout=True)
+    for label, traj in runs.items():
+        mask = slice(None)
+        if t_window is not None:
+            mask = (traj.t >= t_window[0]) & (traj.t <= t_window[1])
+        ax.plot(traj.t[mask], traj.clearance[mask] * 1e3, label=label, lw=1.2)
+    ax.axhline(0.0, color="0.3", lw=0.8)
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel("clearance y - a (mm)")
+    ax.set_title(title)
+    ax.legend(fontsize=8)
+    out = Path(out)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
+def error_vs_time_figure(frame, out: str | Path, *, error: str, title: str) -> Path:
+    """Scatter of an event error against wall time, one colour per engine."""
+    fig, ax = plt.subplots(figsize=(7, 4.5), constrained_layout=True)
+    for engine, group in frame.groupby("engine"):
+        ok = group[error].notna() & group["wall_time_s"].notna()
+        ax.scatter(group.loc[ok, "wall_time_s"], group.loc[ok, error].abs(), label=engine, s=24)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("wall time of the stepping (s)")
+    ax.set_ylabel(f"|{error}|")
+    ax.set_title(title)
+    ax.legend(fontsize=8)
+    out = Path(out)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
