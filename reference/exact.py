@@ -24,7 +24,7 @@ from models.scene import Scene
 from models.trajectory import Trajectory
 from reference import dynamics
 
-__all__ = ["ExactSolution", "Segment", "solve_exact"]
+__all__ = ["ExactSolution", "Segment", "flight_phase", "solve_exact"]
 
 State = tuple[float, float, float, float, float, float]
 """(X, Y, theta, Xdot, Ydot, thetadot): centre of mass and angle, SI units."""
@@ -257,7 +257,7 @@ def _flight_clearance(scene: Scene, state: State, tau: NDArray) -> NDArray:
     return kinematics.clearance(scene, Yt, theta + thetadot * tau)
 
 
-def _flight_phase(scene: Scene, t0: float, state: State) -> tuple[Segment, float, float]:
+def flight_phase(scene: Scene, t0: float, state: State) -> tuple[Segment, float, float]:
     """Ballistic phase from a lift-off; returns the segment, the impact time and hop height."""
     X, Y, theta, Xdot, Ydot, thetadot = state
     g, a, r = scene.g, scene.a, scene.com_offset
@@ -397,7 +397,7 @@ def solve_exact(
                 break
             seg, end = _slip_phase(scene, t, state, sigma, scene.t_end, opts)
         else:  # flight
-            seg, t_impact, height = _flight_phase(scene, t, state)
+            seg, t_impact, height = flight_phase(scene, t, state)
             segments.append(seg)
             phases.append(Phase(PhaseKind.FLIGHT, seg.t_start, seg.t_end))
             found["t_lift"] = t

@@ -194,7 +194,7 @@ def _cmd_reference(args: argparse.Namespace) -> int:
 
         result = solve_seed_euler(scene, dt=args.dt or 0.002, delta=args.delta)
         events = result.events
-        trajectory = result.trajectory(scene) if args.csv else None
+        trajectory = result.trajectory() if args.csv else None
     payload = {"method": args.method, **events.to_dict(), "scene": scene.to_dict()}
     if trajectory is not None:
         trajectory.write(args.csv)

@@ -28,7 +28,7 @@ def _solve(scene: Scene, method: str) -> tuple[Trajectory, object]:
     from reference.seed_euler import solve_seed_euler
 
     result = solve_seed_euler(scene)
-    return result.trajectory(scene), result.events
+    return result.trajectory(), result.events
 
 
 def hoop_figure(

@@ -1,0 +1,345 @@
+"""The seed document's fixed-step scheme for the slipping phase (its Exercise 15), ported.
+
+The rolling phase and the slip onset come from the exact solver. From the onset, the scheme
+steps the centre of mass with constant accelerations over each step ``dt``: a normal force is
+extrapolated from the previous step's change in vertical acceleration, and raised just enough
+to keep the hoop centre on the floor whenever the predicted step would sink below it. It ends
+when the hoop-centre clearance y - a exceeds the contact tolerance ``delta``; that step is the
+"lift-off", followed by a ballistic flight to the first impact.
+
+The scheme never re-sticks and reads "clearance > delta" as lift-off, so its hop height scales
+with delta: in the seed scene the exact solution does not leave the floor at all. It is kept as
+a reference for the seed's tables, not as a model of the physics.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.integrate import solve_ivp
+
+from models import kinematics
+from models.events import Events, Outcome, Phase, PhaseKind
+from models.scene import Scene
+from models.trajectory import Trajectory
+from reference import dynamics
+from reference.exact import ExactSolution, flight_phase, solve_exact
+
+__all__ = ["SeedEulerResult", "solve_seed_euler"]
+
+_STEP_GUARD = 1_000_000
+"""Upper bound on the number of steps whatever t_end and dt say (memory and time stay bounded)."""
+
+
+@dataclass(frozen=True, eq=False)
+class SeedEulerResult:
+    """Result of :func:`solve_seed_euler`.
+
+    The per-step arrays have shape (n_steps + 1,): index i is the state at t_slip + i*dt, the
+    last one the lift-off state (or the state where the scheme was stopped). All are empty when
+    the scene never slips in its window.
+    """
+
+    scene: Scene
+    events: Events
+    """Events of the scheme; t_slip and the onset state are the exact solver's."""
+    n_steps: int
+    """Number of slipping steps taken (0 when the scene never slips)."""
+    dt: float
+    """Step, s."""
+    delta: float
+    """Contact tolerance on the hoop-centre clearance, m."""
+    t: NDArray
+    """Step times, s."""
+    X: NDArray
+    """Centre-of-mass x, m."""
+    Y: NDArray
+    """Centre-of-mass y, m."""
+    theta: NDArray
+    """rad."""
+    Xdot: NDArray
+    """m/s."""
+    Ydot: NDArray
+    """m/s."""
+    thetadot: NDArray
+    """rad/s."""
+    n: NDArray
+    """Normal force per unit mass used over step i, m/s^2; the last entry, where no step
+    follows, is 0."""
+    accelerations: NDArray = field(repr=False)
+    """(Xddot, Yddot, thetaddot) used over step i, shape (3, n_steps + 1), SI units; last
+    column zero."""
+    exact: ExactSolution = field(repr=False)
+    """The exact solution that supplies the rolling phase (and everything when no slip)."""
+
+    @property
+    def _stepping(self) -> bool:
+        # False when the scene never slips: the exact solution is then the whole answer.
+        return self.t.size > 0
+
+    @property
+    def t_final(self) -> float:
+        """End of the result's window, s: the impact, the last step, or the exact t_final."""
+        if not self._stepping:
+            return self.exact.t_final
+        ev = self.events
+        return ev.t_impact if ev.t_impact is not None else float(self.t[-1])
+
+    def sample(self, t: ArrayLike) -> Trajectory:
+        """The trajectory at times t, s, in [0, t_final].
+
+        Before the slip onset: the exact rolling solution. Between steps: the step's constant
+        accelerations (which the trapezoid update integrates exactly). After lift-off: the
+        ballistic flight.
+        """
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        if not self._stepping:
+            return self.exact.sample(t)
+        if t.size and (t.min() < -1e-12 or t.max() > self.t_final + 1e-9):
+            raise ValueError(f"times must lie in [0, {self.t_final}] s")
+        t_slip, t_last = float(self.t[0]), float(self.t[-1])
+        states = np.empty((6, t.size))
+        f = np.zeros(t.size)
+        n = np.zeros(t.size)
+        contact = np.ones(t.size, dtype=bool)
+
+        roll = t < t_slip
+        if roll.any():
+            sampled = self.exact.sample(t[roll])
+            states[:, roll] = np.vstack(
+                [sampled.X, sampled.Y, sampled.theta, sampled.Xdot, sampled.Ydot, sampled.thetadot]
+            )
+            f[roll], n[roll] = sampled.friction_force, sampled.normal_force
+
+        slip = ~roll & (t < t_last) if self.n_steps else np.zeros(t.size, dtype=bool)
+        if slip.any():
+            i = np.floor((t[slip] - t_slip) / self.dt + 1e-9).astype(int)
+            i = np.clip(i, 0, self.n_steps - 1)
+            tau = t[slip] - self.t[i]
+            q = np.vstack([self.X[i], self.Y[i], self.theta[i]])
+            v = np.vstack([self.Xdot[i], self.Ydot[i], self.thetadot[i]])
+            acc = self.accelerations[:, i]
+            states[:3, slip] = q + v * tau + 0.5 * acc * tau**2
+            states[3:, slip] = v + acc * tau
+            n[slip] = self.n[i]
+            f[slip] = acc[0]  # Xddot = f exactly: the only horizontal force is friction
+
+        after = ~roll & ~slip
+        if after.any():
+            tau = t[after] - t_last
+            X, Y, th, Xd, Yd, w = (float(v[-1]) for v in self._columns())
+            flying = self.events.t_lift is not None
+            g = self.scene.g if flying else 0.0
+            states[:, after] = np.vstack(
+                [
+                    X + Xd * tau,
+                    Y + Yd * tau - 0.5 * g * tau**2,
+                    th + w * tau,
+                    np.full_like(tau, Xd),
+                    Yd - g * tau,
+                    np.full_like(tau, w),
+                ]
+            )
+            contact[after] = not flying
+        X, Y, th, Xd, Yd, w = states
+        return Trajectory.from_state(
+            self.scene,
+            t=t,
+            X=X,
+            Y=Y,
+            theta=th,
+            Xdot=Xd,
+            Ydot=Yd,
+            thetadot=w,
+            normal_force=n,
+            friction_force=f,
+            contact=contact,
+        )
+
+    def trajectory(self) -> Trajectory:
+        """Rolling phase and flight sampled every dt, plus every slipping step, to t_final."""
+        if not self._stepping:
+            return self.exact.sample_uniform(self.dt)
+        t_slip, t_last = float(self.t[0]), float(self.t[-1])
+        roll = np.arange(0.0, t_slip, self.dt)
+        times = [roll[roll < t_slip], self.t]
+        if self.events.t_impact is not None:
+            flight = t_last + self.dt * np.arange(1, math.ceil((self.t_final - t_last) / self.dt))
+            times += [flight[flight < self.t_final], np.array([self.t_final])]
+        return self.sample(np.concatenate(times))
+
+    def _columns(self) -> tuple[NDArray, ...]:
+        return (self.X, self.Y, self.theta, self.Xdot, self.Ydot, self.thetadot)
+
+
+def _check_positive(name: str, value: float, unit: str) -> float:
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a positive number of {unit}, got {value!r}") from None
+    if not (value > 0 and math.isfinite(value)):
+        raise ValueError(f"{name} must be a positive number of {unit}, got {value}")
+    return value
+
+
+def _rolling_normal_force(scene: Scene, theta: float, thetadot: float) -> float:
+    return float(dynamics.rolling_forces(scene, theta, thetadot)[1])
+
+
+def _rolling_state_at(scene: Scene, exact: ExactSolution, t: float) -> tuple[float, float]:
+    """(theta, thetadot) on the first rolling solution at time t, s (t may be negative).
+
+    The first phase rolls from t = 0, so for t >= 0 this samples the exact solution; a slip
+    within the first step asks for t < 0, and the rolling equation is then continued
+    backwards from the initial state (the same solution, extended).
+    """
+    if t >= 0.0:
+        state = exact.state(t)[:, 0]
+        return float(state[2]), float(state[5])
+    return _integrate_rolling(scene, t, exact.rtol, exact.atol)
+
+
+def _integrate_rolling(scene: Scene, t: float, rtol: float, atol: float) -> tuple[float, float]:
+    """(theta, thetadot) at time t, s, rolling from the scene's initial state (either way)."""
+    sol = solve_ivp(
+        lambda _t, y: (y[1], dynamics.rolling_thetaddot(scene, y[0], y[1])),
+        (0.0, t),
+        [scene.theta0, scene.thetadot0],
+        method="DOP853",
+        rtol=rtol,
+        atol=atol,
+    )
+    return float(sol.y[0, -1]), float(sol.y[1, -1])
+
+
+def solve_seed_euler(
+    scene: Scene,
+    *,
+    dt: float = 0.002,
+    delta: float = 1e-4,
+    rtol: float = 1e-12,
+    atol: float = 1e-12,
+) -> SeedEulerResult:
+    """Run the seed's improved-Euler slipping scheme on a scene.
+
+    ``dt`` is the step, s; ``delta`` the contact tolerance on the hoop-centre clearance, m
+    (the seed's tables give delta/a with a = 1); ``rtol``/``atol`` the exact solver's tolerances
+    for the rolling phase and the slip onset.
+
+    The slip direction is the exact one at the onset (+1 in the seed scene, the only direction
+    the seed treats). Outcomes: "hops" when the clearance exceeds delta (then the flight to the
+    first impact follows); "slips" when t_end (or the step guard) comes first; "painleve" if
+    the scheme meets D <= 0. A scene that never slips in its window returns the exact events
+    unchanged with n_steps = 0.
+
+    Raises ValueError for a non-positive dt or delta, or a scene that starts sliding (the
+    scheme starts from a rolling phase); DegenerateSceneError when I = 0.
+    """
+    dt = _check_positive("dt", dt, "seconds")
+    delta = _check_positive("delta", delta, "metres")
+    scene.require_inertia("the seed's slipping scheme")
+    exact = solve_exact(scene, rtol=rtol, atol=atol)
+    ev0 = exact.events
+    if ev0.t_slip is None:
+        empty = np.empty(0)
+        return SeedEulerResult(scene, ev0, 0, dt, delta, *([empty] * 8), np.empty((3, 0)), exact)
+    if not scene.rolls_at_start:
+        raise ValueError(
+            "scene starts sliding (xdot0 differs from a*thetadot0): the seed scheme starts "
+            "from a rolling phase"
+        )
+    t_slip = float(ev0.t_slip)
+    slip_phase = next(p for p in ev0.phases if p.kind is PhaseKind.SLIP)
+    sigma = slip_phase.sigma if slip_phase.sigma else 1
+
+    g, a, lam, k, muk = scene.g, scene.a, scene.lam, scene.k, scene.muk
+    X, Y, th, Xd, Yd, w = (float(v) for v in exact.state(t_slip)[:, 0])
+    n = _rolling_normal_force(scene, th, w)
+    ay_prev = _rolling_normal_force(scene, *_rolling_state_at(scene, exact, t_slip - dt)) - g
+
+    window_steps = math.ceil((scene.t_end - t_slip) / dt)
+    max_steps = min(_STEP_GUARD, window_steps)
+    rows = [(X, Y, th, Xd, Yd, w)]
+    used = []  # (n, Xddot, Yddot, thetaddot) per step
+    outcome: Outcome | None = None
+    message = ""
+    while True:
+        y = Y - lam * a * math.cos(th)
+        if y - a > delta:
+            outcome = Outcome.HOPS
+            break
+        if len(used) >= max_steps:
+            outcome = Outcome.SLIPS
+            limit = (
+                f"t_end = {scene.t_end:g} s"
+                if max_steps == window_steps
+                else f"the step limit {_STEP_GUARD} (t_end = {scene.t_end:g} s not reached)"
+            )
+            message = (
+                f"the seed scheme kept the clearance <= delta = {delta:g} m for "
+                f"{len(used)} steps, to t = {t_slip + len(used) * dt:.6g} s, and stopped at "
+                f"{limit}: no lift-off"
+            )
+            break
+        s, c = math.sin(th), math.cos(th)
+        torque = lam * s + sigma * muk * (1.0 + lam * c)
+        D = 1.0 + lam * s * torque / k
+        if D <= 0.0:
+            outcome = Outcome.PAINLEVE
+            message = (
+                f"the seed scheme met D = {D:.3g} <= 0 (Painlevé) at t = "
+                f"{t_slip + len(used) * dt:.6g} s, theta = {math.degrees(th):.4f} deg"
+            )
+            break
+        ydot = Yd + lam * a * s * w
+        free = -g + lam * a * c * w * w
+        yddot_predicted = n * D + free
+        if y + ydot * dt + 0.5 * yddot_predicted * dt * dt < a:
+            # Just enough push to land the hoop centre on the floor at the end of the step
+            # (the seed prints this line with the sign flipped, which would zero n).
+            n = max(0.0, 2.0 * (a - y - ydot * dt - 0.5 * dt * dt * free) / (dt * dt * D))
+        aX, aY, alpha = -sigma * muk * n, n - g, n * torque / (k * a)
+        used.append((n, aX, aY, alpha))
+        Xd1, Yd1, w1 = Xd + aX * dt, Yd + aY * dt, w + alpha * dt
+        X += 0.5 * dt * (Xd + Xd1)
+        Y += 0.5 * dt * (Yd + Yd1)
+        th += 0.5 * dt * (w + w1)
+        Xd, Yd, w = Xd1, Yd1, w1
+        rows.append((X, Y, th, Xd, Yd, w))
+        n = max(0.0, n + (aY - ay_prev))
+        ay_prev = aY
+
+    n_steps = len(used)
+    cols = np.array(rows).T
+    per_step = np.zeros((4, n_steps + 1))
+    if n_steps:
+        per_step[:, :n_steps] = np.array(used).T
+    t = t_slip + dt * np.arange(n_steps + 1)
+    t_end_steps = float(t[-1])
+    clearance = kinematics.clearance(scene, cols[1], cols[2])
+    phases = [Phase(PhaseKind.ROLL, 0.0, t_slip)] if t_slip > 0.0 else []
+    phases.append(Phase(PhaseKind.SLIP, t_slip, t_end_steps, sigma))
+    t_lift = hop_height = t_impact = None
+    if outcome is Outcome.HOPS:
+        _, t_impact, flight_height = flight_phase(scene, t_end_steps, tuple(cols[:, -1]))
+        t_lift = t_end_steps
+        hop_height = max(float(clearance.max()), flight_height)
+        phases.append(Phase(PhaseKind.FLIGHT, t_lift, t_impact))
+    events = Events(
+        outcome=outcome,
+        t_slip=t_slip,
+        theta_slip=ev0.theta_slip,
+        thetadot_slip=ev0.thetadot_slip,
+        t_lift=t_lift,
+        hop_height=hop_height,
+        t_impact=t_impact,
+        phases=tuple(phases),
+        message=message,
+        extra={"n_steps": n_steps, "dt": dt, "delta": delta},
+    )
+    return SeedEulerResult(
+        scene, events, n_steps, dt, delta, t, *cols, per_step[0], per_step[1:], exact
+    )
