@@ -1,0 +1,86 @@
+"""Benchmark: an adapter's full run against a bare stepping loop of the same engine and model.
+
+Run with ``make bench`` or ``python -m reports.bench_overhead [--scene NAME] [--repeat N]``.
+Prints, per engine, the best-of-N wall time of the adapter's stepping (recording every step,
+reading contact forces, checking divergence), of a bare loop of the same number of steps
+(the adapter's ``bare_loop_time``), their ratio (target: at most 1.3) and the cost per step.
+This is a measurement, not a test: nothing here asserts a time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+from engines.registry import get_engine
+from engines.settings import RunSettings
+from models.catalogue import get_scene
+
+ENGINES = ("mujoco", "pybullet", "pymunk")
+
+
+def measure(engine_name: str, scene_name: str, timestep: float, repeat: int) -> dict:
+    engine = get_engine(engine_name)
+    scene = get_scene(scene_name)
+    settings = RunSettings(timestep=timestep)
+    full, total, bare = [], [], []
+    n_steps = None
+    for _ in range(repeat):
+        start = time.perf_counter()
+        result = engine.run(scene, settings)
+        total.append(time.perf_counter() - start)
+        if not result.ok:
+            return {
+                "engine": engine_name,
+                "status": str(result.info.status),
+                "message": result.info.message,
+            }
+        full.append(result.info.wall_time_s)
+        n_steps = result.info.n_steps
+        bare.append(engine.bare_loop_time(scene, settings))
+    return {
+        "engine": engine_name,
+        "status": "ok",
+        "n_steps": n_steps,
+        "run_s": min(full),
+        "run_total_s": min(total),
+        "bare_s": min(bare),
+        "ratio": min(full) / min(bare),
+        "us_per_step": 1e6 * min(full) / n_steps,
+        "bare_us_per_step": 1e6 * min(bare) / n_steps,
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scene", default="seed-mu")
+    parser.add_argument("--dt", type=float, default=1e-4)
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--engines", nargs="*", default=list(ENGINES))
+    args = parser.parse_args(argv)
+    print(f"scene {args.scene}, dt {args.dt:g} s, best of {args.repeat}")
+    header = (
+        f"{'engine':<10}{'steps':>8}{'run s':>9}{'bare s':>9}{'ratio':>7}"
+        f"{'us/step':>9}{'bare us':>9}{'total s':>9}"
+    )
+    print(header)
+    for name in args.engines:
+        row = measure(name, args.scene, args.dt, args.repeat)
+        if row["status"] != "ok":
+            print(f"{name:<10} {row['status']}: {row['message']}")
+            continue
+        print(
+            f"{name:<10}{row['n_steps']:>8}{row['run_s']:>9.3f}{row['bare_s']:>9.3f}"
+            f"{row['ratio']:>7.2f}{row['us_per_step']:>9.2f}{row['bare_us_per_step']:>9.2f}"
+            f"{row['run_total_s']:>9.3f}"
+        )
+    print(
+        "ratio = adapter stepping (recording, forces, divergence checks) / bare loop; "
+        "total = whole run() including model building and event detection"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
