@@ -143,10 +143,10 @@ def _integrate(rhs, y0, t0, t_end, events, rtol, atol, method):
 
 
 def _which_event(sol, names: list[str]) -> str:
+    """The event that ended the integration: the earliest one (ties: first in ``names``)."""
     if sol.status == 1:
-        for name, times in zip(names, sol.t_events, strict=True):
-            if len(times):
-                return name
+        fired = [(times[0], k) for k, times in enumerate(sol.t_events) if len(times)]
+        return names[min(fired)[1]]
     if sol.status < 0:
         raise RuntimeError(f"integration failed: {sol.message}")
     return "end"
@@ -209,8 +209,25 @@ def _slip_phase(scene: Scene, t0: float, state: State, sigma: int, t_end: float,
         Xddot, _, thetaddot, _ = dynamics.slip_accelerations(scene, theta, thetadot, sigma)
         return (Xdot, thetadot, Xddot, thetaddot)
 
-    def restick(t, y):
+    def directed_slip(y) -> float:
         return sigma * float(kinematics.slip_velocity(scene, y[2], y[1], y[3]))
+
+    # The re-stick event is armed only once the slip has really started (sigma*s > SLIP_ARM):
+    # with mus = muk the slip velocity leaves zero with zero slope, and an event function that
+    # starts at zero would fire at the phase start and make the modes chatter.
+    armed = [False]
+
+    def restick(t, y):
+        value = directed_slip(y)
+        if not armed[0]:
+            if value <= SLIP_ARM:
+                return 1.0
+            armed[0] = True
+        return value
+
+    def wrong_way(t, y):
+        # The slip develops against sigma: the onset direction was not consistent.
+        return directed_slip(y) + SLIP_ARM
 
     def lift(t, y):
         return dynamics.slip_normal_force(scene, y[1], y[3], sigma)
@@ -221,8 +238,8 @@ def _slip_phase(scene: Scene, t0: float, state: State, sigma: int, t_end: float,
     names = ["lift", "painleve"]
     events = [_event(lift, -1), _event(painleve, -1)]
     if sigma != 0:
-        names.insert(0, "restick")
-        events.insert(0, _event(restick, -1))
+        names[:0] = ["restick", "wrong-way"]
+        events[:0] = [_event(restick, -1), _event(wrong_way, -1)]
     sol = _integrate(rhs, [state[0], state[2], state[3], state[5]], t0, t_end, events, *opts)
     try:
         reason = _which_event(sol, names)
@@ -233,6 +250,8 @@ def _slip_phase(scene: Scene, t0: float, state: State, sigma: int, t_end: float,
             reason = "painleve"
         else:
             raise
+    if reason == "lift" and dynamics.slip_denominator(scene, sol.y[1, -1], sigma) < 1e-6:
+        reason = "painleve"  # n -> 0 together with D -> 0: the Painlevé point, not a hop
     dense = sol.sol
 
     def states(t):
@@ -315,10 +334,31 @@ def flight_phase(scene: Scene, t0: float, state: State) -> tuple[Segment, float,
 
 
 # --------------------------------------------------------------------------- driver
+SLIP_ARM = 1e-9
+"""|slip velocity| (m/s) a slip must reach before its re-stick event is armed."""
+MIN_PHASE = 1e-9
+"""Phases shorter than this (s) are transition artefacts (a slip reversal that re-sticks at
+once): they stay in the dense solution but are left out of the reported phase list."""
+
+
 def _initial_slip_direction(scene: Scene, f: float) -> int:
     if scene.mus == 0.0:
         return 0
     return -1 if f > 0 else 1
+
+
+def _leave_rolling(scene: Scene, state: State, f_roll: float) -> tuple[str, int | None]:
+    """Mode after rolling needs n <= 0: flight if the free hoop centre rises, else slip.
+
+    Flight is consistent only if the hoop centre, free of contact forces, does not accelerate
+    into the floor; otherwise the hoop must keep contact and slide.
+    """
+    theta, thetadot = state[2], state[5]
+    free = float(dynamics.free_centre_acceleration(scene, theta, thetadot))
+    rising = -scene.lam * scene.a * math.sin(theta) * thetadot**3  # d(free)/dt in flight
+    if free > 0 or (free == 0 and rising > 0):
+        return "flight", None
+    return "slip", _initial_slip_direction(scene, f_roll)
 
 
 def solve_exact(
@@ -346,13 +386,14 @@ def solve_exact(
     outcome: Outcome | None = None
     message = ""
     extra: dict[str, float | None] = {}
+    flips = 0
 
     # Which mode does the hoop start in?
     s0 = scene.centre_velocity0 - scene.a * scene.thetadot0
     if scene.rolls_at_start:
         f0, n0 = (float(v) for v in dynamics.rolling_forces(scene, scene.theta0, scene.thetadot0))
         if n0 < 0:
-            mode, sigma = "flight", None
+            mode, sigma = _leave_rolling(scene, scene.initial_state(), f0)
         elif abs(f0) > scene.mus * n0 or (scene.mus == 0 and f0 != 0):
             mode, sigma = "slip", _initial_slip_direction(scene, f0)
         else:
@@ -382,7 +423,7 @@ def solve_exact(
     while outcome is None or mode == "flight":
         if mode != "flight" and t >= scene.t_end:
             break
-        if len(phases) >= max_phases:
+        if len(segments) >= max_phases:
             raise RuntimeError(f"more than {max_phases} phases: chattering between modes?")
         if mode == "roll":
             seg, end = _roll_phase(scene, t, state, scene.t_end, opts)
@@ -395,6 +436,10 @@ def solve_exact(
                     "give I = 0 (degenerate case)"
                 )
                 break
+            if sigma and dynamics.slip_denominator(scene, state[2], sigma) <= 0:
+                outcome = Outcome.PAINLEVE
+                message = f"D <= 0 when slip starts at t = {t:.6g} s: no consistent contact force"
+                break
             seg, end = _slip_phase(scene, t, state, sigma, scene.t_end, opts)
         else:  # flight
             seg, t_impact, height = flight_phase(scene, t, state)
@@ -406,15 +451,24 @@ def solve_exact(
             outcome = outcome or Outcome.HOPS
             break
         segments.append(seg)
-        phases.append(Phase(seg.kind, seg.t_start, seg.t_end, seg.sigma))
+        if seg.t_end - seg.t_start > MIN_PHASE or end.reason == "end":
+            phases.append(Phase(seg.kind, seg.t_start, seg.t_end, seg.sigma))
         t, state = end.t, end.state
         if end.reason == "end":
             break
         if end.reason == "slip":
             f, _ = dynamics.rolling_forces(scene, state[2], state[5])
             mode, sigma = "slip", _initial_slip_direction(scene, float(f))
+        elif end.reason == "lift" and seg.kind is PhaseKind.ROLL:
+            f, _ = dynamics.rolling_forces(scene, state[2], state[5])
+            mode, sigma = _leave_rolling(scene, state, float(f))
         elif end.reason == "lift":
             mode = "flight"
+        elif end.reason == "wrong-way":
+            # Neither direction consistent right at onset (a grazing touch of the friction
+            # cone): the hoop keeps rolling.
+            flips = flips + 1 if end.t - seg.t_start < 1e-9 else 0
+            mode, sigma = ("roll", None) if flips >= 2 else ("slip", -sigma)
         elif end.reason == "restick":
             f, n = (float(v) for v in dynamics.rolling_forces(scene, state[2], state[5]))
             if abs(f) <= scene.mus * n:
