@@ -88,8 +88,31 @@ def test_rolling_conventions(engine):
     assert np.all(np.diff(traj.theta[rolling]) > 0)
     assert np.max(np.abs(traj.slip_velocity[rolling])) < 1e-3
     assert np.max(np.abs(traj.clearance[rolling])) < 1e-3
-    assert np.all(traj.contact[rolling])
     assert np.median(traj.normal_force[rolling]) > 0
+
+
+_CONTACT_FLICKER = {
+    "pymunk": "pymunk keeps a contact only while the shapes overlap; with the weight in the "
+    "upper half each step lifts the centre by ~lam a cos(theta) (thetadot dt)^2 / 2, so "
+    "6.4 % of the steps in the seed's first 0.5 s have no contact force (measured)",
+}
+
+
+@pytest.mark.parametrize(
+    "engine",
+    [
+        pytest.param(e, marks=pytest.mark.xfail(strict=True, reason=_CONTACT_FLICKER[e]))
+        if e in _CONTACT_FLICKER
+        else e
+        for e in ENGINES
+    ],
+)
+def test_contact_force_at_every_rolling_step(engine):
+    """Rolling on the floor: the engine reports a contact force at every step."""
+    traj = run(engine, "seed").trajectory
+    rolling = traj.t < 0.5
+    lost = 1.0 - traj.contact[rolling].mean()
+    assert lost == 0.0, f"no contact force in {lost:.1%} of the rolling steps"
 
 
 @pytest.mark.parametrize("engine", ENGINES)

@@ -1,0 +1,237 @@
+"""pymunk (Chipmunk2D) adapter: the hoop as one dynamic body on a static floor segment.
+
+The model is :mod:`models.pymunk_space`. Each step is recorded with one C call into pymunk's
+batch iterator (hoop-centre position, angle, centre-of-mass velocity, angular velocity
+appended to a growing buffer), which keeps the adapter's overhead small next to
+``Space.step``; the buffer is decoded once per chunk of steps.
+
+Contact forces come from each step's momentum balance rather than from arbiter queries. With
+no damping and no applied force Chipmunk updates the velocity as ``v1 = (v0 + gravity*dt) +
+J/M``, J the step's total contact impulse, so ``(v1 - (v0 + gravity*dt)) / dt`` evaluated with
+the same floating-point operations is J/(M dt): exactly zero when no contact acted, and
+``Arbiter.total_impulse / (M dt)`` otherwise (tests/test_pymunk.py compares both through
+``Body.each_arbiter``), except on a re-contact after a short separation, where total_impulse
+also counts the warm-starting impulse Chipmunk kept but did not apply. The force of step i is
+recorded at t_i, the configuration Chipmunk computed it at; row 0 repeats step 1's force.
+
+Known behaviour of the engine (measured, see the report of tests/test_pymunk.py):
+
+* Contacts exist only while the shapes overlap. Symplectic Euler moves the hoop centre by
+  about lam*a*cos(theta)*(thetadot*dt)**2/2 per step, upward while the weight is in the upper
+  half, so a rolling hoop loses its contact for single steps (about 6 % of the steps of the
+  seed scene's first 0.5 s). Each lost step lets the rim slip by about
+  lam*a*sin(theta)*thetadot**2*dt.
+* The sequential-impulse solver returns zero impulse for a slipping contact when
+  mu*lam*|sin theta|*(1 + lam*cos theta) > k + lam**2*sin(theta)**2 (the friction impulse
+  changes the normal velocity more than the normal impulse does), and the hoop then sinks
+  into the floor.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+
+from engines.base import (
+    Engine,
+    EngineUnavailableError,
+    RunResult,
+    Simulation,
+    check_divergence,
+    n_steps_for,
+)
+from engines.settings import RunSettings
+from models.pymunk_space import PymunkSpec, build_space, check_space_options, scene_to_pymunk
+from models.scene import Scene
+from models.trajectory import Trajectory
+
+__all__ = ["PymunkEngine"]
+
+_CHUNK = 1000
+"""Steps between divergence checks."""
+
+_N_FIELDS = 6
+"""Floats per body per step in the batch buffer: x, y, angle, vx, vy, angular velocity."""
+
+
+def _check_options(options: dict[str, Any]) -> None:
+    check_space_options(
+        iterations=options["iterations"],
+        collision_slop=options["collision_slop"],
+        collision_bias=options["collision_bias"],
+    )
+
+
+def _body_recorder(module: ModuleType, space: Any, buffer: Any) -> Callable[[], None]:
+    """A zero-argument callable that appends every body's state to ``buffer``.
+
+    The fast path prepares once the call that ``pymunk.batch.get_space_bodies`` makes on each
+    invocation (it allocates its argument block every time, which costs about half a step
+    here). If pymunk's internals change, the public function is used instead.
+    """
+    batch = module.batch
+    fields = (
+        batch.BodyFields.BODY_ID
+        | batch.BodyFields.POSITION
+        | batch.BodyFields.ANGLE
+        | batch.BodyFields.VELOCITY
+        | batch.BodyFields.ANGULAR_VELOCITY
+    )
+    try:
+        from pymunk._chipmunk_cffi import ffi, lib
+
+        data = ffi.new("pmBatchedData *")
+        data.fields = fields.value
+        data.floatArray = buffer._float_arr
+        data.intArray = buffer._int_arr
+        iterator = ffi.addressof(lib, "pmSpaceBodyGetIteratorFuncBatched")
+        each_body = lib.cpSpaceEachBody
+        handle = space._space
+    except (ImportError, AttributeError):
+        return lambda: batch.get_space_bodies(space, fields, buffer)
+
+    def record() -> None:
+        each_body(handle, iterator, data)  # the closure keeps ``data`` alive
+
+    return record
+
+
+class PymunkEngine(Engine):
+    """pymunk 7 with the scene's mass, moment and centre of gravity; SI units.
+
+    Options (ENGINE_OPTIONS['pymunk']): ``iterations``, ``collision_slop`` (m),
+    ``collision_bias`` (fraction of overlap left after one second; None = pymunk's default).
+    """
+
+    name = "pymunk"
+
+    def _import(self) -> ModuleType:
+        try:
+            import pymunk
+            import pymunk.batch
+        except ImportError as exc:
+            raise EngineUnavailableError(f"pymunk cannot be imported: {exc}") from exc
+        return pymunk
+
+    def _version(self, module: ModuleType) -> str | None:
+        return getattr(module, "version", None)
+
+    # ----------------------------------------------------------------- model
+    def spec(self, scene: Scene, settings: RunSettings | None = None) -> PymunkSpec:
+        """The pymunk model of the scene for these settings (plain numbers, inspectable)."""
+        settings = settings or RunSettings()
+        return scene_to_pymunk(
+            scene, mu=self.mu_for(scene, settings), restitution=settings.restitution
+        )
+
+    def build(self, scene: Scene, settings: RunSettings | None = None) -> tuple[Any, Any, Any]:
+        """(space, body, hoop_shape) as a run builds them. ValueError for a bad option."""
+        settings = settings or RunSettings()
+        options = settings.resolve(self.name)
+        _check_options(options)
+        return self._build(scene, settings, options)
+
+    def _build(
+        self, scene: Scene, settings: RunSettings, options: dict[str, Any]
+    ) -> tuple[Any, Any, Any]:
+        return build_space(
+            self.spec(scene, settings),
+            iterations=int(options["iterations"]),
+            collision_slop=options["collision_slop"],
+            collision_bias=options["collision_bias"],
+        )
+
+    # ----------------------------------------------------------------- running
+    def run(self, scene: Scene, settings: RunSettings | None = None) -> RunResult:
+        """As :meth:`Engine.run`; option values pymunk cannot use raise ValueError first."""
+        settings = settings or RunSettings()
+        _check_options(settings.resolve(self.name))
+        return super().run(scene, settings)
+
+    def _simulate(
+        self, module: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
+    ) -> Simulation:
+        space, body, _hoop = self._build(scene, settings, options)
+        dt = settings.timestep
+        n_total = n_steps_for(scene, dt)
+        body_id = body.id
+        gy = float(space.gravity.y)
+        r = scene.com_offset
+
+        buffer = module.batch.Buffer()
+        record = _body_recorder(module, space, buffer)
+        step = space.step
+        p, v = body.position, body.velocity
+        rows = [np.array([[p.x, p.y, body.angle, v.x, v.y, body.angular_velocity]])]
+        diverged = None
+        done = 0
+
+        start = time.perf_counter()
+        while done < n_total:
+            m = min(_CHUNK, n_total - done)
+            for _ in range(m):
+                step(dt)
+                record()
+            ids = np.frombuffer(buffer.int_buf(), dtype=np.uintp)
+            floats = np.frombuffer(buffer.float_buf(), dtype=float).reshape(-1, _N_FIELDS)
+            chunk = floats[ids == body_id]  # boolean indexing copies out of the buffer
+            buffer.clear()
+            rows.append(chunk)
+            done += m
+            diverged = check_divergence(scene, _our_state(chunk, r), self.limits)
+            if diverged:
+                break
+        wall = time.perf_counter() - start
+
+        raw = np.vstack(rows)
+        vx, vy = raw[:, 3], raw[:, 4]
+        f = np.empty(len(raw))
+        n = np.empty(len(raw))
+        # The same operations as Chipmunk's velocity update: no contact gives exactly 0.
+        f[1:] = (vx[1:] - (vx[:-1] + 0.0 * dt)) / dt
+        n[1:] = (vy[1:] - (vy[:-1] + gy * dt)) / dt
+        f[0], n[0] = f[1], n[1]
+        trajectory = Trajectory.from_state(
+            scene,
+            t=dt * np.arange(len(raw)),
+            **_our_state(raw, r),
+            normal_force=n,
+            friction_force=f,
+            contact=n > 0,
+        )
+        return Simulation(
+            trajectory=trajectory, n_steps=len(raw) - 1, wall_time_s=wall, diverged=diverged
+        )
+
+    def bare_loop_time(self, scene: Scene, settings: RunSettings | None = None) -> float:
+        """Wall time, s, of stepping the model of :meth:`run` as often, recording nothing."""
+        settings = settings or RunSettings()
+        space, _body, _hoop = self.build(scene, settings)
+        dt = settings.timestep
+        step = space.step
+        n_total = n_steps_for(scene, dt)
+        start = time.perf_counter()
+        for _ in range(n_total):
+            step(dt)
+        return time.perf_counter() - start
+
+
+def _our_state(raw: np.ndarray, r: float) -> dict[str, np.ndarray]:
+    """pymunk rows (hoop-centre position, ccw angle, COM velocity) -> our COM state.
+
+    The centre of gravity, (0, r) in body coordinates, lies at (r sin theta, r cos theta)
+    from the hoop centre, with theta = -angle.
+    """
+    theta = -raw[:, 2]
+    return {
+        "X": raw[:, 0] + r * np.sin(theta),
+        "Y": raw[:, 1] + r * np.cos(theta),
+        "theta": theta,
+        "Xdot": raw[:, 3],
+        "Ydot": raw[:, 4],
+        "thetadot": -raw[:, 5],
+    }

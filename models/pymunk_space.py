@@ -1,0 +1,221 @@
+"""The hoop scene translated into pymunk terms: one dynamic body, one circle, one floor segment.
+
+pymunk conventions differ from hoopbench's in two ways, both handled here:
+
+* angles are counter-clockwise, so the body angle is ``-theta``; the centre of gravity sits at
+  (0, lam*a) in body coordinates, which puts the weight straight above the hoop centre at
+  body angle 0, i.e. at theta = 0;
+* ``Body.position`` is the body origin (our hoop centre) while ``Body.velocity`` is the
+  velocity of the centre of gravity (our centre of mass).
+
+Mass and moment come from the scene; the circle carries no mass, because pymunk would
+otherwise add a disc's moment to the body. Friction and elasticity are products of the two
+shapes' values in pymunk, so the floor gets 1.0 and the hoop carries mu and the restitution:
+the products are then exactly mu and e.
+
+:func:`build_space` imports pymunk lazily: this module only describes the model.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import numbers
+from dataclasses import asdict, dataclass
+from typing import Any
+
+from models import kinematics
+from models.scene import Scene
+
+__all__ = ["PymunkSpec", "build_space", "check_space_options", "scene_to_pymunk"]
+
+_FLOOR_MARGIN = 10.0
+"""Floor beyond the farthest reachable hoop centre, in hoop radii."""
+
+
+@dataclass(frozen=True)
+class PymunkSpec:
+    """Plain numbers that define the pymunk model of a scene (pymunk conventions, SI units)."""
+
+    mass: float
+    """Body mass, kg."""
+    moment: float
+    """Moment of inertia about the centre of gravity, kg m^2."""
+    center_of_gravity: tuple[float, float]
+    """Centre of gravity in body coordinates (origin = hoop centre), m."""
+    hoop_radius: float
+    """Radius of the hoop's circle shape, m."""
+    floor_a: tuple[float, float]
+    """First end of the floor segment's axis, m."""
+    floor_b: tuple[float, float]
+    """Second end of the floor segment's axis, m."""
+    floor_radius: float
+    """Floor segment radius, m; the axis lies this far below y = 0, so the top surface is y = 0."""
+    hoop_friction: float
+    """Friction of the hoop shape, dimensionless (the pair's is hoop * floor)."""
+    floor_friction: float
+    """Friction of the floor shape, dimensionless."""
+    hoop_elasticity: float
+    """Elasticity of the hoop shape, dimensionless (the pair's is hoop * floor)."""
+    floor_elasticity: float
+    """Elasticity of the floor shape, dimensionless."""
+    gravity: tuple[float, float]
+    """Space gravity, m/s^2."""
+    position: tuple[float, float]
+    """Initial body position (hoop centre), m."""
+    angle: float
+    """Initial body angle, rad, counter-clockwise (= -theta0)."""
+    velocity: tuple[float, float]
+    """Initial velocity of the centre of gravity, m/s."""
+    angular_velocity: float
+    """Initial angular velocity, rad/s, counter-clockwise (= -thetadot0)."""
+
+    @property
+    def friction(self) -> float:
+        """The pair's friction coefficient as pymunk combines it (product)."""
+        return self.hoop_friction * self.floor_friction
+
+    @property
+    def elasticity(self) -> float:
+        """The pair's elasticity as pymunk combines it (product)."""
+        return self.hoop_elasticity * self.floor_elasticity
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain fields (tuples as lists) plus the combined friction and elasticity."""
+        out = {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
+        out["friction"] = self.friction
+        out["elasticity"] = self.elasticity
+        return out
+
+    def to_json(self, **kwargs: Any) -> str:
+        """The spec as JSON text (``json.dumps`` keyword arguments pass through)."""
+        return json.dumps(self.to_dict(), **kwargs)
+
+
+def _check_coefficient(name: str, value: float) -> float:
+    value = float(value)
+    if not (math.isfinite(value) and value >= 0):
+        raise ValueError(f"{name} must be a finite number >= 0, got {value}")
+    return value
+
+
+def _reach(scene: Scene) -> float:
+    """Bound on how far the hoop centre can travel in t_end from energy alone, m.
+
+    Centre speed <= |COM speed| + lam*a*|thetadot|, each bounded by the kinetic energy.
+    """
+    e = max(scene.energy_per_mass, 0.0)
+    v_com = math.sqrt(2.0 * e)
+    spin = math.sqrt(2.0 * e / scene.k)  # a*|thetadot| bound
+    # Factor 2: an engine may gain some energy before the divergence check stops it.
+    return 2.0 * scene.t_end * (v_com + scene.lam * spin)
+
+
+def scene_to_pymunk(scene: Scene, *, mu: float, restitution: float = 0.0) -> PymunkSpec:
+    """The pymunk model of ``scene`` with pair friction ``mu`` and elasticity ``restitution``.
+
+    Raises DegenerateSceneError for I = 0 (pymunk needs a positive moment) and ValueError for
+    a negative or non-finite mu, or a restitution outside [0, 1].
+    """
+    scene.require_inertia("a pymunk body")
+    mu = _check_coefficient("mu", mu)
+    restitution = _check_coefficient("restitution", restitution)
+    if restitution > 1.0:
+        raise ValueError(f"restitution must be in [0, 1], got {restitution}")
+    a = scene.a
+    X, Y, theta, Xdot, Ydot, thetadot = scene.initial_state()
+    x, y = kinematics.centre_position(scene, X, Y, theta)
+    half = _FLOOR_MARGIN * a + _reach(scene)
+    # A thick floor cannot be tunnelled through; its top surface is exactly y = 0.
+    floor_radius = a
+    return PymunkSpec(
+        mass=scene.M,
+        moment=scene.inertia_com,
+        center_of_gravity=(0.0, scene.com_offset),
+        hoop_radius=a,
+        floor_a=(-half, -floor_radius),
+        floor_b=(half, -floor_radius),
+        floor_radius=floor_radius,
+        hoop_friction=mu,
+        floor_friction=1.0,
+        hoop_elasticity=restitution,
+        floor_elasticity=1.0,
+        gravity=(0.0, -scene.g),
+        position=(float(x), float(y)),
+        angle=-theta,
+        velocity=(Xdot, Ydot),
+        angular_velocity=-thetadot,
+    )
+
+
+def check_space_options(
+    *, iterations: int, collision_slop: float, collision_bias: float | None
+) -> None:
+    """Raise ValueError naming the option if pymunk cannot use its value.
+
+    iterations: positive integer; collision_slop: finite, >= 0 (m); collision_bias: None
+    (pymunk's default) or the fraction of overlap left after one second, in [0, 1).
+    """
+    if (
+        isinstance(iterations, bool)
+        or not isinstance(iterations, numbers.Real)
+        or not float(iterations).is_integer()
+        or iterations < 1
+    ):
+        raise ValueError(f"iterations must be a positive integer, got {iterations!r}")
+    if (
+        isinstance(collision_slop, bool)
+        or not isinstance(collision_slop, numbers.Real)
+        or not (math.isfinite(collision_slop) and collision_slop >= 0)
+    ):
+        raise ValueError(f"collision_slop must be a finite number >= 0 m, got {collision_slop!r}")
+    if collision_bias is not None and (
+        isinstance(collision_bias, bool)
+        or not isinstance(collision_bias, numbers.Real)
+        or not 0.0 <= collision_bias < 1.0
+    ):
+        raise ValueError(f"collision_bias must be None or in [0, 1), got {collision_bias!r}")
+
+
+def build_space(
+    spec: PymunkSpec,
+    *,
+    iterations: int,
+    collision_slop: float,
+    collision_bias: float | None = None,
+) -> tuple[Any, Any, Any]:
+    """A pymunk Space holding the spec's hoop and floor: (space, body, hoop_shape).
+
+    ``collision_bias`` None keeps pymunk's default. No damping (Space.damping = 1).
+    Raises ValueError for option values pymunk cannot use (see :func:`check_space_options`).
+    """
+    check_space_options(
+        iterations=iterations, collision_slop=collision_slop, collision_bias=collision_bias
+    )
+    import pymunk
+
+    space = pymunk.Space()
+    space.gravity = spec.gravity
+    space.damping = 1.0
+    space.iterations = int(iterations)
+    space.collision_slop = float(collision_slop)
+    if collision_bias is not None:
+        space.collision_bias = float(collision_bias)
+
+    body = pymunk.Body(spec.mass, spec.moment)
+    # Order matters: the angle setter rotates about the centre of gravity and the position
+    # setter places the body origin through the current transform.
+    body.center_of_gravity = spec.center_of_gravity
+    body.angle = spec.angle
+    body.position = spec.position
+    body.velocity = spec.velocity
+    body.angular_velocity = spec.angular_velocity
+    hoop = pymunk.Circle(body, spec.hoop_radius)  # no mass: the body keeps the scene's values
+    hoop.friction = spec.hoop_friction
+    hoop.elasticity = spec.hoop_elasticity
+
+    floor = pymunk.Segment(space.static_body, spec.floor_a, spec.floor_b, spec.floor_radius)
+    floor.friction = spec.floor_friction
+    floor.elasticity = spec.floor_elasticity
+    space.add(body, hoop, floor)
+    return space, body, hoop
