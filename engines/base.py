@@ -175,6 +175,10 @@ class Engine(ABC):
     ) -> Simulation:
         """Run the scene from t = 0 to scene.t_end with the engine's stepping."""
 
+    def _check(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> None:
+        """Raise ValueError for option values the engine cannot use (default: accept all)."""
+        return None
+
     def _version(self, module: ModuleType) -> str | None:
         return getattr(module, "__version__", None)
 
@@ -187,6 +191,7 @@ class Engine(ABC):
         """Run the scene. Bad settings raise ValueError; engine failures return a status."""
         settings = settings or RunSettings()
         options = settings.resolve(self.name)  # raises ValueError for unknown names
+        self._check(scene, settings, options)
         mu = self.mu_for(scene, settings)
         base = dict(
             engine=self.name, mu=mu, timestep=settings.timestep, settings=settings.to_dict()

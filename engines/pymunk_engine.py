@@ -39,7 +39,6 @@ import numpy as np
 from engines.base import (
     Engine,
     EngineUnavailableError,
-    RunResult,
     Simulation,
     check_divergence,
     n_steps_for,
@@ -146,11 +145,9 @@ class PymunkEngine(Engine):
         )
 
     # ----------------------------------------------------------------- running
-    def run(self, scene: Scene, settings: RunSettings | None = None) -> RunResult:
-        """As :meth:`Engine.run`; option values pymunk cannot use raise ValueError first."""
-        settings = settings or RunSettings()
-        _check_options(settings.resolve(self.name))
-        return super().run(scene, settings)
+    def _check(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> None:
+        """Option values pymunk cannot use raise ValueError before a run."""
+        _check_options(options)
 
     def _simulate(
         self, module: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]

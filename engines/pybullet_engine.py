@@ -1,0 +1,362 @@
+"""PyBullet adapter: the hoop as a planar chain (models.urdf) on a floor box, DIRECT mode.
+
+Frames: PyBullet's (x, z) is hoopbench's (x, y). The chain's joint positions are the hoop
+centre's x, its height, and theta (see models.urdf), so the centre-of-mass state follows from
+them with models.kinematics' relations, and the joint angle needs no sign change.
+
+Forces: ``getContactPoints`` reports per contact point the normal force [9] along the normal on
+the floor [7] (+z), and two friction forces [10], [12] along the unit directions [11], [13]; all
+are the solver's impulse divided by the step. The friction forces are those on body B (the
+floor: checked against the hoop's momentum in the tests), so the hoop gets minus their world-x
+components, summed over the points; forces are divided by M.
+
+Initial contact: the hoop starts exactly touching the floor (clearance 0). PyBullet's contacts
+are rigid (velocity level, ERP for penetration), but the solver lets a contact sink by
+``contactSlop`` before it pushes back, so a resting hoop sits that deep. pybullet's own 1e-5 m
+made the hoop fall freely for the first 1.4 ms; hoopbench's default 1e-8 m is reached within
+the first step, so the exact start is PyBullet's equilibrium to 1e-8 m and the contact force
+acts from the first step. (0 is worse: the distance flickers to +1e-16 and the contact drops
+out for single steps.)
+
+Rows: row i holds the state at t_i and the contact force that the solver applies from that
+state over the step [t_i, t_i + dt] (the force that changes the velocity from row i to i+1).
+
+Known limit (measured, see reports/tolerances.toml [hop.pybullet.xfail]): the contact solver is
+projected Gauss-Seidel, normal row then friction row. While the hoop slips, one sweep multiplies
+the normal impulse by phi = -sigma mu lam sin(th) (1 + lam cos(th)) / (k + lam^2 sin^2(th)); for
+phi < -1 the sweeps oscillate instead of converging, although the rigid problem is well posed
+(D > 0). The normal force then drops to 0 for steps at a time, the hoop sinks by up to 0.5 mm,
+and the result depends on the parity of numSolverIterations.
+"""
+
+from __future__ import annotations
+
+import gc
+import math
+import tempfile
+import time
+from array import array
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+
+from engines.base import (
+    Engine,
+    EngineUnavailableError,
+    Simulation,
+    check_divergence,
+    n_steps_for,
+)
+from engines.settings import RunSettings
+from models.scene import Scene
+from models.trajectory import Trajectory
+from models.urdf import JOINT_NAMES, floor_urdf, scene_to_urdf
+
+__all__ = ["MAX_PAIR_FRICTION", "PybulletEngine", "check_options"]
+
+MAX_PAIR_FRICTION = 10.0
+"""PyBullet clamps the combined (product) friction of a pair at 10 (btManifoldResult)."""
+
+_CHUNK = 1000
+"""Steps between divergence checks."""
+
+_HOOP_LINK = 2
+"""Link index of the hoop in the chain (0: slider_x, 1: slider_z)."""
+
+_ROW = 8
+"""Recorded per step: x, z, theta, xdot, zdot, thetadot (joints), normal N, friction N."""
+
+
+def _check_unit_interval(name: str, value: Any) -> None:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ValueError(f"{name} must be a number in [0, 1], got {value!r}")
+    if not (math.isfinite(value) and 0.0 <= value <= 1.0):
+        raise ValueError(f"{name} must be in [0, 1], got {value!r}")
+
+
+def _check_flag(name: str, value: Any) -> None:
+    if value not in (0, 1) or isinstance(value, float):
+        raise ValueError(f"{name} must be 0 or 1, got {value!r}")
+
+
+def check_options(options: dict[str, Any]) -> None:
+    """Raise ValueError naming the option for any value PyBullet would misread or ignore."""
+    iters = options["numSolverIterations"]
+    if isinstance(iters, bool) or not isinstance(iters, int) or iters < 1:
+        raise ValueError(f"numSolverIterations must be an integer >= 1, got {iters!r}")
+    _check_unit_interval("contactERP", options["contactERP"])
+    _check_unit_interval("frictionERP", options["frictionERP"])
+    _check_flag("enableConeFriction", options["enableConeFriction"])
+    _check_flag("frictionAnchor", options["frictionAnchor"])
+    slop = options["contactSlop"]
+    if isinstance(slop, bool) or not isinstance(slop, int | float):
+        raise ValueError(f"contactSlop must be a number >= 0 (m), got {slop!r}")
+    if not (math.isfinite(slop) and slop >= 0):
+        raise ValueError(f"contactSlop must be a finite number >= 0 (m), got {slop!r}")
+    stiffness, damping = options["contactStiffness"], options["contactDamping"]
+    if (stiffness is None) != (damping is None):
+        raise ValueError(
+            "contactStiffness and contactDamping must be given together (PyBullet ignores "
+            f"one without the other), got contactStiffness={stiffness!r}, "
+            f"contactDamping={damping!r}"
+        )
+    for name, value in (("contactStiffness", stiffness), ("contactDamping", damping)):
+        if value is None:
+            continue
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ValueError(f"{name} must be a number, got {value!r}")
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be a positive finite number, got {value!r}")
+
+
+@contextmanager
+def _client(p: ModuleType) -> Iterator[int]:
+    """A DIRECT physics client of our own, disconnected whatever happens."""
+    cid = p.connect(p.DIRECT)
+    if cid < 0:
+        raise RuntimeError("pybullet.connect(DIRECT) failed")
+    try:
+        yield cid
+    finally:
+        p.disconnect(physicsClientId=cid)
+
+
+class PybulletEngine(Engine):
+    """PyBullet (Featherstone multibody, sequential-impulse contacts) in DIRECT mode."""
+
+    name = "pybullet"
+
+    # ----------------------------------------------------------------- hooks
+    def _import(self) -> ModuleType:
+        try:
+            import pybullet  # prints its build time on stderr, never on stdout
+        except ImportError as exc:
+            raise EngineUnavailableError(f"pybullet cannot be imported: {exc}") from exc
+        return pybullet
+
+    def _version(self, module: ModuleType) -> str | None:
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            return version("pybullet")
+        except PackageNotFoundError:
+            return None
+
+    def _check(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> None:
+        """Bad option values and an unrepresentable mu raise ValueError before a run."""
+        check_options(options)
+        mu = self.mu_for(scene, settings)
+        if mu > MAX_PAIR_FRICTION:
+            raise ValueError(
+                f"mu must be <= {MAX_PAIR_FRICTION} for pybullet (it clamps the pair's "
+                f"friction there), got {mu}"
+            )
+
+    def _simulate(
+        self, module: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
+    ) -> Simulation:
+        p = module
+        n_steps = n_steps_for(scene, settings.timestep)
+        with _client(p) as cid, tempfile.TemporaryDirectory(prefix="hoopbench-pb-") as tmp:
+            hoop, floor = self._build(p, cid, Path(tmp), scene, settings, options)
+            return self._step_and_record(p, cid, hoop, floor, scene, settings, n_steps)
+
+    # ----------------------------------------------------------------- public extras
+    def bare_loop_time(self, scene: Scene, settings: RunSettings | None = None) -> float:
+        """Wall time, s, of stepping the same model as ``run`` for the same number of steps,
+        with no recording: the yardstick of the adapter's own overhead."""
+        settings = settings or RunSettings()
+        options = settings.resolve(self.name)
+        check_options(options)
+        p = self._import()
+        n_steps = n_steps_for(scene, settings.timestep)
+        with _client(p) as cid, tempfile.TemporaryDirectory(prefix="hoopbench-pb-") as tmp:
+            self._build(p, cid, Path(tmp), scene, settings, options)
+            step = p.stepSimulation
+            gc_was_enabled = gc.isenabled()
+            gc.disable()
+            try:
+                start = time.perf_counter()
+                for _ in range(n_steps):
+                    step(cid)
+                return time.perf_counter() - start
+            finally:
+                if gc_was_enabled:
+                    gc.enable()
+
+    # ----------------------------------------------------------------- helpers
+    def _build(
+        self,
+        p: ModuleType,
+        cid: int,
+        tmp: Path,
+        scene: Scene,
+        settings: RunSettings,
+        options: dict[str, Any],
+    ) -> tuple[int, int]:
+        """Load floor and hoop into client ``cid``, set every parameter; (hoop, floor) ids."""
+        mu = self.mu_for(scene, settings)
+        hoop_file = tmp / "hoop.urdf"
+        floor_file = tmp / "floor.urdf"
+        hoop_file.write_text(scene_to_urdf(scene, geometry=settings.geometry, mu=mu))
+        floor_file.write_text(floor_urdf())
+
+        p.resetSimulation(physicsClientId=cid)
+        p.setGravity(0.0, 0.0, -scene.g, physicsClientId=cid)
+        p.setPhysicsEngineParameter(
+            fixedTimeStep=settings.timestep,
+            numSubSteps=0,
+            numSolverIterations=int(options["numSolverIterations"]),
+            contactERP=float(options["contactERP"]),
+            frictionERP=float(options["frictionERP"]),
+            enableConeFriction=int(options["enableConeFriction"]),
+            contactSlop=float(options["contactSlop"]),
+            physicsClientId=cid,
+        )
+        flags = p.URDF_USE_INERTIA_FROM_FILE
+        if settings.geometry == "cylinder":
+            flags |= p.URDF_USE_IMPLICIT_CYLINDER
+        floor = p.loadURDF(str(floor_file), useFixedBase=True, physicsClientId=cid)
+        hoop = p.loadURDF(str(hoop_file), useFixedBase=True, flags=flags, physicsClientId=cid)
+        names = tuple(
+            p.getJointInfo(hoop, j, physicsClientId=cid)[1].decode()
+            for j in range(p.getNumJoints(hoop, physicsClientId=cid))
+        )
+        if names != JOINT_NAMES:
+            raise RuntimeError(f"unexpected joints {names} in the hoop URDF")
+
+        # The pair's coefficients are the product of the two bodies': floor 1, hoop the run's.
+        p.changeDynamics(
+            floor,
+            -1,
+            lateralFriction=1.0,
+            spinningFriction=0.0,
+            rollingFriction=0.0,
+            restitution=1.0,
+            physicsClientId=cid,
+        )
+        for link in range(-1, len(JOINT_NAMES)):
+            # Default damping 0.04 would drain energy from a hoop that should conserve it.
+            p.changeDynamics(hoop, link, linearDamping=0.0, angularDamping=0.0, physicsClientId=cid)
+        hoop_dynamics: dict[str, Any] = dict(
+            lateralFriction=mu,
+            spinningFriction=0.0,
+            rollingFriction=0.0,
+            restitution=settings.restitution,
+            frictionAnchor=int(options["frictionAnchor"]),
+        )
+        if options["contactStiffness"] is not None:
+            hoop_dynamics["contactStiffness"] = float(options["contactStiffness"])
+            hoop_dynamics["contactDamping"] = float(options["contactDamping"])
+        p.changeDynamics(hoop, _HOOP_LINK, physicsClientId=cid, **hoop_dynamics)
+        for j in range(len(JOINT_NAMES)):
+            # The default velocity motors would hold every joint still.
+            p.setJointMotorControl2(hoop, j, p.VELOCITY_CONTROL, force=0.0, physicsClientId=cid)
+
+        X, Y, theta, Xdot, Ydot, thetadot = scene.initial_state()
+        r, s, c = scene.com_offset, math.sin(theta), math.cos(theta)
+        joint_states = (
+            (X - r * s, Xdot - r * c * thetadot),
+            (Y - r * c, Ydot + r * s * thetadot),
+            (theta, thetadot),
+        )
+        for j, (q, v) in enumerate(joint_states):
+            p.resetJointState(hoop, j, q, v, physicsClientId=cid)
+        return hoop, floor
+
+    def _step_and_record(
+        self,
+        p: ModuleType,
+        cid: int,
+        hoop: int,
+        floor: int,
+        scene: Scene,
+        settings: RunSettings,
+        n_steps: int,
+    ) -> Simulation:
+        """Step n_steps times and record every state.
+
+        Row i of the trajectory holds the state at t_i and the contact force that the solver
+        applies from that state over [t_i, t_i + dt], i.e. the force that takes the velocity
+        from row i to row i + 1. So row 0 gets the first step's force, and one extra step
+        (not recorded as a state) gives the last row's.
+        """
+        joints = list(range(len(JOINT_NAMES)))
+        step = p.stepSimulation
+        joint_states = p.getJointStates
+        contacts = p.getContactPoints
+        link = _HOOP_LINK
+        (qx, vx, _, _), (qz, vz, _, _), (qt, vt, _, _) = joint_states(hoop, joints, cid)
+        first = np.array([[qx, qz, qt, vx, vz, vt]])
+        blocks: list[np.ndarray] = []
+        diverged: str | None = None
+        done = 0
+        wall = 0.0
+        gc_was_enabled = gc.isenabled()
+        try:
+            # The collector would rescan every float the loop makes; nothing here is cyclic.
+            gc.disable()
+            while done < n_steps and diverged is None:
+                todo = min(_CHUNK, n_steps - done)
+                start = time.perf_counter()
+                # Plain doubles in an array: keeping PyBullet's nested tuples costs more than
+                # unpacking them at once (measured: 1.33x the bare loop against 1.5x).
+                buf = array("d")
+                record = buf.extend
+                for _ in range(todo):
+                    step(cid)
+                    (qx, vx, _, _), (qz, vz, _, _), (qt, vt, _, _) = joint_states(hoop, joints, cid)
+                    normal = friction = 0.0
+                    for point in contacts(hoop, floor, link, -1, cid):
+                        normal += point[9]
+                        friction -= point[10] * point[11][0] + point[12] * point[13][0]
+                    record((qx, qz, qt, vx, vz, vt, normal, friction))
+                block = np.frombuffer(buf).reshape(-1, _ROW)
+                wall += time.perf_counter() - start
+                blocks.append(block)
+                done += todo
+                diverged = check_divergence(scene, _com_state(scene, block[:, :6]), self.limits)
+            start = time.perf_counter()
+            step(cid)
+            normal = friction = 0.0
+            for point in contacts(hoop, floor, link, -1, cid):
+                normal += point[9]
+                friction -= point[10] * point[11][0] + point[12] * point[13][0]
+            wall += time.perf_counter() - start
+        finally:
+            if gc_was_enabled:
+                gc.enable()
+
+        rows = np.concatenate(blocks) if blocks else np.empty((0, _ROW))
+        state = _com_state(scene, np.concatenate([first, rows[:, :6]]))
+        force = np.concatenate([rows[:, 6:], [[normal, friction]]]) / scene.M
+        t = np.arange(len(force)) * settings.timestep
+        trajectory = Trajectory.from_state(
+            scene,
+            t=t,
+            **state,
+            normal_force=force[:, 0],
+            friction_force=force[:, 1],
+            contact=force[:, 0] > 0.0,
+        )
+        return Simulation(trajectory=trajectory, n_steps=done, wall_time_s=wall, diverged=diverged)
+
+
+def _com_state(scene: Scene, data: np.ndarray) -> dict[str, np.ndarray]:
+    """Centre-of-mass state (X, Y, theta, Xdot, Ydot, thetadot) from joint rows, shape (n, 6):
+    hoop-centre x, height, theta and their rates."""
+    x, z, theta, xdot, zdot, thetadot = data[:, :6].T
+    r = scene.com_offset
+    s, c = np.sin(theta), np.cos(theta)
+    return {
+        "X": x + r * s,
+        "Y": z + r * c,
+        "theta": theta,
+        "Xdot": xdot + r * c * thetadot,
+        "Ydot": zdot - r * s * thetadot,
+        "thetadot": thetadot,
+    }

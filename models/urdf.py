@@ -1,0 +1,220 @@
+"""URDF text for the hoop and the floor, as PyBullet loads them (plain XML, no engine import).
+
+The hoop is a planar chain fixed to the world::
+
+    world --prismatic x--> slider_x --prismatic z--> slider_z --continuous y--> hoop
+
+PyBullet's z is hoopbench's y (up). The joint positions are the hoop centre (x, y) and theta:
+
+* ``x_joint`` and ``z_joint`` have their origins at the world origin, so their positions are the
+  hoop centre's coordinates (the z joint starts at a, the hoop touching the floor);
+* ``theta_joint`` turns about +y. A positive turn about +y carries +z toward +x, i.e. the top of
+  the hoop moves forward: with the weight at +z in the hoop frame (theta = 0, on top), the
+  joint angle is theta itself.
+
+The hoop link's ``<inertial>`` is the whole hoop (ring plus weight) from the Scene: mass M,
+centre of mass at (0, 0, lam*a) in the hoop frame (the weight's direction at theta = 0), and
+the moment of inertia about the centre of mass I = M a^2 k about y. The out-of-plane moments
+never act (no out-of-plane freedom, and with the spin along a principal axis no gyroscopic
+torque); they are set to I each. The thin-plate values I/2 would sit exactly on the triangle
+inequality that PyBullet checks, and a tensor failing it is replaced by zero inertia with
+only a warning on stdout.
+
+The two slider links carry ``DUMMY_MASS_FRACTION`` of M each (and a tiny inertia): PyBullet
+handles massless links in a chain badly, and at this size they change the translational inertia
+by 2e-6 relative, far below any tolerance. The weight has a visual only, no collision shape.
+"""
+
+from __future__ import annotations
+
+import math
+from xml.sax.saxutils import quoteattr
+
+from models.scene import Scene
+
+__all__ = [
+    "CYLINDER_LENGTH_FRACTION",
+    "DUMMY_MASS_FRACTION",
+    "FLOOR_HALF_SIZE",
+    "HOOP_GEOMETRIES",
+    "JOINT_NAMES",
+    "floor_urdf",
+    "scene_to_urdf",
+]
+
+HOOP_GEOMETRIES: tuple[str, ...] = ("sphere", "cylinder", "hull")
+"""Collision shapes of the hoop. sphere: radius a (in the plane, exactly the hoop's circle);
+cylinder and hull: a URDF cylinder with its axis along y. The URDF text is the same for both;
+the loader decides (implicit cylinder, or PyBullet's default 32-vertex convex hull)."""
+
+JOINT_NAMES: tuple[str, str, str] = ("x_joint", "z_joint", "theta_joint")
+"""The three joints in chain order: hoop-centre x (m), hoop-centre height (m), theta (rad)."""
+
+DUMMY_MASS_FRACTION = 1e-6
+"""Mass of each slider link as a fraction of M."""
+
+CYLINDER_LENGTH_FRACTION = 0.1
+"""Length of the cylinder collision shape along y, as a fraction of a."""
+
+FLOOR_HALF_SIZE = 1000.0
+"""Half the side of the floor box, m: far beyond any distance a hoop covers in a window."""
+
+_FLOOR_THICKNESS = 1.0
+"""m; the box's top face is the plane z = 0."""
+
+
+def _num(value: float) -> str:
+    """Full-precision decimal text, so that the engine reads back exactly the scene's numbers."""
+    return repr(float(value))
+
+
+def _inertia_xml(mass: float, com_z: float, iyy: float, ixx: float, izz: float) -> str:
+    return (
+        "    <inertial>\n"
+        f'      <origin xyz="0 0 {_num(com_z)}" rpy="0 0 0"/>\n'
+        f'      <mass value="{_num(mass)}"/>\n'
+        f'      <inertia ixx="{_num(ixx)}" ixy="0" ixz="0" iyy="{_num(iyy)}" iyz="0" '
+        f'izz="{_num(izz)}"/>\n'
+        "    </inertial>\n"
+    )
+
+
+def _contact_xml(lateral_friction: float | None, restitution: float | None = None) -> str:
+    if lateral_friction is None and restitution is None:
+        return ""
+    lines = ["    <contact>\n"]
+    if lateral_friction is not None:
+        lines.append(f'      <lateral_friction value="{_num(lateral_friction)}"/>\n')
+        lines.append('      <rolling_friction value="0"/>\n')
+        lines.append('      <spinning_friction value="0"/>\n')
+    if restitution is not None:
+        lines.append(f'      <restitution value="{_num(restitution)}"/>\n')
+    lines.append("    </contact>\n")
+    return "".join(lines)
+
+
+def _dummy_link(name: str, mass: float) -> str:
+    tiny = mass * 1e-3  # kg m^2; any small positive value: these links never rotate
+    return (
+        f"  <link name={quoteattr(name)}>\n"
+        + _inertia_xml(mass, 0.0, tiny, tiny, tiny)
+        + ("  </link>\n")
+    )
+
+
+def _check_mu(mu: float | None) -> float | None:
+    if mu is None:
+        return None
+    value = float(mu)
+    if not (math.isfinite(value) and value >= 0):
+        raise ValueError(f"mu must be a finite number >= 0, got {mu!r}")
+    return value
+
+
+def scene_to_urdf(scene: Scene, *, geometry: str = "sphere", mu: float | None = None) -> str:
+    """URDF of the hoop of ``scene`` on its planar chain (see the module docstring).
+
+    ``geometry`` is one of HOOP_GEOMETRIES; ``mu`` (if given) is written as the hoop link's
+    lateral friction in PyBullet's ``<contact>`` extension, with rolling and spinning friction
+    0. Raises ValueError for an unknown geometry, a bad mu, or a scene with I = 0.
+    """
+    if geometry not in HOOP_GEOMETRIES:
+        raise ValueError(f"geometry must be one of {', '.join(HOOP_GEOMETRIES)}, got {geometry!r}")
+    mu = _check_mu(mu)
+    scene.require_inertia("a PyBullet hoop")
+    a = scene.a
+    inertia = scene.inertia_com
+    dummy = DUMMY_MASS_FRACTION * scene.M
+
+    if geometry == "sphere":
+        shape = f'<sphere radius="{_num(a)}"/>'
+        shape_origin = '<origin xyz="0 0 0" rpy="0 0 0"/>'
+    else:
+        # URDF cylinders lie along the local z axis; turn it onto y, the hoop's axle.
+        shape = f'<cylinder radius="{_num(a)}" length="{_num(CYLINDER_LENGTH_FRACTION * a)}"/>'
+        shape_origin = f'<origin xyz="0 0 0" rpy="{_num(math.pi / 2)} 0 0"/>'
+    weight_radius = 0.05 * a
+
+    header = (
+        f"<!-- hoopbench hoop: written by models.urdf.scene_to_urdf for scene "
+        f"{scene.name or '(unnamed)'}: lam={scene.lam!r} eps={scene.eps!r} a={scene.a!r} "
+        f"M={scene.M!r} g={scene.g!r} geometry={geometry} mu={mu!r}. "
+        f"Joint positions: hoop centre x, hoop centre height, theta. -->\n"
+    )
+    return (
+        '<?xml version="1.0"?>\n'
+        + header
+        + '<robot name="hoop">\n'
+        + '  <link name="world"/>\n'
+        + _dummy_link("slider_x", dummy)
+        + _dummy_link("slider_z", dummy)
+        + '  <link name="hoop">\n'
+        + _inertia_xml(scene.M, scene.com_offset, inertia, inertia, inertia)
+        + "    <collision>\n"
+        + f"      {shape_origin}\n"
+        + f"      <geometry>{shape}</geometry>\n"
+        + "    </collision>\n"
+        + "    <visual>\n"
+        + f"      {shape_origin}\n"
+        + f"      <geometry>{shape}</geometry>\n"
+        + "    </visual>\n"
+        + "    <visual>\n"
+        + f'      <origin xyz="0 0 {_num(a)}" rpy="0 0 0"/>\n'
+        + f'      <geometry><sphere radius="{_num(weight_radius)}"/></geometry>\n'
+        + "    </visual>\n"
+        + _contact_xml(mu)
+        + "  </link>\n"
+        + _joint("x_joint", "prismatic", "world", "slider_x", "1 0 0")
+        + _joint("z_joint", "prismatic", "slider_x", "slider_z", "0 0 1")
+        + _joint("theta_joint", "continuous", "slider_z", "hoop", "0 1 0")
+        + "</robot>\n"
+    )
+
+
+def _joint(name: str, kind: str, parent: str, child: str, axis: str) -> str:
+    # Unbounded limits and no damping or friction: the joint must not act on the motion.
+    limit = (
+        '    <limit lower="-1e9" upper="1e9" effort="0" velocity="1e9"/>\n'
+        if kind == "prismatic"
+        else ""
+    )
+    return (
+        f'  <joint name="{name}" type="{kind}">\n'
+        f'    <parent link="{parent}"/>\n'
+        f'    <child link="{child}"/>\n'
+        '    <origin xyz="0 0 0" rpy="0 0 0"/>\n'
+        f'    <axis xyz="{axis}"/>\n'
+        f"{limit}"
+        '    <dynamics damping="0" friction="0"/>\n'
+        "  </joint>\n"
+    )
+
+
+def floor_urdf(*, lateral_friction: float = 1.0, restitution: float = 1.0) -> str:
+    """URDF of a static floor whose top face is the plane z = 0.
+
+    PyBullet multiplies the two bodies' friction (and restitution) coefficients, so the floor's
+    defaults are 1: the pair then gets exactly the hoop's values.
+    """
+    lateral_friction = _check_mu(lateral_friction)
+    r = float(restitution)
+    if not (math.isfinite(r) and 0.0 <= r <= 1.0):
+        raise ValueError(f"restitution must be in [0, 1], got {restitution!r}")
+    side = 2 * FLOOR_HALF_SIZE
+    box = f'<box size="{_num(side)} {_num(side)} {_num(_FLOOR_THICKNESS)}"/>'
+    origin = f'<origin xyz="0 0 {_num(-_FLOOR_THICKNESS / 2)}" rpy="0 0 0"/>'
+    return (
+        '<?xml version="1.0"?>\n'
+        "<!-- hoopbench floor: written by models.urdf.floor_urdf; top face at z = 0, "
+        f"lateral_friction={lateral_friction!r}, restitution={r!r}. -->\n"
+        '<robot name="floor">\n'
+        '  <link name="floor">\n'
+        + _inertia_xml(0.0, 0.0, 0.0, 0.0, 0.0)
+        + "    <collision>\n"
+        + f"      {origin}\n"
+        + f"      <geometry>{box}</geometry>\n"
+        + "    </collision>\n"
+        + _contact_xml(lateral_friction, r)
+        + "  </link>\n"
+        + "</robot>\n"
+    )

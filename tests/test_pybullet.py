@@ -1,0 +1,426 @@
+"""PyBullet adapter and its URDF: the model PyBullet loads is the scene's, options reach the
+engine, the client is always closed, and the recorded forces are the ones that move the hoop."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+import tempfile
+import xml.etree.ElementTree as ET
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+import pybullet  # a declared dependency: missing it is a failure, not a skip
+import pytest
+
+from engines.base import RunResult, RunStatus
+from engines.pybullet_engine import MAX_PAIR_FRICTION, PybulletEngine
+from engines.reference_engine import ReferenceEngine
+from engines.settings import ENGINE_OPTIONS, RunSettings
+from models.catalogue import get_scene
+from models.scene import DegenerateSceneError, Scene
+from models.urdf import (
+    DUMMY_MASS_FRACTION,
+    HOOP_GEOMETRIES,
+    JOINT_NAMES,
+    floor_urdf,
+    scene_to_urdf,
+)
+from reference.exact import solve_exact
+from reports.tolerances import tolerances
+
+TOL = tolerances()
+ROOT = Path(__file__).resolve().parents[1]
+
+# Deliberately unlike the seed (M, a, lam, theta0 all off their defaults) so that a swapped or
+# dropped factor shows.
+ODD = Scene.from_chi(0.3, lam=0.6, eps=0.05, mus=0.5, muk=0.5, a=0.7, M=2.5, theta0=0.4, g=9.81)
+
+
+def seed_mu(t_end: float = 1.6) -> Scene:
+    return get_scene("seed-mu").with_(t_end=t_end)
+
+
+@cache
+def run(geometry: str = "sphere", timestep: float = 1e-4) -> RunResult:
+    result = PybulletEngine().run(seed_mu(), RunSettings(timestep=timestep, geometry=geometry))
+    assert result.info.status is RunStatus.OK, result.info.message
+    return result
+
+
+@cache
+def exact_seed_mu():
+    return solve_exact(seed_mu()).events
+
+
+def load(scene: Scene, geometry: str = "sphere", mu: float | None = None, **options):
+    """(client, hoop, floor) with the adapter's own build; the caller disconnects."""
+    settings = RunSettings(geometry=geometry, mu=mu, options=options)
+    cid = pybullet.connect(pybullet.DIRECT)
+    tmp = tempfile.TemporaryDirectory()
+    try:
+        hoop, floor = PybulletEngine()._build(
+            pybullet, cid, Path(tmp.name), scene, settings, settings.resolve("pybullet")
+        )
+    except BaseException:
+        pybullet.disconnect(physicsClientId=cid)
+        raise
+    finally:
+        tmp.cleanup()
+    return cid, hoop, floor
+
+
+# ----------------------------------------------------------------------------- URDF text
+def test_urdf_is_plain_xml_with_header_and_scene_values():
+    text = scene_to_urdf(ODD.with_(name="odd"), mu=0.5)
+    root = ET.fromstring(text)
+    assert "<!-- hoopbench hoop" in text and "scene odd" in text and "lam=0.6" in text
+    assert [j.get("name") for j in root.iter("joint")] == list(JOINT_NAMES)
+    assert [j.get("type") for j in root.iter("joint")] == ["prismatic", "prismatic", "continuous"]
+    assert [j.find("axis").get("xyz") for j in root.iter("joint")] == ["1 0 0", "0 0 1", "0 1 0"]
+    hoop = next(link for link in root.iter("link") if link.get("name") == "hoop")
+    inertial = hoop.find("inertial")
+    assert float(inertial.find("mass").get("value")) == ODD.M
+    assert inertial.find("origin").get("xyz") == f"0 0 {ODD.com_offset!r}"
+    assert float(inertial.find("inertia").get("iyy")) == ODD.inertia_com
+    assert float(hoop.find("contact/lateral_friction").get("value")) == 0.5
+    # One collision shape, the hoop's; the weight has a visual only.
+    assert len(list(root.iter("collision"))) == 1
+    assert hoop.find("collision/geometry/sphere").get("radius") == repr(ODD.a)
+
+
+def test_urdf_geometry_and_friction_options():
+    assert "<contact>" not in scene_to_urdf(ODD)
+    for geometry in ("cylinder", "hull"):
+        root = ET.fromstring(scene_to_urdf(ODD, geometry=geometry))
+        cylinder = root.find("link/collision/geometry/cylinder")
+        assert float(cylinder.get("radius")) == ODD.a
+        # URDF cylinders lie along z: turned a quarter about x, the axle is y.
+        rpy = root.find("link/collision/origin").get("rpy").split()
+        assert float(rpy[0]) == pytest.approx(math.pi / 2)
+    floor = ET.fromstring(floor_urdf())
+    assert float(floor.find("link/contact/lateral_friction").get("value")) == 1.0
+    assert float(floor.find("link/contact/restitution").get("value")) == 1.0
+
+
+def test_urdf_rejects_bad_input():
+    with pytest.raises(ValueError, match="geometry must be one of sphere, cylinder, hull"):
+        scene_to_urdf(ODD, geometry="teapot")
+    with pytest.raises(ValueError, match="mu must be a finite number >= 0"):
+        scene_to_urdf(ODD, mu=-0.1)
+    with pytest.raises(DegenerateSceneError):
+        scene_to_urdf(ODD.with_(lam=1.0, eps=0.0))
+    with pytest.raises(ValueError, match="restitution must be in"):
+        floor_urdf(restitution=2.0)
+
+
+def test_urdf_module_imports_no_engine():
+    code = (
+        "import sys, models.urdf; "
+        "bad = [m for m in sys.modules if m == 'pybullet' or m.startswith('engines')]; "
+        "print(bad)"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True
+    )
+    assert out.stdout.strip() == "[]"
+
+
+# ----------------------------------------------------------------------------- round trip
+@pytest.mark.parametrize("geometry", HOOP_GEOMETRIES)
+def test_round_trip_mass_inertia_com(geometry):
+    """PyBullet reads back the scene's mass, inertia about the COM and COM offset."""
+    cid, hoop, floor = load(ODD, geometry=geometry, mu=0.5)
+    try:
+        info = pybullet.getDynamicsInfo(hoop, 2, physicsClientId=cid)
+        mass, friction, inertia, com_pos = info[0], info[1], info[2], info[3]
+        assert mass == pytest.approx(ODD.M, rel=1e-12)
+        assert inertia == pytest.approx((ODD.inertia_com,) * 3, rel=1e-12)
+        assert com_pos == pytest.approx((0.0, 0.0, ODD.com_offset), abs=1e-12)
+        assert friction == 0.5
+        floor_info = pybullet.getDynamicsInfo(floor, -1, physicsClientId=cid)
+        assert floor_info[1] == 1.0  # lateral friction: the product is the hoop's mu
+        assert floor_info[5] == 1.0  # restitution: the product is the run's
+        names = [pybullet.getJointInfo(hoop, j, physicsClientId=cid)[1].decode() for j in range(3)]
+        assert names == list(JOINT_NAMES)
+        for j in range(-1, 2):  # slider links: tiny but positive mass
+            assert pybullet.getDynamicsInfo(hoop, j, physicsClientId=cid)[0] <= (
+                DUMMY_MASS_FRACTION * ODD.M
+            )
+    finally:
+        pybullet.disconnect(physicsClientId=cid)
+
+
+def test_round_trip_near_degenerate_inertia():
+    """A tiny I (lam near 1) still loads as itself, not as PyBullet's zero replacement."""
+    scene = ODD.with_(lam=0.999, eps=0.0)
+    cid, hoop, _ = load(scene)
+    try:
+        inertia = pybullet.getDynamicsInfo(hoop, 2, physicsClientId=cid)[2]
+        assert inertia == pytest.approx((scene.inertia_com,) * 3, rel=1e-12)
+        assert scene.inertia_com < 0.01 * scene.M * scene.a**2
+    finally:
+        pybullet.disconnect(physicsClientId=cid)
+
+
+def test_joint_angle_is_theta_and_initial_state():
+    """The COM sits at hoop centre + lam a (sin th, cos th): the joint angle is theta."""
+    cid, hoop, _ = load(ODD)
+    try:
+        X, Y, _, Xdot, Ydot, thetadot = ODD.initial_state()
+        state = pybullet.getLinkState(hoop, 2, computeLinkVelocity=1, physicsClientId=cid)
+        assert state[0] == pytest.approx((X, 0.0, Y), abs=1e-12)
+        assert state[6] == pytest.approx((Xdot, 0.0, Ydot), abs=1e-12)
+        # Clockwise theta seen with x right and y (PyBullet z) up is +omega about +y.
+        assert state[7] == pytest.approx((0.0, thetadot, 0.0), abs=1e-12)
+        for th in (0.7, 2.5, -1.0):
+            pybullet.resetJointState(hoop, 2, th, 0.0, physicsClientId=cid)
+            com = pybullet.getLinkState(hoop, 2, physicsClientId=cid)[0]
+            x, z = pybullet.getJointState(hoop, 0, cid)[0], pybullet.getJointState(hoop, 1, cid)[0]
+            r = ODD.com_offset
+            assert com == pytest.approx((x + r * math.sin(th), 0.0, z + r * math.cos(th)))
+    finally:
+        pybullet.disconnect(physicsClientId=cid)
+
+
+def test_mass_matrix_is_the_planar_rigid_body():
+    """The slider links do not perturb the dynamics: PyBullet's joint-space mass matrix is the
+    planar body's, [[M, 0, M r c], [0, M, -M r s], [M r c, -M r s, I + M r^2]], to 1e-5."""
+    cid, hoop, _ = load(ODD)
+    try:
+        M, r, inertia = ODD.M, ODD.com_offset, ODD.inertia_com
+        for th in (0.0, 0.7, 2.5, 4.0):
+            got = np.array(pybullet.calculateMassMatrix(hoop, [0.3, 0.7, th], cid))
+            s, c = math.sin(th), math.cos(th)
+            want = np.array(
+                [[M, 0, M * r * c], [0, M, -M * r * s], [M * r * c, -M * r * s, inertia + M * r**2]]
+            )
+            assert np.max(np.abs(got - want)) <= 1e-5 * np.max(np.abs(want))
+    finally:
+        pybullet.disconnect(physicsClientId=cid)
+
+
+# ----------------------------------------------------------------------------- options
+def test_options_reach_the_engine(monkeypatch):
+    calls: dict[str, dict] = {}
+    real = pybullet.setPhysicsEngineParameter
+
+    def spy(**kwargs):
+        calls.setdefault("params", {}).update(kwargs)
+        return real(**kwargs)
+
+    monkeypatch.setattr(pybullet, "setPhysicsEngineParameter", spy)
+    options = dict(
+        numSolverIterations=37,
+        contactERP=0.3,
+        frictionERP=0.1,
+        enableConeFriction=0,
+        contactSlop=2e-6,
+        contactStiffness=3e6,
+        contactDamping=2e3,
+        frictionAnchor=1,
+    )
+    assert set(options) == set(ENGINE_OPTIONS["pybullet"])
+    settings = RunSettings(timestep=5e-4, mu=0.6, restitution=0.25, options=options)
+    cid, hoop, _ = load(ODD, mu=0.6, **options)
+    try:
+        params = pybullet.getPhysicsEngineParameters(physicsClientId=cid)
+        assert params["fixedTimeStep"] == 1e-4  # load() uses the default timestep
+        assert params["numSolverIterations"] == 37
+        assert params["numSubSteps"] == 0
+        assert params["gravityAccelerationZ"] == -ODD.g
+        info = pybullet.getDynamicsInfo(hoop, 2, physicsClientId=cid)
+        assert info[1] == 0.6  # lateral friction
+        assert (info[6], info[7]) == (0.0, 0.0)  # rolling, spinning friction
+        assert (info[8], info[9]) == (2e3, 3e6)  # contact damping, stiffness
+    finally:
+        pybullet.disconnect(physicsClientId=cid)
+    # Options PyBullet cannot read back: they must at least be in the engine call.
+    for name in ("contactERP", "frictionERP", "enableConeFriction", "contactSlop"):
+        assert calls["params"][name] == options[name], name
+    result = PybulletEngine().run(ODD.with_(t_end=0.01), settings)
+    assert result.ok, result.info.message
+    assert calls["params"]["fixedTimeStep"] == 5e-4
+    assert result.info.settings["contactStiffness"] == 3e6
+
+
+def test_contact_slop_sets_the_resting_depth():
+    """contactSlop has a visible effect: a rolling hoop rests that deep in the floor."""
+    scene = seed_mu(t_end=0.2)
+    for slop in (1e-5, ENGINE_OPTIONS["pybullet"]["contactSlop"]):
+        result = PybulletEngine().run(scene, RunSettings(options={"contactSlop": slop}))
+        depth = -np.median(result.trajectory.clearance[result.trajectory.t > 0.05])
+        assert depth == pytest.approx(slop, rel=0.05)
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"numSolverIterations": 0}, "numSolverIterations must be an integer >= 1"),
+        ({"numSolverIterations": 2.5}, "numSolverIterations must be an integer >= 1"),
+        ({"contactERP": 1.5}, "contactERP must be in"),
+        ({"frictionERP": "x"}, "frictionERP must be a number"),
+        ({"enableConeFriction": 2}, "enableConeFriction must be 0 or 1"),
+        ({"frictionAnchor": 0.5}, "frictionAnchor must be 0 or 1"),
+        ({"contactSlop": -1e-6}, "contactSlop must be a finite number >= 0"),
+        ({"contactStiffness": 1e6}, "contactStiffness and contactDamping must be given together"),
+        ({"contactStiffness": -1.0, "contactDamping": 1.0}, "contactStiffness must be a positive"),
+    ],
+)
+def test_bad_option_raises(options, message):
+    with pytest.raises(ValueError, match=message):
+        PybulletEngine().run(seed_mu(), RunSettings(options=options))
+    with pytest.raises(ValueError, match=message):
+        PybulletEngine().bare_loop_time(seed_mu(), RunSettings(options=options))
+
+
+def test_mu_beyond_the_clamp_raises():
+    with pytest.raises(ValueError, match=f"mu must be <= {MAX_PAIR_FRICTION} for pybullet"):
+        PybulletEngine().run(seed_mu(), RunSettings(mu=12.0))
+
+
+# ----------------------------------------------------------------------------- client life
+def _spy_connect(monkeypatch) -> list[int]:
+    ids: list[int] = []
+    real = pybullet.connect
+
+    def connect(*args, **kwargs):
+        cid = real(*args, **kwargs)
+        ids.append(cid)
+        return cid
+
+    monkeypatch.setattr(pybullet, "connect", connect)
+    return ids
+
+
+def _connected(cid: int) -> bool:
+    return bool(pybullet.getConnectionInfo(physicsClientId=cid)["isConnected"])
+
+
+def test_client_closed_after_run_and_bare_loop(monkeypatch):
+    ids = _spy_connect(monkeypatch)
+    scene = seed_mu(t_end=0.01)
+    assert PybulletEngine().run(scene).ok
+    assert PybulletEngine().bare_loop_time(scene) > 0
+    assert len(ids) == 2 and ids[0] >= 0
+    assert not any(_connected(cid) for cid in ids)
+
+
+def test_client_closed_after_error(monkeypatch):
+    ids = _spy_connect(monkeypatch)
+
+    def boom(*args, **kwargs):
+        raise RuntimeError("stepping failed")
+
+    monkeypatch.setattr(pybullet, "stepSimulation", boom)
+    result = PybulletEngine().run(seed_mu(t_end=0.01))
+    assert result.info.status is RunStatus.ERROR
+    assert result.info.message == "RuntimeError: stepping failed"
+    assert len(ids) == 1 and not _connected(ids[0])
+
+
+def test_divergence_stops_and_keeps_the_partial_trajectory(monkeypatch):
+    import engines.pybullet_engine as adapter
+
+    ids = _spy_connect(monkeypatch)
+    monkeypatch.setattr(adapter, "check_divergence", lambda *args: "made up for the test")
+    result = PybulletEngine().run(seed_mu(t_end=1.0))
+    assert result.info.status is RunStatus.DIVERGED
+    assert result.info.message == "made up for the test"
+    assert result.info.n_steps == adapter._CHUNK
+    assert len(result.trajectory) == adapter._CHUNK + 1
+    assert not _connected(ids[0])
+
+
+def test_missing_pybullet_is_unavailable(monkeypatch):
+    monkeypatch.setitem(sys.modules, "pybullet", None)  # makes `import pybullet` fail
+    result = PybulletEngine().run(seed_mu())
+    assert result.info.status is RunStatus.UNAVAILABLE
+    assert "pybullet cannot be imported" in result.info.message
+
+
+def test_stdout_stays_clean():
+    """pybullet announces itself on stderr; the CLI's --json output must not see it."""
+    code = (
+        "from engines.pybullet_engine import PybulletEngine\n"
+        "from models.catalogue import get_scene\n"
+        "from engines.settings import RunSettings\n"
+        "for g in ('sphere', 'cylinder', 'hull'):\n"
+        "    r = PybulletEngine().run(get_scene('seed-mu').with_(t_end=0.01), "
+        "RunSettings(geometry=g))\n"
+        "    assert r.ok, r.info.message\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True
+    )
+    assert out.stdout == ""
+
+
+# ----------------------------------------------------------------------------- recording
+def test_recorded_rows_start_at_the_scene_state():
+    traj = run().trajectory
+    assert len(traj) == round(seed_mu().t_end / 1e-4) + 1
+    assert traj.t[1] == 1e-4
+    row0 = (traj.X[0], traj.Y[0], traj.theta[0], traj.Xdot[0], traj.Ydot[0], traj.thetadot[0])
+    assert row0 == pytest.approx(seed_mu().initial_state(), abs=1e-12)
+    assert traj.clearance[0] == pytest.approx(0.0, abs=1e-12)
+    # Row 0 carries the first step's force: the contact acts from the start.
+    assert traj.contact[0]
+
+
+def test_recorded_forces_move_the_hoop():
+    """Newton for the centre of mass, step by step: dXdot/dt = f and dYdot/dt = n - g.
+    (A friction sign error makes the x residual as large as f itself.)"""
+    traj = run().trajectory
+    dt = 1e-4
+    rolling = (traj.t[:-1] > 0.05) & (traj.t[:-1] < 0.9)
+    ax = np.diff(traj.Xdot)[rolling] / dt
+    ay = np.diff(traj.Ydot)[rolling] / dt + seed_mu().g
+    f, n = traj.friction_force[:-1][rolling], traj.normal_force[:-1][rolling]
+    rms = lambda v: float(np.sqrt(np.mean(v**2)))  # noqa: E731
+    assert rms(ax - f) <= 0.01 * rms(f)
+    assert rms(ay - n) <= 0.01 * rms(n)
+
+
+def test_rolling_forces_match_the_exact_solution():
+    traj = run().trajectory
+    sol = solve_exact(seed_mu())
+    window = (traj.t > 0.01) & (traj.t < 0.9)
+    ref = sol.sample(traj.t[window])
+    assert np.max(np.abs(traj.normal_force[window] - ref.normal_force)) < 0.02
+    assert np.max(np.abs(traj.friction_force[window] - ref.friction_force)) < 0.02
+
+
+# ----------------------------------------------------------------------------- geometries
+def test_sphere_slip_onset():
+    events, exact = run("sphere").events, exact_seed_mu()
+    assert events.t_slip is not None
+    assert abs(events.t_slip - exact.t_slip) <= TOL["slip"]["t_s"]
+    error = math.degrees(events.theta_slip - exact.theta_slip)
+    assert abs(error) <= TOL["slip"]["theta_deg"], f"sphere: slip {error:+.3f} deg from exact"
+
+
+def test_cylinder_slip_onset():
+    """The implicit cylinder touches along a line (two points) and its contact distance is
+    noisy at 1e-8 m, so its slip velocity jitters at 1e-4 m/s before the onset and the refined
+    (extrapolated) onset is thrown off (measured -11.5 ms). The threshold crossing is robust:
+    it must match the reference's on the same grid (measured: 2 ms apart)."""
+    events = run("cylinder").events
+    ref = ReferenceEngine().run(seed_mu(), RunSettings()).events
+    assert events.t_slip is not None
+    delay = events.extra["t_slip_threshold"] - ref.extra["t_slip_threshold"]
+    assert abs(delay) <= TOL["slip"]["t_s"], f"cylinder: threshold onset {delay * 1e3:+.2f} ms"
+
+
+def test_hull_geometry_is_launched_by_its_margin():
+    """A URDF cylinder without the implicit flag is a 32-vertex hull with a 1 mm margin: it
+    starts 1 mm deep, ERP throws it up at ~2 m/s and it slips at once (engines.md saw slip at
+    0.3 deg). Recorded here so that a PyBullet change shows."""
+    result = run("hull")
+    traj = result.trajectory
+    assert traj.clearance[1] > 1e-4  # one step: thrown up
+    assert result.events.t_lift is not None and result.events.t_lift < 0.01
+    first_slip = np.argmax(np.abs(traj.slip_velocity) > 1e-3)
+    assert math.degrees(traj.theta[first_slip]) < 1.0
