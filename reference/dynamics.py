@@ -62,9 +62,10 @@ def slip_denominator(scene: Scene, theta: ArrayLike, sigma: int) -> NDArray:
 
 def slip_normal_force(scene: Scene, theta: ArrayLike, thetadot: ArrayLike, sigma: int) -> NDArray:
     """Normal force per unit mass while slipping in direction sigma, m/s^2."""
-    return (
-        scene.g - scene.lam * scene.a * np.cos(theta) * np.asarray(thetadot) ** 2
-    ) / slip_denominator(scene, theta, sigma)
+    numerator = scene.g - scene.lam * scene.a * np.cos(theta) * np.asarray(thetadot) ** 2
+    # D = 0 is the Painlevé point: n is infinite there by the physics, not by a bug.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return numerator / slip_denominator(scene, theta, sigma)
 
 
 def slip_accelerations(

@@ -129,7 +129,9 @@ class _PhaseEnd:
     reason: str  # "end", "slip", "lift", "restick", "painleve"
 
 
-def _integrate(rhs, y0, t0, t_end, events, rtol, atol, method):
+def _integrate(rhs, y0, t0, t_end, events, rtol, atol, method, max_step):
+    # solve_ivp looks for event sign changes only at step ends; the step cap keeps an event
+    # function from dipping below zero and back inside one long, smooth rolling step.
     return solve_ivp(
         rhs,
         (t0, t_end),
@@ -139,6 +141,7 @@ def _integrate(rhs, y0, t0, t_end, events, rtol, atol, method):
         atol=atol,
         events=events,
         dense_output=True,
+        max_step=max_step,
     )
 
 
@@ -250,6 +253,10 @@ def _slip_phase(scene: Scene, t0: float, state: State, sigma: int, t_end: float,
             reason = "painleve"
         else:
             raise
+    if reason == "wrong-way":
+        reason, sol_t1 = _restick_inside_first_step(scene, sol, sigma)
+    else:
+        sol_t1 = float(sol.t[-1])
     if reason == "lift" and dynamics.slip_denominator(scene, sol.y[1, -1], sigma) < 1e-6:
         reason = "painleve"  # n -> 0 together with D -> 0: the Painlevé point, not a hop
     dense = sol.sol
@@ -265,9 +272,33 @@ def _slip_phase(scene: Scene, t0: float, state: State, sigma: int, t_end: float,
         n = dynamics.slip_normal_force(scene, theta, thetadot, sigma)
         return -sigma * scene.muk * n, n
 
-    t1 = float(sol.t[-1])
+    t1 = sol_t1
     seg = Segment(PhaseKind.SLIP, t0, t1, sigma, states, forces)
     return seg, _PhaseEnd(t1, tuple(states(np.array([t1]))[:, 0]), reason)
+
+
+def _restick_inside_first_step(scene: Scene, sol, sigma: int) -> tuple[str, float]:
+    """After a "wrong-way" event: did the slip go the right way and come back first?
+
+    The re-stick event is armed at step ends only; when one step holds the whole slip, the
+    slip velocity's return through zero shows up as a wrong-way crossing. Look at the dense
+    output: if sigma*s rose above SLIP_ARM before, the slip ended where it came back to zero.
+    """
+    t0, t1 = float(sol.t[0]), float(sol.t[-1])
+    grid = np.linspace(t0, t1, 401)
+
+    def directed(t):
+        _, theta, Xdot, thetadot = sol.sol(t)
+        return sigma * kinematics.slip_velocity(scene, Xdot, theta, thetadot)
+
+    values = directed(grid)
+    peak = int(np.argmax(values))
+    if values[peak] <= SLIP_ARM:
+        return "wrong-way", t1
+    after = np.nonzero(values[peak:] <= 0.0)[0]
+    k = peak + int(after[0])
+    t_re = brentq(lambda t: float(directed(t)), grid[k - 1], grid[k], xtol=1e-15)
+    return "restick", float(t_re)
 
 
 def _flight_clearance(scene: Scene, state: State, tau: NDArray) -> NDArray:
@@ -367,18 +398,22 @@ def solve_exact(
     rtol: float = 1e-10,
     atol: float = 1e-12,
     method: str = "DOP853",
+    max_step: float = 1e-2,
     max_phases: int = 10_000,
 ) -> ExactSolution:
     """Solve the scene from t = 0 to its t_end or the first impact, whichever comes first.
 
     A flight that starts before t_end is followed to its impact even past t_end.
     ``rtol`` and ``atol`` are the integrator's tolerances; events are located by root finding
-    on the dense output (machine precision on that interpolant).
+    on the dense output (machine precision on that interpolant). ``max_step`` (s) bounds the
+    integration steps so that an event function cannot cross zero and back unseen.
     """
     for name, value in (("rtol", rtol), ("atol", atol)):
         if not (value > 0 and math.isfinite(value)):
             raise ValueError(f"{name} must be a positive number, got {value}")
-    opts = (rtol, atol, method)
+    if not (max_step > 0):
+        raise ValueError(f"max_step must be a positive number of seconds, got {max_step}")
+    opts = (rtol, atol, method, max_step)
     t, state = 0.0, scene.initial_state()
     segments: list[Segment] = []
     phases: list[Phase] = []
