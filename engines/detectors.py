@@ -17,7 +17,12 @@ from numpy.typing import NDArray
 from models.events import Events, Outcome
 from models.trajectory import Trajectory
 
-__all__ = ["DetectorSettings", "detect_events", "refined_onset"]
+__all__ = ["FLOOR_LEVEL", "DetectorSettings", "detect_events", "refined_onset"]
+
+FLOOR_LEVEL = 1e-9
+"""Clearance (m) at or below which the hoop counts as on the floor: the round-off of an exact
+contact (the reference's y - a is +-1e-13 m while rolling), far below any engine's
+penetration."""
 
 
 @dataclass(frozen=True)
@@ -122,11 +127,11 @@ def detect_events(traj: Trajectory, settings: DetectorSettings | None = None) ->
     end_contact = len(t)
     if i_up is not None:
         # The hop starts where the clearance last left the floor level before the excursion.
-        before = np.nonzero(clear[: i_up + 1] <= 0.0)[0]
+        before = np.nonzero(clear[: i_up + 1] <= FLOOR_LEVEL)[0]
         i0 = int(before[-1]) + 1 if before.size else 0
         t_lift = _crossing_time(t, clear, i0, 0.0) if i0 > 0 else float(t[0])
         extra["t_lift_threshold"] = _crossing_time(t, clear, i_up, cfg.lift_clearance)
-        down = np.nonzero(clear[i_up:] <= 0.0)[0]
+        down = np.nonzero(clear[i_up:] <= FLOOR_LEVEL)[0]
         if down.size:
             k = i_up + int(down[0])
             t_impact = _crossing_time(t, clear, k, 0.0)

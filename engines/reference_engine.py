@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import math
 import time
 from types import ModuleType
 from typing import Any
+
+import numpy as np
 
 from engines.base import Engine, Simulation
 from engines.settings import RunSettings
@@ -39,7 +42,11 @@ class ReferenceEngine(Engine):
         scene = scene.with_(mus=mu, muk=mu)
         start = time.perf_counter()
         solution = module.solve_exact(scene, rtol=options["rtol"], atol=options["atol"])
-        trajectory = solution.sample_uniform(settings.timestep)
+        # The engine time grid, plus the window's last instant (the impact, for a hop), so
+        # that the detectors see the landing.
+        grid = np.arange(math.floor(solution.t_final / settings.timestep + 1e-9) + 1)
+        t = np.append(grid * settings.timestep, solution.t_final)
+        trajectory = solution.sample(np.unique(np.minimum(t, solution.t_final)))
         wall = time.perf_counter() - start
         return Simulation(
             trajectory=trajectory,

@@ -89,7 +89,8 @@ class ExactSolution:
         """Samples every dt seconds from 0 to t_final (inclusive of 0)."""
         if not (dt > 0 and math.isfinite(dt)):
             raise ValueError(f"dt must be a positive number of seconds, got {dt}")
-        return self.sample(np.arange(0.0, self.t_final + 0.5 * dt, dt))
+        n = math.floor(self.t_final / dt + 1e-9)
+        return self.sample(np.minimum(np.arange(n + 1) * dt, self.t_final))
 
     def _segment_index(self, t: NDArray) -> NDArray:
         ends = np.array([s.t_end for s in self.segments])

@@ -176,7 +176,22 @@ def _ms(seconds: float | None) -> float | None:
 
 
 def run_case(case: Case, trajectory_dir: str | None = None) -> dict[str, Any]:
-    """Run one case and return its row (never raises for an engine failure)."""
+    """Run one case and return its row; a failure anywhere becomes a row with status error."""
+    try:
+        return _run_case(case, trajectory_dir)
+    except Exception as exc:  # one broken run must not stop a sweep
+        return {
+            "scene": case.scene,
+            "engine": case.engine,
+            "variant": case.variant,
+            "timestep": case.timestep,
+            "geometry": case.geometry,
+            "status": "error",
+            "message": f"{type(exc).__name__}: {exc}",
+        }
+
+
+def _run_case(case: Case, trajectory_dir: str | None) -> dict[str, Any]:
     scene = get_scene(case.scene)
     result = get_engine(case.engine).run(scene, case.settings())
     exact = _exact_events(case.scene, result.info.mu)

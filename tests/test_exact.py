@@ -440,3 +440,15 @@ def test_missed_restick_no_longer_ends_in_painleve(scene):
     events = solved(scene).events
     assert events.outcome is not Outcome.PAINLEVE
     assert events.t_restick is not None
+
+
+@pytest.mark.parametrize("dt", [1e-4, 1e-3, 0.00777])
+def test_uniform_sampling_covers_a_flight_window(dt):
+    """The sampled grid stays inside [0, t_final] whatever dt (regression: t_final ends at
+    the impact, not on the grid)."""
+    sol = solved(HOP)
+    traj = sol.sample_uniform(dt)
+    assert traj.t[0] == 0.0
+    assert traj.t[-1] <= sol.t_final
+    assert sol.t_final - traj.t[-1] < dt
+    assert np.allclose(np.diff(traj.t), dt)
