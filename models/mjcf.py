@@ -1,0 +1,407 @@
+"""The hoop scene as an MJCF document (MuJoCo's XML model format).
+
+Plain XML building: this module does not import MuJoCo, so a model file can be written (and
+inspected, or opened in MuJoCo's viewer) without the engine, and models/ stays free of engine
+imports.
+
+Frames. MuJoCo's world has x forward and z up; hoopbench's y is MuJoCo's z. The one body,
+``hoop``, has its frame origin at the hoop centre, which starts at (0, 0, a). Three joints sit at
+that origin, in this order: slide ``x`` (centre displacement along x), slide ``z`` (centre
+displacement along z, 0 at the start height a) and hinge ``theta`` about +y. A positive rotation
+about +y carries the body's +z axis toward +x, so the hinge angle is hoopbench's theta (clockwise
+from the top, seen with x to the right and z up). In the body frame the weight sits at
+(0, 0, a) and the centre of mass at (0, 0, lam*a).
+
+Contact. Every geom has contype = conaffinity = 0, so MuJoCo makes no contact pairs of its own;
+the hoop-floor contacts are explicit ``<pair>`` elements. A pair's friction is used as given,
+which sidesteps MuJoCo's element-wise max rule for combining the two geoms' coefficients. The
+geoms carry the same coefficient anyway, so the pair is mu whichever rule applies.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from collections.abc import Mapping
+from typing import Any
+
+from models.scene import Scene
+
+__all__ = [
+    "CONES",
+    "INTEGRATORS",
+    "MJCF_GEOMETRIES",
+    "check_mujoco_options",
+    "check_restitution",
+    "scene_to_mjcf",
+]
+
+MJCF_GEOMETRIES: tuple[str, ...] = ("sphere", "cylinder", "ring")
+"""sphere: radius a (exactly the hoop's circle in the plane); cylinder: radius a, axis along y;
+ring: ring_segments capsules around the rim (a polygon, with bumps)."""
+
+CONES: tuple[str, ...] = ("pyramidal", "elliptic")
+INTEGRATORS: tuple[str, ...] = ("Euler", "RK4", "implicit", "implicitfast", "discrete")
+
+CYLINDER_HALF_LENGTH = 0.02
+"""Half-length of the cylinder geometry, in units of a. Its two end contacts balance about x."""
+CAPSULE_RADIUS = 0.01
+"""Radius of the ring's capsules, in units of a."""
+INERTIA_PAD = 1e-6
+"""Relative padding of the out-of-plane principal moments over the thin-plate values
+I/2 each; without it, rounding can fail MuJoCo's A + B >= C check. They do not enter the
+planar dynamics."""
+
+_OPTION_KEYS = (
+    "solref",
+    "solreffriction",
+    "solimp",
+    "cone",
+    "impratio",
+    "noslip_iterations",
+    "integrator",
+    "tolerance",
+    "iterations",
+    "ring_segments",
+)
+
+
+def _num(value: float) -> str:
+    """Shortest decimal text that reads back as the same double."""
+    value = float(value)
+    if value == 0.0:
+        return "0"
+    return repr(value)
+
+
+def _vec(*values: float) -> str:
+    return " ".join(_num(v) for v in values)
+
+
+def _finite(name: str, value: Any) -> float:
+    try:
+        out = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a real number, got {value!r}") from None
+    if not math.isfinite(out):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return out
+
+
+def _int_at_least(name: str, value: Any, low: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | float) or value != int(value):
+        raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
+    if int(value) < low:
+        raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
+    return int(value)
+
+
+def _choice(name: str, value: Any, allowed: tuple[str, ...]) -> str:
+    by_lower = {a.lower(): a for a in allowed}
+    if not isinstance(value, str) or value.lower() not in by_lower:
+        raise ValueError(f"{name} must be one of {', '.join(allowed)}, got {value!r}")
+    return by_lower[value.lower()]
+
+
+def check_mujoco_options(options: Mapping[str, Any]) -> dict[str, Any]:
+    """The MuJoCo options, validated and converted; ValueError naming a bad or missing one.
+
+    solref: (timeconst s, dampratio), both > 0, or (-stiffness, -damping), both < 0 (MuJoCo's
+    direct form); solreffriction: the same for the friction rows of elliptic cones, or (0, 0)
+    for "same as solref"; solimp: (dmin, dmax, width m, midpoint, power) with
+    0 < dmin <= dmax < 1, width > 0, 0 < midpoint < 1, power >= 1; cone: pyramidal |
+    elliptic; impratio > 0; integrator: Euler | RK4 | implicit | implicitfast | discrete
+    (case-insensitive); tolerance >= 0; iterations (>= 1), ring_segments (>= 3) and
+    noslip_iterations (>= 0) integers.
+    """
+    missing = [k for k in _OPTION_KEYS if k not in options]
+    if missing:
+        raise ValueError(f"mujoco options lack {', '.join(missing)}")
+    unknown = sorted(set(options) - set(_OPTION_KEYS))
+    if unknown:
+        raise ValueError(f"unknown mujoco option(s) {', '.join(unknown)}")
+    out: dict[str, Any] = {}
+
+    solref = options["solref"]
+    if not isinstance(solref, tuple | list) or len(solref) != 2:
+        raise ValueError(f"solref must be a pair (timeconst, dampratio), got {solref!r}")
+    solref = tuple(_finite("solref", v) for v in solref)
+    if not (all(v > 0 for v in solref) or all(v < 0 for v in solref)):
+        raise ValueError(
+            "solref must be (timeconst, dampratio), both > 0, or (-stiffness, -damping), "
+            f"both < 0; got {solref!r}"
+        )
+    out["solref"] = solref
+
+    srf = options["solreffriction"]
+    if not isinstance(srf, tuple | list) or len(srf) != 2:
+        raise ValueError(f"solreffriction must be a pair, got {srf!r}")
+    srf = tuple(_finite("solreffriction", v) for v in srf)
+    if not (srf == (0.0, 0.0) or all(v > 0 for v in srf) or all(v < 0 for v in srf)):
+        raise ValueError(
+            "solreffriction must be (0, 0) (same as solref), (timeconst, dampratio) both > 0, "
+            f"or (-stiffness, -damping) both < 0; got {srf!r}"
+        )
+    out["solreffriction"] = srf
+
+    solimp = options["solimp"]
+    if not isinstance(solimp, tuple | list) or len(solimp) not in (3, 5):
+        raise ValueError(f"solimp must be (dmin, dmax, width[, midpoint, power]), got {solimp!r}")
+    solimp = tuple(_finite("solimp", v) for v in solimp)
+    if len(solimp) == 3:
+        solimp = (*solimp, 0.5, 2.0)
+    dmin, dmax, width, midpoint, power = solimp
+    if not (0 < dmin <= dmax < 1 and width > 0 and 0 < midpoint < 1 and power >= 1):
+        raise ValueError(
+            "solimp must satisfy 0 < dmin <= dmax < 1, width > 0, 0 < midpoint < 1, "
+            f"power >= 1; got {solimp!r}"
+        )
+    out["solimp"] = solimp
+
+    out["cone"] = _choice("cone", options["cone"], CONES)
+    out["integrator"] = _choice("integrator", options["integrator"], INTEGRATORS)
+    impratio = _finite("impratio", options["impratio"])
+    if impratio <= 0:
+        raise ValueError(f"impratio must be > 0, got {impratio}")
+    out["impratio"] = impratio
+    tolerance = _finite("tolerance", options["tolerance"])
+    if tolerance < 0:
+        raise ValueError(f"tolerance must be >= 0, got {tolerance}")
+    out["tolerance"] = tolerance
+    out["iterations"] = _int_at_least("iterations", options["iterations"], 1)
+    out["noslip_iterations"] = _int_at_least("noslip_iterations", options["noslip_iterations"], 0)
+    out["ring_segments"] = _int_at_least("ring_segments", options["ring_segments"], 3)
+    return out
+
+
+def check_restitution(restitution: float) -> None:
+    """ValueError unless restitution is 0: see :func:`scene_to_mjcf` for why."""
+    value = _finite("restitution", restitution)
+    if value != 0.0:
+        raise ValueError(
+            f"restitution must be 0 for MuJoCo, got {restitution}: MuJoCo has no coefficient "
+            "of restitution. A bounce comes from solref's dampratio < 1, but how much depends "
+            "on timeconst, solimp and timestep (a linear spring-damper law was off by up to "
+            "0.17 at the default solref); set solref yourself to study bounces"
+        )
+
+
+def _comment_safe(text: str) -> str:
+    # "--" may not appear inside an XML comment.
+    while "--" in text:
+        text = text.replace("--", "- -")
+    return text
+
+
+def _header(
+    scene: Scene, mu: float, timestep: float, restitution: float, geometry: str, opts: Mapping
+) -> str:
+    fields = ", ".join(
+        f"{k}={_num(v) if isinstance(v, float) else v}"
+        for k, v in scene.to_dict().items()
+        if k not in ("name",)
+    )
+    settings = ", ".join(
+        f"{k}={_vec(*v) if isinstance(v, tuple) else v}" for k, v in sorted(opts.items())
+    )
+    lines = [
+        "Written by hoopbench (models/mjcf.py) from",
+        f"  scene {scene.name or '(unnamed)'!r}: {fields}",
+        f"  mu={_num(mu)}, timestep={_num(timestep)} s, restitution={_num(restitution)}, "
+        f"geometry={geometry}",
+        f"  mujoco options: {settings}",
+        "Frames: MuJoCo z is hoopbench y; the hinge angle is theta (clockwise from the top);",
+        "joints sit at the hoop centre; the weight has no collision geom.",
+    ]
+    return "<!--\n" + "\n".join(_comment_safe(line) for line in lines) + "\n-->\n"
+
+
+def _hoop_geoms(body: ET.Element, scene: Scene, geometry: str, opts: Mapping, mu: float) -> list:
+    """Collision geoms of the hoop; their names, for the contact pairs."""
+    a = scene.a
+    common = {"contype": "0", "conaffinity": "0", "friction": _vec(mu, 0, 0), "condim": "3"}
+    rgba = "0.3 0.5 0.8 0.35"
+    if geometry == "sphere":
+        ET.SubElement(body, "geom", name="hoop", type="sphere", size=_num(a), rgba=rgba, **common)
+        return ["hoop"]
+    if geometry == "cylinder":
+        ET.SubElement(
+            body,
+            "geom",
+            name="hoop",
+            type="cylinder",
+            size=_vec(a, CYLINDER_HALF_LENGTH * a),
+            zaxis="0 1 0",
+            rgba=rgba,
+            **common,
+        )
+        return ["hoop"]
+    # ring: capsule centrelines on a circle of radius a - rc, so the vertices reach radius a.
+    # A vertex is put straight below the centre at the start: the hoop starts on a vertex,
+    # touching the floor with clearance 0 like the other geometries.
+    n = opts["ring_segments"]
+    rc = CAPSULE_RADIUS * a
+    rho = a - rc
+    # Straight down in the body frame, when the hinge angle is theta0: (sin th0, 0, -cos th0).
+    phi0 = math.atan2(-math.cos(scene.theta0), math.sin(scene.theta0))
+    names = []
+    width = len(str(n - 1))
+    for i in range(n):
+        p = phi0 + 2.0 * math.pi * i / n
+        q = phi0 + 2.0 * math.pi * (i + 1) / n
+        name = f"hoop_{i:0{width}d}"
+        ET.SubElement(
+            body,
+            "geom",
+            name=name,
+            type="capsule",
+            size=_num(rc),
+            fromto=_vec(
+                rho * math.cos(p), 0, rho * math.sin(p), rho * math.cos(q), 0, rho * math.sin(q)
+            ),
+            rgba="0.3 0.5 0.8 1",
+            **common,
+        )
+        names.append(name)
+    return names
+
+
+def scene_to_mjcf(
+    scene: Scene,
+    *,
+    mu: float,
+    timestep: float,
+    restitution: float = 0.0,
+    geometry: str = "sphere",
+    options: Mapping[str, Any],
+) -> str:
+    """A complete MJCF document of the scene, ready for ``mujoco.MjModel.from_xml_string``.
+
+    Mass, centre of mass and moment of inertia come from the scene (``<inertial>``), not from
+    the geoms. ``options`` is the full mujoco option dict (engines.settings.ENGINE_OPTIONS
+    keys). Restitution must be 0: MuJoCo has no restitution coefficient, and its contact with
+    dampratio 1 (the default) does not bounce. A bounce can be studied through solref's
+    dampratio, but no honest mapping from a coefficient exists: measured on a drop at
+    timestep 1e-4, the linear spring-damper law e = exp(-pi z / sqrt(1 - z^2)) held within
+    0.01 at solref timeconst 0.02 s, and was off by up to 0.17 (and unreliable above e = 0.7)
+    at 0.0005 s. The body starts at the reference pose (hoop centre at (0, 0, a), hinge
+    angle 0): the initial state is the adapter's job (qpos, qvel).
+
+    Raises ValueError for a bad mu, timestep, geometry or option, for restitution != 0, and
+    DegenerateSceneError (a ValueError) when the scene has no moment of inertia.
+    """
+    scene.require_inertia("a MuJoCo model")
+    mu = _finite("mu", mu)
+    if mu < 0:
+        raise ValueError(f"mu must be >= 0, got {mu}")
+    timestep = _finite("timestep", timestep)
+    if timestep <= 0:
+        raise ValueError(f"timestep must be > 0 s, got {timestep}")
+    if geometry not in MJCF_GEOMETRIES:
+        raise ValueError(f"geometry must be one of {', '.join(MJCF_GEOMETRIES)}, got {geometry!r}")
+    check_restitution(restitution)
+    opts = check_mujoco_options(options)
+
+    a, M, r, inertia = scene.a, scene.M, scene.com_offset, scene.inertia_com
+    root = ET.Element("mujoco", model=f"hoopbench {scene.name}".strip())
+    ET.SubElement(root, "compiler", angle="radian", inertiafromgeom="false")
+    ET.SubElement(
+        root,
+        "option",
+        timestep=_num(timestep),
+        gravity=_vec(0, 0, -scene.g),
+        integrator=opts["integrator"],
+        cone=opts["cone"],
+        impratio=_num(opts["impratio"]),
+        noslip_iterations=str(opts["noslip_iterations"]),
+        tolerance=_num(opts["tolerance"]),
+        iterations=str(opts["iterations"]),
+    )
+    visual = ET.SubElement(root, "visual")
+    ET.SubElement(visual, "global", azimuth="90", elevation="-10")
+    asset = ET.SubElement(root, "asset")
+    ET.SubElement(
+        asset,
+        "texture",
+        name="grid",
+        type="2d",
+        builtin="checker",
+        width="256",
+        height="256",
+        rgb1="0.85 0.85 0.85",
+        rgb2="0.7 0.7 0.7",
+    )
+    ET.SubElement(
+        asset, "material", name="grid", texture="grid", texrepeat="1 1", texuniform="true"
+    )
+
+    world = ET.SubElement(root, "worldbody")
+    ET.SubElement(world, "light", pos=_vec(0, -4 * a, 4 * a), dir="0 1 -1", directional="true")
+    ET.SubElement(
+        world,
+        "geom",
+        name="floor",
+        type="plane",
+        size=_vec(0, 0, a),
+        material="grid",
+        contype="0",
+        conaffinity="0",
+        friction=_vec(mu, 0, 0),
+        condim="3",
+    )
+    body = ET.SubElement(world, "body", name="hoop", pos=_vec(0, 0, a))
+    ET.SubElement(body, "joint", name="x", type="slide", axis="1 0 0")
+    ET.SubElement(body, "joint", name="z", type="slide", axis="0 0 1")
+    ET.SubElement(body, "joint", name="theta", type="hinge", axis="0 1 0")
+    side = 0.5 * inertia * (1.0 + INERTIA_PAD)
+    ET.SubElement(
+        body, "inertial", pos=_vec(0, 0, r), mass=_num(M), diaginertia=_vec(side, inertia, side)
+    )
+    names = _hoop_geoms(body, scene, geometry, opts, mu)
+    # The weight is drawn, never touched: no collision, no mass (the inertial holds it).
+    ET.SubElement(
+        body,
+        "geom",
+        name="weight",
+        type="sphere",
+        size=_num(0.06 * a),
+        pos=_vec(0, 0, a),
+        contype="0",
+        conaffinity="0",
+        group="1",
+        mass="0",
+        rgba="0.8 0.2 0.1 1",
+    )
+
+    contact = ET.SubElement(root, "contact")
+    for name in names:
+        ET.SubElement(
+            contact,
+            "pair",
+            name=f"{name}_floor",
+            geom1=name,
+            geom2="floor",
+            condim="3",
+            # tangent1, tangent2, torsional, rolling1, rolling2
+            friction=_vec(mu, mu, 0, 0, 0),
+            solref=_vec(*opts["solref"]),
+            solreffriction=_vec(*opts["solreffriction"]),
+            solimp=_vec(*opts["solimp"]),
+        )
+    sensor = ET.SubElement(root, "sensor")
+    # One synthetic contact: the net contact force on the hoop, world frame (adapter reads it).
+    ET.SubElement(
+        sensor,
+        "contact",
+        name="contact_force",
+        body1="world",
+        body2="hoop",
+        reduce="netforce",
+        data="found force",
+    )
+    ET.indent(root, space="  ")
+    return (
+        _header(scene, mu, timestep, restitution, geometry, opts)
+        + ET.tostring(root, encoding="unicode")
+        + "\n"
+    )
