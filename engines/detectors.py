@@ -37,12 +37,15 @@ class DetectorSettings:
     """How long |slip velocity| must stay below restick_threshold to call a re-stick, s."""
     lift_clearance: float = 1e-4
     """Hoop-centre clearance y - a above which the hoop may be airborne, m."""
+    lift_level: float = 1e-5
+    """Clearance, m, whose crossings (1x, 2x, 4x) at the start of the flight are extrapolated
+    back to the lift-off time; contact chatter below it (MuJoCo while slipping) is ignored."""
     lift_sustain: float = 5e-3
     """How long the clearance must stay above lift_clearance to call a lift-off, s.
     Soft contacts lose contact for single steps after slip onset without lifting off."""
 
     def __post_init__(self) -> None:
-        for name in ("slip_threshold", "restick_threshold", "lift_clearance"):
+        for name in ("slip_threshold", "restick_threshold", "lift_clearance", "lift_level"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be > 0, got {value}")
@@ -50,6 +53,11 @@ class DetectorSettings:
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be >= 0, got {value}")
+        if self.lift_level >= self.lift_clearance:
+            raise ValueError(
+                f"lift_level ({self.lift_level} m) must be below lift_clearance "
+                f"({self.lift_clearance} m)"
+            )
 
 
 def _crossing_time(t: NDArray, y: NDArray, i: int, level: float) -> float:
@@ -81,30 +89,38 @@ def _first_sustained(mask: NDArray, t: NDArray, start: int, duration: float) -> 
     return None
 
 
-def refined_onset(t: NDArray, s: NDArray, i: int, threshold: float) -> float:
-    """Slip onset extrapolated back from the crossings of threshold, 2x and 4x.
+def refined_onset(t: NDArray, magnitude: NDArray, i: int, threshold: float) -> float:
+    """Onset of a growing signal, extrapolated back from its crossings of threshold, 2x, 4x.
 
-    If |s| grows like c (t - t0)^p after onset, the crossing times t1, t2, t3 of the levels
-    1, 2 and 4 thresholds satisfy (t3 - t2) / (t2 - t1) = 2^(1/p), whatever c and p:
-    t0 = t1 - (t2 - t1) / (r - 1). Falls back on the threshold crossing where the signal
-    does not look like a power law (noise, or growth faster than any power).
+    ``magnitude`` is non-negative (|slip velocity|, or the clearance clipped at zero) and
+    first exceeds ``threshold`` at index i. If it grows like c (t - t0)^p after the onset,
+    the crossing times t1, t2, t3 of the levels 1, 2 and 4 thresholds satisfy
+    (t3 - t2) / (t2 - t1) = 2^(1/p), whatever c and p: t0 = t1 - (t2 - t1) / (r - 1).
+    Falls back on the threshold crossing where the signal does not look like a power law,
+    and never goes back past a bound set by the last time the signal was at a tenth of the
+    threshold (a power law with p <= 3 never needs more): a signal that grows in steps, as
+    a soft contact's slip does, cannot drag the estimate far back.
     """
-    abs_s = np.abs(s)
-    t1 = _crossing_time(t, abs_s, i, threshold)
+    t1 = _crossing_time(t, magnitude, i, threshold)
     times = [t1]
     for level in (2 * threshold, 4 * threshold):
-        later = np.nonzero(abs_s[i:] > level)[0]
+        later = np.nonzero(magnitude[i:] > level)[0]
         if later.size == 0:
             return t1
         k = i + int(later[0])
-        times.append(_crossing_time(t, abs_s, k, level))
+        times.append(_crossing_time(t, magnitude, k, level))
     d1, d2 = times[1] - times[0], times[2] - times[1]
     if d1 <= 0 or d2 <= 0:
         return t1
     r = d2 / d1
     if not (1.05 < r < 16.0):  # p between 0.25 and 14: anything else is not an onset
         return t1
-    return max(float(t[0]), t1 - d1 / (r - 1.0))
+    t0 = t1 - d1 / (r - 1.0)
+    quiet = np.nonzero(magnitude[:i] <= 0.1 * threshold)[0]
+    if quiet.size:
+        t_quiet = float(t[quiet[-1]])
+        t0 = max(t0, t_quiet - (t1 - t_quiet))
+    return max(float(t[0]), t0)
 
 
 def detect_events(traj: Trajectory, settings: DetectorSettings | None = None) -> Events:
@@ -126,10 +142,17 @@ def detect_events(traj: Trajectory, settings: DetectorSettings | None = None) ->
     t_lift = t_impact = hop_height = None
     end_contact = len(t)
     if i_up is not None:
-        # The hop starts where the clearance last left the floor level before the excursion.
-        before = np.nonzero(clear[: i_up + 1] <= FLOOR_LEVEL)[0]
-        i0 = int(before[-1]) + 1 if before.size else 0
-        t_lift = _crossing_time(t, clear, i0, 0.0) if i0 > 0 else float(t[0])
+        # The flight is the excursion above lift_level that contains the sustained one; its
+        # start is extrapolated back from the crossings of 1, 2 and 4 lift_level.
+        above = np.maximum(clear, 0.0)
+        low = np.nonzero(clear[: i_up + 1] <= cfg.lift_level)[0]
+        i_rise = int(low[-1]) + 1 if low.size else 0
+        if i_rise == 0:
+            t_lift = float(t[0])
+        else:
+            t_lift = refined_onset(t, above, i_rise, cfg.lift_level)
+        floor = np.nonzero(clear[: i_up + 1] <= FLOOR_LEVEL)[0]
+        i0 = int(floor[-1]) + 1 if floor.size else 0
         extra["t_lift_threshold"] = _crossing_time(t, clear, i_up, cfg.lift_clearance)
         down = np.nonzero(clear[i_up:] <= FLOOR_LEVEL)[0]
         if down.size:
@@ -138,7 +161,7 @@ def detect_events(traj: Trajectory, settings: DetectorSettings | None = None) ->
             hop_height = float(np.max(clear[i0:k]))
         else:
             hop_height = float(np.max(clear[i0:]))
-        end_contact = i0
+        end_contact = int(np.searchsorted(t, t_lift))
 
     # Slip onset while on the floor.
     slipping = np.abs(s[:end_contact]) > cfg.slip_threshold
@@ -147,7 +170,7 @@ def detect_events(traj: Trajectory, settings: DetectorSettings | None = None) ->
     if hits.size:
         i = int(hits[0])
         extra["t_slip_threshold"] = _crossing_time(t, np.abs(s), i, cfg.slip_threshold)
-        t_slip = refined_onset(t[:end_contact], s[:end_contact], i, cfg.slip_threshold)
+        t_slip = refined_onset(t[:end_contact], np.abs(s[:end_contact]), i, cfg.slip_threshold)
         theta_slip = float(np.interp(t_slip, t, traj.theta))
         thetadot_slip = float(np.interp(t_slip, t, traj.thetadot))
         stuck = np.abs(s[:end_contact]) < cfg.restick_threshold

@@ -61,7 +61,6 @@ import numpy as np
 from engines.base import (
     Engine,
     EngineUnavailableError,
-    RunResult,
     Simulation,
     check_divergence,
     n_steps_for,
@@ -94,12 +93,10 @@ class MujocoEngine(Engine):
             raise EngineUnavailableError(f"mujoco cannot be imported: {exc}") from exc
         return mujoco
 
-    def run(self, scene: Scene, settings: RunSettings | None = None) -> RunResult:
-        """As Engine.run; bad option values and restitution != 0 also raise ValueError."""
-        settings = settings or RunSettings()
-        check_mujoco_options(settings.resolve(self.name))
+    def _check(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> None:
+        """Bad option values and restitution != 0 raise ValueError before a run."""
+        check_mujoco_options(options)
         check_restitution(settings.restitution)
-        return super().run(scene, settings)
 
     # ----------------------------------------------------------------- model
     def mjcf(self, scene: Scene, settings: RunSettings | None = None) -> str:

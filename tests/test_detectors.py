@@ -112,3 +112,30 @@ def test_detector_bias_on_the_reference(muk, dt, max_fraction):
     assert math.degrees(abs(events.theta_slip - exact.theta_slip)) < 0.2
     assert events.outcome is Outcome.SLIPS
     assert events.t_restick == pytest.approx(exact.t_restick, abs=10 * dt + 6e-3)
+
+
+def test_micro_chatter_before_a_flight_does_not_move_the_lift_off():
+    """Micrometre contact chatter (MuJoCo while slipping) before a real flight: the lift-off
+    is extrapolated from the flight's own rise, not taken at the last micro-contact."""
+    t = np.arange(0.0, 0.6, 1e-4)
+    tau = t - 0.3
+    flight = np.where(tau > 0, 50.0 * tau**3 * (0.25 - tau) / 0.25, 0.0)
+    # The hoop hovers 3 um up from 0.28 s: the last sample on the floor is 20 ms early.
+    hover = np.where((t > 0.28) & (t <= 0.3), 3e-6, -1e-8)
+    clearance = np.where(flight > 0, np.maximum(flight, 3e-6), hover)
+    events = detect_events(_synthetic(t, np.zeros_like(t), clearance))
+    assert events.t_lift == pytest.approx(0.3, abs=1e-3)
+
+
+def test_refined_onset_is_bounded_for_step_growth():
+    """A slip that jumps to the threshold and then creeps (a soft contact) must not be
+    extrapolated as a slow power law reaching far back in time."""
+    t = np.arange(0.0, 1.0, 1e-4)
+    s = np.interp(
+        t,
+        [0.0, 0.4999, 0.5, 0.51, 0.5206, 1.0],
+        [1e-6, 1e-6, 1.0001e-3, 2.0001e-3, 4.0001e-3, 1e-2],
+    )
+    i = int(np.nonzero(s > 1e-3)[0][0])
+    estimate = refined_onset(t, s, i, 1e-3)
+    assert 0.4997 <= estimate <= t[i]
