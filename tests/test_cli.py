@@ -1,0 +1,216 @@
+"""The ``hoopbench`` command line: its JSON contract, its errors and its files."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+
+import pytest
+
+from reports.cli import main
+
+EVENT_KEYS = {
+    "outcome",
+    "t_slip",
+    "theta_slip_deg",
+    "thetadot_slip",
+    "t_lift",
+    "hop_height",
+    "t_impact",
+    "phases",
+}
+
+
+def run_json(capsys, *argv: str) -> dict:
+    assert main([*argv, "--json"]) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def test_reference_seed_json(capsys):
+    out = run_json(capsys, "reference", "--scene", "seed")
+    assert set(out) >= EVENT_KEYS
+    assert out["outcome"] == "slips"
+    assert out["theta_slip_deg"] == pytest.approx(88.5037, abs=1e-4)
+    assert out["thetadot_slip"] == pytest.approx(3.26607, abs=1e-5)
+    assert out["t_slip"] == pytest.approx(0.98708, abs=1e-5)
+    assert out["t_lift"] is None and out["hop_height"] is None and out["t_impact"] is None
+    kinds = [p["kind"] for p in out["phases"]]
+    assert kinds[:3] == ["roll", "slip", "roll"]
+    assert out["phases"][1]["sigma"] == 1
+    assert "sigma" not in out["phases"][0]
+
+
+def test_reference_explicit_parameters_match_the_scene(capsys):
+    explicit = run_json(
+        capsys,
+        "reference",
+        "--lam",
+        "0.95",
+        "--eps",
+        "0.01",
+        "--chi",
+        "0.1",
+        "--theta0-deg",
+        "0",
+        "--mus",
+        "0.8",
+        "--muk",
+        "0.7",
+    )
+    named = run_json(capsys, "reference", "--scene", "seed")
+    for key in ("t_slip", "theta_slip_deg", "thetadot_slip", "outcome"):
+        assert explicit[key] == named[key]
+
+
+def test_reference_seed_euler(capsys):
+    out = run_json(
+        capsys,
+        "reference",
+        "--method",
+        "seed-euler",
+        "--dt",
+        "0.002",
+        "--delta",
+        "0.0001",
+        "--scene",
+        "seed",
+    )
+    assert out["n_steps"] == 14
+    assert out["t_lift"] == pytest.approx(1.0151, abs=1e-4)
+    assert out["outcome"] == "hops"
+    assert out["hop_height"] > 0 and out["t_impact"] > out["t_lift"]
+
+
+def test_reference_hop_scene(capsys):
+    out = run_json(capsys, "reference", "--scene", "hop-top")
+    assert out["outcome"] == "hops"
+    assert out["phases"][-1]["kind"] == "flight"
+    assert out["t_impact"] == pytest.approx(out["phases"][-1]["t_end"])
+
+
+def test_readable_summary(capsys):
+    assert main(["reference", "--scene", "seed"]) == 0
+    text = capsys.readouterr().out
+    assert "outcome        slips" in text
+    assert "theta = 88.5037 deg" in text
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["reference", "--lam", "1.5", "--chi", "0.1", "--mus", "0.8"], "lam must be in [0, 1]"),
+        (["reference", "--lam", "0.9", "--chi", "nan", "--mus", "0.8"], "chi must be finite"),
+        (
+            ["reference", "--a", "-1", "--lam", "0.9", "--chi", "0.1", "--mus", "0.8"],
+            "a (hoop radius) must be > 0",
+        ),
+        (["reference", "--scene", "nope"], "must be a catalogue scene"),
+        (["reference", "--lam", "0.9"], "missing: mus, chi or thetadot0"),
+        (["reference", "--scene", "seed", "--muk", "0.9"], "muk must be <= mus"),
+        (["simulate", "--engine", "ode", "--scene", "seed"], "invalid choice: 'ode'"),
+        (
+            ["simulate", "--engine", "mujoco", "--scene", "seed", "--set", "nope=1"],
+            "unknown mujoco setting(s) nope",
+        ),
+        (
+            ["simulate", "--engine", "mujoco", "--scene", "seed", "--set", "cone"],
+            "--set takes KEY=VALUE",
+        ),
+        (
+            ["simulate", "--engine", "pymunk", "--scene", "seed", "--geometry", "ring"],
+            "geometry 'ring' is not available for pymunk",
+        ),
+        (
+            ["simulate", "--engine", "pybullet", "--scene", "seed", "--dt", "-1"],
+            "timestep must be a positive",
+        ),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(capsys, argv, message):
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1
+    assert message in lines[0]
+
+
+def test_degenerate_scene_is_an_outcome(capsys):
+    out = run_json(capsys, "reference", "--scene", "massless")
+    assert out["outcome"] == "degenerate"
+    assert out["theta_slip_deg"] == pytest.approx(math.degrees(2 * math.atan(0.8)), abs=1e-6)
+    assert "degenerate" in out["message"]
+
+
+def test_simulate_reference_json(capsys, tmp_path):
+    csv = tmp_path / "traj.csv"
+    out = run_json(
+        capsys,
+        "simulate",
+        "--engine",
+        "reference",
+        "--scene",
+        "seed-mu",
+        "--dt",
+        "1e-3",
+        "--csv",
+        str(csv),
+    )
+    assert set(out) >= EVENT_KEYS
+    for key in ("engine", "engine_version", "status", "wall_time_s", "n_steps", "mu"):
+        assert key in out
+    assert out["engine"] == "reference" and out["status"] == "ok" and out["mu"] == 0.8
+    from models.trajectory import COLUMNS, Trajectory
+
+    traj = Trajectory.read(csv)
+    assert len(traj) == out["n_steps"] + 1
+    assert csv.read_text().splitlines()[1].split(",") == list(COLUMNS)
+
+
+def test_pybullet_keeps_stdout_clean():
+    """pybullet prints its build time at import: JSON on stdout must stay parseable."""
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "reports.cli",
+            "simulate",
+            "--engine",
+            "pybullet",
+            "--scene",
+            "seed-mu",
+            "--dt",
+            "1e-3",
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    out = json.loads(proc.stdout)
+    assert out["engine"] == "pybullet" and out["status"] == "ok"
+
+
+def test_model_mjcf_loads_in_mujoco(capsys):
+    mujoco = pytest.importorskip("mujoco")
+    assert main(["model", "--engine", "mujoco", "--scene", "seed"]) == 0
+    xml = capsys.readouterr().out
+    model = mujoco.MjModel.from_xml_string(xml)
+    assert model.body_mass[1] == pytest.approx(1.0)
+
+
+def test_model_urdf_and_pymunk(capsys):
+    assert main(["model", "--engine", "pybullet", "--scene", "seed"]) == 0
+    assert capsys.readouterr().out.lstrip().startswith(("<?xml", "<!--", "<robot"))
+    assert main(["model", "--engine", "pymunk", "--scene", "seed"]) == 0
+    spec = json.loads(capsys.readouterr().out)
+    assert spec
+
+
+def test_scenes_lists_the_catalogue(capsys):
+    assert main(["scenes"]) == 0
+    text = capsys.readouterr().out
+    for name in ("seed", "seed-pi", "massless", "hop-top", "painleve"):
+        assert name in text
