@@ -11,7 +11,7 @@ from functools import cache
 import numpy as np
 import pytest
 
-from engines.base import EngineUnavailableError, RunResult, RunStatus
+from engines.base import DivergenceLimits, EngineUnavailableError, RunResult, RunStatus
 from engines.registry import ENGINE_NAMES, get_engine
 from engines.settings import RunSettings
 from models.catalogue import get_scene, scene_names
@@ -199,3 +199,15 @@ def test_failing_engine_is_reported(engine, monkeypatch):
     result = adapter.run(seed_scene())
     assert result.info.status is RunStatus.ERROR
     assert result.info.message == "RuntimeError: solver exploded"
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_divergence_stops_the_run_and_is_reported(engine):
+    """A run that breaks a divergence limit stops early with status diverged and keeps its
+    partial trajectory (here the energy limit is set so that any run breaks it)."""
+    adapter = get_engine(engine, limits=DivergenceLimits(energy_rise=-0.5))
+    result = adapter.run(seed_scene())
+    assert result.info.status is RunStatus.DIVERGED
+    assert "energy rose" in result.info.message
+    assert result.trajectory is not None
+    assert 0 < len(result.trajectory) < seed_scene().t_end / TIMESTEP / 2
