@@ -264,6 +264,33 @@ def _cmd_model(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_settings(args: argparse.Namespace) -> int:
+    from dataclasses import asdict
+
+    from engines.detectors import DetectorSettings
+    from engines.settings import GEOMETRIES
+
+    engines = [args.engine] if args.engine else list(ENGINE_OPTIONS)
+    payload = {
+        "common": {k: v for k, v in RunSettings().to_dict().items()},
+        "engines": {
+            name: {"geometries": list(GEOMETRIES[name]), "options": dict(ENGINE_OPTIONS[name])}
+            for name in engines
+        },
+        "detectors": asdict(DetectorSettings()),
+    }
+    if args.json:
+        _print_json(payload)
+        return 0
+    print("common: " + ", ".join(f"{k}={v}" for k, v in payload["common"].items()))
+    for name, spec in payload["engines"].items():
+        print(f"{name} (geometries: {', '.join(spec['geometries'])})")
+        for key, value in spec["options"].items():
+            print(f"  {key} = {value}")
+    print("detectors: " + ", ".join(f"{k}={v}" for k, v in payload["detectors"].items()))
+    return 0
+
+
 def _cmd_report(args: argparse.Namespace) -> int:
     from reports.suite import run_report
 
@@ -327,6 +354,11 @@ def _parser() -> _Parser:
     _add_scene_options(p)
     engine_options(p, ("mujoco", "pybullet", "pymunk"))
     p.set_defaults(func=_cmd_model)
+
+    p = sub.add_parser("settings", help="print the default contact and detector settings")
+    p.add_argument("--engine", choices=tuple(ENGINE_OPTIONS))
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=_cmd_settings)
 
     p = sub.add_parser("report", help="run the comparison suite and write the report")
     p.add_argument("--out", default="reports/output", help="output folder")

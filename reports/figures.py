@@ -108,18 +108,32 @@ def clearance_figure(
     return out
 
 
-def error_vs_time_figure(frame, out: str | Path, *, error: str, title: str) -> Path:
-    """Scatter of an event error against wall time, one colour per engine."""
-    fig, ax = plt.subplots(figsize=(7, 4.5), constrained_layout=True)
-    for engine, group in frame.groupby("engine"):
-        ok = group[error].notna() & group["wall_time_s"].notna()
-        ax.scatter(group.loc[ok, "wall_time_s"], group.loc[ok, error].abs(), label=engine, s=24)
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("wall time of the stepping (s)")
-    ax.set_ylabel(f"|{error}|")
-    ax.set_title(title)
-    ax.legend(fontsize=8)
+def error_vs_time_figure(frame, out: str | Path, *, panels, title: str) -> Path:
+    """Event error against stepping time, one line per engine over its timesteps.
+
+    ``frame`` holds default-setting runs; ``panels`` is a list of (scene, error column,
+    label). Points are labelled with their timestep; missing detections are left out.
+    """
+    fig, axes = plt.subplots(
+        1, len(panels), figsize=(5.2 * len(panels), 4.2), constrained_layout=True, squeeze=False
+    )
+    for ax, (scene, error, label) in zip(axes[0], panels, strict=True):
+        runs = frame[(frame["scene"] == scene) & frame[error].notna()]
+        for engine, group in runs.groupby("engine"):
+            group = group.sort_values("wall_time_s")
+            y = group[error].abs().clip(lower=1e-4)
+            ax.plot(group["wall_time_s"], y, "o-", label=engine, ms=4)
+            for x, yy, dt in zip(group["wall_time_s"], y, group["timestep"], strict=True):
+                ax.annotate(
+                    f"{dt:g}", (x, yy), fontsize=6, xytext=(3, 3), textcoords="offset points"
+                )
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("wall time of the stepping (s)")
+        ax.set_ylabel(f"|{label}|")
+        ax.set_title(f"{scene}: {label}", fontsize=10)
+        ax.legend(fontsize=8)
+    fig.suptitle(title, fontsize=11)
     out = Path(out)
     fig.savefig(out, dpi=110)
     plt.close(fig)

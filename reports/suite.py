@@ -68,7 +68,8 @@ _VARIANTS: dict[str, list[tuple[str, str, dict[str, Any]]]] = {
         ("iterations=10", "sphere", {"iterations": 10}),
     ],
 }
-_TIMESTEPS = (1e-3, 1e-4)
+_TIMESTEPS = (1e-3, 5e-4, 2e-4, 1e-4, 5e-5)
+"""Default-setting timesteps of the full sweep: the error-against-cost curve."""
 
 
 def suite_scenes(quick: bool = False) -> list[str]:

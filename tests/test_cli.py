@@ -214,3 +214,12 @@ def test_scenes_lists_the_catalogue(capsys):
     text = capsys.readouterr().out
     for name in ("seed", "seed-pi", "massless", "hop-top", "painleve"):
         assert name in text
+
+
+def test_settings_lists_every_engine_default(capsys):
+    from engines.settings import ENGINE_OPTIONS
+
+    out = run_json(capsys, "settings")
+    assert set(out["engines"]) == set(ENGINE_OPTIONS)
+    assert out["engines"]["mujoco"]["options"]["cone"] == ENGINE_OPTIONS["mujoco"]["cone"]
+    assert out["detectors"]["slip_threshold"] == 1e-3

@@ -17,7 +17,7 @@ def quick_report(tmp_path_factory):
 def test_quick_report_writes_its_files(quick_report):
     out, report = quick_report
     assert report == out / "report.md"
-    for name in ("runs.csv", "runs.parquet", "slip_error_vs_time.png", "hoop_seed.png"):
+    for name in ("runs.csv", "runs.parquet", "error_vs_time.png", "hoop_seed.png"):
         assert (out / name).stat().st_size > 0
     assert any((out / "trajectories").glob("*.parquet"))
 
