@@ -147,10 +147,7 @@ def detect_events(traj: Trajectory, settings: DetectorSettings | None = None) ->
         above = np.maximum(clear, 0.0)
         low = np.nonzero(clear[: i_up + 1] <= cfg.lift_level)[0]
         i_rise = int(low[-1]) + 1 if low.size else 0
-        if i_rise == 0:
-            t_lift = float(t[0])
-        else:
-            t_lift = refined_onset(t, above, i_rise, cfg.lift_level)
+        t_lift = float(t[0]) if i_rise == 0 else refined_onset(t, above, i_rise, cfg.lift_level)
         floor = np.nonzero(clear[: i_up + 1] <= FLOOR_LEVEL)[0]
         i0 = int(floor[-1]) + 1 if floor.size else 0
         extra["t_lift_threshold"] = _crossing_time(t, clear, i_up, cfg.lift_clearance)
