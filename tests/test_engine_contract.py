@@ -211,3 +211,12 @@ def test_divergence_stops_the_run_and_is_reported(engine):
     assert "energy rose" in result.info.message
     assert result.trajectory is not None
     assert 0 < len(result.trajectory) < seed_scene().t_end / TIMESTEP / 2
+
+
+@pytest.mark.parametrize("engine", ["reference", *ENGINES])
+def test_runs_are_reproducible(engine):
+    """The same scene and settings give the same trajectory, bit for bit."""
+    scene = seed_scene().with_(t_end=0.5)
+    first = get_engine(engine).run(scene, RunSettings(timestep=1e-3)).trajectory.to_frame()
+    second = get_engine(engine).run(scene, RunSettings(timestep=1e-3)).trajectory.to_frame()
+    assert first.equals(second)
