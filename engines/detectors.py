@@ -14,10 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from models.events import Events, Outcome
+from models.events import Events, Outcome, Phase, PhaseKind
 from models.trajectory import Trajectory
 
-__all__ = ["FLOOR_LEVEL", "DetectorSettings", "detect_events", "refined_onset"]
+__all__ = ["FLOOR_LEVEL", "DetectorSettings", "detect_events", "detect_phases", "refined_onset"]
 
 FLOOR_LEVEL = 1e-9
 """Clearance (m) at or below which the hoop counts as on the floor: the round-off of an exact
@@ -123,6 +123,57 @@ def refined_onset(t: NDArray, magnitude: NDArray, i: int, threshold: float) -> f
     return max(float(t[0]), t0)
 
 
+def _zero_crossing(t: NDArray, s: NDArray, k: int, sigma: int) -> float:
+    """Time at which sigma*s last fell through zero before index k (linear interpolation)."""
+    positive = np.nonzero(sigma * s[:k] > 0.0)[0]
+    if positive.size == 0:
+        return float(t[k])
+    j = int(positive[-1]) + 1
+    return _crossing_time(t, sigma * s, j, 0.0)
+
+
+def detect_phases(
+    t: NDArray, s: NDArray, end: int, cfg: DetectorSettings
+) -> list[tuple[PhaseKind, float, int | None]]:
+    """Contact modes on samples [0, end): a list of (kind, start time, sigma).
+
+    Rolling turns into slipping when |s| exceeds slip_threshold (start refined as for the
+    first onset); slipping turns back into rolling when |s| stays below restick_threshold for
+    restick_sustain (start of that quiet stretch); a slip reverses when s goes beyond the
+    threshold on the other side without such a quiet stretch (at the zero crossing).
+    """
+    magnitude = np.abs(s[:end])
+    phases: list[tuple[PhaseKind, float, int | None]] = []
+    kind, sigma, quiet_since = PhaseKind.ROLL, None, None
+    for k in range(end):
+        sk = s[k]
+        if kind is PhaseKind.ROLL:
+            if magnitude[k] > cfg.slip_threshold:
+                start = (
+                    float(t[0]) if k == 0 else refined_onset(t, magnitude, k, cfg.slip_threshold)
+                )
+                start = max(start, phases[-1][1] if phases else float(t[0]))
+                kind, sigma, quiet_since = PhaseKind.SLIP, (1 if sk > 0 else -1), None
+                phases.append((kind, start, sigma))
+            elif not phases:
+                phases.append((kind, float(t[0]), None))
+            continue
+        if sigma * sk < -cfg.slip_threshold:
+            sigma = -sigma
+            phases.append((PhaseKind.SLIP, _zero_crossing(t, s, k, -sigma), sigma))
+            quiet_since = None
+        elif magnitude[k] < cfg.restick_threshold:
+            if quiet_since is None:
+                quiet_since = k
+            if t[k] - t[quiet_since] >= cfg.restick_sustain:
+                kind, sigma = PhaseKind.ROLL, None
+                phases.append((kind, float(t[quiet_since]), None))
+                quiet_since = None
+        else:
+            quiet_since = None
+    return phases
+
+
 def detect_events(traj: Trajectory, settings: DetectorSettings | None = None) -> Events:
     """Slip onset (threshold and refined), re-stick, lift-off, hop height, impact.
 
@@ -160,20 +211,27 @@ def detect_events(traj: Trajectory, settings: DetectorSettings | None = None) ->
             hop_height = float(np.max(clear[i0:]))
         end_contact = int(np.searchsorted(t, t_lift))
 
-    # Slip onset while on the floor.
-    slipping = np.abs(s[:end_contact]) > cfg.slip_threshold
-    hits = np.nonzero(slipping)[0]
+    # Contact modes while on the floor; the first slip and re-stick come from them.
+    modes = detect_phases(t, s, end_contact, cfg)
     t_slip = theta_slip = thetadot_slip = t_restick = None
-    if hits.size:
-        i = int(hits[0])
-        extra["t_slip_threshold"] = _crossing_time(t, np.abs(s), i, cfg.slip_threshold)
-        t_slip = refined_onset(t[:end_contact], np.abs(s[:end_contact]), i, cfg.slip_threshold)
+    slips = [k for k, (kind, _, _) in enumerate(modes) if kind is PhaseKind.SLIP]
+    if slips:
+        t_slip = modes[slips[0]][1]
+        hits = np.nonzero(np.abs(s[:end_contact]) > cfg.slip_threshold)[0]
+        extra["t_slip_threshold"] = _crossing_time(t, np.abs(s), int(hits[0]), cfg.slip_threshold)
         theta_slip = float(np.interp(t_slip, t, traj.theta))
         thetadot_slip = float(np.interp(t_slip, t, traj.thetadot))
-        stuck = np.abs(s[:end_contact]) < cfg.restick_threshold
-        j = _first_sustained(stuck, t[:end_contact], i, cfg.restick_sustain)
-        if j is not None:
-            t_restick = float(t[j])
+        later_rolls = [m[1] for m in modes[slips[0] :] if m[0] is PhaseKind.ROLL]
+        t_restick = later_rolls[0] if later_rolls else None
+    t_window_end = t_impact if t_impact is not None else float(t[-1])
+    boundaries = [m[1] for m in modes[1:]] + [t_lift if t_lift is not None else t_window_end]
+    phases = [
+        Phase(kind, start, stop, sigma)
+        for (kind, start, sigma), stop in zip(modes, boundaries, strict=True)
+        if stop > start
+    ]
+    if t_lift is not None:
+        phases.append(Phase(PhaseKind.FLIGHT, t_lift, t_window_end))
 
     if t_lift is not None:
         outcome = Outcome.LIFTS_AT_START if t_lift <= t[0] else Outcome.HOPS
@@ -190,5 +248,6 @@ def detect_events(traj: Trajectory, settings: DetectorSettings | None = None) ->
         t_lift=t_lift,
         hop_height=hop_height,
         t_impact=t_impact,
+        phases=tuple(phases),
         extra=extra,
     )

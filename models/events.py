@@ -45,6 +45,12 @@ class Phase:
     sigma: int | None = None
     """Slip direction sign(xdot - a*thetadot), +1 or -1, for slip phases; None otherwise."""
 
+    @property
+    def code(self) -> str:
+        """Short label: R (roll), S+ / S- (slip with its sigma), F (flight)."""
+        letter = {PhaseKind.ROLL: "R", PhaseKind.SLIP: "S", PhaseKind.FLIGHT: "F"}[self.kind]
+        return letter + {1: "+", -1: "-"}.get(self.sigma or 0, "")
+
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {
             "kind": str(self.kind),
@@ -85,6 +91,11 @@ class Events:
     """Free-text detail (why a run is degenerate, where Painlevé was reached, ...)."""
     extra: dict[str, float | int | str | None] = field(default_factory=dict, compare=False)
     """Method-specific numbers (n_steps of the seed scheme, Painlevé time, ...)."""
+
+    @property
+    def phase_code(self) -> str:
+        """The phase sequence as short labels, e.g. 'R S+ R S- F'."""
+        return " ".join(p.code for p in self.phases)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict; theta_slip also in degrees (theta_slip_deg)."""

@@ -47,6 +47,23 @@ def _col(frame: pd.DataFrame, name: str) -> pd.Series:
     return frame[name] if name in frame else pd.Series([None] * len(frame), index=frame.index)
 
 
+def _phase_table(runs: pd.DataFrame) -> str:
+    engines = list(dict.fromkeys(runs["engine"]))
+    rows = []
+    for scene, group in runs.groupby("scene", sort=False):
+        row = {"scene": scene, "exact": group["exact_phases"].iloc[0]}
+        for engine in engines:
+            hit = group[group["engine"] == engine]
+            if len(hit) and isinstance(hit["phases"].iloc[0], str):
+                code = hit["phases"].iloc[0]
+                row[engine] = code if hit["phases_agree"].iloc[0] else f"**{code}**"
+        rows.append(row)
+    table = pd.DataFrame(rows)
+    return markdown_table(table, ["scene", "exact", *engines], ["scene", "exact", *engines]) + (
+        "\n\nBold: differs from the exact sequence."
+    )
+
+
 def _accuracy_table(default: pd.DataFrame) -> str:
     hop_scenes = sorted(n for n in default["scene"].unique() if n.startswith("hop"))
     rows = []
@@ -94,6 +111,9 @@ def write_markdown(frame: pd.DataFrame, out: Path, *, generated: str) -> Path:
         "energy_rise_before_slip",
         "outcome_agrees",
         "hop_height",
+        "phases",
+        "phases_agree",
+        "exact_phases",
     ):
         frame[name] = _col(frame, name)
     default = frame[frame["variant"] == "default"]
@@ -203,6 +223,16 @@ def write_markdown(frame: pd.DataFrame, out: Path, *, generated: str) -> Path:
             )
         )
         md.append("")
+
+    md += ["## Phase sequences (default settings, dt = 1e-4)", ""]
+    md.append(
+        "R roll, S+/S- slip forward/backward, F flight, up to the first impact. The engine "
+        "sequences come from the shared detectors; the reference row shows what they read off "
+        "the exact solution."
+    )
+    md.append("")
+    md.append(_phase_table(default[default["timestep"] == 1e-4]))
+    md.append("")
 
     variants = frame[frame["variant"] != "default"]
     if len(variants):

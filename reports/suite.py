@@ -138,6 +138,7 @@ def _row(case: Case, result: RunResult, exact: Events) -> dict[str, Any]:
         "exact_t_lift": exact.t_lift,
         "exact_hop_height": exact.hop_height,
         "exact_t_impact": exact.t_impact,
+        "exact_phases": exact.phase_code,
     }
     if events is None or traj is None:
         return row
@@ -167,6 +168,8 @@ def _row(case: Case, result: RunResult, exact: Events) -> dict[str, Any]:
             "energy_change_end": float((traj.energy[-1] - e0) / e0),
             "max_penetration_m": float(max(0.0, -traj.clearance.min())),
             "outcome_agrees": str(events.outcome) == str(exact.outcome),
+            "phases": events.phase_code,
+            "phases_agree": events.phase_code == exact.phase_code,
         }
     )
     return row

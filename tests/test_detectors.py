@@ -139,3 +139,48 @@ def test_refined_onset_is_bounded_for_step_growth():
     i = int(np.nonzero(s > 1e-3)[0][0])
     estimate = refined_onset(t, s, i, 1e-3)
     assert 0.4997 <= estimate <= t[i]
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        "seed",
+        "seed-mu",
+        "seed-pi",
+        "hop-top",
+        "hop-low",
+        "hop-bottom",
+        "high-spin",
+        "low-friction",
+        "slip-reversal",
+    ],
+)
+def test_phases_read_off_the_reference_match_the_exact_ones(name):
+    """On the exact solution sampled at 1e-4 s the detectors find the exact phase sequence,
+    each boundary within 3 ms (re-sticks are dated at the start of the quiet stretch)."""
+    from models.catalogue import get_scene
+
+    solution = solve_exact(get_scene(name))
+    detected = detect_events(solution.sample_uniform(1e-4))
+    exact = solution.events
+    assert detected.phase_code == exact.phase_code
+    for got, want in zip(detected.phases, exact.phases, strict=True):
+        assert got.t_start == pytest.approx(want.t_start, abs=3e-3), (got, want)
+
+
+def test_a_direct_slip_reversal_is_one_phase_change():
+    """s goes from +1 to -1 m/s through zero without dwelling: S+ then S- at the crossing."""
+    t = np.arange(0.0, 1.0, 1e-4)
+    s = np.interp(t, [0.0, 0.2, 0.4, 0.6, 0.8, 1.0], [0.0, 0.0, 1.0, 0.0, -1.0, -1.0])
+    events = detect_events(_synthetic(t, s))
+    assert events.phase_code == "R S+ S-"
+    assert events.phases[2].t_start == pytest.approx(0.6, abs=2e-4)
+    assert events.t_restick is None
+
+
+def test_a_dwell_at_zero_is_a_re_stick():
+    t = np.arange(0.0, 1.0, 1e-4)
+    s = np.interp(t, [0.0, 0.2, 0.4, 0.5, 0.55, 0.7, 1.0], [0, 0, 1.0, 0, 0, -1.0, -1.0])
+    events = detect_events(_synthetic(t, s))
+    assert events.phase_code == "R S+ R S-"
+    assert events.t_restick == pytest.approx(0.5, abs=2e-3)

@@ -220,3 +220,21 @@ def test_runs_are_reproducible(engine):
     first = get_engine(engine).run(scene, RunSettings(timestep=1e-3)).trajectory.to_frame()
     second = get_engine(engine).run(scene, RunSettings(timestep=1e-3)).trajectory.to_frame()
     assert first.equals(second)
+
+
+def _phase_cases():
+    for engine in ENGINES:
+        xfails = TOL["phases"].get("xfail", {}).get(engine, {})
+        for scene in TOL["phases"]["scenes"]:
+            marks = []
+            if scene in xfails:
+                marks.append(pytest.mark.xfail(strict=True, reason=xfails[scene]))
+            yield pytest.param(engine, scene, marks=marks, id=f"{engine}-{scene}")
+
+
+@pytest.mark.parametrize(("engine", "scene_name"), list(_phase_cases()))
+def test_phase_sequence(engine, scene_name):
+    """The engine goes through the exact sequence of rolls, slips and flights."""
+    ref_scene = seed_scene() if scene_name == "seed" else get_scene(scene_name)
+    exact_code = solve_exact(ref_scene.with_(muk=ref_scene.mus)).events.phase_code
+    assert run(engine, scene_name).events.phase_code == exact_code
