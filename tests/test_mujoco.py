@@ -14,6 +14,7 @@ import subprocess
 import sys
 import xml.etree.ElementTree as ET
 
+import mujoco  # a declared dependency: missing it is a failure, not a skip
 import numpy as np
 import pytest
 
@@ -24,8 +25,6 @@ from models.catalogue import get_scene
 from models.mjcf import scene_to_mjcf
 from models.scene import DegenerateSceneError, Scene
 from reference import dynamics
-
-mujoco = pytest.importorskip("mujoco")
 
 DEFAULTS = dict(ENGINE_OPTIONS["mujoco"])
 

@@ -7,18 +7,17 @@ import math
 import sys
 
 import numpy as np
+import pymunk  # a declared dependency: missing it is a failure, not a skip
 import pytest
 
-pymunk = pytest.importorskip("pymunk")
-
-from engines.base import DivergenceLimits, RunStatus  # noqa: E402
-from engines.pymunk_engine import PymunkEngine  # noqa: E402
-from engines.settings import ENGINE_OPTIONS, GEOMETRIES, RunSettings  # noqa: E402
-from models.catalogue import get_scene  # noqa: E402
-from models.pymunk_space import build_space, scene_to_pymunk  # noqa: E402
-from models.scene import DegenerateSceneError, Scene  # noqa: E402
-from reference import dynamics  # noqa: E402
-from reference.exact import solve_exact  # noqa: E402
+from engines.base import DivergenceLimits, RunStatus
+from engines.pymunk_engine import PymunkEngine
+from engines.settings import ENGINE_OPTIONS, GEOMETRIES, RunSettings
+from models.catalogue import get_scene
+from models.pymunk_space import build_space, scene_to_pymunk
+from models.scene import DegenerateSceneError, Scene
+from reference import dynamics
+from reference.exact import solve_exact
 
 DT = 1e-4
 
