@@ -199,6 +199,8 @@ def detect_events(traj: Trajectory, settings: DetectorSettings | None = None) ->
         low = np.nonzero(clear[: i_up + 1] <= cfg.lift_level)[0]
         i_rise = int(low[-1]) + 1 if low.size else 0
         t_lift = float(t[0]) if i_rise == 0 else refined_onset(t, above, i_rise, cfg.lift_level)
+        if t_lift - t[0] < t[1] - t[0]:  # within the first step: the hoop left at once
+            t_lift = float(t[0])
         floor = np.nonzero(clear[: i_up + 1] <= FLOOR_LEVEL)[0]
         i0 = int(floor[-1]) + 1 if floor.size else 0
         extra["t_lift_threshold"] = _crossing_time(t, clear, i_up, cfg.lift_clearance)
@@ -224,7 +226,9 @@ def detect_events(traj: Trajectory, settings: DetectorSettings | None = None) ->
         later_rolls = [m[1] for m in modes[slips[0] :] if m[0] is PhaseKind.ROLL]
         t_restick = later_rolls[0] if later_rolls else None
     t_window_end = t_impact if t_impact is not None else float(t[-1])
+    # A hoop that lifts off at the first sample has no contact mode at all.
     boundaries = [m[1] for m in modes[1:]] + [t_lift if t_lift is not None else t_window_end]
+    boundaries = boundaries[: len(modes)]
     phases = [
         Phase(kind, start, stop, sigma)
         for (kind, start, sigma), stop in zip(modes, boundaries, strict=True)

@@ -184,3 +184,12 @@ def test_a_dwell_at_zero_is_a_re_stick():
     events = detect_events(_synthetic(t, s))
     assert events.phase_code == "R S+ R S-"
     assert events.t_restick == pytest.approx(0.5, abs=2e-3)
+
+
+def test_a_lift_off_at_the_first_sample_has_only_a_flight_phase():
+    t = np.arange(0.0, 0.5, 1e-4)
+    clearance = 1.0 * t * (0.3 - t)
+    events = detect_events(_synthetic(t, np.full_like(t, 0.5), clearance))
+    assert events.outcome is Outcome.LIFTS_AT_START
+    assert events.phase_code == "F"
+    assert events.t_slip is None
