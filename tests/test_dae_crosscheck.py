@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, Phase, assume, given, settings
 from hypothesis import strategies as st
+from physics_scenes import HOP, PAINLEVE, SEED
 
 from models.scene import Scene
 from reference import dynamics
@@ -45,18 +46,6 @@ time is known only to error/slope, which can exceed T_PHASE_TOL."""
 END_MARGIN = 1e-5
 """A phase boundary this close to t_end may fall on either side of it, s."""
 
-SEED = Scene.from_chi(0.1, lam=0.95, eps=0.01, mus=0.8, muk=0.7, name="seed")
-PAINLEVE = Scene(
-    lam=0.9,
-    eps=0.0,
-    mus=0.6,
-    muk=0.6,
-    theta0=math.radians(300.0),
-    thetadot0=0.0,
-    xdot0=10.0,
-    name="painleve",
-)
-HOP = Scene.from_chi(0.7, lam=0.95, eps=0.0, mus=1.0, muk=1.0, t_end=3.0, name="hop")
 BOTTOM = Scene.from_energy(
     SEED.energy_per_mass, lam=0.95, eps=0.01, mus=1.0, muk=0.7, theta0=math.pi, name="bottom"
 )

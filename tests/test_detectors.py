@@ -6,14 +6,12 @@ import math
 
 import numpy as np
 import pytest
+from physics_scenes import SEED
 
 from engines.detectors import DetectorSettings, detect_events, refined_onset
 from models.events import Outcome
-from models.scene import Scene
 from models.trajectory import Trajectory
 from reference.exact import solve_exact
-
-SEED = Scene.from_chi(0.1, lam=0.95, eps=0.01, mus=0.8, muk=0.7)
 
 
 def _synthetic(t, s, clearance=None):
