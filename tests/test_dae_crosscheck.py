@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, Phase, assume, given, settings
 from hypothesis import strategies as st
-from physics_scenes import HOP, PAINLEVE, SEED
+from physics_scenes import FORMER_BUGS, HOP, PAINLEVE, SEED
 
 from models.scene import Scene
 from reference import dynamics
@@ -154,81 +154,10 @@ def test_fixed_scene_agrees(scene):
     assert_agree(ex, dae)
 
 
-def regression(name: str, **kw) -> pytest.param:
-    return pytest.param(Scene(t_end=1.5, name=name, **kw), id=name)
-
-
 # Random draws where the two disagreed. The exact solver was wrong in each (the DAE's answer
 # was checked by sampling the exact solution: its rolling phase left the friction cone, or its
 # slip kept pushing the wrong way, or its 'flight' started with the centre accelerating down).
-@pytest.mark.parametrize(
-    "scene",
-    [
-        regression(
-            "restick-after-start-slip",
-            lam=0.8665044427898028,
-            thetadot0=3.4879290286257825,
-            mus=1.3935763754025865,
-            muk=1.1597349850721221,
-            eps=0.0051673939119395995,
-            theta0=5.106656617931736,
-        ),
-        regression(
-            "no-lift-at-start",
-            lam=0.9692095449387306,
-            thetadot0=3.681543372643219,
-            mus=0.2665519708572509,
-            muk=0.16206139082845347,
-            eps=0.051985462029042855,
-            theta0=4.909917710676887,
-        ),
-        regression(
-            "start-slip-chatter",
-            lam=0.9547166900279551,
-            thetadot0=3.4061750637499775,
-            mus=1.371461512139528,
-            muk=0.8711423910782137,
-            eps=0.0013991021028433527,
-            theta0=4.573098292697877,
-        ),
-        regression(
-            "missed-slip",
-            lam=0.8956968813019046,
-            thetadot0=3.813479793328449,
-            mus=0.7559614241676756,
-            muk=0.7535534273356567,
-            eps=0.08978657881276951,
-            theta0=2.0962985817599056,
-        ),
-        regression(
-            "missed-slip-2",
-            lam=0.7218179778453573,
-            thetadot0=2.422721176333123,
-            mus=1.0083910556167286,
-            muk=0.7991328941766799,
-            eps=0.02500183399320113,
-            theta0=5.95021524520852,
-        ),
-        regression(
-            "restick-in-first-step",
-            lam=0.8985499430218049,
-            thetadot0=3.6725868054646216,
-            mus=0.9946737005822146,
-            muk=0.8835627515278803,
-            eps=0.011771330321030138,
-            theta0=4.4813782064328835,
-        ),
-        regression(
-            "spurious-painleve",
-            lam=0.8666098412510674,
-            thetadot0=3.376461819177481,
-            mus=1.3245996592059945,
-            muk=0.7849116915893923,
-            eps=0.0569015660162529,
-            theta0=5.4299931247053275,
-        ),
-    ],
-)
+@pytest.mark.parametrize("scene", [pytest.param(s, id=s.name) for s in FORMER_BUGS])
 def test_former_disagreements(scene):
     ex, dae = solve_both(scene)
     assert grazing(ex, dae) is None

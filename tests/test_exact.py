@@ -14,7 +14,18 @@ import math
 
 import numpy as np
 import pytest
-from physics_scenes import HOP, PAINLEVE, SEED
+from physics_scenes import (
+    CHATTER,
+    FALSE_LIFT,
+    FALSE_LIFT_CRASH,
+    HOP,
+    MISSED_SLIP,
+    PAINLEVE,
+    RESTICK_IN_FIRST_STEP,
+    SEED,
+    SPURIOUS_PAINLEVE,
+    WRONG_WAY_SLIP,
+)
 
 from models.events import Outcome, PhaseKind
 from models.scene import Scene
@@ -27,107 +38,6 @@ def top_energy_scene(mus: float) -> Scene:
     return Scene.from_energy(
         SEED.energy_per_mass, lam=0.95, eps=0.01, mus=mus, muk=0.7, theta0=math.pi, name="bottom"
     )
-
-
-# Scenes where reference/exact.py was or is wrong; found by the DAE cross-check.
-MISSED_SLIP = Scene(
-    lam=0.8956968813019046,
-    thetadot0=3.813479793328449,
-    mus=0.7559614241676756,
-    muk=0.7535534273356567,
-    eps=0.08978657881276951,
-    theta0=2.0962985817599056,
-    t_end=1.5,
-    name="missed-slip",
-)
-"""mus n - |f| dips below zero on 0.0253-0.0584 s, inside one rolling step of the solver:
-the slip is missed and the phase keeps rolling with |f| > mus n."""
-
-WRONG_WAY_SLIP = Scene(
-    lam=0.8665044427898028,
-    thetadot0=3.4879290286257825,
-    mus=1.3935763754025865,
-    muk=1.1597349850721221,
-    eps=0.0051673939119395995,
-    theta0=5.106656617931736,
-    t_end=1.5,
-    name="restick-after-start-slip",
-)
-"""Slips from t = 0 (sigma = -1) and should re-stick at 0.0199516 s. Before d9c4729 the
-re-stick was missed (the slip velocity at t = 0 was a rounding residue of the wrong sign) and
-friction kept pushing the wrong way, adding energy. Since then the re-stick is still missed
-(see RESTICK_IN_FIRST_STEP) and the flipped slip direction has D < 0: spurious Painlevé."""
-
-CHATTER = Scene(
-    lam=0.9547166900279551,
-    thetadot0=3.4061750637499775,
-    mus=1.371461512139528,
-    muk=0.8711423910782137,
-    eps=0.0013991021028433527,
-    theta0=4.573098292697877,
-    t_end=1.5,
-    name="start-slip-chatter",
-)
-"""Slips from t = 0 and should re-stick at 0.0211311 s. Before d9c4729 the re-stick event
-fired at t = 0 itself, the slip direction flipped, and so on until RuntimeError('more than
-10000 phases'). Since then it finishes, with the ns-long slip phases of RESTICK_IN_FIRST_STEP."""
-
-FALSE_LIFT = Scene(
-    lam=0.9692095449387306,
-    thetadot0=3.681543372643219,
-    mus=0.2665519708572509,
-    muk=0.16206139082845347,
-    eps=0.051985462029042855,
-    theta0=4.909917710676887,
-    t_end=1.5,
-    name="no-lift-at-start",
-)
-"""Rolling would need n(0) < 0, but the free vertical acceleration of the centre points down
-(-7.2 m/s^2): the hoop cannot leave the floor, it slips (n = 0.67 m/s^2, sigma = -1). Before
-d9c4729 the solver reported lifts-at-start with a 2.4e-9 s 'flight'."""
-
-FALSE_LIFT_CRASH = Scene(
-    lam=0.8873725290169419,
-    thetadot0=3.4538743329502664,
-    mus=1.0805127054878845,
-    muk=0.9460700515511806,
-    eps=0.046892779903400975,
-    theta0=0.692269806572599,
-    t_end=1.5,
-    name="no-lift-at-start-2",
-)
-"""As FALSE_LIFT (free vertical acceleration -1.65 m/s^2 at t = 0); before d9c4729 the flight
-phase found the clearance negative at once and brentq raised ValueError."""
-
-
-RESTICK_IN_FIRST_STEP = Scene(
-    lam=0.8985499430218049,
-    thetadot0=3.6725868054646216,
-    mus=0.9946737005822146,
-    muk=0.8835627515278803,
-    eps=0.011771330321030138,
-    theta0=4.4813782064328835,
-    t_end=1.5,
-    name="restick-in-first-step",
-)
-"""Slips from t = 0 (sigma = -1) and should re-stick at 0.0180182310 s (rolling margin
-mus n - |f| = 0.06 g there). The solver's first slip step spans the whole slip, so the
-re-stick event is never armed; the 'wrong-way' event fires instead and the run reports four
-slip phases of a few ns (alternating directions, two filtered out) before rolling."""
-
-SPURIOUS_PAINLEVE = Scene(
-    lam=0.8666098412510674,
-    thetadot0=3.376461819177481,
-    mus=1.3245996592059945,
-    muk=0.7849116915893923,
-    eps=0.0569015660162529,
-    theta0=5.4299931247053275,
-    t_end=1.5,
-    name="spurious-painleve",
-)
-"""Same defect as RESTICK_IN_FIRST_STEP: the slip from t = 0 should re-stick at 0.0226976 s
-(margin 0.07 g) and the hoop later hops; the missed re-stick flips sigma to +1, where D < 0,
-and the run ends as 'painleve' at 0.0227 s."""
 
 
 @functools.cache
