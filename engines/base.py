@@ -9,6 +9,7 @@ and applies the shared detectors. A failing or missing engine never stops a swee
 from __future__ import annotations
 
 import math
+import sys
 import traceback
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
@@ -33,6 +34,7 @@ __all__ = [
     "RunStatus",
     "Simulation",
     "check_divergence",
+    "import_engine",
     "n_steps_for",
 ]
 
@@ -49,6 +51,18 @@ class RunStatus(StrEnum):
 
 class EngineUnavailableError(RuntimeError):
     """Raised by an adapter's import hook when its engine cannot be used."""
+
+
+def import_engine(name: str, *submodules: str) -> ModuleType:
+    """Import an engine package (and submodules the adapter needs, e.g. 'mujoco.rollout');
+    raise EngineUnavailableError if that fails, so the run reports 'unavailable'."""
+    try:
+        # __import__, as an import statement does (it also honours a patched builtins import).
+        for module in (name, *submodules):
+            __import__(module)
+        return sys.modules[name]
+    except ImportError as exc:
+        raise EngineUnavailableError(f"{name} cannot be imported: {exc}") from exc
 
 
 @dataclass(frozen=True)

@@ -60,9 +60,9 @@ import numpy as np
 
 from engines.base import (
     Engine,
-    EngineUnavailableError,
     Simulation,
     check_divergence,
+    import_engine,
     n_steps_for,
 )
 from engines.settings import RunSettings
@@ -86,12 +86,7 @@ class MujocoEngine(Engine):
 
     # ----------------------------------------------------------------- hooks
     def _import(self) -> ModuleType:
-        try:
-            import mujoco
-            import mujoco.rollout
-        except ImportError as exc:
-            raise EngineUnavailableError(f"mujoco cannot be imported: {exc}") from exc
-        return mujoco
+        return import_engine("mujoco", "mujoco.rollout")
 
     def _check(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> None:
         """Bad option values and restitution != 0 raise ValueError before a run."""

@@ -46,9 +46,9 @@ import numpy as np
 
 from engines.base import (
     Engine,
-    EngineUnavailableError,
     Simulation,
     check_divergence,
+    import_engine,
     n_steps_for,
 )
 from engines.settings import RunSettings
@@ -132,11 +132,7 @@ class PybulletEngine(Engine):
 
     # ----------------------------------------------------------------- hooks
     def _import(self) -> ModuleType:
-        try:
-            import pybullet  # prints its build time on stderr, never on stdout
-        except ImportError as exc:
-            raise EngineUnavailableError(f"pybullet cannot be imported: {exc}") from exc
-        return pybullet
+        return import_engine("pybullet")  # prints its build time on stderr, never on stdout
 
     def _version(self, module: ModuleType) -> str | None:
         from importlib.metadata import PackageNotFoundError, version

@@ -38,9 +38,9 @@ import numpy as np
 
 from engines.base import (
     Engine,
-    EngineUnavailableError,
     Simulation,
     check_divergence,
+    import_engine,
     n_steps_for,
 )
 from engines.settings import RunSettings
@@ -109,12 +109,7 @@ class PymunkEngine(Engine):
     name = "pymunk"
 
     def _import(self) -> ModuleType:
-        try:
-            import pymunk
-            import pymunk.batch
-        except ImportError as exc:
-            raise EngineUnavailableError(f"pymunk cannot be imported: {exc}") from exc
-        return pymunk
+        return import_engine("pymunk", "pymunk.batch")
 
     def _version(self, module: ModuleType) -> str | None:
         return getattr(module, "version", None)
