@@ -21,6 +21,7 @@ import numpy as np
 
 from engines.detectors import DetectorSettings, detect_events
 from engines.settings import RunSettings
+from models import kinematics
 from models.events import Events
 from models.scene import Scene
 from models.trajectory import Trajectory
@@ -79,8 +80,6 @@ def check_divergence(
     scene: Scene, traj_state: dict[str, np.ndarray], limits: DivergenceLimits
 ) -> str | None:
     """A reason string if the states (arrays X, Y, theta, ...) show divergence, else None."""
-    from models import kinematics
-
     for name, values in traj_state.items():
         if not np.all(np.isfinite(values)):
             return f"non-finite {name}"

@@ -273,7 +273,7 @@ def _cmd_settings(args: argparse.Namespace) -> int:
 
     engines = [args.engine] if args.engine else list(ENGINE_OPTIONS)
     payload = {
-        "common": {k: v for k, v in RunSettings().to_dict().items()},
+        "common": RunSettings().to_dict(),
         "engines": {
             name: {"geometries": list(GEOMETRIES[name]), "options": dict(ENGINE_OPTIONS[name])}
             for name in engines

@@ -137,7 +137,7 @@ def write_markdown(frame: pd.DataFrame, out: Path, *, generated: str) -> Path:
     ]
 
     md += ["## Slip onset (seed scene, mu = 0.8, default settings)", ""]
-    seed = default[(default["scene"] == "seed-mu")].copy()
+    seed = default[default["scene"] == "seed-mu"].copy()
     seed["lag_ms"] = (seed["t_slip_threshold"] - seed["exact_t_slip"]) * 1e3
     md.append(
         markdown_table(
