@@ -7,6 +7,7 @@ Markdown report and PNG figures.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import sys
@@ -99,6 +100,7 @@ def default_cases(quick: bool = False, engines: Sequence[str] | None = None) -> 
 
 
 # --------------------------------------------------------------------------- one run
+@functools.cache  # one exact solve per (scene, mu) per process, not one per run
 def _exact_events(scene_name: str, mu: float) -> Events:
     scene = get_scene(scene_name)
     return solve_exact(scene.with_(mus=mu, muk=mu)).events
