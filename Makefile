@@ -3,14 +3,24 @@ PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
+FILES := $(VENV)/.files
 OUT ?= reports/output
+PACKAGE_FILES := $(sort $(wildcard about/*.py models/*.py reference/*.py engines/*.py \
+	reports/*.py reports/*.toml reports/suites/*.toml))
 
-.PHONY: test report lint format clean bench
+.PHONY: test report lint format clean bench FORCE
 
-$(STAMP): pyproject.toml
+# The strict editable install is a tree of links, one per file, installed as `hoopbench.*`:
+# type checkers resolve it, and `import models` stays an error. A new or removed file needs a
+# reinstall, so the list of package files is kept here and rewritten only when it changes.
+$(FILES): FORCE
+	@mkdir -p $(VENV)
+	@echo "$(PACKAGE_FILES)" | cmp -s - $@ || echo "$(PACKAGE_FILES)" > $@
+
+$(STAMP): pyproject.toml $(FILES)
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[test]"
+	$(BIN)/python -m pip install --quiet -e ".[test]" --config-settings editable_mode=strict
 	touch $(STAMP)
 
 test: $(STAMP)
@@ -22,7 +32,7 @@ report: $(STAMP)
 	$(BIN)/hoopbench report --out $(OUT)
 
 bench: $(STAMP)
-	$(BIN)/python -m reports.bench_overhead
+	$(BIN)/python -m hoopbench.reports.bench_overhead
 
 lint: $(STAMP)
 	$(BIN)/ruff check .

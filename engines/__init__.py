@@ -3,10 +3,10 @@
 Engine modules (mujoco, pybullet, pymunk) are imported only when a run uses them.
 """
 
-from engines.base import RunInfo, RunResult, RunStatus
-from engines.detectors import DetectorSettings, detect_events
-from engines.registry import ENGINE_NAMES, get_engine
-from engines.settings import ENGINE_OPTIONS, RunSettings
+from hoopbench.engines.base import RunInfo, RunResult, RunStatus
+from hoopbench.engines.detectors import DetectorSettings, detect_events
+from hoopbench.engines.registry import ENGINE_NAMES, get_engine
+from hoopbench.engines.settings import ENGINE_OPTIONS, RunSettings
 
 __all__ = [
     "ENGINE_NAMES",

@@ -19,12 +19,12 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from engines.detectors import DetectorSettings, detect_events
-from engines.settings import RunSettings
-from models import kinematics
-from models.events import Events
-from models.scene import Scene
-from models.trajectory import Trajectory
+from hoopbench.engines.detectors import DetectorSettings, detect_events
+from hoopbench.engines.settings import RunSettings
+from hoopbench.models import kinematics
+from hoopbench.models.events import Events
+from hoopbench.models.scene import Scene
+from hoopbench.models.trajectory import Trajectory
 
 __all__ = [
     "DivergenceLimits",

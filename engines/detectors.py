@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from models.events import Events, Outcome, Phase, PhaseKind
-from models.trajectory import Trajectory
+from hoopbench.models.events import Events, Outcome, Phase, PhaseKind
+from hoopbench.models.trajectory import Trajectory
 
 __all__ = ["FLOOR_LEVEL", "DetectorSettings", "detect_events", "detect_phases", "refined_onset"]
 

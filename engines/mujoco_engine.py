@@ -1,6 +1,6 @@
 """MuJoCo adapter: the hoop as one body with slide x, slide z and a hinge about y.
 
-The model comes from :func:`models.mjcf.scene_to_mjcf` (see there for frames and contact).
+The model comes from :func:`hoopbench.models.mjcf.scene_to_mjcf` (see there for frames and contact).
 Stepping runs in C through ``mujoco.rollout`` in chunks of ``CHUNK_STEPS`` steps; each chunk
 records the full physics state after every step and the model's ``contact_force`` sensor (a
 contact sensor with ``reduce="netforce"``: the summed contact force on the hoop, world frame).
@@ -58,18 +58,18 @@ from typing import Any
 
 import numpy as np
 
-from engines.base import (
+from hoopbench.engines.base import (
     Engine,
     Simulation,
     check_divergence,
     import_engine,
     n_steps_for,
 )
-from engines.settings import RunSettings
-from models import kinematics
-from models.mjcf import check_mujoco_options, check_restitution, scene_to_mjcf
-from models.scene import Scene
-from models.trajectory import Trajectory
+from hoopbench.engines.settings import RunSettings
+from hoopbench.models import kinematics
+from hoopbench.models.mjcf import check_mujoco_options, check_restitution, scene_to_mjcf
+from hoopbench.models.scene import Scene
+from hoopbench.models.trajectory import Trajectory
 
 __all__ = ["CHUNK_STEPS", "MujocoEngine"]
 

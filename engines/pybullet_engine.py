@@ -44,17 +44,17 @@ from typing import Any
 
 import numpy as np
 
-from engines.base import (
+from hoopbench.engines.base import (
     Engine,
     Simulation,
     check_divergence,
     import_engine,
     n_steps_for,
 )
-from engines.settings import RunSettings
-from models.scene import Scene
-from models.trajectory import Trajectory
-from models.urdf import JOINT_NAMES, floor_urdf, scene_to_urdf
+from hoopbench.engines.settings import RunSettings
+from hoopbench.models.scene import Scene
+from hoopbench.models.trajectory import Trajectory
+from hoopbench.models.urdf import JOINT_NAMES, floor_urdf, scene_to_urdf
 
 __all__ = ["MAX_PAIR_FRICTION", "PybulletEngine", "check_options"]
 

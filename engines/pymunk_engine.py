@@ -1,7 +1,7 @@
 """pymunk (Chipmunk2D) adapter: the hoop as one dynamic body on a static floor segment.
 
-The model is :mod:`models.pymunk_space`. Each step is recorded with one C call into pymunk's
-batch iterator (hoop-centre position, angle, centre-of-mass velocity, angular velocity
+The model is :mod:`hoopbench.models.pymunk_space`. Each step is recorded with one C call into
+pymunk's batch iterator (hoop-centre position, angle, centre-of-mass velocity, angular velocity
 appended to a growing buffer), which keeps the adapter's overhead small next to
 ``Space.step``; the buffer is decoded once per chunk of steps.
 
@@ -36,17 +36,22 @@ from typing import Any
 
 import numpy as np
 
-from engines.base import (
+from hoopbench.engines.base import (
     Engine,
     Simulation,
     check_divergence,
     import_engine,
     n_steps_for,
 )
-from engines.settings import RunSettings
-from models.pymunk_space import PymunkSpec, build_space, check_space_options, scene_to_pymunk
-from models.scene import Scene
-from models.trajectory import Trajectory
+from hoopbench.engines.settings import RunSettings
+from hoopbench.models.pymunk_space import (
+    PymunkSpec,
+    build_space,
+    check_space_options,
+    scene_to_pymunk,
+)
+from hoopbench.models.scene import Scene
+from hoopbench.models.trajectory import Trajectory
 
 __all__ = ["PymunkEngine"]
 

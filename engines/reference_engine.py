@@ -9,9 +9,9 @@ from typing import Any
 
 import numpy as np
 
-from engines.base import Engine, Simulation
-from engines.settings import RunSettings
-from models.scene import Scene
+from hoopbench.engines.base import Engine, Simulation
+from hoopbench.engines.settings import RunSettings
+from hoopbench.models.scene import Scene
 
 __all__ = ["ReferenceEngine"]
 
@@ -26,7 +26,7 @@ class ReferenceEngine(Engine):
     name = "reference"
 
     def _import(self) -> ModuleType:
-        from reference import exact
+        from hoopbench.reference import exact
 
         return exact
 

@@ -4,15 +4,15 @@ from __future__ import annotations
 
 from importlib import import_module
 
-from engines.base import Engine
+from hoopbench.engines.base import Engine
 
 __all__ = ["ENGINE_NAMES", "get_engine"]
 
 _ADAPTERS = {
-    "reference": ("engines.reference_engine", "ReferenceEngine"),
-    "mujoco": ("engines.mujoco_engine", "MujocoEngine"),
-    "pybullet": ("engines.pybullet_engine", "PybulletEngine"),
-    "pymunk": ("engines.pymunk_engine", "PymunkEngine"),
+    "reference": ("hoopbench.engines.reference_engine", "ReferenceEngine"),
+    "mujoco": ("hoopbench.engines.mujoco_engine", "MujocoEngine"),
+    "pybullet": ("hoopbench.engines.pybullet_engine", "PybulletEngine"),
+    "pymunk": ("hoopbench.engines.pymunk_engine", "PymunkEngine"),
 }
 
 ENGINE_NAMES: tuple[str, ...] = tuple(_ADAPTERS)

@@ -3,8 +3,8 @@
 This layer imports nothing from ``reference``, ``engines`` or ``reports``.
 """
 
-from models.events import Events, Outcome, Phase, PhaseKind
-from models.scene import DegenerateSceneError, Scene
-from models.trajectory import Trajectory
+from hoopbench.models.events import Events, Outcome, Phase, PhaseKind
+from hoopbench.models.scene import DegenerateSceneError, Scene
+from hoopbench.models.trajectory import Trajectory
 
 __all__ = ["DegenerateSceneError", "Events", "Outcome", "Phase", "PhaseKind", "Scene", "Trajectory"]

@@ -25,7 +25,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 from typing import Any
 
-from models.scene import Scene
+from hoopbench.models.scene import Scene
 
 __all__ = [
     "CONES",

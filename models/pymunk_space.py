@@ -24,8 +24,8 @@ import numbers
 from dataclasses import asdict, dataclass
 from typing import Any
 
-from models import kinematics
-from models.scene import Scene
+from hoopbench.models import kinematics
+from hoopbench.models.scene import Scene
 
 __all__ = ["PymunkSpec", "build_space", "check_space_options", "scene_to_pymunk"]
 

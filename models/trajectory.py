@@ -9,8 +9,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from models import kinematics
-from models.scene import Scene
+from hoopbench.models import kinematics
+from hoopbench.models.scene import Scene
 
 __all__ = ["COLUMNS", "FORMAT_VERSION", "Trajectory"]
 
@@ -23,7 +23,7 @@ class Trajectory:
     """Samples of one run, one row per time, SI units, theta clockwise from the top.
 
     Every array has shape (n,). Build it with :meth:`from_state` so that the derived
-    columns (clearance, slip velocity, energy) come from :mod:`models.kinematics`.
+    columns (clearance, slip velocity, energy) come from :mod:`hoopbench.models.kinematics`.
     """
 
     t: NDArray

@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 from xml.sax.saxutils import quoteattr
 
-from models.scene import Scene
+from hoopbench.models.scene import Scene
 
 __all__ = [
     "CYLINDER_LENGTH_FRACTION",

@@ -12,7 +12,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from models.scene import Scene
+from hoopbench.models.scene import Scene
 
 __all__ = [
     "curtate_cycloid",
@@ -63,7 +63,7 @@ def massless_forces(theta: ArrayLike, chi: float, g: float) -> tuple[NDArray, ND
     """(f, n), m/s^2 per unit mass, on the massless rolling curve (lam = 1, eps = 0, theta0 = 0).
 
     n = g (cos theta - chi), f = g (cos theta - chi) tan(theta / 2); same order as
-    :func:`reference.dynamics.rolling_forces`. ``theta`` in rad.
+    :func:`hoopbench.reference.dynamics.rolling_forces`. ``theta`` in rad.
     """
     chi = _check_chi(chi)
     g = _check_positive("g", g, "m/s^2")

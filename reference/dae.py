@@ -1,6 +1,6 @@
 """A second, independent formulation of the weighted hoop: a Lagrange-multiplier DAE.
 
-This module is a test oracle for :mod:`reference.exact`. It shares nothing with it but the
+This module is a test oracle for :mod:`hoopbench.reference.exact`. It shares nothing with it but the
 scene parameters: it has its own equations, its own contact-mode logic and its own event
 detection, so that agreement between the two is evidence that both are right.
 
@@ -48,7 +48,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.integrate import DOP853
 from scipy.optimize import brentq, minimize_scalar
 
-from models.scene import Scene
+from hoopbench.models.scene import Scene
 
 __all__ = ["DaePhase", "DaeSolution", "solve_dae"]
 

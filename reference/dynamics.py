@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from models.scene import Scene
+from hoopbench.models.scene import Scene
 
 __all__ = [
     "free_centre_acceleration",

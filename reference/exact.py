@@ -18,11 +18,11 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, minimize_scalar
 
-from models import kinematics
-from models.events import Events, Outcome, Phase, PhaseKind
-from models.scene import Scene
-from models.trajectory import Trajectory
-from reference import dynamics
+from hoopbench.models import kinematics
+from hoopbench.models.events import Events, Outcome, Phase, PhaseKind
+from hoopbench.models.scene import Scene
+from hoopbench.models.trajectory import Trajectory
+from hoopbench.reference import dynamics
 
 __all__ = ["ExactSolution", "Segment", "flight_phase", "solve_exact"]
 

@@ -21,12 +21,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.integrate import solve_ivp
 
-from models import kinematics
-from models.events import Events, Outcome, Phase, PhaseKind
-from models.scene import Scene
-from models.trajectory import Trajectory
-from reference import dynamics
-from reference.exact import ExactSolution, flight_phase, solve_exact
+from hoopbench.models import kinematics
+from hoopbench.models.events import Events, Outcome, Phase, PhaseKind
+from hoopbench.models.scene import Scene
+from hoopbench.models.trajectory import Trajectory
+from hoopbench.reference import dynamics
+from hoopbench.reference.exact import ExactSolution, flight_phase, solve_exact
 
 __all__ = ["SeedEulerResult", "solve_seed_euler"]
 

@@ -1,6 +1,7 @@
 """Benchmark: an adapter's full run against a bare stepping loop of the same engine and model.
 
-Run with ``make bench`` or ``python -m reports.bench_overhead [--scene NAME] [--repeat N]``.
+Run with ``make bench`` or
+``python -m hoopbench.reports.bench_overhead [--scene NAME] [--repeat N]``.
 Prints, per engine, the best-of-N wall time of the adapter's stepping (recording every step,
 reading contact forces, checking divergence), of a bare loop of the same number of steps
 (the adapter's ``bare_loop_time``), their ratio (target: at most 1.3) and the cost per step.
@@ -13,9 +14,9 @@ import argparse
 import sys
 import time
 
-from engines.registry import get_engine
-from engines.settings import RunSettings
-from models.catalogue import get_scene
+from hoopbench.engines.registry import get_engine
+from hoopbench.engines.settings import RunSettings
+from hoopbench.models.catalogue import get_scene
 
 ENGINES = ("mujoco", "pybullet", "pymunk")
 

@@ -14,9 +14,9 @@ import sys
 from collections.abc import Sequence
 from typing import Any, NoReturn
 
-from engines.settings import ENGINE_OPTIONS, RunSettings, parse_option_value
-from models.catalogue import get_scene, scene_names
-from models.scene import DegenerateSceneError, Scene
+from hoopbench.engines.settings import ENGINE_OPTIONS, RunSettings, parse_option_value
+from hoopbench.models.catalogue import get_scene, scene_names
+from hoopbench.models.scene import DegenerateSceneError, Scene
 
 __all__ = ["main"]
 
@@ -184,14 +184,14 @@ def _cmd_scenes(args: argparse.Namespace) -> int:
 def _cmd_reference(args: argparse.Namespace) -> int:
     scene = _scene_from_args(args)
     if args.method == "exact":
-        from reference.exact import solve_exact
+        from hoopbench.reference.exact import solve_exact
 
         solution = solve_exact(scene, rtol=args.rtol, atol=args.atol)
         events, trajectory = solution.events, None
         if args.csv:
             trajectory = solution.sample_uniform(args.dt or 1e-3)
     else:
-        from reference.seed_euler import solve_seed_euler
+        from hoopbench.reference.seed_euler import solve_seed_euler
 
         result = solve_seed_euler(scene, dt=args.dt or 0.002, delta=args.delta)
         events = result.events
@@ -223,7 +223,7 @@ def _settings_from_args(args: argparse.Namespace, engine: str) -> RunSettings:
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
-    from engines.registry import get_engine
+    from hoopbench.engines.registry import get_engine
 
     scene = _scene_from_args(args)
     settings = _settings_from_args(args, args.engine)
@@ -242,7 +242,7 @@ def _cmd_model(args: argparse.Namespace) -> int:
     options = settings.resolve(args.engine)
     mu = scene.mus if settings.mu is None else settings.mu
     if args.engine == "mujoco":
-        from models.mjcf import scene_to_mjcf
+        from hoopbench.models.mjcf import scene_to_mjcf
 
         text = scene_to_mjcf(
             scene,
@@ -253,11 +253,11 @@ def _cmd_model(args: argparse.Namespace) -> int:
             options=options,
         )
     elif args.engine == "pybullet":
-        from models.urdf import scene_to_urdf
+        from hoopbench.models.urdf import scene_to_urdf
 
         text = scene_to_urdf(scene, geometry=settings.geometry, mu=mu)
     else:
-        from models.pymunk_space import scene_to_pymunk
+        from hoopbench.models.pymunk_space import scene_to_pymunk
 
         spec = scene_to_pymunk(scene, mu=mu, restitution=settings.restitution)
         text = json.dumps(spec.to_dict(), indent=2)
@@ -268,8 +268,8 @@ def _cmd_model(args: argparse.Namespace) -> int:
 def _cmd_settings(args: argparse.Namespace) -> int:
     from dataclasses import asdict
 
-    from engines.detectors import DetectorSettings
-    from engines.settings import GEOMETRIES
+    from hoopbench.engines.detectors import DetectorSettings
+    from hoopbench.engines.settings import GEOMETRIES
 
     engines = [args.engine] if args.engine else list(ENGINE_OPTIONS)
     payload = {
@@ -293,14 +293,14 @@ def _cmd_settings(args: argparse.Namespace) -> int:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from reports.suite import run_report
+    from hoopbench.reports.suite import run_report
 
     run_report(out=args.out, quick=args.quick, workers=args.workers)
     return 0
 
 
 def _cmd_figure(args: argparse.Namespace) -> int:
-    from reports.figures import hoop_figure
+    from hoopbench.reports.figures import hoop_figure
 
     scene = _scene_from_args(args)
     path = hoop_figure(scene, args.out, method=args.method)

@@ -11,21 +11,21 @@ matplotlib.use("Agg")  # files only; no display is assumed
 import matplotlib.pyplot as plt
 import numpy as np
 
-from models import kinematics
-from models.scene import Scene
-from models.trajectory import Trajectory
+from hoopbench.models import kinematics
+from hoopbench.models.scene import Scene
+from hoopbench.models.trajectory import Trajectory
 
 __all__ = ["clearance_figure", "error_vs_time_figure", "hoop_figure"]
 
 
 def _solve(scene: Scene, method: str) -> tuple[Trajectory, object]:
     if method == "exact":
-        from reference.exact import solve_exact
+        from hoopbench.reference.exact import solve_exact
 
         solution = solve_exact(scene)
         t = np.linspace(0.0, solution.t_final, 2001)
         return solution.sample(t), solution.events
-    from reference.seed_euler import solve_seed_euler
+    from hoopbench.reference.seed_euler import solve_seed_euler
 
     result = solve_seed_euler(scene)
     return result.trajectory(), result.events

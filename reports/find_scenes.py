@@ -1,16 +1,17 @@
 """Search parameter space with the exact solver for the scenes of the catalogue.
 
-Run ``python -m reports.find_scenes`` (about ten seconds on two cores; ``--quick`` skips the
-sweeps and only checks the catalogue). The script
+Run ``python -m hoopbench.reports.find_scenes`` (about ten seconds on two cores; ``--quick``
+skips the sweeps and only checks the catalogue). The script
 
-1. sweeps three families of scenes with :func:`reference.exact.solve_exact` and prints the
+1. sweeps three families of scenes with :func:`hoopbench.reference.exact.solve_exact` and prints the
    candidates that pass the filters below, with their phase sequence and margins:
 
    * hops from the top (theta0 = 0) with a larger spin chi, seed-like hoop;
    * hops from the bottom (theta0 = pi) with a heavier ring (smaller lam);
    * direct slip reversals (a slip phase followed by one of the opposite sign, no roll between);
 
-2. solves every scene of :mod:`models.catalogue`, prints its events, and checks robustness:
+2. solves every scene of :mod:`hoopbench.models.catalogue`, prints its events, and checks
+   robustness:
    each parameter (lam, eps, thetadot0, theta0, the friction coefficients, xdot0) is moved by
    1e-3 relative (1e-3 absolute where it is zero) in both directions, and the outcome and the
    phase sequence must not change;
@@ -43,12 +44,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models import kinematics
-from models.catalogue import SCENES
-from models.events import Outcome, PhaseKind
-from models.scene import Scene
-from reference import dynamics
-from reference.exact import ExactSolution, solve_exact
+from hoopbench.models import kinematics
+from hoopbench.models.catalogue import SCENES
+from hoopbench.models.events import Outcome, PhaseKind
+from hoopbench.models.scene import Scene
+from hoopbench.reference import dynamics
+from hoopbench.reference.exact import ExactSolution, solve_exact
 
 __all__ = ["Summary", "is_robust", "main", "perturbations", "phase_code", "summarise"]
 

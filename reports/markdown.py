@@ -9,10 +9,10 @@ from pathlib import Path
 
 import pandas as pd
 
-from models.catalogue import get_scene
-from models.trajectory import Trajectory
-from reports.figures import clearance_figure, error_vs_time_figure, hoop_figure
-from reports.tolerances import tolerances
+from hoopbench.models.catalogue import get_scene
+from hoopbench.models.trajectory import Trajectory
+from hoopbench.reports.figures import clearance_figure, error_vs_time_figure, hoop_figure
+from hoopbench.reports.tolerances import tolerances
 
 __all__ = ["markdown_table", "write_markdown"]
 

@@ -21,12 +21,12 @@ from typing import Any
 
 import pandas as pd
 
-from engines.base import RunResult
-from engines.registry import get_engine
-from engines.settings import RunSettings
-from models.catalogue import get_scene, scene_names
-from models.events import Events
-from reference.exact import solve_exact
+from hoopbench.engines.base import RunResult
+from hoopbench.engines.registry import get_engine
+from hoopbench.engines.settings import RunSettings
+from hoopbench.models.catalogue import get_scene, scene_names
+from hoopbench.models.events import Events
+from hoopbench.reference.exact import solve_exact
 
 __all__ = ["Case", "default_cases", "run_case", "run_report", "run_suite"]
 
@@ -260,7 +260,7 @@ def run_report(
     out: str | Path = "reports/output", *, quick: bool = False, workers: int = 2
 ) -> Path:
     """Run the default suite and write runs.csv, runs.parquet, report.md and figures."""
-    from reports.markdown import write_markdown
+    from hoopbench.reports.markdown import write_markdown
 
     out = Path(out)
     traj_dir = out / "trajectories"

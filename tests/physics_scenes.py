@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 
-from models.scene import Scene
+from hoopbench.models.scene import Scene
 
 SEED = Scene.from_chi(0.1, lam=0.95, eps=0.01, mus=0.8, muk=0.7, name="seed")
 """The seed document's scene."""

@@ -11,13 +11,13 @@ import re
 
 import pytest
 
-import models.catalogue as catalogue_module
-from models.catalogue import SCENES, get_scene, scene_names
-from models.events import Outcome, PhaseKind
-from models.scene import Scene
-from reference import dynamics
-from reference.exact import ExactSolution, solve_exact
-from reports.find_scenes import perturbations
+import hoopbench.models.catalogue as catalogue_module
+from hoopbench.models.catalogue import SCENES, get_scene, scene_names
+from hoopbench.models.events import Outcome, PhaseKind
+from hoopbench.models.scene import Scene
+from hoopbench.reference import dynamics
+from hoopbench.reference.exact import ExactSolution, solve_exact
+from hoopbench.reports.find_scenes import perturbations
 
 # Numbers each scene's `why` quotes, as the text written there: the test checks that the text is
 # in the `why` and that the exact solver's value rounds to it. Keys are Events fields, or

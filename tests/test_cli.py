@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from reports.cli import main
+from hoopbench.reports.cli import main
 
 EVENT_KEYS = {
     "outcome",
@@ -162,7 +162,7 @@ def test_simulate_reference_json(capsys, tmp_path):
     for key in ("engine", "engine_version", "status", "wall_time_s", "n_steps", "mu"):
         assert key in out
     assert out["engine"] == "reference" and out["status"] == "ok" and out["mu"] == 0.8
-    from models.trajectory import COLUMNS, Trajectory
+    from hoopbench.models.trajectory import COLUMNS, Trajectory
 
     traj = Trajectory.read(csv)
     assert len(traj) == out["n_steps"] + 1
@@ -175,7 +175,7 @@ def test_pybullet_keeps_stdout_clean():
         [
             sys.executable,
             "-m",
-            "reports.cli",
+            "hoopbench.reports.cli",
             "simulate",
             "--engine",
             "pybullet",
@@ -218,7 +218,7 @@ def test_scenes_lists_the_catalogue(capsys):
 
 
 def test_settings_lists_every_engine_default(capsys):
-    from engines.settings import ENGINE_OPTIONS
+    from hoopbench.engines.settings import ENGINE_OPTIONS
 
     out = run_json(capsys, "settings")
     assert set(out["engines"]) == set(ENGINE_OPTIONS)

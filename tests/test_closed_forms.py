@@ -9,17 +9,17 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from models.events import Outcome, PhaseKind
-from models.scene import Scene
-from reference import dynamics
-from reference.closed_forms import (
+from hoopbench.models.events import Outcome, PhaseKind
+from hoopbench.models.scene import Scene
+from hoopbench.reference import dynamics
+from hoopbench.reference.closed_forms import (
     curtate_cycloid,
     massless_forces,
     massless_slip_angle,
     massless_theta,
     rolling_thetadot_from_energy,
 )
-from reference.exact import solve_exact
+from hoopbench.reference.exact import solve_exact
 
 TIGHT = {"rtol": 1e-12, "atol": 1e-12}
 """Exact-solver tolerances for these checks."""

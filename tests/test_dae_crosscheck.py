@@ -23,10 +23,10 @@ from hypothesis import HealthCheck, Phase, assume, given, settings
 from hypothesis import strategies as st
 from physics_scenes import FORMER_BUGS, HOP, PAINLEVE, SEED
 
-from models.scene import Scene
-from reference import dynamics
-from reference.dae import DaeSolution, solve_dae
-from reference.exact import ExactSolution, solve_exact
+from hoopbench.models.scene import Scene
+from hoopbench.reference import dynamics
+from hoopbench.reference.dae import DaeSolution, solve_dae
+from hoopbench.reference.exact import ExactSolution, solve_exact
 
 T_ONSET_TOL = 1e-7
 """First slip onset: time, s, and angle, rad."""

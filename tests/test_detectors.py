@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from physics_scenes import SEED
 
-from engines.detectors import DetectorSettings, detect_events, refined_onset
-from models.events import Outcome
-from models.trajectory import Trajectory
-from reference.exact import solve_exact
+from hoopbench.engines.detectors import DetectorSettings, detect_events, refined_onset
+from hoopbench.models.events import Outcome
+from hoopbench.models.trajectory import Trajectory
+from hoopbench.reference.exact import solve_exact
 
 
 def _synthetic(t, s, clearance=None):
@@ -156,7 +156,7 @@ def test_refined_onset_is_bounded_for_step_growth():
 def test_phases_read_off_the_reference_match_the_exact_ones(name):
     """On the exact solution sampled at 1e-4 s the detectors find the exact phase sequence,
     each boundary within 3 ms (re-sticks are dated at the start of the quiet stretch)."""
-    from models.catalogue import get_scene
+    from hoopbench.models.catalogue import get_scene
 
     solution = solve_exact(get_scene(name))
     detected = detect_events(solution.sample_uniform(1e-4))

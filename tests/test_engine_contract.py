@@ -11,13 +11,13 @@ from functools import cache
 import numpy as np
 import pytest
 
-from engines.base import DivergenceLimits, EngineUnavailableError, RunResult, RunStatus
-from engines.registry import ENGINE_NAMES, get_engine
-from engines.settings import RunSettings
-from models.catalogue import get_scene, scene_names
-from models.scene import Scene
-from reference.exact import solve_exact
-from reports.tolerances import tolerances
+from hoopbench.engines.base import DivergenceLimits, EngineUnavailableError, RunResult, RunStatus
+from hoopbench.engines.registry import ENGINE_NAMES, get_engine
+from hoopbench.engines.settings import RunSettings
+from hoopbench.models.catalogue import get_scene, scene_names
+from hoopbench.models.scene import Scene
+from hoopbench.reference.exact import solve_exact
+from hoopbench.reports.tolerances import tolerances
 
 TOL = tolerances()
 ENGINES = [name for name in ENGINE_NAMES if name != "reference"]

@@ -27,10 +27,10 @@ from physics_scenes import (
     WRONG_WAY_SLIP,
 )
 
-from models.events import Outcome, PhaseKind
-from models.scene import Scene
-from reference import dynamics
-from reference.exact import ExactSolution, solve_exact
+from hoopbench.models.events import Outcome, PhaseKind
+from hoopbench.models.scene import Scene
+from hoopbench.reference import dynamics
+from hoopbench.reference.exact import ExactSolution, solve_exact
 
 
 def top_energy_scene(mus: float) -> Scene:

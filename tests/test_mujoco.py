@@ -18,13 +18,13 @@ import mujoco  # a declared dependency: missing it is a failure, not a skip
 import numpy as np
 import pytest
 
-from engines.base import DivergenceLimits, RunStatus
-from engines.mujoco_engine import CHUNK_STEPS, MujocoEngine
-from engines.settings import ENGINE_OPTIONS, RunSettings
-from models.catalogue import get_scene
-from models.mjcf import scene_to_mjcf
-from models.scene import DegenerateSceneError, Scene
-from reference import dynamics
+from hoopbench.engines.base import DivergenceLimits, RunStatus
+from hoopbench.engines.mujoco_engine import CHUNK_STEPS, MujocoEngine
+from hoopbench.engines.settings import ENGINE_OPTIONS, RunSettings
+from hoopbench.models.catalogue import get_scene
+from hoopbench.models.mjcf import scene_to_mjcf
+from hoopbench.models.scene import DegenerateSceneError, Scene
+from hoopbench.reference import dynamics
 
 DEFAULTS = dict(ENGINE_OPTIONS["mujoco"])
 

@@ -15,21 +15,21 @@ import numpy as np
 import pybullet  # a declared dependency: missing it is a failure, not a skip
 import pytest
 
-from engines.base import RunResult, RunStatus
-from engines.pybullet_engine import MAX_PAIR_FRICTION, PybulletEngine
-from engines.reference_engine import ReferenceEngine
-from engines.settings import ENGINE_OPTIONS, RunSettings
-from models.catalogue import get_scene
-from models.scene import DegenerateSceneError, Scene
-from models.urdf import (
+from hoopbench.engines.base import RunResult, RunStatus
+from hoopbench.engines.pybullet_engine import MAX_PAIR_FRICTION, PybulletEngine
+from hoopbench.engines.reference_engine import ReferenceEngine
+from hoopbench.engines.settings import ENGINE_OPTIONS, RunSettings
+from hoopbench.models.catalogue import get_scene
+from hoopbench.models.scene import DegenerateSceneError, Scene
+from hoopbench.models.urdf import (
     DUMMY_MASS_FRACTION,
     HOOP_GEOMETRIES,
     JOINT_NAMES,
     floor_urdf,
     scene_to_urdf,
 )
-from reference.exact import solve_exact
-from reports.tolerances import tolerances
+from hoopbench.reference.exact import solve_exact
+from hoopbench.reports.tolerances import tolerances
 
 TOL = tolerances()
 ROOT = Path(__file__).resolve().parents[1]
@@ -322,7 +322,7 @@ def test_client_closed_after_error(monkeypatch):
 
 
 def test_divergence_stops_and_keeps_the_partial_trajectory(monkeypatch):
-    import engines.pybullet_engine as adapter
+    import hoopbench.engines.pybullet_engine as adapter
 
     ids = _spy_connect(monkeypatch)
     monkeypatch.setattr(adapter, "check_divergence", lambda *args: "made up for the test")
@@ -344,9 +344,9 @@ def test_missing_pybullet_is_unavailable(monkeypatch):
 def test_stdout_stays_clean():
     """pybullet announces itself on stderr; the CLI's --json output must not see it."""
     code = (
-        "from engines.pybullet_engine import PybulletEngine\n"
-        "from models.catalogue import get_scene\n"
-        "from engines.settings import RunSettings\n"
+        "from hoopbench.engines.pybullet_engine import PybulletEngine\n"
+        "from hoopbench.models.catalogue import get_scene\n"
+        "from hoopbench.engines.settings import RunSettings\n"
         "for g in ('sphere', 'cylinder', 'hull'):\n"
         "    r = PybulletEngine().run(get_scene('seed-mu').with_(t_end=0.01), "
         "RunSettings(geometry=g))\n"

@@ -10,14 +10,14 @@ import numpy as np
 import pymunk  # a declared dependency: missing it is a failure, not a skip
 import pytest
 
-from engines.base import DivergenceLimits, RunStatus
-from engines.pymunk_engine import PymunkEngine
-from engines.settings import ENGINE_OPTIONS, GEOMETRIES, RunSettings
-from models.catalogue import get_scene
-from models.pymunk_space import build_space, scene_to_pymunk
-from models.scene import DegenerateSceneError, Scene
-from reference import dynamics
-from reference.exact import solve_exact
+from hoopbench.engines.base import DivergenceLimits, RunStatus
+from hoopbench.engines.pymunk_engine import PymunkEngine
+from hoopbench.engines.settings import ENGINE_OPTIONS, GEOMETRIES, RunSettings
+from hoopbench.models.catalogue import get_scene
+from hoopbench.models.pymunk_space import build_space, scene_to_pymunk
+from hoopbench.models.scene import DegenerateSceneError, Scene
+from hoopbench.reference import dynamics
+from hoopbench.reference.exact import solve_exact
 
 DT = 1e-4
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-from reports.suite import Case, default_cases, run_case, run_report, suite_scenes
+from hoopbench.reports.suite import Case, default_cases, run_case, run_report, suite_scenes
 
 
 @pytest.fixture(scope="module")

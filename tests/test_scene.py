@@ -6,8 +6,8 @@ import math
 
 import pytest
 
-from models import kinematics
-from models.scene import DegenerateSceneError, Scene
+from hoopbench.models import kinematics
+from hoopbench.models.scene import DegenerateSceneError, Scene
 
 SEED = {"lam": 0.95, "eps": 0.01, "mus": 0.8, "muk": 0.7}
 """The seed scene's parameters (chi = 0.1 from the top)."""

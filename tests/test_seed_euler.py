@@ -9,11 +9,11 @@ import re
 import numpy as np
 import pytest
 
-from models.events import Outcome, PhaseKind
-from models.scene import DegenerateSceneError, Scene
-from reference import seed_euler
-from reference.exact import solve_exact
-from reference.seed_euler import solve_seed_euler
+from hoopbench.models.events import Outcome, PhaseKind
+from hoopbench.models.scene import DegenerateSceneError, Scene
+from hoopbench.reference import seed_euler
+from hoopbench.reference.exact import solve_exact
+from hoopbench.reference.seed_euler import solve_seed_euler
 
 # Expected values, from the seed document's Exercise 15 tables as restated in
 # /work/shared/physics.md ("Numbers to reproduce"). Seed scene: chi = 0.1, lam = 0.95,
