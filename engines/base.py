@@ -48,6 +48,15 @@ class RunStatus(StrEnum):
     """The engine raised; the message says what."""
     UNAVAILABLE = "unavailable"
     """The engine is not installed or cannot be imported."""
+    TIMEOUT = "timeout"
+    """The suite runner stopped the run at its time limit (set by the runner, not by an engine)."""
+    CRASHED = "crashed"
+    """The worker process running it died twice (segfault, killed for memory, os._exit)."""
+
+    @property
+    def is_final(self) -> bool:
+        """True for statuses a resumed suite keeps; timeout and crashed are tried again."""
+        return self not in (RunStatus.TIMEOUT, RunStatus.CRASHED)
 
 
 class EngineUnavailableError(RuntimeError):
