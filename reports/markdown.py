@@ -1,10 +1,16 @@
-"""Writes the Markdown report and its figures from the runs table."""
+"""Writes the Markdown report and its figures from the runs table.
+
+One function per report section: each takes the runs table (with every optional column present,
+see :func:`_with_optional_columns`) and returns the section's Markdown, ending in a blank line;
+the two sections with figures also take the output folder and return the figures' paths.
+:func:`write_markdown` joins them. Nothing here changes the caller's frame.
+"""
 
 from __future__ import annotations
 
 import math
 import platform
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import pandas as pd
@@ -16,7 +22,26 @@ from hoopbench.reports.tolerances import tolerances
 
 __all__ = ["markdown_table", "write_markdown"]
 
+_OPTIONAL_COLUMNS = (
+    "err_t_slip_ms",
+    "err_theta_slip_deg",
+    "err_t_lift_ms",
+    "err_t_impact_ms",
+    "err_hop_height_rel",
+    "outcome",
+    "t_slip_threshold",
+    "max_penetration_m",
+    "energy_rise_before_slip",
+    "outcome_agrees",
+    "hop_height",
+    "phases",
+    "phases_agree",
+    "exact_phases",
+)
+"""Columns a runs table may lack (older tables, hand-made frames): the report shows them blank."""
 
+
+# --------------------------------------------------------------------------- tables
 def _cell(value) -> str:
     if value is None or (isinstance(value, float) and math.isnan(value)):
         return "-"
@@ -35,6 +60,36 @@ def markdown_table(frame: pd.DataFrame, columns: Sequence[str], headers: Sequenc
     return "\n".join(lines)
 
 
+def _table(frame: pd.DataFrame, headers: Mapping[str, str]) -> str:
+    """markdown_table with the columns given as {column: header}."""
+    return markdown_table(frame, list(headers), list(headers.values()))
+
+
+def _section(*lines: str) -> str:
+    """Markdown lines joined, ending in a blank line (so that sections join with one)."""
+    return "\n".join([*lines, ""])
+
+
+# --------------------------------------------------------------------------- selections
+def _with_optional_columns(frame: pd.DataFrame) -> pd.DataFrame:
+    """A new frame: ``frame`` plus every missing optional column, all None."""
+    blank = {
+        name: pd.Series([None] * len(frame), index=frame.index)
+        for name in _OPTIONAL_COLUMNS
+        if name not in frame
+    }
+    return frame.assign(**blank)
+
+
+def _default(runs: pd.DataFrame) -> pd.DataFrame:
+    return runs[runs["variant"] == "default"]
+
+
+def _hops(runs: pd.DataFrame) -> pd.DataFrame:
+    default = _default(runs)
+    return default[default["scene"].str.startswith("hop")]
+
+
 def _versions(frame: pd.DataFrame) -> str:
     parts = []
     for engine, group in frame.groupby("engine", sort=False):
@@ -43,14 +98,94 @@ def _versions(frame: pd.DataFrame) -> str:
     return "; ".join(parts)
 
 
-def _col(frame: pd.DataFrame, name: str) -> pd.Series:
-    return frame[name] if name in frame else pd.Series([None] * len(frame), index=frame.index)
+# --------------------------------------------------------------------------- sections
+def _header(runs: pd.DataFrame, generated: str) -> str:
+    tol = tolerances()
+    return _section(
+        "# hoopbench report",
+        "",
+        f"Generated {generated} on {platform.platform()} ({platform.python_version()}). "
+        f"Engines: {_versions(runs)}.",
+        "",
+        "Every engine event is read off its trajectory by the same detectors "
+        "(`engines/detectors.py`); the exact events come from the event-driven reference "
+        "solver for the same scene with mus = muk = the run's mu. Errors are engine minus "
+        "exact. Times in s (errors in ms), angles in degrees, lengths in m. "
+        f"Tolerances of the regression tests: slip {tol['slip']['t_s'] * 1e3:g} ms and "
+        f"{tol['slip']['theta_deg']:g} deg.",
+        "",
+        f"Runs: {len(runs)}; status counts: "
+        + ", ".join(f"{k} {v}" for k, v in runs["status"].value_counts().items())
+        + ".",
+    )
 
 
-def _phase_table(runs: pd.DataFrame) -> str:
-    engines = list(dict.fromkeys(runs["engine"]))
+def _slip_section(runs: pd.DataFrame) -> str:
+    default = _default(runs)
+    seed = default[default["scene"] == "seed-mu"]
+    seed = seed.assign(lag_ms=(seed["t_slip_threshold"] - seed["exact_t_slip"]) * 1e3)
+    table = _table(
+        seed,
+        {
+            "engine": "engine",
+            "timestep": "dt",
+            "status": "status",
+            "exact_t_slip": "exact t_slip",
+            "t_slip": "t_slip (refined)",
+            "err_t_slip_ms": "error ms",
+            "lag_ms": "threshold lag ms",
+            "exact_theta_slip_deg": "exact theta",
+            "theta_slip_deg": "theta",
+            "err_theta_slip_deg": "error deg",
+            "energy_rise_before_slip": "energy rise",
+            "outcome": "outcome",
+            "exact_outcome": "exact outcome",
+        },
+    )
+    return _section(
+        "## Slip onset (seed scene, mu = 0.8, default settings)",
+        "",
+        table,
+        "",
+        "`threshold lag` is how late the raw |slip velocity| > 1 mm/s detector fires; the "
+        "refined onset extrapolates it back. The reference rows measure the detectors' own "
+        "bias on the exact solution sampled at the engine step.",
+    )
+
+
+def _hop_section(runs: pd.DataFrame) -> str:
+    """Empty when the table has no hop scenes."""
+    hops = _hops(runs)
+    if not len(hops):
+        return ""
+    table = _table(
+        hops,
+        {
+            "scene": "scene",
+            "engine": "engine",
+            "timestep": "dt",
+            "status": "status",
+            "outcome": "outcome",
+            "exact_t_lift": "exact t_lift",
+            "t_lift": "t_lift",
+            "err_t_lift_ms": "error ms",
+            "exact_hop_height": "exact hop",
+            "hop_height": "hop",
+            "err_hop_height_rel": "rel. error",
+            "exact_t_impact": "exact t_impact",
+            "t_impact": "t_impact",
+            "err_t_impact_ms": "error ms",
+        },
+    )
+    return _section("## Lift-off, hop height and impact (hop scenes, default settings)", "", table)
+
+
+def _phase_section(runs: pd.DataFrame) -> str:
+    default = _default(runs)
+    fine = default[default["timestep"] == 1e-4]
+    engines = list(dict.fromkeys(fine["engine"]))
     rows = []
-    for scene, group in runs.groupby("scene", sort=False):
+    for scene, group in fine.groupby("scene", sort=False):
         row = {"scene": scene, "exact": group["exact_phases"].iloc[0]}
         for engine in engines:
             hit = group[group["engine"] == engine]
@@ -58,13 +193,46 @@ def _phase_table(runs: pd.DataFrame) -> str:
                 code = hit["phases"].iloc[0]
                 row[engine] = code if hit["phases_agree"].iloc[0] else f"**{code}**"
         rows.append(row)
-    table = pd.DataFrame(rows)
-    return markdown_table(table, ["scene", "exact", *engines], ["scene", "exact", *engines]) + (
-        "\n\nBold: differs from the exact sequence."
+    columns = ["scene", "exact", *engines]
+    return _section(
+        "## Phase sequences (default settings, dt = 1e-4)",
+        "",
+        "R roll, S+/S- slip forward/backward, F flight, up to the first impact. The engine "
+        "sequences come from the shared detectors; the reference row shows what they read off "
+        "the exact solution.",
+        "",
+        markdown_table(pd.DataFrame(rows), columns, columns),
+        "",
+        "Bold: differs from the exact sequence.",
     )
 
 
-def _accuracy_table(default: pd.DataFrame) -> str:
+def _settings_section(runs: pd.DataFrame) -> str:
+    """Empty when the table has no runs with other than default settings."""
+    variants = runs[runs["variant"] != "default"]
+    if not len(variants):
+        return ""
+    table = _table(
+        variants,
+        {
+            "scene": "scene",
+            "engine": "engine",
+            "variant": "settings",
+            "status": "status",
+            "outcome": "outcome",
+            "exact_outcome": "exact outcome",
+            "err_t_slip_ms": "slip error ms",
+            "err_theta_slip_deg": "slip error deg",
+            "err_t_lift_ms": "lift error ms",
+            "err_hop_height_rel": "hop rel. error",
+            "us_per_step": "us/step",
+        },
+    )
+    return _section("## Contact settings (dt = 1e-4)", "", table)
+
+
+def _timestep_section(runs: pd.DataFrame) -> str:
+    default = _default(runs)
     hop_scenes = sorted(n for n in default["scene"].unique() if n.startswith("hop"))
     rows = []
     for (engine, dt), group in default.groupby(["engine", "timestep"], sort=False):
@@ -81,206 +249,30 @@ def _accuracy_table(default: pd.DataFrame) -> str:
             row[scene] = hit["err_t_lift_ms"].iloc[0] if len(hit) else None
         rows.append(row)
     table = pd.DataFrame(rows).sort_values(["engine", "timestep"], ascending=[True, False])
-    return markdown_table(
-        table,
-        ["engine", "timestep", "wall", "slip", *hop_scenes, "agree"],
-        [
-            "engine",
-            "dt",
-            "seed wall s",
-            "slip error ms",
-            *[f"{s} lift error ms" for s in hop_scenes],
-            "exact outcome",
-        ],
-    )
-
-
-def write_markdown(frame: pd.DataFrame, out: Path, *, generated: str) -> Path:
-    """Write out/report.md with tables and PNG figures; return its path."""
-    out = Path(out)
-    tol = tolerances()
-    for name in (
-        "err_t_slip_ms",
-        "err_theta_slip_deg",
-        "err_t_lift_ms",
-        "err_t_impact_ms",
-        "err_hop_height_rel",
-        "outcome",
-        "t_slip_threshold",
-        "max_penetration_m",
-        "energy_rise_before_slip",
-        "outcome_agrees",
-        "hop_height",
-        "phases",
-        "phases_agree",
-        "exact_phases",
-    ):
-        frame[name] = _col(frame, name)
-    default = frame[frame["variant"] == "default"]
-    md = [
-        "# hoopbench report",
+    return _section(
+        "## Error against timestep and run time (default settings)",
         "",
-        f"Generated {generated} on {platform.platform()} ({platform.python_version()}). "
-        f"Engines: {_versions(frame)}.",
-        "",
-        "Every engine event is read off its trajectory by the same detectors "
-        "(`engines/detectors.py`); the exact events come from the event-driven reference "
-        "solver for the same scene with mus = muk = the run's mu. Errors are engine minus "
-        "exact. Times in s (errors in ms), angles in degrees, lengths in m. "
-        f"Tolerances of the regression tests: slip {tol['slip']['t_s'] * 1e3:g} ms and "
-        f"{tol['slip']['theta_deg']:g} deg.",
-        "",
-        f"Runs: {len(frame)}; status counts: "
-        + ", ".join(f"{k} {v}" for k, v in frame["status"].value_counts().items())
-        + ".",
-        "",
-    ]
-
-    md += ["## Slip onset (seed scene, mu = 0.8, default settings)", ""]
-    seed = default[default["scene"] == "seed-mu"].copy()
-    seed["lag_ms"] = (seed["t_slip_threshold"] - seed["exact_t_slip"]) * 1e3
-    md.append(
-        markdown_table(
-            seed,
-            [
-                "engine",
-                "timestep",
-                "status",
-                "exact_t_slip",
-                "t_slip",
-                "err_t_slip_ms",
-                "lag_ms",
-                "exact_theta_slip_deg",
-                "theta_slip_deg",
-                "err_theta_slip_deg",
-                "energy_rise_before_slip",
-                "outcome",
-                "exact_outcome",
-            ],
-            [
-                "engine",
-                "dt",
-                "status",
-                "exact t_slip",
-                "t_slip (refined)",
-                "error ms",
-                "threshold lag ms",
-                "exact theta",
-                "theta",
-                "error deg",
-                "energy rise",
-                "outcome",
-                "exact outcome",
-            ],
-        )
-    )
-    md += [
-        "",
-        "`threshold lag` is how late the raw |slip velocity| > 1 mm/s detector fires; the "
-        "refined onset extrapolates it back. The reference rows measure the detectors' own "
-        "bias on the exact solution sampled at the engine step.",
-        "",
-    ]
-
-    hops = default[default["scene"].str.startswith("hop")]
-    if len(hops):
-        md += ["## Lift-off, hop height and impact (hop scenes, default settings)", ""]
-        md.append(
-            markdown_table(
-                hops,
-                [
-                    "scene",
-                    "engine",
-                    "timestep",
-                    "status",
-                    "outcome",
-                    "exact_t_lift",
-                    "t_lift",
-                    "err_t_lift_ms",
-                    "exact_hop_height",
-                    "hop_height",
-                    "err_hop_height_rel",
-                    "exact_t_impact",
-                    "t_impact",
-                    "err_t_impact_ms",
-                ],
-                [
-                    "scene",
-                    "engine",
-                    "dt",
-                    "status",
-                    "outcome",
-                    "exact t_lift",
-                    "t_lift",
-                    "error ms",
-                    "exact hop",
-                    "hop",
-                    "rel. error",
-                    "exact t_impact",
-                    "t_impact",
-                    "error ms",
-                ],
-            )
-        )
-        md.append("")
-
-    md += ["## Phase sequences (default settings, dt = 1e-4)", ""]
-    md.append(
-        "R roll, S+/S- slip forward/backward, F flight, up to the first impact. The engine "
-        "sequences come from the shared detectors; the reference row shows what they read off "
-        "the exact solution."
-    )
-    md.append("")
-    md.append(_phase_table(default[default["timestep"] == 1e-4]))
-    md.append("")
-
-    variants = frame[frame["variant"] != "default"]
-    if len(variants):
-        md += ["## Contact settings (dt = 1e-4)", ""]
-        md.append(
-            markdown_table(
-                variants,
-                [
-                    "scene",
-                    "engine",
-                    "variant",
-                    "status",
-                    "outcome",
-                    "exact_outcome",
-                    "err_t_slip_ms",
-                    "err_theta_slip_deg",
-                    "err_t_lift_ms",
-                    "err_hop_height_rel",
-                    "us_per_step",
-                ],
-                [
-                    "scene",
-                    "engine",
-                    "settings",
-                    "status",
-                    "outcome",
-                    "exact outcome",
-                    "slip error ms",
-                    "slip error deg",
-                    "lift error ms",
-                    "hop rel. error",
-                    "us/step",
-                ],
-            )
-        )
-        md.append("")
-
-    md += ["## Error against timestep and run time (default settings)", ""]
-    md.append(
         "Per engine and timestep: the stepping time of the seed run, the slip-onset error on "
         "seed-mu, the lift-off error on each hop scene (ms; `-` where no lift-off was "
-        "detected) and how many scenes end with the exact outcome."
+        "detected) and how many scenes end with the exact outcome.",
+        "",
+        _table(
+            table,
+            {
+                "engine": "engine",
+                "timestep": "dt",
+                "wall": "seed wall s",
+                "slip": "slip error ms",
+                **{s: f"{s} lift error ms" for s in hop_scenes},
+                "agree": "exact outcome",
+            },
+        ),
     )
-    md.append("")
-    md.append(_accuracy_table(default))
-    md.append("")
-    md += ["## Error against run time", ""]
-    fig1 = error_vs_time_figure(
+
+
+def _run_time_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[Path]]:
+    default = _default(runs)
+    figure = error_vs_time_figure(
         default[default["engine"] != "reference"],
         out / "error_vs_time.png",
         panels=[
@@ -289,99 +281,130 @@ def write_markdown(frame: pd.DataFrame, out: Path, *, generated: str) -> Path:
         ],
         title="default settings; labels are the timesteps (s)",
     )
-    md += [f"![event errors against run time]({fig1.name})", ""]
-    cost = (
-        frame[frame["variant"] == "default"]
-        .groupby(["engine", "timestep"], as_index=False)[["us_per_step", "wall_time_s"]]
-        .median()
-    )
-    md.append(
-        markdown_table(
+    cost = default.groupby(["engine", "timestep"], as_index=False)[
+        ["us_per_step", "wall_time_s"]
+    ].median()
+    text = _section(
+        "## Error against run time",
+        "",
+        f"![event errors against run time]({figure.name})",
+        "",
+        _table(
             cost,
-            ["engine", "timestep", "us_per_step", "wall_time_s"],
-            ["engine", "dt", "median us/step", "median wall s"],
-        )
+            {
+                "engine": "engine",
+                "timestep": "dt",
+                "us_per_step": "median us/step",
+                "wall_time_s": "median wall s",
+            },
+        ),
     )
-    md.append("")
+    return text, [figure]
 
-    md += ["## Stability", ""]
-    md.append(
-        "Runs that did not finish cleanly, or whose detected outcome differs from the exact "
-        "one, or that penetrated the floor by more than 1 mm:"
-    )
-    md.append("")
-    bad = frame[
-        (frame["status"] != "ok")
-        | (frame["outcome_agrees"] == False)  # noqa: E712 - NaN rows must not match
-        | (frame["max_penetration_m"] > 1e-3)
+
+def _stability_section(runs: pd.DataFrame) -> str:
+    bad = runs[
+        (runs["status"] != "ok")
+        | (runs["outcome_agrees"] == False)  # noqa: E712 - NaN rows must not match
+        | (runs["max_penetration_m"] > 1e-3)
     ]
-    md.append(
-        markdown_table(
-            bad,
-            [
-                "scene",
-                "engine",
-                "variant",
-                "timestep",
-                "status",
-                "message",
-                "outcome",
-                "exact_outcome",
-                "max_penetration_m",
-                "energy_rise_before_slip",
-            ],
-            [
-                "scene",
-                "engine",
-                "settings",
-                "dt",
-                "status",
-                "message",
-                "outcome",
-                "exact outcome",
-                "max penetration m",
-                "energy rise",
-            ],
-        )
-        if len(bad)
-        else "None."
+    table = _table(
+        bad,
+        {
+            "scene": "scene",
+            "engine": "engine",
+            "variant": "settings",
+            "timestep": "dt",
+            "status": "status",
+            "message": "message",
+            "outcome": "outcome",
+            "exact_outcome": "exact outcome",
+            "max_penetration_m": "max penetration m",
+            "energy_rise_before_slip": "energy rise",
+        },
     )
-    md.append("")
+    return _section(
+        "## Stability",
+        "",
+        "Runs that did not finish cleanly, or whose detected outcome differs from the exact "
+        "one, or that penetrated the floor by more than 1 mm:",
+        "",
+        table if len(bad) else "None.",
+    )
 
-    md += ["## Figures", ""]
-    for scene_name in hops["scene"].unique() if len(hops) else []:
-        runs = {}
-        for _, row in default[
-            (default["scene"] == scene_name) & (default["timestep"] == 1e-4)
-        ].iterrows():
-            path = row.get("trajectory_file")
-            if isinstance(path, str):
-                runs[row["engine"]] = Trajectory.read(path)
-        if runs:
-            exact_lift = hops[hops["scene"] == scene_name]["exact_t_lift"].iloc[0]
-            exact_impact = hops[hops["scene"] == scene_name]["exact_t_impact"].iloc[0]
-            window = None
-            if exact_lift is not None and not math.isnan(exact_lift):
-                span = exact_impact - exact_lift
-                window = (exact_lift - span, exact_impact + span)
-            fig = clearance_figure(
-                runs,
-                out / f"clearance_{scene_name}.png",
-                title=f"{scene_name}: hoop-centre clearance, dt = 1e-4",
-                t_window=window,
-            )
-            md += [f"![clearance in {scene_name}]({fig.name})", ""]
-        fig = hoop_figure(get_scene(scene_name), out / f"hoop_{scene_name}.png")
-        md += [f"![{scene_name} path]({fig.name})", ""]
-    fig = hoop_figure(get_scene("seed"), out / "hoop_seed.png")
-    md += [f"![seed path]({fig.name})", ""]
-    md += [
+
+def _clearance_figure(runs: pd.DataFrame, scene_name: str, out: Path) -> Path | None:
+    """The hoop-centre clearance of every default dt = 1e-4 run of a hop scene, if recorded."""
+    default = _default(runs)
+    trajectories = {}
+    for _, row in default[
+        (default["scene"] == scene_name) & (default["timestep"] == 1e-4)
+    ].iterrows():
+        path = row.get("trajectory_file")
+        if isinstance(path, str):
+            trajectories[row["engine"]] = Trajectory.read(path)
+    if not trajectories:
+        return None
+    hops = _hops(runs)
+    exact_lift = hops[hops["scene"] == scene_name]["exact_t_lift"].iloc[0]
+    exact_impact = hops[hops["scene"] == scene_name]["exact_t_impact"].iloc[0]
+    window = None
+    if exact_lift is not None and not math.isnan(exact_lift):
+        span = exact_impact - exact_lift
+        window = (exact_lift - span, exact_impact + span)
+    return clearance_figure(
+        trajectories,
+        out / f"clearance_{scene_name}.png",
+        title=f"{scene_name}: hoop-centre clearance, dt = 1e-4",
+        t_window=window,
+    )
+
+
+def _figures_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[Path]]:
+    lines = ["## Figures", ""]
+    figures = []
+    for scene_name in _hops(runs)["scene"].unique():
+        clearance = _clearance_figure(runs, scene_name, out)
+        if clearance is not None:
+            lines += [f"![clearance in {scene_name}]({clearance.name})", ""]
+            figures.append(clearance)
+        path = hoop_figure(get_scene(scene_name), out / f"hoop_{scene_name}.png")
+        lines += [f"![{scene_name} path]({path.name})", ""]
+        figures.append(path)
+    seed = hoop_figure(get_scene("seed"), out / "hoop_seed.png")
+    lines.append(f"![seed path]({seed.name})")
+    figures.append(seed)
+    return _section(*lines), figures
+
+
+def _files_section() -> str:
+    return _section(
         "## Files",
         "",
         "- `runs.csv`, `runs.parquet`: one row per run, one column per variable.",
         "- `trajectories/`: the default-setting trajectories (Parquet, normalised columns).",
-        "",
+    )
+
+
+# --------------------------------------------------------------------------- the report
+def write_markdown(frame: pd.DataFrame, out: Path, *, generated: str) -> Path:
+    """Write out/report.md with tables and PNG figures; return its path. ``frame`` is unchanged."""
+    out = Path(out)
+    runs = _with_optional_columns(frame)
+    run_time, _ = _run_time_section(runs, out)
+    figures, _ = _figures_section(runs, out)
+    sections = [
+        _header(runs, generated),
+        _slip_section(runs),
+        _hop_section(runs),
+        _phase_section(runs),
+        _settings_section(runs),
+        _timestep_section(runs),
+        run_time,
+        _stability_section(runs),
+        figures,
+        _files_section(),
     ]
     path = out / "report.md"
-    path.write_text("\n".join(md))
+    path.write_text("\n".join(section for section in sections if section))
     return path

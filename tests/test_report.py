@@ -5,6 +5,7 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
+from hoopbench.reports.markdown import write_markdown
 from hoopbench.reports.suite import Case, default_cases, run_case, run_report, suite_scenes
 
 
@@ -47,6 +48,20 @@ def test_report_has_the_tables(quick_report):
     ):
         assert heading in text
     assert "| reference |" in text
+
+
+def test_write_markdown_leaves_its_input_alone(quick_report, tmp_path):
+    """The report derives its columns locally: the caller's frame comes back unchanged, also
+    when it lacks the optional columns that the report fills with blanks."""
+    out, _ = quick_report
+    runs = pd.read_parquet(out / "runs.parquet")
+    optional = ["phases", "phases_agree", "exact_phases", "outcome_agrees", "max_penetration_m"]
+    for frame in (runs, runs.drop(columns=optional)):
+        before, columns = frame.copy(), list(frame.columns)
+        assert write_markdown(frame, tmp_path, generated="now") == tmp_path / "report.md"
+        assert list(frame.columns) == columns
+        pd.testing.assert_frame_equal(frame, before)
+    assert "## Stability" in (tmp_path / "report.md").read_text()
 
 
 def test_a_broken_run_becomes_an_error_row():
