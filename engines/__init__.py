@@ -1,21 +1,24 @@
-"""Engine adapters behind one interface, with the shared detectors and run settings.
+"""Engines behind one interface, with the shared detectors and run settings.
 
-Engine modules (mujoco, pybullet, pymunk) are imported only when a run uses them.
+Engine libraries (mujoco, pybullet, pymunk) are imported only when a run uses them.
 """
 
-from hoopbench.engines.base import RunInfo, RunResult, RunStatus
+from hoopbench.engines.base import Run, RunInfo, RunResult, RunStatus
 from hoopbench.engines.detectors import DetectorSettings, detect_events
-from hoopbench.engines.registry import ENGINE_NAMES, get_engine
-from hoopbench.engines.settings import ENGINE_OPTIONS, RunSettings
+from hoopbench.engines.judge import judge
+from hoopbench.engines.registry import engine_class, engine_names, get_engine
+from hoopbench.engines.settings import RunSettings
 
 __all__ = [
-    "ENGINE_NAMES",
-    "ENGINE_OPTIONS",
     "DetectorSettings",
+    "Run",
     "RunInfo",
     "RunResult",
     "RunSettings",
     "RunStatus",
     "detect_events",
+    "engine_class",
+    "engine_names",
     "get_engine",
+    "judge",
 ]

@@ -1,9 +1,15 @@
-"""The engine interface: run(scene, settings) -> RunResult(trajectory, events, info).
+"""The engine interface: one class per engine declares everything about it.
 
-Every adapter subclasses :class:`Engine` and implements one hook, ``_simulate``. The public
-``run`` validates the settings, imports the engine lazily, times nothing but the stepping
-(the adapter reports that time), turns any failure into a status instead of an exception,
-and applies the shared detectors. A failing or missing engine never stops a sweep.
+An engine module subclasses :class:`Engine`, declares its import, geometries, options (each
+with its default and the reason for it), settings variants and model writer, implements one
+stepping hook, ``_simulate``, and registers itself (``hoopbench.engines.registry``). The
+registry, the CLI choices, ``hoopbench settings`` and the suites' variants are derived from
+these declarations.
+
+Stepping and judging are separate: :meth:`Engine.simulate` validates the settings, imports
+the engine lazily, steps, and returns a :class:`Run` (trajectory plus what the engine
+reports); ``hoopbench.engines.judge.judge`` turns a run into events with the shared detectors.
+:meth:`Engine.run` does both. A failing or missing engine is a status, never an exception.
 """
 
 from __future__ import annotations
@@ -14,22 +20,28 @@ import traceback
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 from enum import StrEnum
+from importlib.metadata import PackageNotFoundError, version
 from types import ModuleType
 from typing import Any, ClassVar
 
 import numpy as np
 
-from hoopbench.engines.detectors import DetectorSettings, detect_events
-from hoopbench.engines.settings import RunSettings
+from hoopbench.engines.detectors import DetectorSettings
+from hoopbench.engines.options import Option, Variant
+from hoopbench.engines.settings import BYTES_PER_STEP, MAX_STEPS, RunSettings
 from hoopbench.models import kinematics
 from hoopbench.models.events import Events
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 
 __all__ = [
+    "BYTES_PER_STEP",
+    "CHUNK_STEPS",
+    "MAX_STEPS",
     "DivergenceLimits",
     "Engine",
     "EngineUnavailableError",
+    "Run",
     "RunInfo",
     "RunResult",
     "RunStatus",
@@ -38,6 +50,9 @@ __all__ = [
     "import_engine",
     "n_steps_for",
 ]
+
+CHUNK_STEPS = 1000
+"""Steps an adapter takes between divergence checks (and per recording chunk)."""
 
 
 class RunStatus(StrEnum):
@@ -116,6 +131,9 @@ class Simulation:
     """Reason, if the run was stopped for divergence."""
     exact_events: Events | None = None
     """The reference engine's exact events (None for real engines)."""
+    failed: str | None = None
+    """Reason, if the engine produced a trajectory but no meaningful result (the run is an
+    error row: e.g. the reference solver reached a degenerate or budget-limited end)."""
 
 
 @dataclass(frozen=True)
@@ -148,8 +166,18 @@ class RunInfo:
 
 
 @dataclass(frozen=True)
+class Run:
+    """A simulated run before judging: trajectory (None if it failed first) and run info."""
+
+    trajectory: Trajectory | None
+    info: RunInfo
+    exact_events: Events | None = None
+    """For the reference engine: the exact events of the solved scene."""
+
+
+@dataclass(frozen=True)
 class RunResult:
-    """A run's trajectory (None if it failed before producing one), events and info."""
+    """A judged run: trajectory, the events the shared detectors found, and run info."""
 
     trajectory: Trajectory | None
     events: Events | None
@@ -174,9 +202,24 @@ class RunResult:
 
 
 class Engine(ABC):
-    """Base class of the adapters. Subclasses set ``name`` and implement the hooks."""
+    """Base class of the engines. A subclass declares the class attributes below, implements
+    ``_simulate`` (and ``_model_text`` if the engine reads a model file), and is registered
+    with ``hoopbench.engines.registry.register``."""
 
     name: ClassVar[str]
+    """Engine name on the command line and in the runs table."""
+    distribution: ClassVar[str]
+    """Installed distribution whose version a run records (importlib.metadata)."""
+    modules: ClassVar[tuple[str, ...]] = ()
+    """Modules a run imports (the first is the engine package); none are imported before."""
+    geometries: ClassVar[tuple[str, ...]] = ("sphere",)
+    """Contact geometries; the first is the default. sphere: the hoop's exact circle."""
+    options: ClassVar[tuple[Option, ...]] = ()
+    """The engine's own knobs, real names, with hoopbench's defaults and their reasons."""
+    variants: ClassVar[tuple[Variant, ...]] = ()
+    """Settings a suite runs beside the defaults, to show what one knob does."""
+    model_format: ClassVar[str | None] = None
+    """What ``hoopbench model`` writes for this engine (None: nothing)."""
 
     def __init__(
         self,
@@ -186,37 +229,85 @@ class Engine(ABC):
         self.detectors = detectors or DetectorSettings()
         self.limits = limits or DivergenceLimits()
 
+    # ----------------------------------------------------------------- declarations
+    @classmethod
+    def defaults(cls) -> dict[str, Any]:
+        """Option name -> hoopbench's default."""
+        return {option.name: option.default for option in cls.options}
+
+    @classmethod
+    def resolve(cls, settings: RunSettings) -> dict[str, Any]:
+        """The full, checked option dict of a run: defaults overlaid with settings.options.
+
+        ValueError names an unknown geometry or option, or a bad value and what is allowed.
+        """
+        if settings.geometry not in cls.geometries:
+            raise ValueError(
+                f"geometry {settings.geometry!r} is not available for {cls.name}; "
+                f"choose one of {', '.join(cls.geometries)}"
+            )
+        declared = {option.name: option for option in cls.options}
+        unknown = sorted(set(settings.options) - set(declared))
+        if unknown:
+            known = ", ".join(declared) or "none"
+            raise ValueError(f"unknown {cls.name} setting(s) {', '.join(unknown)}; known: {known}")
+        values = {**cls.defaults(), **settings.options}
+        return {name: declared[name].check(name, value) for name, value in values.items()}
+
     # ----------------------------------------------------------------- hooks
-    @abstractmethod
     def _import(self) -> ModuleType:
-        """Import the engine module; raise EngineUnavailableError if it cannot be used."""
+        """Import the engine; EngineUnavailableError if it cannot be used."""
+        return import_engine(*self.modules)
 
     @abstractmethod
     def _simulate(
         self, module: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
     ) -> Simulation:
-        """Run the scene from t = 0 to scene.t_end with the engine's stepping."""
+        """Step the scene from t = 0 for ``n_steps_for(scene, settings.timestep)`` steps."""
 
     def _check(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> None:
-        """Raise ValueError for option values the engine cannot use (default: accept all)."""
+        """Raise ValueError for a scene or settings the engine cannot represent."""
         return None
 
-    def _version(self, module: ModuleType) -> str | None:
-        return getattr(module, "__version__", None)
+    def _model_text(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
+        raise ValueError(f"engine {self.name} reads no model file")
 
     # ----------------------------------------------------------------- public
+    def version(self) -> str | None:
+        try:
+            return version(self.distribution)
+        except PackageNotFoundError:
+            return None
+
     def mu_for(self, scene: Scene, settings: RunSettings) -> float:
         """The friction coefficient a run uses: settings.mu, else the scene's static mus."""
         return scene.mus if settings.mu is None else settings.mu
 
-    def run(self, scene: Scene, settings: RunSettings | None = None) -> RunResult:
-        """Run the scene. Bad settings raise ValueError; engine failures return a status."""
-        settings = settings or RunSettings()
-        options = settings.resolve(self.name)  # raises ValueError for unknown names
+    def check(self, scene: Scene, settings: RunSettings) -> dict[str, Any]:
+        """Everything about a run that can be checked before it starts; the options dict.
+
+        ValueError for a bad option, a timestep longer than the window, or a run that needs
+        more steps than settings.max_steps (the message gives the estimate).
+        """
+        options = self.resolve(settings)
+        check_window(scene, settings)
         self._check(scene, settings, options)
-        mu = self.mu_for(scene, settings)
+        return options
+
+    def model_text(self, scene: Scene, settings: RunSettings | None = None) -> str:
+        """The engine's native model of the scene, as a run with these settings loads it."""
+        settings = settings or RunSettings()
+        return self._model_text(scene, settings, self.check(scene, settings))
+
+    def simulate(self, scene: Scene, settings: RunSettings | None = None) -> Run:
+        """Step the scene. Bad settings raise ValueError; engine failures return a status."""
+        settings = settings or RunSettings()
+        options = self.check(scene, settings)
         base = dict(
-            engine=self.name, mu=mu, timestep=settings.timestep, settings=settings.to_dict()
+            engine=self.name,
+            mu=self.mu_for(scene, settings),
+            timestep=settings.timestep,
+            settings=settings.to_dict(),
         )
         try:
             module = self._import()
@@ -224,27 +315,54 @@ class Engine(ABC):
             info = RunInfo(
                 engine_version=None, status=RunStatus.UNAVAILABLE, message=str(exc), **base
             )
-            return RunResult(None, None, info)
-        version = self._version(module)
+            return Run(None, info)
+        engine_version = self.version()
         try:
             sim = self._simulate(module, scene, settings, options)
-            events = detect_events(sim.trajectory, self.detectors)
         except Exception as exc:  # an engine failure is a result, not a crash
             last = traceback.format_exception_only(type(exc), exc)[-1].strip()
-            info = RunInfo(engine_version=version, status=RunStatus.ERROR, message=last, **base)
-            return RunResult(None, None, info)
-        status = RunStatus.DIVERGED if sim.diverged else RunStatus.OK
+            info = RunInfo(
+                engine_version=engine_version, status=RunStatus.ERROR, message=last, **base
+            )
+            return Run(None, info)
+        if sim.failed:
+            status, message = RunStatus.ERROR, sim.failed
+        elif sim.diverged:
+            status, message = RunStatus.DIVERGED, sim.diverged
+        else:
+            status, message = RunStatus.OK, ""
         info = RunInfo(
-            engine_version=version,
+            engine_version=engine_version,
             status=status,
-            message=sim.diverged or "",
+            message=message,
             wall_time_s=sim.wall_time_s,
             n_steps=sim.n_steps,
             **base,
         )
-        return RunResult(sim.trajectory, events, info, sim.exact_events)
+        return Run(sim.trajectory, info, sim.exact_events)
+
+    def run(self, scene: Scene, settings: RunSettings | None = None) -> RunResult:
+        """Simulate, then judge with this engine's detectors."""
+        from hoopbench.engines.judge import judge
+
+        return judge(self.simulate(scene, settings), self.detectors)
 
 
 def n_steps_for(scene: Scene, timestep: float) -> int:
-    """Steps needed to cover [0, scene.t_end] with this timestep."""
-    return math.ceil(scene.t_end / timestep - 1e-9)
+    """Steps a run takes: the whole steps that fit in [0, scene.t_end] (never past it)."""
+    return math.floor(scene.t_end / timestep * (1.0 + 1e-12))
+
+
+def check_window(scene: Scene, settings: RunSettings) -> None:
+    """ValueError for a timestep longer than the window or a run over settings.max_steps."""
+    dt = settings.timestep
+    if dt > scene.t_end:
+        raise ValueError(f"timestep {dt:g} s is longer than the window t_end = {scene.t_end:g} s")
+    n_steps = n_steps_for(scene, dt)
+    if n_steps > settings.max_steps:
+        gigabytes = n_steps * BYTES_PER_STEP / 1e9
+        raise ValueError(
+            f"the run needs {n_steps:.3g} steps (t_end {scene.t_end:g} s / timestep {dt:g} s, "
+            f"about {gigabytes:.3g} GB), over max_steps = {settings.max_steps:.3g}: "
+            "shorten t_end, raise the timestep, or raise max_steps"
+        )

@@ -20,7 +20,7 @@ acceleration (found with ``mj_forward``): the first recorded normal force is the
 rolling one and the recorded clearance at t = 0 is that small negative number. A scene that
 leaves the floor at once (lam*chi > 1) starts touching.
 
-Defaults (engines/settings.py), measured on mujoco 4.0.0 at timestep 1e-4. Slip onset of
+Defaults (the ``options`` below), measured on mujoco 4.0.0 at timestep 1e-4. Slip onset of
 seed-mu (mu = 0.8, exact 0.98708 s, 88.504 deg) against cone and solref timeconst, other
 options at their defaults (RK4, impratio 100, solreffriction 0.015); "threshold" is the
 1 mm/s crossing, "refined" the detectors' extrapolated onset:
@@ -58,57 +58,176 @@ from typing import Any
 
 import numpy as np
 
-from hoopbench.engines.base import (
-    Engine,
-    Simulation,
-    check_divergence,
-    import_engine,
-    n_steps_for,
+from hoopbench.engines.base import CHUNK_STEPS, Engine, Simulation, check_divergence, n_steps_for
+from hoopbench.engines.options import (
+    Option,
+    Variant,
+    choice,
+    integer,
+    number,
+    real_tuple,
 )
+from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models import kinematics
-from hoopbench.models.mjcf import check_mujoco_options, check_restitution, scene_to_mjcf
+from hoopbench.models.mjcf import (
+    CONES,
+    INTEGRATORS,
+    MJCF_GEOMETRIES,
+    check_restitution,
+    scene_to_mjcf,
+)
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 
-__all__ = ["CHUNK_STEPS", "MujocoEngine"]
-
-CHUNK_STEPS = 1000
-"""Steps per rollout call; divergence is checked after each chunk."""
+__all__ = ["MujocoEngine"]
 
 _BAD_STATE_WARNINGS = ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")
 
 
+def _check_solref(name: str, value: Any) -> tuple[float, float]:
+    """(timeconst s, dampratio), both > 0, or MuJoCo's direct (-stiffness, -damping)."""
+    pair = real_tuple((2,), "a pair (timeconst, dampratio)")(name, value)
+    if not (all(v > 0 for v in pair) or all(v < 0 for v in pair)):
+        raise ValueError(
+            f"{name} must be (timeconst, dampratio), both > 0, or (-stiffness, -damping), "
+            f"both < 0; got {value!r}"
+        )
+    return pair
+
+
+def _check_solreffriction(name: str, value: Any) -> tuple[float, float]:
+    """As solref, or (0, 0) for "same as solref"."""
+    pair = real_tuple((2,), "a pair (timeconst, dampratio), or (0, 0)")(name, value)
+    if pair == (0.0, 0.0):
+        return pair
+    if not (all(v > 0 for v in pair) or all(v < 0 for v in pair)):
+        raise ValueError(
+            f"{name} must be (0, 0) (same as solref), (timeconst, dampratio) both > 0, or "
+            f"(-stiffness, -damping) both < 0; got {value!r}"
+        )
+    return pair
+
+
+def _check_solimp(name: str, value: Any) -> tuple[float, ...]:
+    """(dmin, dmax, width m[, midpoint, power]); MuJoCo's midpoint 0.5 and power 2 if absent."""
+    solimp = real_tuple((3, 5), "(dmin, dmax, width[, midpoint, power])")(name, value)
+    if len(solimp) == 3:
+        solimp = (*solimp, 0.5, 2.0)
+    dmin, dmax, width, midpoint, power = solimp
+    if not (0 < dmin <= dmax < 1 and width > 0 and 0 < midpoint < 1 and power >= 1):
+        raise ValueError(
+            f"{name} must satisfy 0 < dmin <= dmax < 1, width > 0, 0 < midpoint < 1, "
+            f"power >= 1; got {value!r}"
+        )
+    return solimp
+
+
+@register
 class MujocoEngine(Engine):
-    """MuJoCo through ``mujoco.rollout``; options are ENGINE_OPTIONS['mujoco']."""
+    """MuJoCo through ``mujoco.rollout``."""
 
     name = "mujoco"
+    distribution = "mujoco"
+    modules = ("mujoco", "mujoco.rollout")
+    geometries = MJCF_GEOMETRIES
+    model_format = "MJCF (XML)"
+    options = (
+        Option(
+            "solref",
+            (0.0005, 1.0),
+            _check_solref,
+            "(timeconst s, dampratio); refsafe clamps timeconst to 2*timestep. Stiffer than "
+            "MuJoCo's 0.02: slip onset within 2.4 ms on seed-mu (table in the module doc)",
+        ),
+        Option(
+            "solreffriction",
+            (0.015, 1.0),
+            _check_solreffriction,
+            "friction rows of elliptic cones only. A sliding MuJoCo contact pushes the bodies "
+            "apart; with one solref for all rows the hoop chattered 0.2 mm off the floor while "
+            "slipping and the detectors saw false hops; this cuts the chatter tenfold",
+        ),
+        Option(
+            "solimp",
+            (0.95, 0.99, 0.001, 0.5, 2.0),
+            _check_solimp,
+            "MuJoCo's default impedance: no measured effect here",
+        ),
+        Option(
+            "cone",
+            "elliptic",
+            choice(*CONES),
+            "pyramidal cones reported false hops at every solref tried (0.3-2.3 mm) and, "
+            "with solref 0.02 and impratio 1, slipped at 26 deg instead of 88.5",
+        ),
+        Option(
+            "impratio",
+            100.0,
+            number(low=0.0, low_open=True),
+            "elliptic cones only: friction 100x harder than normal keeps rolling creep "
+            "below 0.01 mm/s",
+        ),
+        Option(
+            "noslip_iterations",
+            0,
+            integer(low=0),
+            "no measurable effect on this problem (a suite variant shows it)",
+        ),
+        Option(
+            "integrator",
+            "RK4",
+            choice(*INTEGRATORS),
+            "RK4 costs ~4x per step, but the one-step integrators lost the hop-top and "
+            "hop-low hops to contact chatter (hop-top height -1 % with RK4)",
+        ),
+        Option(
+            "tolerance",
+            1e-10,
+            number(low=0.0),
+            "solver converges fully each step, so results do not depend on warm starts",
+        ),
+        Option(
+            "iterations",
+            100,
+            integer(low=1),
+            "enough for the tolerance above on this one-contact problem",
+        ),
+        Option(
+            "ring_segments",
+            32,
+            integer(low=3),
+            "capsules in the ring geometry: a polygon fine enough to roll, coarse enough to see",
+        ),
+    )
+    variants = (
+        Variant("cone=pyramidal", options={"cone": "pyramidal"}),
+        Variant("solref=0.02", options={"solref": (0.02, 1.0)}),
+        Variant("noslip_iterations=10", options={"noslip_iterations": 10}),
+        Variant("geometry=cylinder", geometry="cylinder"),
+        Variant("geometry=ring", geometry="ring"),
+    )
 
     # ----------------------------------------------------------------- hooks
-    def _import(self) -> ModuleType:
-        return import_engine("mujoco", "mujoco.rollout")
-
     def _check(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> None:
-        """Bad option values and restitution != 0 raise ValueError before a run."""
-        check_mujoco_options(options)
+        """Restitution != 0 raises ValueError before a run (see scene_to_mjcf)."""
         check_restitution(settings.restitution)
 
-    # ----------------------------------------------------------------- model
-    def mjcf(self, scene: Scene, settings: RunSettings | None = None) -> str:
-        """The MJCF document a run of this scene with these settings uses."""
-        settings = settings or RunSettings()
+    def _model_text(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
         return scene_to_mjcf(
             scene,
             mu=self.mu_for(scene, settings),
             timestep=settings.timestep,
             restitution=settings.restitution,
             geometry=settings.geometry,
-            options=settings.resolve(self.name),
+            options=options,
         )
 
-    def _build(self, mujoco: ModuleType, scene: Scene, settings: RunSettings) -> tuple[Any, Any]:
+    def _build(
+        self, mujoco: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
+    ) -> tuple[Any, Any]:
         """Model and data at the initial state (equilibrium penetration, see module doc)."""
-        model = mujoco.MjModel.from_xml_string(self.mjcf(scene, settings))
+        model = mujoco.MjModel.from_xml_string(self._model_text(scene, settings, options))
         data = mujoco.MjData(model)
         X, Y, theta, Xdot, Ydot, thetadot = scene.initial_state()
         x, y = kinematics.centre_position(scene, X, Y, theta)
@@ -126,7 +245,7 @@ class MujocoEngine(Engine):
         mujoco = module
         from mujoco import rollout
 
-        model, data = self._build(mujoco, scene, settings)
+        model, data = self._build(mujoco, scene, settings, options)
         dt = settings.timestep
         n_steps = n_steps_for(scene, dt)
         spec = mujoco.mjtState.mjSTATE_FULLPHYSICS.value
@@ -142,7 +261,6 @@ class MujocoEngine(Engine):
         mujoco.mj_getState(model, data, states[0, 0], spec)
         warmstart = np.array(data.qacc_warmstart).reshape(1, model.nv)
         out = {k: np.empty(n_steps + 1) for k in ("X", "Y", "theta", "Xdot", "Ydot", "thetadot")}
-        r, a = scene.com_offset, scene.a
         diverged: str | None = None
         done = 0  # states 0..done are recorded
 
@@ -165,13 +283,10 @@ class MujocoEngine(Engine):
                 rows = slice(done, done + k + 1)
                 q = states[0, rows, qpos_at : qpos_at + 3]
                 v = states[0, rows, qvel_at : qvel_at + 3]
-                s, c = np.sin(q[:, 2]), np.cos(q[:, 2])
-                out["X"][rows] = q[:, 0] + r * s
-                out["Y"][rows] = a + q[:, 1] + r * c
-                out["theta"][rows] = q[:, 2]
-                out["Xdot"][rows] = v[:, 0] + r * c * v[:, 2]
-                out["Ydot"][rows] = v[:, 1] - r * s * v[:, 2]
-                out["thetadot"][rows] = v[:, 2]
+                # The slide z joint is the hoop centre's height above its resting height.
+                com = kinematics.com_state(scene, q[:, 0], scene.a + q[:, 1], q[:, 2], *v.T)
+                for key, values in com.items():
+                    out[key][rows] = values
                 diverged = _warning_reason(mujoco, data, warnings) or check_divergence(
                     scene, {key: val[rows] for key, val in out.items()}, self.limits
                 )
@@ -202,9 +317,9 @@ class MujocoEngine(Engine):
         against a run's ``wall_time_s``.
         """
         settings = settings or RunSettings()
-        check_mujoco_options(settings.resolve(self.name))
+        options = self.check(scene, settings)
         mujoco = self._import()
-        model, data = self._build(mujoco, scene, settings)
+        model, data = self._build(mujoco, scene, settings, options)
         n_steps = n_steps_for(scene, settings.timestep)
         start = time.perf_counter()
         mujoco.mj_step(model, data, nstep=n_steps)

@@ -44,25 +44,25 @@ from typing import Any
 
 import numpy as np
 
-from hoopbench.engines.base import (
-    Engine,
-    Simulation,
-    check_divergence,
-    import_engine,
-    n_steps_for,
-)
+from hoopbench.engines.base import CHUNK_STEPS, Engine, Simulation, check_divergence, n_steps_for
+from hoopbench.engines.options import Option, Variant, flag, integer, number, optional
+from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
+from hoopbench.models import kinematics
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
-from hoopbench.models.urdf import JOINT_NAMES, floor_urdf, scene_to_urdf
+from hoopbench.models.urdf import (
+    FLOOR_HALF_SIZE,
+    HOOP_GEOMETRIES,
+    JOINT_NAMES,
+    floor_urdf,
+    scene_to_urdf,
+)
 
-__all__ = ["MAX_PAIR_FRICTION", "PybulletEngine", "check_options"]
+__all__ = ["MAX_PAIR_FRICTION", "PybulletEngine"]
 
 MAX_PAIR_FRICTION = 10.0
 """PyBullet clamps the combined (product) friction of a pair at 10 (btManifoldResult)."""
-
-_CHUNK = 1000
-"""Steps between divergence checks."""
 
 _HOOP_LINK = 2
 """Link index of the hoop in the chain (0: slider_x, 1: slider_z)."""
@@ -70,47 +70,7 @@ _HOOP_LINK = 2
 _ROW = 8
 """Recorded per step: x, z, theta, xdot, zdot, thetadot (joints), normal N, friction N."""
 
-
-def _check_unit_interval(name: str, value: Any) -> None:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise ValueError(f"{name} must be a number in [0, 1], got {value!r}")
-    if not (math.isfinite(value) and 0.0 <= value <= 1.0):
-        raise ValueError(f"{name} must be in [0, 1], got {value!r}")
-
-
-def _check_flag(name: str, value: Any) -> None:
-    if value not in (0, 1) or isinstance(value, float):
-        raise ValueError(f"{name} must be 0 or 1, got {value!r}")
-
-
-def check_options(options: dict[str, Any]) -> None:
-    """Raise ValueError naming the option for any value PyBullet would misread or ignore."""
-    iters = options["numSolverIterations"]
-    if isinstance(iters, bool) or not isinstance(iters, int) or iters < 1:
-        raise ValueError(f"numSolverIterations must be an integer >= 1, got {iters!r}")
-    _check_unit_interval("contactERP", options["contactERP"])
-    _check_unit_interval("frictionERP", options["frictionERP"])
-    _check_flag("enableConeFriction", options["enableConeFriction"])
-    _check_flag("frictionAnchor", options["frictionAnchor"])
-    slop = options["contactSlop"]
-    if isinstance(slop, bool) or not isinstance(slop, int | float):
-        raise ValueError(f"contactSlop must be a number >= 0 (m), got {slop!r}")
-    if not (math.isfinite(slop) and slop >= 0):
-        raise ValueError(f"contactSlop must be a finite number >= 0 (m), got {slop!r}")
-    stiffness, damping = options["contactStiffness"], options["contactDamping"]
-    if (stiffness is None) != (damping is None):
-        raise ValueError(
-            "contactStiffness and contactDamping must be given together (PyBullet ignores "
-            f"one without the other), got contactStiffness={stiffness!r}, "
-            f"contactDamping={damping!r}"
-        )
-    for name, value in (("contactStiffness", stiffness), ("contactDamping", damping)):
-        if value is None:
-            continue
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise ValueError(f"{name} must be a number, got {value!r}")
-        if not (math.isfinite(value) and value > 0):
-            raise ValueError(f"{name} must be a positive finite number, got {value!r}")
+_UNIT = number(low=0.0, high=1.0)
 
 
 @contextmanager
@@ -125,32 +85,72 @@ def _client(p: ModuleType) -> Iterator[int]:
         p.disconnect(physicsClientId=cid)
 
 
+@register
 class PybulletEngine(Engine):
     """PyBullet (Featherstone multibody, sequential-impulse contacts) in DIRECT mode."""
 
     name = "pybullet"
+    distribution = "pybullet"
+    modules = ("pybullet",)  # prints its build time on stderr, never on stdout
+    geometries = HOOP_GEOMETRIES
+    model_format = "URDF"
+    options = (
+        Option(
+            "numSolverIterations",
+            50,
+            integer(low=1),
+            "PyBullet's 50; the result depends on its parity where the solver does not "
+            "converge (phi < -1 while slipping: see the module doc)",
+        ),
+        Option("contactERP", 0.2, _UNIT, "PyBullet's default"),
+        Option("frictionERP", 0.2, _UNIT, "PyBullet's default"),
+        Option(
+            "contactStiffness",
+            None,
+            optional(number(low=0.0, low_open=True)),
+            "None: PyBullet's rigid, ERP-based contact (give with contactDamping)",
+        ),
+        Option(
+            "contactDamping",
+            None,
+            optional(number(low=0.0, low_open=True)),
+            "None: rigid contact (give with contactStiffness)",
+        ),
+        Option("enableConeFriction", 1, flag(), "PyBullet's default: a friction cone"),
+        Option("frictionAnchor", 0, flag(), "PyBullet's default"),
+        Option(
+            "contactSlop",
+            1e-8,
+            number(low=0.0, unit="m"),
+            "PyBullet's 1e-5 m lets a contact sink that deep with no force, so the hoop fell "
+            "freely for the first 1.4 ms; 0 made the contact flicker and slip 10 ms early",
+        ),
+    )
+    variants = (
+        Variant("numSolverIterations=10", options={"numSolverIterations": 10}),
+        Variant("geometry=cylinder", geometry="cylinder"),
+        Variant("geometry=hull", geometry="hull"),
+    )
 
     # ----------------------------------------------------------------- hooks
-    def _import(self) -> ModuleType:
-        return import_engine("pybullet")  # prints its build time on stderr, never on stdout
-
-    def _version(self, module: ModuleType) -> str | None:
-        from importlib.metadata import PackageNotFoundError, version
-
-        try:
-            return version("pybullet")
-        except PackageNotFoundError:
-            return None
-
     def _check(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> None:
-        """Bad option values and an unrepresentable mu raise ValueError before a run."""
-        check_options(options)
+        """Stiffness without damping, and a mu PyBullet clamps, raise ValueError."""
+        stiffness, damping = options["contactStiffness"], options["contactDamping"]
+        if (stiffness is None) != (damping is None):
+            raise ValueError(
+                "contactStiffness and contactDamping must be given together (PyBullet ignores "
+                f"one without the other), got contactStiffness={stiffness!r}, "
+                f"contactDamping={damping!r}"
+            )
         mu = self.mu_for(scene, settings)
         if mu > MAX_PAIR_FRICTION:
             raise ValueError(
                 f"mu must be <= {MAX_PAIR_FRICTION} for pybullet (it clamps the pair's "
                 f"friction there), got {mu}"
             )
+
+    def _model_text(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
+        return scene_to_urdf(scene, geometry=settings.geometry, mu=self.mu_for(scene, settings))
 
     def _simulate(
         self, module: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
@@ -166,8 +166,7 @@ class PybulletEngine(Engine):
         """Wall time, s, of stepping the same model as ``run`` for the same number of steps,
         with no recording: the yardstick of the adapter's own overhead."""
         settings = settings or RunSettings()
-        options = settings.resolve(self.name)
-        check_options(options)
+        options = self.check(scene, settings)
         p = self._import()
         n_steps = n_steps_for(scene, settings.timestep)
         with _client(p) as cid, tempfile.TemporaryDirectory(prefix="hoopbench-pb-") as tmp:
@@ -198,8 +197,10 @@ class PybulletEngine(Engine):
         mu = self.mu_for(scene, settings)
         hoop_file = tmp / "hoop.urdf"
         floor_file = tmp / "floor.urdf"
-        hoop_file.write_text(scene_to_urdf(scene, geometry=settings.geometry, mu=mu))
-        floor_file.write_text(floor_urdf())
+        hoop_file.write_text(self._model_text(scene, settings, options))
+        # The floor reaches beyond anywhere the hoop can go in the window (kinematics.reach).
+        half_size = max(FLOOR_HALF_SIZE, 10 * scene.a + kinematics.reach(scene))
+        floor_file.write_text(floor_urdf(half_size=half_size))
 
         p.resetSimulation(physicsClientId=cid)
         p.setGravity(0.0, 0.0, -scene.g, physicsClientId=cid)
@@ -297,7 +298,7 @@ class PybulletEngine(Engine):
             # The collector would rescan every float the loop makes; nothing here is cyclic.
             gc.disable()
             while done < n_steps and diverged is None:
-                todo = min(_CHUNK, n_steps - done)
+                todo = min(CHUNK_STEPS, n_steps - done)
                 start = time.perf_counter()
                 # Plain doubles in an array: keeping PyBullet's nested tuples costs more than
                 # unpacking them at once (measured: 1.33x the bare loop against 1.5x).
@@ -315,7 +316,7 @@ class PybulletEngine(Engine):
                 wall += time.perf_counter() - start
                 blocks.append(block)
                 done += todo
-                diverged = check_divergence(scene, _com_state(scene, block[:, :6]), self.limits)
+                diverged = check_divergence(scene, _com_state(scene, block), self.limits)
             start = time.perf_counter()
             step(cid)
             normal = friction = 0.0
@@ -343,16 +344,5 @@ class PybulletEngine(Engine):
 
 
 def _com_state(scene: Scene, data: np.ndarray) -> dict[str, np.ndarray]:
-    """Centre-of-mass state (X, Y, theta, Xdot, Ydot, thetadot) from joint rows, shape (n, 6):
-    hoop-centre x, height, theta and their rates."""
-    x, z, theta, xdot, zdot, thetadot = data[:, :6].T
-    r = scene.com_offset
-    s, c = np.sin(theta), np.cos(theta)
-    return {
-        "X": x + r * s,
-        "Y": z + r * c,
-        "theta": theta,
-        "Xdot": xdot + r * c * thetadot,
-        "Ydot": zdot - r * s * thetadot,
-        "thetadot": thetadot,
-    }
+    """Centre-of-mass state from joint rows (hoop-centre x, height, theta, their rates)."""
+    return kinematics.com_state(scene, *data[:, :6].T)

@@ -2,38 +2,56 @@
 
 from __future__ import annotations
 
-import math
 import time
 from types import ModuleType
 from typing import Any
 
 import numpy as np
 
-from hoopbench.engines.base import Engine, Simulation
+from hoopbench.engines.base import Engine, Simulation, n_steps_for
+from hoopbench.engines.options import Option, number
+from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
+from hoopbench.models.events import Outcome
 from hoopbench.models.scene import Scene
+from hoopbench.reference.exact import DEFAULT_ATOL, DEFAULT_RTOL
 
 __all__ = ["ReferenceEngine"]
 
+_NO_RESULT = (Outcome.DEGENERATE,)
+"""Exact outcomes that are not a trajectory to compare with: the solver stopped where the
+model has no answer, and a sampled 'rolls' before that point would look like a result."""
 
+
+@register
 class ReferenceEngine(Engine):
     """solve_exact with mus = muk = the run's mu, sampled every ``timestep`` seconds.
 
-    Its ``events`` come from the shared detectors, like any engine's; the exact events are
-    in ``RunResult.exact_events``, so the detectors' own bias can be measured.
+    Its events come from the shared detectors, like any engine's; the exact events are in
+    ``RunResult.exact_events``, so the detectors' own bias can be measured.
     """
 
     name = "reference"
+    distribution = "hoopbench"
+    options = (
+        Option(
+            "rtol",
+            DEFAULT_RTOL,
+            number(low=0.0, high=1e-3, low_open=True),
+            "event times converge to ~1e-11 s between 1e-10 and 1e-12 (tests/test_exact.py)",
+        ),
+        Option(
+            "atol",
+            DEFAULT_ATOL,
+            number(low=0.0, high=1e-3, low_open=True),
+            "state errors of ~1e-12 m, far below every engine's penetration",
+        ),
+    )
 
     def _import(self) -> ModuleType:
         from hoopbench.reference import exact
 
         return exact
-
-    def _version(self, module: ModuleType) -> str | None:
-        from importlib.metadata import version
-
-        return version("hoopbench")
 
     def _simulate(
         self, module: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
@@ -44,13 +62,19 @@ class ReferenceEngine(Engine):
         solution = module.solve_exact(scene, rtol=options["rtol"], atol=options["atol"])
         # The engine time grid, plus the window's last instant (the impact, for a hop), so
         # that the detectors see the landing.
-        grid = np.arange(math.floor(solution.t_final / settings.timestep + 1e-9) + 1)
-        t = np.append(grid * settings.timestep, solution.t_final)
+        dt = settings.timestep
+        n = min(n_steps_for(scene, dt), int(solution.t_final / dt * (1.0 + 1e-12)))
+        t = np.append(np.arange(n + 1) * dt, solution.t_final)
         trajectory = solution.sample(np.unique(np.minimum(t, solution.t_final)))
         wall = time.perf_counter() - start
+        events = solution.events
+        failed = None
+        if events.outcome in _NO_RESULT or str(events.outcome) == "error":
+            failed = f"exact solver: {events.outcome}: {events.message}".rstrip(": ")
         return Simulation(
             trajectory=trajectory,
             n_steps=len(trajectory) - 1,
             wall_time_s=wall,
-            exact_events=solution.events,
+            exact_events=events,
+            failed=failed,
         )

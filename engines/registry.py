@@ -1,27 +1,66 @@
-"""Engines by name."""
+"""Engines by name: each engine module registers its class with :func:`register`.
+
+The engine modules of this package (``*_engine.py``) are found and imported on first use.
+Importing one is cheap: an engine's own library is imported only when a run uses it. Tests
+may register engines of their own (a test-only engine that crashes, hangs or returns NaN).
+"""
 
 from __future__ import annotations
 
+import pkgutil
 from importlib import import_module
+from types import MappingProxyType
+from typing import TypeVar
 
 from hoopbench.engines.base import Engine
 
-__all__ = ["ENGINE_NAMES", "get_engine"]
+__all__ = ["engine_class", "engine_classes", "engine_names", "get_engine", "register"]
 
-_ADAPTERS = {
-    "reference": ("hoopbench.engines.reference_engine", "ReferenceEngine"),
-    "mujoco": ("hoopbench.engines.mujoco_engine", "MujocoEngine"),
-    "pybullet": ("hoopbench.engines.pybullet_engine", "PybulletEngine"),
-    "pymunk": ("hoopbench.engines.pymunk_engine", "PymunkEngine"),
-}
+_ENGINES: dict[str, type[Engine]] = {}
+_discovered = False
 
-ENGINE_NAMES: tuple[str, ...] = tuple(_ADAPTERS)
+E = TypeVar("E", bound=type[Engine])
+
+
+def register(cls: E) -> E:
+    """Class decorator: make the engine known by its ``name``."""
+    name = cls.name
+    if name in _ENGINES and _ENGINES[name] is not cls:
+        raise ValueError(f"engine name {name!r} is registered twice")
+    _ENGINES[name] = cls
+    return cls
+
+
+def _discover() -> None:
+    global _discovered
+    if _discovered:
+        return
+    _discovered = True
+    package = import_module("hoopbench.engines")
+    for module in pkgutil.iter_modules(package.__path__):
+        if module.name.endswith("_engine"):
+            import_module(f"hoopbench.engines.{module.name}")
+
+
+def engine_classes() -> MappingProxyType[str, type[Engine]]:
+    """Every registered engine, the reference first, then by name."""
+    _discover()
+    order = sorted(_ENGINES, key=lambda name: (name != "reference", name))
+    return MappingProxyType({name: _ENGINES[name] for name in order})
+
+
+def engine_names() -> tuple[str, ...]:
+    return tuple(engine_classes())
+
+
+def engine_class(name: str) -> type[Engine]:
+    """The engine class by name; ValueError naming the known engines for an unknown one."""
+    classes = engine_classes()
+    if name not in classes:
+        raise ValueError(f"unknown engine {name!r}; known: {', '.join(classes)}")
+    return classes[name]
 
 
 def get_engine(name: str, **kwargs) -> Engine:
-    """An adapter instance by name; ValueError naming the known engines for an unknown one."""
-    try:
-        module_name, class_name = _ADAPTERS[name]
-    except KeyError:
-        raise ValueError(f"unknown engine {name!r}; known: {', '.join(ENGINE_NAMES)}") from None
-    return getattr(import_module(module_name), class_name)(**kwargs)
+    """An engine instance by name (kwargs: detectors, limits)."""
+    return engine_class(name)(**kwargs)

@@ -6,6 +6,8 @@ quantities the detectors read: hoop-centre clearance, slip velocity and energy.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -15,7 +17,9 @@ __all__ = [
     "centre_position",
     "centre_velocity",
     "clearance",
+    "com_state",
     "energy_per_mass",
+    "reach",
     "slip_velocity",
 ]
 
@@ -40,6 +44,31 @@ def centre_velocity(
     )
 
 
+def com_state(
+    scene: Scene,
+    x: ArrayLike,
+    y: ArrayLike,
+    theta: ArrayLike,
+    xdot: ArrayLike,
+    ydot: ArrayLike,
+    thetadot: ArrayLike,
+) -> dict[str, NDArray]:
+    """Centre-of-mass state from the hoop centre's: keys X, Y (m), theta (rad), Xdot, Ydot
+    (m/s), thetadot (rad/s), the names Trajectory.from_state takes. Engines whose joints
+    carry the hoop centre (MuJoCo, PyBullet) convert with this."""
+    r = scene.com_offset
+    theta, thetadot = np.asarray(theta, dtype=float), np.asarray(thetadot, dtype=float)
+    s, c = np.sin(theta), np.cos(theta)
+    return {
+        "X": np.asarray(x) + r * s,
+        "Y": np.asarray(y) + r * c,
+        "theta": theta,
+        "Xdot": np.asarray(xdot) + r * c * thetadot,
+        "Ydot": np.asarray(ydot) - r * s * thetadot,
+        "thetadot": thetadot,
+    }
+
+
 def clearance(scene: Scene, Y: ArrayLike, theta: ArrayLike) -> NDArray:
     """Height of the hoop centre above its resting height, y - a, m (> 0 in flight)."""
     return np.asarray(Y) - scene.com_offset * np.cos(theta) - scene.a
@@ -61,3 +90,17 @@ def energy_per_mass(
         + 0.5 * (Xdot**2 + Ydot**2)
         + 0.5 * scene.k * scene.a**2 * thetadot**2
     )
+
+
+def reach(scene: Scene) -> float:
+    """Bound on how far the hoop centre can travel in t_end from energy alone, m.
+
+    Centre speed <= |COM speed| + lam*a*|thetadot|, each bounded by the kinetic energy. The
+    engines' finite floors are sized with it, so a hoop cannot roll off one before the
+    divergence check (energy rise over 50 %) stops the run.
+    """
+    e = max(scene.energy_per_mass, 0.0)
+    v_com = math.sqrt(2.0 * e)
+    spin = math.sqrt(2.0 * e / scene.k)  # a*|thetadot| bound
+    # Factor 2: an engine may gain some energy before the divergence check stops it.
+    return 2.0 * scene.t_end * (v_com + scene.lam * spin)

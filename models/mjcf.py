@@ -25,13 +25,13 @@ import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 from typing import Any
 
+from hoopbench.models.checks import check_real
 from hoopbench.models.scene import Scene
 
 __all__ = [
     "CONES",
     "INTEGRATORS",
     "MJCF_GEOMETRIES",
-    "check_mujoco_options",
     "check_restitution",
     "scene_to_mjcf",
 ]
@@ -52,19 +52,6 @@ INERTIA_PAD = 1e-6
 I/2 each; without it, rounding can fail MuJoCo's A + B >= C check. They do not enter the
 planar dynamics."""
 
-_OPTION_KEYS = (
-    "solref",
-    "solreffriction",
-    "solimp",
-    "cone",
-    "impratio",
-    "noslip_iterations",
-    "integrator",
-    "tolerance",
-    "iterations",
-    "ring_segments",
-)
-
 
 def _num(value: float) -> str:
     """Shortest decimal text that reads back as the same double."""
@@ -78,105 +65,9 @@ def _vec(*values: float) -> str:
     return " ".join(_num(v) for v in values)
 
 
-def _finite(name: str, value: Any) -> float:
-    try:
-        out = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a real number, got {value!r}") from None
-    if not math.isfinite(out):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return out
-
-
-def _int_at_least(name: str, value: Any, low: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | float) or value != int(value):
-        raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
-    if int(value) < low:
-        raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
-    return int(value)
-
-
-def _choice(name: str, value: Any, allowed: tuple[str, ...]) -> str:
-    by_lower = {a.lower(): a for a in allowed}
-    if not isinstance(value, str) or value.lower() not in by_lower:
-        raise ValueError(f"{name} must be one of {', '.join(allowed)}, got {value!r}")
-    return by_lower[value.lower()]
-
-
-def check_mujoco_options(options: Mapping[str, Any]) -> dict[str, Any]:
-    """The MuJoCo options, validated and converted; ValueError naming a bad or missing one.
-
-    solref: (timeconst s, dampratio), both > 0, or (-stiffness, -damping), both < 0 (MuJoCo's
-    direct form); solreffriction: the same for the friction rows of elliptic cones, or (0, 0)
-    for "same as solref"; solimp: (dmin, dmax, width m, midpoint, power) with
-    0 < dmin <= dmax < 1, width > 0, 0 < midpoint < 1, power >= 1; cone: pyramidal |
-    elliptic; impratio > 0; integrator: Euler | RK4 | implicit | implicitfast | discrete
-    (case-insensitive); tolerance >= 0; iterations (>= 1), ring_segments (>= 3) and
-    noslip_iterations (>= 0) integers.
-    """
-    missing = [k for k in _OPTION_KEYS if k not in options]
-    if missing:
-        raise ValueError(f"mujoco options lack {', '.join(missing)}")
-    unknown = sorted(set(options) - set(_OPTION_KEYS))
-    if unknown:
-        raise ValueError(f"unknown mujoco option(s) {', '.join(unknown)}")
-    out: dict[str, Any] = {}
-
-    solref = options["solref"]
-    if not isinstance(solref, tuple | list) or len(solref) != 2:
-        raise ValueError(f"solref must be a pair (timeconst, dampratio), got {solref!r}")
-    solref = tuple(_finite("solref", v) for v in solref)
-    if not (all(v > 0 for v in solref) or all(v < 0 for v in solref)):
-        raise ValueError(
-            "solref must be (timeconst, dampratio), both > 0, or (-stiffness, -damping), "
-            f"both < 0; got {solref!r}"
-        )
-    out["solref"] = solref
-
-    srf = options["solreffriction"]
-    if not isinstance(srf, tuple | list) or len(srf) != 2:
-        raise ValueError(f"solreffriction must be a pair, got {srf!r}")
-    srf = tuple(_finite("solreffriction", v) for v in srf)
-    if not (srf == (0.0, 0.0) or all(v > 0 for v in srf) or all(v < 0 for v in srf)):
-        raise ValueError(
-            "solreffriction must be (0, 0) (same as solref), (timeconst, dampratio) both > 0, "
-            f"or (-stiffness, -damping) both < 0; got {srf!r}"
-        )
-    out["solreffriction"] = srf
-
-    solimp = options["solimp"]
-    if not isinstance(solimp, tuple | list) or len(solimp) not in (3, 5):
-        raise ValueError(f"solimp must be (dmin, dmax, width[, midpoint, power]), got {solimp!r}")
-    solimp = tuple(_finite("solimp", v) for v in solimp)
-    if len(solimp) == 3:
-        solimp = (*solimp, 0.5, 2.0)
-    dmin, dmax, width, midpoint, power = solimp
-    if not (0 < dmin <= dmax < 1 and width > 0 and 0 < midpoint < 1 and power >= 1):
-        raise ValueError(
-            "solimp must satisfy 0 < dmin <= dmax < 1, width > 0, 0 < midpoint < 1, "
-            f"power >= 1; got {solimp!r}"
-        )
-    out["solimp"] = solimp
-
-    out["cone"] = _choice("cone", options["cone"], CONES)
-    out["integrator"] = _choice("integrator", options["integrator"], INTEGRATORS)
-    impratio = _finite("impratio", options["impratio"])
-    if impratio <= 0:
-        raise ValueError(f"impratio must be > 0, got {impratio}")
-    out["impratio"] = impratio
-    tolerance = _finite("tolerance", options["tolerance"])
-    if tolerance < 0:
-        raise ValueError(f"tolerance must be >= 0, got {tolerance}")
-    out["tolerance"] = tolerance
-    out["iterations"] = _int_at_least("iterations", options["iterations"], 1)
-    out["noslip_iterations"] = _int_at_least("noslip_iterations", options["noslip_iterations"], 0)
-    out["ring_segments"] = _int_at_least("ring_segments", options["ring_segments"], 3)
-    return out
-
-
 def check_restitution(restitution: float) -> None:
     """ValueError unless restitution is 0: see :func:`scene_to_mjcf` for why."""
-    value = _finite("restitution", restitution)
+    value = check_real("restitution", restitution, low=0.0, high=1.0)
     if value != 0.0:
         raise ValueError(
             f"restitution must be 0 for MuJoCo, got {restitution}: MuJoCo has no coefficient "
@@ -278,29 +169,26 @@ def scene_to_mjcf(
     """A complete MJCF document of the scene, ready for ``mujoco.MjModel.from_xml_string``.
 
     Mass, centre of mass and moment of inertia come from the scene (``<inertial>``), not from
-    the geoms. ``options`` is the full mujoco option dict (engines.settings.ENGINE_OPTIONS
-    keys). Restitution must be 0: MuJoCo has no restitution coefficient, and its contact with
-    dampratio 1 (the default) does not bounce. A bounce can be studied through solref's
-    dampratio, but no honest mapping from a coefficient exists: measured on a drop at
-    timestep 1e-4, the linear spring-damper law e = exp(-pi z / sqrt(1 - z^2)) held within
-    0.01 at solref timeconst 0.02 s, and was off by up to 0.17 (and unreliable above e = 0.7)
-    at 0.0005 s. The body starts at the reference pose (hoop centre at (0, 0, a), hinge
-    angle 0): the initial state is the adapter's job (qpos, qvel).
+    the geoms. ``options`` is the full mujoco option dict, as checked and normalised by the
+    MuJoCo engine's option declarations (hoopbench.engines.mujoco_engine). Restitution must be
+    0: MuJoCo has no restitution coefficient, and its contact with dampratio 1 (the default)
+    does not bounce. A bounce can be studied through solref's dampratio, but no honest mapping
+    from a coefficient exists: measured on a drop at timestep 1e-4, the linear spring-damper law
+    e = exp(-pi z / sqrt(1 - z^2)) held within 0.01 at solref timeconst 0.02 s, and was off by
+    up to 0.17 (and unreliable above e = 0.7) at 0.0005 s. The body starts at the reference pose
+    (hoop centre at (0, 0, a), hinge angle 0): the initial state is the adapter's job (qpos,
+    qvel).
 
-    Raises ValueError for a bad mu, timestep, geometry or option, for restitution != 0, and
+    Raises ValueError for a bad mu, timestep or geometry, for restitution != 0, and
     DegenerateSceneError (a ValueError) when the scene has no moment of inertia.
     """
     scene.require_inertia("a MuJoCo model")
-    mu = _finite("mu", mu)
-    if mu < 0:
-        raise ValueError(f"mu must be >= 0, got {mu}")
-    timestep = _finite("timestep", timestep)
-    if timestep <= 0:
-        raise ValueError(f"timestep must be > 0 s, got {timestep}")
+    mu = check_real("mu", mu, low=0.0)
+    timestep = check_real("timestep", timestep, low=0.0, low_open=True, unit="s")
     if geometry not in MJCF_GEOMETRIES:
         raise ValueError(f"geometry must be one of {', '.join(MJCF_GEOMETRIES)}, got {geometry!r}")
     check_restitution(restitution)
-    opts = check_mujoco_options(options)
+    opts = options
 
     a, M, r, inertia = scene.a, scene.M, scene.com_offset, scene.inertia_com
     root = ET.Element("mujoco", model=f"hoopbench {scene.name}".strip())

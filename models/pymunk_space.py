@@ -20,14 +20,13 @@ from __future__ import annotations
 
 import json
 import math
-import numbers
 from dataclasses import asdict, dataclass
 from typing import Any
 
 from hoopbench.models import kinematics
 from hoopbench.models.scene import Scene
 
-__all__ = ["PymunkSpec", "build_space", "check_space_options", "scene_to_pymunk"]
+__all__ = ["PymunkSpec", "build_space", "scene_to_pymunk"]
 
 _FLOOR_MARGIN = 10.0
 """Floor beyond the farthest reachable hoop centre, in hoop radii."""
@@ -99,18 +98,6 @@ def _check_coefficient(name: str, value: float) -> float:
     return value
 
 
-def _reach(scene: Scene) -> float:
-    """Bound on how far the hoop centre can travel in t_end from energy alone, m.
-
-    Centre speed <= |COM speed| + lam*a*|thetadot|, each bounded by the kinetic energy.
-    """
-    e = max(scene.energy_per_mass, 0.0)
-    v_com = math.sqrt(2.0 * e)
-    spin = math.sqrt(2.0 * e / scene.k)  # a*|thetadot| bound
-    # Factor 2: an engine may gain some energy before the divergence check stops it.
-    return 2.0 * scene.t_end * (v_com + scene.lam * spin)
-
-
 def scene_to_pymunk(scene: Scene, *, mu: float, restitution: float = 0.0) -> PymunkSpec:
     """The pymunk model of ``scene`` with pair friction ``mu`` and elasticity ``restitution``.
 
@@ -125,7 +112,7 @@ def scene_to_pymunk(scene: Scene, *, mu: float, restitution: float = 0.0) -> Pym
     a = scene.a
     X, Y, theta, Xdot, Ydot, thetadot = scene.initial_state()
     x, y = kinematics.centre_position(scene, X, Y, theta)
-    half = _FLOOR_MARGIN * a + _reach(scene)
+    half = _FLOOR_MARGIN * a + kinematics.reach(scene)
     # A thick floor cannot be tunnelled through; its top surface is exactly y = 0.
     floor_radius = a
     return PymunkSpec(
@@ -148,35 +135,6 @@ def scene_to_pymunk(scene: Scene, *, mu: float, restitution: float = 0.0) -> Pym
     )
 
 
-def check_space_options(
-    *, iterations: int, collision_slop: float, collision_bias: float | None
-) -> None:
-    """Raise ValueError naming the option if pymunk cannot use its value.
-
-    iterations: positive integer; collision_slop: finite, >= 0 (m); collision_bias: None
-    (pymunk's default) or the fraction of overlap left after one second, in [0, 1).
-    """
-    if (
-        isinstance(iterations, bool)
-        or not isinstance(iterations, numbers.Real)
-        or not float(iterations).is_integer()
-        or iterations < 1
-    ):
-        raise ValueError(f"iterations must be a positive integer, got {iterations!r}")
-    if (
-        isinstance(collision_slop, bool)
-        or not isinstance(collision_slop, numbers.Real)
-        or not (math.isfinite(collision_slop) and collision_slop >= 0)
-    ):
-        raise ValueError(f"collision_slop must be a finite number >= 0 m, got {collision_slop!r}")
-    if collision_bias is not None and (
-        isinstance(collision_bias, bool)
-        or not isinstance(collision_bias, numbers.Real)
-        or not 0.0 <= collision_bias < 1.0
-    ):
-        raise ValueError(f"collision_bias must be None or in [0, 1), got {collision_bias!r}")
-
-
 def build_space(
     spec: PymunkSpec,
     *,
@@ -187,11 +145,8 @@ def build_space(
     """A pymunk Space holding the spec's hoop and floor: (space, body, hoop_shape).
 
     ``collision_bias`` None keeps pymunk's default. No damping (Space.damping = 1).
-    Raises ValueError for option values pymunk cannot use (see :func:`check_space_options`).
+    The option values are the pymunk engine's, already checked (hoopbench.engines.pymunk_engine).
     """
-    check_space_options(
-        iterations=iterations, collision_slop=collision_slop, collision_bias=collision_bias
-    )
     import pymunk
 
     space = pymunk.Space()

@@ -57,7 +57,7 @@ CYLINDER_LENGTH_FRACTION = 0.1
 """Length of the cylinder collision shape along y, as a fraction of a."""
 
 FLOOR_HALF_SIZE = 1000.0
-"""Half the side of the floor box, m: far beyond any distance a hoop covers in a window."""
+"""Smallest half side of the floor box, m; larger when the scene can reach farther."""
 
 _FLOOR_THICKNESS = 1.0
 """m; the box's top face is the plane z = 0."""
@@ -190,8 +190,10 @@ def _joint(name: str, kind: str, parent: str, child: str, axis: str) -> str:
     )
 
 
-def floor_urdf(*, lateral_friction: float = 1.0, restitution: float = 1.0) -> str:
-    """URDF of a static floor whose top face is the plane z = 0.
+def floor_urdf(
+    *, lateral_friction: float = 1.0, restitution: float = 1.0, half_size: float = FLOOR_HALF_SIZE
+) -> str:
+    """URDF of a static floor whose top face is the plane z = 0, ``half_size`` m each way.
 
     PyBullet multiplies the two bodies' friction (and restitution) coefficients, so the floor's
     defaults are 1: the pair then gets exactly the hoop's values.
@@ -200,7 +202,7 @@ def floor_urdf(*, lateral_friction: float = 1.0, restitution: float = 1.0) -> st
     r = float(restitution)
     if not (math.isfinite(r) and 0.0 <= r <= 1.0):
         raise ValueError(f"restitution must be in [0, 1], got {restitution!r}")
-    side = 2 * FLOOR_HALF_SIZE
+    side = 2 * half_size
     box = f'<box size="{_num(side)} {_num(side)} {_num(_FLOOR_THICKNESS)}"/>'
     origin = f'<origin xyz="0 0 {_num(-_FLOOR_THICKNESS / 2)}" rpy="0 0 0"/>'
     return (

@@ -12,11 +12,14 @@ import math
 import os
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any, NoReturn
 
-from hoopbench.engines.settings import ENGINE_OPTIONS, RunSettings, parse_option_value
+from hoopbench.engines.registry import engine_class, engine_classes, get_engine
+from hoopbench.engines.settings import DEFAULT_TIMESTEP, MAX_STEPS, RunSettings, parse_option_value
 from hoopbench.models.catalogue import get_scene, scene_names
 from hoopbench.models.scene import DegenerateSceneError, Scene
+from hoopbench.reference.exact import DEFAULT_ATOL, DEFAULT_RTOL
 
 __all__ = ["main"]
 
@@ -68,6 +71,12 @@ def _add_scene_options(parser: argparse.ArgumentParser) -> None:
 
 
 def _scene_from_args(args: argparse.Namespace) -> Scene:
+    """The scene: a catalogue scene with explicit parameters over it, or parameters alone.
+
+    The spin is set last, from the final a and g: --chi goes through Scene.from_chi, and a
+    catalogue scene whose a or g is changed keeps its chi (a dimensionless scene), unless
+    --thetadot0 gives the spin in rad/s.
+    """
     changes: dict[str, Any] = {
         field: getattr(args, option)
         for option, (field, _) in _SCENE_FIELDS.items()
@@ -76,12 +85,16 @@ def _scene_from_args(args: argparse.Namespace) -> Scene:
     if args.theta0_deg is not None:
         changes["theta0"] = math.radians(args.theta0_deg)
     if args.scene is not None:
-        scene = get_scene(args.scene)
-        if args.chi is not None:
-            changes["thetadot0"] = math.sqrt(args.chi * changes.get("g", scene.g) / scene.a)
-        elif args.thetadot0 is not None:
-            changes["thetadot0"] = args.thetadot0
-        return scene.with_(**changes) if changes else scene
+        base = get_scene(args.scene)
+        fields = {**base.to_dict(), "why": base.why, **changes}
+        fields.pop("chi")
+        thetadot0 = fields.pop("thetadot0")
+        if args.thetadot0 is not None:
+            return Scene(thetadot0=args.thetadot0, **fields)
+        if args.chi is None and not {"a", "g"} & set(changes):
+            return Scene(thetadot0=thetadot0, **fields)  # the catalogue's spin, unrounded
+        chi = base.chi if args.chi is None else args.chi
+        return Scene.from_chi(chi, **fields)
     missing = [name for name in ("lam", "mus") if name not in changes]
     if args.chi is None and args.thetadot0 is None:
         missing.append("chi or thetadot0")
@@ -93,6 +106,46 @@ def _scene_from_args(args: argparse.Namespace) -> Scene:
     if args.chi is not None:
         return Scene.from_chi(args.chi, **changes)
     return Scene(thetadot0=args.thetadot0, **changes)
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
+    return value
+
+
+def _workers(text: str) -> int:
+    """1 up to the machine's cores: more processes than cores only slow a sweep down."""
+    value = _positive_int(text)
+    cores = os.cpu_count() or 1
+    if value > cores:
+        raise argparse.ArgumentTypeError(
+            f"must be at most {cores} (this machine's cores), got {value}"
+        )
+    return value
+
+
+def _output_file(path: str, suffixes: Sequence[str], force: bool) -> Path:
+    """A file to write: known suffix, existing folder, and no file there unless --force.
+
+    Checked before a run, so that a finished run is never lost to a bad path.
+    """
+    out = Path(path)
+    if out.suffix not in suffixes:
+        raise UsageError(f"output file must end in {' or '.join(suffixes)}, got {path!r}")
+    if not out.parent.is_dir():
+        raise UsageError(f"folder {str(out.parent)!r} of output file {path!r} does not exist")
+    if not os.access(out.parent, os.W_OK):
+        raise UsageError(f"folder {str(out.parent)!r} of output file {path!r} is not writable")
+    if out.exists() and not force:
+        raise UsageError(f"output file {path!r} exists; pass --force to overwrite it")
+    if out.is_dir():
+        raise UsageError(f"output file {path!r} is a folder")
+    return out
 
 
 # --------------------------------------------------------------------------- output
@@ -183,23 +236,24 @@ def _cmd_scenes(args: argparse.Namespace) -> int:
 
 def _cmd_reference(args: argparse.Namespace) -> int:
     scene = _scene_from_args(args)
+    csv = _output_file(args.csv, _TRAJECTORY_SUFFIXES, args.force) if args.csv else None
     if args.method == "exact":
         from hoopbench.reference.exact import solve_exact
 
         solution = solve_exact(scene, rtol=args.rtol, atol=args.atol)
         events, trajectory = solution.events, None
-        if args.csv:
+        if csv:
             trajectory = solution.sample_uniform(args.dt or 1e-3)
     else:
         from hoopbench.reference.seed_euler import solve_seed_euler
 
         result = solve_seed_euler(scene, dt=args.dt or 0.002, delta=args.delta)
         events = result.events
-        trajectory = result.trajectory() if args.csv else None
+        trajectory = result.trajectory() if csv else None
     payload = {"method": args.method, **events.to_dict(), "scene": scene.to_dict()}
     if trajectory is not None:
-        trajectory.write(args.csv)
-        payload["trajectory_file"] = str(args.csv)
+        trajectory.write(csv)
+        payload["trajectory_file"] = str(csv)
     _emit(args, payload)
     return 0
 
@@ -208,30 +262,32 @@ def _settings_from_args(args: argparse.Namespace, engine: str) -> RunSettings:
     options: dict[str, Any] = {}
     for item in args.set or []:
         key, sep, value = item.partition("=")
-        if not sep or not key:
+        if not sep or not key.strip():
             raise UsageError(f"--set takes KEY=VALUE, got {item!r}")
+        if key.strip() in options:
+            raise UsageError(f"--set {key.strip()} is given twice")
         options[key.strip()] = parse_option_value(value)
     settings = RunSettings(
-        timestep=args.dt if args.dt is not None else 1e-4,
+        timestep=args.dt if args.dt is not None else DEFAULT_TIMESTEP,
         mu=args.mu,
         restitution=args.restitution,
         geometry=args.geometry,
         options=options,
+        max_steps=args.max_steps,
     )
-    settings.resolve(engine)  # unknown names fail here, before any engine is imported
+    engine_class(engine).resolve(settings)  # bad names fail before any engine is imported
     return settings
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
-    from hoopbench.engines.registry import get_engine
-
     scene = _scene_from_args(args)
     settings = _settings_from_args(args, args.engine)
+    csv = _output_file(args.csv, _TRAJECTORY_SUFFIXES, args.force) if args.csv else None
     result = get_engine(args.engine).run(scene, settings)
     payload = {**result.to_dict(), "scene": scene.to_dict()}
-    if args.csv and result.trajectory is not None:
-        result.trajectory.write(args.csv)
-        payload["trajectory_file"] = str(args.csv)
+    if csv and result.trajectory is not None:
+        result.trajectory.write(csv)
+        payload["trajectory_file"] = str(csv)
     _emit(args, payload)
     return 0 if result.info.status.value in ("ok", "diverged") else 1
 
@@ -239,28 +295,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 def _cmd_model(args: argparse.Namespace) -> int:
     scene = _scene_from_args(args)
     settings = _settings_from_args(args, args.engine)
-    options = settings.resolve(args.engine)
-    mu = scene.mus if settings.mu is None else settings.mu
-    if args.engine == "mujoco":
-        from hoopbench.models.mjcf import scene_to_mjcf
-
-        text = scene_to_mjcf(
-            scene,
-            mu=mu,
-            timestep=settings.timestep,
-            restitution=settings.restitution,
-            geometry=settings.geometry,
-            options=options,
-        )
-    elif args.engine == "pybullet":
-        from hoopbench.models.urdf import scene_to_urdf
-
-        text = scene_to_urdf(scene, geometry=settings.geometry, mu=mu)
-    else:
-        from hoopbench.models.pymunk_space import scene_to_pymunk
-
-        spec = scene_to_pymunk(scene, mu=mu, restitution=settings.restitution)
-        text = json.dumps(spec.to_dict(), indent=2)
+    # The same checks as a run: a model file is never written for settings a run refuses.
+    text = get_engine(args.engine).model_text(scene, settings)
     sys.stdout.write(text if text.endswith("\n") else text + "\n")
     return 0
 
@@ -269,15 +305,12 @@ def _cmd_settings(args: argparse.Namespace) -> int:
     from dataclasses import asdict
 
     from hoopbench.engines.detectors import DetectorSettings
-    from hoopbench.engines.settings import GEOMETRIES
 
-    engines = [args.engine] if args.engine else list(ENGINE_OPTIONS)
+    classes = engine_classes()
+    names = [args.engine] if args.engine else list(classes)
     payload = {
         "common": RunSettings().to_dict(),
-        "engines": {
-            name: {"geometries": list(GEOMETRIES[name]), "options": dict(ENGINE_OPTIONS[name])}
-            for name in engines
-        },
+        "engines": {name: _engine_declaration(classes[name]) for name in names},
         "detectors": asdict(DetectorSettings()),
     }
     if args.json:
@@ -288,14 +321,38 @@ def _cmd_settings(args: argparse.Namespace) -> int:
         print(f"{name} (geometries: {', '.join(spec['geometries'])})")
         for key, value in spec["options"].items():
             print(f"  {key} = {value}")
+            print(f"      {spec['reasons'][key]}")
+        if spec["variants"]:
+            print("  suite variants: " + ", ".join(v["name"] for v in spec["variants"]))
     print("detectors: " + ", ".join(f"{k}={v}" for k, v in payload["detectors"].items()))
     return 0
+
+
+def _engine_declaration(cls: Any) -> dict[str, Any]:
+    return {
+        "geometries": list(cls.geometries),
+        "options": cls.defaults(),
+        "reasons": {option.name: option.reason for option in cls.options},
+        "variants": [
+            {"name": v.name, "geometry": v.geometry, "options": dict(v.options)}
+            for v in cls.variants
+        ],
+        "model": cls.model_format,
+    }
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
     from hoopbench.reports.suite import run_report
 
-    run_report(out=args.out, quick=args.quick, workers=args.workers)
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out {args.out!r} is a file, not a folder")
+    if out.is_dir() and any(out.iterdir()) and not args.force:
+        raise UsageError(
+            f"--out folder {args.out!r} is not empty; choose a new folder or pass --force "
+            "to replace the report in it"
+        )
+    run_report(out=out, quick=args.quick, workers=args.workers)
     return 0
 
 
@@ -303,18 +360,46 @@ def _cmd_figure(args: argparse.Namespace) -> int:
     from hoopbench.reports.figures import hoop_figure
 
     scene = _scene_from_args(args)
-    path = hoop_figure(scene, args.out, method=args.method)
+    out = _output_file(args.out, (".png", ".pdf", ".svg"), args.force)
+    path = hoop_figure(scene, out, method=args.method)
     print(path)
     return 0
 
 
 # --------------------------------------------------------------------------- parser
+_TRAJECTORY_SUFFIXES = (".csv", ".parquet")
+
+
+def _engine_options(p: argparse.ArgumentParser, engines: Sequence[str]) -> None:
+    geometries = sorted({g for cls in engine_classes().values() for g in cls.geometries})
+    p.add_argument("--engine", required=True, choices=engines)
+    p.add_argument("--dt", type=float, help=f"engine timestep, s (default {DEFAULT_TIMESTEP:g})")
+    p.add_argument("--mu", type=float, help="pair friction coefficient (default: mus)")
+    p.add_argument("--restitution", type=float, default=0.0)
+    p.add_argument(
+        "--geometry", default="sphere", help=f"contact geometry: {', '.join(geometries)}"
+    )
+    p.add_argument(
+        "--set",
+        action="append",
+        metavar="KEY=VALUE",
+        help="engine-specific setting, real engine name (repeatable; see hoopbench settings)",
+    )
+    p.add_argument(
+        "--max-steps",
+        type=_positive_int,
+        default=MAX_STEPS,
+        help=f"refuse a run needing more steps (default {MAX_STEPS:.0e})",
+    )
+
+
 def _parser() -> _Parser:
     parser = _Parser(
         prog="hoopbench",
         description="Cross-validate physics engines on the hopping hoop.",
     )
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    classes = engine_classes()
 
     p = sub.add_parser("scenes", help="list the scene catalogue")
     p.add_argument("--json", action="store_true")
@@ -325,52 +410,45 @@ def _parser() -> _Parser:
     p.add_argument("--method", choices=("exact", "seed-euler"), default="exact")
     p.add_argument("--dt", type=float, help="seed-euler step (default 0.002 s); CSV sampling")
     p.add_argument("--delta", type=float, default=1e-4, help="seed-euler contact tolerance, m")
-    p.add_argument("--rtol", type=float, default=1e-10, help="exact: integrator rtol")
-    p.add_argument("--atol", type=float, default=1e-12, help="exact: integrator atol")
+    p.add_argument("--rtol", type=float, default=DEFAULT_RTOL, help="exact: integrator rtol")
+    p.add_argument("--atol", type=float, default=DEFAULT_ATOL, help="exact: integrator atol")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--csv", help="write the trajectory (.csv or .parquet)")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --csv file")
     p.set_defaults(func=_cmd_reference)
-
-    def engine_options(p: argparse.ArgumentParser, engines: Sequence[str]) -> None:
-        p.add_argument("--engine", required=True, choices=engines)
-        p.add_argument("--dt", type=float, help="engine timestep, s (default 1e-4)")
-        p.add_argument("--mu", type=float, help="pair friction coefficient (default: mus)")
-        p.add_argument("--restitution", type=float, default=0.0)
-        p.add_argument("--geometry", default="sphere", help="sphere, cylinder, hull, ring")
-        p.add_argument(
-            "--set",
-            action="append",
-            metavar="KEY=VALUE",
-            help="engine-specific setting, real engine name (repeatable)",
-        )
 
     p = sub.add_parser("simulate", help="run a scene in an engine and detect its events")
     _add_scene_options(p)
-    engine_options(p, tuple(ENGINE_OPTIONS))
+    _engine_options(p, tuple(classes))
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--csv", help="write the trajectory (.csv or .parquet)")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --csv file")
     p.set_defaults(func=_cmd_simulate)
 
     p = sub.add_parser("model", help="print the engine's native model of a scene")
     _add_scene_options(p)
-    engine_options(p, ("mujoco", "pybullet", "pymunk"))
+    _engine_options(p, tuple(name for name, cls in classes.items() if cls.model_format))
     p.set_defaults(func=_cmd_model)
 
     p = sub.add_parser("settings", help="print the default contact and detector settings")
-    p.add_argument("--engine", choices=tuple(ENGINE_OPTIONS))
+    p.add_argument("--engine", choices=tuple(classes))
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_cmd_settings)
 
     p = sub.add_parser("report", help="run the comparison suite and write the report")
-    p.add_argument("--out", default="reports/output", help="output folder")
+    p.add_argument("--out", default="reports/output", help="output folder (new or empty)")
     p.add_argument("--quick", action="store_true", help="a small sweep (for a smoke test)")
-    p.add_argument("--workers", type=int, default=2, help="parallel processes")
+    p.add_argument(
+        "--workers", type=_workers, default=min(2, os.cpu_count() or 1), help="processes"
+    )
+    p.add_argument("--force", action="store_true", help="replace a report in a non-empty --out")
     p.set_defaults(func=_cmd_report)
 
     p = sub.add_parser("figure", help="draw a hoop trajectory (weight and hoop positions)")
     _add_scene_options(p)
     p.add_argument("--method", choices=("exact", "seed-euler"), default="exact")
-    p.add_argument("--out", default="hoop.png")
+    p.add_argument("--out", default="hoop.png", help="image file (.png, .pdf or .svg)")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
     p.set_defaults(func=_cmd_figure)
     return parser
 

@@ -22,8 +22,8 @@ from typing import Any
 import pandas as pd
 
 from hoopbench.engines.base import RunResult
-from hoopbench.engines.registry import get_engine
-from hoopbench.engines.settings import RunSettings
+from hoopbench.engines.registry import engine_classes, get_engine
+from hoopbench.engines.settings import DEFAULT_TIMESTEP, RunSettings
 from hoopbench.models.catalogue import get_scene, scene_names
 from hoopbench.models.events import Events
 from hoopbench.reference.exact import solve_exact
@@ -50,25 +50,6 @@ class Case:
         return RunSettings(timestep=self.timestep, geometry=self.geometry, options=self.options)
 
 
-# Contact-setting variants per engine, beyond the defaults at each timestep.
-_VARIANTS: dict[str, list[tuple[str, str, dict[str, Any]]]] = {
-    "reference": [],
-    "mujoco": [
-        ("cone=pyramidal", "sphere", {"cone": "pyramidal"}),
-        ("solref=0.02", "sphere", {"solref": (0.02, 1.0)}),
-        ("noslip_iterations=10", "sphere", {"noslip_iterations": 10}),
-        ("geometry=cylinder", "cylinder", {}),
-        ("geometry=ring", "ring", {}),
-    ],
-    "pybullet": [
-        ("numSolverIterations=10", "sphere", {"numSolverIterations": 10}),
-        ("geometry=cylinder", "cylinder", {}),
-        ("geometry=hull", "hull", {}),
-    ],
-    "pymunk": [
-        ("iterations=10", "sphere", {"iterations": 10}),
-    ],
-}
 _TIMESTEPS = (1e-3, 5e-4, 2e-4, 1e-4, 5e-5)
 """Default-setting timesteps of the full sweep: the error-against-cost curve."""
 
@@ -87,15 +68,17 @@ def suite_scenes(quick: bool = False) -> list[str]:
 
 def default_cases(quick: bool = False, engines: Sequence[str] | None = None) -> list[Case]:
     """The default sweep (quick: seed-mu and one hop scene, default settings, dt 1e-4)."""
-    engines = list(engines or _VARIANTS)
+    classes = engine_classes()
+    engines = list(engines or classes)
     cases = []
     for scene in suite_scenes(quick):
         for engine in engines:
-            for dt in (1e-4,) if quick else _TIMESTEPS:
+            for dt in (DEFAULT_TIMESTEP,) if quick else _TIMESTEPS:
                 cases.append(Case(scene, engine, "default", dt))
             if not quick:
-                for label, geometry, options in _VARIANTS[engine]:
-                    cases.append(Case(scene, engine, label, 1e-4, geometry, options))
+                for v in classes[engine].variants:
+                    options = dict(v.options)
+                    cases.append(Case(scene, engine, v.name, DEFAULT_TIMESTEP, v.geometry, options))
     return cases
 
 
@@ -269,11 +252,17 @@ def run_report(
     print(f"hoopbench report: {len(cases)} runs on {workers} worker(s) -> {out}", file=sys.stderr)
     frame = run_suite(cases, workers=workers, trajectory_dir=str(traj_dir))
     frame.attrs["hoopbench_runs_format"] = FORMAT_VERSION
-    csv_path = out / "runs.csv"
-    with csv_path.open("w", newline="") as fh:
-        fh.write(f"# hoopbench runs format {FORMAT_VERSION}; times s, angles deg, lengths m\n")
-        frame.to_csv(fh, index=False)
+    # Plain CSV (header on line 1, for any CSV reader); what it is goes in runs.json.
+    frame.to_csv(out / "runs.csv", index=False)
     frame.to_parquet(out / "runs.parquet", index=False)
+    meta = {
+        "format": "hoopbench runs",
+        "format_version": FORMAT_VERSION,
+        "units": {"times": "s", "angles": "deg", "lengths": "m", "*_ms": "ms"},
+        "columns": list(frame.columns),
+        "runs": len(frame),
+    }
+    (out / "runs.json").write_text(json.dumps(meta, indent=2) + "\n")
     report = write_markdown(frame, out, generated=datetime.now(UTC).isoformat(timespec="seconds"))
     print(f"wrote {report}", file=sys.stderr)
     return report

@@ -124,7 +124,7 @@ def test_readable_summary(capsys):
         ),
         (
             ["simulate", "--engine", "pybullet", "--scene", "seed", "--dt", "-1"],
-            "timestep must be a positive",
+            "timestep must be a number > 0 s, got -1",
         ),
     ],
 )
@@ -218,9 +218,10 @@ def test_scenes_lists_the_catalogue(capsys):
 
 
 def test_settings_lists_every_engine_default(capsys):
-    from hoopbench.engines.settings import ENGINE_OPTIONS
+    from hoopbench.engines.registry import engine_class, engine_names
 
     out = run_json(capsys, "settings")
-    assert set(out["engines"]) == set(ENGINE_OPTIONS)
-    assert out["engines"]["mujoco"]["options"]["cone"] == ENGINE_OPTIONS["mujoco"]["cone"]
+    assert set(out["engines"]) == set(engine_names())
+    defaults = json.loads(json.dumps(engine_class("mujoco").defaults()))  # tuples as lists
+    assert out["engines"]["mujoco"]["options"] == defaults
     assert out["detectors"]["slip_threshold"] == 1e-3

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from hoopbench.engines.base import DivergenceLimits, EngineUnavailableError, RunResult, RunStatus
-from hoopbench.engines.registry import ENGINE_NAMES, get_engine
+from hoopbench.engines.registry import engine_names, get_engine
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene, scene_names
 from hoopbench.models.scene import Scene
@@ -20,7 +20,7 @@ from hoopbench.reference.exact import solve_exact
 from hoopbench.reports.tolerances import tolerances
 
 TOL = tolerances()
-ENGINES = [name for name in ENGINE_NAMES if name != "reference"]
+ENGINES = [name for name in engine_names() if name != "reference"]
 HOP_SCENES = [name for name in scene_names() if name.startswith("hop")]
 SEED_MU = 0.8
 TIMESTEP = 1e-4

@@ -18,15 +18,15 @@ import mujoco  # a declared dependency: missing it is a failure, not a skip
 import numpy as np
 import pytest
 
-from hoopbench.engines.base import DivergenceLimits, RunStatus
-from hoopbench.engines.mujoco_engine import CHUNK_STEPS, MujocoEngine
-from hoopbench.engines.settings import ENGINE_OPTIONS, RunSettings
+from hoopbench.engines.base import CHUNK_STEPS, DivergenceLimits, RunStatus
+from hoopbench.engines.mujoco_engine import MujocoEngine
+from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene
 from hoopbench.models.mjcf import scene_to_mjcf
 from hoopbench.models.scene import DegenerateSceneError, Scene
 from hoopbench.reference import dynamics
 
-DEFAULTS = dict(ENGINE_OPTIONS["mujoco"])
+DEFAULTS = MujocoEngine.defaults()
 
 
 def seed(**changes) -> Scene:
@@ -39,7 +39,7 @@ def weighted_bottom() -> Scene:
 
 
 def load(scene: Scene, **settings) -> tuple:
-    xml = MujocoEngine().mjcf(scene, RunSettings(**settings))
+    xml = MujocoEngine().model_text(scene, RunSettings(**settings))
     model = mujoco.MjModel.from_xml_string(xml)
     return xml, model
 
@@ -201,7 +201,7 @@ def test_ring_has_one_pair_per_capsule_and_starts_on_a_vertex(n):
         ({"options": {"solref": (0.01, -1.0)}}, "solref must be .timeconst, dampratio."),
         ({"options": {"solreffriction": (0.0, 1.0)}}, "solreffriction must be .0, 0."),
         ({"options": {"solimp": (0.99, 0.9, 0.001)}}, "solimp must satisfy"),
-        ({"options": {"impratio": 0}}, "impratio must be > 0, got 0"),
+        ({"options": {"impratio": 0}}, "impratio must be a number > 0, got 0"),
         ({"options": {"ring_segments": 2}}, "ring_segments must be an integer >= 3, got 2"),
         ({"options": {"iterations": 2.5}}, "iterations must be an integer >= 1"),
         ({"restitution": 0.3}, "restitution must be 0 for MuJoCo, got 0.3"),
@@ -263,7 +263,7 @@ def test_recorded_forces_are_mujoco_contact_forces_per_unit_mass(geometry):
     scene = weighted_bottom()
     settings = RunSettings(geometry=geometry)
     engine = MujocoEngine()
-    model, data = engine._build(mujoco, scene, settings)
+    model, data = engine._build(mujoco, scene, settings, engine.check(scene, settings))
     for _ in range(5):
         mujoco.mj_step(model, data, nstep=400)
         mujoco.mj_forward(model, data)
@@ -272,7 +272,7 @@ def test_recorded_forces_are_mujoco_contact_forces_per_unit_mass(geometry):
             data.sensordata[1:4], summed_contact_force(model, data), rtol=1e-12, atol=1e-12
         )
     traj = engine.run(scene.with_(t_end=0.2), settings).trajectory
-    model, data = engine._build(mujoco, scene, settings)
+    model, data = engine._build(mujoco, scene, settings, engine.check(scene, settings))
     for _ in range(1000):
         mujoco.mj_step(model, data)
     mujoco.mj_forward(model, data)
@@ -288,7 +288,7 @@ def test_chunked_rollout_equals_a_plain_step_loop():
     traj = engine.run(scene).trajectory
     n = len(traj)
     assert n == 2501 > 2 * CHUNK_STEPS
-    model, data = engine._build(mujoco, scene, RunSettings())
+    model, data = engine._build(mujoco, scene, RunSettings(), engine.check(scene, RunSettings()))
     qpos, force = [data.qpos.copy()], []
     for _ in range(n):
         mujoco.mj_step(model, data)  # sensors are evaluated before the step integrates

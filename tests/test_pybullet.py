@@ -4,6 +4,7 @@ engine, the client is always closed, and the recorded forces are the ones that m
 from __future__ import annotations
 
 import math
+import re
 import subprocess
 import sys
 import tempfile
@@ -15,10 +16,10 @@ import numpy as np
 import pybullet  # a declared dependency: missing it is a failure, not a skip
 import pytest
 
-from hoopbench.engines.base import RunResult, RunStatus
+from hoopbench.engines.base import CHUNK_STEPS, RunResult, RunStatus
 from hoopbench.engines.pybullet_engine import MAX_PAIR_FRICTION, PybulletEngine
 from hoopbench.engines.reference_engine import ReferenceEngine
-from hoopbench.engines.settings import ENGINE_OPTIONS, RunSettings
+from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene
 from hoopbench.models.scene import DegenerateSceneError, Scene
 from hoopbench.models.urdf import (
@@ -62,7 +63,7 @@ def load(scene: Scene, geometry: str = "sphere", mu: float | None = None, **opti
     tmp = tempfile.TemporaryDirectory()
     try:
         hoop, floor = PybulletEngine()._build(
-            pybullet, cid, Path(tmp.name), scene, settings, settings.resolve("pybullet")
+            pybullet, cid, Path(tmp.name), scene, settings, PybulletEngine.resolve(settings)
         )
     except BaseException:
         pybullet.disconnect(physicsClientId=cid)
@@ -116,14 +117,16 @@ def test_urdf_rejects_bad_input():
         floor_urdf(restitution=2.0)
 
 
-def test_urdf_module_imports_no_engine():
+def test_urdf_module_imports_no_engine(tmp_path):
     code = (
-        "import sys, models.urdf; "
-        "bad = [m for m in sys.modules if m == 'pybullet' or m.startswith('engines')]; "
+        "import sys, hoopbench.models.urdf; "
+        "bad = [m for m in sys.modules if m.split('.')[0] == 'pybullet' "
+        "or m.startswith('hoopbench.engines')]; "
         "print(bad)"
     )
+    # Another working directory: the repository root is then not on sys.path.
     out = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, check=True
     )
     assert out.stdout.strip() == "[]"
 
@@ -145,10 +148,12 @@ def test_round_trip_mass_inertia_com(geometry):
         assert floor_info[5] == 1.0  # restitution: the product is the run's
         names = [pybullet.getJointInfo(hoop, j, physicsClientId=cid)[1].decode() for j in range(3)]
         assert names == list(JOINT_NAMES)
-        for j in range(-1, 2):  # slider links: tiny but positive mass
-            assert pybullet.getDynamicsInfo(hoop, j, physicsClientId=cid)[0] <= (
-                DUMMY_MASS_FRACTION * ODD.M
-            )
+        assert pybullet.getDynamicsInfo(hoop, -1, physicsClientId=cid)[0] == 0.0  # the world
+        dummy = DUMMY_MASS_FRACTION * ODD.M  # what the URDF gives each slider link
+        assert 0.0 < dummy <= 1e-5 * ODD.M
+        for j in (0, 1):  # slider_x, slider_z
+            mass = pybullet.getDynamicsInfo(hoop, j, physicsClientId=cid)[0]
+            assert mass == pytest.approx(dummy, rel=1e-12)
     finally:
         pybullet.disconnect(physicsClientId=cid)
 
@@ -222,7 +227,7 @@ def test_options_reach_the_engine(monkeypatch):
         contactDamping=2e3,
         frictionAnchor=1,
     )
-    assert set(options) == set(ENGINE_OPTIONS["pybullet"])
+    assert set(options) == set(PybulletEngine.defaults())
     settings = RunSettings(timestep=5e-4, mu=0.6, restitution=0.25, options=options)
     cid, hoop, _ = load(ODD, mu=0.6, **options)
     try:
@@ -249,7 +254,7 @@ def test_options_reach_the_engine(monkeypatch):
 def test_contact_slop_sets_the_resting_depth():
     """contactSlop has a visible effect: a rolling hoop rests that deep in the floor."""
     scene = seed_mu(t_end=0.2)
-    for slop in (1e-5, ENGINE_OPTIONS["pybullet"]["contactSlop"]):
+    for slop in (1e-5, PybulletEngine.defaults()["contactSlop"]):
         result = PybulletEngine().run(scene, RunSettings(options={"contactSlop": slop}))
         depth = -np.median(result.trajectory.clearance[result.trajectory.t > 0.05])
         assert depth == pytest.approx(slop, rel=0.05)
@@ -260,19 +265,22 @@ def test_contact_slop_sets_the_resting_depth():
     [
         ({"numSolverIterations": 0}, "numSolverIterations must be an integer >= 1"),
         ({"numSolverIterations": 2.5}, "numSolverIterations must be an integer >= 1"),
-        ({"contactERP": 1.5}, "contactERP must be in"),
+        ({"contactERP": 1.5}, "contactERP must be a number in [0, 1], got 1.5"),
         ({"frictionERP": "x"}, "frictionERP must be a number"),
         ({"enableConeFriction": 2}, "enableConeFriction must be 0 or 1"),
         ({"frictionAnchor": 0.5}, "frictionAnchor must be 0 or 1"),
-        ({"contactSlop": -1e-6}, "contactSlop must be a finite number >= 0"),
+        ({"contactSlop": -1e-6}, "contactSlop must be a number >= 0 m, got -1e-06"),
         ({"contactStiffness": 1e6}, "contactStiffness and contactDamping must be given together"),
-        ({"contactStiffness": -1.0, "contactDamping": 1.0}, "contactStiffness must be a positive"),
+        (
+            {"contactStiffness": -1.0, "contactDamping": 1.0},
+            "contactStiffness must be a number > 0, got -1.0",
+        ),
     ],
 )
 def test_bad_option_raises(options, message):
-    with pytest.raises(ValueError, match=message):
+    with pytest.raises(ValueError, match=re.escape(message)):
         PybulletEngine().run(seed_mu(), RunSettings(options=options))
-    with pytest.raises(ValueError, match=message):
+    with pytest.raises(ValueError, match=re.escape(message)):
         PybulletEngine().bare_loop_time(seed_mu(), RunSettings(options=options))
 
 
@@ -329,8 +337,8 @@ def test_divergence_stops_and_keeps_the_partial_trajectory(monkeypatch):
     result = PybulletEngine().run(seed_mu(t_end=1.0))
     assert result.info.status is RunStatus.DIVERGED
     assert result.info.message == "made up for the test"
-    assert result.info.n_steps == adapter._CHUNK
-    assert len(result.trajectory) == adapter._CHUNK + 1
+    assert result.info.n_steps == CHUNK_STEPS
+    assert len(result.trajectory) == CHUNK_STEPS + 1
     assert not _connected(ids[0])
 
 

@@ -12,7 +12,7 @@ import pytest
 
 from hoopbench.engines.base import DivergenceLimits, RunStatus
 from hoopbench.engines.pymunk_engine import PymunkEngine
-from hoopbench.engines.settings import ENGINE_OPTIONS, GEOMETRIES, RunSettings
+from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene
 from hoopbench.models.pymunk_space import build_space, scene_to_pymunk
 from hoopbench.models.scene import DegenerateSceneError, Scene
@@ -141,7 +141,7 @@ def test_hoop_at_rest_feels_g():
     assert np.max(np.abs(traj.friction_force[settled])) < 1e-9
     assert np.max(np.abs(traj.X)) < 1e-9
     assert np.max(np.abs(traj.theta - math.pi)) < 1e-9
-    assert np.max(np.abs(traj.clearance)) < 2 * ENGINE_OPTIONS["pymunk"]["collision_slop"]
+    assert np.max(np.abs(traj.clearance)) < 2 * PymunkEngine.defaults()["collision_slop"]
 
 
 def test_forces_match_arbiter_impulses():
@@ -206,7 +206,7 @@ def test_options_reach_the_space():
     assert space.collision_bias == 0.25
 
     space, _body, _hoop = engine.build(seed_mu(), RunSettings())
-    defaults = ENGINE_OPTIONS["pymunk"]
+    defaults = PymunkEngine.defaults()
     assert space.iterations == defaults["iterations"]
     assert space.collision_slop == defaults["collision_slop"]
     assert space.collision_bias == defaults["collision_bias"]
@@ -236,9 +236,9 @@ def test_run_reports_mu_and_settings():
 @pytest.mark.parametrize(
     ("options", "message"),
     [
-        ({"iterations": 0}, "iterations must be a positive integer"),
-        ({"iterations": 2.5}, "iterations must be a positive integer"),
-        ({"iterations": "10"}, "iterations must be a positive integer"),
+        ({"iterations": 0}, "iterations must be an integer >= 1, got 0"),
+        ({"iterations": 2.5}, "iterations must be an integer >= 1, got 2.5"),
+        ({"iterations": "10"}, "iterations must be an integer >= 1, got '10'"),
         ({"collision_slop": -1e-5}, "collision_slop must be"),
         ({"collision_slop": math.inf}, "collision_slop must be"),
         ({"collision_bias": 1.0}, "collision_bias must be"),
@@ -251,7 +251,7 @@ def test_bad_option_is_an_error(options, message):
         PymunkEngine().run(seed_mu(t_end=0.01), RunSettings(options=options))
 
 
-@pytest.mark.parametrize("geometry", GEOMETRIES["pymunk"])
+@pytest.mark.parametrize("geometry", PymunkEngine.geometries)
 def test_each_geometry_runs(geometry):
     result = PymunkEngine().run(seed_mu(t_end=0.2), RunSettings(geometry=geometry))
     assert result.ok, result.info.message

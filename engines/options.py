@@ -1,0 +1,118 @@
+"""How an engine declares its options and settings variants.
+
+An engine module lists its options as :class:`Option` values: the real engine name, the
+default hoopbench uses, why, and the check on a value. Everything else (validation of a
+run's settings, ``hoopbench settings``, the suites' variants, the README table) is derived
+from these declarations, so a default or an allowed range is written down once.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any
+
+from hoopbench.models.checks import check_choice, check_flag, check_integer, check_real
+
+__all__ = [
+    "Check",
+    "Option",
+    "Variant",
+    "choice",
+    "flag",
+    "integer",
+    "number",
+    "optional",
+    "real_tuple",
+]
+
+Check = Callable[[str, Any], Any]
+"""(option name, value) -> the value converted; ValueError naming the value and the allowed."""
+
+
+@dataclass(frozen=True)
+class Option:
+    """One engine option, by its real engine name."""
+
+    name: str
+    default: Any
+    """hoopbench's default value."""
+    check: Check
+    reason: str
+    """Why the default has this value (measurements where there are any)."""
+
+
+@dataclass(frozen=True)
+class Variant:
+    """Settings an engine offers to suites beside its defaults, to study one knob."""
+
+    name: str
+    """Label in the runs table, e.g. 'cone=pyramidal'."""
+    geometry: str = "sphere"
+    options: Mapping[str, Any] = field(default_factory=dict)
+    """Options that differ from the defaults."""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "options", MappingProxyType(dict(self.options)))
+
+
+def number(
+    *,
+    low: float | None = None,
+    high: float | None = None,
+    low_open: bool = False,
+    high_open: bool = False,
+    unit: str = "",
+) -> Check:
+    """A finite real number within the bounds."""
+
+    def check(name: str, value: Any) -> float:
+        return check_real(
+            name, value, low=low, high=high, low_open=low_open, high_open=high_open, unit=unit
+        )
+
+    return check
+
+
+def integer(*, low: int | None = None, high: int | None = None) -> Check:
+    """A whole number within the bounds."""
+
+    def check(name: str, value: Any) -> int:
+        return check_integer(name, value, low=low, high=high)
+
+    return check
+
+
+def choice(*allowed: str) -> Check:
+    """One of the given spellings (case-insensitive)."""
+
+    def check(name: str, value: Any) -> str:
+        return check_choice(name, value, allowed)
+
+    return check
+
+
+def flag() -> Check:
+    """0 or 1."""
+    return check_flag
+
+
+def optional(inner: Check) -> Check:
+    """None, or what ``inner`` accepts."""
+
+    def check(name: str, value: Any) -> Any:
+        return None if value is None else inner(name, value)
+
+    return check
+
+
+def real_tuple(lengths: Sequence[int], what: str) -> Check:
+    """A tuple of finite numbers of one of the given lengths; ``what`` names its parts."""
+
+    def check(name: str, value: Any) -> tuple[float, ...]:
+        if not isinstance(value, tuple | list) or len(value) not in lengths:
+            raise ValueError(f"{name} must be {what}, got {value!r}")
+        return tuple(check_real(f"{name} component", v) for v in value)
+
+    return check
