@@ -36,7 +36,7 @@ options at their defaults (RK4, impratio 100, solreffriction 0.015); "threshold"
     pyramidal  0.02     +6.3 ms  +1.20 deg  -14.8 ms -2.72 deg  no (0.014 mm)
 
 With impratio 1, pyramidal and solref 0.02 slip at 26.4 deg (557.6 ms early, the figure in
-engines.md) under any integrator; elliptic cones slip within 8 ms with impratio 1 too.
+docs/engines.md) under any integrator; elliptic cones slip within 8 ms with impratio 1 too.
 What the defaults fix is not the onset but the slipping phase: a sliding MuJoCo contact
 pushes the bodies apart (the convex model initiates slip through normal motion), and with
 one solref for all rows the hoop chattered off the floor while slipping, 0.1 mm per m/s of

@@ -13,4 +13,4 @@ __all__ = ["tolerances"]
 @cache
 def tolerances() -> dict[str, Any]:
     """The parsed tolerances file (read once)."""
-    return tomllib.loads(files("reports").joinpath("tolerances.toml").read_text())
+    return tomllib.loads(files("hoopbench.reports").joinpath("tolerances.toml").read_text())

@@ -1,4 +1,4 @@
-"""Scenes shared by the solver tests: physics.md's, and the former bugs' regression scenes.
+"""Scenes shared by the solver tests: docs/derivations.md's, and the former bugs' regression scenes.
 
 Deliberately independent of models/catalogue.py: a test must not trust the catalogue it
 helps to check.
@@ -27,7 +27,7 @@ PAINLEVE = Scene(
     xdot0=10.0,
     name="painleve",
 )
-"""physics.md's Painlevé example: thrown sliding forward at 10 m/s, no spin."""
+"""The Painlevé example of docs/derivations.md: thrown sliding forward at 10 m/s, no spin."""
 
 
 # --------------------------------------------------------------------------- former bugs

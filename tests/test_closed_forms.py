@@ -149,7 +149,7 @@ def test_exact_rolling_path_is_the_curtate_cycloid():
     Xc, Yc = curtate_cycloid(theta, scene.lam, scene.a)
     np.testing.assert_allclose(Xc, X, rtol=0, atol=1e-12)
     np.testing.assert_allclose(Yc, Y, rtol=0, atol=1e-12)
-    # Seed's slip-onset centre of mass (physics.md): (2.49436, 1.02481).
+    # Seed's slip-onset centre of mass (docs/derivations.md): (2.49436, 1.02481).
     assert (X[-1], Y[-1]) == pytest.approx((2.49436, 1.02481), abs=1e-5)
 
 

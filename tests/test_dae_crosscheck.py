@@ -176,7 +176,7 @@ def test_grazing_guard_sees_a_zero_normal_force_at_the_start():
 
 
 def test_seed_numbers_from_the_dae():
-    """The DAE on its own reproduces physics.md's seed onset."""
+    """The DAE on its own reproduces the seed onset of docs/derivations.md."""
     _, dae = solve_both(SEED)
     assert dae.outcome == "slips" and dae.t_lift is None
     assert math.degrees(dae.theta_slip) == pytest.approx(88.5037, abs=1e-4)

@@ -96,7 +96,7 @@ def test_bad_thresholds_are_rejected():
 def test_detector_bias_on_the_reference(muk, dt, max_fraction):
     """Detectors on the exact solution sampled like an engine: distance to the exact events.
 
-    The threshold onset is late by several ms (engines.md: about 5 ms in the seed scene);
+    The threshold onset is late by several ms (docs/engines.md: about 5 ms in the seed scene);
     the refined onset must remove most of that lag.
     """
     solution = solve_exact(SEED.with_(muk=muk))

@@ -1,6 +1,6 @@
 """The exact solver's own checks: published numbers, conservation, cones, convergence.
 
-The numbers come from physics.md (the seed document's scenes, re-derived there). The other
+The numbers come from docs/derivations.md (the seed document's scenes, re-derived there). The other
 named scenes were found by the DAE cross-check (tests/test_dae_crosscheck.py) where the solver
 was once wrong (missed slip inside a rolling step, missed re-stick inside the first slip step);
 they stay as regression tests.
@@ -144,7 +144,7 @@ def test_degenerate_scene_reports_instead_of_raising():
     ev = solved(scene).events
     assert ev.outcome is Outcome.DEGENERATE
     assert math.degrees(ev.theta_slip) == pytest.approx(77.3196, abs=1e-4)
-    # Closed form for lam = 1, eps = 0 (physics.md): min(acos(chi), 2 atan(mus)).
+    # Closed form for lam = 1, eps = 0 (docs/derivations.md): min(acos(chi), 2 atan(mus)).
     assert ev.theta_slip == pytest.approx(min(math.acos(0.1), 2 * math.atan(0.8)), abs=1e-8)
     assert ev.message
     assert solved(scene).sample([0.0, ev.t_slip]).theta[-1] == pytest.approx(ev.theta_slip)

@@ -424,8 +424,8 @@ def test_cylinder_slip_onset():
 
 def test_hull_geometry_is_launched_by_its_margin():
     """A URDF cylinder without the implicit flag is a 32-vertex hull with a 1 mm margin: it
-    starts 1 mm deep, ERP throws it up at ~2 m/s and it slips at once (engines.md saw slip at
-    0.3 deg). Recorded here so that a PyBullet change shows."""
+    starts 1 mm deep, ERP throws it up at ~2 m/s and it slips at once (docs/engines.md: it
+    slips at once, below 1 deg). Recorded here so that a PyBullet change shows."""
     result = run("hull")
     traj = result.trajectory
     assert traj.clearance[1] > 1e-4  # one step: thrown up

@@ -104,7 +104,7 @@ def test_inertia(lam, eps):
 @pytest.mark.parametrize(("a", "g"), [(1.0, 9.8), (0.3, 1.62)])
 def test_energy_from_the_top_matches_the_closed_form(lam, eps, chi, a, g):
     scene = Scene.from_chi(chi, lam=lam, eps=eps, mus=0.8, muk=0.7, a=a, g=g)
-    expected = (1 + lam) * (1 + chi) + lam * eps * chi / 2  # E/(M a g), physics.md
+    expected = (1 + lam) * (1 + chi) + lam * eps * chi / 2  # E/(M a g), docs/derivations.md
     assert scene.chi == pytest.approx(chi, rel=1e-14, abs=1e-15)
     assert scene.energy_per_mass / (a * g) == pytest.approx(expected, rel=1e-14)
 
@@ -136,7 +136,7 @@ def test_from_energy_round_trip(theta0):
     seed = Scene.from_chi(0.1, **SEED)
     scene = Scene.from_energy(seed.energy_per_mass, theta0=theta0, **SEED)
     assert scene.energy_per_mass == pytest.approx(seed.energy_per_mass, rel=1e-14)
-    # The rolling energy of physics.md, written out.
+    # The rolling energy of docs/derivations.md, written out.
     lam, eps, a, g = scene.lam, scene.eps, scene.a, scene.g
     rolling = (
         g * a * (1 + lam * math.cos(theta0))

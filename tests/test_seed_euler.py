@@ -16,13 +16,14 @@ from hoopbench.reference.exact import solve_exact
 from hoopbench.reference.seed_euler import solve_seed_euler
 
 # Expected values, from the seed document's Exercise 15 tables as restated in
-# /work/shared/physics.md ("Numbers to reproduce"). Seed scene: chi = 0.1, lam = 0.95,
+# docs/derivations.md ("The seed scheme tables"). Seed scene: chi = 0.1, lam = 0.95,
 # eps = 0.01, mus = 0.8, muk = 0.7, g = 9.8, a = 1 (so delta in metres equals delta/a).
 SEED_DT_TABLE = {  # delta = 1e-4: dt -> (steps, t_hop [s]); reproduced exactly
     0.002: (14, 1.0151),
     0.0005: (21, 0.99758),
 }
-SEED_DT_TABLE_APPROX = {  # the seed prints 54 and 91; physics.md: an accurate port gives ~51, ~79
+# The seed prints 54 and 91; docs/derivations.md: an accurate port gives ~51, ~79.
+SEED_DT_TABLE_APPROX = {
     1e-4: (45, 60),
     5e-5: (70, 95),
 }
@@ -34,7 +35,7 @@ SEED_DELTA_TABLE = {  # dt = 0.002: delta [m] -> steps, t_hop [s], hop height [m
 STEP_BAND = 5
 """Allowed difference from the seed's step counts (the seed's t_slip is off by 1e-5 s)."""
 HEIGHT_RTOL = 0.10
-"""Allowed relative difference from the seed's hop heights (physics.md: about 10 %)."""
+"""Allowed relative difference from the seed's hop heights (docs/derivations.md: about 10 %)."""
 IMPACT_ATOL = STEP_BAND * 0.002
 """Allowed difference from the seed's impact time, s: the lift-off may move by STEP_BAND steps."""
 
