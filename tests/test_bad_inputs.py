@@ -1,0 +1,203 @@
+"""Bad and extreme command-line input: a one-line error naming the value, or an honest status.
+
+Every row is a mistake a user can make. The command must exit with status 2 within seconds,
+print nothing on stdout and one line on stderr that contains the offending value (and, where
+the reason matters, the reason). Nothing may run for long, use much memory, or be written.
+"""
+
+from __future__ import annotations
+
+import json
+import signal
+from collections.abc import Iterator
+
+import pytest
+
+from hoopbench.reports.cli import main
+
+SEED = ["--scene", "seed-mu"]
+PARAMS = ["--lam", "0.95", "--chi", "0.1", "--mus", "0.8"]
+
+
+def sim(engine: str, *args: str) -> list[str]:
+    return ["simulate", "--engine", engine, *SEED, *args]
+
+
+BAD: list[tuple[list[str], str]] = [
+    # ----- scene parameters
+    (["simulate", "--engine", "pymunk", "--lam", "1.5", "--chi", "0.1", "--mus", "0.8"], "1.5"),
+    (["simulate", "--engine", "pymunk", "--lam", "-0.1", "--chi", "0.1", "--mus", "0.8"], "-0.1"),
+    (["simulate", "--engine", "pymunk", "--lam", "nan", "--chi", "0.1", "--mus", "0.8"], "nan"),
+    (["simulate", "--engine", "pymunk", "--lam", "abc", "--chi", "0.1", "--mus", "0.8"], "'abc'"),
+    (["simulate", "--engine", "pymunk", *PARAMS, "--eps", "-1"], "eps must be >= 0, got -1"),
+    (["simulate", "--engine", "pymunk", *PARAMS, "--mus", "-0.5"], "-0.5"),
+    (["simulate", "--engine", "pymunk", *PARAMS, "--muk", "0.9"], "muk must be <= mus"),
+    (["simulate", "--engine", "pymunk", *PARAMS, "--a", "0"], "a (hoop radius) must be > 0"),
+    (["simulate", "--engine", "pymunk", *PARAMS, "--a", "-1"], "got -1"),
+    (["simulate", "--engine", "pymunk", *PARAMS, "--g", "0"], "g must be > 0"),
+    (["simulate", "--engine", "pymunk", *PARAMS, "--M", "0"], "M (total mass) must be > 0"),
+    (["simulate", "--engine", "pymunk", *PARAMS, "--t-end", "0"], "t_end must be > 0"),
+    (["simulate", "--engine", "pymunk", *PARAMS, "--t-end", "inf"], "t_end must be finite"),
+    (["simulate", "--engine", "pymunk", "--lam", "0.9", "--chi", "-1", "--mus", "0.8"], "-1"),
+    (["simulate", "--engine", "pymunk", *SEED, "--theta0-deg", "nan"], "theta0"),
+    (["simulate", "--engine", "pymunk", *SEED, "--xdot0", "inf"], "xdot0 must be finite"),
+    (["simulate", "--engine", "pymunk", "--lam", "0.9"], "missing: mus, chi or thetadot0"),
+    (["simulate", "--engine", "pymunk", "--scene", "nope"], "'nope'"),
+    (["simulate", "--engine", "pymunk", *SEED, "--chi", "0.1", "--thetadot0", "1"], "--chi"),
+    # ----- engine choice and common settings
+    (["simulate", "--engine", "nope", *SEED], "'nope'"),
+    (sim("pymunk", "--dt", "0"), "timestep must be a number > 0 s, got 0"),
+    (sim("pymunk", "--dt", "-1"), "got -1"),
+    (sim("pymunk", "--dt", "nan"), "got nan"),
+    (sim("mujoco", "--dt", "5"), "timestep 5 s is longer than the window t_end = 3 s"),
+    (sim("pymunk", "--dt", "0.1", "--t-end", "0.05"), "timestep 0.1 s is longer"),
+    (sim("mujoco", "--t-end", "1e4", "--dt", "1e-5"), "needs 1e+09 steps"),
+    (sim("pybullet", "--dt", "1e-9"), "needs 3e+09 steps"),
+    (sim("reference", "--dt", "1e-9"), "needs 3e+09 steps"),
+    (sim("pymunk", "--max-steps", "0"), "got 0"),
+    (sim("pymunk", "--max-steps", "many"), "'many'"),
+    (sim("pymunk", "--mu", "-1"), "mu must be a number >= 0, got -1"),
+    (sim("pymunk", "--mu", "nan"), "got nan"),
+    (sim("pymunk", "--restitution", "2"), "restitution must be a number in [0, 1], got 2"),
+    (sim("mujoco", "--restitution", "0.5"), "restitution must be 0 for MuJoCo, got 0.5"),
+    (sim("pybullet", "--mu", "20"), "mu must be <= 10.0 for pybullet"),
+    (sim("pybullet", "--M", "1e-9"), "M must be >= 1e-08 kg for pybullet, got 1e-09"),
+    # ----- geometries and engine options
+    (sim("pybullet", "--geometry", "ring"), "geometry 'ring' is not available for pybullet"),
+    (sim("mujoco", "--geometry", "hull"), "geometry 'hull' is not available for mujoco"),
+    (sim("pymunk", "--geometry", "cylinder"), "geometry 'cylinder'"),
+    (sim("mujoco", "--set", "cone=round"), "cone must be one of pyramidal, elliptic, got 'round'"),
+    (sim("mujoco", "--set", "nope=1"), "unknown mujoco setting(s) nope"),
+    (sim("mujoco", "--set", "cone"), "--set takes KEY=VALUE, got 'cone'"),
+    (sim("mujoco", "--set", "=1"), "got '=1'"),
+    (sim("mujoco", "--set", "cone=elliptic", "--set", "cone=pyramidal"), "--set cone is given"),
+    (sim("mujoco", "--set", "solref=0.01"), "solref must be a pair"),
+    (sim("mujoco", "--set", "solref=0.01,-1"), "solref must be (timeconst, dampratio)"),
+    (sim("mujoco", "--set", "solimp=0.99,0.9,0.001"), "solimp must satisfy"),
+    (sim("mujoco", "--set", "impratio=0"), "impratio must be a number > 0, got 0"),
+    (sim("mujoco", "--set", "integrator=Leapfrog"), "got 'Leapfrog'"),
+    (sim("mujoco", "--set", "ring_segments=2"), "ring_segments must be an integer >= 3, got 2"),
+    (sim("pybullet", "--set", "numSolverIterations=2.5"), "got 2.5"),
+    (sim("pybullet", "--set", "contactERP=2"), "contactERP must be a number in [0, 1], got 2"),
+    (sim("pybullet", "--set", "contactStiffness=1000"), "must be given together"),
+    (sim("pybullet", "--set", "enableConeFriction=2"), "enableConeFriction must be 0 or 1, got 2"),
+    (sim("pymunk", "--set", "iterations=0"), "iterations must be an integer >= 1, got 0"),
+    (sim("pymunk", "--set", "collision_bias=1"), "collision_bias must be a number in [0, 1)"),
+    (sim("pymunk", "--set", "collision_slop=-1"), "got -1"),
+    (sim("reference", "--set", "rtol=5"), "rtol must be a number in (0, 0.001], got 5"),
+    (sim("reference", "--set", "cone=round"), "unknown reference setting(s) cone"),
+    # ----- model files: the same checks as a run
+    (["model", "--engine", "reference", *SEED], "invalid choice: 'reference'"),
+    (["model", "--engine", "mujoco", *SEED, "--set", "cone=round"], "got 'round'"),
+    (["model", "--engine", "mujoco", *SEED, "--restitution", "0.3"], "got 0.3"),
+    (["model", "--engine", "pybullet", *SEED, "--mu", "11"], "got 11"),
+    # ----- the reference solvers
+    (["reference", *SEED, "--method", "bogus"], "'bogus'"),
+    (["reference", *SEED, "--rtol", "0"], "rtol"),
+    (["reference", *SEED, "--method", "seed-euler", "--delta", "-1"], "delta"),
+    # ----- report and figure
+    (["report", "--workers", "0"], "argument --workers: must be >= 1, got 0"),
+    (["report", "--workers", "-3"], "got -3"),
+    (["report", "--workers", "40"], "got 40"),
+    (["report", "--workers", "two"], "'two'"),
+    (["figure", *SEED, "--out", "hoop.jpg"], "hoop.jpg'"),
+]
+
+
+@pytest.fixture
+def deadline() -> Iterator[None]:
+    """Fail, instead of hanging, if one command takes more than a few seconds."""
+
+    def expire(signum, frame):
+        raise TimeoutError("the command did not answer within 20 s")
+
+    previous = signal.signal(signal.SIGALRM, expire)
+    signal.alarm(20)
+    try:
+        yield
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def test_the_table_is_large_enough():
+    assert len(BAD) >= 60
+
+
+@pytest.mark.parametrize(("argv", "names"), BAD, ids=[" ".join(a) for a, _ in BAD])
+def test_bad_input_is_one_line_naming_the_value(argv, names, capsys, deadline, tmp_path):
+    argv = [str(tmp_path / a) if a.endswith(".jpg") else a for a in argv]
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1, captured.err
+    assert lines[0].startswith("hoopbench: ")
+    assert names in lines[0]
+    assert "Traceback" not in captured.err
+
+
+# --------------------------------------------------------------------------- output paths
+def test_missing_output_folder_is_refused_before_the_run(tmp_path, capsys, deadline):
+    target = tmp_path / "missing" / "run.csv"
+    assert main(sim("pymunk", "--csv", str(target))) == 2
+    err = capsys.readouterr().err
+    assert f"folder '{target.parent}'" in err and "does not exist" in err
+    assert not target.parent.exists()
+
+
+def test_existing_output_file_is_kept_without_force(tmp_path, capsys, deadline):
+    target = tmp_path / "run.csv"
+    target.write_text("precious\n")
+    assert main(sim("pymunk", "--t-end", "0.01", "--csv", str(target))) == 2
+    assert "pass --force" in capsys.readouterr().err
+    assert target.read_text() == "precious\n"
+    assert main(sim("pymunk", "--t-end", "0.01", "--csv", str(target), "--force")) == 0
+    assert target.read_text() != "precious\n"
+
+
+def test_report_refuses_a_non_empty_folder(tmp_path, capsys, deadline):
+    (tmp_path / "runs.csv").write_text("old\n")
+    assert main(["report", "--quick", "--out", str(tmp_path)]) == 2
+    assert "is not empty" in capsys.readouterr().err
+    assert (tmp_path / "runs.csv").read_text() == "old\n"
+
+
+# --------------------------------------------------------------------------- honest results
+def run_json(capsys, *argv: str) -> tuple[int, dict]:
+    code = main([*argv, "--json"])
+    return code, json.loads(capsys.readouterr().out)
+
+
+def test_parameters_combine_with_the_final_radius(capsys, deadline):
+    """--scene seed --a 2 --chi 0.1 is chi 0.1 with a = 2, not the catalogue's spin."""
+    code, out = run_json(capsys, "reference", "--scene", "seed", "--a", "2", "--chi", "0.2")
+    assert code == 0
+    assert out["scene"]["a"] == 2.0
+    assert out["scene"]["chi"] == pytest.approx(0.2, rel=1e-12)
+    code, out = run_json(capsys, "reference", "--scene", "seed", "--g", "3.0")
+    assert out["scene"]["chi"] == pytest.approx(0.1, rel=1e-12)  # the scene stays itself
+
+
+def test_zero_inertia_is_an_error_row_not_a_roll(capsys, deadline):
+    """lam = 1, eps = 0: the reference reaches a slip it cannot follow (I = 0)."""
+    code, out = run_json(
+        capsys, "simulate", "--engine", "reference", "--lam", "1", "--chi", "0.1", "--mus", "0.8"
+    )
+    assert code == 1
+    assert out["status"] == "error"
+    assert "degenerate" in out["status_message"]
+
+
+def test_a_window_that_is_not_a_multiple_of_the_step_does_not_overrun(capsys, deadline):
+    code, out = run_json(capsys, *sim("pymunk", "--dt", "1e-3", "--t-end", "0.0025"))
+    assert code == 0
+    assert out["n_steps"] == 2  # t = 0, 1 ms, 2 ms: never past t_end
+    assert out["phases"][-1]["t_end"] <= 0.0025
+
+
+def test_tiny_pybullet_mass_at_the_limit_is_honest(capsys, deadline):
+    code, out = run_json(capsys, *sim("pybullet", "--M", "1e-8", "--t-end", "1.2"))
+    assert code == 0 and out["status"] == "ok"
+    assert out["outcome"] == "slips"
+    assert out["t_slip"] == pytest.approx(0.9872, abs=2e-3)
