@@ -14,7 +14,14 @@ from typing import TypeVar
 
 from hoopbench.engines.base import Engine
 
-__all__ = ["engine_class", "engine_classes", "engine_names", "get_engine", "register"]
+__all__ = [
+    "engine_class",
+    "engine_classes",
+    "engine_names",
+    "get_engine",
+    "register",
+    "unregister",
+]
 
 _ENGINES: dict[str, type[Engine]] = {}
 _discovered = False
@@ -29,6 +36,11 @@ def register(cls: E) -> E:
         raise ValueError(f"engine name {name!r} is registered twice")
     _ENGINES[name] = cls
     return cls
+
+
+def unregister(name: str) -> None:
+    """Forget an engine (tests register engines of their own and remove them again)."""
+    _ENGINES.pop(name, None)
 
 
 def _discover() -> None:
