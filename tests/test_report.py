@@ -15,6 +15,7 @@ def quick_report(tmp_path_factory):
     return out, run_report(out, quick=True, workers=1)
 
 
+@pytest.mark.slow  # the quick suite, about 10 s once per module
 def test_quick_report_writes_its_files(quick_report):
     out, report = quick_report
     assert report == out / "report.md"
@@ -23,6 +24,7 @@ def test_quick_report_writes_its_files(quick_report):
     assert any((out / "trajectories").glob("*.parquet"))
 
 
+@pytest.mark.slow  # the quick suite, about 10 s once per module
 def test_runs_table_is_tidy_and_complete(quick_report):
     out, _ = quick_report
     runs = pd.read_parquet(out / "runs.parquet")
@@ -37,6 +39,7 @@ def test_runs_table_is_tidy_and_complete(quick_report):
     assert abs(ref["err_t_slip_ms"]) < 0.1
 
 
+@pytest.mark.slow  # the quick suite, about 10 s once per module
 def test_report_has_the_tables(quick_report):
     _, report = quick_report
     text = report.read_text()
@@ -50,17 +53,17 @@ def test_report_has_the_tables(quick_report):
     assert "| reference |" in text
 
 
+@pytest.mark.slow  # the quick suite, about 10 s once per module
 def test_write_markdown_leaves_its_input_alone(quick_report, tmp_path):
-    """The report derives its columns locally: the caller's frame comes back unchanged, also
-    when it lacks the optional columns that the report fills with blanks."""
+    """The report derives its columns locally: the caller's frame comes back unchanged, here one
+    that lacks the optional columns which the report fills with blanks."""
     out, _ = quick_report
-    runs = pd.read_parquet(out / "runs.parquet")
     optional = ["phases", "phases_agree", "exact_phases", "outcome_agrees", "max_penetration_m"]
-    for frame in (runs, runs.drop(columns=optional)):
-        before, columns = frame.copy(), list(frame.columns)
-        assert write_markdown(frame, tmp_path, generated="now") == tmp_path / "report.md"
-        assert list(frame.columns) == columns
-        pd.testing.assert_frame_equal(frame, before)
+    frame = pd.read_parquet(out / "runs.parquet").drop(columns=optional)
+    before, columns = frame.copy(), list(frame.columns)
+    assert write_markdown(frame, tmp_path, generated="now") == tmp_path / "report.md"
+    assert list(frame.columns) == columns
+    pd.testing.assert_frame_equal(frame, before)
     assert "## Stability" in (tmp_path / "report.md").read_text()
 
 
