@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 FILES := $(VENV)/.files
-OUT ?= reports/output
+OUT ?= reports/output/$(shell date +%Y%m%d-%H%M%S)
 PACKAGE_FILES := $(sort $(wildcard about/*.py models/*.py reference/*.py engines/*.py \
 	reports/*.py reports/*.toml reports/suites/*.toml))
 
