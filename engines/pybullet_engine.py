@@ -32,7 +32,6 @@ and the result depends on the parity of numSolverIterations.
 from __future__ import annotations
 
 import gc
-import math
 import tempfile
 import time
 from array import array
@@ -264,12 +263,9 @@ class PybulletEngine(Engine):
             p.setJointMotorControl2(hoop, j, p.VELOCITY_CONTROL, force=0.0, physicsClientId=cid)
 
         X, Y, theta, Xdot, Ydot, thetadot = scene.initial_state()
-        r, s, c = scene.com_offset, math.sin(theta), math.cos(theta)
-        joint_states = (
-            (X - r * s, Xdot - r * c * thetadot),
-            (Y - r * c, Ydot + r * s * thetadot),
-            (theta, thetadot),
-        )
+        x, y = kinematics.centre_position(scene, X, Y, theta)
+        xdot, ydot = kinematics.centre_velocity(scene, Xdot, Ydot, theta, thetadot)
+        joint_states = ((float(x), float(xdot)), (float(y), float(ydot)), (theta, thetadot))
         for j, (q, v) in enumerate(joint_states):
             p.resetJointState(hoop, j, q, v, physicsClientId=cid)
         return hoop, floor

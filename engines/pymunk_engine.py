@@ -40,6 +40,7 @@ from hoopbench.engines.base import CHUNK_STEPS, Engine, Simulation, check_diverg
 from hoopbench.engines.options import Option, Variant, integer, number, optional
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
+from hoopbench.models import kinematics
 from hoopbench.models.pymunk_space import PymunkSpec, build_space, scene_to_pymunk
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
@@ -151,7 +152,6 @@ class PymunkEngine(Engine):
         n_total = n_steps_for(scene, dt)
         body_id = body.id
         gy = float(space.gravity.y)
-        r = scene.com_offset
 
         buffer = module.batch.Buffer()
         record = _body_recorder(module, space, buffer)
@@ -173,7 +173,7 @@ class PymunkEngine(Engine):
             buffer.clear()
             rows.append(chunk)
             done += m
-            diverged = check_divergence(scene, _our_state(chunk, r), self.limits)
+            diverged = check_divergence(scene, _our_state(scene, chunk), self.limits)
             if diverged:
                 break
         wall = time.perf_counter() - start
@@ -189,7 +189,7 @@ class PymunkEngine(Engine):
         trajectory = Trajectory.from_state(
             scene,
             t=dt * np.arange(len(raw)),
-            **_our_state(raw, r),
+            **_our_state(scene, raw),
             normal_force=n,
             friction_force=f,
             contact=n > 0,
@@ -211,16 +211,17 @@ class PymunkEngine(Engine):
         return time.perf_counter() - start
 
 
-def _our_state(raw: np.ndarray, r: float) -> dict[str, np.ndarray]:
+def _our_state(scene: Scene, raw: np.ndarray) -> dict[str, np.ndarray]:
     """pymunk rows (hoop-centre position, ccw angle, COM velocity) -> our COM state.
 
-    The centre of gravity, (0, r) in body coordinates, lies at (r sin theta, r cos theta)
-    from the hoop centre, with theta = -angle.
+    pymunk's velocity is already the centre of gravity's; its angle is counter-clockwise, so
+    theta = -angle.
     """
     theta = -raw[:, 2]
+    X, Y = kinematics.com_position(scene, raw[:, 0], raw[:, 1], theta)
     return {
-        "X": raw[:, 0] + r * np.sin(theta),
-        "Y": raw[:, 1] + r * np.cos(theta),
+        "X": X,
+        "Y": Y,
         "theta": theta,
         "Xdot": raw[:, 3],
         "Ydot": raw[:, 4],

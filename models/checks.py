@@ -13,7 +13,14 @@ import numbers
 from collections.abc import Sequence
 from typing import Any
 
-__all__ = ["check_choice", "check_flag", "check_integer", "check_real", "interval_text"]
+__all__ = [
+    "check_choice",
+    "check_finite",
+    "check_flag",
+    "check_integer",
+    "check_real",
+    "interval_text",
+]
 
 
 def interval_text(low: float | None, high: float | None, low_open: bool, high_open: bool) -> str:
@@ -25,6 +32,19 @@ def interval_text(low: float | None, high: float | None, low_open: bool, high_op
     if high is not None:
         return f"{'<' if high_open else '<='} {high:g}"
     return "finite"
+
+
+def check_finite(name: str, value: Any) -> float:
+    """Any finite real number, as float (the scene's parameters, whose ranges differ)."""
+    if isinstance(value, bool):
+        raise ValueError(f"{name} must be a real number, got {value!r}")
+    try:
+        out = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a real number, got {value!r}") from None
+    if not math.isfinite(out):
+        raise ValueError(f"{name} must be finite, got {out}")
+    return out
 
 
 def check_real(

@@ -17,6 +17,7 @@ __all__ = [
     "centre_position",
     "centre_velocity",
     "clearance",
+    "com_position",
     "com_state",
     "energy_per_mass",
     "reach",
@@ -59,14 +60,23 @@ def com_state(
     r = scene.com_offset
     theta, thetadot = np.asarray(theta, dtype=float), np.asarray(thetadot, dtype=float)
     s, c = np.sin(theta), np.cos(theta)
+    X, Y = com_position(scene, x, y, theta)
     return {
-        "X": np.asarray(x) + r * s,
-        "Y": np.asarray(y) + r * c,
+        "X": X,
+        "Y": Y,
         "theta": theta,
         "Xdot": np.asarray(xdot) + r * c * thetadot,
         "Ydot": np.asarray(ydot) - r * s * thetadot,
         "thetadot": thetadot,
     }
+
+
+def com_position(
+    scene: Scene, x: ArrayLike, y: ArrayLike, theta: ArrayLike
+) -> tuple[NDArray, NDArray]:
+    """Centre of mass (X, Y), m, from the hoop centre (x, y), m, and theta, rad."""
+    r = scene.com_offset
+    return np.asarray(x) + r * np.sin(theta), np.asarray(y) + r * np.cos(theta)
 
 
 def clearance(scene: Scene, Y: ArrayLike, theta: ArrayLike) -> NDArray:

@@ -19,11 +19,11 @@ the products are then exactly mu and e.
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
 from hoopbench.models import kinematics
+from hoopbench.models.checks import check_real
 from hoopbench.models.scene import Scene
 
 __all__ = ["PymunkSpec", "build_space", "scene_to_pymunk"]
@@ -91,13 +91,6 @@ class PymunkSpec:
         return json.dumps(self.to_dict(), **kwargs)
 
 
-def _check_coefficient(name: str, value: float) -> float:
-    value = float(value)
-    if not (math.isfinite(value) and value >= 0):
-        raise ValueError(f"{name} must be a finite number >= 0, got {value}")
-    return value
-
-
 def scene_to_pymunk(scene: Scene, *, mu: float, restitution: float = 0.0) -> PymunkSpec:
     """The pymunk model of ``scene`` with pair friction ``mu`` and elasticity ``restitution``.
 
@@ -105,10 +98,8 @@ def scene_to_pymunk(scene: Scene, *, mu: float, restitution: float = 0.0) -> Pym
     a negative or non-finite mu, or a restitution outside [0, 1].
     """
     scene.require_inertia("a pymunk body")
-    mu = _check_coefficient("mu", mu)
-    restitution = _check_coefficient("restitution", restitution)
-    if restitution > 1.0:
-        raise ValueError(f"restitution must be in [0, 1], got {restitution}")
+    mu = check_real("mu", mu, low=0.0)
+    restitution = check_real("restitution", restitution, low=0.0, high=1.0)
     a = scene.a
     X, Y, theta, Xdot, Ydot, thetadot = scene.initial_state()
     x, y = kinematics.centre_position(scene, X, Y, theta)

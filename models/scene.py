@@ -17,21 +17,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
+from hoopbench.models.checks import check_finite
+
 __all__ = ["DegenerateSceneError", "Scene"]
 
 
 class DegenerateSceneError(ValueError):
     """A phase needs a positive moment of inertia about the centre of mass, and it is zero."""
-
-
-def _check_finite(name: str, value: float) -> float:
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a real number, got {value!r}") from None
-    if not math.isfinite(value):
-        raise ValueError(f"{name} must be finite, got {value}")
-    return value
 
 
 def _check_range(name: str, value: float, low: float, high: float, allowed: str) -> None:
@@ -76,9 +68,9 @@ class Scene:
 
     def __post_init__(self) -> None:
         for name in ("lam", "thetadot0", "mus", "muk", "eps", "theta0", "g", "a", "M", "t_end"):
-            object.__setattr__(self, name, _check_finite(name, getattr(self, name)))
+            object.__setattr__(self, name, check_finite(name, getattr(self, name)))
         if self.xdot0 is not None:
-            object.__setattr__(self, "xdot0", _check_finite("xdot0", self.xdot0))
+            object.__setattr__(self, "xdot0", check_finite("xdot0", self.xdot0))
         if self.a <= 0:
             raise ValueError(f"a (hoop radius) must be > 0 m, got {self.a}")
         if self.g <= 0:
@@ -101,11 +93,11 @@ class Scene:
     @classmethod
     def from_chi(cls, chi: float, **kwargs: float | str | None) -> Scene:
         """A scene whose initial spin is given by chi = a*thetadot0**2/g (>= 0)."""
-        chi = _check_finite("chi", chi)
+        chi = check_finite("chi", chi)
         if chi < 0:
             raise ValueError(f"chi must be >= 0, got {chi}")
-        g = _check_finite("g", kwargs.get("g", 9.8))
-        a = _check_finite("a", kwargs.get("a", 1.0))
+        g = check_finite("g", kwargs.get("g", 9.8))
+        a = check_finite("a", kwargs.get("a", 1.0))
         if a <= 0 or g <= 0:
             return cls(thetadot0=0.0, **kwargs)  # let __post_init__ name the bad field
         return cls(thetadot0=math.sqrt(chi * g / a), **kwargs)
@@ -117,7 +109,7 @@ class Scene:
         Raises ValueError when the energy is below the potential energy at theta0: the hoop
         cannot start there.
         """
-        energy_per_mass = _check_finite("energy_per_mass", energy_per_mass)
+        energy_per_mass = check_finite("energy_per_mass", energy_per_mass)
         probe = cls(thetadot0=0.0, **kwargs)
         if probe.xdot0 is not None:
             raise ValueError("from_energy builds a rolling start; do not pass xdot0")

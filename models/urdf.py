@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 from xml.sax.saxutils import quoteattr
 
+from hoopbench.models.checks import check_real
 from hoopbench.models.scene import Scene
 
 __all__ = [
@@ -102,15 +103,6 @@ def _dummy_link(name: str, mass: float) -> str:
     )
 
 
-def _check_mu(mu: float | None) -> float | None:
-    if mu is None:
-        return None
-    value = float(mu)
-    if not (math.isfinite(value) and value >= 0):
-        raise ValueError(f"mu must be a finite number >= 0, got {mu!r}")
-    return value
-
-
 def scene_to_urdf(scene: Scene, *, geometry: str = "sphere", mu: float | None = None) -> str:
     """URDF of the hoop of ``scene`` on its planar chain (see the module docstring).
 
@@ -120,7 +112,7 @@ def scene_to_urdf(scene: Scene, *, geometry: str = "sphere", mu: float | None = 
     """
     if geometry not in HOOP_GEOMETRIES:
         raise ValueError(f"geometry must be one of {', '.join(HOOP_GEOMETRIES)}, got {geometry!r}")
-    mu = _check_mu(mu)
+    mu = None if mu is None else check_real("mu", mu, low=0.0)
     scene.require_inertia("a PyBullet hoop")
     a = scene.a
     inertia = scene.inertia_com
@@ -198,10 +190,8 @@ def floor_urdf(
     PyBullet multiplies the two bodies' friction (and restitution) coefficients, so the floor's
     defaults are 1: the pair then gets exactly the hoop's values.
     """
-    lateral_friction = _check_mu(lateral_friction)
-    r = float(restitution)
-    if not (math.isfinite(r) and 0.0 <= r <= 1.0):
-        raise ValueError(f"restitution must be in [0, 1], got {restitution!r}")
+    lateral_friction = check_real("lateral_friction", lateral_friction, low=0.0)
+    r = check_real("restitution", restitution, low=0.0, high=1.0)
     side = 2 * half_size
     box = f'<box size="{_num(side)} {_num(side)} {_num(_FLOOR_THICKNESS)}"/>'
     origin = f'<origin xyz="0 0 {_num(-_FLOOR_THICKNESS / 2)}" rpy="0 0 0"/>'
