@@ -54,6 +54,10 @@ def test_imports_use_the_installed_names(folder):
     for path in sorted((ROOT / folder).rglob("*.py")):
         bare = {m for m in imported_modules(path) if m.split(".")[0] in FIRST_PARTY}
         assert not bare, f"{path.relative_to(ROOT)} imports {sorted(bare)} without hoopbench."
+        # A relative import (`from .. import engines`) would slip past the layering check.
+        tree = ast.parse(path.read_text())
+        relative = [n.lineno for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.level]
+        assert not relative, f"{path.relative_to(ROOT)}: relative import on lines {relative}"
 
 
 def test_reference_solver_and_dae_are_independent():
