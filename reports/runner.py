@@ -1,0 +1,956 @@
+"""Run a sweep of independent tasks so that it can be left running overnight.
+
+The suite is thousands of engine runs, each in code we do not control: an engine may hang,
+segfault, or eat the machine's memory. A plain ``ProcessPoolExecutor`` turns one dead worker
+into a broken pool that fails every run still queued, and it cannot stop one hung call. So:
+
+* :class:`WorkerPool` is a ``concurrent.futures.Executor`` whose workers run one call at a
+  time and are reused (a process start with the engines' imports costs about a second). It
+  can kill the worker of one future (:meth:`WorkerPool.kill`, for timeouts), and when a worker
+  dies it fails that future with :class:`WorkerCrashedError` and starts another worker; the
+  rest of the sweep goes on. Workers come from a fork server (forking a parent that runs
+  threads is unsafe) and exit on their own if the parent dies, even by SIGKILL.
+* :func:`run_tasks` drives any executor-like backend (``submit`` returning futures; e.g.
+  Dask's ``Client.get_executor()``). It keeps only rows, a few futures and counters, so its
+  memory does not grow with the sweep; rows go to disk every couple of seconds
+  (:mod:`hoopbench.reports.results`), so an interrupted or killed sweep loses only the runs
+  in progress, and ``resume=True`` runs what is missing. A run past its time limit becomes a
+  ``timeout`` row, a run whose worker died twice a ``crashed`` row; both are retried by a
+  resumed sweep. SIGINT and SIGTERM stop the sweep cleanly and are reported in the summary,
+  so that the command line can exit 130 or 143 and say how to resume.
+
+The runner knows nothing of engines: a task is any picklable object with a ``run_id``
+string, a worker any importable function ``task -> row dict`` (small and picklable) that
+catches its own exceptions and sets ``status`` (a :class:`RunStatus` value) in its row.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import multiprocessing.connection
+import os
+import pickle
+import signal
+import sys
+import threading
+import time
+import traceback
+from collections import Counter, deque
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from concurrent.futures import FIRST_COMPLETED, BrokenExecutor, Executor, Future
+from concurrent.futures import wait as wait_futures
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from importlib import import_module
+from multiprocessing.context import BaseContext
+from pathlib import Path
+from typing import Any, Protocol, TextIO
+
+# tqdm for the progress bar: small, no dependencies, and it shows done/total, rate and ETA
+# on a terminal; off a terminal it is disabled and we print plain, throttled lines instead.
+from tqdm import tqdm
+
+from hoopbench.engines.base import RunStatus
+from hoopbench.reports import results
+
+__all__ = [
+    "ExecutorBrokenError",
+    "OutputDirNotEmptyError",
+    "PoolFuture",
+    "RunSummary",
+    "RunnerError",
+    "Task",
+    "WorkerCrashedError",
+    "WorkerKilledError",
+    "WorkerPool",
+    "run_tasks",
+]
+
+
+# =========================================================================== the worker pool
+class WorkerCrashedError(RuntimeError):
+    """The worker process died while running the call (segfault, os._exit, SIGKILL, OOM)."""
+
+    def __init__(self, message: str, exitcode: int | None = None) -> None:
+        super().__init__(message)
+        self.exitcode = exitcode
+
+
+class WorkerKilledError(RuntimeError):
+    """The call's worker was killed on request (:meth:`WorkerPool.kill`, ``kill_workers``)."""
+
+
+class RemoteTracebackError(Exception):
+    """The traceback of an exception raised in a worker, as text (set as its __cause__)."""
+
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else ""
+
+
+class PoolFuture(Future):
+    """A Future that also tells when its call started on a worker, and on which."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.started_at: float | None = None
+        """time.monotonic() when the call was handed to an idle, started worker."""
+        self.worker_pid: int | None = None
+
+
+_STOP = b""
+"""Sent to a worker instead of a call: exit."""
+
+
+def _watch_parent(lifeline: multiprocessing.connection.Connection) -> None:
+    """In a worker: exit as soon as the parent is gone (its end of the lifeline closes)."""
+    with contextlib.suppress(EOFError, OSError):
+        lifeline.recv_bytes()
+    os._exit(1)
+
+
+def _worker_main(
+    conn: multiprocessing.connection.Connection,
+    lifeline: multiprocessing.connection.Connection,
+    lifeline_parent_end: multiprocessing.connection.Connection,
+    preload: Sequence[str],
+) -> None:
+    """A worker process: run calls one at a time until told to stop or orphaned."""
+    # Ctrl-C reaches the whole process group; the parent decides what stops and when.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    lifeline_parent_end.close()  # only a forked child has it open; the parent must hold the last
+    threading.Thread(target=_watch_parent, args=(lifeline,), daemon=True).start()
+    for name in preload:  # before "ready": import time does not count against a time limit
+        with contextlib.suppress(Exception):
+            import_module(name)
+    conn.send_bytes(pickle.dumps(os.getpid()))
+    while True:
+        try:
+            data = conn.recv_bytes()
+        except (EOFError, OSError):
+            return
+        if data == _STOP:
+            return
+        try:
+            fn, args, kwargs = pickle.loads(data)
+            reply: tuple[bool, Any, str | None] = (True, fn(*args, **kwargs), None)
+        except BaseException as exc:
+            reply = (False, exc, traceback.format_exc())
+        try:
+            payload = pickle.dumps(reply)
+        except Exception as exc:
+            what = "result" if reply[0] else f"exception {reply[1]!r}"
+            error = RuntimeError(f"the call's {what} cannot be pickled: {exc!r}")
+            payload = pickle.dumps((False, error, reply[2]))
+        conn.send_bytes(payload)
+
+
+@dataclass(eq=False)
+class _Worker:
+    process: multiprocessing.process.BaseProcess
+    conn: multiprocessing.connection.Connection
+    pid: int | None = None
+    ready: bool = False
+    future: PoolFuture | None = None
+    killed: bool = False
+    conn_open: bool = True
+
+
+def _default_context() -> BaseContext:
+    methods = multiprocessing.get_all_start_methods()
+    return multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
+
+
+class WorkerPool(Executor):
+    """A process pool whose workers run one call at a time and can be killed one by one.
+
+    ``submit(fn, *args)`` returns a :class:`PoolFuture`. If the worker running a call dies,
+    its future fails with :class:`WorkerCrashedError`; ``kill(future)`` kills the worker of a
+    running call (its future fails with :class:`WorkerKilledError`) or cancels a queued one.
+    Dead workers are replaced as calls need them. ``preload`` modules are imported by each
+    worker (and by the fork server, when it is started by this pool) before it takes calls.
+    """
+
+    def __init__(
+        self,
+        max_workers: int | None = None,
+        *,
+        mp_context: BaseContext | None = None,
+        preload: Sequence[str] = (),
+    ) -> None:
+        self._max_workers = max_workers or os.cpu_count() or 1
+        if self._max_workers < 1:
+            raise ValueError("max_workers must be at least 1")
+        self._ctx = mp_context or _default_context()
+        self._preload = tuple(preload)
+        if self._ctx.get_start_method() == "forkserver":
+            # The fork server imports these once, so that every worker, replacements
+            # included, starts in milliseconds instead of repeating a second of imports.
+            # Effective only if this process's fork server is not running yet. '__main__'
+            # stays, as in the default, although Python 3.11 does not pass it on to the server.
+            self._ctx.set_forkserver_preload(["__main__", __name__, *self._preload])
+        self._lock = threading.RLock()
+        self._pending: deque[tuple[PoolFuture, bytes]] = deque()
+        self._workers: list[_Worker] = []
+        self._shutdown = False
+        self._startup_failures = 0
+        self._thread: threading.Thread | None = None
+        self._closed = False
+        self._wake_r, self._wake_w = os.pipe()
+        os.set_blocking(self._wake_w, False)
+        self._lifeline_r, self._lifeline_w = self._ctx.Pipe(duplex=False)
+
+    # ------------------------------------------------------------------ public API
+    @property
+    def max_workers(self) -> int:
+        return self._max_workers
+
+    @property
+    def pids(self) -> list[int]:
+        """Process ids of the live workers."""
+        with self._lock:
+            return [w.process.pid for w in self._workers if w.process.pid is not None]
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> PoolFuture:
+        data = pickle.dumps((fn, args, kwargs))  # an unpicklable call fails here, not later
+        future = PoolFuture()
+        with self._lock:
+            if self._shutdown:
+                raise RuntimeError("cannot submit to a WorkerPool after shutdown")
+            self._pending.append((future, data))
+            if self._thread is None:
+                self._thread = threading.Thread(
+                    target=self._manage, name="WorkerPool manager", daemon=True
+                )
+                self._thread.start()
+        self._wake()
+        return future
+
+    def kill(self, future: Future) -> bool:
+        """Kill the worker running ``future`` (or cancel it if still queued).
+
+        Returns False if the future is not this pool's or has already finished.
+        """
+        with self._lock:
+            for i, (queued, _) in enumerate(self._pending):
+                if queued is future:
+                    del self._pending[i]
+                    return future.cancel()
+            worker = next((w for w in self._workers if w.future is future), None)
+            if worker is None:
+                return False
+            worker.future = None
+            worker.killed = True
+            worker.process.kill()
+        future.set_exception(WorkerKilledError(f"worker {worker.pid} killed on request"))
+        self._wake()
+        return True
+
+    def kill_workers(self) -> None:
+        """Kill every worker now, cancel queued calls, fail running ones; then shut down."""
+        failed: list[PoolFuture] = []
+        with self._lock:
+            self._shutdown = True
+            cancelled = [f for f, _ in self._pending]
+            self._pending.clear()
+            for worker in self._workers:
+                if worker.future is not None:
+                    failed.append(worker.future)
+                    worker.future = None
+                worker.killed = True
+                worker.process.kill()
+        for future in cancelled:
+            future.cancel()
+        for future in failed:
+            future.set_exception(WorkerKilledError("worker killed: the pool was shut down"))
+        self._wake()
+        self._join()
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        with self._lock:
+            self._shutdown = True
+            cancelled = [f for f, _ in self._pending] if cancel_futures else []
+            if cancel_futures:
+                self._pending.clear()
+        for future in cancelled:
+            future.cancel()
+        self._wake()
+        if wait:
+            self._join()
+
+    # ------------------------------------------------------------------ internals
+    def _join(self) -> None:
+        thread = self._thread
+        if thread is not None and thread is not threading.current_thread():
+            thread.join()
+        if thread is None:
+            self._close()
+
+    def _close(self) -> None:
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True
+            # Closing our end of the lifeline ends any worker still alive.
+            for conn in (self._lifeline_r, self._lifeline_w):
+                conn.close()
+            for fd in (self._wake_r, self._wake_w):
+                os.close(fd)
+
+    def _wake(self) -> None:
+        with self._lock:  # never write to a closed (and maybe reused) descriptor
+            if not self._closed:
+                with contextlib.suppress(BlockingIOError):  # full: already awake
+                    os.write(self._wake_w, b"x")
+
+    def _start_worker(self) -> None:
+        conn, child_conn = self._ctx.Pipe(duplex=True)
+        process = self._ctx.Process(
+            target=_worker_main,
+            args=(child_conn, self._lifeline_r, self._lifeline_w, self._preload),
+            name="hoopbench-worker",
+            daemon=True,
+        )
+        process.start()
+        child_conn.close()
+        self._workers.append(_Worker(process=process, conn=conn))
+
+    def _dispatch(self) -> list[PoolFuture]:
+        """Hand queued calls to idle workers and start workers as needed (lock held).
+        Returns the futures found cancelled, to be dropped."""
+        dropped = []
+        for worker in self._workers:
+            if not self._pending:
+                break
+            if not worker.ready or worker.future is not None or worker.killed:
+                continue
+            future, data = self._pending.popleft()
+            if not future.set_running_or_notify_cancel():
+                dropped.append(future)
+                continue
+            try:
+                worker.conn.send_bytes(data)
+            except OSError:  # died between calls: its sentinel will tell; call goes back
+                self._pending.appendleft((future, data))
+                worker.killed = True
+                continue
+            future.started_at = time.monotonic()
+            future.worker_pid = worker.pid
+            worker.future = future
+        starting = sum(1 for w in self._workers if not w.ready and not w.killed)
+        missing = min(len(self._pending) - starting, self._max_workers - len(self._workers))
+        for _ in range(max(0, missing)):
+            self._start_worker()
+        return dropped
+
+    def _receive(self, worker: _Worker) -> tuple[PoolFuture, Any, bool] | None:
+        """Read one message from a worker: ready, or a call's outcome to set on its future."""
+        try:
+            data = worker.conn.recv_bytes()
+        except (EOFError, OSError):
+            worker.conn_open = False
+            return None
+        if not worker.ready:
+            worker.pid = pickle.loads(data)
+            worker.ready = True
+            self._startup_failures = 0
+            return None
+        future, worker.future = worker.future, None
+        if future is None:  # killed meanwhile: the future already has its exception
+            return None
+        try:
+            ok, value, tb = pickle.loads(data)
+        except Exception as exc:
+            ok, value, tb = (
+                False,
+                RuntimeError(f"cannot unpickle the call's outcome: {exc!r}"),
+                None,
+            )
+        if not ok and tb and isinstance(value, BaseException):
+            value.__cause__ = RemoteTracebackError(tb)
+        return future, value, ok
+
+    def _reap(self, worker: _Worker) -> list[tuple[PoolFuture, Any, bool]]:
+        """A worker's process ended: settle its call, forget it (lock held)."""
+        outcomes = []
+        while worker.conn_open and worker.conn.poll():  # a reply sent just before dying
+            outcome = self._receive(worker)
+            if outcome:
+                outcomes.append(outcome)
+        worker.process.join(timeout=1)
+        code = worker.process.exitcode
+        if worker.future is not None:
+            message = f"worker {worker.pid} died while running the call (exit code {code})"
+            if code is not None and code < 0:
+                with contextlib.suppress(ValueError):
+                    message += f", {signal.Signals(-code).name}"
+            outcomes.append((worker.future, WorkerCrashedError(message, code), False))
+            worker.future = None
+        if not worker.ready and not worker.killed:
+            self._startup_failures += 1
+            if self._startup_failures >= 3:  # workers die on start-up: fail the queue
+                while self._pending:
+                    future, _ = self._pending.popleft()
+                    if future.set_running_or_notify_cancel():
+                        error = WorkerCrashedError(f"worker processes die at start-up ({code})")
+                        outcomes.append((future, error, False))
+        self._workers.remove(worker)
+        worker.conn.close()
+        with contextlib.suppress(ValueError):
+            worker.process.close()
+        return outcomes
+
+    def _manage(self) -> None:
+        try:
+            self._manage_loop()
+        finally:
+            self._stop_workers()
+            self._close()
+
+    def _manage_loop(self) -> None:
+        while True:
+            outcomes: list[tuple[PoolFuture, Any, bool]] = []
+            with self._lock:
+                self._dispatch()
+                busy = any(w.future is not None for w in self._workers)
+                if self._shutdown and not self._pending and not busy:
+                    return
+                waitables: list[Any] = [self._wake_r]
+                for w in self._workers:
+                    waitables.append(w.process.sentinel)
+                    if w.conn_open:
+                        waitables.append(w.conn)
+            ready = multiprocessing.connection.wait(waitables)
+            with self._lock:
+                if self._wake_r in ready:
+                    with contextlib.suppress(BlockingIOError, OSError):
+                        os.read(self._wake_r, 4096)
+                for w in list(self._workers):
+                    if w.conn_open and w.conn in ready:
+                        outcome = self._receive(w)
+                        if outcome:
+                            outcomes.append(outcome)
+                for w in list(self._workers):
+                    if w.process.sentinel in ready:
+                        outcomes.extend(self._reap(w))
+            # Outside the lock: a done-callback may submit again.
+            for future, value, ok in outcomes:
+                if future.done():
+                    continue
+                if ok:
+                    future.set_result(value)
+                else:
+                    future.set_exception(value)
+
+    def _stop_workers(self) -> None:
+        with self._lock:
+            workers, self._workers = list(self._workers), []
+        for w in workers:
+            if w.ready and not w.killed:
+                with contextlib.suppress(OSError):
+                    w.conn.send_bytes(_STOP)
+            else:
+                w.process.kill()
+        deadline = time.monotonic() + 5
+        for w in workers:
+            w.process.join(timeout=max(0.0, deadline - time.monotonic()))
+            if w.process.exitcode is None:
+                w.process.kill()
+                w.process.join(timeout=5)
+            w.conn.close()
+
+
+# =========================================================================== the runner
+class Task(Protocol):
+    """What the runner needs of a task: a unique id. It must also pickle."""
+
+    @property
+    def run_id(self) -> str: ...
+
+
+Row = dict[str, Any]
+Worker = Callable[[Any], Mapping[str, Any]]
+FailureRow = Callable[[Any, RunStatus, str], Mapping[str, Any]]
+
+
+class RunnerError(RuntimeError):
+    """A sweep cannot start or go on; the message is one line for the command line."""
+
+
+class OutputDirNotEmptyError(RunnerError):
+    """The results directory holds files and ``resume`` was not asked for."""
+
+
+class ExecutorBrokenError(RunnerError):
+    """A foreign executor refuses new work (e.g. a ProcessPoolExecutor after a worker died)."""
+
+
+@dataclass(frozen=True)
+class RunSummary:
+    """How a sweep ended."""
+
+    out_dir: Path
+    counts: dict[RunStatus, int]
+    """Rows written by this session, per status."""
+    wall_time_s: float
+    interrupted: signal.Signals | None
+    """The signal that stopped the sweep, None if it ran to its end."""
+    skipped: int
+    """Runs not run because a final row was already stored (resume)."""
+    unfinished: int
+    """Runs left for a resumed sweep because of an interruption."""
+    notes: tuple[str, ...] = field(default=())
+    """One-line remarks also printed unless quiet (leftover temporary files, nothing to do)."""
+
+    @property
+    def total(self) -> int:
+        return sum(self.counts.values())
+
+    @property
+    def completed(self) -> bool:
+        return self.interrupted is None
+
+    @property
+    def exit_code(self) -> int:
+        """0, or 128 + the signal number (130 for SIGINT, 143 for SIGTERM)."""
+        return 0 if self.interrupted is None else 128 + int(self.interrupted)
+
+
+class _Progress:
+    """A tqdm bar on a terminal; throttled plain lines elsewhere; nothing when quiet."""
+
+    def __init__(self, total: int, stream: TextIO, quiet: bool, min_interval: float = 1.0):
+        self.total = total
+        self.stream = stream
+        self.quiet = quiet
+        self.done = 0
+        self.failures = Counter[RunStatus]()
+        self.start = time.monotonic()
+        self.min_interval = min_interval
+        self.last_line = -float("inf")
+        isatty = getattr(stream, "isatty", None)
+        self.bar = None
+        if not quiet and total and isatty is not None and isatty():
+            self.bar = tqdm(total=total, file=stream, unit="run", dynamic_ncols=True)
+
+    def note(self, text: str) -> None:
+        if self.quiet:
+            return
+        if self.bar is not None:
+            self.bar.write(text, file=self.stream)
+        else:
+            print(text, file=self.stream, flush=True)
+
+    def _failures_text(self) -> str:
+        if not self.failures:
+            return "no failures"
+        parts = ", ".join(f"{s.value} {n}" for s, n in sorted(self.failures.items()))
+        return f"{sum(self.failures.values())} failed ({parts})"
+
+    def update(self, run_id: str, status: RunStatus) -> None:
+        self.done += 1
+        if status is not RunStatus.OK:
+            self.failures[status] += 1
+        if self.quiet:
+            return
+        if self.bar is not None:
+            self.bar.update(1)
+            if status is not RunStatus.OK:
+                self.bar.set_postfix_str(self._failures_text(), refresh=False)
+            return
+        now = time.monotonic()
+        last = self.done == self.total
+        if status is RunStatus.OK and not last and now - self.last_line < self.min_interval:
+            return
+        self.last_line = now
+        elapsed = now - self.start
+        left = self.total - self.done
+        eta = _duration(elapsed / self.done * left) if left else "0s"
+        print(
+            f"[{self.done}/{self.total}] {run_id}: {status.value}; "
+            f"{self._failures_text()}; elapsed {_duration(elapsed)}, eta {eta}",
+            file=self.stream,
+            flush=True,
+        )
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _duration(seconds: float) -> str:
+    seconds = round(seconds)
+    hours, rest = divmod(seconds, 3600)
+    minutes, secs = divmod(rest, 60)
+    if hours:
+        return f"{hours}h{minutes:02d}m"
+    return f"{minutes}m{secs:02d}s" if minutes else f"{secs}s"
+
+
+class _StopFlag:
+    def __init__(self) -> None:
+        self.signal: signal.Signals | None = None
+
+    def __call__(self, signum: int, frame: object) -> None:
+        if self.signal is None:
+            self.signal = signal.Signals(signum)
+
+
+@contextlib.contextmanager
+def _stop_on_signals(enabled: bool) -> Iterator[_StopFlag]:
+    """SIGINT and SIGTERM set the flag for the duration; the previous handlers come back."""
+    flag = _StopFlag()
+    installed: dict[signal.Signals, Any] = {}
+    if enabled and threading.current_thread() is threading.main_thread():
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            installed[sig] = signal.getsignal(sig)
+            signal.signal(sig, flag)
+    try:
+        yield flag
+    finally:
+        for sig, previous in installed.items():
+            signal.signal(sig, signal.SIG_DFL if previous is None else previous)
+
+
+@dataclass
+class _Attempt:
+    task: Any
+    number: int
+    """1 for the first try, 2 for the retry after a crash."""
+    limit: float | None
+    submitted_at: float
+
+
+class _Sweep:
+    """The state of one call of run_tasks."""
+
+    def __init__(
+        self,
+        worker: Worker,
+        writer: results.RunsWriter,
+        progress: _Progress,
+        failure_row: FailureRow | None,
+        timeout: float | Callable[[Any], float | None] | None,
+        flush_interval: float,
+        flush_rows: int,
+    ) -> None:
+        self.worker = worker
+        self.writer = writer
+        self.progress = progress
+        self.failure_row = failure_row
+        self.timeout = timeout
+        self.flush_interval = flush_interval
+        self.flush_rows = flush_rows
+        self.counts = Counter[RunStatus]()
+        self.last_flush = time.monotonic()
+
+    def limit(self, task: Any) -> float | None:
+        limit = self.timeout(task) if callable(self.timeout) else self.timeout
+        return None if limit is None or limit <= 0 else float(limit)
+
+    def record(self, attempt: _Attempt, row: Mapping[str, Any], started: float | None) -> None:
+        now = time.monotonic()
+        full: Row = dict(row)
+        full["run_id"] = attempt.task.run_id
+        full["attempts"] = attempt.number
+        full["elapsed_s"] = now - (attempt.submitted_at if started is None else started)
+        full["finished_at"] = datetime.now(UTC)
+        self.writer.add(full)
+        status = RunStatus(full["status"])
+        self.counts[status] += 1
+        self.progress.update(attempt.task.run_id, status)
+        self.maybe_flush()
+
+    def maybe_flush(self, force: bool = False) -> None:
+        due = time.monotonic() - self.last_flush >= self.flush_interval
+        if self.writer.buffered and (force or due or self.writer.buffered >= self.flush_rows):
+            self.writer.flush()
+            self.last_flush = time.monotonic()
+
+    def worker_row(self, task: Any, value: Any) -> Row:
+        """The worker's row, with run_id, a valid status and a message."""
+        if not isinstance(value, Mapping):
+            kind = type(value).__name__
+            return self.failed_row(task, RunStatus.ERROR, f"worker returned {kind}, not a row")
+        row = dict(value)
+        try:
+            row["status"] = RunStatus(row.get("status"))
+        except ValueError:
+            found = row.get("status")
+            message = f"worker row has no valid status ({found!r}); {row.get('message') or ''}"
+            row["status"], row["message"] = RunStatus.ERROR, message.rstrip("; ")
+        message = row.get("message")
+        row["message"] = "" if message is None else str(message)
+        return row
+
+    def failed_row(self, task: Any, status: RunStatus, message: str) -> Row:
+        """A row made by the runner: the caller's descriptive columns, status and message."""
+        row: Row = {}
+        if self.failure_row is not None:
+            try:
+                row = dict(self.failure_row(task, status, message))
+            except Exception as exc:
+                message = f"{message} (failure_row raised {type(exc).__name__}: {exc})"
+        row.update(status=status, message=message)
+        return row
+
+
+def _exception_text(exc: BaseException) -> str:
+    text = f"{type(exc).__name__}: {exc}"
+    return text if len(text) <= 500 else text[:497] + "..."
+
+
+def _prepare_dir(out: Path, resume: bool) -> None:
+    if out.exists() and not out.is_dir():
+        raise RunnerError(f"{out} exists and is not a directory")
+    if not resume and out.is_dir() and any(out.iterdir()):
+        raise OutputDirNotEmptyError(
+            f"{out} is not empty: resume the sweep stored there, or choose a new directory"
+        )
+    out.mkdir(parents=True, exist_ok=True)
+
+
+def _finalize(
+    out: Path,
+    task_order: Sequence[str],
+    meta: Mapping[str, Any] | None,
+    started_at: datetime,
+    wall_start: float,
+    resumed: bool,
+    session: Mapping[str, Any],
+) -> None:
+    """runs.csv and meta.json from the latest row of every run."""
+    frame = results.read_runs(out)
+    rank = {run_id: i for i, run_id in enumerate(task_order)}
+    order = frame["run_id"].map(lambda r: rank.get(r, len(rank)))
+    frame = frame.iloc[order.argsort(kind="stable")].reset_index(drop=True)
+    results.write_csv(frame, out / results.CSV_NAME)
+    counts = {str(s): int(n) for s, n in frame["status"].value_counts().sort_index().items()}
+    ended = datetime.now(UTC)
+    full = dict(meta or {})
+    full.update(results.environment_meta())
+    full.update(
+        started_at=started_at.isoformat(),
+        ended_at=ended.isoformat(),
+        wall_time_s=round(time.monotonic() - wall_start, 3),
+        resumed=resumed,
+        runs=len(frame),
+        status_counts=counts,
+        session=dict(session),
+    )
+    results.write_meta(full, out / results.META_NAME)
+
+
+def run_tasks(
+    tasks: Iterable[Any],
+    worker: Worker,
+    out_dir: str | os.PathLike[str],
+    *,
+    failure_row: FailureRow | None = None,
+    timeout: float | Callable[[Any], float | None] | None = None,
+    jobs: int | None = None,
+    executor: Executor | None = None,
+    max_in_flight: int | None = None,
+    resume: bool = False,
+    meta: Mapping[str, Any] | None = None,
+    quiet: bool = False,
+    stream: TextIO | None = None,
+    flush_interval: float = 2.0,
+    flush_rows: int = 500,
+    handle_signals: bool = True,
+) -> RunSummary:
+    """Run ``worker(task)`` for every task and store the rows in ``out_dir``.
+
+    ``worker`` must be an importable module-level function returning a small row dict with a
+    ``status`` (:class:`RunStatus` value) and ideally a ``message``; ``failure_row(task,
+    status, message)`` gives the descriptive columns of rows the runner makes itself
+    (timeout, crashed, error). ``timeout`` is seconds per task, or a function of the task.
+
+    Without ``executor``, a :class:`WorkerPool` of ``jobs`` workers (default: CPU count) runs
+    the tasks: a hung call's worker is killed, a dead worker's call is retried once. A
+    foreign executor (``concurrent.futures`` or Dask's ``Client.get_executor()``) is not
+    shut down here; a timed-out call is cancelled if possible and otherwise abandoned (it
+    keeps its worker), and an exception from a future counts as a crash. Its calls are
+    timed from submission, with at most ``max_in_flight`` (default: its ``_max_workers`` or
+    ``jobs`` or the CPU count) submitted at once.
+
+    Raises :class:`OutputDirNotEmptyError` if ``out_dir`` holds files and ``resume`` is
+    false; with ``resume``, runs whose latest row has a final status are skipped.
+    """
+    wall_start = time.monotonic()
+    started_at = datetime.now(UTC)
+    tasks = list(tasks)
+    seen: set[str] = set()
+    for task in tasks:
+        run_id = getattr(task, "run_id", None)
+        if not isinstance(run_id, str) or not run_id:
+            raise TypeError(f"task {task!r} has no run_id string")
+        if run_id in seen:
+            raise ValueError(f"run_id {run_id!r} appears twice")
+        seen.add(run_id)
+    out = Path(out_dir)
+    _prepare_dir(out, resume)
+    stream = sys.stderr if stream is None else stream
+    notes: list[str] = []
+
+    def note(text: str) -> None:
+        notes.append(text)
+        if not quiet:
+            print(text, file=stream, flush=True)
+
+    stored: dict[str, str] = {}
+    if resume:
+        leftovers = results.leftover_temp_files(out)
+        if leftovers:
+            names = ", ".join(str(p.relative_to(out)) for p in leftovers)
+            note(f"resume: ignoring {len(leftovers)} leftover temporary file(s): {names}")
+        stored = results.stored_statuses(out)
+
+    def is_final(status: str | None) -> bool:
+        try:
+            return status is not None and RunStatus(status).is_final
+        except ValueError:
+            return False
+
+    todo = [t for t in tasks if not is_final(stored.get(t.run_id))]
+    skipped = len(tasks) - len(todo)
+    session = {"ran": len(todo), "skipped": skipped}
+    task_order = [t.run_id for t in tasks]
+    if resume and not todo and tasks:
+        note(f"resume: nothing to run, all {len(tasks)} runs are stored with a final status")
+        missing = [n for n in (results.CSV_NAME, results.META_NAME) if not (out / n).exists()]
+        if missing:
+            _finalize(out, task_order, meta, started_at, wall_start, True, session)
+            note(f"resume: wrote the missing {' and '.join(missing)}")
+        return RunSummary(out, {}, time.monotonic() - wall_start, None, skipped, 0, tuple(notes))
+
+    writer = results.RunsWriter(out / results.RUNS_NAME)
+    owned = executor is None
+    if executor is None:
+        module = getattr(worker, "__module__", None)
+        preload = [module] if module and module not in ("__main__", "__mp_main__") else []
+        local = WorkerPool(jobs, preload=preload)
+        # Twice the workers: a call is queued in the pool, ready the moment a worker is free.
+        in_flight_limit = max_in_flight or 2 * local.max_workers
+        pool: Executor = local
+    else:
+        pool = executor
+        guess = getattr(executor, "_max_workers", None)
+        in_flight_limit = max_in_flight or guess or jobs or os.cpu_count() or 1
+
+    progress = _Progress(len(todo), stream, quiet)
+    sweep = _Sweep(worker, writer, progress, failure_row, timeout, flush_interval, flush_rows)
+    queue: deque[_Attempt] = deque(_Attempt(t, 1, None, 0.0) for t in todo)
+    in_flight: dict[Future, _Attempt] = {}
+    tick = 0.1 if timeout is not None else 0.25
+    stopped_by: signal.Signals | None = None
+
+    def started(future: Future, attempt: _Attempt) -> float | None:
+        """When the call's clock started: on a worker (local pool), or at submission."""
+        return future.started_at if isinstance(future, PoolFuture) else attempt.submitted_at
+
+    def crash(attempt: _Attempt, text: str) -> None:
+        if attempt.number == 1:
+            queue.appendleft(_Attempt(attempt.task, 2, None, 0.0))
+            return
+        message = f"worker died twice: {text}"
+        sweep.record(attempt, sweep.failed_row(attempt.task, RunStatus.CRASHED, message), None)
+
+    def settle(future: Future, attempt: _Attempt, stopping: bool) -> None:
+        """A finished future: its row, a retry, or (stopping) nothing unless it has a row."""
+        if future.cancelled():
+            if not stopping:
+                crash(attempt, "the call was cancelled")
+            return
+        exc = future.exception()
+        if exc is None:
+            row = sweep.worker_row(attempt.task, future.result())
+            sweep.record(attempt, row, started(future, attempt))
+        elif stopping:
+            return
+        elif isinstance(pool, WorkerPool) and not isinstance(
+            exc, WorkerCrashedError | WorkerKilledError
+        ):
+            # The worker function itself raised: a bug of the worker, not a dead process.
+            text = f"worker raised {_exception_text(exc)}"
+            row = sweep.failed_row(attempt.task, RunStatus.ERROR, text)
+            sweep.record(attempt, row, started(future, attempt))
+        else:
+            crash(attempt, _exception_text(exc))
+
+    # The handlers stay while the workers are stopped and the rows flushed: a second Ctrl-C
+    # must not cut that short.
+    with _stop_on_signals(handle_signals) as flag:
+        failed = True
+        try:
+            while True:
+                while queue and len(in_flight) < in_flight_limit and flag.signal is None:
+                    attempt = queue.popleft()
+                    attempt.limit = sweep.limit(attempt.task)
+                    attempt.submitted_at = time.monotonic()
+                    try:
+                        future = pool.submit(worker, attempt.task)
+                    except BrokenExecutor as exc:
+                        queue.appendleft(attempt)
+                        raise ExecutorBrokenError(
+                            f"the executor is broken ({_exception_text(exc)}); "
+                            "resume the sweep with a new one"
+                        ) from exc
+                    in_flight[future] = attempt
+                if flag.signal is not None or (not queue and not in_flight):
+                    break
+                done, _ = wait_futures(list(in_flight), timeout=tick, return_when=FIRST_COMPLETED)
+                for future in done:
+                    settle(future, in_flight.pop(future), stopping=False)
+                now = time.monotonic()
+                for future, attempt in list(in_flight.items()):
+                    start = started(future, attempt)
+                    if attempt.limit is None or start is None or now - start < attempt.limit:
+                        continue
+                    del in_flight[future]
+                    if isinstance(pool, WorkerPool):
+                        pool.kill(future)
+                    else:
+                        future.cancel()  # a running call cannot be cancelled: abandoned
+                    text = f"no result after {attempt.limit:g} s; the call was stopped"
+                    row = sweep.failed_row(attempt.task, RunStatus.TIMEOUT, text)
+                    sweep.record(attempt, row, start)
+                sweep.maybe_flush()
+            stopped_by = flag.signal
+            failed = False
+        finally:
+            # Done, interrupted or failed: stop the workers and keep every finished row.
+            if isinstance(pool, WorkerPool) and owned:
+                if in_flight or queue:
+                    pool.kill_workers()
+                else:
+                    pool.shutdown(wait=True)
+            elif isinstance(pool, WorkerPool):  # the caller's pool: only our calls end
+                for future in in_flight:
+                    pool.kill(future)
+            else:
+                for future in in_flight:
+                    future.cancel()
+            for future, attempt in list(in_flight.items()):
+                if future.done() and not future.cancelled() and future.exception() is None:
+                    settle(future, attempt, stopping=True)
+                    del in_flight[future]
+            try:
+                sweep.maybe_flush(force=True)
+            except Exception:
+                if not failed:
+                    raise  # otherwise the first error is the one to report
+            progress.close()
+
+    unfinished = len(in_flight) + len(queue)
+    if stopped_by is None:
+        _finalize(out, task_order, meta, started_at, wall_start, resume, session)
+    return RunSummary(
+        out_dir=out,
+        counts=dict(sweep.counts),
+        wall_time_s=time.monotonic() - wall_start,
+        interrupted=stopped_by,
+        skipped=skipped,
+        unfinished=unfinished,
+        notes=tuple(notes),
+    )
