@@ -4,7 +4,10 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 FILES := $(VENV)/.files
-OUT ?= reports/output/$(shell date +%Y%m%d-%H%M%S)
+# A new folder for every report: evaluated once, so both steps below use the same one.
+ifndef OUT
+OUT := reports/output/$(shell date +%Y%m%d-%H%M%S)
+endif
 PACKAGE_FILES := $(sort $(wildcard about/*.py models/*.py reference/*.py engines/*.py \
 	reports/*.py reports/*.toml reports/suites/*.toml))
 
@@ -29,7 +32,8 @@ test: $(STAMP)
 	$(BIN)/python -m pytest
 
 report: $(STAMP)
-	$(BIN)/hoopbench report --out $(OUT)
+	$(BIN)/hoopbench compare --suite default --out $(OUT) --trajectories default
+	$(BIN)/hoopbench report --results $(OUT)
 
 bench: $(STAMP)
 	$(BIN)/python -m hoopbench.reports.bench_overhead

@@ -119,14 +119,16 @@ class Trajectory:
         values = {c: v if c == "contact" else v.astype(float) for c, v in values.items()}
         return cls(**values)
 
-    def write(self, path: str | Path) -> Path:
-        """Write as CSV (with a format-version comment) or Parquet, chosen by the suffix."""
+    def write(self, path: str | Path, *, suffix: str | None = None) -> Path:
+        """Write as CSV (with a format-version comment) or Parquet, chosen by the suffix
+        (``suffix`` overrides the path's, e.g. for a temporary name)."""
         path = Path(path)
         frame = self.to_frame()
-        if path.suffix == ".parquet":
+        suffix = path.suffix if suffix is None else suffix
+        if suffix == ".parquet":
             frame.attrs["hoopbench_trajectory_format"] = FORMAT_VERSION
             frame.to_parquet(path, index=False)
-        elif path.suffix == ".csv":
+        elif suffix == ".csv":
             with path.open("w", newline="") as fh:
                 fh.write(f"# hoopbench trajectory format {FORMAT_VERSION}; SI units\n")
                 frame.to_csv(fh, index=False, float_format="%.17g")

@@ -341,18 +341,59 @@ def _engine_declaration(cls: Any) -> dict[str, Any]:
     }
 
 
-def _cmd_report(args: argparse.Namespace) -> int:
-    from hoopbench.reports.suite import run_report
+def _cmd_compare(args: argparse.Namespace) -> int:
+    from hoopbench.reports.runner import RunnerError
+    from hoopbench.reports.suite import compare
+    from hoopbench.reports.suite_file import builtin_suite, load_suite
 
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise UsageError(f"--out {args.out!r} is a file, not a folder")
-    if out.is_dir() and any(out.iterdir()) and not args.force:
-        raise UsageError(
-            f"--out folder {args.out!r} is not empty; choose a new folder or pass --force "
-            "to replace the report in it"
+    path = Path(args.suite)
+    if not path.suffix and not path.exists():
+        path = builtin_suite(args.suite)  # a shipped suite by name: quick, default, full
+    suite = load_suite(path)  # the whole file is checked before anything runs
+    if args.run_timeout is not None and not (args.run_timeout > 0):
+        raise UsageError(f"--run-timeout must be > 0 s, got {args.run_timeout}")
+    try:
+        summary = compare(
+            path,
+            args.out,
+            jobs=args.jobs,
+            resume=args.resume,
+            run_timeout_s=args.run_timeout,
+            engines=args.engines,
+            quiet=args.quiet,
+            trajectories=args.trajectories,
+            suite=suite,
         )
-    run_report(out=out, quick=args.quick, workers=args.workers)
+    except RunnerError as exc:
+        raise UsageError(str(exc)) from None
+    if summary.interrupted is not None:
+        print(
+            f"hoopbench: interrupted by {summary.interrupted.name}; {summary.total} run(s) "
+            f"stored, {summary.unfinished} left. Resume with: hoopbench compare --suite "
+            f"{args.suite} --out {args.out} --resume",
+            file=sys.stderr,
+        )
+    elif not args.quiet:
+        counts = ", ".join(f"{n} {s}" for s, n in sorted(summary.counts.items()) if n)
+        print(f"hoopbench: {counts or 'nothing to run'} -> {args.out}", file=sys.stderr)
+    return summary.exit_code
+
+
+def _cmd_report(args: argparse.Namespace) -> int:
+    from hoopbench.reports.suite import build_report
+
+    results_dir = Path(args.results)
+    if not (results_dir / "runs").is_dir():
+        raise UsageError(
+            f"--results {args.results!r} holds no results (no runs/ folder): "
+            "run hoopbench compare first"
+        )
+    out = Path(args.out) if args.out else results_dir
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out {str(out)!r} is a file, not a folder")
+    if (out / "report.md").exists() and not args.force:
+        raise UsageError(f"{str(out / 'report.md')!r} exists; pass --force to replace it")
+    print(build_report(results_dir, out))
     return 0
 
 
@@ -435,13 +476,35 @@ def _parser() -> _Parser:
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_cmd_settings)
 
-    p = sub.add_parser("report", help="run the comparison suite and write the report")
-    p.add_argument("--out", default="reports/output", help="output folder (new or empty)")
-    p.add_argument("--quick", action="store_true", help="a small sweep (for a smoke test)")
+    p = sub.add_parser("compare", help="run a suite file: isolated, resumable, stored as Parquet")
     p.add_argument(
-        "--workers", type=_workers, default=min(2, os.cpu_count() or 1), help="processes"
+        "--suite", required=True, help="suite file (.toml), or a shipped one: quick, default, full"
     )
-    p.add_argument("--force", action="store_true", help="replace a report in a non-empty --out")
+    p.add_argument("--out", required=True, help="results folder (new or empty, or --resume)")
+    p.add_argument(
+        "--jobs", type=_workers, default=min(2, os.cpu_count() or 1), help="worker processes"
+    )
+    p.add_argument("--resume", action="store_true", help="skip runs already stored")
+    p.add_argument(
+        "--run-timeout",
+        type=float,
+        metavar="SECONDS",
+        help="time limit per run (default: 60 s + 0.5 ms per step)",
+    )
+    p.add_argument("--engines", nargs="+", metavar="ENGINE", help="only these engines of the suite")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument(
+        "--trajectories",
+        choices=("none", "default", "all"),
+        default="none",
+        help="store trajectories: of no run, of the default-settings runs, or of all",
+    )
+    p.set_defaults(func=_cmd_compare)
+
+    p = sub.add_parser("report", help="write report.md and figures from stored results")
+    p.add_argument("--results", required=True, help="a results folder of hoopbench compare")
+    p.add_argument("--out", help="report folder (default: the results folder)")
+    p.add_argument("--force", action="store_true", help="replace an existing report.md")
     p.set_defaults(func=_cmd_report)
 
     p = sub.add_parser("figure", help="draw a hoop trajectory (weight and hoop positions)")

@@ -132,7 +132,8 @@ def error_vs_time_figure(frame, out: str | Path, *, panels, title: str) -> Path:
         ax.set_xlabel("wall time of the stepping (s)")
         ax.set_ylabel(f"|{label}|")
         ax.set_title(f"{scene}: {label}", fontsize=10)
-        ax.legend(fontsize=8)
+        if ax.get_legend_handles_labels()[0]:  # a panel whose scene lacks the event is empty
+            ax.legend(fontsize=8)
     fig.suptitle(title, fontsize=11)
     out = Path(out)
     fig.savefig(out, dpi=110)

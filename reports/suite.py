@@ -1,8 +1,9 @@
-"""The comparison suite: scenes x engines x contact settings, against the exact reference.
+"""The comparison suite: the worker that runs one task, and the compare and report steps.
 
-One row per run (tidy): the run's settings, its status and cost, its detected events, the
-exact events for the same scene and mu, and the errors. Written as CSV and Parquet, with a
-Markdown report and PNG figures.
+A suite file (:mod:`hoopbench.reports.suite_file`) expands into tasks; the isolated runner
+(:mod:`hoopbench.reports.runner`) runs :func:`run_task` for each in a worker process and
+stores one tidy row per run: the run's settings, its status and cost, its detected events,
+the exact events for the same scene and mu, and the errors (engine minus exact).
 """
 
 from __future__ import annotations
@@ -10,82 +11,99 @@ from __future__ import annotations
 import functools
 import json
 import math
-import sys
-import time
-from collections.abc import Iterable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import dataclass, field
+import shutil
+from concurrent.futures import Executor
+from dataclasses import replace
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
-from hoopbench.engines.base import RunResult
-from hoopbench.engines.registry import engine_classes, get_engine
-from hoopbench.engines.settings import DEFAULT_TIMESTEP, RunSettings
-from hoopbench.models.catalogue import get_scene, scene_names
+from hoopbench.engines.base import RunResult, RunStatus
+from hoopbench.engines.registry import engine_class, get_engine
 from hoopbench.models.events import Events
+from hoopbench.models.scene import Scene
 from hoopbench.reference.exact import solve_exact
+from hoopbench.reports import results
+from hoopbench.reports.runner import RunSummary, run_tasks
+from hoopbench.reports.suite_file import RunTask, Suite, load_suite
 
-__all__ = ["Case", "default_cases", "run_case", "run_report", "run_suite"]
+__all__ = [
+    "FORMAT_VERSION",
+    "TrajectoryChoice",
+    "build_report",
+    "compare",
+    "failure_row",
+    "report_frame",
+    "run_task",
+    "run_timeout",
+]
 
-FORMAT_VERSION = 1
-"""Version of the runs table layout."""
+FORMAT_VERSION = 2
+"""Version of the runs table layout (2: run_id and the runner's bookkeeping columns)."""
+
+ROW_COLUMNS = (
+    "run_id",
+    "scene",
+    "engine",
+    "variant",
+    "timestep",
+    "geometry",
+    "options",
+    "status",
+    "message",
+    "engine_version",
+    "mu",
+    "wall_time_s",
+    "n_steps",
+    "us_per_step",
+    "exact_outcome",
+    "exact_t_slip",
+    "exact_theta_slip_deg",
+    "exact_t_lift",
+    "exact_hop_height",
+    "exact_t_impact",
+    "exact_phases",
+    "outcome",
+    "t_slip",
+    "t_slip_threshold",
+    "theta_slip_deg",
+    "t_restick",
+    "t_lift",
+    "hop_height",
+    "t_impact",
+    "err_t_slip_ms",
+    "err_theta_slip_deg",
+    "err_t_lift_ms",
+    "err_t_impact_ms",
+    "err_hop_height_rel",
+    "energy_rise_before_slip",
+    "energy_change_end",
+    "max_penetration_m",
+    "outcome_agrees",
+    "phases",
+    "phases_agree",
+    "trajectory_file",
+)
+"""Every column of a run's row, in order; a failed run leaves most of them empty."""
+
+TRAJECTORY_DIR = "trajectories"
+"""Sub-folder of a results folder holding stored trajectories, one Parquet file per run."""
 
 
-@dataclass(frozen=True)
-class Case:
-    """One run of the suite: a scene in an engine with contact settings."""
+class TrajectoryChoice:
+    """Which runs store their trajectory: none, the default variant's runs, or all."""
 
-    scene: str
-    engine: str
-    variant: str
-    """Short label of the contact settings, e.g. 'default' or 'cone=pyramidal'."""
-    timestep: float
-    geometry: str = "sphere"
-    options: dict[str, Any] = field(default_factory=dict)
-
-    def settings(self) -> RunSettings:
-        return RunSettings(timestep=self.timestep, geometry=self.geometry, options=self.options)
-
-
-_TIMESTEPS = (1e-3, 5e-4, 2e-4, 1e-4, 5e-5)
-"""Default-setting timesteps of the full sweep: the error-against-cost curve."""
-
-
-def suite_scenes(quick: bool = False) -> list[str]:
-    """Scenes of the suite: the cross-engine seed, the hop scenes and the stability cases."""
-    names = scene_names()
-    hops = [n for n in names if n.startswith("hop")]
-    if quick:
-        return ["seed-mu", *hops[:1]]
-    # Stability cases: a hop from near-zero normal force, low friction with direct slip
-    # reversals, and a sliding start that reaches the Painlevé point.
-    others = [n for n in ("high-spin", "low-friction", "slip-reversal", "painleve") if n in names]
-    return ["seed-mu", *hops, *others]
-
-
-def default_cases(quick: bool = False, engines: Sequence[str] | None = None) -> list[Case]:
-    """The default sweep (quick: seed-mu and one hop scene, default settings, dt 1e-4)."""
-    classes = engine_classes()
-    engines = list(engines or classes)
-    cases = []
-    for scene in suite_scenes(quick):
-        for engine in engines:
-            for dt in (DEFAULT_TIMESTEP,) if quick else _TIMESTEPS:
-                cases.append(Case(scene, engine, "default", dt))
-            if not quick:
-                for v in classes[engine].variants:
-                    options = dict(v.options)
-                    cases.append(Case(scene, engine, v.name, DEFAULT_TIMESTEP, v.geometry, options))
-    return cases
+    NONE = "none"
+    DEFAULT = "default"
+    ALL = "all"
+    CHOICES = (NONE, DEFAULT, ALL)
 
 
 # --------------------------------------------------------------------------- one run
-@functools.cache  # one exact solve per (scene, mu) per process, not one per run
-def _exact_events(scene_name: str, mu: float) -> Events:
-    scene = get_scene(scene_name)
+@functools.cache  # one exact solve per (scene, mu) per worker process, not one per run
+def _exact_events(scene: Scene, mu: float) -> Events:
     return solve_exact(scene.with_(mus=mu, muk=mu)).events
 
 
@@ -95,17 +113,25 @@ def _error(value: float | None, reference: float | None) -> float | None:
     return value - reference
 
 
-def _row(case: Case, result: RunResult, exact: Events) -> dict[str, Any]:
+def _task_columns(task: RunTask) -> dict[str, Any]:
+    """The descriptive columns of a task's row (also those of a timeout or crash row)."""
+    defaults = engine_class(task.engine).defaults()
+    changed = {k: v for k, v in task.options if v != defaults.get(k)}
+    return {
+        "run_id": task.run_id,
+        "scene": task.scene.name,
+        "engine": task.engine,
+        "variant": task.variant,
+        "timestep": task.timestep,
+        "geometry": task.geometry,
+        "options": json.dumps(changed, default=list, sort_keys=True),
+    }
+
+
+def _row(task: RunTask, result: RunResult, exact: Events) -> dict[str, Any]:
     info, events, traj = result.info, result.events, result.trajectory
     row: dict[str, Any] = {
-        "scene": case.scene,
-        "engine": case.engine,
-        "variant": case.variant,
-        "timestep": case.timestep,
-        "geometry": case.geometry,
-        "options": json.dumps(
-            {k: list(v) if isinstance(v, tuple) else v for k, v in case.options.items()}
-        ),
+        **_task_columns(task),
         "status": str(info.status),
         "message": info.message,
         "engine_version": info.engine_version,
@@ -164,105 +190,132 @@ def _ms(seconds: float | None) -> float | None:
     return None if seconds is None else 1e3 * seconds
 
 
-def run_case(case: Case, trajectory_dir: str | None = None) -> dict[str, Any]:
-    """Run one case and return its row; a failure anywhere becomes a row with status error."""
+def run_task(task: RunTask) -> dict[str, Any]:
+    """Run one task and return its row; a failure anywhere becomes a row with status error.
+
+    The worker function of the runner: importable, its input and output small and picklable.
+    """
     try:
-        return _run_case(case, trajectory_dir)
+        return _run_task(task)
     except Exception as exc:  # one broken run must not stop a sweep
-        return {
-            "scene": case.scene,
-            "engine": case.engine,
-            "variant": case.variant,
-            "timestep": case.timestep,
-            "geometry": case.geometry,
-            "status": "error",
-            "message": f"{type(exc).__name__}: {exc}",
-        }
+        return failure_row(task, RunStatus.ERROR, f"{type(exc).__name__}: {exc}")
 
 
-def _run_case(case: Case, trajectory_dir: str | None) -> dict[str, Any]:
-    scene = get_scene(case.scene)
-    result = get_engine(case.engine).run(scene, case.settings())
-    exact = _exact_events(case.scene, result.info.mu)
-    row = _row(case, result, exact)
-    if trajectory_dir and result.trajectory is not None and case.variant == "default":
-        name = f"{case.scene}__{case.engine}__dt{case.timestep:g}.parquet"
-        path = Path(trajectory_dir) / name
-        result.trajectory.write(path)
-        row["trajectory_file"] = str(path)
+def _run_task(task: RunTask) -> dict[str, Any]:
+    result = get_engine(task.engine).run(task.scene, task.settings())
+    mu = result.info.mu if result.info.mu is not None else task.scene.mus
+    row = _row(task, result, _exact_events(task.scene, mu))
+    if task.trajectory_dir and result.trajectory is not None:
+        name = f"{task.run_id}.parquet"
+        path = Path(task.trajectory_dir) / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        results.atomic_write(path, lambda tmp: result.trajectory.write(tmp, suffix=".parquet"))
+        row["trajectory_file"] = f"{TRAJECTORY_DIR}/{name}"
     return row
 
 
-def run_suite(
-    cases: Iterable[Case],
+def failure_row(task: RunTask, status: RunStatus, message: str) -> dict[str, Any]:
+    """The row of a run that produced nothing (timeout, crash, an exception)."""
+    return {**_task_columns(task), "status": str(status), "message": message}
+
+
+def run_timeout(task: RunTask) -> float:
+    """Seconds a run may take before it becomes a timeout row: generous, from its size.
+
+    The slowest engine here costs about 10 us a step (MuJoCo RK4, PyBullet); 0.5 ms a step
+    is 50 times that, plus a minute for imports, model building and the exact solve.
+    """
+    return 60.0 + 5e-4 * task.n_steps
+
+
+# --------------------------------------------------------------------------- compare
+def compare(
+    suite_file: str | Path,
+    out: str | Path,
     *,
-    workers: int = 2,
-    trajectory_dir: str | None = None,
-    progress=sys.stderr,
-) -> pd.DataFrame:
-    """Run the cases on ``workers`` processes; progress lines go to ``progress``."""
-    cases = list(cases)
-    rows: list[dict[str, Any]] = []
-    start = time.perf_counter()
-    if workers <= 1:
-        results = ((case, run_case(case, trajectory_dir)) for case in cases)
-        for k, (case, row) in enumerate(results, 1):
-            rows.append(row)
-            _progress(progress, k, len(cases), case, row, start)
-    else:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            futures = {pool.submit(run_case, case, trajectory_dir): case for case in cases}
-            for k, future in enumerate(as_completed(futures), 1):
-                row = future.result()
-                rows.append(row)
-                _progress(progress, k, len(cases), futures[future], row, start)
-    frame = pd.DataFrame(rows)
-    order = {(c.scene, c.engine, c.variant, c.timestep): i for i, c in enumerate(cases)}
-    frame["_order"] = [
-        order[(r.scene, r.engine, r.variant, r.timestep)] for r in frame.itertuples()
-    ]
-    return frame.sort_values("_order").drop(columns="_order").reset_index(drop=True)
+    jobs: int = 2,
+    resume: bool = False,
+    run_timeout_s: float | None = None,
+    engines: list[str] | None = None,
+    quiet: bool = False,
+    trajectories: str = TrajectoryChoice.NONE,
+    executor: Executor | None = None,
+    suite: Suite | None = None,
+) -> RunSummary:
+    """Run a suite file into ``out`` (see the README's results layout).
 
-
-def _progress(stream, k: int, total: int, case: Case, row: dict, start: float) -> None:
-    if stream is None:
-        return
-    wall = row.get("wall_time_s")
-    cost = "" if wall is None else f" {wall:.2f} s"
-    elapsed = time.perf_counter() - start
-    print(
-        f"[{k:>3}/{total}] {case.engine:<9} {case.scene:<14} {case.variant:<22} "
-        f"dt={case.timestep:g}: {row['status']}{cost} (elapsed {elapsed:.0f} s)",
-        file=stream,
-        flush=True,
+    Raises SuiteError for a bad suite file and OutputDirNotEmptyError for a folder that holds
+    files when ``resume`` is false; both before any run starts.
+    """
+    suite = suite or load_suite(suite_file)
+    if engines:
+        suite = suite.with_engines(engines)
+    out = Path(out)
+    traj_dir = out / TRAJECTORY_DIR
+    tasks = suite.tasks(str(traj_dir) if trajectories != TrajectoryChoice.NONE else None)
+    if trajectories == TrajectoryChoice.DEFAULT:
+        tasks = [t if t.variant == "default" else _without_trajectory(t) for t in tasks]
+    timeout = run_timeout if run_timeout_s is None else run_timeout_s
+    meta = {
+        "suite": suite.name,
+        "suite_file": Path(suite_file).name,
+        "runs_format_version": FORMAT_VERSION,
+        "units": {"times": "s", "angles": "deg", "lengths": "m", "*_ms": "ms"},
+        "engine_versions": _engine_versions(suite.engines),
+    }
+    summary = run_tasks(
+        tasks,
+        run_task,
+        out,
+        failure_row=failure_row,
+        timeout=timeout,
+        jobs=jobs,
+        executor=executor,
+        resume=resume,
+        meta=meta,
+        quiet=quiet,
     )
+    copy = out / "suite.toml"
+    if Path(suite_file).is_file() and not copy.exists():
+        results.atomic_write(copy, lambda tmp: shutil.copyfile(suite_file, tmp))
+    return summary
+
+
+def _without_trajectory(task: RunTask) -> RunTask:
+    return replace(task, trajectory_dir=None)
+
+
+def _engine_versions(engines: tuple[str, ...]) -> dict[str, str | None]:
+    return {name: engine_class(name)().version() for name in engines}
 
 
 # --------------------------------------------------------------------------- report
-def run_report(
-    out: str | Path = "reports/output", *, quick: bool = False, workers: int = 2
-) -> Path:
-    """Run the default suite and write runs.csv, runs.parquet, report.md and figures."""
+def build_report(results_dir: str | Path, out: str | Path | None = None) -> Path:
+    """report.md and its figures from stored results alone (no simulation)."""
     from hoopbench.reports.markdown import write_markdown
 
-    out = Path(out)
-    traj_dir = out / "trajectories"
-    traj_dir.mkdir(parents=True, exist_ok=True)
-    cases = default_cases(quick)
-    print(f"hoopbench report: {len(cases)} runs on {workers} worker(s) -> {out}", file=sys.stderr)
-    frame = run_suite(cases, workers=workers, trajectory_dir=str(traj_dir))
-    frame.attrs["hoopbench_runs_format"] = FORMAT_VERSION
-    # Plain CSV (header on line 1, for any CSV reader); what it is goes in runs.json.
-    frame.to_csv(out / "runs.csv", index=False)
-    frame.to_parquet(out / "runs.parquet", index=False)
-    meta = {
-        "format": "hoopbench runs",
-        "format_version": FORMAT_VERSION,
-        "units": {"times": "s", "angles": "deg", "lengths": "m", "*_ms": "ms"},
-        "columns": list(frame.columns),
-        "runs": len(frame),
-    }
-    (out / "runs.json").write_text(json.dumps(meta, indent=2) + "\n")
-    report = write_markdown(frame, out, generated=datetime.now(UTC).isoformat(timespec="seconds"))
-    print(f"wrote {report}", file=sys.stderr)
-    return report
+    results_dir = Path(results_dir)
+    out = Path(out) if out is not None else results_dir
+    frame = report_frame(results_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    generated = datetime.now(UTC).isoformat(timespec="seconds")
+    return write_markdown(frame, out, generated=generated)
+
+
+def report_frame(results_dir: str | Path) -> pd.DataFrame:
+    """The runs of a results folder as the report reads them: trajectory paths resolved
+    (they are stored relative to the folder, so that the folder can move)."""
+    results_dir = Path(results_dir)
+    frame = runs_frame(results_dir)
+    paths = [
+        str(results_dir / p) if isinstance(p, str) and p else None for p in frame["trajectory_file"]
+    ]
+    return frame.assign(trajectory_file=paths)
+
+
+def runs_frame(results_dir: str | Path) -> pd.DataFrame:
+    """The latest row of every run of a results folder, with every row column (a sweep in
+    which every run failed has no event columns of its own)."""
+    frame = results.read_runs(results_dir)
+    missing = [c for c in ROW_COLUMNS if c not in frame.columns]
+    return frame.assign(**dict.fromkeys(missing, None)) if missing else frame

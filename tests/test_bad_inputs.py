@@ -95,11 +95,16 @@ BAD: list[tuple[list[str], str]] = [
     (["reference", *SEED, "--method", "bogus"], "'bogus'"),
     (["reference", *SEED, "--rtol", "0"], "rtol"),
     (["reference", *SEED, "--method", "seed-euler", "--delta", "-1"], "delta"),
-    # ----- report and figure
-    (["report", "--workers", "0"], "argument --workers: must be >= 1, got 0"),
-    (["report", "--workers", "-3"], "got -3"),
-    (["report", "--workers", "40"], "got 40"),
-    (["report", "--workers", "two"], "'two'"),
+    # ----- compare, report and figure
+    (["compare", "--suite", "quick", "--out", "new", "--jobs", "0"], "--jobs: must be >= 1, got 0"),
+    (["compare", "--suite", "quick", "--out", "new", "--jobs", "-3"], "got -3"),
+    (["compare", "--suite", "quick", "--out", "new", "--jobs", "40"], "got 40"),
+    (["compare", "--suite", "quick", "--out", "new", "--jobs", "two"], "'two'"),
+    (["compare", "--suite", "quik", "--out", "new"], "no shipped suite 'quik'"),
+    (["compare", "--suite", "none.toml", "--out", "new"], "cannot read suite file 'none.toml'"),
+    (["compare", "--suite", "quick", "--out", "new", "--engines", "bullet"], "bullet"),
+    (["compare", "--suite", "quick", "--out", "new", "--run-timeout", "0"], "got 0"),
+    (["report", "--results", "nowhere"], "--results 'nowhere' holds no results"),
     (["figure", *SEED, "--out", "hoop.jpg"], "hoop.jpg'"),
 ]
 
@@ -156,10 +161,11 @@ def test_existing_output_file_is_kept_without_force(tmp_path, capsys, deadline):
     assert target.read_text() != "precious\n"
 
 
-def test_report_refuses_a_non_empty_folder(tmp_path, capsys, deadline):
+def test_compare_refuses_a_non_empty_folder(tmp_path, capsys, deadline):
     (tmp_path / "runs.csv").write_text("old\n")
-    assert main(["report", "--quick", "--out", str(tmp_path)]) == 2
-    assert "is not empty" in capsys.readouterr().err
+    assert main(["compare", "--suite", "quick", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert str(tmp_path) in err and len(err.strip().splitlines()) == 1
     assert (tmp_path / "runs.csv").read_text() == "old\n"
 
 

@@ -1,25 +1,30 @@
-"""The comparison suite and its report, on the quick sweep."""
+"""The comparison suite and its report, on the quick suite."""
 
 from __future__ import annotations
 
 import pandas as pd
 import pytest
 
+from hoopbench.engines.base import RunStatus
+from hoopbench.engines.registry import engine_class
 from hoopbench.reports.markdown import write_markdown
-from hoopbench.reports.suite import Case, default_cases, run_case, run_report, suite_scenes
+from hoopbench.reports.suite import ROW_COLUMNS, build_report, compare, report_frame, run_task
+from hoopbench.reports.suite_file import builtin_suite, load_suite, parse_suite
 
 
 @pytest.fixture(scope="module")
 def quick_report(tmp_path_factory):
-    out = tmp_path_factory.mktemp("report")
-    return out, run_report(out, quick=True, workers=1)
+    out = tmp_path_factory.mktemp("results")
+    summary = compare(builtin_suite("quick"), out, jobs=2, quiet=True, trajectories="default")
+    assert summary.completed
+    return out, build_report(out)
 
 
 @pytest.mark.slow  # the quick suite, about 10 s once per module
 def test_quick_report_writes_its_files(quick_report):
     out, report = quick_report
     assert report == out / "report.md"
-    for name in ("runs.csv", "runs.parquet", "error_vs_time.png", "hoop_seed.png"):
+    for name in ("runs.csv", "meta.json", "suite.toml", "error_vs_time.png", "hoop_seed.png"):
         assert (out / name).stat().st_size > 0
     assert any((out / "trajectories").glob("*.parquet"))
 
@@ -27,13 +32,15 @@ def test_quick_report_writes_its_files(quick_report):
 @pytest.mark.slow  # the quick suite, about 10 s once per module
 def test_runs_table_is_tidy_and_complete(quick_report):
     out, _ = quick_report
-    runs = pd.read_parquet(out / "runs.parquet")
-    cases = default_cases(quick=True)
-    assert len(runs) == len(cases)
+    runs = pd.read_parquet(out / "runs")
+    tasks = load_suite(builtin_suite("quick")).tasks()
+    assert len(runs) == len(tasks)
+    assert sorted(runs["run_id"]) == sorted(t.run_id for t in tasks)
     assert not runs.duplicated(["scene", "engine", "variant", "timestep"]).any()
-    assert set(runs["status"]) <= {"ok", "diverged", "error", "unavailable"}
-    csv = pd.read_csv(out / "runs.csv", comment="#")
-    assert list(csv.columns) == list(runs.columns)
+    assert set(runs["status"]) == {"ok"}
+    assert set(ROW_COLUMNS) - {"trajectory_file"} <= set(runs.columns)
+    csv = pd.read_csv(out / "runs.csv")  # a plain CSV: header on line 1
+    assert set(csv.columns) == set(runs.columns)
     ref = runs[(runs["engine"] == "reference") & (runs["scene"] == "seed-mu")].iloc[0]
     # The reference row measures the detectors' own bias: it must be small.
     assert abs(ref["err_t_slip_ms"]) < 0.1
@@ -59,7 +66,7 @@ def test_write_markdown_leaves_its_input_alone(quick_report, tmp_path):
     that lacks the optional columns which the report fills with blanks."""
     out, _ = quick_report
     optional = ["phases", "phases_agree", "exact_phases", "outcome_agrees", "max_penetration_m"]
-    frame = pd.read_parquet(out / "runs.parquet").drop(columns=optional)
+    frame = report_frame(out).drop(columns=optional)
     before, columns = frame.copy(), list(frame.columns)
     assert write_markdown(frame, tmp_path, generated="now") == tmp_path / "report.md"
     assert list(frame.columns) == columns
@@ -68,13 +75,30 @@ def test_write_markdown_leaves_its_input_alone(quick_report, tmp_path):
 
 
 def test_a_broken_run_becomes_an_error_row():
-    row = run_case(Case("seed-mu", "mujoco", "bad", 1e-4, options={"cone": "hexagonal"}))
-    assert row["status"] == "error"
-    assert "cone must be one of" in row["message"]
+    suite = parse_suite(
+        {"name": "t", "engines": ["pymunk"], "timesteps": [1e-3], "scenes": ["seed-mu"]}
+    )
+    (task,) = suite.tasks()
+    # An option value no check would let through, as a stale task from an old file might hold.
+    broken = task.__class__(**{**task.__dict__, "options": (("iterations", "x"),)})
+    row = run_task(broken)
+    assert row["status"] == str(RunStatus.ERROR)
+    assert "iterations" in row["message"]
+    assert row["run_id"] == task.run_id and row["scene"] == "seed-mu"
 
 
-def test_default_sweep_covers_every_engine_and_the_hop_scenes():
-    cases = default_cases()
-    assert {c.engine for c in cases} == {"reference", "mujoco", "pybullet", "pymunk"}
-    assert {"seed-mu", "hop-top", "hop-bottom"} <= set(suite_scenes())
-    assert {c.variant for c in cases if c.engine == "pybullet"} >= {"geometry=hull"}
+def test_default_suite_runs_every_engine_its_declared_variants_and_the_hop_scenes():
+    suite = load_suite(builtin_suite("default"))
+    assert set(suite.engines) == {"reference", "mujoco", "pybullet", "pymunk"}
+    assert {"seed-mu", "hop-top", "hop-low", "hop-bottom"} <= {s.name for s in suite.scenes}
+    for engine in suite.engines:
+        declared = {
+            (v.name, v.geometry, tuple(sorted(v.options.items())))
+            for v in engine_class(engine).variants
+        }
+        in_file = {
+            (v.name, v.geometry, tuple(sorted(v.options.items())))
+            for v in suite.variants
+            if v.engine == engine
+        }
+        assert in_file == declared, engine

@@ -1,0 +1,339 @@
+"""Suite files: a comparison declared in TOML, validated whole before any run starts.
+
+The schema (README, "Suite files"): top-level ``name``, ``engines``, ``timesteps``, ``scenes``
+(catalogue names), repeatable ``[[scene]]`` tables (a scene by its parameters) and
+``[[variant]]`` tables (extra settings for one engine). Every engine always runs its default
+settings as the variant ``default``. A suite expands into :class:`RunTask` values, one per
+run, each keyed by a stable hash of its full inputs (``run_id``), so that a resumed sweep
+knows what it has already done.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import tomllib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+from hoopbench.engines.registry import engine_class, engine_names
+from hoopbench.engines.settings import RunSettings
+from hoopbench.models.catalogue import get_scene, scene_names
+from hoopbench.models.scene import Scene
+
+__all__ = [
+    "SUITES_DIR",
+    "RunTask",
+    "Suite",
+    "SuiteError",
+    "VariantSpec",
+    "builtin_suite",
+    "load_suite",
+    "parse_suite",
+]
+
+SUITES_DIR = Path(__file__).resolve().parent / "suites"
+"""The suite files hoopbench ships (quick, default, full, ...)."""
+
+DEFAULT_VARIANT = "default"
+
+_TOP_KEYS = ("name", "engines", "timesteps", "scenes", "scene", "variant")
+_SCENE_KEYS = (
+    "name",
+    "lam",
+    "chi",
+    "thetadot0",
+    "mus",
+    "muk",
+    "eps",
+    "theta0_deg",
+    "g",
+    "a",
+    "M",
+    "t_end",
+    "xdot0",
+)
+_VARIANT_KEYS = ("engine", "name", "geometry", "options", "timesteps")
+
+
+class SuiteError(ValueError):
+    """A suite file that cannot run: the message names the key and the value."""
+
+
+@dataclass(frozen=True)
+class VariantSpec:
+    """Settings for one engine beside its defaults."""
+
+    engine: str
+    name: str
+    geometry: str = "sphere"
+    options: Mapping[str, Any] = field(default_factory=dict)
+    timesteps: tuple[float, ...] | None = None
+    """s; None: the suite's timesteps."""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "options", MappingProxyType(dict(self.options)))
+
+
+@dataclass(frozen=True)
+class RunTask:
+    """One run of a suite: small and picklable, for a worker process or a cluster."""
+
+    run_id: str
+    scene: Scene
+    engine: str
+    variant: str
+    geometry: str
+    options: tuple[tuple[str, Any], ...]
+    """The full, checked option values (defaults included), as sorted pairs."""
+    timestep: float
+    """s."""
+    trajectory_dir: str | None = None
+    """Where the worker stores the run's trajectory (None: not stored)."""
+
+    def settings(self) -> RunSettings:
+        return RunSettings(
+            timestep=self.timestep, geometry=self.geometry, options=dict(self.options)
+        )
+
+    @property
+    def n_steps(self) -> int:
+        """Steps of the run (sizes its time limit)."""
+        return math.floor(self.scene.t_end / self.timestep)
+
+
+@dataclass(frozen=True)
+class Suite:
+    """A validated suite."""
+
+    name: str
+    engines: tuple[str, ...]
+    timesteps: tuple[float, ...]
+    scenes: tuple[Scene, ...]
+    variants: tuple[VariantSpec, ...] = ()
+
+    def tasks(self, trajectory_dir: str | None = None) -> list[RunTask]:
+        """Every run, in a stable order: scene, engine, variant (default first), timestep."""
+        tasks = []
+        for scene in self.scenes:
+            for engine in self.engines:
+                default = VariantSpec(engine, DEFAULT_VARIANT)
+                mine = [v for v in self.variants if v.engine == engine]
+                for variant in (default, *mine):
+                    for dt in variant.timesteps or self.timesteps:
+                        tasks.append(_task(scene, variant, dt, trajectory_dir))
+        return tasks
+
+    def with_engines(self, engines: Sequence[str]) -> Suite:
+        """The suite restricted to some of its engines (``compare --engines``)."""
+        unknown = [e for e in engines if e not in self.engines]
+        if unknown:
+            raise SuiteError(
+                f"engine(s) {', '.join(unknown)} not in suite {self.name!r} "
+                f"(it has {', '.join(self.engines)})"
+            )
+        variants = tuple(v for v in self.variants if v.engine in engines)
+        return Suite(self.name, tuple(engines), self.timesteps, self.scenes, variants)
+
+
+def _task(scene: Scene, variant: VariantSpec, dt: float, trajectory_dir: str | None) -> RunTask:
+    settings = RunSettings(timestep=dt, geometry=variant.geometry, options=variant.options)
+    options = engine_class(variant.engine).resolve(settings)
+    inputs = {
+        "scene": scene.to_dict(),
+        "engine": variant.engine,
+        "variant": variant.name,
+        "geometry": variant.geometry,
+        "options": options,
+        "timestep": dt,
+    }
+    text = json.dumps(inputs, sort_keys=True, default=list, allow_nan=False)
+    run_id = hashlib.sha256(text.encode()).hexdigest()[:16]
+    return RunTask(
+        run_id=run_id,
+        scene=scene,
+        engine=variant.engine,
+        variant=variant.name,
+        geometry=variant.geometry,
+        options=tuple(sorted(options.items())),
+        timestep=dt,
+        trajectory_dir=trajectory_dir,
+    )
+
+
+# --------------------------------------------------------------------------- parsing
+def load_suite(path: str | Path) -> Suite:
+    """Read and validate a suite file; SuiteError names the file, the key and the value."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise SuiteError(f"cannot read suite file {str(path)!r}: {exc.strerror}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SuiteError(f"{path.name}: not valid TOML: {exc}") from None
+    try:
+        return parse_suite(data)
+    except SuiteError as exc:
+        raise SuiteError(f"{path.name}: {exc}") from None
+
+
+def builtin_suite(name: str) -> Path:
+    """The path of a shipped suite file by its name (quick, default, full, ...)."""
+    path = SUITES_DIR / f"{name}.toml"
+    if not path.is_file():
+        known = ", ".join(sorted(p.stem for p in SUITES_DIR.glob("*.toml")))
+        raise SuiteError(f"no shipped suite {name!r}; shipped: {known}")
+    return path
+
+
+def parse_suite(data: Mapping[str, Any]) -> Suite:
+    """A Suite from the parsed TOML; every run's settings are checked by its engine."""
+    _no_unknown_keys(data, _TOP_KEYS, "suite")
+    name = data.get("name")
+    if not isinstance(name, str) or not name.strip():
+        raise SuiteError(f"name must be a non-empty string, got {name!r}")
+    engines = _engines(data.get("engines", list(engine_names())))
+    timesteps = _timesteps(data.get("timesteps"), "timesteps")
+    scenes = [*_catalogue_scenes(data.get("scenes", [])), *_param_scenes(data.get("scene", []))]
+    if not scenes:
+        raise SuiteError("the suite has no scenes: give scenes = [...] or [[scene]] tables")
+    names = [s.name for s in scenes]
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise SuiteError(f"scene name(s) {', '.join(repeated)} given twice")
+    variants = _variants(data.get("variant", []), engines)
+    suite = Suite(name, engines, timesteps, tuple(scenes), variants)
+    _check_runs(suite)
+    return suite
+
+
+def _no_unknown_keys(table: Mapping[str, Any], allowed: Sequence[str], where: str) -> None:
+    if not isinstance(table, Mapping):
+        raise SuiteError(f"{where} must be a table, got {table!r}")
+    unknown = sorted(set(table) - set(allowed))
+    if unknown:
+        raise SuiteError(
+            f"unknown key(s) {', '.join(unknown)} in {where}; allowed: {', '.join(allowed)}"
+        )
+
+
+def _engines(value: Any) -> tuple[str, ...]:
+    if not isinstance(value, list) or not value or not all(isinstance(e, str) for e in value):
+        raise SuiteError(f"engines must be a non-empty list of engine names, got {value!r}")
+    known = engine_names()
+    for engine in value:
+        if engine not in known:
+            raise SuiteError(f"engines: unknown engine {engine!r}; known: {', '.join(known)}")
+    if len(set(value)) != len(value):
+        raise SuiteError(f"engines: an engine is listed twice in {value!r}")
+    return tuple(value)
+
+
+def _timesteps(value: Any, key: str) -> tuple[float, ...]:
+    if not isinstance(value, list) or not value:
+        raise SuiteError(f"{key} must be a non-empty list of timesteps in s, got {value!r}")
+    for dt in value:
+        ok = isinstance(dt, int | float) and not isinstance(dt, bool)
+        if not ok or not (math.isfinite(dt) and dt > 0):
+            raise SuiteError(f"{key}: each timestep must be a number > 0 s, got {dt!r}")
+    if len(set(value)) != len(value):
+        raise SuiteError(f"{key}: a timestep is listed twice in {value!r}")
+    return tuple(float(dt) for dt in value)
+
+
+def _catalogue_scenes(value: Any) -> list[Scene]:
+    if not isinstance(value, list) or not all(isinstance(s, str) for s in value):
+        raise SuiteError(f"scenes must be a list of catalogue names, got {value!r}")
+    for name in value:
+        if name not in scene_names():
+            raise SuiteError(
+                f"scenes: unknown catalogue scene {name!r}; known: {', '.join(scene_names())}"
+            )
+    return [get_scene(name) for name in value]
+
+
+def _param_scenes(value: Any) -> list[Scene]:
+    if not isinstance(value, list):
+        raise SuiteError(f"[[scene]] must be a list of tables, got {value!r}")
+    return [_param_scene(table, k) for k, table in enumerate(value, 1)]
+
+
+def _param_scene(table: Any, k: int) -> Scene:
+    where = f"[[scene]] number {k}"
+    _no_unknown_keys(table, _SCENE_KEYS, where)
+    name = table.get("name")
+    if not isinstance(name, str) or not name.strip():
+        raise SuiteError(f"{where}: name must be a non-empty string, got {name!r}")
+    where = f"[[scene]] {name!r}"
+    missing = [key for key in ("lam", "mus") if key not in table]
+    if ("chi" in table) == ("thetadot0" in table):
+        missing.append("exactly one of chi, thetadot0")
+    if missing:
+        raise SuiteError(f"{where}: missing {', '.join(missing)}")
+    params = {k: v for k, v in table.items() if k not in ("name", "chi", "theta0_deg")}
+    for key, value in table.items():
+        if key != "name" and (isinstance(value, bool) or not isinstance(value, int | float)):
+            raise SuiteError(f"{where}: {key} must be a number, got {value!r}")
+    if "theta0_deg" in table:
+        params["theta0"] = math.radians(table["theta0_deg"])
+    params.setdefault("muk", params["mus"])
+    try:
+        if "chi" in table:
+            return Scene.from_chi(table["chi"], name=name, **params)
+        return Scene(name=name, **params)
+    except ValueError as exc:
+        raise SuiteError(f"{where}: {exc}") from None
+
+
+def _variants(value: Any, engines: Sequence[str]) -> tuple[VariantSpec, ...]:
+    if not isinstance(value, list):
+        raise SuiteError(f"[[variant]] must be a list of tables, got {value!r}")
+    variants: list[VariantSpec] = []
+    for k, table in enumerate(value, 1):
+        where = f"[[variant]] number {k}"
+        _no_unknown_keys(table, _VARIANT_KEYS, where)
+        engine, name = table.get("engine"), table.get("name")
+        if engine not in engines:
+            raise SuiteError(
+                f"{where}: engine must be one of the suite's ({', '.join(engines)}), got {engine!r}"
+            )
+        if not isinstance(name, str) or not name.strip() or name == DEFAULT_VARIANT:
+            raise SuiteError(f"{where}: name must be a non-empty string, not 'default'")
+        if any(v.engine == engine and v.name == name for v in variants):
+            raise SuiteError(f"{where}: {engine} variant {name!r} is given twice")
+        where = f"[[variant]] {engine} {name!r}"
+        geometry = table.get("geometry", "sphere")
+        options = table.get("options", {})
+        if not isinstance(options, Mapping):
+            raise SuiteError(f"{where}: options must be a table, got {options!r}")
+        options = {k: tuple(v) if isinstance(v, list) else v for k, v in options.items()}
+        timesteps = table.get("timesteps")
+        if timesteps is not None:
+            timesteps = _timesteps(timesteps, f"{where}: timesteps")
+        try:
+            settings = RunSettings(geometry=geometry, options=options)
+            engine_class(engine).resolve(settings)
+        except ValueError as exc:
+            raise SuiteError(f"{where}: {exc}") from None
+        variants.append(VariantSpec(engine, name, geometry, options, timesteps))
+    return tuple(variants)
+
+
+def _check_runs(suite: Suite) -> None:
+    """Every run's own checks (window, step budget, what the engine can represent) now,
+    so that a sweep never stops on its thousandth run for a typo in the file."""
+    for task in suite.tasks():
+        engine = engine_class(task.engine)()
+        try:
+            engine.check(task.scene, task.settings())
+        except ValueError as exc:
+            raise SuiteError(
+                f"scene {task.scene.name!r}, {task.engine} {task.variant}, "
+                f"timestep {task.timestep:g} s: {exc}"
+            ) from None
