@@ -1,12 +1,17 @@
 """Engines by name: each engine module registers its class with :func:`register`.
 
 The engine modules of this package (``*_engine.py``) are found and imported on first use.
-Importing one is cheap: an engine's own library is imported only when a run uses it. Tests
-may register engines of their own (a test-only engine that crashes, hangs or returns NaN).
+Importing one is cheap: an engine's own library is imported only when a run uses it.
+
+Engines from elsewhere: the environment variable ``HOOPBENCH_ENGINE_MODULES`` lists more
+modules to import at discovery (comma-separated, importable names), each registering its
+engines. Every process reads it, suite workers included, so an engine of your own (or the
+tests' engines that crash, hang or return NaN) runs in ``hoopbench compare`` too.
 """
 
 from __future__ import annotations
 
+import os
 import pkgutil
 from importlib import import_module
 from types import MappingProxyType
@@ -22,6 +27,8 @@ __all__ = [
     "register",
     "unregister",
 ]
+
+ENGINE_MODULES_VARIABLE = "HOOPBENCH_ENGINE_MODULES"
 
 _ENGINES: dict[str, type[Engine]] = {}
 _discovered = False
@@ -52,6 +59,15 @@ def _discover() -> None:
     for module in pkgutil.iter_modules(package.__path__):
         if module.name.endswith("_engine"):
             import_module(f"hoopbench.engines.{module.name}")
+    for name in os.environ.get(ENGINE_MODULES_VARIABLE, "").split(","):
+        if name.strip():
+            try:
+                import_module(name.strip())
+            except ImportError as exc:
+                raise ValueError(
+                    f"{ENGINE_MODULES_VARIABLE}: cannot import engine module {name.strip()!r}: "
+                    f"{exc}"
+                ) from None
 
 
 def engine_classes() -> MappingProxyType[str, type[Engine]]:
