@@ -14,6 +14,7 @@ from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.events import Outcome
 from hoopbench.models.scene import Scene
+from hoopbench.models.trajectory import Trajectory
 from hoopbench.reference.exact import DEFAULT_ATOL, DEFAULT_RTOL
 
 __all__ = ["ReferenceEngine"]
@@ -66,6 +67,11 @@ class ReferenceEngine(Engine):
         n = min(n_steps_for(scene, dt), int(solution.t_final / dt * (1.0 + 1e-12)))
         t = np.append(np.arange(n + 1) * dt, solution.t_final)
         trajectory = solution.sample(np.unique(np.minimum(t, solution.t_final)))
+        # At a Painlevé point (D = 0) no finite contact force exists: the window ends there,
+        # and its last instant, whose force is infinite, is not a sample of the motion.
+        finite = np.isfinite(trajectory.normal_force) & np.isfinite(trajectory.friction_force)
+        if not finite[-1] and finite[:-1].all() and len(finite) > 2:
+            trajectory = Trajectory.from_frame(trajectory.to_frame().iloc[:-1])
         wall = time.perf_counter() - start
         events = solution.events
         failed = None

@@ -82,12 +82,38 @@ def peak_rss_mb(n_tasks: int) -> float:
     return int(out.stdout.split()[-1]) / 1024  # kB on Linux
 
 
+def bench_suite(name: str, repeat: int) -> int:
+    """The real worker on a real suite: the isolated runner against a plain process pool
+    (today's runner before isolation), alternating so that load drift hits both."""
+    from hoopbench.reports.suite import run_task
+    from hoopbench.reports.suite_file import builtin_suite, load_suite
+
+    tasks = load_suite(builtin_suite(name)).tasks()
+    print(f"suite {name}: {len(tasks)} runs, 2 jobs, best of {repeat}")
+    ours, plain = [], []
+    for _ in range(repeat):
+        plain.append(time_plain_pool(run_task, tasks, 2))
+        ours.append(time_runner(run_task, tasks, 2))
+    best_ours, best_plain = min(ours), min(plain)
+    print(f"isolated runner: {best_ours:.1f} s ({len(tasks) / best_ours:.1f} rows/s)")
+    print(f"plain pool:      {best_plain:.1f} s ({len(tasks) / best_plain:.1f} rows/s)")
+    print(f"overhead: {100 * (best_ours / best_plain - 1):+.1f} %")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cheap", type=int, default=2000, help="tasks of the trivial worker")
     parser.add_argument("--cpu", type=int, default=60, help="tasks of the CPU-bound worker")
     parser.add_argument("--cpu-seconds", type=float, default=0.1, help="CPU time per task")
+    parser.add_argument(
+        "--suite",
+        help="instead: a shipped suite (e.g. default), isolated runner against a plain pool",
+    )
+    parser.add_argument("--repeat", type=int, default=2, help="repeats of the suite timing")
     args = parser.parse_args(argv)
+    if args.suite:
+        return bench_suite(args.suite, args.repeat)
 
     start = time.perf_counter()
     time_runner(cheap_worker, _tasks(2), 1)

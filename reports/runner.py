@@ -547,7 +547,7 @@ class _Progress:
         parts = ", ".join(f"{s.value} {n}" for s, n in sorted(self.failures.items()))
         return f"{sum(self.failures.values())} failed ({parts})"
 
-    def update(self, run_id: str, status: RunStatus) -> None:
+    def update(self, label: str, status: RunStatus) -> None:
         self.done += 1
         if status is not RunStatus.OK:
             self.failures[status] += 1
@@ -567,7 +567,7 @@ class _Progress:
         left = self.total - self.done
         eta = _duration(elapsed / self.done * left) if left else "0s"
         print(
-            f"[{self.done}/{self.total}] {run_id}: {status.value}; "
+            f"[{self.done}/{self.total}] {label}: {status.value}; "
             f"{self._failures_text()}; elapsed {_duration(elapsed)}, eta {eta}",
             file=self.stream,
             flush=True,
@@ -658,7 +658,8 @@ class _Sweep:
         self.writer.add(full)
         status = RunStatus(full["status"])
         self.counts[status] += 1
-        self.progress.update(attempt.task.run_id, status)
+        # A task may say what it is (scene, engine, ...); the run_id alone tells a user little.
+        self.progress.update(getattr(attempt.task, "label", attempt.task.run_id), status)
         self.maybe_flush()
 
     def maybe_flush(self, force: bool = False) -> None:

@@ -310,7 +310,20 @@ def report_frame(results_dir: str | Path) -> pd.DataFrame:
     paths = [
         str(results_dir / p) if isinstance(p, str) and p else None for p in frame["trajectory_file"]
     ]
-    return frame.assign(trajectory_file=paths)
+    frame = frame.assign(trajectory_file=paths)
+    # Rows are stored as runs finish; tables read best in the suite's own order.
+    order = _suite_order(results_dir / "suite.toml")
+    rank = [order.get(run_id, len(order)) for run_id in frame["run_id"]]
+    return frame.iloc[sorted(range(len(frame)), key=rank.__getitem__)].reset_index(drop=True)
+
+
+def _suite_order(suite_file: Path) -> dict[str, int]:
+    """run_id -> position in the suite as run (empty if its copy is missing or unreadable)."""
+    try:
+        tasks = load_suite(suite_file).tasks()
+    except ValueError:
+        return {}
+    return {task.run_id: k for k, task in enumerate(tasks)}
 
 
 def runs_frame(results_dir: str | Path) -> pd.DataFrame:

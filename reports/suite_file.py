@@ -101,6 +101,11 @@ class RunTask:
         )
 
     @property
+    def label(self) -> str:
+        """What the run is, for progress lines."""
+        return f"{self.scene.name} {self.engine} {self.variant} dt={self.timestep:g}"
+
+    @property
     def n_steps(self) -> int:
         """Steps of the run (sizes its time limit)."""
         return math.floor(self.scene.t_end / self.timestep)
