@@ -25,6 +25,9 @@ class Outcome(StrEnum):
     """No consistent contact force exists (D = 0 while slipping)."""
     DEGENERATE = "degenerate"
     """A phase needs I > 0 and the scene has I = 0."""
+    ERROR = "error"
+    """The run stopped before the end of its window (e.g. a work budget ran out); the
+    message says why, and the events found until then are kept."""
 
 
 class PhaseKind(StrEnum):

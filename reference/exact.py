@@ -5,6 +5,15 @@ Modes: rolling, slipping (sigma = +1 or -1) and flight. Each mode is integrated 
 the dense output, to the integration tolerance: slip onset (|f| = mus n), re-stick or slip
 reversal (slip velocity back to zero), lift-off (n = 0), the Painlevé point (D = 0) and the
 first impact after a lift-off, which ends the window.
+
+The equations are invariant under a change of length and time units, so the solver's absolute
+settings (the step cap, the absolute tolerance, the slip-velocity and phase-length thresholds)
+are stated for a 1 m hoop under g = 9.8 m/s^2 and scaled with the scene's radius a and time
+scale sqrt(a/g): a 1 nm hoop is solved with the same work and accuracy as a 1 m one.
+
+The work is bounded: a scene whose window spans very many time scales sqrt(a/g) (a tiny hoop,
+a huge g, a long t_end) ends with the outcome "error" and a message once ``max_steps``
+integrator steps or ``max_phases`` phases are used, instead of running for hours.
 """
 
 from __future__ import annotations
@@ -12,6 +21,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from enum import Enum
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -24,10 +34,146 @@ from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.reference import dynamics
 
-__all__ = ["ExactSolution", "Segment", "flight_phase", "solve_exact"]
+__all__ = [
+    "DEFAULT_ATOL",
+    "DEFAULT_MAX_PHASES",
+    "DEFAULT_MAX_SAMPLES",
+    "DEFAULT_MAX_STEPS",
+    "DEFAULT_RTOL",
+    "EventReason",
+    "ExactSolution",
+    "Mode",
+    "Segment",
+    "WorkBudgetError",
+    "flight_phase",
+    "solve_exact",
+]
+
+DEFAULT_RTOL = 1e-10
+"""solve_ivp relative tolerance: event times agree to ~1e-11 s with 1e-12 (tests/test_exact.py)."""
+DEFAULT_ATOL = 1e-12
+"""solve_ivp absolute tolerance: m, rad, m/s, rad/s for a 1 m hoop under g = 9.8 m/s^2; the
+solver scales it with the scene's length a and time sqrt(a/g) (see :func:`solve_exact`)."""
+DEFAULT_MAX_STEPS = 100_000
+"""Integrator steps one :func:`solve_exact` call may take. The catalogue scenes need a few
+hundred; at about 0.25 ms a step the budget bounds a call to tens of seconds."""
+DEFAULT_MAX_PHASES = 10_000
+"""Phases (mode switches) one :func:`solve_exact` call may go through."""
+DEFAULT_MAX_SAMPLES = 5_000_000
+"""Samples :meth:`ExactSolution.sample_uniform` may create: building a trajectory takes about
+135 bytes a sample (measured), so at most about 0.7 GB."""
 
 State = tuple[float, float, float, float, float, float]
 """(X, Y, theta, Xdot, Ydot, thetadot): centre of mass and angle, SI units."""
+
+
+class Mode(Enum):
+    """State of the solver's mode machine: which phase is integrated next."""
+
+    ROLL = "roll"
+    SLIP = "slip"
+    FLIGHT = "flight"
+    PAINLEVE = "painleve"
+    """No consistent contact force (D <= 0) before anything could be integrated."""
+
+
+class EventReason(Enum):
+    """Why an integrated contact phase ended."""
+
+    END = "end"
+    """The window's end, t_end."""
+    SLIP = "slip"
+    """Rolling: static friction no longer suffices, |f| = mus n."""
+    LIFT = "lift"
+    """The normal force reached zero."""
+    RESTICK = "restick"
+    """Slipping: the slip velocity came back to zero."""
+    WRONG_WAY = "wrong-way"
+    """Slipping: the slip developed against the assumed direction sigma."""
+    PAINLEVE = "painleve"
+    """Slipping: D reached zero, no consistent contact force."""
+    BUDGET = "budget"
+    """The call's integrator step budget ran out."""
+
+
+class WorkBudgetError(RuntimeError):
+    """Solving would take more work than the caller allowed (steps, phases or samples)."""
+
+
+# Where the solver's absolute settings were tuned (the seed scene): a 1 m hoop, 9.8 m/s^2.
+_TUNED_A = 1.0
+_TUNED_G = 9.8
+
+
+@dataclass(frozen=True)
+class _Units:
+    """The scene's length and time units relative to the tuned 1 m, 9.8 m/s^2 hoop.
+
+    Both are exactly 1.0 for a = 1 m, g = 9.8 m/s^2, so those scenes are solved bit for bit
+    as before the scaling was introduced.
+    """
+
+    length: float
+    time: float
+
+    @classmethod
+    def of(cls, scene: Scene) -> _Units:
+        return cls(scene.a / _TUNED_A, math.sqrt((scene.a / scene.g) / (_TUNED_A / _TUNED_G)))
+
+    @property
+    def velocity(self) -> float:
+        return self.length / self.time
+
+
+@dataclass(frozen=True)
+class _Options:
+    """Integrator settings shared by the phases of one solve."""
+
+    rtol: float
+    atol: float
+    """In tuned units; :meth:`atol_for` scales it per state component."""
+    method: str
+    max_step: float
+    """s, already in the scene's time unit."""
+    units: _Units
+
+    def atol_for(self, kinds: str) -> NDArray:
+        """Absolute tolerances for state components: 'x' length, 'a' angle, 'v' velocity,
+        'w' angular velocity."""
+        u = self.units
+        scale = {"x": u.length, "a": 1.0, "v": u.velocity, "w": 1.0 / u.time}
+        return np.array([self.atol * scale[k] for k in kinds])
+
+
+@dataclass
+class _StepBudget:
+    """Integrator steps left to one solve, shared by its phases (mutable: it counts)."""
+
+    max_steps: int
+    used: int = 0
+
+    @property
+    def exhausted(self) -> bool:
+        return self.used >= self.max_steps
+
+    def event(self) -> Callable:
+        """A terminal event for one phase that fires at the step where the budget runs out.
+
+        solve_ivp evaluates each event once per accepted step (and once at the start), so the
+        calls count the steps. Once over budget the value is t_out - t: zero at that step's
+        end, where solve_ivp's root finding then places the (terminal) event.
+        """
+        t_out: list[float] = []
+
+        def budget(t, y):
+            if not t_out:
+                self.used += 1
+                if self.used <= self.max_steps:
+                    return 1.0
+                t_out.append(t)
+            return t_out[0] - t
+
+        return _event(budget, -1)
 
 
 @dataclass(frozen=True)
@@ -85,11 +231,25 @@ class ExactSolution:
             contact=self._in_contact(t),
         )
 
-    def sample_uniform(self, dt: float) -> Trajectory:
-        """Samples every dt seconds from 0 to t_final (inclusive of 0)."""
+    def sample_uniform(self, dt: float, *, max_samples: int = DEFAULT_MAX_SAMPLES) -> Trajectory:
+        """Samples every dt seconds from 0 to t_final (inclusive of 0).
+
+        Raises ValueError for a dt that is not a positive number, longer than the scene's
+        window t_end, or so short that the trajectory would hold more than ``max_samples``
+        samples (checked before anything is allocated).
+        """
         if not (dt > 0 and math.isfinite(dt)):
             raise ValueError(f"dt must be a positive number of seconds, got {dt}")
+        if dt > self.scene.t_end:
+            raise ValueError(
+                f"dt = {dt:g} s is longer than the window, t_end = {self.scene.t_end:g} s"
+            )
         n = math.floor(self.t_final / dt + 1e-9)
+        if n + 1 > max_samples:
+            raise ValueError(
+                f"sampling every dt = {dt:g} s over t_final = {self.t_final:.6g} s makes "
+                f"{n + 1:.3g} samples, more than max_samples = {max_samples}"
+            )
         return self.sample(np.minimum(np.arange(n + 1) * dt, self.t_final))
 
     def _segment_index(self, t: NDArray) -> NDArray:
@@ -116,6 +276,12 @@ class ExactSolution:
         return states, f, n
 
 
+FLIGHT_CHUNK = 1 << 16
+"""Clearance samples evaluated at once while looking for the impact."""
+FLIGHT_MAX_SAMPLES = 20_000_000
+"""Clearance samples a flight may need before its impact (a few seconds of work)."""
+
+
 # --------------------------------------------------------------------------- phases
 def _event(fun: Callable, direction: float) -> Callable:
     fun.terminal = True
@@ -123,40 +289,92 @@ def _event(fun: Callable, direction: float) -> Callable:
     return fun
 
 
-@dataclass
+@dataclass(frozen=True)
 class _PhaseEnd:
     t: float
     state: State
-    reason: str  # "end", "slip", "lift", "restick", "painleve"
+    reason: EventReason
 
 
-def _integrate(rhs, y0, t0, t_end, events, rtol, atol, method, max_step):
+@dataclass(frozen=True)
+class _Solved:
+    """What the phases use of a solve_ivp result, in seconds (see :func:`_integrate`)."""
+
+    t: NDArray
+    y: NDArray
+    t_events: list[NDArray]
+    status: int
+    message: str
+    sol: Callable[[ArrayLike], NDArray] = field(repr=False)
+
+
+def _integrate(
+    rhs: Callable,
+    y0: list[float],
+    t0: float,
+    t_end: float,
+    events: list[Callable],
+    opts: _Options,
+    atol_kinds: str,
+    budget: _StepBudget,
+) -> _Solved:
+    """solve_ivp in the scene's time unit, with the budget's event appended.
+
+    solve_ivp locates events to an absolute time tolerance (4 machine epsilons of its time
+    variable): integrating in units of sqrt(a/g) (relative to the tuned hoop) makes that
+    tolerance relative to the scene's time scale. For a = 1 m, g = 9.8 m/s^2 the unit is
+    exactly 1.0 and every number is as in seconds.
+    """
+    unit = opts.units.time
+
+    def scaled_rhs(s, y):
+        return [unit * v for v in rhs(s * unit, y)]
+
+    def scaled_event(event: Callable) -> Callable:
+        return _event(lambda s, y: event(s * unit, y), event.direction)
+
     # solve_ivp looks for event sign changes only at step ends; the step cap keeps an event
     # function from dipping below zero and back inside one long, smooth rolling step.
-    return solve_ivp(
-        rhs,
-        (t0, t_end),
+    # The budget event comes last, so that a physical event in the same step wins ties.
+    sol = solve_ivp(
+        scaled_rhs,
+        (t0 / unit, t_end / unit),
         y0,
-        method=method,
-        rtol=rtol,
-        atol=atol,
-        events=events,
+        method=opts.method,
+        rtol=opts.rtol,
+        atol=opts.atol_for(atol_kinds),
+        events=[scaled_event(e) for e in [*events, budget.event()]],
         dense_output=True,
-        max_step=max_step,
+        max_step=opts.max_step / unit,
+    )
+    dense = sol.sol
+    return _Solved(
+        t=sol.t * unit,
+        y=sol.y,
+        t_events=[times * unit for times in sol.t_events],
+        status=sol.status,
+        message=sol.message,
+        sol=lambda t: dense(np.asarray(t, dtype=float) / unit),
     )
 
 
-def _which_event(sol, names: list[str]) -> str:
-    """The event that ended the integration: the earliest one (ties: first in ``names``)."""
+def _which_event(sol, names: list[EventReason]) -> EventReason:
+    """The event that ended the integration: the earliest one (ties: first in ``names``).
+
+    ``names`` lists the physical events; the budget event that :func:`_integrate` appends is
+    last.
+    """
     if sol.status == 1:
         fired = [(times[0], k) for k, times in enumerate(sol.t_events) if len(times)]
-        return names[min(fired)[1]]
+        return [*names, EventReason.BUDGET][min(fired)[1]]
     if sol.status < 0:
         raise RuntimeError(f"integration failed: {sol.message}")
-    return "end"
+    return EventReason.END
 
 
-def _roll_phase(scene: Scene, t0: float, state: State, t_end: float, opts) -> tuple:
+def _roll_phase(
+    scene: Scene, t0: float, state: State, t_end: float, opts: _Options, budget: _StepBudget
+) -> tuple[Segment, _PhaseEnd]:
     a, r = scene.a, scene.com_offset
     x0 = state[0] - r * math.sin(state[2])
     theta_start = state[2]
@@ -177,9 +395,11 @@ def _roll_phase(scene: Scene, t0: float, state: State, t_end: float, opts) -> tu
         t0,
         t_end,
         [_event(slip, -1), _event(lift, -1)],
-        *opts,
+        opts,
+        "aw",
+        budget,
     )
-    reason = _which_event(sol, ["slip", "lift"])
+    reason = _which_event(sol, [EventReason.SLIP, EventReason.LIFT])
     dense = sol.sol
 
     def states(t):
@@ -205,8 +425,17 @@ def _roll_phase(scene: Scene, t0: float, state: State, t_end: float, opts) -> tu
     return seg, _PhaseEnd(t1, tuple(states(np.array([t1]))[:, 0]), reason)
 
 
-def _slip_phase(scene: Scene, t0: float, state: State, sigma: int, t_end: float, opts) -> tuple:
+def _slip_phase(
+    scene: Scene,
+    t0: float,
+    state: State,
+    sigma: int,
+    t_end: float,
+    opts: _Options,
+    budget: _StepBudget,
+) -> tuple[Segment, _PhaseEnd]:
     a, r = scene.a, scene.com_offset
+    slip_arm = SLIP_ARM * opts.units.velocity
 
     def rhs(t, y):
         _, theta, Xdot, thetadot = y
@@ -224,14 +453,14 @@ def _slip_phase(scene: Scene, t0: float, state: State, sigma: int, t_end: float,
     def restick(t, y):
         value = directed_slip(y)
         if not armed[0]:
-            if value <= SLIP_ARM:
+            if value <= slip_arm:
                 return 1.0
             armed[0] = True
         return value
 
     def wrong_way(t, y):
         # The slip develops against sigma: the onset direction was not consistent.
-        return directed_slip(y) + SLIP_ARM
+        return directed_slip(y) + slip_arm
 
     def lift(t, y):
         return dynamics.slip_normal_force(scene, y[1], y[3], sigma)
@@ -239,27 +468,29 @@ def _slip_phase(scene: Scene, t0: float, state: State, sigma: int, t_end: float,
     def painleve(t, y):
         return dynamics.slip_denominator(scene, y[1], sigma)
 
-    names = ["lift", "painleve"]
+    names = [EventReason.LIFT, EventReason.PAINLEVE]
     events = [_event(lift, -1), _event(painleve, -1)]
     if sigma != 0:
-        names[:0] = ["restick", "wrong-way"]
+        names[:0] = [EventReason.RESTICK, EventReason.WRONG_WAY]
         events[:0] = [_event(restick, -1), _event(wrong_way, -1)]
-    sol = _integrate(rhs, [state[0], state[2], state[3], state[5]], t0, t_end, events, *opts)
+    y0 = [state[0], state[2], state[3], state[5]]
+    sol = _integrate(rhs, y0, t0, t_end, events, opts, "xavw", budget)
     try:
         reason = _which_event(sol, names)
     except RuntimeError:
         # The step size collapses as D -> 0+ (n and thetaddot blow up): that is Painlevé.
         theta_last = sol.y[1, -1]
         if dynamics.slip_denominator(scene, theta_last, sigma) < 1e-3:
-            reason = "painleve"
+            reason = EventReason.PAINLEVE
         else:
             raise
-    if reason == "wrong-way":
-        reason, sol_t1 = _restick_inside_first_step(scene, sol, sigma)
+    if reason is EventReason.WRONG_WAY:
+        reason, sol_t1 = _restick_inside_first_step(scene, sol, sigma, opts.units)
     else:
         sol_t1 = float(sol.t[-1])
-    if reason == "lift" and dynamics.slip_denominator(scene, sol.y[1, -1], sigma) < 1e-6:
-        reason = "painleve"  # n -> 0 together with D -> 0: the Painlevé point, not a hop
+    if reason is EventReason.LIFT and dynamics.slip_denominator(scene, sol.y[1, -1], sigma) < 1e-6:
+        # n -> 0 together with D -> 0: the Painlevé point, not a hop
+        reason = EventReason.PAINLEVE
     dense = sol.sol
 
     def states(t):
@@ -278,7 +509,9 @@ def _slip_phase(scene: Scene, t0: float, state: State, sigma: int, t_end: float,
     return seg, _PhaseEnd(t1, tuple(states(np.array([t1]))[:, 0]), reason)
 
 
-def _restick_inside_first_step(scene: Scene, sol, sigma: int) -> tuple[str, float]:
+def _restick_inside_first_step(
+    scene: Scene, sol, sigma: int, units: _Units
+) -> tuple[EventReason, float]:
     """After a "wrong-way" event: did the slip go the right way and come back first?
 
     The re-stick event is armed at step ends only; when one step holds the whole slip, the
@@ -294,12 +527,12 @@ def _restick_inside_first_step(scene: Scene, sol, sigma: int) -> tuple[str, floa
 
     values = directed(grid)
     peak = int(np.argmax(values))
-    if values[peak] <= SLIP_ARM:
-        return "wrong-way", t1
+    if values[peak] <= SLIP_ARM * units.velocity:
+        return EventReason.WRONG_WAY, t1
     after = np.nonzero(values[peak:] <= 0.0)[0]
     k = peak + int(after[0])
-    t_re = brentq(lambda t: float(directed(t)), grid[k - 1], grid[k], xtol=1e-15)
-    return "restick", float(t_re)
+    t_re = brentq(lambda t: float(directed(t)), grid[k - 1], grid[k], xtol=1e-15 * units.time)
+    return EventReason.RESTICK, float(t_re)
 
 
 def _flight_clearance(scene: Scene, state: State, tau: NDArray) -> NDArray:
@@ -308,41 +541,73 @@ def _flight_clearance(scene: Scene, state: State, tau: NDArray) -> NDArray:
     return kinematics.clearance(scene, Yt, theta + thetadot * tau)
 
 
-def flight_phase(scene: Scene, t0: float, state: State) -> tuple[Segment, float, float]:
-    """Ballistic phase from a lift-off; returns the segment, the impact time and hop height."""
+def flight_phase(
+    scene: Scene, t0: float, state: State, *, max_samples: int | None = None
+) -> tuple[Segment, float, float]:
+    """Ballistic phase from a lift-off; returns the segment, the impact time and hop height.
+
+    The clearance is scanned on a grid of 400 points per spin period (or per fall time, if
+    that is shorter) up to the first impact, in chunks, so memory stays bounded; more than
+    ``max_samples`` grid points before the impact (an extreme spin in a long flight; default
+    :data:`FLIGHT_MAX_SAMPLES`) raise :class:`WorkBudgetError`.
+    """
+    if max_samples is None:
+        max_samples = FLIGHT_MAX_SAMPLES
     X, Y, theta, Xdot, Ydot, thetadot = state
     g, a, r = scene.g, scene.a, scene.com_offset
+    units = _Units.of(scene)
 
     def clear(tau):
         return _flight_clearance(scene, state, np.asarray(tau, dtype=float))
 
     # y - a <= Y - a + r: once the centre of mass falls below a - r the hoop is down for sure.
     disc = Ydot**2 + 2.0 * g * (Y - (a - r))
-    tau_max = (Ydot + math.sqrt(max(disc, 0.0))) / g + 1e-9
+    tau_max = (Ydot + math.sqrt(max(disc, 0.0))) / g + 1e-9 * units.time
     spin_period = 2.0 * math.pi / abs(thetadot) if thetadot != 0 else math.inf
     h = min(tau_max, spin_period) / 400.0
-    grid = np.arange(1, math.ceil(tau_max / h) + 2) * h
-    c = clear(grid)
-    below = np.nonzero(c < 0.0)[0]
-    if below.size == 0:  # cannot happen: tau_max is past the fall
+    n_grid = math.ceil(tau_max / h) + 1
+
+    def node(k: int) -> float:
+        return float(k + 1) * h  # grid point k; the scan below uses the same values
+
+    # Scan chunk by chunk for the first sample below the floor, keeping the highest sample
+    # before it (the first one of equal values, as a single argmax would).
+    i = j = -1
+    best = -math.inf
+    scanned = min(n_grid, max_samples)
+    for start in range(0, scanned, FLIGHT_CHUNK):
+        c = clear(np.arange(start + 1, min(start + FLIGHT_CHUNK, scanned) + 1) * h)
+        below = np.nonzero(c < 0.0)[0]
+        stop = int(below[0]) if below.size else c.size
+        if stop > 0:
+            k = int(np.argmax(c[:stop]))
+            if c[k] > best:
+                best, j = float(c[k]), start + k
+        if below.size:
+            i = start + stop
+            break
+    if i < 0 and scanned < n_grid:
+        raise WorkBudgetError(
+            f"the flight from t = {t0:.6g} s does not land within max_samples = {max_samples} "
+            f"clearance samples ({n_grid:.3g} reach its latest possible impact, {tau_max:.3g} s "
+            f"later, at 400 a spin period of {spin_period:.3g} s)"
+        )
+    if i < 0:  # cannot happen: tau_max is past the fall
         raise RuntimeError("flight: no impact found")
-    i = below[0]
-    lo = grid[i - 1] if i > 0 else h * 1e-6
-    tau_impact = brentq(clear, lo, grid[i], xtol=1e-15, rtol=4 * np.finfo(float).eps)
+    lo = node(i - 1) if i > 0 else h * 1e-6
+    tau_impact = brentq(clear, lo, node(i), xtol=1e-15 * units.time, rtol=4 * np.finfo(float).eps)
     # Hop height: the largest sampled clearance, refined on its neighbourhood.
-    inside = grid[:i]
     height = 0.0
-    if inside.size:
-        j = int(np.argmax(c[:i]))
-        lo_h = grid[j - 1] if j > 0 else 0.0
-        hi_h = grid[j + 1] if j + 1 < grid.size else grid[j]
+    if i > 0:
+        lo_h = node(j - 1) if j > 0 else 0.0
+        hi_h = node(j + 1) if j + 1 < n_grid else node(j)
         res = minimize_scalar(
             lambda s: -float(clear(s)),
             bounds=(lo_h, min(hi_h, tau_impact)),
             method="bounded",
-            options={"xatol": 1e-13},
+            options={"xatol": 1e-13 * units.time},
         )
-        height = max(float(c[j]), -float(res.fun), 0.0)
+        height = max(best, -float(res.fun), 0.0)
 
     def states(t):
         tau = np.asarray(t) - t0
@@ -367,10 +632,15 @@ def flight_phase(scene: Scene, t0: float, state: State) -> tuple[Segment, float,
 
 # --------------------------------------------------------------------------- driver
 SLIP_ARM = 1e-9
-"""|slip velocity| (m/s) a slip must reach before its re-stick event is armed."""
+"""|slip velocity| (m/s for a 1 m hoop under 9.8 m/s^2, scaled with the scene's velocity unit)
+a slip must reach before its re-stick event is armed."""
 MIN_PHASE = 1e-9
-"""Phases shorter than this (s) are transition artefacts (a slip reversal that re-sticks at
-once): they stay in the dense solution but are left out of the reported phase list."""
+"""Phases shorter than this (s for a 1 m hoop under 9.8 m/s^2, scaled with sqrt(a/g)) are
+transition artefacts (a slip reversal that re-sticks at once): they stay in the dense solution
+but are left out of the reported phase list."""
+MAX_STEP = 1e-2
+"""Default cap on an integration step (s for a 1 m hoop under 9.8 m/s^2, about 1/30 of its
+time scale sqrt(a/g); scaled with sqrt(a/g))."""
 
 
 def _initial_slip_direction(scene: Scene, f: float) -> int:
@@ -379,7 +649,7 @@ def _initial_slip_direction(scene: Scene, f: float) -> int:
     return -1 if f > 0 else 1
 
 
-def _leave_rolling(scene: Scene, state: State, f_roll: float) -> tuple[str, int | None]:
+def _leave_rolling(scene: Scene, state: State, f_roll: float) -> tuple[Mode, int | None]:
     """Mode after rolling needs n <= 0: flight if the free hoop centre rises, else slip.
 
     Flight is consistent only if the hoop centre, free of contact forces, does not accelerate
@@ -389,32 +659,48 @@ def _leave_rolling(scene: Scene, state: State, f_roll: float) -> tuple[str, int 
     free = float(dynamics.free_centre_acceleration(scene, theta, thetadot))
     rising = -scene.lam * scene.a * math.sin(theta) * thetadot**3  # d(free)/dt in flight
     if free > 0 or (free == 0 and rising > 0):
-        return "flight", None
-    return "slip", _initial_slip_direction(scene, f_roll)
+        return Mode.FLIGHT, None
+    return Mode.SLIP, _initial_slip_direction(scene, f_roll)
 
 
 def solve_exact(
     scene: Scene,
     *,
-    rtol: float = 1e-10,
-    atol: float = 1e-12,
+    rtol: float = DEFAULT_RTOL,
+    atol: float = DEFAULT_ATOL,
     method: str = "DOP853",
-    max_step: float = 1e-2,
-    max_phases: int = 10_000,
+    max_step: float | None = None,
+    max_steps: int = DEFAULT_MAX_STEPS,
+    max_phases: int = DEFAULT_MAX_PHASES,
 ) -> ExactSolution:
     """Solve the scene from t = 0 to its t_end or the first impact, whichever comes first.
 
     A flight that starts before t_end is followed to its impact even past t_end.
     ``rtol`` and ``atol`` are the integrator's tolerances; events are located by root finding
-    on the dense output (machine precision on that interpolant). ``max_step`` (s) bounds the
-    integration steps so that an event function cannot cross zero and back unseen.
+    on the dense output (machine precision on that interpolant). ``atol`` is stated for a 1 m
+    hoop under g = 9.8 m/s^2 (m, rad, m/s, rad/s) and scaled with the scene's units (lengths
+    with a, times with sqrt(a/g)), so that any scene is solved to the same relative accuracy.
+    ``max_step`` (s) bounds the integration steps so that an event function cannot cross zero
+    and back unseen; by default :data:`MAX_STEP` scaled with sqrt(a/g).
+
+    The work is bounded by ``max_steps`` integrator steps (counted over all phases) and
+    ``max_phases`` phases. When either runs out, or a flight would need too many samples to
+    find its impact, the solution ends there with ``Outcome.ERROR`` and a message that says
+    why; the events found until then are kept.
     """
     for name, value in (("rtol", rtol), ("atol", atol)):
         if not (value > 0 and math.isfinite(value)):
             raise ValueError(f"{name} must be a positive number, got {value}")
+    units = _Units.of(scene)
+    if max_step is None:
+        max_step = MAX_STEP * units.time
     if not (max_step > 0):
         raise ValueError(f"max_step must be a positive number of seconds, got {max_step}")
-    opts = (rtol, atol, method, max_step)
+    for name, value in (("max_steps", max_steps), ("max_phases", max_phases)):
+        if not (isinstance(value, int) and value > 0):
+            raise ValueError(f"{name} must be a positive integer, got {value!r}")
+    opts = _Options(rtol, atol, method, max_step, units)
+    budget = _StepBudget(max_steps)
     t, state = 0.0, scene.initial_state()
     segments: list[Segment] = []
     phases: list[Phase] = []
@@ -424,6 +710,14 @@ def solve_exact(
     extra: dict[str, float | None] = {}
     flips = 0
 
+    def over_budget(what: str) -> str:
+        time_scale = math.sqrt(scene.a / scene.g)
+        return (
+            f"work budget exceeded: {what} at t = {t:.6g} s; the window t_end = "
+            f"{scene.t_end:g} s spans {scene.t_end / time_scale:.3g} time scales sqrt(a/g) = "
+            f"{time_scale:.3g} s (shorten t_end, or raise the budget)"
+        )
+
     # Which mode does the hoop start in?
     s0 = scene.centre_velocity0 - scene.a * scene.thetadot0
     if scene.rolls_at_start:
@@ -431,17 +725,17 @@ def solve_exact(
         if n0 < 0:
             mode, sigma = _leave_rolling(scene, scene.initial_state(), f0)
         elif abs(f0) > scene.mus * n0 or (scene.mus == 0 and f0 != 0):
-            mode, sigma = "slip", _initial_slip_direction(scene, f0)
+            mode, sigma = Mode.SLIP, _initial_slip_direction(scene, f0)
         else:
-            mode, sigma = "roll", None
+            mode, sigma = Mode.ROLL, None
     else:
         sigma = 1 if s0 > 0 else -1
         if scene.is_degenerate:
-            mode = "slip"
+            mode = Mode.SLIP
         else:
             n0 = float(dynamics.slip_normal_force(scene, scene.theta0, scene.thetadot0, sigma))
             d0 = float(dynamics.slip_denominator(scene, scene.theta0, sigma))
-            mode = "painleve" if d0 <= 0 else ("flight" if n0 < 0 else "slip")
+            mode = Mode.PAINLEVE if d0 <= 0 else (Mode.FLIGHT if n0 < 0 else Mode.SLIP)
         if scene.muk == 0:
             sigma = 0 if scene.mus == 0 else sigma
 
@@ -451,19 +745,25 @@ def solve_exact(
             found["theta_slip"] = st[2]
             found["thetadot_slip"] = st[5]
 
-    if mode == "painleve":
+    if mode is Mode.PAINLEVE:
         outcome = Outcome.PAINLEVE
         message = "D <= 0 at t = 0: no consistent contact force for this sliding start"
-    if mode == "flight":
+    if mode is Mode.FLIGHT:
         outcome = Outcome.LIFTS_AT_START
-    while outcome is None or mode == "flight":
-        if mode != "flight" and t >= scene.t_end:
+    while outcome is None or mode is Mode.FLIGHT:
+        if mode is not Mode.FLIGHT and t >= scene.t_end:
             break
         if len(segments) >= max_phases:
-            raise RuntimeError(f"more than {max_phases} phases: chattering between modes?")
-        if mode == "roll":
-            seg, end = _roll_phase(scene, t, state, scene.t_end, opts)
-        elif mode == "slip":
+            outcome = Outcome.ERROR
+            message = over_budget(f"max_phases = {max_phases} phases used")
+            break
+        if mode is not Mode.FLIGHT and budget.exhausted:
+            outcome = Outcome.ERROR
+            message = over_budget(f"max_steps = {max_steps} integrator steps used")
+            break
+        if mode is Mode.ROLL:
+            seg, end = _roll_phase(scene, t, state, scene.t_end, opts, budget)
+        elif mode is Mode.SLIP:
             first_slip(t, state)
             if scene.is_degenerate:
                 outcome = Outcome.DEGENERATE
@@ -476,9 +776,15 @@ def solve_exact(
                 outcome = Outcome.PAINLEVE
                 message = f"D <= 0 when slip starts at t = {t:.6g} s: no consistent contact force"
                 break
-            seg, end = _slip_phase(scene, t, state, sigma, scene.t_end, opts)
+            seg, end = _slip_phase(scene, t, state, sigma, scene.t_end, opts, budget)
         else:  # flight
-            seg, t_impact, height = flight_phase(scene, t, state)
+            try:
+                seg, t_impact, height = flight_phase(scene, t, state)
+            except WorkBudgetError as exc:
+                found["t_lift"] = t
+                outcome = Outcome.ERROR
+                message = over_budget(str(exc))
+                break
             segments.append(seg)
             phases.append(Phase(PhaseKind.FLIGHT, seg.t_start, seg.t_end))
             found["t_lift"] = t
@@ -487,28 +793,32 @@ def solve_exact(
             outcome = outcome or Outcome.HOPS
             break
         segments.append(seg)
-        if seg.t_end - seg.t_start > MIN_PHASE or end.reason == "end":
+        if seg.t_end - seg.t_start > MIN_PHASE * units.time or end.reason is EventReason.END:
             phases.append(Phase(seg.kind, seg.t_start, seg.t_end, seg.sigma))
         t, state = end.t, end.state
-        if end.reason == "end":
+        if end.reason is EventReason.END:
             break
-        if end.reason == "slip":
+        if end.reason is EventReason.BUDGET:
+            outcome = Outcome.ERROR
+            message = over_budget(f"max_steps = {max_steps} integrator steps used")
+            break
+        if end.reason is EventReason.SLIP:
             f, _ = dynamics.rolling_forces(scene, state[2], state[5])
-            mode, sigma = "slip", _initial_slip_direction(scene, float(f))
-        elif end.reason == "lift" and seg.kind is PhaseKind.ROLL:
+            mode, sigma = Mode.SLIP, _initial_slip_direction(scene, float(f))
+        elif end.reason is EventReason.LIFT and seg.kind is PhaseKind.ROLL:
             f, _ = dynamics.rolling_forces(scene, state[2], state[5])
             mode, sigma = _leave_rolling(scene, state, float(f))
-        elif end.reason == "lift":
-            mode = "flight"
-        elif end.reason == "wrong-way":
+        elif end.reason is EventReason.LIFT:
+            mode = Mode.FLIGHT
+        elif end.reason is EventReason.WRONG_WAY:
             # Neither direction consistent right at onset (a grazing touch of the friction
             # cone): the hoop keeps rolling.
-            flips = flips + 1 if end.t - seg.t_start < 1e-9 else 0
-            mode, sigma = ("roll", None) if flips >= 2 else ("slip", -sigma)
-        elif end.reason == "restick":
+            flips = flips + 1 if end.t - seg.t_start < MIN_PHASE * units.time else 0
+            mode, sigma = (Mode.ROLL, None) if flips >= 2 else (Mode.SLIP, -sigma)
+        elif end.reason is EventReason.RESTICK:
             f, n = (float(v) for v in dynamics.rolling_forces(scene, state[2], state[5]))
             if abs(f) <= scene.mus * n:
-                mode = "roll"
+                mode = Mode.ROLL
                 found.setdefault("t_restick", t)
             else:
                 sigma = -sigma  # the slip velocity passes through zero: slip reverses
@@ -516,7 +826,7 @@ def solve_exact(
             X, Y, th, Xdot, Ydot, thd = state
             s = float(kinematics.slip_velocity(scene, Xdot, th, thd))
             state = (X, Y, th, Xdot - s, Ydot, thd)
-        elif end.reason == "painleve":
+        elif end.reason is EventReason.PAINLEVE:
             outcome = Outcome.PAINLEVE
             extra["t_painleve"] = t
             extra["theta_painleve_deg"] = math.degrees(state[2])

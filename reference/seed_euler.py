@@ -26,12 +26,54 @@ from hoopbench.models.events import Events, Outcome, Phase, PhaseKind
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.reference import dynamics
-from hoopbench.reference.exact import ExactSolution, flight_phase, solve_exact
+from hoopbench.reference.exact import (
+    DEFAULT_MAX_SAMPLES,
+    ExactSolution,
+    WorkBudgetError,
+    flight_phase,
+    solve_exact,
+)
 
-__all__ = ["SeedEulerResult", "solve_seed_euler"]
+__all__ = [
+    "DEFAULT_MAX_STEPS",
+    "ROUNDOFF_MARGIN",
+    "SeedEulerResult",
+    "min_step",
+    "solve_seed_euler",
+]
 
-_STEP_GUARD = 1_000_000
-"""Upper bound on the number of steps whatever t_end and dt say (memory and time stay bounded)."""
+DEFAULT_MAX_STEPS = 10_000_000
+"""Steps one run of the scheme may take: its arrays take 80 bytes a step (0.8 GB at most) and
+a step about 4 microseconds (measured), so a run stays under a minute."""
+
+ROUNDOFF_MARGIN = 1e3
+"""How many float64 spacings the smallest quantities of a step must span (see :func:`min_step`)."""
+
+
+def min_step(scene: Scene) -> float:
+    """Smallest step dt, s, for which float64 round-off does not drive the scheme.
+
+    The scheme reads the normal force off the dt^2 term of a position update,
+    n = 2 [a - y - ydot dt - dt^2 free / 2] / (dt^2 D): the bracket is a difference of heights
+    below 2a, so it carries a rounding error of about one float64 spacing of 2a, and n an error
+    of about 2 spacing(2a) / (dt^2 D). Requiring gravity's share of a step, g dt^2 / 2, to span
+    at least ROUNDOFF_MARGIN such spacings keeps that error below about 0.1 % of g (for D >= 1,
+    as while the weight is ahead of the hoop centre):
+
+        dt >= sqrt(2 ROUNDOFF_MARGIN spacing(2a) / g),
+
+    3.0e-7 s for a 1 m hoop under 9.8 m/s^2. The step times t_slip + i dt must also stay
+    ROUNDOFF_MARGIN spacings of t_end apart (dt >= ROUNDOFF_MARGIN spacing(t_end)), which
+    only binds for a tiny hoop in a long window.
+
+    Measured on the seed scene against the same scheme in 80-bit arithmetic: at dt = 3e-7 s
+    the number of steps differs by 2 in 2345, at 1e-7 s by 31 in 4903, at 3e-8 s by 865 in
+    11736, and below 1e-8 s the float64 run reports hops of 0.2 to 1 m that the arithmetic
+    made up.
+    """
+    heights = float(np.spacing(2.0 * scene.a))
+    times = float(np.spacing(scene.t_end))
+    return max(math.sqrt(2.0 * ROUNDOFF_MARGIN * heights / scene.g), ROUNDOFF_MARGIN * times)
 
 
 @dataclass(frozen=True, eq=False)
@@ -159,11 +201,23 @@ class SeedEulerResult:
             contact=contact,
         )
 
-    def trajectory(self) -> Trajectory:
-        """Rolling phase and flight sampled every dt, plus every slipping step, to t_final."""
+    def trajectory(self, *, max_samples: int = DEFAULT_MAX_SAMPLES) -> Trajectory:
+        """Rolling phase and flight sampled every dt, plus every slipping step, to t_final.
+
+        Raises ValueError, before allocating, when that would be more than ``max_samples``
+        samples.
+        """
         if not self._stepping:
-            return self.exact.sample_uniform(self.dt)
+            return self.exact.sample_uniform(self.dt, max_samples=max_samples)
         t_slip, t_last = float(self.t[0]), float(self.t[-1])
+        estimate = (
+            math.ceil(t_slip / self.dt) + self.t.size + math.ceil((self.t_final - t_last) / self.dt)
+        )
+        if estimate > max_samples:
+            raise ValueError(
+                f"sampling every dt = {self.dt:g} s over t_final = {self.t_final:.6g} s makes "
+                f"about {estimate:.3g} samples, more than max_samples = {max_samples}"
+            )
         roll = np.arange(0.0, t_slip, self.dt)
         times = [roll[roll < t_slip], self.t]
         if self.events.t_impact is not None:
@@ -215,6 +269,32 @@ def _integrate_rolling(scene: Scene, t: float, rtol: float, atol: float) -> tupl
     return float(sol.y[0, -1]), float(sol.y[1, -1])
 
 
+def _check_inputs(scene: Scene, dt: float, delta: float) -> tuple[float, float]:
+    """dt and delta as floats, or ValueError naming the value and what is wrong with it."""
+    dt = _check_positive("dt", dt, "seconds")
+    delta = _check_positive("delta", delta, "metres")
+    if dt > scene.t_end:
+        raise ValueError(f"dt = {dt:g} s is longer than the window, t_end = {scene.t_end:g} s")
+    dt_min = min_step(scene)
+    if dt < dt_min:
+        raise ValueError(
+            f"dt = {dt:g} s is below {dt_min:.3g} s, where float64 round-off would drive the "
+            f"scheme's normal force (a = {scene.a:g} m, g = {scene.g:g} m/s^2; see min_step)"
+        )
+    delta_min = ROUNDOFF_MARGIN * float(np.spacing(2.0 * scene.a))
+    if delta < delta_min:
+        raise ValueError(
+            f"delta = {delta:g} m is below {delta_min:.3g} m, where float64 round-off in the "
+            f"clearance of a hoop of radius a = {scene.a:g} m would decide the lift-off"
+        )
+    if delta > scene.a:
+        raise ValueError(
+            f"delta = {delta:g} m is larger than the hoop radius a = {scene.a:g} m: not a "
+            "contact tolerance"
+        )
+    return dt, delta
+
+
 def solve_seed_euler(
     scene: Scene,
     *,
@@ -222,6 +302,7 @@ def solve_seed_euler(
     delta: float = 1e-4,
     rtol: float = 1e-12,
     atol: float = 1e-12,
+    max_steps: int = DEFAULT_MAX_STEPS,
 ) -> SeedEulerResult:
     """Run the seed's improved-Euler slipping scheme on a scene.
 
@@ -231,15 +312,22 @@ def solve_seed_euler(
 
     The slip direction is the exact one at the onset (+1 in the seed scene, the only direction
     the seed treats). Outcomes: "hops" when the clearance exceeds delta (then the flight to the
-    first impact follows); "slips" when t_end (or the step guard) comes first; "painleve" if
-    the scheme meets D <= 0. A scene that never slips in its window returns the exact events
-    unchanged with n_steps = 0.
+    first impact follows); "slips" when t_end comes first; "painleve" if the scheme meets
+    D <= 0; "error" if the flight after the lift-off needs too much work to find its impact.
+    A scene that never slips in its window returns the exact events unchanged with
+    n_steps = 0.
 
-    Raises ValueError for a non-positive dt or delta, or a scene that starts sliding (the
-    scheme starts from a rolling phase); DegenerateSceneError when I = 0.
+    Raises ValueError, naming the value, for a dt or delta that is not a positive number; a dt
+    longer than t_end or below :func:`min_step` (float64 round-off would drive the scheme); a
+    delta below ROUNDOFF_MARGIN float64 spacings of the heights or above the radius a; a
+    window that would take more than ``max_steps`` steps from the slip onset to t_end (checked
+    before stepping, so a run is never killed for memory); or a scene that starts sliding (the
+    scheme starts from a rolling phase). DegenerateSceneError when I = 0. The exact solver's
+    own work budget applies to the rolling phase (outcome "error" when it runs out first).
     """
-    dt = _check_positive("dt", dt, "seconds")
-    delta = _check_positive("delta", delta, "metres")
+    dt, delta = _check_inputs(scene, dt, delta)
+    if not (isinstance(max_steps, int) and max_steps > 0):
+        raise ValueError(f"max_steps must be a positive integer, got {max_steps!r}")
     scene.require_inertia("the seed's slipping scheme")
     exact = solve_exact(scene, rtol=rtol, atol=atol)
     ev0 = exact.events
@@ -261,9 +349,17 @@ def solve_seed_euler(
     ay_prev = _rolling_normal_force(scene, *_rolling_state_at(scene, exact, t_slip - dt)) - g
 
     window_steps = math.ceil((scene.t_end - t_slip) / dt)
-    max_steps = min(_STEP_GUARD, window_steps)
-    rows = [(X, Y, th, Xd, Yd, w)]
-    used = []  # (n, Xddot, Yddot, thetaddot) per step
+    if window_steps > max_steps:
+        raise ValueError(
+            f"dt = {dt:g} s would take up to {window_steps:.3g} steps from the slip onset at "
+            f"t = {t_slip:.6g} s to t_end = {scene.t_end:g} s, more than max_steps = {max_steps}"
+        )
+    # Preallocated (np.empty/np.zeros only commit the pages that get written): per-step
+    # Python tuples would take ~450 bytes a step.
+    cols = np.empty((6, window_steps + 1))
+    per_step = np.zeros((4, window_steps + 1))  # (n, Xddot, Yddot, thetaddot) per step
+    cols[:, 0] = (X, Y, th, Xd, Yd, w)
+    n_steps = 0
     outcome: Outcome | None = None
     message = ""
     while True:
@@ -271,17 +367,12 @@ def solve_seed_euler(
         if y - a > delta:
             outcome = Outcome.HOPS
             break
-        if len(used) >= max_steps:
+        if n_steps >= window_steps:
             outcome = Outcome.SLIPS
-            limit = (
-                f"t_end = {scene.t_end:g} s"
-                if max_steps == window_steps
-                else f"the step limit {_STEP_GUARD} (t_end = {scene.t_end:g} s not reached)"
-            )
             message = (
                 f"the seed scheme kept the clearance <= delta = {delta:g} m for "
-                f"{len(used)} steps, to t = {t_slip + len(used) * dt:.6g} s, and stopped at "
-                f"{limit}: no lift-off"
+                f"{n_steps} steps, to t = {t_slip + n_steps * dt:.6g} s, and stopped at "
+                f"t_end = {scene.t_end:g} s: no lift-off"
             )
             break
         s, c = math.sin(th), math.cos(th)
@@ -291,7 +382,7 @@ def solve_seed_euler(
             outcome = Outcome.PAINLEVE
             message = (
                 f"the seed scheme met D = {D:.3g} <= 0 (Painlevé) at t = "
-                f"{t_slip + len(used) * dt:.6g} s, theta = {math.degrees(th):.4f} deg"
+                f"{t_slip + n_steps * dt:.6g} s, theta = {math.degrees(th):.4f} deg"
             )
             break
         ydot = Yd + lam * a * s * w
@@ -302,21 +393,20 @@ def solve_seed_euler(
             # (the seed prints this line with the sign flipped, which would zero n).
             n = max(0.0, 2.0 * (a - y - ydot * dt - 0.5 * dt * dt * free) / (dt * dt * D))
         aX, aY, alpha = -sigma * muk * n, n - g, n * torque / (k * a)
-        used.append((n, aX, aY, alpha))
+        per_step[:, n_steps] = (n, aX, aY, alpha)
         Xd1, Yd1, w1 = Xd + aX * dt, Yd + aY * dt, w + alpha * dt
         X += 0.5 * dt * (Xd + Xd1)
         Y += 0.5 * dt * (Yd + Yd1)
         th += 0.5 * dt * (w + w1)
         Xd, Yd, w = Xd1, Yd1, w1
-        rows.append((X, Y, th, Xd, Yd, w))
+        n_steps += 1
+        cols[:, n_steps] = (X, Y, th, Xd, Yd, w)
         n = max(0.0, n + (aY - ay_prev))
         ay_prev = aY
 
-    n_steps = len(used)
-    cols = np.array(rows).T
-    per_step = np.zeros((4, n_steps + 1))
-    if n_steps:
-        per_step[:, :n_steps] = np.array(used).T
+    # Copies, so that the unused tail of the preallocated arrays is released.
+    cols = cols[:, : n_steps + 1].copy()
+    per_step = per_step[:, : n_steps + 1].copy()
     t = t_slip + dt * np.arange(n_steps + 1)
     t_end_steps = float(t[-1])
     clearance = kinematics.clearance(scene, cols[1], cols[2])
@@ -324,10 +414,14 @@ def solve_seed_euler(
     phases.append(Phase(PhaseKind.SLIP, t_slip, t_end_steps, sigma))
     t_lift = hop_height = t_impact = None
     if outcome is Outcome.HOPS:
-        _, t_impact, flight_height = flight_phase(scene, t_end_steps, tuple(cols[:, -1]))
         t_lift = t_end_steps
-        hop_height = max(float(clearance.max()), flight_height)
-        phases.append(Phase(PhaseKind.FLIGHT, t_lift, t_impact))
+        try:
+            _, t_impact, flight_height = flight_phase(scene, t_end_steps, tuple(cols[:, -1]))
+        except WorkBudgetError as exc:
+            outcome, message = Outcome.ERROR, f"the seed scheme lifted off, but {exc}"
+        else:
+            hop_height = max(float(clearance.max()), flight_height)
+            phases.append(Phase(PhaseKind.FLIGHT, t_lift, t_impact))
     events = Events(
         outcome=outcome,
         t_slip=t_slip,
