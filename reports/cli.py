@@ -18,6 +18,7 @@ from typing import Any, NoReturn
 from hoopbench.engines.registry import engine_class, engine_classes, get_engine
 from hoopbench.engines.settings import DEFAULT_TIMESTEP, MAX_STEPS, RunSettings, parse_option_value
 from hoopbench.models.catalogue import get_scene, scene_names
+from hoopbench.models.events import Outcome
 from hoopbench.models.scene import DegenerateSceneError, Scene
 from hoopbench.reference.exact import DEFAULT_ATOL, DEFAULT_RTOL
 
@@ -255,7 +256,8 @@ def _cmd_reference(args: argparse.Namespace) -> int:
         trajectory.write(csv)
         payload["trajectory_file"] = str(csv)
     _emit(args, payload)
-    return 0
+    # An answer the solver could not give (its work budget ran out) is not a success.
+    return 1 if events.outcome is Outcome.ERROR else 0
 
 
 def _settings_from_args(args: argparse.Namespace, engine: str) -> RunSettings:

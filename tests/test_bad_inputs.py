@@ -95,6 +95,9 @@ BAD: list[tuple[list[str], str]] = [
     (["reference", *SEED, "--method", "bogus"], "'bogus'"),
     (["reference", *SEED, "--rtol", "0"], "rtol"),
     (["reference", *SEED, "--method", "seed-euler", "--delta", "-1"], "delta"),
+    (["reference", *SEED, "--method", "seed-euler", "--dt", "1e-13"], "dt = 1e-13 s is below"),
+    (["reference", *SEED, "--method", "seed-euler", "--dt", "5"], "dt = 5 s is longer than"),
+    (["reference", *SEED, "--csv", "x.parquet", "--dt", "1e-9"], "makes 3e+09 samples"),
     # ----- compare, report and figure
     (["compare", "--suite", "quick", "--out", "new", "--jobs", "0"], "--jobs: must be >= 1, got 0"),
     (["compare", "--suite", "quick", "--out", "new", "--jobs", "-3"], "got -3"),
@@ -131,7 +134,7 @@ def test_the_table_is_large_enough():
 
 @pytest.mark.parametrize(("argv", "names"), BAD, ids=[" ".join(a) for a, _ in BAD])
 def test_bad_input_is_one_line_naming_the_value(argv, names, capsys, deadline, tmp_path):
-    argv = [str(tmp_path / a) if a.endswith(".jpg") else a for a in argv]
+    argv = [str(tmp_path / a) if a.endswith((".jpg", ".parquet")) else a for a in argv]
     assert main(argv) == 2
     captured = capsys.readouterr()
     assert captured.out == ""
