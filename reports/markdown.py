@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from hoopbench.engines.settings import DEFAULT_TIMESTEP
 from hoopbench.models.catalogue import get_scene
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.reports.figures import clearance_figure, error_vs_time_figure, hoop_figure
@@ -182,7 +183,7 @@ def _hop_section(runs: pd.DataFrame) -> str:
 
 def _phase_section(runs: pd.DataFrame) -> str:
     default = _default(runs)
-    fine = default[default["timestep"] == 1e-4]
+    fine = default[default["timestep"] == DEFAULT_TIMESTEP]
     engines = list(dict.fromkeys(fine["engine"]))
     rows = []
     for scene, group in fine.groupby("scene", sort=False):
@@ -195,7 +196,7 @@ def _phase_section(runs: pd.DataFrame) -> str:
         rows.append(row)
     columns = ["scene", "exact", *engines]
     return _section(
-        "## Phase sequences (default settings, dt = 1e-4)",
+        f"## Phase sequences (default settings, dt = {DEFAULT_TIMESTEP:g})",
         "",
         "R roll, S+/S- slip forward/backward, F flight, up to the first impact. The engine "
         "sequences come from the shared detectors; the reference row shows what they read off "
@@ -228,7 +229,7 @@ def _settings_section(runs: pd.DataFrame) -> str:
             "us_per_step": "us/step",
         },
     )
-    return _section("## Contact settings (dt = 1e-4)", "", table)
+    return _section(f"## Contact settings (dt = {DEFAULT_TIMESTEP:g})", "", table)
 
 
 def _timestep_section(runs: pd.DataFrame) -> str:
@@ -334,11 +335,11 @@ def _stability_section(runs: pd.DataFrame) -> str:
 
 
 def _clearance_figure(runs: pd.DataFrame, scene_name: str, out: Path) -> Path | None:
-    """The hoop-centre clearance of every default dt = 1e-4 run of a hop scene, if recorded."""
+    """The hoop-centre clearance of every default-timestep run of a hop scene, if recorded."""
     default = _default(runs)
     trajectories = {}
     for _, row in default[
-        (default["scene"] == scene_name) & (default["timestep"] == 1e-4)
+        (default["scene"] == scene_name) & (default["timestep"] == DEFAULT_TIMESTEP)
     ].iterrows():
         path = row.get("trajectory_file")
         if isinstance(path, str):
@@ -355,7 +356,7 @@ def _clearance_figure(runs: pd.DataFrame, scene_name: str, out: Path) -> Path | 
     return clearance_figure(
         trajectories,
         out / f"clearance_{scene_name}.png",
-        title=f"{scene_name}: hoop-centre clearance, dt = 1e-4",
+        title=f"{scene_name}: hoop-centre clearance, dt = {DEFAULT_TIMESTEP:g}",
         t_window=window,
     )
 

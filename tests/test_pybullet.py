@@ -432,3 +432,14 @@ def test_hull_geometry_is_launched_by_its_margin():
     assert result.events.t_lift is not None and result.events.t_lift < 0.01
     first_slip = np.argmax(np.abs(traj.slip_velocity) > 1e-3)
     assert math.degrees(traj.theta[first_slip]) < 1.0
+
+
+def test_the_floor_reaches_as_far_as_the_hoop_can_go():
+    """PyBullet's floor is a finite box: it is sized from the scene's reach, so a fast hoop
+    over a long window stays on it (1000 m used to be the whole floor)."""
+    scene = Scene(lam=0.001, thetadot0=30.0, mus=0.8, muk=0.8, t_end=60.0)
+    result = PybulletEngine().run(scene, RunSettings(timestep=2e-3))
+    assert result.info.status is RunStatus.OK, result.info.message
+    traj = result.trajectory
+    assert traj.X[-1] > 1500.0  # well past the old 1000 m edge
+    assert traj.clearance.min() > -1e-3
