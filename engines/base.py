@@ -27,7 +27,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from hoopbench.engines.detectors import DetectorSettings
-from hoopbench.engines.options import Option, Variant
+from hoopbench.engines.options import Option, Profile, Variant
 from hoopbench.engines.settings import BYTES_PER_STEP, MAX_STEPS, RunSettings
 from hoopbench.models import kinematics
 from hoopbench.models.events import Events
@@ -231,9 +231,9 @@ class Engine(ABC):
 
     # ----------------------------------------------------------------- declarations
     @classmethod
-    def defaults(cls) -> dict[str, Any]:
-        """Option name -> hoopbench's default."""
-        return {option.name: option.default for option in cls.options}
+    def defaults(cls, profile: Profile = Profile.TUNED) -> dict[str, Any]:
+        """Option name -> its value in the profile (tuned: hoopbench's default)."""
+        return {option.name: option.value(profile) for option in cls.options}
 
     @classmethod
     def resolve(cls, settings: RunSettings) -> dict[str, Any]:
@@ -251,7 +251,7 @@ class Engine(ABC):
         if unknown:
             known = ", ".join(declared) or "none"
             raise ValueError(f"unknown {cls.name} setting(s) {', '.join(unknown)}; known: {known}")
-        values = {**cls.defaults(), **settings.options}
+        values = {**cls.defaults(settings.profile), **settings.options}
         return {name: declared[name].check(name, value) for name, value in values.items()}
 
     # ----------------------------------------------------------------- hooks

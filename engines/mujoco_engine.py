@@ -139,6 +139,7 @@ class MujocoEngine(Engine):
             _check_solref,
             "(timeconst s, dampratio); refsafe clamps timeconst to 2*timestep. Stiffer than "
             "MuJoCo's 0.02: slip onset within 2.4 ms on seed-mu (table in the module doc)",
+            stock=(0.02, 1.0),
         ),
         Option(
             "solreffriction",
@@ -147,12 +148,14 @@ class MujocoEngine(Engine):
             "friction rows of elliptic cones only. A sliding MuJoCo contact pushes the bodies "
             "apart; with one solref for all rows the hoop chattered 0.2 mm off the floor while "
             "slipping and the detectors saw false hops; this cuts the chatter tenfold",
+            stock=(0.0, 0.0),
         ),
         Option(
             "solimp",
             (0.95, 0.99, 0.001, 0.5, 2.0),
             _check_solimp,
             "MuJoCo's default impedance: no measured effect here",
+            stock=(0.9, 0.95, 0.001, 0.5, 2.0),
         ),
         Option(
             "cone",
@@ -160,6 +163,7 @@ class MujocoEngine(Engine):
             choice(*CONES),
             "pyramidal cones reported false hops at every solref tried (0.3-2.3 mm) and, "
             "with solref 0.02 and impratio 1, slipped at 26 deg instead of 88.5",
+            stock="pyramidal",
         ),
         Option(
             "impratio",
@@ -167,6 +171,7 @@ class MujocoEngine(Engine):
             number(low=0.0, low_open=True),
             "elliptic cones only: friction 100x harder than normal keeps rolling creep "
             "below 0.01 mm/s",
+            stock=1.0,
         ),
         Option(
             "noslip_iterations",
@@ -180,12 +185,14 @@ class MujocoEngine(Engine):
             choice(*INTEGRATORS),
             "RK4 costs ~4x per step, but the one-step integrators lost the hop-top and "
             "hop-low hops to contact chatter (hop-top height -1 % with RK4)",
+            stock="Euler",
         ),
         Option(
             "tolerance",
             1e-10,
             number(low=0.0),
             "solver converges fully each step, so results do not depend on warm starts",
+            stock=1e-8,
         ),
         Option(
             "iterations",

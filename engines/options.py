@@ -10,14 +10,17 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from enum import StrEnum
 from types import MappingProxyType
 from typing import Any
 
 from hoopbench.models.checks import check_choice, check_flag, check_integer, check_real
 
 __all__ = [
+    "SAME",
     "Check",
     "Option",
+    "Profile",
     "Variant",
     "choice",
     "flag",
@@ -26,6 +29,24 @@ __all__ = [
     "optional",
     "real_tuple",
 ]
+
+
+class Profile(StrEnum):
+    """Which option values a run uses."""
+
+    TUNED = "tuned"
+    """hoopbench's defaults, each chosen for this problem, with its reason."""
+    STOCK = "stock"
+    """The engine's own documented defaults: what a new user gets out of the box."""
+
+
+class _Same:
+    def __repr__(self) -> str:
+        return "SAME"
+
+
+SAME: Any = _Same()
+"""An option's ``stock`` value when hoopbench keeps the engine's own default."""
 
 Check = Callable[[str, Any], Any]
 """(option name, value) -> the value converted; ValueError naming the value and the allowed."""
@@ -41,6 +62,14 @@ class Option:
     check: Check
     reason: str
     """Why the default has this value (measurements where there are any)."""
+    stock: Any = SAME
+    """The engine's own default (the ``stock`` profile); SAME when hoopbench keeps it."""
+
+    def value(self, profile: Profile) -> Any:
+        """The option's value in a profile."""
+        if profile is Profile.STOCK and self.stock is not SAME:
+            return self.stock
+        return self.default
 
 
 @dataclass(frozen=True)

@@ -127,6 +127,7 @@ class PybulletEngine(Engine):
             number(low=0.0, unit="m"),
             "PyBullet's 1e-5 m lets a contact sink that deep with no force, so the hoop fell "
             "freely for the first 1.4 ms; 0 made the contact flicker and slip 10 ms early",
+            stock=1e-5,
         ),
     )
     variants = (

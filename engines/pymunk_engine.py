@@ -99,12 +99,14 @@ class PymunkEngine(Engine):
             50,
             integer(low=1),
             "pymunk's 10 leaves the slipping contact unconverged; 50 as PyBullet's solver",
+            stock=10,
         ),
         Option(
             "collision_slop",
             1e-5,
             number(low=0.0, unit="m"),
             "pymunk's default 0.1 (game pixels) is a tenth of the hoop radius here",
+            stock=0.1,
         ),
         Option(
             "collision_bias",
@@ -113,6 +115,7 @@ class PymunkEngine(Engine):
             "fraction of overlap left after 1 s (None: pymunk's 0.9**60, made for 60 Hz games, "
             "which let the rolling hop-bottom scene sink 0.2 mm and lift off 12 ms late); "
             "1e-40 removes overlap with an 11 ms time constant",
+            stock=None,
         ),
     )
     variants = (Variant("iterations=10", options={"iterations": 10}),)

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import Any
 
+from hoopbench.engines.options import Profile
 from hoopbench.models.checks import check_integer, check_real
 
 __all__ = ["BYTES_PER_STEP", "DEFAULT_TIMESTEP", "MAX_STEPS", "RunSettings", "parse_option_value"]
@@ -47,6 +48,8 @@ class RunSettings:
     """Engine-specific knobs (real engine names); missing ones take the engine's defaults."""
     max_steps: int = MAX_STEPS
     """A run needing more steps than this is refused before it starts."""
+    profile: Profile = Profile.TUNED
+    """Option values the run starts from: hoopbench's (tuned) or the engine's own (stock)."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "max_steps", check_integer("max_steps", self.max_steps, low=1))
@@ -57,6 +60,11 @@ class RunSettings:
         restitution = check_real("restitution", self.restitution, low=0.0, high=1.0)
         object.__setattr__(self, "restitution", restitution)
         object.__setattr__(self, "options", MappingProxyType(dict(self.options)))
+        try:
+            object.__setattr__(self, "profile", Profile(self.profile))
+        except ValueError:
+            allowed = ", ".join(p.value for p in Profile)
+            raise ValueError(f"profile must be one of {allowed}, got {self.profile!r}") from None
 
     def with_(self, **changes: Any) -> RunSettings:
         return replace(self, **changes)
@@ -67,6 +75,7 @@ class RunSettings:
             "mu": self.mu,
             "restitution": self.restitution,
             "geometry": self.geometry,
+            "profile": str(self.profile),
             **{k: _plain(v) for k, v in self.options.items()},
         }
 

@@ -15,6 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
+from hoopbench.engines.options import Profile
 from hoopbench.engines.registry import engine_class, engine_classes, get_engine
 from hoopbench.engines.settings import DEFAULT_TIMESTEP, MAX_STEPS, RunSettings, parse_option_value
 from hoopbench.models.catalogue import get_scene, scene_names
@@ -276,6 +277,7 @@ def _settings_from_args(args: argparse.Namespace, engine: str) -> RunSettings:
         geometry=args.geometry,
         options=options,
         max_steps=args.max_steps,
+        profile=args.profile,
     )
     engine_class(engine).resolve(settings)  # bad names fail before any engine is imported
     return settings
@@ -322,7 +324,8 @@ def _cmd_settings(args: argparse.Namespace) -> int:
     for name, spec in payload["engines"].items():
         print(f"{name} (geometries: {', '.join(spec['geometries'])})")
         for key, value in spec["options"].items():
-            print(f"  {key} = {value}")
+            stock = spec["stock"][key]
+            print(f"  {key} = {value}" + ("" if stock == value else f"  (stock: {stock})"))
             print(f"      {spec['reasons'][key]}")
         if spec["variants"]:
             print("  suite variants: " + ", ".join(v["name"] for v in spec["variants"]))
@@ -334,6 +337,7 @@ def _engine_declaration(cls: Any) -> dict[str, Any]:
     return {
         "geometries": list(cls.geometries),
         "options": cls.defaults(),
+        "stock": cls.defaults(Profile.STOCK),
         "reasons": {option.name: option.reason for option in cls.options},
         "variants": [
             {"name": v.name, "geometry": v.geometry, "options": dict(v.options)}
@@ -427,6 +431,12 @@ def _engine_options(p: argparse.ArgumentParser, engines: Sequence[str]) -> None:
         action="append",
         metavar="KEY=VALUE",
         help="engine-specific setting, real engine name (repeatable; see hoopbench settings)",
+    )
+    p.add_argument(
+        "--profile",
+        choices=("tuned", "stock"),
+        default="tuned",
+        help="option values to start from: hoopbench's tuned defaults or the engine's own",
     )
     p.add_argument(
         "--max-steps",

@@ -47,6 +47,7 @@ ROW_COLUMNS = (
     "run_id",
     "scene",
     "engine",
+    "profile",
     "variant",
     "timestep",
     "geometry",
@@ -115,12 +116,13 @@ def _error(value: float | None, reference: float | None) -> float | None:
 
 def _task_columns(task: RunTask) -> dict[str, Any]:
     """The descriptive columns of a task's row (also those of a timeout or crash row)."""
-    defaults = engine_class(task.engine).defaults()
+    defaults = engine_class(task.engine).defaults(task.profile)
     changed = {k: v for k, v in task.options if v != defaults.get(k)}
     return {
         "run_id": task.run_id,
         "scene": task.scene.name,
         "engine": task.engine,
+        "profile": str(task.profile),
         "variant": task.variant,
         "timestep": task.timestep,
         "geometry": task.geometry,

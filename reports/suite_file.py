@@ -20,6 +20,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
+from hoopbench.engines.options import Profile
 from hoopbench.engines.registry import engine_class, engine_names
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene, scene_names
@@ -41,7 +42,7 @@ SUITES_DIR = Path(__file__).resolve().parent / "suites"
 
 DEFAULT_VARIANT = "default"
 
-_TOP_KEYS = ("name", "engines", "timesteps", "scenes", "scene", "variant")
+_TOP_KEYS = ("name", "engines", "timesteps", "profiles", "scenes", "scene", "variant")
 _SCENE_KEYS = (
     "name",
     "lam",
@@ -57,7 +58,7 @@ _SCENE_KEYS = (
     "t_end",
     "xdot0",
 )
-_VARIANT_KEYS = ("engine", "name", "geometry", "options", "timesteps")
+_VARIANT_KEYS = ("engine", "name", "profile", "geometry", "options", "timesteps")
 
 
 class SuiteError(ValueError):
@@ -74,6 +75,8 @@ class VariantSpec:
     options: Mapping[str, Any] = field(default_factory=dict)
     timesteps: tuple[float, ...] | None = None
     """s; None: the suite's timesteps."""
+    profile: Profile = Profile.TUNED
+    """The option values the variant's own options start from."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "options", MappingProxyType(dict(self.options)))
@@ -92,18 +95,22 @@ class RunTask:
     """The full, checked option values (defaults included), as sorted pairs."""
     timestep: float
     """s."""
+    profile: Profile = Profile.TUNED
     trajectory_dir: str | None = None
     """Where the worker stores the run's trajectory (None: not stored)."""
 
     def settings(self) -> RunSettings:
         return RunSettings(
-            timestep=self.timestep, geometry=self.geometry, options=dict(self.options)
+            timestep=self.timestep,
+            geometry=self.geometry,
+            options=dict(self.options),
+            profile=self.profile,
         )
 
     @property
     def label(self) -> str:
         """What the run is, for progress lines."""
-        return f"{self.scene.name} {self.engine} {self.variant} dt={self.timestep:g}"
+        return f"{self.scene.name} {self.engine} {self.profile} {self.variant} dt={self.timestep:g}"
 
     @property
     def n_steps(self) -> int:
@@ -120,15 +127,17 @@ class Suite:
     timesteps: tuple[float, ...]
     scenes: tuple[Scene, ...]
     variants: tuple[VariantSpec, ...] = ()
+    profiles: tuple[Profile, ...] = (Profile.TUNED,)
+    """Each engine's defaults run once per profile (variant ``default``)."""
 
     def tasks(self, trajectory_dir: str | None = None) -> list[RunTask]:
         """Every run, in a stable order: scene, engine, variant (default first), timestep."""
         tasks = []
         for scene in self.scenes:
             for engine in self.engines:
-                default = VariantSpec(engine, DEFAULT_VARIANT)
+                defaults = [VariantSpec(engine, DEFAULT_VARIANT, profile=p) for p in self.profiles]
                 mine = [v for v in self.variants if v.engine == engine]
-                for variant in (default, *mine):
+                for variant in (*defaults, *mine):
                     for dt in variant.timesteps or self.timesteps:
                         tasks.append(_task(scene, variant, dt, trajectory_dir))
         return tasks
@@ -142,16 +151,21 @@ class Suite:
                 f"(it has {', '.join(self.engines)})"
             )
         variants = tuple(v for v in self.variants if v.engine in engines)
-        return Suite(self.name, tuple(engines), self.timesteps, self.scenes, variants)
+        return Suite(
+            self.name, tuple(engines), self.timesteps, self.scenes, variants, self.profiles
+        )
 
 
 def _task(scene: Scene, variant: VariantSpec, dt: float, trajectory_dir: str | None) -> RunTask:
-    settings = RunSettings(timestep=dt, geometry=variant.geometry, options=variant.options)
+    settings = RunSettings(
+        timestep=dt, geometry=variant.geometry, options=variant.options, profile=variant.profile
+    )
     options = engine_class(variant.engine).resolve(settings)
     inputs = {
         "scene": scene.to_dict(),
         "engine": variant.engine,
         "variant": variant.name,
+        "profile": str(variant.profile),
         "geometry": variant.geometry,
         "options": options,
         "timestep": dt,
@@ -166,6 +180,7 @@ def _task(scene: Scene, variant: VariantSpec, dt: float, trajectory_dir: str | N
         geometry=variant.geometry,
         options=tuple(sorted(options.items())),
         timestep=dt,
+        profile=variant.profile,
         trajectory_dir=trajectory_dir,
     )
 
@@ -213,7 +228,8 @@ def parse_suite(data: Mapping[str, Any]) -> Suite:
     if repeated:
         raise SuiteError(f"scene name(s) {', '.join(repeated)} given twice")
     variants = _variants(data.get("variant", []), engines)
-    suite = Suite(name, engines, timesteps, tuple(scenes), variants)
+    profiles = _profiles(data.get("profiles", ["tuned"]), "profiles")
+    suite = Suite(name, engines, timesteps, tuple(scenes), variants, profiles)
     _check_runs(suite)
     return suite
 
@@ -250,6 +266,16 @@ def _timesteps(value: Any, key: str) -> tuple[float, ...]:
     if len(set(value)) != len(value):
         raise SuiteError(f"{key}: a timestep is listed twice in {value!r}")
     return tuple(float(dt) for dt in value)
+
+
+def _profiles(value: Any, key: str) -> tuple[Profile, ...]:
+    allowed = [p.value for p in Profile]
+    items = value if isinstance(value, list) else [value]
+    if not items or not all(isinstance(p, str) and p in allowed for p in items):
+        raise SuiteError(f"{key} must be one or more of {', '.join(allowed)}, got {value!r}")
+    if len(set(items)) != len(items):
+        raise SuiteError(f"{key}: a profile is listed twice in {value!r}")
+    return tuple(Profile(p) for p in items)
 
 
 def _catalogue_scenes(value: Any) -> list[Scene]:
@@ -321,12 +347,13 @@ def _variants(value: Any, engines: Sequence[str]) -> tuple[VariantSpec, ...]:
         timesteps = table.get("timesteps")
         if timesteps is not None:
             timesteps = _timesteps(timesteps, f"{where}: timesteps")
+        (profile,) = _profiles(table.get("profile", "tuned"), f"{where}: profile")
         try:
-            settings = RunSettings(geometry=geometry, options=options)
+            settings = RunSettings(geometry=geometry, options=options, profile=profile)
             engine_class(engine).resolve(settings)
         except ValueError as exc:
             raise SuiteError(f"{where}: {exc}") from None
-        variants.append(VariantSpec(engine, name, geometry, options, timesteps))
+        variants.append(VariantSpec(engine, name, geometry, options, timesteps, profile))
     return tuple(variants)
 
 

@@ -1,0 +1,59 @@
+"""Stock and tuned profiles: the engine's own defaults against hoopbench's."""
+
+from __future__ import annotations
+
+import pytest
+
+from hoopbench.engines.options import SAME, Profile
+from hoopbench.engines.registry import engine_class, engine_names, get_engine
+from hoopbench.engines.settings import RunSettings
+from hoopbench.models.catalogue import get_scene
+from hoopbench.reports.suite_file import SuiteError, parse_suite
+
+# The engines' own documented defaults, written out here independently of the declarations.
+STOCK = {
+    "mujoco": {"solref": (0.02, 1.0), "cone": "pyramidal", "impratio": 1.0, "integrator": "Euler"},
+    "pybullet": {"contactSlop": 1e-5, "numSolverIterations": 50},
+    "pymunk": {"iterations": 10, "collision_slop": 0.1, "collision_bias": None},
+}
+
+
+@pytest.mark.parametrize("engine", sorted(STOCK))
+def test_stock_profile_is_the_engines_own_defaults(engine):
+    stock = engine_class(engine).defaults(Profile.STOCK)
+    for name, value in STOCK[engine].items():
+        assert stock[name] == value, name
+    tuned = engine_class(engine).defaults(Profile.TUNED)
+    assert stock != tuned
+
+
+@pytest.mark.parametrize("engine", engine_names())
+def test_every_option_states_its_stock_value_or_keeps_it(engine):
+    for option in engine_class(engine).options:
+        assert option.stock is SAME or option.check(option.name, option.stock) == option.stock
+
+
+def test_the_stock_profile_reaches_the_model():
+    scene = get_scene("seed-mu")
+    xml = get_engine("mujoco").model_text(scene, RunSettings(profile="stock"))
+    assert 'cone="pyramidal"' in xml and 'integrator="Euler"' in xml
+    tuned = get_engine("mujoco").model_text(scene, RunSettings())
+    assert 'cone="elliptic"' in tuned
+
+
+def test_a_bad_profile_is_named():
+    with pytest.raises(ValueError, match="profile must be one of tuned, stock, got 'factory'"):
+        RunSettings(profile="factory")
+
+
+def test_suites_run_each_engines_defaults_once_per_profile():
+    data = {"name": "p", "engines": ["pymunk"], "timesteps": [1e-3], "scenes": ["seed-mu"]}
+    one = parse_suite(data).tasks()
+    both = parse_suite({**data, "profiles": ["stock", "tuned"]}).tasks()
+    assert [t.profile for t in one] == [Profile.TUNED]
+    assert [t.profile for t in both] == [Profile.STOCK, Profile.TUNED]
+    assert both[1].run_id == one[0].run_id  # the tuned run is the same run
+    assert both[0].run_id != one[0].run_id
+    assert dict(both[0].options)["iterations"] == 10
+    with pytest.raises(SuiteError, match="profiles must be one or more of tuned, stock"):
+        parse_suite({**data, "profiles": ["factory"]})
