@@ -32,8 +32,9 @@ test: $(STAMP)
 	$(BIN)/python -m pytest
 
 report: $(STAMP)
-	$(BIN)/hoopbench compare --suite default --out $(OUT) --trajectories default
-	$(BIN)/hoopbench report --results $(OUT)
+	$(BIN)/hoopbench compare --suite default --out $(OUT)/default --trajectories default
+	$(BIN)/hoopbench compare --suite stability --out $(OUT)/stability
+	$(BIN)/hoopbench report --results $(OUT)/default $(OUT)/stability --out $(OUT)
 
 bench: $(STAMP)
 	$(BIN)/python -m hoopbench.reports.bench_overhead

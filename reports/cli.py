@@ -388,18 +388,18 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 def _cmd_report(args: argparse.Namespace) -> int:
     from hoopbench.reports.suite import build_report
 
-    results_dir = Path(args.results)
-    if not (results_dir / "runs").is_dir():
-        raise UsageError(
-            f"--results {args.results!r} holds no results (no runs/ folder): "
-            "run hoopbench compare first"
-        )
-    out = Path(args.out) if args.out else results_dir
+    for folder in args.results:
+        if not (Path(folder) / "runs").is_dir():
+            raise UsageError(
+                f"--results {folder!r} holds no results (no runs/ folder): "
+                "run hoopbench compare first"
+            )
+    out = Path(args.out) if args.out else Path(args.results[0])
     if out.exists() and not out.is_dir():
         raise UsageError(f"--out {str(out)!r} is a file, not a folder")
     if (out / "report.md").exists() and not args.force:
         raise UsageError(f"{str(out / 'report.md')!r} exists; pass --force to replace it")
-    print(build_report(results_dir, out))
+    print(build_report([Path(f) for f in args.results], out))
     return 0
 
 
@@ -514,8 +514,14 @@ def _parser() -> _Parser:
     p.set_defaults(func=_cmd_compare)
 
     p = sub.add_parser("report", help="write report.md and figures from stored results")
-    p.add_argument("--results", required=True, help="a results folder of hoopbench compare")
-    p.add_argument("--out", help="report folder (default: the results folder)")
+    p.add_argument(
+        "--results",
+        required=True,
+        nargs="+",
+        metavar="DIR",
+        help="results folders of hoopbench compare (e.g. the default and stability suites)",
+    )
+    p.add_argument("--out", help="report folder (default: the first results folder)")
     p.add_argument("--force", action="store_true", help="replace an existing report.md")
     p.set_defaults(func=_cmd_report)
 

@@ -19,11 +19,20 @@ from hoopbench.engines.settings import DEFAULT_TIMESTEP
 from hoopbench.models.catalogue import get_scene
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.reports.figures import clearance_figure, error_vs_time_figure, hoop_figure
+from hoopbench.reports.stability import (
+    ENERGY_GAIN_LIMIT,
+    PENETRATION_LIMIT,
+    stability_figure,
+    stability_matrix,
+)
 from hoopbench.reports.tolerances import tolerances
 
 __all__ = ["markdown_table", "write_markdown"]
 
 _OPTIONAL_COLUMNS = (
+    "suite",
+    "profile",
+    "a",
     "err_t_slip_ms",
     "err_theta_slip_deg",
     "err_t_lift_ms",
@@ -43,6 +52,10 @@ _OPTIONAL_COLUMNS = (
 
 
 # --------------------------------------------------------------------------- tables
+STABILITY_SUITE = "stability"
+"""Name of the suite whose rows make the stability matrix (reports/suites/stability.toml)."""
+
+
 def _cell(value) -> str:
     if value is None or (isinstance(value, float) and math.isnan(value)):
         return "-"
@@ -334,6 +347,33 @@ def _stability_section(runs: pd.DataFrame) -> str:
     )
 
 
+def _stability_matrix_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[Path]]:
+    """The stability suite's matrix: each engine x scene x timestep cell classified."""
+    if runs.empty:
+        return "", []
+    table = stability_matrix(runs)
+    figure = stability_figure(runs, out / "stability.png")
+    header = "| scene | engine | " + " | ".join(f"dt {dt:g}" for dt in table.columns) + " |"
+    rule = "|---|---|" + "---|" * len(table.columns)
+    rows = [
+        f"| {scene} | {engine} | " + " | ".join(_cell(v) for v in cells) + " |"
+        for (scene, engine), cells in zip(table.index, table.to_numpy(), strict=True)
+    ]
+    text = _section(
+        "## Stability matrix (stiff and extreme scenes)",
+        "",
+        f"Each cell is the worst of: diverged (NaN, or stopped by the divergence check), "
+        f"energy gain (over {100 * ENERGY_GAIN_LIMIT:g} % before the first slip), deep "
+        f"penetration (over {100 * PENETRATION_LIMIT:g} % of the radius), wrong outcome "
+        "(against the exact reference), timeout, crashed; ok otherwise. Default settings.",
+        "",
+        f"![stability matrix]({figure.name})" if figure else "",
+        "",
+        "\n".join([header, rule, *rows]),
+    )
+    return text, [figure] if figure else []
+
+
 def _clearance_figure(runs: pd.DataFrame, scene_name: str, out: Path) -> Path | None:
     """The hoop-centre clearance of every default-timestep run of a hop scene, if recorded."""
     default = _default(runs)
@@ -391,21 +431,27 @@ def _files_section() -> str:
 def write_markdown(frame: pd.DataFrame, out: Path, *, generated: str) -> Path:
     """Write out/report.md with tables and PNG figures; return its path. ``frame`` is unchanged."""
     out = Path(out)
-    runs = _with_optional_columns(frame)
-    run_time, _ = _run_time_section(runs, out)
-    figures, _ = _figures_section(runs, out)
-    sections = [
-        _header(runs, generated),
-        _slip_section(runs),
-        _hop_section(runs),
-        _phase_section(runs),
-        _settings_section(runs),
-        _timestep_section(runs),
-        run_time,
-        _stability_section(runs),
-        figures,
-        _files_section(),
-    ]
+    everything = _with_optional_columns(frame)
+    # The stability suite's stiff and extreme scenes have a section of their own; the event
+    # tables and agreement counts are the comparison suites' alone.
+    is_stability = everything["suite"] == STABILITY_SUITE
+    runs = everything[~is_stability]
+    stability, _ = _stability_matrix_section(everything[is_stability], out)
+    sections = [_header(everything, generated)]
+    figures = ""
+    if not runs.empty:  # a report of the stability suite alone has no event tables
+        run_time, _ = _run_time_section(runs, out)
+        figures, _ = _figures_section(runs, out)
+        sections += [
+            _slip_section(runs),
+            _hop_section(runs),
+            _phase_section(runs),
+            _settings_section(runs),
+            _timestep_section(runs),
+            run_time,
+            _stability_section(runs),
+        ]
+    sections += [stability, figures, _files_section()]
     path = out / "report.md"
     path.write_text("\n".join(section for section in sections if section))
     return path

@@ -46,6 +46,7 @@ FORMAT_VERSION = 2
 ROW_COLUMNS = (
     "run_id",
     "scene",
+    "a",
     "engine",
     "profile",
     "variant",
@@ -121,6 +122,7 @@ def _task_columns(task: RunTask) -> dict[str, Any]:
     return {
         "run_id": task.run_id,
         "scene": task.scene.name,
+        "a": task.scene.a,
         "engine": task.engine,
         "profile": str(task.profile),
         "variant": task.variant,
@@ -292,13 +294,20 @@ def _engine_versions(engines: tuple[str, ...]) -> dict[str, str | None]:
 
 
 # --------------------------------------------------------------------------- report
-def build_report(results_dir: str | Path, out: str | Path | None = None) -> Path:
-    """report.md and its figures from stored results alone (no simulation)."""
+def build_report(
+    results_dirs: str | Path | list[str | Path], out: str | Path | None = None
+) -> Path:
+    """report.md and its figures from stored results alone (no simulation).
+
+    Several results folders (e.g. the default suite and the stability suite) make one report;
+    each row keeps the name of its suite in the column ``suite``. ``out`` defaults to the
+    first folder.
+    """
     from hoopbench.reports.markdown import write_markdown
 
-    results_dir = Path(results_dir)
-    out = Path(out) if out is not None else results_dir
-    frame = report_frame(results_dir)
+    dirs = [Path(d) for d in (results_dirs if isinstance(results_dirs, list) else [results_dirs])]
+    out = Path(out) if out is not None else dirs[0]
+    frame = pd.concat([report_frame(d) for d in dirs], ignore_index=True)
     out.mkdir(parents=True, exist_ok=True)
     generated = datetime.now(UTC).isoformat(timespec="seconds")
     return write_markdown(frame, out, generated=generated)
@@ -312,11 +321,19 @@ def report_frame(results_dir: str | Path) -> pd.DataFrame:
     paths = [
         str(results_dir / p) if isinstance(p, str) and p else None for p in frame["trajectory_file"]
     ]
-    frame = frame.assign(trajectory_file=paths)
+    frame = frame.assign(trajectory_file=paths, suite=_suite_name(results_dir))
     # Rows are stored as runs finish; tables read best in the suite's own order.
     order = _suite_order(results_dir / "suite.toml")
     rank = [order.get(run_id, len(order)) for run_id in frame["run_id"]]
     return frame.iloc[sorted(range(len(frame)), key=rank.__getitem__)].reset_index(drop=True)
+
+
+def _suite_name(results_dir: Path) -> str:
+    """The suite a results folder holds (from meta.json; the folder name if it is missing)."""
+    try:
+        return str(json.loads((results_dir / results.META_NAME).read_text())["suite"])
+    except (OSError, ValueError, KeyError):
+        return results_dir.name
 
 
 def _suite_order(suite_file: Path) -> dict[str, int]:
