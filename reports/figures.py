@@ -15,7 +15,7 @@ from hoopbench.models import kinematics
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 
-__all__ = ["clearance_figure", "error_vs_time_figure", "hoop_figure"]
+__all__ = ["clearance_figure", "hoop_figure"]
 
 
 def _solve(scene: Scene, method: str) -> tuple[Trajectory, object]:
@@ -102,39 +102,6 @@ def clearance_figure(
     ax.set_ylabel("clearance y - a (mm)")
     ax.set_title(title)
     ax.legend(fontsize=8)
-    out = Path(out)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
-
-
-def error_vs_time_figure(frame, out: str | Path, *, panels, title: str) -> Path:
-    """Event error against stepping time, one line per engine over its timesteps.
-
-    ``frame`` holds default-setting runs; ``panels`` is a list of (scene, error column,
-    label). Points are labelled with their timestep; missing detections are left out.
-    """
-    fig, axes = plt.subplots(
-        1, len(panels), figsize=(5.2 * len(panels), 4.2), constrained_layout=True, squeeze=False
-    )
-    for ax, (scene, error, label) in zip(axes[0], panels, strict=True):
-        runs = frame[(frame["scene"] == scene) & frame[error].notna()]
-        for engine, group in runs.groupby("engine"):
-            group = group.sort_values("wall_time_s")
-            y = group[error].abs().clip(lower=1e-4)
-            ax.plot(group["wall_time_s"], y, "o-", label=engine, ms=4)
-            for x, yy, dt in zip(group["wall_time_s"], y, group["timestep"], strict=True):
-                ax.annotate(
-                    f"{dt:g}", (x, yy), fontsize=6, xytext=(3, 3), textcoords="offset points"
-                )
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel("wall time of the stepping (s)")
-        ax.set_ylabel(f"|{label}|")
-        ax.set_title(f"{scene}: {label}", fontsize=10)
-        if ax.get_legend_handles_labels()[0]:  # a panel whose scene lacks the event is empty
-            ax.legend(fontsize=8)
-    fig.suptitle(title, fontsize=11)
     out = Path(out)
     fig.savefig(out, dpi=110)
     plt.close(fig)

@@ -18,7 +18,8 @@ import pandas as pd
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
 from hoopbench.models.catalogue import get_scene
 from hoopbench.models.trajectory import Trajectory
-from hoopbench.reports.figures import clearance_figure, error_vs_time_figure, hoop_figure
+from hoopbench.reports.figures import clearance_figure, hoop_figure
+from hoopbench.reports.precision import cheapest_runs, precision_figure
 from hoopbench.reports.stability import (
     ENERGY_GAIN_LIMIT,
     PENETRATION_LIMIT,
@@ -285,35 +286,61 @@ def _timestep_section(runs: pd.DataFrame) -> str:
 
 
 def _run_time_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[Path]]:
-    default = _default(runs)
-    figure = error_vs_time_figure(
-        default[default["engine"] != "reference"],
-        out / "error_vs_time.png",
-        panels=[
-            ("seed-mu", "err_t_slip_ms", "slip onset error (ms)"),
-            ("hop-top", "err_t_lift_ms", "lift-off error (ms)"),
-        ],
-        title="default settings; labels are the timesteps (s)",
+    """Error against wall time per event, with the Pareto front and the cheapest runs."""
+    figure = precision_figure(runs, out / "error_vs_time.png")
+    cheapest = cheapest_runs(runs)
+    cost = (
+        runs[runs["engine"] != "reference"]
+        .groupby(["engine", "profile", "timestep"], as_index=False)[["us_per_step", "wall_time_s"]]
+        .median()
     )
-    cost = default.groupby(["engine", "timestep"], as_index=False)[
-        ["us_per_step", "wall_time_s"]
-    ].median()
-    text = _section(
-        "## Error against run time",
-        "",
-        f"![event errors against run time]({figure.name})",
-        "",
-        _table(
-            cost,
-            {
-                "engine": "engine",
-                "timestep": "dt",
-                "us_per_step": "median us/step",
-                "wall_time_s": "median wall s",
-            },
+    solve = runs[runs["engine"] == "reference"].groupby("scene", as_index=False)["wall_time_s"]
+    return (
+        _section(
+            "## Error against run time",
+            "",
+            "Each event's |error| against the run's wall time (log axes): one curve per "
+            "settings family with its timesteps along it, the Pareto front (no cheaper run is "
+            "as accurate, dashed), the target of the table below (dotted), and the exact "
+            "reference as a star at its own solve time.",
+            "",
+            f"![event errors against run time]({figure.name})" if figure else "",
+            "",
+            "The cheapest run within each target:",
+            "",
+            _table(
+                cheapest,
+                {
+                    "metric": "event",
+                    "scene": "scene",
+                    "target": "target",
+                    "run": "cheapest run",
+                    "wall_time_s": "wall s",
+                    "error": "|error|",
+                },
+            )
+            if len(cheapest)
+            else "None.",
+            "",
+            "Cost per engine and timestep (median over the scenes):",
+            "",
+            _table(
+                cost,
+                {
+                    "engine": "engine",
+                    "profile": "profile",
+                    "timestep": "dt",
+                    "us_per_step": "us/step",
+                    "wall_time_s": "wall s",
+                },
+            ),
+            "",
+            "The exact reference's solve time (event-driven, no timestep), median s per scene:",
+            "",
+            _table(solve.median(), {"scene": "scene", "wall_time_s": "solve s"}),
         ),
+        [figure] if figure else [],
     )
-    return text, [figure]
 
 
 def _stability_section(runs: pd.DataFrame) -> str:

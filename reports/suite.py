@@ -18,16 +18,21 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from hoopbench.engines.base import RunResult, RunStatus
+from hoopbench.engines.event_checks import check_flight
 from hoopbench.engines.registry import engine_class, get_engine
+from hoopbench.models import kinematics
 from hoopbench.models.events import Events
 from hoopbench.models.scene import Scene
-from hoopbench.reference.exact import solve_exact
+from hoopbench.models.trajectory import Trajectory
+from hoopbench.reference.exact import ExactSolution, solve_exact
 from hoopbench.reports import results
 from hoopbench.reports.runner import RunSummary, run_tasks
 from hoopbench.reports.suite_file import RunTask, Suite, load_suite
+from hoopbench.reports.verdict import Verdict, painleve_time, verdict_columns
 
 __all__ = [
     "FORMAT_VERSION",
@@ -40,8 +45,9 @@ __all__ = [
     "run_timeout",
 ]
 
-FORMAT_VERSION = 2
-"""Version of the runs table layout (2: run_id and the runner's bookkeeping columns)."""
+FORMAT_VERSION = 3
+"""Version of the runs table layout (2: run_id and the runner's bookkeeping columns; 3: the
+verdict, max_clearance, consistent, event_flags and exact_t_painleve columns)."""
 
 ROW_COLUMNS = (
     "run_id",
@@ -66,6 +72,7 @@ ROW_COLUMNS = (
     "exact_t_lift",
     "exact_hop_height",
     "exact_t_impact",
+    "exact_t_painleve",
     "exact_phases",
     "outcome",
     "t_slip",
@@ -83,6 +90,11 @@ ROW_COLUMNS = (
     "energy_rise_before_slip",
     "energy_change_end",
     "max_penetration_m",
+    "rms_position_m",
+    "max_clearance",
+    "consistent",
+    "event_flags",
+    "verdict",
     "outcome_agrees",
     "phases",
     "phases_agree",
@@ -105,8 +117,29 @@ class TrajectoryChoice:
 
 # --------------------------------------------------------------------------- one run
 @functools.cache  # one exact solve per (scene, mu) per worker process, not one per run
+def _exact_solution(scene: Scene, mu: float) -> ExactSolution:
+    return solve_exact(scene.with_(mus=mu, muk=mu))
+
+
 def _exact_events(scene: Scene, mu: float) -> Events:
-    return solve_exact(scene.with_(mus=mu, muk=mu)).events
+    return _exact_solution(scene, mu).events
+
+
+def rms_position_error(trajectory: Trajectory, exact: ExactSolution) -> float | None:
+    """RMS distance, m, between the run's and the exact hoop-centre positions over the common
+    window (from 0 to whichever ends first: the run, or the exact solution at its impact).
+
+    The hoop centre, not the centre of mass: it is where the contact events happen, and its
+    path is the one the report draws.
+    """
+    t = trajectory.t[trajectory.t <= exact.t_final]
+    if len(t) < 2:
+        return None
+    ours = trajectory.to_frame().iloc[: len(t)]
+    ref = exact.sample(t)
+    x, y = kinematics.centre_position(exact.scene, ours["X"], ours["Y"], ours["theta"])
+    x0, y0 = kinematics.centre_position(exact.scene, ref.X, ref.Y, ref.theta)
+    return float(np.sqrt(np.mean((x - x0) ** 2 + (y - y0) ** 2)))
 
 
 def _error(value: float | None, reference: float | None) -> float | None:
@@ -153,10 +186,13 @@ def _row(task: RunTask, result: RunResult, exact: Events) -> dict[str, Any]:
         "exact_t_lift": exact.t_lift,
         "exact_hop_height": exact.hop_height,
         "exact_t_impact": exact.t_impact,
+        "exact_t_painleve": painleve_time(exact),
         "exact_phases": exact.phase_code,
     }
     if events is None or traj is None:
-        return row
+        return {**row, **verdict_columns(row)}
+    # The judge has no scene; the flight-time bound needs g and lam a (engines/event_checks).
+    events = check_flight(events, traj, task.scene)
     theta_deg = None if events.theta_slip is None else math.degrees(events.theta_slip)
     before = traj.t < (events.t_slip if events.t_slip is not None else traj.t[-1])
     e0 = traj.energy[0]
@@ -182,12 +218,14 @@ def _row(task: RunTask, result: RunResult, exact: Events) -> dict[str, Any]:
             else None,
             "energy_change_end": float((traj.energy[-1] - e0) / e0),
             "max_penetration_m": float(max(0.0, -traj.clearance.min())),
-            "outcome_agrees": str(events.outcome) == str(exact.outcome),
+            "max_clearance": float(traj.clearance.max()),
+            "consistent": not events.flags,
+            "event_flags": " ".join(events.flags),
             "phases": events.phase_code,
             "phases_agree": events.phase_code == exact.phase_code,
         }
     )
-    return row
+    return {**row, **verdict_columns(row)}
 
 
 def _ms(seconds: float | None) -> float | None:
@@ -209,6 +247,10 @@ def _run_task(task: RunTask) -> dict[str, Any]:
     result = get_engine(task.engine).run(task.scene, task.settings())
     mu = result.info.mu if result.info.mu is not None else task.scene.mus
     row = _row(task, result, _exact_events(task.scene, mu))
+    if result.trajectory is not None and result.events is not None:
+        row["rms_position_m"] = rms_position_error(
+            result.trajectory, _exact_solution(task.scene, mu)
+        )
     if task.trajectory_dir and result.trajectory is not None:
         name = f"{task.run_id}.parquet"
         path = Path(task.trajectory_dir) / name
@@ -220,7 +262,13 @@ def _run_task(task: RunTask) -> dict[str, Any]:
 
 def failure_row(task: RunTask, status: RunStatus, message: str) -> dict[str, Any]:
     """The row of a run that produced nothing (timeout, crash, an exception)."""
-    return {**_task_columns(task), "status": str(status), "message": message}
+    return {
+        **_task_columns(task),
+        "status": str(status),
+        "message": message,
+        "verdict": str(Verdict.FAILED),
+        "outcome_agrees": False,
+    }
 
 
 def run_timeout(task: RunTask) -> float:
