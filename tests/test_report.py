@@ -51,6 +51,7 @@ def test_report_has_the_tables(quick_report):
     _, report = quick_report
     text = report.read_text()
     for heading in (
+        "## Seed reproduction",
         "## Slip onset",
         "## Lift-off, hop height and impact",
         "## Error against run time",
@@ -102,3 +103,15 @@ def test_default_suite_runs_every_engine_its_declared_variants_and_the_hop_scene
             if v.engine == engine
         }
         assert in_file == declared, engine
+
+
+def test_seed_section_sets_the_ports_numbers_beside_the_printed_ones():
+    from hoopbench.reports import seed_reproduction
+
+    steps = seed_reproduction.timestep_table().set_index("dt")
+    assert steps.loc[0.002, "steps"] == steps.loc[0.002, "seed steps"] == 14
+    deltas = seed_reproduction.delta_table().set_index("delta")
+    hop = deltas.loc[1e-3, "hop"]
+    assert hop == pytest.approx(deltas.loc[1e-3, "seed hop"], rel=0.1)
+    onset = seed_reproduction.onset_table().set_index("source")
+    assert onset.loc["exact reference", "outcome"] == "slips"  # no lift-off: the hop is delta's

@@ -14,23 +14,15 @@ from hoopbench.models.scene import DegenerateSceneError, Scene
 from hoopbench.reference import seed_euler
 from hoopbench.reference.exact import solve_exact
 from hoopbench.reference.seed_euler import solve_seed_euler
+from hoopbench.reference.seed_published import SEED_DELTA_TABLE
+from hoopbench.reference.seed_published import SEED_DT_TABLE as PUBLISHED_DT
 
-# Expected values, from the seed document's Exercise 15 tables as restated in
-# docs/derivations.md ("The seed scheme tables"). Seed scene: chi = 0.1, lam = 0.95,
-# eps = 0.01, mus = 0.8, muk = 0.7, g = 9.8, a = 1 (so delta in metres equals delta/a).
-SEED_DT_TABLE = {  # delta = 1e-4: dt -> (steps, t_hop [s]); reproduced exactly
-    0.002: (14, 1.0151),
-    0.0005: (21, 0.99758),
-}
-# The seed prints 54 and 91; docs/derivations.md: an accurate port gives ~51, ~79.
+# The seed's own tables (hoopbench.reference.seed_published). The 1e-4 and 5e-5 rows of
+# its timestep table are approximate: an accurate port gives ~51 and ~79, not 54 and 91.
+SEED_DT_TABLE = {dt: row for dt, row in PUBLISHED_DT.items() if row[1] is not None}
 SEED_DT_TABLE_APPROX = {
     1e-4: (45, 60),
     5e-5: (70, 95),
-}
-SEED_DELTA_TABLE = {  # dt = 0.002: delta [m] -> steps, t_hop [s], hop height [m], impact [s]
-    1e-2: {"steps": 76, "t_hop": 1.139, "hop": 0.097, "t_impact": 1.22917},
-    1e-3: {"steps": 31, "hop": 0.0011},
-    1e-4: {"steps": 14, "hop": 0.00012},
 }
 STEP_BAND = 5
 """Allowed difference from the seed's step counts (the seed's t_slip is off by 1e-5 s)."""
