@@ -135,7 +135,10 @@ class Suite:
         tasks = []
         for scene in self.scenes:
             for engine in self.engines:
-                defaults = [VariantSpec(engine, DEFAULT_VARIANT, profile=p) for p in self.profiles]
+                defaults = [
+                    VariantSpec(engine, DEFAULT_VARIANT, profile=p)
+                    for p in _distinct_profiles(engine, self.profiles)
+                ]
                 mine = [v for v in self.variants if v.engine == engine]
                 for variant in (*defaults, *mine):
                     for dt in variant.timesteps or self.timesteps:
@@ -154,6 +157,16 @@ class Suite:
         return Suite(
             self.name, tuple(engines), self.timesteps, self.scenes, variants, self.profiles
         )
+
+
+def _distinct_profiles(engine: str, profiles: tuple[Profile, ...]) -> list[Profile]:
+    """The profiles whose option values differ: an engine whose stock values are hoopbench's
+    own (the reference) runs once, as tuned."""
+    cls = engine_class(engine)
+    same = cls.defaults(Profile.STOCK) == cls.defaults(Profile.TUNED)
+    if same and Profile.TUNED in profiles:
+        return [Profile.TUNED]
+    return list(profiles)
 
 
 def _task(scene: Scene, variant: VariantSpec, dt: float, trajectory_dir: str | None) -> RunTask:

@@ -55,5 +55,8 @@ def test_suites_run_each_engines_defaults_once_per_profile():
     assert both[1].run_id == one[0].run_id  # the tuned run is the same run
     assert both[0].run_id != one[0].run_id
     assert dict(both[0].options)["iterations"] == 10
+    # The reference has no stock values of its own: it runs once.
+    reference = parse_suite({**data, "engines": ["reference"], "profiles": ["stock", "tuned"]})
+    assert [t.profile for t in reference.tasks()] == [Profile.TUNED]
     with pytest.raises(SuiteError, match="profiles must be one or more of tuned, stock"):
         parse_suite({**data, "profiles": ["factory"]})
