@@ -151,7 +151,7 @@ def test_the_shipped_suites_are_valid(name):
 
 
 def test_unknown_shipped_suite():
-    with pytest.raises(SuiteError, match="no shipped suite 'quik'; shipped: default, full, quick"):
+    with pytest.raises(SuiteError, match="no shipped suite .quik.; shipped: default, full, precision, quick, stability"):
         builtin_suite("quik")
 
 
