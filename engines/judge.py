@@ -12,8 +12,10 @@ from dataclasses import replace
 import numpy as np
 
 from hoopbench.engines.base import Run, RunResult, RunStatus
-from hoopbench.engines.detectors import DetectorSettings, detect_events
+from hoopbench.engines.detectors import DetectorSettings
+from hoopbench.engines.event_checks import checked_events
 from hoopbench.models.events import Outcome
+from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import COLUMNS, Trajectory
 
 __all__ = ["judge", "non_finite_columns"]
@@ -28,10 +30,17 @@ def non_finite_columns(trajectory: Trajectory) -> list[str]:
     ]
 
 
-def judge(run: Run, detectors: DetectorSettings | None = None) -> RunResult:
+def judge(
+    run: Run, detectors: DetectorSettings | None = None, scene: Scene | None = None
+) -> RunResult:
     """The run's events from the shared detectors; a run without a usable trajectory keeps
     its status and gets no events. A non-finite value anywhere makes an ``ok`` run
-    ``diverged`` (an adapter must never pass NaN on as a result)."""
+    ``diverged`` (an adapter must never pass NaN on as a result).
+
+    The events pass the checks of :mod:`hoopbench.engines.event_checks`: a lift-off below
+    the hop threshold is contact noise, not a hop, and an impossible hop (an impact before
+    its lift-off; with ``scene``, a height its flight time cannot give) is flagged and its
+    numbers withheld."""
     trajectory, info = run.trajectory, run.info
     if trajectory is None or info.status is RunStatus.ERROR:
         return RunResult(trajectory, None, info, run.exact_events)
@@ -41,7 +50,7 @@ def judge(run: Run, detectors: DetectorSettings | None = None) -> RunResult:
     if bad:
         return RunResult(trajectory, None, info, run.exact_events)
     try:
-        events = detect_events(trajectory, detectors)
+        events = checked_events(trajectory, detectors, scene)
         if run.exact_events is not None and run.exact_events.outcome is Outcome.PAINLEVE:
             # The reference knows it reached a point with no consistent contact force; the
             # detectors, reading motion alone, cannot tell it from a slip.

@@ -94,6 +94,10 @@ class Events:
     """Free-text detail (why a run is degenerate, where Painlevé was reached, ...)."""
     extra: dict[str, float | int | str | None] = field(default_factory=dict, compare=False)
     """Method-specific numbers (n_steps of the seed scheme, Painlevé time, ...)."""
+    flags: tuple[str, ...] = ()
+    """Why events failed a self-consistency check (codes of engines.event_checks.EventFlag,
+    e.g. 'hop-too-high'); the numbers in question are withheld (None), and ``message`` says
+    why. Empty: consistent."""
 
     @property
     def phase_code(self) -> str:
@@ -115,5 +119,7 @@ class Events:
         }
         if self.message:
             out["message"] = self.message
+        if self.flags:
+            out["flags"] = list(self.flags)
         out.update(self.extra)
         return out

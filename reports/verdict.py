@@ -1,0 +1,286 @@
+"""The verdict on one run: did the engine do what the exact solution does, and if not, what
+went wrong first?
+
+Pure functions on plain values: :func:`classify` reads one row of the runs table (a mapping
+with the row's column names; a stored row, with NaN for a missing number, works as well as a
+fresh one) and returns a :class:`Judgement`; :func:`verdict_columns` gives the row's
+``verdict`` and ``outcome_agrees`` columns from it.
+
+**Outcome classes.** The exact outcome and the engine's are compared as classes: roll,
+slip, hop (``hops`` and ``lifts-at-start``) and, for the exact side only, Painlevé.
+
+- An engine's lift-off is a hop only if its clearance exceeds the hop threshold,
+  ``DetectorSettings.hop_clearance`` (1 mm, with its reason, in engines/detectors.py). The
+  judge already reads a smaller lift-off as contact noise; the verdict applies the same
+  threshold to the row, so rows judged before that rule, or built by hand, are judged alike.
+  Below it the run's class is slip if it slipped, roll otherwise.
+- ``outcome_agrees`` is true only when the engine has the reference's class and, where the
+  reference hops, the engine's hop height is within a factor HOP_HEIGHT_FACTOR (2) of the
+  exact one and its lift-off within LIFT_TIME_TOLERANCE (50 ms) of the exact lift-off. A hop
+  whose numbers were withheld as inconsistent (engines/event_checks.py) cannot pass this.
+- **Painlevé.** The exact solution reaches a point where no consistent contact force exists
+  (D = 0 while slipping) at ``exact_t_painleve``, and the rigid model says nothing after it;
+  a compliant contact resolves it somehow (an impulsive normal force, a lift-off, a stick).
+  So the engine agrees unless it contradicts the part the model does predict: a lift-off
+  more than 50 ms before the Painlevé point is a false hop, and a run that never slips where
+  the exact one slipped first is a missed slip. Its phases are compared up to that point:
+  the engine's sequence must begin with the exact one.
+- **lifts-at-start** (the normal force is negative at t = 0) is a hop whose lift-off is at
+  t = 0: the engine must hop by a height within the factor 2, leaving within 50 ms.
+- ``degenerate`` and ``error`` exact outcomes are no answer to judge against: the verdict
+  and ``outcome_agrees`` are empty (None).
+
+**The verdict** names the first thing that went wrong, in this order: the run's status, its
+outcome class (with the hop's size and timing), its phase sequence. ``wrong-phases`` is the
+only verdict that leaves ``outcome_agrees`` true: the outcome is right and the way there is
+not. So ``verdict == agrees`` means the outcome and the phases agree, and ``outcome_agrees``
+is true exactly for ``agrees`` and ``wrong-phases``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from enum import StrEnum
+from typing import Any
+
+from hoopbench.engines.detectors import DetectorSettings
+from hoopbench.models.events import Events, Outcome
+
+__all__ = [
+    "HOP_CLEARANCE",
+    "HOP_HEIGHT_FACTOR",
+    "LIFT_TIME_TOLERANCE",
+    "Judgement",
+    "Verdict",
+    "classify",
+    "counts_as_hop",
+    "hop_matches",
+    "painleve_time",
+    "verdict_columns",
+]
+
+HOP_CLEARANCE = DetectorSettings().hop_clearance
+"""The hop threshold, m: read from its one home, ``DetectorSettings.hop_clearance``."""
+
+HOP_HEIGHT_FACTOR = 2.0
+"""An engine's hop agrees in size when its height is within this factor of the exact one
+(the issue's rule): wide enough for a soft contact's energy loss on a marginal hop (MuJoCo's
+hop-low, -26 %), narrow enough that a hop of another kind (a few mm against a metre) fails."""
+
+LIFT_TIME_TOLERANCE = 0.05
+"""s: how far an engine's lift-off may be from the exact one (the issue's rule), about a
+twentieth of the hop scenes' flight times (0.5-1 s)."""
+
+
+class Verdict(StrEnum):
+    """What went wrong in a run, the first thing only (see the module docstring)."""
+
+    AGREES = "agrees"
+    """The reference's outcome class (a hop of the right size at the right time) and the
+    same phase sequence."""
+    FALSE_HOP = "false-hop"
+    """A hop above the threshold where the reference has none (or, on a Painlevé scene, one
+    that leaves more than 50 ms before the Painlevé point)."""
+    MISSED_HOP = "missed-hop"
+    """The reference hops and the engine does not reproduce that hop: no lift-off above the
+    threshold, or one whose height is off by more than the factor 2, or whose lift-off is
+    more than 50 ms away, or whose numbers were withheld as inconsistent."""
+    MISSED_SLIP = "missed-slip"
+    """The reference slips (and does not hop) and the engine only rolls."""
+    FALSE_SLIP = "false-slip"
+    """The reference rolls throughout and the engine slips (without a hop)."""
+    WRONG_PHASES = "wrong-phases"
+    """The outcome agrees (outcome_agrees is true), the phase sequence does not."""
+    DIVERGED = "diverged"
+    """The run stopped early: NaN, runaway energy or deep penetration."""
+    FAILED = "failed"
+    """The run gave no result: error, timeout, crashed or unavailable."""
+
+
+class _Class(StrEnum):
+    ROLL = "roll"
+    SLIP = "slip"
+    HOP = "hop"
+    PAINLEVE = "painleve"
+
+
+_HOP_OUTCOMES = (str(Outcome.HOPS), str(Outcome.LIFTS_AT_START))
+_NO_ANSWER = (str(Outcome.DEGENERATE), str(Outcome.ERROR))
+_FAILED_STATUSES = ("error", "timeout", "crashed", "unavailable")
+
+
+@dataclass(frozen=True)
+class Judgement:
+    """A run's verdict, whether its outcome agrees, and a line saying why."""
+
+    verdict: Verdict | None
+    outcome_agrees: bool | None
+    reason: str
+
+
+def _number(value: Any) -> float | None:
+    """A float, or None for a missing value (None, NaN, pandas' NA)."""
+    if value is None or isinstance(value, str):
+        return None
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        return None
+    return None if math.isnan(number) else number
+
+
+def _text(value: Any) -> str | None:
+    return value if isinstance(value, str) else None
+
+
+def counts_as_hop(hop_height: float | None, max_clearance: float | None = None) -> bool:
+    """Whether a detected lift-off is a hop: its height (or, where that was withheld, the
+    run's largest clearance) exceeds HOP_CLEARANCE. With neither known, the detectors' word
+    stands."""
+    size = _number(hop_height)
+    size = _number(max_clearance) if size is None else size
+    return size is None or size > HOP_CLEARANCE
+
+
+def hop_matches(
+    hop_height: float | None,
+    t_lift: float | None,
+    exact_hop_height: float | None,
+    exact_t_lift: float | None,
+) -> bool:
+    """Whether an engine's hop is the exact one: height within HOP_HEIGHT_FACTOR, lift-off
+    within LIFT_TIME_TOLERANCE. False where any of the four numbers is missing."""
+    h, t, h0, t0 = (_number(v) for v in (hop_height, t_lift, exact_hop_height, exact_t_lift))
+    if h is None or t is None or h0 is None or t0 is None or h0 <= 0:
+        return False
+    return h0 / HOP_HEIGHT_FACTOR <= h <= h0 * HOP_HEIGHT_FACTOR and abs(t - t0) <= (
+        LIFT_TIME_TOLERANCE
+    )
+
+
+def painleve_time(exact: Events) -> float | None:
+    """When the exact solution reached its Painlevé point, s (None for other outcomes): the
+    solver's ``t_painleve``, else the end of its last phase (a slip that starts at D <= 0),
+    else 0 (D <= 0 at the start)."""
+    if exact.outcome is not Outcome.PAINLEVE:
+        return None
+    t = exact.extra.get("t_painleve")
+    if isinstance(t, int | float):
+        return float(t)
+    return exact.phases[-1].t_end if exact.phases else 0.0
+
+
+def _engine_class(row: Mapping[str, Any]) -> _Class | None:
+    outcome = _text(row.get("outcome"))
+    if outcome is None:
+        return None
+    if outcome in _HOP_OUTCOMES and counts_as_hop(row.get("hop_height"), row.get("max_clearance")):
+        return _Class.HOP
+    if outcome == str(Outcome.PAINLEVE):
+        return _Class.PAINLEVE
+    if outcome == str(Outcome.SLIPS) or _number(row.get("t_slip")) is not None:
+        return _Class.SLIP
+    return _Class.ROLL
+
+
+def _exact_class(outcome: str) -> _Class:
+    if outcome in _HOP_OUTCOMES:
+        return _Class.HOP
+    if outcome == str(Outcome.PAINLEVE):
+        return _Class.PAINLEVE
+    return _Class.SLIP if outcome == str(Outcome.SLIPS) else _Class.ROLL
+
+
+def _phases_agree(phases: Any, exact_phases: Any, *, prefix: bool) -> bool | None:
+    """Whether the phase codes agree (None if either is missing); with ``prefix``, the
+    engine's sequence need only begin with the exact one."""
+    code, exact = _text(phases), _text(exact_phases)
+    if code is None or exact is None:
+        return None
+    tokens, expected = code.split(), exact.split()
+    return tokens[: len(expected)] == expected if prefix else tokens == expected
+
+
+def _mm(value: Any) -> str:
+    number = _number(value)
+    return "-" if number is None else f"{1e3 * number:.3g} mm"
+
+
+def _outcome(row: Mapping[str, Any], engine: _Class, exact: _Class) -> tuple[Verdict | None, str]:
+    """The outcome part of the verdict: a failing Verdict, or None if the outcome agrees."""
+    if exact is _Class.HOP:
+        if engine is not _Class.HOP:
+            largest = _mm(row.get("max_clearance"))
+            return Verdict.MISSED_HOP, f"no hop above {_mm(HOP_CLEARANCE)} (largest {largest})"
+        if not hop_matches(
+            row.get("hop_height"),
+            row.get("t_lift"),
+            row.get("exact_hop_height"),
+            row.get("exact_t_lift"),
+        ):
+            return Verdict.MISSED_HOP, (
+                f"hop {_mm(row.get('hop_height'))} at t = {_number(row.get('t_lift'))} s against "
+                f"{_mm(row.get('exact_hop_height'))} at {_number(row.get('exact_t_lift'))} s: "
+                f"not within a factor {HOP_HEIGHT_FACTOR:g} and {1e3 * LIFT_TIME_TOLERANCE:g} ms"
+            )
+        return None, "the exact hop"
+    if exact is _Class.PAINLEVE:
+        t_p = _number(row.get("exact_t_painleve")) or 0.0
+        if engine is _Class.HOP:
+            t_lift = _number(row.get("t_lift"))
+            if t_lift is None or t_lift < t_p - LIFT_TIME_TOLERANCE:
+                when = "withheld" if t_lift is None else f"{t_lift:.6g} s"
+                return Verdict.FALSE_HOP, f"lift-off ({when}) before the Painlevé point {t_p:.6g} s"
+            return None, f"lift-off at {t_lift:.6g} s, not before the Painlevé point {t_p:.6g} s"
+        if engine is _Class.ROLL and _number(row.get("exact_t_slip")) is not None:
+            return Verdict.MISSED_SLIP, "no slip before the Painlevé point"
+        return None, "nothing contradicts the motion up to the Painlevé point"
+    if engine is _Class.HOP:
+        return Verdict.FALSE_HOP, f"a {_mm(row.get('hop_height'))} hop the reference does not have"
+    if engine is _Class.PAINLEVE:
+        engine = _Class.SLIP  # only the reference reports it, and it was slipping
+    if exact is _Class.SLIP and engine is _Class.ROLL:
+        return Verdict.MISSED_SLIP, "rolls where the reference slips"
+    if exact is _Class.ROLL and engine is _Class.SLIP:
+        return Verdict.FALSE_SLIP, "slips where the reference rolls"
+    return None, f"{exact}s as the reference does"
+
+
+def classify(row: Mapping[str, Any]) -> Judgement:
+    """The verdict on one run from its row (the columns status, outcome, t_slip, t_lift,
+    hop_height, max_clearance, phases and their exact_* counterparts, exact_t_painleve).
+    See the module docstring for the rules."""
+    status = _text(row.get("status"))
+    if status == "diverged":
+        return Judgement(Verdict.DIVERGED, False, row.get("message") or "diverged")
+    if status != "ok":
+        return Judgement(Verdict.FAILED, False, f"status {status}: {row.get('message') or ''}")
+    exact_outcome = _text(row.get("exact_outcome"))
+    if exact_outcome is None or exact_outcome in _NO_ANSWER:
+        return Judgement(None, None, f"no exact answer to judge against ({exact_outcome})")
+    engine = _engine_class(row)
+    if engine is None:
+        return Judgement(Verdict.FAILED, False, "status ok but no events")
+    exact = _exact_class(exact_outcome)
+    failure, reason = _outcome(row, engine, exact)
+    if failure is not None:
+        return Judgement(failure, False, reason)
+    phases = _phases_agree(
+        row.get("phases"), row.get("exact_phases"), prefix=exact is _Class.PAINLEVE
+    )
+    if phases is False:
+        return Judgement(
+            Verdict.WRONG_PHASES,
+            True,
+            f"{reason}; phases {row.get('phases')} against {row.get('exact_phases')}",
+        )
+    return Judgement(Verdict.AGREES, True, reason)
+
+
+def verdict_columns(row: Mapping[str, Any]) -> dict[str, Any]:
+    """The row's ``verdict`` (a string, None without an exact answer) and ``outcome_agrees``."""
+    judgement = classify(row)
+    verdict = None if judgement.verdict is None else str(judgement.verdict)
+    return {"verdict": verdict, "outcome_agrees": judgement.outcome_agrees}

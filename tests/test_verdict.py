@@ -1,0 +1,313 @@
+"""The verdict on a run, from synthetic rows of the runs table (reports/verdict.py), and the
+row builder that writes it."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hoopbench.engines.base import Run, RunInfo, RunStatus
+from hoopbench.engines.judge import judge
+from hoopbench.models import kinematics
+from hoopbench.models.events import Events, Outcome, Phase, PhaseKind
+from hoopbench.models.trajectory import Trajectory
+from hoopbench.reports.suite import ROW_COLUMNS, _row, failure_row
+from hoopbench.reports.suite_file import parse_suite
+from hoopbench.reports.verdict import (
+    HOP_CLEARANCE,
+    LIFT_TIME_TOLERANCE,
+    Verdict,
+    classify,
+    painleve_time,
+    verdict_columns,
+)
+
+HOP_ROW: dict[str, Any] = {
+    "status": "ok",
+    "exact_outcome": "hops",
+    "exact_t_slip": 0.4,
+    "exact_t_lift": 1.0,
+    "exact_hop_height": 1.0,
+    "exact_t_painleve": None,
+    "exact_phases": "R S+ F",
+    "outcome": "hops",
+    "t_slip": 0.4,
+    "t_lift": 1.0,
+    "hop_height": 1.0,
+    "max_clearance": 1.0,
+    "phases": "R S+ F",
+}
+"""A run that hops exactly as the reference does: a 1 m hop lifting off at 1 s."""
+
+SLIP_ROW: dict[str, Any] = {
+    **HOP_ROW,
+    "exact_outcome": "slips",
+    "exact_t_lift": None,
+    "exact_hop_height": None,
+    "exact_phases": "R S+ R",
+    "outcome": "slips",
+    "t_lift": None,
+    "hop_height": None,
+    "max_clearance": 2e-6,
+    "phases": "R S+ R",
+}
+"""A run that slips and re-sticks, as the reference does."""
+
+ROLL_ROW: dict[str, Any] = {
+    **SLIP_ROW,
+    "exact_outcome": "rolls",
+    "exact_t_slip": None,
+    "exact_phases": "R",
+    "outcome": "rolls",
+    "t_slip": None,
+    "phases": "R",
+}
+
+PAINLEVE_ROW: dict[str, Any] = {
+    **SLIP_ROW,
+    "exact_outcome": "painleve",
+    "exact_t_slip": 0.0,
+    "exact_t_painleve": 0.18,
+    "exact_phases": "S+",
+    "outcome": "hops",
+    "t_slip": 0.0,
+    "t_lift": 0.19,
+    "hop_height": 0.9,
+    "max_clearance": 0.9,
+    "phases": "S+ F",
+}
+"""A sliding start that reaches a Painlevé point at 0.18 s; the engine hops at 0.19 s."""
+
+
+def _verdict(row: dict[str, Any]) -> tuple[Verdict | None, bool | None]:
+    judgement = classify(row)
+    return judgement.verdict, judgement.outcome_agrees
+
+
+# --------------------------------------------------------------------------- the issue's rows
+def test_a_blip_does_not_agree_with_a_real_hop():
+    """A 0.3 mm 'hop' against a 1 m exact hop, as PyBullet and MuJoCo report them."""
+    row = {**HOP_ROW, "t_lift": 1.01, "hop_height": 3e-4, "max_clearance": 3e-4}
+    assert _verdict(row) == (Verdict.MISSED_HOP, False)
+
+
+def test_a_close_hop_agrees():
+    """A 0.9 m hop lifting off 20 ms late against the 1 m exact hop."""
+    row = {**HOP_ROW, "t_lift": 1.02, "hop_height": 0.9, "max_clearance": 0.9}
+    assert _verdict(row) == (Verdict.AGREES, True)
+
+
+# --------------------------------------------------------------------------- every verdict
+CASES: list[tuple[str, dict[str, Any], Verdict, bool]] = [
+    ("agrees, hop", HOP_ROW, Verdict.AGREES, True),
+    ("agrees, slip", SLIP_ROW, Verdict.AGREES, True),
+    ("agrees, roll", ROLL_ROW, Verdict.AGREES, True),
+    (
+        "false-hop: 5 mm where the reference slips",
+        {**SLIP_ROW, "outcome": "hops", "t_lift": 1.2, "hop_height": 5e-3, "phases": "R S+ F"},
+        Verdict.FALSE_HOP,
+        False,
+    ),
+    (
+        "false-hop: where the reference rolls",
+        {**ROLL_ROW, "outcome": "hops", "t_lift": 1.2, "hop_height": 5e-3, "phases": "R F"},
+        Verdict.FALSE_HOP,
+        False,
+    ),
+    (
+        "missed-hop: slips where the reference hops",
+        {**HOP_ROW, "outcome": "slips", "t_lift": None, "hop_height": None, "phases": "R S+ R"},
+        Verdict.MISSED_HOP,
+        False,
+    ),
+    (
+        "missed-slip: rolls where the reference slips",
+        {**SLIP_ROW, "outcome": "rolls", "t_slip": None, "phases": "R"},
+        Verdict.MISSED_SLIP,
+        False,
+    ),
+    (
+        "false-slip: slips where the reference rolls",
+        {**ROLL_ROW, "outcome": "slips", "t_slip": 0.7, "phases": "R S+"},
+        Verdict.FALSE_SLIP,
+        False,
+    ),
+    (
+        "wrong-phases: the slip does not re-stick",
+        {**SLIP_ROW, "phases": "R S+"},
+        Verdict.WRONG_PHASES,
+        True,
+    ),
+    (
+        "wrong-phases: the right hop after an extra slip",
+        {**HOP_ROW, "phases": "R S+ S- F"},
+        Verdict.WRONG_PHASES,
+        True,
+    ),
+    ("diverged", {**HOP_ROW, "status": "diverged"}, Verdict.DIVERGED, False),
+    *[
+        (f"failed: {status}", {"status": status, "message": "m"}, Verdict.FAILED, False)
+        for status in ("error", "timeout", "crashed", "unavailable")
+    ],
+]
+
+
+@pytest.mark.parametrize(
+    ("row", "verdict", "agrees"), [c[1:] for c in CASES], ids=[c[0] for c in CASES]
+)
+def test_every_verdict(row, verdict, agrees):
+    assert _verdict(row) == (verdict, agrees)
+
+
+def test_the_cases_cover_every_verdict():
+    assert {case[2] for case in CASES} == set(Verdict)
+
+
+def test_outcome_agrees_exactly_for_agrees_and_wrong_phases():
+    for _, row, _, _ in CASES:
+        verdict, agrees = _verdict(row)
+        assert agrees is (verdict in (Verdict.AGREES, Verdict.WRONG_PHASES))
+
+
+# --------------------------------------------------------------------------- hop rules
+@pytest.mark.parametrize(
+    ("height", "t_lift", "agrees"),
+    [
+        (1.9, 1.0, True),
+        (2.1, 1.0, False),
+        (0.52, 1.0, True),
+        (0.48, 1.0, False),
+        (1.0, 1.0 + 0.9 * LIFT_TIME_TOLERANCE, True),
+        (1.0, 1.0 - 1.2 * LIFT_TIME_TOLERANCE, False),
+        (1.0, 1.0 + 1.2 * LIFT_TIME_TOLERANCE, False),
+    ],
+)
+def test_a_hop_agrees_within_a_factor_2_and_50_ms(height, t_lift, agrees):
+    row = {**HOP_ROW, "hop_height": height, "max_clearance": height, "t_lift": t_lift}
+    verdict, outcome_agrees = _verdict(row)
+    assert outcome_agrees is agrees
+    assert verdict is (Verdict.AGREES if agrees else Verdict.MISSED_HOP)
+
+
+@pytest.mark.parametrize(("factor", "verdict"), [(0.9, Verdict.AGREES), (1.1, Verdict.FALSE_HOP)])
+def test_a_lift_off_below_the_threshold_is_noise(factor, verdict):
+    """Rows judged before the judge's own noise rule: the verdict applies the threshold."""
+    height = factor * HOP_CLEARANCE
+    row = {**SLIP_ROW, "outcome": "hops", "t_lift": 1.2, "hop_height": height, "phases": "R S+ R"}
+    assert _verdict({**row, "max_clearance": height})[0] is verdict
+
+
+def test_a_withheld_hop_never_agrees():
+    """A hop whose numbers the judge withheld as inconsistent: hop_height is None."""
+    withheld = {**HOP_ROW, "t_lift": None, "hop_height": None, "max_clearance": 0.95}
+    assert _verdict(withheld) == (Verdict.MISSED_HOP, False)
+    slip = {**SLIP_ROW, "outcome": "hops", "max_clearance": 0.02, "phases": "R S+ F"}
+    assert _verdict(slip) == (Verdict.FALSE_HOP, False)
+
+
+def test_lifts_at_start_is_a_hop_from_t_0():
+    row = {
+        **HOP_ROW,
+        "exact_outcome": "lifts-at-start",
+        "exact_t_slip": None,
+        "exact_t_lift": 0.0,
+        "exact_phases": "F",
+        "outcome": "lifts-at-start",
+        "t_slip": None,
+        "t_lift": 0.0,
+        "phases": "F",
+    }
+    assert _verdict(row) == (Verdict.AGREES, True)
+    assert _verdict({**row, "outcome": "hops", "t_lift": 0.2, "phases": "R F"})[0] is (
+        Verdict.MISSED_HOP
+    )
+
+
+# --------------------------------------------------------------------------- Painlevé
+@pytest.mark.parametrize(
+    ("changes", "verdict"),
+    [
+        ({}, Verdict.AGREES),
+        ({"t_lift": 0.15}, Verdict.AGREES),  # within 50 ms of the point
+        ({"outcome": "slips", "t_lift": None, "hop_height": None, "phases": "S+"}, Verdict.AGREES),
+        ({"outcome": "lifts-at-start", "t_lift": 0.0, "phases": "F"}, Verdict.FALSE_HOP),
+        ({"t_lift": 0.1}, Verdict.FALSE_HOP),
+        ({"outcome": "rolls", "t_slip": None, "phases": "R"}, Verdict.MISSED_SLIP),
+        ({"phases": "R S+ F"}, Verdict.WRONG_PHASES),
+        ({"outcome": "painleve", "phases": "S+"}, Verdict.AGREES),  # the reference's own row
+        ({"hop_height": 2e-4, "max_clearance": 2e-4, "t_lift": 0.0}, Verdict.AGREES),  # noise
+    ],
+)
+def test_painleve(changes, verdict):
+    assert _verdict({**PAINLEVE_ROW, **changes})[0] is verdict
+
+
+def test_painleve_time_from_the_exact_events():
+    slip = Phase(PhaseKind.SLIP, 0.0, 0.18, 1)
+    assert painleve_time(Events(Outcome.PAINLEVE, extra={"t_painleve": 0.2})) == 0.2
+    assert painleve_time(Events(Outcome.PAINLEVE, phases=(slip,))) == 0.18
+    assert painleve_time(Events(Outcome.PAINLEVE)) == 0.0
+    assert painleve_time(Events(Outcome.SLIPS, phases=(slip,))) is None
+
+
+@pytest.mark.parametrize("exact", ["degenerate", "error", None])
+def test_no_exact_answer_no_verdict(exact):
+    assert _verdict({**SLIP_ROW, "exact_outcome": exact}) == (None, None)
+
+
+def test_a_stored_row_with_nan_is_judged_alike():
+    """Rows read back from Parquet or CSV carry NaN for a missing number."""
+    row = {**SLIP_ROW, "outcome": "hops", "t_lift": 1.2, "hop_height": 5e-3, "phases": "R S+ F"}
+    frame = pd.DataFrame([row, SLIP_ROW, {**HOP_ROW, "hop_height": 3e-4}])
+    assert frame["exact_hop_height"].isna().iloc[0]
+    verdicts = [verdict_columns(r)["verdict"] for r in frame.to_dict("records")]
+    assert verdicts == ["false-hop", "agrees", "missed-hop"]
+
+
+# --------------------------------------------------------------------------- the row builder
+def _task():
+    suite = parse_suite(
+        {"name": "t", "engines": ["pymunk"], "timesteps": [1e-4], "scenes": ["hop-bottom"]}
+    )
+    return suite.tasks()[0]
+
+
+def _blip_run(task) -> Run:
+    """0.6 s of rolling with a 0.3 mm, 16 ms lift-off at 0.3 s (MuJoCo's slip chatter)."""
+    scene, spin = task.scene, 1.0
+    t = np.arange(6000) * 1e-4
+    duration = 2 * math.sqrt(2 * 3e-4 / scene.g)
+    tau = t - 0.3
+    clearance = np.where((tau > 0) & (tau < duration), scene.g * tau * (duration - tau) / 2, 0.0)
+    y = scene.a + clearance
+    theta = scene.theta0 + spin * t
+    state = kinematics.com_state(
+        scene, scene.a * spin * t, y, theta, scene.a * spin + 0 * t, np.gradient(y, t), spin + 0 * t
+    )
+    trajectory = Trajectory.from_state(
+        scene, t=t, **state, normal_force=scene.g * (clearance <= 0), friction_force=0 * t
+    )
+    return Run(trajectory, RunInfo(engine="pymunk", engine_version=None, status=RunStatus.OK))
+
+
+def test_the_row_of_a_blip_against_a_real_hop():
+    """Judge, then row: the blip is no hop, its lift-off error is empty, its size is kept."""
+    task = _task()
+    exact = Events(Outcome.HOPS, t_lift=0.31, hop_height=0.43, t_impact=1.02)
+    row = _row(task, judge(_blip_run(task)), exact)
+    assert set(row) <= set(ROW_COLUMNS)
+    assert row["outcome"] == "rolls"
+    assert row["t_lift"] is None and row["err_t_lift_ms"] is None
+    assert row["err_hop_height_rel"] is None and row["err_t_impact_ms"] is None
+    assert row["max_clearance"] == pytest.approx(3e-4, rel=0.01)
+    assert (row["verdict"], row["outcome_agrees"]) == ("missed-hop", False)
+    assert row["consistent"] is True and row["event_flags"] == ""
+
+
+def test_the_row_of_a_run_that_produced_nothing():
+    row = failure_row(_task(), RunStatus.TIMEOUT, "over 60 s")
+    assert (row["verdict"], row["outcome_agrees"]) == ("failed", False)
