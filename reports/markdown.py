@@ -33,6 +33,9 @@ __all__ = ["markdown_table", "write_markdown"]
 
 _OPTIONAL_COLUMNS = (
     "suite",
+    "verdict",
+    "phases",
+    "exact_phases",
     "profile",
     "a",
     "err_t_slip_ms",
@@ -133,93 +136,6 @@ def _header(runs: pd.DataFrame, generated: str) -> str:
         f"Runs: {len(runs)}; status counts: "
         + ", ".join(f"{k} {v}" for k, v in runs["status"].value_counts().items())
         + ".",
-    )
-
-
-def _slip_section(runs: pd.DataFrame) -> str:
-    default = _default(runs)
-    seed = default[default["scene"] == "seed-mu"]
-    seed = seed.assign(lag_ms=(seed["t_slip_threshold"] - seed["exact_t_slip"]) * 1e3)
-    table = _table(
-        seed,
-        {
-            "engine": "engine",
-            "timestep": "dt",
-            "status": "status",
-            "exact_t_slip": "exact t_slip",
-            "t_slip": "t_slip (refined)",
-            "err_t_slip_ms": "error ms",
-            "lag_ms": "threshold lag ms",
-            "exact_theta_slip_deg": "exact theta",
-            "theta_slip_deg": "theta",
-            "err_theta_slip_deg": "error deg",
-            "energy_rise_before_slip": "energy rise",
-            "outcome": "outcome",
-            "exact_outcome": "exact outcome",
-        },
-    )
-    return _section(
-        "## Slip onset (seed scene, mu = 0.8, default settings)",
-        "",
-        table,
-        "",
-        "`threshold lag` is how late the raw |slip velocity| > 1 mm/s detector fires; the "
-        "refined onset extrapolates it back. The reference rows measure the detectors' own "
-        "bias on the exact solution sampled at the engine step.",
-    )
-
-
-def _hop_section(runs: pd.DataFrame) -> str:
-    """Empty when the table has no hop scenes."""
-    hops = _hops(runs)
-    if not len(hops):
-        return ""
-    table = _table(
-        hops,
-        {
-            "scene": "scene",
-            "engine": "engine",
-            "timestep": "dt",
-            "status": "status",
-            "outcome": "outcome",
-            "exact_t_lift": "exact t_lift",
-            "t_lift": "t_lift",
-            "err_t_lift_ms": "error ms",
-            "exact_hop_height": "exact hop",
-            "hop_height": "hop",
-            "err_hop_height_rel": "rel. error",
-            "exact_t_impact": "exact t_impact",
-            "t_impact": "t_impact",
-            "err_t_impact_ms": "error ms",
-        },
-    )
-    return _section("## Lift-off, hop height and impact (hop scenes, default settings)", "", table)
-
-
-def _phase_section(runs: pd.DataFrame) -> str:
-    default = _default(runs)
-    fine = default[default["timestep"] == DEFAULT_TIMESTEP]
-    engines = list(dict.fromkeys(fine["engine"]))
-    rows = []
-    for scene, group in fine.groupby("scene", sort=False):
-        row = {"scene": scene, "exact": group["exact_phases"].iloc[0]}
-        for engine in engines:
-            hit = group[group["engine"] == engine]
-            if len(hit) and isinstance(hit["phases"].iloc[0], str):
-                code = hit["phases"].iloc[0]
-                row[engine] = code if hit["phases_agree"].iloc[0] else f"**{code}**"
-        rows.append(row)
-    columns = ["scene", "exact", *engines]
-    return _section(
-        f"## Phase sequences (default settings, dt = {DEFAULT_TIMESTEP:g})",
-        "",
-        "R roll, S+/S- slip forward/backward, F flight, up to the first impact. The engine "
-        "sequences come from the shared detectors; the reference row shows what they read off "
-        "the exact solution.",
-        "",
-        markdown_table(pd.DataFrame(rows), columns, columns),
-        "",
-        "Bold: differs from the exact sequence.",
     )
 
 
@@ -342,6 +258,64 @@ def _run_time_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[Path]]:
         ),
         [figure] if figure else [],
     )
+
+
+def _exact_summary(row: pd.Series) -> str:
+    """The exact events of a scene in one line."""
+    parts = [f"exact outcome **{row['exact_outcome']}**"]
+    if pd.notna(row.get("exact_t_slip")):
+        parts.append(f"slip at {row['exact_t_slip']:.4f} s ({row['exact_theta_slip_deg']:.2f} deg)")
+    if pd.notna(row.get("exact_t_lift")):
+        parts.append(
+            f"lift-off at {row['exact_t_lift']:.4f} s, hop {row['exact_hop_height']:.4g} m"
+        )
+    if pd.notna(row.get("exact_t_impact")):
+        parts.append(f"impact at {row['exact_t_impact']:.4f} s")
+    if isinstance(row.get("exact_phases"), str) and row["exact_phases"]:
+        parts.append(f"phases {row['exact_phases']}")
+    return "; ".join(parts)
+
+
+def _cost(row: pd.Series) -> str:
+    """The reference's solve time; an engine's cost per step."""
+    if row["engine"] == "reference":
+        return "-" if pd.isna(row["wall_time_s"]) else f"{row['wall_time_s']:.3g} s solve"
+    return "-" if pd.isna(row["us_per_step"]) else f"{row['us_per_step']:.3g} us/step"
+
+
+def _scene_table(rows: pd.DataFrame) -> str:
+    """One scene's runs, with the columns of the events its exact solution has."""
+    first = rows.iloc[0]
+    columns = {"engine": "engine", "profile": "profile", "status": "status"}
+    columns |= {"verdict": "verdict"} if rows["verdict"].notna().any() else {}
+    columns |= {"outcome": "outcome", "cost": "cost"}
+    if pd.notna(first["exact_t_slip"]):
+        columns |= {"t_slip": "t_slip s", "err_t_slip_ms": "error ms"}
+        columns |= {"err_theta_slip_deg": "angle error deg"}
+    if pd.notna(first["exact_t_lift"]):
+        columns |= {"t_lift": "t_lift s", "err_t_lift_ms": "error ms ", "hop_height": "hop m"}
+        columns |= {"err_hop_height_rel": "hop rel. error"}
+    if pd.notna(first["exact_t_impact"]):
+        columns |= {"err_t_impact_ms": "impact error ms"}
+    columns |= {"phases": "phases"}
+    return _table(rows.assign(cost=[_cost(r) for _, r in rows.iterrows()]), columns)
+
+
+def _scenes_section(runs: pd.DataFrame) -> str:
+    """Per scene, every engine and profile at the default timestep, default settings."""
+    default = _default(runs)
+    default = default[default["timestep"] == DEFAULT_TIMESTEP]
+    parts = [
+        "## Events per scene",
+        "",
+        f"Default settings, dt = {DEFAULT_TIMESTEP:g} s; errors are engine minus exact. A "
+        "scene's table has the columns of the events its exact solution has: no hop columns "
+        "where it does not hop, no impact error where there is no impact.",
+    ]
+    for scene, rows in default.groupby("scene", sort=False):
+        parts += ["", f"### {scene}", "", _exact_summary(rows.iloc[0]) + ".", ""]
+        parts.append(_scene_table(rows))
+    return _section(*parts)
 
 
 def _stability_section(runs: pd.DataFrame) -> str:
@@ -505,9 +479,7 @@ def write_markdown(frame: pd.DataFrame, out: Path, *, generated: str) -> Path:
         run_time, _ = _run_time_section(runs, out)
         figures, _ = _figures_section(runs, out)
         sections += [
-            _slip_section(runs),
-            _hop_section(runs),
-            _phase_section(runs),
+            _scenes_section(runs),
             _settings_section(runs),
             _timestep_section(runs),
             run_time,

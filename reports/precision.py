@@ -47,8 +47,9 @@ _FLOOR = 1e-6
 
 
 def _family(frame: pd.DataFrame) -> pd.Series:
-    profile = frame["profile"] if "profile" in frame.columns else "tuned"
-    return frame["engine"] + " " + profile + " " + frame["variant"]
+    # Results written before profiles existed ran hoopbench's defaults: tuned.
+    profile = frame["profile"].fillna("tuned") if "profile" in frame.columns else "tuned"
+    return frame["engine"] + " " + profile.astype(str) + " " + frame["variant"]
 
 
 def _metric_runs(runs: pd.DataFrame, metric: Metric, scene: str) -> pd.DataFrame:

@@ -52,8 +52,9 @@ def test_report_has_the_tables(quick_report):
     text = report.read_text()
     for heading in (
         "## Seed reproduction",
-        "## Slip onset",
-        "## Lift-off, hop height and impact",
+        "## Events per scene",
+        "### seed-mu",
+        "### hop-bottom",
         "## Error against run time",
         "## Stability",
     ):
@@ -115,3 +116,14 @@ def test_seed_section_sets_the_ports_numbers_beside_the_printed_ones():
     assert hop == pytest.approx(deltas.loc[1e-3, "seed hop"], rel=0.1)
     onset = seed_reproduction.onset_table().set_index("source")
     assert onset.loc["exact reference", "outcome"] == "slips"  # no lift-off: the hop is delta's
+
+
+@pytest.mark.slow  # the quick suite, about 10 s once per module
+def test_a_scene_table_leaves_out_the_events_its_scene_lacks(quick_report):
+    _, report = quick_report
+    text = report.read_text()
+    seed = text.split("### seed-mu")[1].split("###")[0]
+    hop = text.split("### hop-bottom")[1].split("##")[0]
+    assert "t_slip s" in seed and "hop m" not in seed and "impact error" not in seed
+    assert "hop m" in hop and "impact error ms" in hop
+    assert "s solve" in seed  # the reference's cost is its solve time, not us per step
