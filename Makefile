@@ -11,7 +11,7 @@ endif
 PACKAGE_FILES := $(sort $(wildcard about/*.py models/*.py reference/*.py engines/*.py \
 	reports/*.py reports/*.toml reports/suites/*.toml))
 
-.PHONY: test report lint format clean bench FORCE
+.PHONY: test report findings lint format clean bench FORCE
 
 # The strict editable install is a tree of links, one per file, installed as `hoopbench.*`:
 # type checkers resolve it, and `import models` stays an error. A new or removed file needs a
@@ -35,6 +35,13 @@ report: $(STAMP)
 	$(BIN)/hoopbench compare --suite default --out $(OUT)/default --trajectories default
 	$(BIN)/hoopbench compare --suite stability --out $(OUT)/stability
 	$(BIN)/hoopbench report --results $(OUT)/default $(OUT)/stability --out $(OUT)
+
+# The README's findings and figures from the newest report folder (or RESULTS=...).
+RESULTS ?= $(lastword $(sort $(wildcard reports/output/*/default)))
+findings: $(STAMP)
+	@test -n "$(RESULTS)" || { echo "no report yet: run make report first"; exit 2; }
+	$(BIN)/hoopbench findings --results $(RESULTS) $(dir $(RESULTS))stability --update README.md
+	cp $(dir $(RESULTS))error_vs_time.png $(dir $(RESULTS))stability.png reports/img/
 
 bench: $(STAMP)
 	$(BIN)/python -m hoopbench.reports.bench_overhead

@@ -403,6 +403,24 @@ def _cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_findings(args: argparse.Namespace) -> int:
+    import pandas as pd
+
+    from hoopbench.reports.findings import findings_markdown, update_readme
+    from hoopbench.reports.suite import report_frame
+
+    for folder in args.results:
+        if not (Path(folder) / "runs").is_dir():
+            raise UsageError(f"--results {folder!r} holds no results (no runs/ folder)")
+    frame = pd.concat([report_frame(Path(f)) for f in args.results], ignore_index=True)
+    text = findings_markdown(frame)
+    if args.update:
+        print(update_readme(args.update, text))
+    else:
+        print(text)
+    return 0
+
+
 def _cmd_figure(args: argparse.Namespace) -> int:
     from hoopbench.reports.figures import hoop_figure
 
@@ -524,6 +542,13 @@ def _parser() -> _Parser:
     p.add_argument("--out", help="report folder (default: the first results folder)")
     p.add_argument("--force", action="store_true", help="replace an existing report.md")
     p.set_defaults(func=_cmd_report)
+
+    p = sub.add_parser("findings", help="the report's findings, as Markdown sentences")
+    p.add_argument("--results", required=True, nargs="+", metavar="DIR", help="results folders")
+    p.add_argument(
+        "--update", metavar="README", help="replace the findings block of this Markdown file"
+    )
+    p.set_defaults(func=_cmd_findings)
 
     p = sub.add_parser("figure", help="draw a hoop trajectory (weight and hoop positions)")
     _add_scene_options(p)

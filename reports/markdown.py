@@ -20,6 +20,7 @@ from hoopbench.models.catalogue import get_scene
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.reports import seed_reproduction
 from hoopbench.reports.figures import clearance_figure, hoop_figure
+from hoopbench.reports.findings import findings_markdown
 from hoopbench.reports.precision import cheapest_runs, precision_figure
 from hoopbench.reports.stability import (
     ENERGY_GAIN_LIMIT,
@@ -349,6 +350,12 @@ def _stability_section(runs: pd.DataFrame) -> str:
     )
 
 
+def _findings_section(runs: pd.DataFrame) -> str:
+    """Plain sentences generated from the numbers below (reports/findings.py)."""
+    text = findings_markdown(runs)
+    return _section("## Findings", "", text) if text else ""
+
+
 def _seed_section(out: Path) -> tuple[str, list[Path]]:
     """The seed's printed numbers beside the exact reference and the seed scheme."""
     figure = seed_reproduction.delta_figure(out / "seed_delta.png")
@@ -473,7 +480,7 @@ def write_markdown(frame: pd.DataFrame, out: Path, *, generated: str) -> Path:
     runs = everything[~is_stability]
     stability, _ = _stability_matrix_section(everything[is_stability], out)
     seed, _ = _seed_section(out)
-    sections = [_header(everything, generated), seed]
+    sections = [_header(everything, generated), _findings_section(everything), seed]
     figures = ""
     if not runs.empty:  # a report of the stability suite alone has no event tables
         run_time, _ = _run_time_section(runs, out)
