@@ -63,30 +63,32 @@ def _agreement_sentence(rows: pd.DataFrame, engine: str, label: str) -> str:
     judged = mine[mine["verdict"].notna()]
     if judged.empty:
         return ""
-    agree = int((judged["verdict"] == "agrees").sum())
+    outcome = int((judged["outcome_agrees"] == True).sum())  # noqa: E712 - NaN is not True
+    phases = int((judged["verdict"] == "agrees").sum())
     wrong = judged[judged["verdict"] != "agrees"]
-    detail = ", ".join(f"{v} on {s}" for v, s in zip(wrong["verdict"], wrong["scene"], strict=True))
+    by_verdict = {
+        verdict: ", ".join(group["scene"]) for verdict, group in wrong.groupby("verdict", sort=True)
+    }
+    detail = "; ".join(f"{verdict} on {scenes}" for verdict, scenes in by_verdict.items())
     return (
-        f"{engine} ({label}) agrees with the exact reference on {agree} of {len(judged)} "
-        "scenes" + (f": {detail}" if detail else "") + "."
+        f"{engine} ({label}) gets the outcome right on {outcome} of {len(judged)} scenes and "
+        f"the whole phase sequence on {phases}" + (f" ({detail})" if detail else "") + "."
     )
 
 
 def _coarsest_sentence(runs: pd.DataFrame, engine: str, profile: str) -> str:
-    """The largest timestep at which the engine agrees on every scene it ran."""
+    """The timesteps at which the engine gets the outcome right on every scene it ran."""
     rows = runs[(runs["engine"] == engine) & (runs["variant"] == "default")]
     rows = _for_profile(rows, profile)
     rows = rows[rows["verdict"].notna()]
     if rows.empty:
         return ""
-    by_dt = rows.groupby("timestep")["verdict"].apply(lambda v: bool((v == "agrees").all()))
-    good = [dt for dt, ok in by_dt.items() if ok]
-    if not good:
-        return f"{engine} ({profile}) agrees on every scene at none of the timesteps tried."
-    return (
-        f"{engine} ({profile}) agrees on every scene down from dt = {max(good):g} s "
-        f"(of {', '.join(f'{dt:g}' for dt in sorted(by_dt.index, reverse=True))})."
+    by_dt = rows.groupby("timestep")["outcome_agrees"].apply(lambda v: int((v == True).sum()))  # noqa: E712
+    total = rows.groupby("timestep").size()
+    parts = ", ".join(
+        f"{by_dt[dt]}/{total[dt]} at {dt:g}" for dt in sorted(by_dt.index, reverse=True)
     )
+    return f"{engine} ({profile}) outcome right, by timestep (s): {parts}."
 
 
 def _stability_sentence(runs: pd.DataFrame, engine: str) -> str:

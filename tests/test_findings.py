@@ -21,6 +21,7 @@ def row(engine, scene="seed-mu", **values):
         "err_t_slip_ms": None,
         "err_hop_height_rel": None,
         "verdict": "agrees",
+        "outcome_agrees": True,
         "message": "",
     }
     return {**base, **values}
@@ -46,14 +47,15 @@ def test_the_closest_engine_is_the_one_with_the_smallest_error():
 
 def test_agreement_names_every_scene_that_went_wrong():
     runs = frame(
-        row("pymunk", err_t_slip_ms=1.0),
-        row("pymunk", scene="hop-top", verdict="false-hop"),
-        row("pymunk", scene="hop-low", verdict="missed-hop"),
+        row("pymunk", err_t_slip_ms=1.0, verdict="wrong-phases", outcome_agrees=True),
+        row("pymunk", scene="hop-top", verdict="false-hop", outcome_agrees=False),
+        row("pymunk", scene="hop-low", verdict="wrong-phases", outcome_agrees=True),
+        row("pymunk", scene="hop-bottom", verdict="agrees", outcome_agrees=True),
     )
     sentence = next(s for s in findings(runs) if s.startswith("pymunk (dt"))
     assert sentence == (
-        "pymunk (dt 0.0001, tuned) agrees with the exact reference on 1 of 3 scenes: "
-        "false-hop on hop-top, missed-hop on hop-low."
+        "pymunk (dt 0.0001, tuned) gets the outcome right on 3 of 4 scenes and the whole "
+        "phase sequence on 1 (false-hop on hop-top; wrong-phases on seed-mu, hop-low)."
     )
 
 
