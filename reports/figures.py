@@ -15,7 +15,7 @@ from hoopbench.models import kinematics
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 
-__all__ = ["clearance_figure", "hoop_figure"]
+__all__ = ["events_figure", "hoop_figure", "paths_figure"]
 
 
 def _solve(scene: Scene, method: str) -> tuple[Trajectory, object]:
@@ -87,22 +87,62 @@ def hoop_figure(
     return out
 
 
-def clearance_figure(
+def events_figure(
     runs: Mapping[str, Trajectory], out: str | Path, *, title: str, t_window=None
 ) -> Path:
-    """Hoop-centre clearance against time for several engines on one scene."""
-    fig, ax = plt.subplots(figsize=(8, 4), constrained_layout=True)
+    """Hoop-centre clearance and slip velocity against time, several engines on one scene,
+    around its events (``t_window``, s)."""
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 5.6), sharex=True, constrained_layout=True)
     for label, traj in runs.items():
         mask = slice(None)
         if t_window is not None:
             mask = (traj.t >= t_window[0]) & (traj.t <= t_window[1])
-        ax.plot(traj.t[mask], traj.clearance[mask] * 1e3, label=label, lw=1.2)
-    ax.axhline(0.0, color="0.3", lw=0.8)
-    ax.set_xlabel("t (s)")
-    ax.set_ylabel("clearance y - a (mm)")
-    ax.set_title(title)
-    ax.legend(fontsize=8)
+        top.plot(traj.t[mask], traj.clearance[mask] * 1e3, label=label, lw=1.2)
+        bottom.plot(traj.t[mask], traj.slip_velocity[mask], label=label, lw=1.0)
+    top.axhline(0.0, color="0.3", lw=0.8)
+    bottom.axhline(0.0, color="0.3", lw=0.8)
+    top.set_ylabel("clearance y - a (mm)")
+    bottom.set_ylabel("slip velocity (m/s)")
+    bottom.set_xlabel("t (s)")
+    top.set_title(title)
+    top.legend(fontsize=8)
     out = Path(out)
     fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
+def paths_figure(
+    scene: Scene, runs: Mapping[str, Trajectory], out: str | Path, *, n_frames: int = 24
+) -> Path:
+    """Each engine's centre-of-mass path with its hoop centre and weight at equal time steps
+    (the seed's Figure 3 kind), over the reference's path (grey), one panel per engine."""
+    reference = runs.get("reference")
+    engines = [name for name in runs if name != "reference"] or list(runs)
+    fig, axes = plt.subplots(
+        len(engines), 1, figsize=(9, 2.6 * len(engines)), squeeze=False, constrained_layout=True
+    )
+    for ax, name in zip(axes[:, 0], engines, strict=True):
+        traj = runs[name]
+        if reference is not None:
+            ax.plot(reference.X, reference.Y, color="0.7", lw=2.5, label="reference")
+        x, y = kinematics.centre_position(scene, traj.X, traj.Y, traj.theta)
+        for i in np.linspace(0, len(traj) - 1, n_frames + 1).astype(int):
+            wx = x[i] + scene.a * np.sin(traj.theta[i])
+            wy = y[i] + scene.a * np.cos(traj.theta[i])
+            ax.plot([x[i], wx], [y[i], wy], color="0.6", lw=0.5)
+            ax.plot(wx, wy, "o", color="tab:red", ms=3)
+            ax.plot(x[i], y[i], "o", color="k", ms=1.5)
+        ax.plot(traj.X, traj.Y, color="tab:green", lw=1.2, label=f"{name}: centre of mass")
+        ax.axhline(0.0, color="0.3", lw=0.8)
+        ax.set_aspect("equal")
+        ax.set_ylabel("y (m)")
+        ax.legend(loc="upper right", fontsize=7)
+    axes[-1, 0].set_xlabel("x (m)")
+    axes[0, 0].set_title(
+        f"{scene.name}: paths at equal time steps (red: weight, black: hoop centre)", fontsize=9
+    )
+    out = Path(out)
+    fig.savefig(out, dpi=100)
     plt.close(fig)
     return out

@@ -16,10 +16,10 @@ from pathlib import Path
 import pandas as pd
 
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
-from hoopbench.models.catalogue import get_scene
+from hoopbench.models.catalogue import get_scene, scene_names
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.reports import seed_reproduction
-from hoopbench.reports.figures import clearance_figure, hoop_figure
+from hoopbench.reports.figures import events_figure, hoop_figure, paths_figure
 from hoopbench.reports.findings import findings_markdown
 from hoopbench.reports.precision import cheapest_runs, precision_figure
 from hoopbench.reports.stability import (
@@ -416,47 +416,69 @@ def _stability_matrix_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[
     return text, [figure] if figure else []
 
 
-def _clearance_figure(runs: pd.DataFrame, scene_name: str, out: Path) -> Path | None:
-    """The hoop-centre clearance of every default-timestep run of a hop scene, if recorded."""
-    default = _default(runs)
-    trajectories = {}
-    for _, row in default[
-        (default["scene"] == scene_name) & (default["timestep"] == DEFAULT_TIMESTEP)
-    ].iterrows():
-        path = row.get("trajectory_file")
-        if isinstance(path, str):
-            trajectories[row["engine"]] = Trajectory.read(path)
+def _stored_trajectories(runs: pd.DataFrame, scene_name: str) -> dict[str, Trajectory]:
+    """The recorded default-timestep, tuned default-settings trajectories of one scene."""
+    rows = _default(runs)
+    rows = rows[(rows["scene"] == scene_name) & (rows["timestep"] == DEFAULT_TIMESTEP)]
+    rows = rows[rows["profile"].fillna("tuned") == "tuned"]
+    return {
+        row["engine"]: Trajectory.read(row["trajectory_file"])
+        for _, row in rows.iterrows()
+        if isinstance(row.get("trajectory_file"), str)
+    }
+
+
+def _event_window(row: pd.Series) -> tuple[float, float] | None:
+    """Around the exact lift-off and impact of a hop, else around the slip onset."""
+    lift, impact, slip = row["exact_t_lift"], row["exact_t_impact"], row["exact_t_slip"]
+    if pd.notna(lift) and pd.notna(impact):
+        span = impact - lift
+        return (lift - span, impact + span)
+    if pd.notna(slip):
+        return (slip - 0.1, slip + 0.3)
+    return None
+
+
+def _trajectory_figures(runs: pd.DataFrame, scene_name: str, out: Path) -> list[Path]:
+    """The paths figure and the events figure of one scene, if its trajectories were kept."""
+    trajectories = _stored_trajectories(runs, scene_name)
     if not trajectories:
-        return None
-    hops = _hops(runs)
-    exact_lift = hops[hops["scene"] == scene_name]["exact_t_lift"].iloc[0]
-    exact_impact = hops[hops["scene"] == scene_name]["exact_t_impact"].iloc[0]
-    window = None
-    if exact_lift is not None and not math.isnan(exact_lift):
-        span = exact_impact - exact_lift
-        window = (exact_lift - span, exact_impact + span)
-    return clearance_figure(
+        return []
+    row = runs[runs["scene"] == scene_name].iloc[0]
+    events = events_figure(
         trajectories,
-        out / f"clearance_{scene_name}.png",
-        title=f"{scene_name}: hoop-centre clearance, dt = {DEFAULT_TIMESTEP:g}",
-        t_window=window,
+        out / f"events_{scene_name}.png",
+        title=f"{scene_name}: clearance and slip velocity around its events, dt = "
+        f"{DEFAULT_TIMESTEP:g}",
+        t_window=_event_window(row),
     )
+    scene = get_scene(scene_name) if scene_name in scene_names() else None
+    if scene is None:
+        return [events]
+    return [paths_figure(scene, trajectories, out / f"paths_{scene_name}.png"), events]
 
 
 def _figures_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[Path]]:
-    lines = ["## Figures", ""]
-    figures = []
-    for scene_name in _hops(runs)["scene"].unique():
-        clearance = _clearance_figure(runs, scene_name, out)
-        if clearance is not None:
-            lines += [f"![clearance in {scene_name}]({clearance.name})", ""]
-            figures.append(clearance)
-        path = hoop_figure(get_scene(scene_name), out / f"hoop_{scene_name}.png")
-        lines += [f"![{scene_name} path]({path.name})", ""]
-        figures.append(path)
-    seed = hoop_figure(get_scene("seed"), out / "hoop_seed.png")
-    lines.append(f"![seed path]({seed.name})")
-    figures.append(seed)
+    """Trajectories: per scene with kept trajectories, every engine's path over the
+    reference's and its clearance and slip velocity around the events; the exact paths of
+    the hop scenes and the seed."""
+    lines = [
+        "## Trajectories",
+        "",
+        f"Default settings, tuned, dt = {DEFAULT_TIMESTEP:g} s (stored with "
+        "`--trajectories default`).",
+        "",
+    ]
+    figures: list[Path] = []
+    for scene_name in dict.fromkeys(runs["scene"]):
+        for figure in _trajectory_figures(runs, scene_name, out):
+            lines += [f"![{figure.stem}]({figure.name})", ""]
+            figures.append(figure)
+    for scene_name in [*_hops(runs)["scene"].unique(), "seed"]:
+        if scene_name in scene_names():
+            path = hoop_figure(get_scene(scene_name), out / f"hoop_{scene_name}.png")
+            lines += [f"![{scene_name}: the exact path]({path.name})", ""]
+            figures.append(path)
     return _section(*lines), figures
 
 
