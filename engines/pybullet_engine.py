@@ -10,13 +10,21 @@ are the solver's impulse divided by the step. The friction forces are those on b
 floor: checked against the hoop's momentum in the tests), so the hoop gets minus their world-x
 components, summed over the points; forces are divided by M.
 
-Initial contact: the hoop starts exactly touching the floor (clearance 0). PyBullet's contacts
-are rigid (velocity level, ERP for penetration), but the solver lets a contact sink by
-``contactSlop`` before it pushes back, so a resting hoop sits that deep. pybullet's own 1e-5 m
-made the hoop fall freely for the first 1.4 ms; hoopbench's default 1e-8 m is reached within
-the first step, so the exact start is PyBullet's equilibrium to 1e-8 m and the contact force
-acts from the first step. (0 is worse: the distance flickers to +1e-16 and the contact drops
-out for single steps.)
+Initial contact: the hoop is placed by its real contact surface, its lowest point
+``contactSlop`` deep and rolling. PyBullet's contacts are rigid (velocity level, ERP for
+penetration), but the solver lets a contact sink by ``contactSlop`` before it pushes back, so a
+resting hoop sits that deep. pybullet's own 1e-5 m made the hoop fall freely for the first
+1.4 ms; hoopbench's default is 1e-8 m. (0 is worse: the distance flickers to +1e-16 and the
+contact drops out for single steps.) Started exactly touching instead, the sphere got no
+contact force in its first step when the start was tilted (theta0 = 0.4: the distance came out
++1e-16 m) and twice the rolling force in the second.
+
+The ``hull`` is PyBullet's convex hull of the URDF cylinder plus a 1 mm collision margin: with a
+vertex down it reaches a + 1 mm below the centre, so its centre starts that much higher (placed
+at the nominal height a it started 1 mm deep, ERP threw it up at 2 m/s in the first step and
+it left the floor at once). Its polygon (``_hull_polygon``: the hull's own vertices, rounded by
+the margin measured with ``getClosestPoints``) also gives the trajectory's clearance and slip
+velocity, read at the lowest point (models.kinematics), and its rolling start velocity.
 
 Rows: row i holds the state at t_i and the contact force that the solver applies from that
 state over the step [t_i, t_i + dt] (the force that changes the velocity from row i to i+1).
@@ -48,6 +56,7 @@ from hoopbench.engines.options import Option, Variant, flag, integer, number, op
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models import kinematics
+from hoopbench.models.kinematics import Polygon
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.models.urdf import (
@@ -167,8 +176,8 @@ class PybulletEngine(Engine):
         p = module
         n_steps = n_steps_for(scene, settings.timestep)
         with _client(p) as cid, tempfile.TemporaryDirectory(prefix="hoopbench-pb-") as tmp:
-            hoop, floor = self._build(p, cid, Path(tmp), scene, settings, options)
-            return self._step_and_record(p, cid, hoop, floor, scene, settings, n_steps)
+            hoop, floor, shape = self._build(p, cid, Path(tmp), scene, settings, options)
+            return self._step_and_record(p, cid, hoop, floor, scene, settings, n_steps, shape)
 
     # ----------------------------------------------------------------- public extras
     def bare_loop_time(self, scene: Scene, settings: RunSettings | None = None) -> float:
@@ -201,8 +210,9 @@ class PybulletEngine(Engine):
         scene: Scene,
         settings: RunSettings,
         options: dict[str, Any],
-    ) -> tuple[int, int]:
-        """Load floor and hoop into client ``cid``, set every parameter; (hoop, floor) ids."""
+    ) -> tuple[int, int, Polygon | None]:
+        """Load floor and hoop into client ``cid``, set every parameter, and place the hoop by
+        its real contact surface: (hoop id, floor id, contact polygon or None for a circle)."""
         mu = self.mu_for(scene, settings)
         hoop_file = tmp / "hoop.urdf"
         floor_file = tmp / "floor.urdf"
@@ -263,13 +273,16 @@ class PybulletEngine(Engine):
             # The default velocity motors would hold every joint still.
             p.setJointMotorControl2(hoop, j, p.VELOCITY_CONTROL, force=0.0, physicsClientId=cid)
 
-        X, Y, theta, Xdot, Ydot, thetadot = scene.initial_state()
-        x, y = kinematics.centre_position(scene, X, Y, theta)
-        xdot, ydot = kinematics.centre_velocity(scene, Xdot, Ydot, theta, thetadot)
-        joint_states = ((float(x), float(xdot)), (float(y), float(ydot)), (theta, thetadot))
+        # The lowest point of the real contact surface (the hull's vertex plus margin, not the
+        # circle of radius a) on the floor, rolling; contactSlop deep, where a resting contact
+        # stays, so that the contact acts from the first step (see the module doc).
+        shape = _hull_polygon(p, cid, hoop, floor, scene) if settings.geometry == "hull" else None
+        x, y, theta, xdot, ydot, thetadot = kinematics.rolling_start(scene, shape)
+        y -= float(options["contactSlop"])
+        joint_states = ((x, xdot), (y, ydot), (theta, thetadot))
         for j, (q, v) in enumerate(joint_states):
             p.resetJointState(hoop, j, q, v, physicsClientId=cid)
-        return hoop, floor
+        return hoop, floor, shape
 
     def _step_and_record(
         self,
@@ -280,8 +293,9 @@ class PybulletEngine(Engine):
         scene: Scene,
         settings: RunSettings,
         n_steps: int,
+        shape: Polygon | None = None,
     ) -> Simulation:
-        """Step n_steps times and record every state.
+        """Step n_steps times and record every state (``shape``: the contact polygon).
 
         Row i of the trajectory holds the state at t_i and the contact force that the solver
         applies from that state over [t_i, t_i + dt], i.e. the force that takes the velocity
@@ -345,8 +359,41 @@ class PybulletEngine(Engine):
             normal_force=force[:, 0],
             friction_force=force[:, 1],
             contact=force[:, 0] > 0.0,
+            shape=shape,
         )
         return Simulation(trajectory=trajectory, n_steps=done, wall_time_s=wall, diverged=diverged)
+
+
+def _hull_polygon(p: ModuleType, cid: int, hoop: int, floor: int, scene: Scene) -> Polygon:
+    """The hoop's convex hull in the plane: PyBullet's own vertices, rounded by its margin.
+
+    ``getMeshData`` gives the hull's vertices in the link's inertial frame; they are moved to
+    the hoop frame (origin at the centre, u along x, w along z). The collision margin
+    (gUrdfDefaultCollisionMargin, 1 mm in pybullet 3.2.7; no call reports it) is measured as
+    the part of ``getClosestPoints``' distance the vertices do not explain, at two poses; they
+    must agree, or the hull is not what this function assumes and the run is an error. Leaves
+    the joints at a probe pose: the caller places the hoop.
+    """
+    _, vertices = p.getMeshData(hoop, _HOOP_LINK, physicsClientId=cid)
+    inertial_pos, inertial_orn = p.getDynamicsInfo(hoop, _HOOP_LINK, physicsClientId=cid)[3:5]
+    rotation = np.array(p.getMatrixFromQuaternion(inertial_orn)).reshape(3, 3)
+    local = np.asarray(vertices, dtype=float) @ rotation.T + np.asarray(inertial_pos)
+    hull = Polygon.from_points(zip(local[:, 0], local[:, 2], strict=True))
+    height = 1.1 * scene.a + 0.01  # any height at which the floor is within reach
+    margins = []
+    for theta in (scene.theta0, scene.theta0 + 0.1):
+        p.resetJointState(hoop, 1, height, 0.0, physicsClientId=cid)
+        p.resetJointState(hoop, 2, theta, 0.0, physicsClientId=cid)
+        points = p.getClosestPoints(hoop, floor, scene.a, _HOOP_LINK, -1, physicsClientId=cid)
+        if not points:
+            raise RuntimeError("pybullet: no closest point between the hull and the floor")
+        distance = min(point[8] for point in points)
+        margins.append(height - float(kinematics.contact_depth(scene, theta, hull)) - distance)
+    if not (margins[0] >= 0 and abs(margins[0] - margins[1]) <= 1e-9 * scene.a):
+        raise RuntimeError(
+            f"pybullet's hull is not its vertices plus a margin: margins {margins} m at two poses"
+        )
+    return Polygon(hull.vertices, rounding=margins[0])
 
 
 def _com_state(scene: Scene, data: np.ndarray) -> dict[str, np.ndarray]:

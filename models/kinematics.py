@@ -1,12 +1,27 @@
 """Kinematic relations between the centre of mass and the hoop, for scalars or arrays.
 
 The one place that converts centre-of-mass coordinates (X, Y, theta and rates) into the
-quantities the detectors read: hoop-centre clearance, slip velocity and energy.
+quantities the detectors read: clearance, slip velocity and energy.
+
+Clearance and slip velocity are read at the body's **lowest point**, taken on its rigid
+geometry (penetration not included). A body turning clockwise at thetadot moves its material
+points at depth h below the hoop centre horizontally at xdot - h*thetadot, wherever they are
+along x. For the hoop's circle the lowest point is at depth a, whatever the angle, so the
+clearance is y - a and the slip velocity xdot - a*thetadot. A faceted contact shape (MuJoCo's
+ring of capsules, PyBullet's convex hull) is described by a :class:`Polygon`: its lowest point
+is at the depth h(theta) of its lowest vertex plus its rounding, so the clearance is
+y - h(theta) and the slip velocity xdot - h(theta)*thetadot. With h = a instead, a polygon
+rolling over its vertices without slipping would show a slip of (y - a)*thetadot, millimetres
+per second on a 32-gon. The depth is geometric, never the engine's penetration: for a soft
+contact the point at the floor surface moves while the body rolls, and reading the slip there
+would show one that is not happening.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -14,15 +29,115 @@ from numpy.typing import ArrayLike, NDArray
 from hoopbench.models.scene import Scene
 
 __all__ = [
+    "Polygon",
     "centre_position",
     "centre_velocity",
     "clearance",
     "com_position",
     "com_state",
+    "contact_depth",
+    "contact_offset",
     "energy_per_mass",
     "reach",
+    "rolling_start",
     "slip_velocity",
 ]
+
+
+@dataclass(frozen=True, eq=False)
+class Polygon:
+    """A convex contact shape in the plane of the hoop: vertices, rounded by a radius.
+
+    ``vertices`` are (u, w) pairs, m, in the body frame with the hoop centre at the origin:
+    at theta = 0, u points along +x and w up, toward the weight. A body point (u, w) sits at
+    (u cos theta + w sin theta, w cos theta - u sin theta) from the hoop centre. ``rounding``,
+    m, is the radius of the sphere swept over the polygon (a capsule's radius, a collision
+    margin): the shape is every point within ``rounding`` of the polygon.
+    """
+
+    vertices: tuple[tuple[float, float], ...]
+    rounding: float = 0.0
+
+    def __post_init__(self) -> None:
+        vertices = tuple((float(u), float(w)) for u, w in self.vertices)
+        if len(vertices) < 3:
+            raise ValueError(f"a polygon needs at least 3 vertices, got {len(vertices)}")
+        if not all(math.isfinite(u) and math.isfinite(w) for u, w in vertices):
+            raise ValueError("polygon vertices must be finite")
+        if not (math.isfinite(self.rounding) and self.rounding >= 0):
+            raise ValueError(f"rounding must be >= 0 m, got {self.rounding}")
+        object.__setattr__(self, "vertices", vertices)
+        object.__setattr__(self, "rounding", float(self.rounding))
+
+    @classmethod
+    def regular(cls, n: int, radius: float, phase: float, rounding: float = 0.0) -> Polygon:
+        """n vertices at ``radius`` m from the centre, the first at body angle ``phase`` rad,
+        measured from +u toward +w, the others every 2 pi / n."""
+        angles = phase + 2.0 * math.pi * np.arange(n) / n
+        return cls(
+            tuple(zip(radius * np.cos(angles), radius * np.sin(angles), strict=True)), rounding
+        )
+
+    @classmethod
+    def from_points(cls, points: Iterable[tuple[float, float]], rounding: float = 0.0) -> Polygon:
+        """The polygon of these body-frame points (only their lowest ever touches)."""
+        return cls(tuple(points), rounding)
+
+
+def _lowest_vertex(theta: ArrayLike, shape: Polygon) -> tuple[NDArray, NDArray]:
+    """(depth, horizontal offset) below and beside the hoop centre of the lowest vertex, m."""
+    u, w = np.asarray(shape.vertices).T
+    s, c = np.sin(theta)[..., None], np.cos(theta)[..., None]
+    depth = u * s - w * c
+    lowest = np.argmax(depth, axis=-1)[..., None]
+    offset = u * c + w * s
+    return (
+        np.take_along_axis(depth, lowest, axis=-1)[..., 0],
+        np.take_along_axis(offset, lowest, axis=-1)[..., 0],
+    )
+
+
+def contact_depth(scene: Scene, theta: ArrayLike, shape: Polygon | None = None) -> NDArray:
+    """Depth h(theta) of the body's lowest point below the hoop centre, m: a for the hoop's
+    circle (``shape`` None), the lowest vertex plus the rounding for a polygon."""
+    theta = np.asarray(theta, dtype=float)
+    if shape is None:
+        return np.full(theta.shape, scene.a)
+    return _lowest_vertex(theta, shape)[0] + shape.rounding
+
+
+def contact_offset(scene: Scene, theta: ArrayLike, shape: Polygon | None = None) -> NDArray:
+    """Horizontal position of the lowest point from the hoop centre, m (+x ahead): 0 for the
+    circle, the lowest vertex's for a polygon. It is dh/dtheta, the rate at which the depth
+    changes as the body turns."""
+    theta = np.asarray(theta, dtype=float)
+    if shape is None:
+        return np.zeros(theta.shape)
+    return _lowest_vertex(theta, shape)[1]
+
+
+def rolling_start(
+    scene: Scene, shape: Polygon | None = None
+) -> tuple[float, float, float, float, float, float]:
+    """Hoop-centre state (x, y, theta, xdot, ydot, thetadot) at t = 0 with the lowest point of
+    ``shape`` on the floor and moving as the scene's rim point does: at rest vertically, and
+    horizontally at the scene's initial slip velocity (0 for a rolling start).
+
+    For the circle this is the scene's own initial state. A polygon's lowest point is at depth
+    h(theta0), and its rigid contact keeps it on the floor only if the centre moves with it:
+    xdot = s0 + h*thetadot, ydot = h'(theta0)*thetadot (rotation about the lowest point).
+    Placed at height a with the circle's velocities, PyBullet's hull started 1 mm deep.
+    """
+    X, Y, theta, Xdot, Ydot, thetadot = scene.initial_state()
+    x, y = centre_position(scene, X, Y, theta)
+    xdot, ydot = centre_velocity(scene, Xdot, Ydot, theta, thetadot)
+    if shape is not None:
+        slip = float(xdot) - scene.a * thetadot
+        depth = float(contact_depth(scene, theta, shape))
+        y = depth
+        xdot = slip + depth * thetadot
+        ydot = float(contact_offset(scene, theta, shape)) * thetadot
+    return float(x), float(y), theta, float(xdot), float(ydot), thetadot
 
 
 def centre_position(
@@ -79,15 +194,27 @@ def com_position(
     return np.asarray(x) + r * np.sin(theta), np.asarray(y) + r * np.cos(theta)
 
 
-def clearance(scene: Scene, Y: ArrayLike, theta: ArrayLike) -> NDArray:
-    """Height of the hoop centre above its resting height, y - a, m (> 0 in flight)."""
-    return np.asarray(Y) - scene.com_offset * np.cos(theta) - scene.a
+def clearance(
+    scene: Scene, Y: ArrayLike, theta: ArrayLike, shape: Polygon | None = None
+) -> NDArray:
+    """Height of the body's lowest point above the floor, m (> 0 in flight, < 0 penetrating):
+    y - a for the hoop's circle, y - contact_depth for a polygon."""
+    depth = scene.a if shape is None else contact_depth(scene, theta, shape)
+    return np.asarray(Y) - scene.com_offset * np.cos(theta) - depth
 
 
-def slip_velocity(scene: Scene, Xdot: ArrayLike, theta: ArrayLike, thetadot: ArrayLike) -> NDArray:
-    """Velocity of the rim point at the floor, xdot - a*thetadot, m/s (0 when rolling)."""
+def slip_velocity(
+    scene: Scene,
+    Xdot: ArrayLike,
+    theta: ArrayLike,
+    thetadot: ArrayLike,
+    shape: Polygon | None = None,
+) -> NDArray:
+    """Horizontal velocity of the body's lowest point, m/s (0 when rolling): xdot - a*thetadot
+    for the hoop's circle, xdot - contact_depth*thetadot for a polygon."""
     thetadot = np.asarray(thetadot)
-    return np.asarray(Xdot) - scene.com_offset * np.cos(theta) * thetadot - scene.a * thetadot
+    depth = scene.a if shape is None else contact_depth(scene, theta, shape)
+    return np.asarray(Xdot) - scene.com_offset * np.cos(theta) * thetadot - depth * thetadot
 
 
 def energy_per_mass(

@@ -26,6 +26,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from hoopbench.models.checks import check_real
+from hoopbench.models.kinematics import Polygon
 from hoopbench.models.scene import Scene
 
 __all__ = [
@@ -33,6 +34,7 @@ __all__ = [
     "INTEGRATORS",
     "MJCF_GEOMETRIES",
     "check_restitution",
+    "contact_shape",
     "scene_to_mjcf",
 ]
 
@@ -107,6 +109,28 @@ def _header(
     return "<!--\n" + "\n".join(_comment_safe(line) for line in lines) + "\n-->\n"
 
 
+def _ring(scene: Scene, segments: int) -> Polygon:
+    """The ring's capsule centrelines as a polygon rounded by the capsule radius.
+
+    The centreline vertices lie on a circle of radius a - rc, so the vertices reach radius a.
+    A vertex is put straight below the centre at the start: the hoop starts on a vertex,
+    touching the floor with clearance 0 like the other geometries.
+    """
+    rc = CAPSULE_RADIUS * scene.a
+    # Straight down in the body frame, when the hinge angle is theta0: (sin th0, 0, -cos th0).
+    phi0 = math.atan2(-math.cos(scene.theta0), math.sin(scene.theta0))
+    return Polygon.regular(segments, scene.a - rc, phi0, rounding=rc)
+
+
+def contact_shape(scene: Scene, geometry: str, options: Mapping[str, Any]) -> Polygon | None:
+    """The contact shape of ``geometry`` in the plane of the hoop, for clearance and slip
+    velocity (hoopbench.models.kinematics): None for the sphere and the cylinder, whose
+    section is the hoop's circle; the ring's polygon of capsules."""
+    if geometry not in MJCF_GEOMETRIES:
+        raise ValueError(f"geometry must be one of {', '.join(MJCF_GEOMETRIES)}, got {geometry!r}")
+    return _ring(scene, options["ring_segments"]) if geometry == "ring" else None
+
+
 def _hoop_geoms(body: ET.Element, scene: Scene, geometry: str, opts: Mapping, mu: float) -> list:
     """Collision geoms of the hoop; their names, for the contact pairs."""
     a = scene.a
@@ -127,29 +151,21 @@ def _hoop_geoms(body: ET.Element, scene: Scene, geometry: str, opts: Mapping, mu
             **common,
         )
         return ["hoop"]
-    # ring: capsule centrelines on a circle of radius a - rc, so the vertices reach radius a.
-    # A vertex is put straight below the centre at the start: the hoop starts on a vertex,
-    # touching the floor with clearance 0 like the other geometries.
-    n = opts["ring_segments"]
-    rc = CAPSULE_RADIUS * a
-    rho = a - rc
-    # Straight down in the body frame, when the hinge angle is theta0: (sin th0, 0, -cos th0).
-    phi0 = math.atan2(-math.cos(scene.theta0), math.sin(scene.theta0))
+    # ring: one capsule along each side of the polygon (see _ring).
+    ring = _ring(scene, opts["ring_segments"])
+    n = len(ring.vertices)
     names = []
     width = len(str(n - 1))
     for i in range(n):
-        p = phi0 + 2.0 * math.pi * i / n
-        q = phi0 + 2.0 * math.pi * (i + 1) / n
+        (u0, w0), (u1, w1) = ring.vertices[i], ring.vertices[(i + 1) % n]
         name = f"hoop_{i:0{width}d}"
         ET.SubElement(
             body,
             "geom",
             name=name,
             type="capsule",
-            size=_num(rc),
-            fromto=_vec(
-                rho * math.cos(p), 0, rho * math.sin(p), rho * math.cos(q), 0, rho * math.sin(q)
-            ),
+            size=_num(ring.rounding),
+            fromto=_vec(u0, 0, w0, u1, 0, w1),
             rgba="0.3 0.5 0.8 1",
             **common,
         )

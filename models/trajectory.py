@@ -41,9 +41,11 @@ class Trajectory:
     thetadot: NDArray
     """Angular velocity, rad/s, clockwise positive."""
     clearance: NDArray
-    """Hoop-centre height minus radius, y - a, m (penetration is negative)."""
+    """Height of the body's lowest point above the floor, m (penetration is negative): y - a
+    for the hoop's circle, y - h(theta) for a polygon (kinematics.clearance)."""
     slip_velocity: NDArray
-    """Hoop-centre horizontal velocity minus a*thetadot, m/s."""
+    """Horizontal velocity of the body's lowest point, m/s: xdot - a*thetadot for the hoop's
+    circle, xdot - h(theta)*thetadot for a polygon (kinematics.slip_velocity)."""
     normal_force: NDArray
     """Normal contact force per unit mass, m/s^2 (0 in flight)."""
     friction_force: NDArray
@@ -68,8 +70,15 @@ class Trajectory:
         normal_force: ArrayLike,
         friction_force: ArrayLike,
         contact: ArrayLike | None = None,
+        shape: kinematics.Polygon | None = None,
     ) -> Trajectory:
-        """Build from centre-of-mass states and contact forces; derive the rest."""
+        """Build from centre-of-mass states and contact forces; derive the rest.
+
+        ``shape`` is the contact shape when it is not the hoop's circle of radius a (None):
+        clearance and slip velocity are then read at the polygon's lowest point (see
+        :mod:`hoopbench.models.kinematics`). An adapter whose collision geometry is faceted
+        passes it.
+        """
         arr = {
             name: np.asarray(value, dtype=float)
             for name, value in dict(
@@ -92,9 +101,9 @@ class Trajectory:
             contact = arr["normal_force"] > 0
         return cls(
             **arr,
-            clearance=kinematics.clearance(scene, arr["Y"], arr["theta"]),
+            clearance=kinematics.clearance(scene, arr["Y"], arr["theta"], shape),
             slip_velocity=kinematics.slip_velocity(
-                scene, arr["Xdot"], arr["theta"], arr["thetadot"]
+                scene, arr["Xdot"], arr["theta"], arr["thetadot"], shape
             ),
             contact=np.asarray(contact, dtype=bool),
             energy=kinematics.energy_per_mass(

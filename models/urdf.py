@@ -46,7 +46,9 @@ __all__ = [
 HOOP_GEOMETRIES: tuple[str, ...] = ("sphere", "cylinder", "hull")
 """Collision shapes of the hoop. sphere: radius a (in the plane, exactly the hoop's circle);
 cylinder and hull: a URDF cylinder with its axis along y. The URDF text is the same for both;
-the loader decides (implicit cylinder, or PyBullet's default 32-vertex convex hull)."""
+the loader decides (implicit cylinder, or PyBullet's default 32-vertex convex hull, which
+PyBullet pads with a 1 mm collision margin: it reaches a + 1 mm below the centre with a vertex
+down, and the adapter places it and reads its clearance by that surface)."""
 
 JOINT_NAMES: tuple[str, str, str] = ("x_joint", "z_joint", "theta_joint")
 """The three joints in chain order: hoop-centre x (m), hoop-centre height (m), theta (rad)."""

@@ -313,11 +313,15 @@ def test_other_geometries_roll(geometry, bump):
         assert np.max(np.abs(traj.clearance)) < bump
     else:
         # A polygon rolls from vertex to vertex: its centre rides up and down by
-        # a (1 - cos(pi/N)) and the contact breaks for a few steps at vertex changes.
+        # a (1 - cos(pi/N)) while its lowest point, whose height is the clearance, stays on
+        # the floor (within the 30 um bounces at vertex impacts). The contact breaks for
+        # single steps: the soft contact chatters on a pivot (docs/engines.md).
         assert traj.contact.mean() > 0.8
+        assert np.max(np.abs(traj.clearance)) < 1e-4
+        centre = traj.Y - scene.com_offset * np.cos(traj.theta)
         ride = scene.a * (1 - math.cos(math.pi / n_seg))
-        assert np.max(np.abs(traj.clearance)) < ride + 1e-4
-        assert np.max(traj.clearance) - np.min(traj.clearance) > 0.5 * ride
+        assert np.max(centre) < scene.a + 1e-4
+        assert np.max(centre) - np.min(centre) > 0.5 * ride
 
 
 def test_divergence_stops_at_a_chunk_with_a_consistent_partial_trajectory():
