@@ -21,12 +21,13 @@ from hoopbench.engines.event_checks import (
     flight_height_bounds,
 )
 from hoopbench.engines.judge import judge
+from hoopbench.engines.registry import get_engine
+from hoopbench.engines.settings import RunSettings
 from hoopbench.models import kinematics
 from hoopbench.models.catalogue import get_scene
 from hoopbench.models.events import Events, Outcome
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
-from hoopbench.reference.exact import solve_exact
 
 SCENE = get_scene("hop-bottom")  # lam = 0.5, a = 1 m, g = 9.8
 DT = 1e-4
@@ -60,13 +61,15 @@ def _trajectory(clearance: np.ndarray, scene: Scene = SCENE, spin: float = SPIN)
     )
 
 
-def _ballistic(n: int, t_lift: float, duration: float, scene: Scene = SCENE) -> np.ndarray:
+def _ballistic(
+    n: int, t_lift: float, duration: float, scene: Scene = SCENE, spin: float = SPIN
+) -> np.ndarray:
     """Clearance of a true flight: the centre of mass on a parabola, the spin constant, the
     centre leaving and meeting the floor ``duration`` apart."""
     t = np.arange(n) * DT
-    theta = scene.theta0 + SPIN * t
+    theta = scene.theta0 + spin * t
     r, g = scene.com_offset, scene.g
-    th0, th1 = scene.theta0 + SPIN * t_lift, scene.theta0 + SPIN * (t_lift + duration)
+    th0, th1 = scene.theta0 + spin * t_lift, scene.theta0 + spin * (t_lift + duration)
     tau = t - t_lift
     s = tau / duration
     c = (
@@ -94,15 +97,34 @@ def test_a_true_flight_keeps_its_numbers():
     assert events.t_impact == pytest.approx(0.5, abs=1e-3)
 
 
+def test_a_flight_without_spin_sits_on_both_bounds():
+    """Without spin both bounds are g T^2 / 8: only the slack keeps a sampled flight, with
+    its lift-off and impact read to within a sample, from being flagged."""
+    c = _ballistic(8000, 0.3, 0.2, spin=0.0)
+    events = checked_events(_trajectory(c, spin=0.0), scene=SCENE)
+    assert events.flags == ()
+    assert events.hop_height == pytest.approx(SCENE.g * 0.2**2 / 8, rel=1e-3)
+
+
+def test_the_hop_threshold_cannot_be_below_the_lift_off_threshold():
+    with pytest.raises(ValueError, match=r"hop_clearance .* must not be below lift_clearance"):
+        DetectorSettings(hop_clearance=1e-5)
+    with pytest.raises(ValueError, match="hop_clearance must be > 0"):
+        DetectorSettings(hop_clearance=math.nan)
+
+
 @pytest.mark.parametrize("name", ["hop-top", "hop-low", "hop-bottom", "high-spin"])
 def test_exact_hops_are_consistent(name):
-    """The exact solution's flights, spin included, all pass the flight-time bound."""
+    """The exact solution's flights, spin included, all pass the flight-time bound (the
+    reference engine's samples end at the impact, so the flight is complete)."""
     scene = get_scene(name)
-    solution = solve_exact(scene)
-    events = checked_events(solution.sample_uniform(1e-3), scene=scene)
+    run = get_engine("reference").simulate(scene, RunSettings(timestep=1e-3))
+    events = checked_events(run.trajectory, scene=scene)
+    exact = run.exact_events
     assert events.outcome is Outcome.HOPS
     assert events.flags == ()
-    assert events.hop_height == pytest.approx(solution.events.hop_height, rel=1e-3)
+    assert events.t_impact == pytest.approx(exact.t_impact, abs=1e-6)
+    assert events.hop_height == pytest.approx(exact.hop_height, rel=1e-3)
 
 
 def test_a_jump_is_too_high_for_its_flight_and_is_withheld():

@@ -262,10 +262,11 @@ def test_no_exact_answer_no_verdict(exact):
 def test_a_stored_row_with_nan_is_judged_alike():
     """Rows read back from Parquet or CSV carry NaN for a missing number."""
     row = {**SLIP_ROW, "outcome": "hops", "t_lift": 1.2, "hop_height": 5e-3, "phases": "R S+ F"}
-    frame = pd.DataFrame([row, SLIP_ROW, {**HOP_ROW, "hop_height": 3e-4}])
-    assert frame["exact_hop_height"].isna().iloc[0]
+    withheld = {**HOP_ROW, "t_lift": None, "hop_height": None, "max_clearance": 3e-4}
+    frame = pd.DataFrame([row, SLIP_ROW, ROLL_ROW, withheld])
+    assert frame["exact_hop_height"].isna().iloc[0] and frame["t_slip"].isna().iloc[2]
     verdicts = [verdict_columns(r)["verdict"] for r in frame.to_dict("records")]
-    assert verdicts == ["false-hop", "agrees", "missed-hop"]
+    assert verdicts == ["false-hop", "agrees", "agrees", "missed-hop"]
 
 
 # --------------------------------------------------------------------------- the row builder
