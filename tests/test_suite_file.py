@@ -151,7 +151,10 @@ def test_the_shipped_suites_are_valid(name):
 
 
 def test_unknown_shipped_suite():
-    with pytest.raises(SuiteError, match="no shipped suite .quik.; shipped: default, full, precision, quick, stability"):
+    with pytest.raises(
+        SuiteError,
+        match=r"no shipped suite .quik.; shipped: default, full, precision, quick, stability",
+    ):
         builtin_suite("quik")
 
 
