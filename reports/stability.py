@@ -84,7 +84,8 @@ def classify(row: pd.Series | dict) -> tuple[Stability, str]:
         return Stability.DEEP_PENETRATION, f"{100 * depth / a:.3g} % of a"
     verdict = row.get("verdict")
     if isinstance(verdict, str) and verdict:
-        wrong = verdict != "agrees"
+        # The outcome, not the phase sequence: a stable run may still miss a re-stick.
+        wrong = verdict not in ("agrees", "wrong-phases")
         what = verdict
     else:  # results written before the verdict column existed
         agrees = row.get("outcome_agrees")
