@@ -18,6 +18,7 @@ import math
 import sys
 import traceback
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import StrEnum
 from importlib.metadata import PackageNotFoundError, version
@@ -47,6 +48,7 @@ __all__ = [
     "RunStatus",
     "Simulation",
     "check_divergence",
+    "equilibrium_depth",
     "import_engine",
     "n_steps_for",
 ]
@@ -346,6 +348,33 @@ class Engine(ABC):
         from hoopbench.engines.judge import judge
 
         return judge(self.simulate(scene, settings), self.detectors)
+
+
+def equilibrium_depth(
+    vertical_acceleration: Callable[[float], float],
+    a: float,
+    *,
+    first: float,
+    xtol: float,
+    maxiter: int = 100,
+) -> float:
+    """Penetration, m, at which a soft contact holds the hoop centre with zero vertical
+    acceleration; 0 if the hoop, exactly touching, would leave the floor, or if no
+    equilibrium lies within 1 % of the radius (then it starts touching).
+
+    ``vertical_acceleration(depth)`` rises monotonically as the hoop sinks, so a doubling
+    bracket from ``first * a`` and Brent's method find its zero.
+    """
+    if vertical_acceleration(0.0) >= 0.0:
+        return 0.0
+    lo, hi = 0.0, first * a
+    while vertical_acceleration(hi) < 0.0:
+        lo, hi = hi, 2.0 * hi
+        if hi > 1e-2 * a:
+            return 0.0
+    from scipy.optimize import brentq
+
+    return float(brentq(vertical_acceleration, lo, hi, xtol=xtol, rtol=1e-12, maxiter=maxiter))
 
 
 def n_steps_for(scene: Scene, timestep: float) -> int:

@@ -58,6 +58,7 @@ from hoopbench.engines.base import (
     Engine,
     Simulation,
     check_divergence,
+    equilibrium_depth,
     import_engine,
     n_steps_for,
 )
@@ -475,16 +476,7 @@ def _equilibrium_penetration(model: DrakeModel, a: float) -> float:
         return _vertical_acceleration(model, q, v)
 
     try:
-        if accel(0.0) >= 0.0:
-            return 0.0
-        lo, hi = 0.0, 1e-9 * a
-        while accel(hi) < 0.0:
-            lo, hi = hi, 2.0 * hi
-            if hi > 1e-2 * a:
-                return 0.0  # no equilibrium near the surface: start touching
-        from scipy.optimize import brentq
-
-        return float(brentq(accel, lo, hi, xtol=1e-16, rtol=1e-12, maxiter=200))
+        return equilibrium_depth(accel, a, first=1e-9, xtol=1e-16, maxiter=200)
     finally:
         q[1] = y0
         model.simulator.get_mutable_context().SetTime(0.0)

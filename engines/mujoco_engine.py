@@ -58,7 +58,14 @@ from typing import Any
 
 import numpy as np
 
-from hoopbench.engines.base import CHUNK_STEPS, Engine, Simulation, check_divergence, n_steps_for
+from hoopbench.engines.base import (
+    CHUNK_STEPS,
+    Engine,
+    Simulation,
+    check_divergence,
+    equilibrium_depth,
+    n_steps_for,
+)
 from hoopbench.engines.options import (
     Option,
     Variant,
@@ -380,15 +387,6 @@ def _equilibrium_penetration(mujoco: ModuleType, model: Any, data: Any, a: float
         return float(data.qacc[1])
 
     try:
-        if zacc(0.0) >= 0.0:
-            return 0.0
-        lo, hi = 0.0, 1e-7 * a
-        while zacc(hi) < 0.0:
-            lo, hi = hi, 2.0 * hi
-            if hi > 1e-2 * a:
-                return 0.0  # no equilibrium near the surface: start touching
-        from scipy.optimize import brentq
-
-        return float(brentq(zacc, lo, hi, xtol=1e-15, rtol=1e-12, maxiter=100))
+        return equilibrium_depth(zacc, a, first=1e-7, xtol=1e-15)
     finally:
         data.qpos[1] = z0

@@ -6,12 +6,12 @@ limits are stated here once; the report's table and heat map read them from this
 
 from __future__ import annotations
 
-import math
 from enum import StrEnum
 from pathlib import Path
-from typing import Any
 
 import pandas as pd
+
+from hoopbench.reports.verdict import number_or_none
 
 __all__ = [
     "ENERGY_GAIN_LIMIT",
@@ -56,16 +56,6 @@ _COLOURS = {
 }
 
 
-def _number(value: Any) -> float | None:
-    if value is None:
-        return None
-    try:
-        out = float(value)
-    except (TypeError, ValueError):
-        return None
-    return None if math.isnan(out) else out
-
-
 def classify(row: pd.Series | dict) -> tuple[Stability, str]:
     """The class of one run's row and the figure behind it (a short text)."""
     status = str(row.get("status"))
@@ -76,10 +66,10 @@ def classify(row: pd.Series | dict) -> tuple[Stability, str]:
         return Stability.FAILED, message[:60]
     if status == "diverged":
         return Stability.DIVERGED, message[:60]
-    rise = _number(row.get("energy_rise_before_slip"))
+    rise = number_or_none(row.get("energy_rise_before_slip"))
     if rise is not None and rise > ENERGY_GAIN_LIMIT:
         return Stability.ENERGY_GAIN, f"energy +{100 * rise:.3g} %"
-    depth, a = _number(row.get("max_penetration_m")), _number(row.get("a"))
+    depth, a = number_or_none(row.get("max_penetration_m")), number_or_none(row.get("a"))
     if depth is not None and a and depth > PENETRATION_LIMIT * a:
         return Stability.DEEP_PENETRATION, f"{100 * depth / a:.3g} % of a"
     verdict = row.get("verdict")

@@ -57,6 +57,7 @@ __all__ = [
     "classify",
     "counts_as_hop",
     "hop_matches",
+    "number_or_none",
     "painleve_time",
     "verdict_columns",
 ]
@@ -120,7 +121,7 @@ class Judgement:
     reason: str
 
 
-def _number(value: Any) -> float | None:
+def number_or_none(value: Any) -> float | None:
     """A float, or None for a missing value (None, NaN, pandas' NA)."""
     if value is None or isinstance(value, str):
         return None
@@ -139,8 +140,8 @@ def counts_as_hop(hop_height: float | None, max_clearance: float | None = None) 
     """Whether a detected lift-off is a hop: its height (or, where that was withheld, the
     run's largest clearance) exceeds HOP_CLEARANCE. With neither known, the detectors' word
     stands."""
-    size = _number(hop_height)
-    size = _number(max_clearance) if size is None else size
+    size = number_or_none(hop_height)
+    size = number_or_none(max_clearance) if size is None else size
     return size is None or size > HOP_CLEARANCE
 
 
@@ -152,7 +153,7 @@ def hop_matches(
 ) -> bool:
     """Whether an engine's hop is the exact one: height within HOP_HEIGHT_FACTOR, lift-off
     within LIFT_TIME_TOLERANCE. False where any of the four numbers is missing."""
-    h, t, h0, t0 = (_number(v) for v in (hop_height, t_lift, exact_hop_height, exact_t_lift))
+    h, t, h0, t0 = (number_or_none(v) for v in (hop_height, t_lift, exact_hop_height, exact_t_lift))
     if h is None or t is None or h0 is None or t0 is None or h0 <= 0:
         return False
     return h0 / HOP_HEIGHT_FACTOR <= h <= h0 * HOP_HEIGHT_FACTOR and abs(t - t0) <= (
@@ -180,7 +181,7 @@ def _engine_class(row: Mapping[str, Any]) -> _Class | None:
         return _Class.HOP
     if outcome == str(Outcome.PAINLEVE):
         return _Class.PAINLEVE
-    if outcome == str(Outcome.SLIPS) or _number(row.get("t_slip")) is not None:
+    if outcome == str(Outcome.SLIPS) or number_or_none(row.get("t_slip")) is not None:
         return _Class.SLIP
     return _Class.ROLL
 
@@ -204,7 +205,7 @@ def _phases_agree(phases: Any, exact_phases: Any, *, prefix: bool) -> bool | Non
 
 
 def _mm(value: Any) -> str:
-    number = _number(value)
+    number = number_or_none(value)
     return "-" if number is None else f"{1e3 * number:.3g} mm"
 
 
@@ -221,20 +222,21 @@ def _outcome(row: Mapping[str, Any], engine: _Class, exact: _Class) -> tuple[Ver
             row.get("exact_t_lift"),
         ):
             return Verdict.MISSED_HOP, (
-                f"hop {_mm(row.get('hop_height'))} at t = {_number(row.get('t_lift'))} s against "
-                f"{_mm(row.get('exact_hop_height'))} at {_number(row.get('exact_t_lift'))} s: "
+                f"hop {_mm(row.get('hop_height'))} at t = {number_or_none(row.get('t_lift'))} s "
+                f"against {_mm(row.get('exact_hop_height'))} at "
+                f"{number_or_none(row.get('exact_t_lift'))} s: "
                 f"not within a factor {HOP_HEIGHT_FACTOR:g} and {1e3 * LIFT_TIME_TOLERANCE:g} ms"
             )
         return None, "the exact hop"
     if exact is _Class.PAINLEVE:
-        t_p = _number(row.get("exact_t_painleve")) or 0.0
+        t_p = number_or_none(row.get("exact_t_painleve")) or 0.0
         if engine is _Class.HOP:
-            t_lift = _number(row.get("t_lift"))
+            t_lift = number_or_none(row.get("t_lift"))
             if t_lift is None or t_lift < t_p - LIFT_TIME_TOLERANCE:
                 when = "withheld" if t_lift is None else f"{t_lift:.6g} s"
                 return Verdict.FALSE_HOP, f"lift-off ({when}) before the Painlevé point {t_p:.6g} s"
             return None, f"lift-off at {t_lift:.6g} s, not before the Painlevé point {t_p:.6g} s"
-        if engine is _Class.ROLL and _number(row.get("exact_t_slip")) is not None:
+        if engine is _Class.ROLL and number_or_none(row.get("exact_t_slip")) is not None:
             return Verdict.MISSED_SLIP, "no slip before the Painlevé point"
         return None, "nothing contradicts the motion up to the Painlevé point"
     if engine is _Class.HOP:
