@@ -347,7 +347,7 @@ class Engine(ABC):
         """Simulate, then judge with this engine's detectors."""
         from hoopbench.engines.judge import judge
 
-        return judge(self.simulate(scene, settings), self.detectors)
+        return judge(self.simulate(scene, settings), self.detectors, scene)
 
 
 def equilibrium_depth(

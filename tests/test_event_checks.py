@@ -224,3 +224,26 @@ def test_flight_height_bounds_hold_for_every_ballistic_flight(spin, theta0_deg, 
     assert low - 1e-12 <= c.max() <= high + 1e-12
     if spin == 0.0:
         assert low == pytest.approx(high) == pytest.approx(c.max(), rel=1e-6)
+
+
+def test_engine_run_applies_the_flight_bound(monkeypatch):
+    """Engine.run passes its scene to the judge, so `hoopbench simulate` checks flights too."""
+    import sys
+
+    from hoopbench.engines.registry import get_engine
+    from hoopbench.engines.settings import RunSettings
+    from hoopbench.models.catalogue import get_scene
+
+    # The package exports the function under the module's name: take the module itself.
+    judge_module = sys.modules["hoopbench.engines.judge"]
+    seen = []
+    real = judge_module.judge
+
+    def spy(run, detectors=None, scene=None):
+        seen.append(scene)
+        return real(run, detectors, scene)
+
+    monkeypatch.setattr(judge_module, "judge", spy)
+    scene = get_scene("hop-bottom")
+    get_engine("reference").run(scene, RunSettings(timestep=1e-3))
+    assert seen == [scene]
