@@ -465,6 +465,8 @@ def _engine_options(p: argparse.ArgumentParser, engines: Sequence[str]) -> None:
 
 
 def _parser() -> _Parser:
+    from hoopbench.reports.suite_file import TrajectoryChoice
+
     parser = _Parser(
         prog="hoopbench",
         description="Cross-validate physics engines on the hopping hoop.",
@@ -525,7 +527,7 @@ def _parser() -> _Parser:
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.add_argument(
         "--trajectories",
-        choices=("none", "default", "all"),
+        choices=[c.value for c in TrajectoryChoice],
         default="none",
         help="store trajectories: of no run, of the default-settings runs, or of all",
     )

@@ -31,7 +31,7 @@ from hoopbench.models.trajectory import Trajectory
 from hoopbench.reference.exact import ExactSolution, solve_exact
 from hoopbench.reports import results
 from hoopbench.reports.runner import RunSummary, run_tasks
-from hoopbench.reports.suite_file import RunTask, Suite, load_suite
+from hoopbench.reports.suite_file import RunTask, Suite, TrajectoryChoice, load_suite
 from hoopbench.reports.verdict import Verdict, painleve_time, verdict_columns
 
 __all__ = [
@@ -106,15 +106,6 @@ TRAJECTORY_DIR = "trajectories"
 """Sub-folder of a results folder holding stored trajectories, one Parquet file per run."""
 
 
-class TrajectoryChoice:
-    """Which runs store their trajectory: none, the default variant's runs, or all."""
-
-    NONE = "none"
-    DEFAULT = "default"
-    ALL = "all"
-    CHOICES = (NONE, DEFAULT, ALL)
-
-
 # --------------------------------------------------------------------------- one run
 @functools.cache  # one exact solve per (scene, mu) per worker process, not one per run
 def _exact_solution(scene: Scene, mu: float) -> ExactSolution:
@@ -135,9 +126,11 @@ def rms_position_error(trajectory: Trajectory, exact: ExactSolution) -> float | 
     t = trajectory.t[trajectory.t <= exact.t_final]
     if len(t) < 2:
         return None
-    ours = trajectory.to_frame().iloc[: len(t)]
+    n = len(t)
     ref = exact.sample(t)
-    x, y = kinematics.centre_position(exact.scene, ours["X"], ours["Y"], ours["theta"])
+    x, y = kinematics.centre_position(
+        exact.scene, trajectory.X[:n], trajectory.Y[:n], trajectory.theta[:n]
+    )
     x0, y0 = kinematics.centre_position(exact.scene, ref.X, ref.Y, ref.theta)
     return float(np.sqrt(np.mean((x - x0) ** 2 + (y - y0) ** 2)))
 

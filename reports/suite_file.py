@@ -16,6 +16,7 @@ import math
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from enum import StrEnum
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
@@ -31,6 +32,7 @@ __all__ = [
     "RunTask",
     "Suite",
     "SuiteError",
+    "TrajectoryChoice",
     "VariantSpec",
     "builtin_suite",
     "load_suite",
@@ -59,6 +61,14 @@ _SCENE_KEYS = (
     "xdot0",
 )
 _VARIANT_KEYS = ("engine", "name", "profile", "geometry", "options", "timesteps")
+
+
+class TrajectoryChoice(StrEnum):
+    """Which runs store their trajectory: none, the default variant's runs, or all."""
+
+    NONE = "none"
+    DEFAULT = "default"
+    ALL = "all"
 
 
 class SuiteError(ValueError):
