@@ -12,6 +12,7 @@ import functools
 import json
 import math
 import shutil
+from collections.abc import Mapping
 from concurrent.futures import Executor
 from dataclasses import replace
 from datetime import UTC, datetime
@@ -39,6 +40,8 @@ __all__ = [
     "TrajectoryChoice",
     "build_report",
     "compare",
+    "event_columns",
+    "exact_columns",
     "failure_row",
     "report_frame",
     "run_task",
@@ -158,6 +161,62 @@ def _task_columns(task: RunTask) -> dict[str, Any]:
     }
 
 
+def exact_columns(exact: Events) -> dict[str, Any]:
+    """The ``exact_*`` columns of a row: the exact events of its scene (and mu)."""
+    return {
+        "exact_outcome": str(exact.outcome),
+        "exact_t_slip": exact.t_slip,
+        "exact_theta_slip_deg": None
+        if exact.theta_slip is None
+        else math.degrees(exact.theta_slip),
+        "exact_t_lift": exact.t_lift,
+        "exact_hop_height": exact.hop_height,
+        "exact_t_impact": exact.t_impact,
+        "exact_t_painleve": painleve_time(exact),
+        "exact_phases": exact.phase_code,
+    }
+
+
+def event_columns(
+    events: Events, traj: Trajectory, scene: Scene, exact: Mapping[str, Any]
+) -> dict[str, Any]:
+    """A judged run's event columns and their errors against ``exact`` (the row's
+    ``exact_*`` columns, :func:`exact_columns`, with None for a missing value)."""
+    # The judge has no scene; the flight-time bound needs g and lam a (engines/event_checks).
+    events = check_flight(events, traj, scene)
+    theta_deg = None if events.theta_slip is None else math.degrees(events.theta_slip)
+    before = traj.t < (events.t_slip if events.t_slip is not None else traj.t[-1])
+    e0 = traj.energy[0]
+    exact_hop = exact["exact_hop_height"]
+    return {
+        "outcome": str(events.outcome),
+        "t_slip": events.t_slip,
+        "t_slip_threshold": events.extra.get("t_slip_threshold"),
+        "theta_slip_deg": theta_deg,
+        "t_restick": events.t_restick,
+        "t_lift": events.t_lift,
+        "hop_height": events.hop_height,
+        "t_impact": events.t_impact,
+        "err_t_slip_ms": _ms(_error(events.t_slip, exact["exact_t_slip"])),
+        "err_theta_slip_deg": _error(theta_deg, exact["exact_theta_slip_deg"]),
+        "err_t_lift_ms": _ms(_error(events.t_lift, exact["exact_t_lift"])),
+        "err_t_impact_ms": _ms(_error(events.t_impact, exact["exact_t_impact"])),
+        "err_hop_height_rel": None
+        if events.hop_height is None or not exact_hop
+        else events.hop_height / exact_hop - 1.0,
+        "energy_rise_before_slip": float((traj.energy[before].max() - e0) / e0)
+        if before.any()
+        else None,
+        "energy_change_end": float((traj.energy[-1] - e0) / e0),
+        "max_penetration_m": float(max(0.0, -traj.clearance.min())),
+        "max_clearance": float(traj.clearance.max()),
+        "consistent": not events.flags,
+        "event_flags": " ".join(events.flags),
+        "phases": events.phase_code,
+        "phases_agree": events.phase_code == exact["exact_phases"],
+    }
+
+
 def _row(task: RunTask, result: RunResult, exact: Events) -> dict[str, Any]:
     info, events, traj = result.info, result.events, result.trajectory
     row: dict[str, Any] = {
@@ -171,53 +230,10 @@ def _row(task: RunTask, result: RunResult, exact: Events) -> dict[str, Any]:
         "us_per_step": None
         if not info.n_steps or info.wall_time_s is None
         else 1e6 * info.wall_time_s / info.n_steps,
-        "exact_outcome": str(exact.outcome),
-        "exact_t_slip": exact.t_slip,
-        "exact_theta_slip_deg": None
-        if exact.theta_slip is None
-        else math.degrees(exact.theta_slip),
-        "exact_t_lift": exact.t_lift,
-        "exact_hop_height": exact.hop_height,
-        "exact_t_impact": exact.t_impact,
-        "exact_t_painleve": painleve_time(exact),
-        "exact_phases": exact.phase_code,
+        **exact_columns(exact),
     }
-    if events is None or traj is None:
-        return {**row, **verdict_columns(row)}
-    # The judge has no scene; the flight-time bound needs g and lam a (engines/event_checks).
-    events = check_flight(events, traj, task.scene)
-    theta_deg = None if events.theta_slip is None else math.degrees(events.theta_slip)
-    before = traj.t < (events.t_slip if events.t_slip is not None else traj.t[-1])
-    e0 = traj.energy[0]
-    row.update(
-        {
-            "outcome": str(events.outcome),
-            "t_slip": events.t_slip,
-            "t_slip_threshold": events.extra.get("t_slip_threshold"),
-            "theta_slip_deg": theta_deg,
-            "t_restick": events.t_restick,
-            "t_lift": events.t_lift,
-            "hop_height": events.hop_height,
-            "t_impact": events.t_impact,
-            "err_t_slip_ms": _ms(_error(events.t_slip, exact.t_slip)),
-            "err_theta_slip_deg": _error(theta_deg, row["exact_theta_slip_deg"]),
-            "err_t_lift_ms": _ms(_error(events.t_lift, exact.t_lift)),
-            "err_t_impact_ms": _ms(_error(events.t_impact, exact.t_impact)),
-            "err_hop_height_rel": None
-            if events.hop_height is None or not exact.hop_height
-            else events.hop_height / exact.hop_height - 1.0,
-            "energy_rise_before_slip": float((traj.energy[before].max() - e0) / e0)
-            if before.any()
-            else None,
-            "energy_change_end": float((traj.energy[-1] - e0) / e0),
-            "max_penetration_m": float(max(0.0, -traj.clearance.min())),
-            "max_clearance": float(traj.clearance.max()),
-            "consistent": not events.flags,
-            "event_flags": " ".join(events.flags),
-            "phases": events.phase_code,
-            "phases_agree": events.phase_code == exact.phase_code,
-        }
-    )
+    if events is not None and traj is not None:
+        row.update(event_columns(events, traj, task.scene, row))
     return {**row, **verdict_columns(row)}
 
 
