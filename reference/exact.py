@@ -94,6 +94,8 @@ class EventReason(Enum):
     """Slipping: D reached zero, no consistent contact force."""
     BUDGET = "budget"
     """The call's integrator step budget ran out."""
+    SETTLED = "settled"
+    """Rolling: theta advanced a full turn in this roll phase (only with stop_when_settled)."""
 
 
 class WorkBudgetError(RuntimeError):
@@ -202,10 +204,13 @@ class ExactSolution:
     segments: tuple[Segment, ...]
     rtol: float
     atol: float
+    t_settled: float | None = None
+    """s: where a ``stop_when_settled`` solve stopped, a full turn of theta into its last roll
+    phase (the events still describe the whole window); None when solved to the end."""
 
     @property
     def t_final(self) -> float:
-        """End of the solved window, s (t_end or the first impact)."""
+        """End of the solved window, s (t_end or the first impact; t_settled if set)."""
         return self.segments[-1].t_end if self.segments else 0.0
 
     def state(self, t: ArrayLike) -> NDArray:
@@ -373,7 +378,14 @@ def _which_event(sol, names: list[EventReason]) -> EventReason:
 
 
 def _roll_phase(
-    scene: Scene, t0: float, state: State, t_end: float, opts: _Options, budget: _StepBudget
+    scene: Scene,
+    t0: float,
+    state: State,
+    t_end: float,
+    opts: _Options,
+    budget: _StepBudget,
+    *,
+    settle: bool = False,
 ) -> tuple[Segment, _PhaseEnd]:
     a, r = scene.a, scene.com_offset
     x0 = state[0] - r * math.sin(state[2])
@@ -389,17 +401,18 @@ def _roll_phase(
     def lift(t, y):
         return dynamics.rolling_forces(scene, y[0], y[1])[1]
 
-    sol = _integrate(
-        rhs,
-        [state[2], state[5]],
-        t0,
-        t_end,
-        [_event(slip, -1), _event(lift, -1)],
-        opts,
-        "aw",
-        budget,
-    )
-    reason = _which_event(sol, [EventReason.SLIP, EventReason.LIFT])
+    def turned(t, y):
+        return abs(y[0] - theta_start) - 2.0 * math.pi
+
+    # The full-turn event comes after the physical ones, so that they win ties; without
+    # ``settle`` the event list, and so every step and number, is exactly as before.
+    names = [EventReason.SLIP, EventReason.LIFT]
+    events = [_event(slip, -1), _event(lift, -1)]
+    if settle:
+        names.append(EventReason.SETTLED)
+        events.append(_event(turned, 1))
+    sol = _integrate(rhs, [state[2], state[5]], t0, t_end, events, opts, "aw", budget)
+    reason = _which_event(sol, names)
     dense = sol.sol
 
     def states(t):
@@ -672,6 +685,7 @@ def solve_exact(
     max_step: float | None = None,
     max_steps: int = DEFAULT_MAX_STEPS,
     max_phases: int = DEFAULT_MAX_PHASES,
+    stop_when_settled: bool = False,
 ) -> ExactSolution:
     """Solve the scene from t = 0 to its t_end or the first impact, whichever comes first.
 
@@ -687,6 +701,12 @@ def solve_exact(
     ``max_phases`` phases. When either runs out, or a flight would need too many samples to
     find its impact, the solution ends there with ``Outcome.ERROR`` and a message that says
     why; the events found until then are kept.
+
+    ``stop_when_settled`` (default off) ends the integration once a roll phase has advanced
+    theta by a full turn: while rolling, energy is conserved and the state is a function of
+    theta mod 2 pi, so the motion then repeats with no further event. The events are those
+    of the whole window (the last roll phase is reported up to t_end), but the dense solution
+    ends at that turn, :attr:`ExactSolution.t_settled`.
     """
     for name, value in (("rtol", rtol), ("atol", atol)):
         if not (value > 0 and math.isfinite(value)):
@@ -709,6 +729,7 @@ def solve_exact(
     message = ""
     extra: dict[str, float | None] = {}
     flips = 0
+    t_settled: float | None = None
 
     def over_budget(what: str) -> str:
         time_scale = math.sqrt(scene.a / scene.g)
@@ -762,7 +783,9 @@ def solve_exact(
             message = over_budget(f"max_steps = {max_steps} integrator steps used")
             break
         if mode is Mode.ROLL:
-            seg, end = _roll_phase(scene, t, state, scene.t_end, opts, budget)
+            seg, end = _roll_phase(
+                scene, t, state, scene.t_end, opts, budget, settle=stop_when_settled
+            )
         elif mode is Mode.SLIP:
             first_slip(t, state)
             if scene.is_degenerate:
@@ -793,6 +816,13 @@ def solve_exact(
             outcome = outcome or Outcome.HOPS
             break
         segments.append(seg)
+        if end.reason is EventReason.SETTLED:
+            # Nothing happens any more: the phase runs to the window's end, to the very number
+            # an unstopped integration ends on (solve_ivp stops exactly at t_end / unit).
+            t_window = scene.t_end / units.time * units.time
+            phases.append(Phase(seg.kind, seg.t_start, t_window, seg.sigma))
+            t_settled = end.t
+            break
         if seg.t_end - seg.t_start > MIN_PHASE * units.time or end.reason is EventReason.END:
             phases.append(Phase(seg.kind, seg.t_start, seg.t_end, seg.sigma))
         t, state = end.t, end.state
@@ -849,7 +879,7 @@ def solve_exact(
     )
     if not segments:  # nothing integrable (Painlevé or degenerate at t = 0)
         segments.append(_frozen_segment(scene, state))
-    return ExactSolution(scene, events, tuple(segments), rtol, atol)
+    return ExactSolution(scene, events, tuple(segments), rtol, atol, t_settled)
 
 
 def _frozen_segment(scene: Scene, state: State) -> Segment:

@@ -121,8 +121,11 @@ def settled_time(solution: ExactSolution) -> float | None:
     full turn with no event, every value of theta mod 2 pi has been visited without one, so
     the motion repeats turn after turn and no new event can occur. A roll that rocks back
     and forth (thetadot changes sign) never completes the turn and returns None, as does a
-    window too short for the turn.
+    window too short for the turn. A solve that stopped at that turn
+    (``stop_when_settled``) knows the time already.
     """
+    if solution.t_settled is not None:
+        return solution.t_settled
     if solution.events.outcome not in (Outcome.ROLLS, Outcome.SLIPS):
         return None
     last = solution.segments[-1]
@@ -148,10 +151,15 @@ def settled_time(solution: ExactSolution) -> float | None:
     return float(brentq(turned, grid[k - 1], grid[k], xtol=1e-12))
 
 
-def classify(scene: Scene) -> RegimePoint:
-    """Solve the scene exactly and classify its motion (see :class:`Regime`)."""
+def classify(scene: Scene, *, stop_when_settled: bool = True) -> RegimePoint:
+    """Solve the scene exactly and classify its motion (see :class:`Regime`).
+
+    The solve stops once the motion has settled (``stop_when_settled``; the events are the
+    same as without, see :func:`~hoopbench.reference.exact.solve_exact`): a point needs no
+    more than its regime and events.
+    """
     start = time.perf_counter()
-    solution = solve_exact(scene)
+    solution = solve_exact(scene, stop_when_settled=stop_when_settled)
     events = solution.events
     regime = regime_of(events)
     hops = regime in (Regime.HOPS, Regime.LIFTS_AT_START)
