@@ -348,6 +348,7 @@ def _engine_declaration(cls: Any) -> dict[str, Any]:
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
+    from hoopbench.reports.cluster import executor_from_args
     from hoopbench.reports.runner import RunnerError
     from hoopbench.reports.suite import compare
     from hoopbench.reports.suite_file import builtin_suite, load_suite
@@ -358,18 +359,26 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     suite = load_suite(path)  # the whole file is checked before anything runs
     if args.run_timeout is not None and not (args.run_timeout > 0):
         raise UsageError(f"--run-timeout must be > 0 s, got {args.run_timeout}")
-    try:
-        summary = compare(
-            path,
-            args.out,
-            jobs=args.jobs,
-            resume=args.resume,
-            run_timeout_s=args.run_timeout,
-            engines=args.engines,
-            quiet=args.quiet,
-            trajectories=args.trajectories,
-            suite=suite,
+    if args.scheduler and args.trajectories != "none" and not args.quiet:
+        print(
+            "hoopbench: note: the Dask workers write the trajectories into --out as they see "
+            "it: on other machines that needs a shared file system at the same path",
+            file=sys.stderr,
         )
+    try:
+        with executor_from_args(args) as executor:
+            summary = compare(
+                path,
+                args.out,
+                jobs=args.jobs,
+                resume=args.resume,
+                run_timeout_s=args.run_timeout,
+                engines=args.engines,
+                quiet=args.quiet,
+                trajectories=args.trajectories,
+                suite=suite,
+                executor=executor,
+            )
     except RunnerError as exc:
         raise UsageError(str(exc)) from None
     if summary.interrupted is not None:
@@ -465,6 +474,7 @@ def _engine_options(p: argparse.ArgumentParser, engines: Sequence[str]) -> None:
 
 
 def _parser() -> _Parser:
+    from hoopbench.reports.cluster import add_cluster_arguments
     from hoopbench.reports.suite_file import TrajectoryChoice
 
     parser = _Parser(
@@ -531,6 +541,7 @@ def _parser() -> _Parser:
         default="none",
         help="store trajectories: of no run, of the default-settings runs, or of all",
     )
+    add_cluster_arguments(p)
     p.set_defaults(func=_cmd_compare)
 
     p = sub.add_parser("report", help="write report.md and figures from stored results")

@@ -1,1 +1,303 @@
-"""Placeholder: being written."""
+"""Run a sweep on a Dask cluster: the ``--scheduler`` options and an executor for run_tasks.
+
+:func:`hoopbench.reports.runner.run_tasks` drives any ``concurrent.futures`` executor; Dask's
+``Client.get_executor()`` is one, with these behaviours the runner relies on:
+
+* Calls are submitted with ``pure=False``. Dask's default (``pure=True``) names a call by
+  its function and arguments, so the runner's retry of a failed call would get the failed
+  call's future back at once instead of running again.
+* A worker that dies while running a call is replaced by its nanny and the scheduler gives
+  the call to another worker; after ``distributed.scheduler.allowed-failures`` deaths (3) the
+  future fails with ``KilledWorker``, which the runner counts as a crash: one more try, then
+  a ``crashed`` row. A call that kills every worker it runs on thus costs 8 worker restarts.
+* ``cancel()`` on a timed-out call frees its place in the scheduler's queue; a call already
+  running keeps its worker thread until it returns (Dask cannot stop a thread).
+* A lost scheduler cancels every future. Then :meth:`ClusterExecutor.submit` raises
+  ``BrokenExecutor`` (after waiting ``timeout`` seconds for the client to reconnect), so the
+  sweep stops with the rows it has and ``--resume`` finishes it later.
+
+Rows are made on the workers and returned to this process, which writes them as the runs
+finish; workers only need ``hoopbench`` (same version, with its engines) importable. Dask is
+an optional dependency (``hoopbench[dask]``), imported only when a cluster is asked for.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import ipaddress
+import socket
+import time
+from collections.abc import Callable, Iterator
+from concurrent.futures import BrokenExecutor, Executor, Future
+from dataclasses import dataclass
+from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
+from typing import Any
+
+from hoopbench.reports.runner import RunnerError
+
+__all__ = [
+    "DEFAULT_CONNECT_TIMEOUT",
+    "ClusterError",
+    "ClusterExecutor",
+    "TlsFiles",
+    "add_cluster_arguments",
+    "cluster_executor",
+    "executor_from_args",
+    "parse_address",
+    "tls_files_from_args",
+]
+
+DEFAULT_CONNECT_TIMEOUT = 10.0
+"""s: to reach the scheduler, to find a worker there, and to get a lost scheduler back."""
+
+SCHEMES = ("tcp", "tls")
+"""Address schemes we accept: Dask's plain and TLS transports (no extra packages needed)."""
+
+INSTALL_HINT = "install hoopbench[dask] (pip install 'hoopbench[dask]')"
+
+
+class ClusterError(RunnerError):
+    """The cluster cannot be used: one line for the command line (exit status 2)."""
+
+
+@dataclass(frozen=True)
+class TlsFiles:
+    """The client's side of Dask's mutual TLS (PEM files)."""
+
+    ca_file: Path
+    """The certificate authority that signed the scheduler's and workers' certificates."""
+    cert: Path
+    """This client's certificate (may hold its key too)."""
+    key: Path | None = None
+    """This client's private key, if not in ``cert``."""
+
+    def check(self) -> None:
+        """Raise ClusterError naming the first file that is not there."""
+        for option, path in (("--tls-ca-file", self.ca_file), ("--tls-cert", self.cert)):
+            if not path.is_file():
+                raise ClusterError(f"{option} {str(path)!r}: no such file")
+        if self.key is not None and not self.key.is_file():
+            raise ClusterError(f"--tls-key {str(self.key)!r}: no such file")
+
+
+# --------------------------------------------------------------------------- the options
+def add_cluster_arguments(parser: argparse.ArgumentParser) -> None:
+    """--scheduler and its timeout and TLS options, in a group of their own."""
+    group = parser.add_argument_group(
+        "Dask cluster", "run on a Dask cluster instead of local processes (needs hoopbench[dask])"
+    )
+    group.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="Dask scheduler, tcp://HOST:PORT or tls://HOST:PORT (--jobs is then ignored)",
+    )
+    group.add_argument(
+        "--scheduler-timeout",
+        type=float,
+        default=DEFAULT_CONNECT_TIMEOUT,
+        metavar="SECONDS",
+        help=f"give up reaching the scheduler or a worker after this (default "
+        f"{DEFAULT_CONNECT_TIMEOUT:g} s)",
+    )
+    group.add_argument("--tls-ca-file", metavar="PEM", help="tls://: the cluster's CA certificate")
+    group.add_argument("--tls-cert", metavar="PEM", help="tls://: this client's certificate")
+    group.add_argument("--tls-key", metavar="PEM", help="tls://: its key, if not in --tls-cert")
+
+
+def tls_files_from_args(args: argparse.Namespace) -> TlsFiles | None:
+    """The TLS files named on the command line, or None; ClusterError for half a set."""
+    given = {
+        "--tls-ca-file": args.tls_ca_file,
+        "--tls-cert": args.tls_cert,
+        "--tls-key": args.tls_key,
+    }
+    if not any(given.values()):
+        return None
+    if args.scheduler is None:
+        names = " and ".join(name for name, value in given.items() if value)
+        raise ClusterError(f"{names}: only with --scheduler tls://HOST:PORT")
+    missing = [name for name in ("--tls-ca-file", "--tls-cert") if not given[name]]
+    if missing:
+        raise ClusterError(f"TLS needs {' and '.join(missing)} as well")
+    key = Path(args.tls_key) if args.tls_key else None
+    return TlsFiles(Path(args.tls_ca_file), Path(args.tls_cert), key)
+
+
+@contextlib.contextmanager
+def executor_from_args(args: argparse.Namespace) -> Iterator[ClusterExecutor | None]:
+    """The cluster's executor if ``--scheduler`` was given, else None (the local pool)."""
+    tls = tls_files_from_args(args)
+    if args.scheduler is None:
+        yield None
+        return
+    with cluster_executor(args.scheduler, tls, args.scheduler_timeout) as executor:
+        yield executor
+
+
+def parse_address(address: str) -> tuple[str, str, int]:
+    """(scheme, host, port) of ``[tcp|tls]://HOST:PORT``; ClusterError naming a bad one."""
+    scheme, sep, rest = address.partition("://")
+    if not sep:
+        scheme, rest = "tcp", address
+    bad = f"--scheduler {address!r}"
+    if scheme not in SCHEMES:
+        raise ClusterError(f"{bad}: the scheme must be tcp:// or tls://, not {scheme}://")
+    host, sep, port_text = rest.rpartition(":")
+    if not sep or not host:
+        raise ClusterError(f"{bad}: expected {scheme}://HOST:PORT")
+    if host.startswith("[") and host.endswith("]"):
+        host = host[1:-1]  # an IPv6 literal
+        with contextlib.suppress(ValueError):
+            ipaddress.IPv6Address(host)
+            return scheme, host, _port(port_text, bad)
+        raise ClusterError(f"{bad}: {host!r} is not an IPv6 address")
+    if not host.replace("-", "").replace(".", "").replace("_", "").isalnum():
+        raise ClusterError(f"{bad}: {host!r} is not a host name or address")
+    return scheme, host, _port(port_text, bad)
+
+
+def _port(text: str, bad: str) -> int:
+    if not text.isdigit() or not 0 < int(text) < 65536:
+        raise ClusterError(f"{bad}: the port must be a number from 1 to 65535, not {text!r}")
+    return int(text)
+
+
+# --------------------------------------------------------------------------- the executor
+class ClusterExecutor(Executor):
+    """Dask's ``ClientExecutor`` with ``pure=False``, the cluster's size, and a clear failure
+    when the scheduler is gone."""
+
+    def __init__(self, client: Any, address: str, timeout: float) -> None:
+        self._client = client
+        self._address = address
+        self._timeout = timeout
+        self._inner = client.get_executor(pure=False)
+        self._threads = sum(client.nthreads().values())
+
+    @property
+    def max_workers(self) -> int:
+        """Worker threads on the cluster when we connected: the runner's in-flight limit."""
+        return self._threads
+
+    @property
+    def client(self) -> Any:
+        """The ``distributed.Client`` (for tests and the benchmark)."""
+        return self._client
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future:
+        deadline = time.monotonic() + self._timeout
+        while self._client.status != "running":
+            # "connecting": the client is trying to get the scheduler back; wait that out.
+            if self._client.status != "connecting" or time.monotonic() > deadline:
+                raise BrokenExecutor(f"lost the Dask scheduler at {self._address}")
+            time.sleep(0.1)
+        return self._inner.submit(fn, *args, **kwargs)
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        self._inner.shutdown(wait=wait and not cancel_futures)
+
+
+@contextlib.contextmanager
+def cluster_executor(
+    address: str, security: TlsFiles | None = None, timeout: float = DEFAULT_CONNECT_TIMEOUT
+) -> Iterator[ClusterExecutor]:
+    """Connect to the Dask scheduler at ``address`` and yield an executor for run_tasks.
+
+    Raises :class:`ClusterError` (one line) if Dask is not installed, the address is
+    malformed, the TLS files are missing or do not match the address's scheme, the scheduler
+    cannot be reached within ``timeout`` seconds, no worker is there within ``timeout``, or a
+    worker cannot import this version of hoopbench. The client is closed on exit; the
+    scheduler and workers keep running.
+    """
+    if not timeout > 0:
+        raise ClusterError(f"--scheduler-timeout must be > 0 s, got {timeout}")
+    scheme, host, port = parse_address(address)
+    address = f"{scheme}://[{host}]:{port}" if ":" in host else f"{scheme}://{host}:{port}"
+    distributed = _import_distributed()
+    dask_security = _security(distributed, scheme, security, address)
+    _check_reachable(host, port, timeout, address)
+    try:
+        client = distributed.Client(
+            address, security=dask_security, timeout=timeout, set_as_default=False
+        )
+    except Exception as exc:  # OSError, TimeoutError, ssl errors: all say "not usable"
+        raise ClusterError(f"cannot connect to the Dask scheduler at {address}: {exc}") from None
+    try:
+        _check_workers(client, address, timeout)
+        yield ClusterExecutor(client, address, timeout)
+    finally:
+        with contextlib.suppress(Exception):
+            client.close(timeout=timeout)
+
+
+def _import_distributed() -> Any:
+    try:
+        import distributed
+    except ImportError:
+        raise ClusterError(f"--scheduler needs Dask: {INSTALL_HINT}") from None
+    return distributed
+
+
+def _security(distributed: Any, scheme: str, tls: TlsFiles | None, address: str) -> Any:
+    """Dask's Security for the scheme: TLS files from us, or else from Dask's configuration."""
+    if scheme == "tcp":
+        if tls is not None:
+            raise ClusterError(f"--tls-* options need a tls:// scheduler address, not {address}")
+        return None
+    if tls is None:
+        configured = distributed.Security(require_encryption=True)
+        if configured.tls_ca_file and configured.tls_client_cert:
+            return configured
+        raise ClusterError(
+            f"{address} needs --tls-ca-file and --tls-cert (or the client's files in "
+            "Dask's configuration, distributed.comm.tls)"
+        )
+    tls.check()
+    return distributed.Security(
+        tls_ca_file=str(tls.ca_file),
+        tls_client_cert=str(tls.cert),
+        tls_client_key=None if tls.key is None else str(tls.key),
+        require_encryption=True,
+    )
+
+
+def _check_reachable(host: str, port: int, timeout: float, address: str) -> None:
+    """A plain TCP connection first: 'refused' or 'unknown host' at once, not after a timeout
+    of Dask's retries."""
+    try:
+        with socket.create_connection((host, port), timeout=timeout):
+            pass
+    except socket.gaierror:
+        raise ClusterError(f"--scheduler {address}: unknown host {host!r}") from None
+    except TimeoutError:
+        raise ClusterError(
+            f"no Dask scheduler answered at {address} within {timeout:g} s"
+        ) from None
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        raise ClusterError(f"cannot reach a Dask scheduler at {address}: {reason}") from None
+
+
+def _check_workers(client: Any, address: str, timeout: float) -> None:
+    """At least one worker, and every worker imports the hoopbench we run."""
+    try:
+        client.wait_for_workers(1, timeout=timeout)
+    except Exception:
+        raise ClusterError(
+            f"the Dask scheduler at {address} has no workers (waited {timeout:g} s): start "
+            f"some with 'dask worker {address} --nthreads 1'"
+        ) from None
+    ours = version("hoopbench")
+    found = client.run(version, "hoopbench", on_error="return")
+    for worker, theirs in sorted(found.items()):
+        if isinstance(theirs, PackageNotFoundError):
+            raise ClusterError(f"Dask worker {worker} has no hoopbench: {INSTALL_HINT} there")
+        if isinstance(theirs, BaseException):
+            raise ClusterError(f"Dask worker {worker} cannot report its hoopbench: {theirs}")
+        if theirs != ours:
+            raise ClusterError(
+                f"Dask worker {worker} has hoopbench {theirs}, this client {ours}: install "
+                "the same version on every worker"
+            )

@@ -772,8 +772,8 @@ def run_tasks(
     foreign executor (``concurrent.futures`` or Dask's ``Client.get_executor()``) is not
     shut down here; a timed-out call is cancelled if possible and otherwise abandoned (it
     keeps its worker), and an exception from a future counts as a crash. Its calls are
-    timed from submission, with at most ``max_in_flight`` (default: its ``_max_workers`` or
-    ``jobs`` or the CPU count) submitted at once.
+    timed from submission, with at most ``max_in_flight`` (default: its ``max_workers``,
+    ``_max_workers``, ``jobs`` or the CPU count) submitted at once.
 
     Raises :class:`OutputDirNotEmptyError` if ``out_dir`` holds files and ``resume`` is
     false; with ``resume``, runs whose latest row has a final status are skipped.
@@ -836,7 +836,8 @@ def run_tasks(
         pool: Executor = local
     else:
         pool = executor
-        guess = getattr(executor, "_max_workers", None)
+        # A public max_workers (WorkerPool, the Dask cluster's threads) or the stdlib pools'.
+        guess = getattr(executor, "max_workers", None) or getattr(executor, "_max_workers", None)
         in_flight_limit = max_in_flight or guess or jobs or os.cpu_count() or 1
 
     progress = _Progress(len(todo), stream, quiet)
