@@ -30,6 +30,7 @@ import numpy as np
 from hoopbench.engines.detectors import DetectorSettings
 from hoopbench.engines.options import Option, Profile, Variant
 from hoopbench.engines.settings import BYTES_PER_STEP, MAX_STEPS, RunSettings
+from hoopbench.engines.stopping import StopReason
 from hoopbench.models import kinematics
 from hoopbench.models.events import Events
 from hoopbench.models.scene import Scene
@@ -136,6 +137,8 @@ class Simulation:
     failed: str | None = None
     """Reason, if the engine produced a trajectory but no meaningful result (the run is an
     error row: e.g. the reference solver reached a degenerate or budget-limited end)."""
+    stop_reason: StopReason | None = None
+    """Why the run ended before its window's end (``RunSettings.stop``); None: it did not."""
 
 
 @dataclass(frozen=True)
@@ -152,9 +155,12 @@ class RunInfo:
     timestep: float | None = None
     """s."""
     settings: dict[str, Any] = field(default_factory=dict)
+    stop_reason: str | None = None
+    """A StopReason value if the run ended early by its stop rule; None: the window's end
+    (or a failure). ``n_steps`` counts the steps recorded either way."""
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        out = {
             "engine": self.engine,
             "engine_version": self.engine_version,
             "status": str(self.status),
@@ -165,6 +171,9 @@ class RunInfo:
             "timestep": self.timestep,
             "settings": self.settings,
         }
+        if self.stop_reason is not None:  # absent otherwise: output as before stop rules
+            out["stop_reason"] = self.stop_reason
+        return out
 
 
 @dataclass(frozen=True)
@@ -339,6 +348,7 @@ class Engine(ABC):
             message=message,
             wall_time_s=sim.wall_time_s,
             n_steps=sim.n_steps,
+            stop_reason=None if sim.stop_reason is None else str(sim.stop_reason),
             **base,
         )
         return Run(sim.trajectory, info, sim.exact_events)

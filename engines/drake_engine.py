@@ -65,6 +65,7 @@ from hoopbench.engines.base import (
 from hoopbench.engines.options import Option, Variant, choice, number, optional
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
+from hoopbench.engines.stopping import StopMonitor
 from hoopbench.models import kinematics
 from hoopbench.models.scene import Scene
 from hoopbench.models.sdformat import MODEL_NAME, check_restitution, scene_to_sdformat
@@ -383,6 +384,8 @@ class DrakeEngine(Engine):
         chunks = []
         diverged: str | None = None
         done = 0  # steps taken whose states are recorded
+        monitor = StopMonitor.for_run(scene, settings.stop, dt, detectors=self.detectors)
+        stopped = None
 
         start = time.perf_counter()
         simulator.Initialize()
@@ -397,7 +400,10 @@ class DrakeEngine(Engine):
             log.Clear()
             done += m
             diverged = check_divergence(scene, _our_state(scene, chunks[-1]), self.limits)
-            if diverged:
+            if monitor and not diverged:
+                # The logger's samples end at step done + extra (published on k*dt).
+                stopped = monitor.feed(_our_state(scene, chunks[-1]), done + extra)
+            if diverged or stopped:
                 break
         wall = time.perf_counter() - start
 
@@ -406,7 +412,7 @@ class DrakeEngine(Engine):
         if model.discrete:
             force = force[:, 1:]  # row i: the force of the step from state i
         n = min(done + 1, state.shape[1], force.shape[1])
-        if not diverged and n != n_steps + 1:
+        if not (diverged or stopped) and n != n_steps + 1:
             raise RuntimeError(f"Drake's logger recorded {n} samples, expected {n_steps + 1}")
         state, force = state[:, :n], force[:, :n]
         # The planar joint's generalized forces: along world x, along world z, about -y.
@@ -417,7 +423,13 @@ class DrakeEngine(Engine):
             normal_force=force[1] / scene.M,
             friction_force=force[0] / scene.M,
         )
-        return Simulation(trajectory=trajectory, n_steps=n - 1, wall_time_s=wall, diverged=diverged)
+        return Simulation(
+            trajectory=trajectory,
+            n_steps=n - 1,
+            wall_time_s=wall,
+            diverged=diverged,
+            stop_reason=stopped,
+        )
 
     # ----------------------------------------------------------------- benchmark
     def bare_loop_time(self, scene: Scene, settings: RunSettings | None = None) -> float:

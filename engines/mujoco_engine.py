@@ -76,6 +76,7 @@ from hoopbench.engines.options import (
 )
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
+from hoopbench.engines.stopping import StopMonitor
 from hoopbench.models import kinematics
 from hoopbench.models.mjcf import (
     CONES,
@@ -278,6 +279,11 @@ class MujocoEngine(Engine):
         out = {k: np.empty(n_steps + 1) for k in ("X", "Y", "theta", "Xdot", "Ydot", "thetadot")}
         diverged: str | None = None
         done = 0  # states 0..done are recorded
+        shape = contact_shape(scene, settings.geometry, options)
+        monitor = StopMonitor.for_run(
+            scene, settings.stop, dt, detectors=self.detectors, shape=shape
+        )
+        stopped = None
 
         start = time.perf_counter()
         with _captured_warnings(mujoco) as warnings, rollout.Rollout(nthread=0) as runner:
@@ -305,13 +311,15 @@ class MujocoEngine(Engine):
                 diverged = _warning_reason(mujoco, data, warnings) or check_divergence(
                     scene, {key: val[rows] for key, val in out.items()}, self.limits
                 )
+                if monitor and not diverged:
+                    stopped = monitor.feed({key: val[rows] for key, val in out.items()}, done + k)
                 done += k
-                if diverged:
+                if diverged or stopped:
                     break
         wall = time.perf_counter() - start
 
         # A run stopped early has no force for its last state: drop that state.
-        n = done + 1 if not diverged else done
+        n = done + 1 if not (diverged or stopped) else done
         # Sensor layout: found, then the force (x, y, z) on the hoop in the world frame.
         fx = sensors[0, :n, 1] / scene.M
         fz = sensors[0, :n, 3] / scene.M
@@ -322,9 +330,15 @@ class MujocoEngine(Engine):
             normal_force=fz,
             friction_force=fx,
             # The ring is a polygon: clearance and slip are read at its lowest point.
-            shape=contact_shape(scene, settings.geometry, options),
+            shape=shape,
         )
-        return Simulation(trajectory=trajectory, n_steps=n - 1, wall_time_s=wall, diverged=diverged)
+        return Simulation(
+            trajectory=trajectory,
+            n_steps=n - 1,
+            wall_time_s=wall,
+            diverged=diverged,
+            stop_reason=stopped,
+        )
 
     # ----------------------------------------------------------------- benchmark
     def bare_loop_time(self, scene: Scene, settings: RunSettings | None = None) -> float:

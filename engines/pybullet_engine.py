@@ -55,6 +55,7 @@ from hoopbench.engines.base import CHUNK_STEPS, Engine, Simulation, check_diverg
 from hoopbench.engines.options import Option, Variant, flag, integer, number, optional
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
+from hoopbench.engines.stopping import StopMonitor
 from hoopbench.models import kinematics
 from hoopbench.models.kinematics import Polygon
 from hoopbench.models.scene import Scene
@@ -313,11 +314,15 @@ class PybulletEngine(Engine):
         diverged: str | None = None
         done = 0
         wall = 0.0
+        monitor = StopMonitor.for_run(
+            scene, settings.stop, settings.timestep, detectors=self.detectors, shape=shape
+        )
+        stopped = None
         gc_was_enabled = gc.isenabled()
         try:
             # The collector would rescan every float the loop makes; nothing here is cyclic.
             gc.disable()
-            while done < n_steps and diverged is None:
+            while done < n_steps and diverged is None and stopped is None:
                 todo = min(CHUNK_STEPS, n_steps - done)
                 start = time.perf_counter()
                 # Plain doubles in an array: keeping PyBullet's nested tuples costs more than
@@ -337,6 +342,8 @@ class PybulletEngine(Engine):
                 blocks.append(block)
                 done += todo
                 diverged = check_divergence(scene, _com_state(scene, block), self.limits)
+                if monitor and not diverged:
+                    stopped = monitor.feed(_com_state(scene, block), done)
             start = time.perf_counter()
             step(cid)
             normal = friction = 0.0
@@ -361,7 +368,13 @@ class PybulletEngine(Engine):
             contact=force[:, 0] > 0.0,
             shape=shape,
         )
-        return Simulation(trajectory=trajectory, n_steps=done, wall_time_s=wall, diverged=diverged)
+        return Simulation(
+            trajectory=trajectory,
+            n_steps=done,
+            wall_time_s=wall,
+            diverged=diverged,
+            stop_reason=stopped,
+        )
 
 
 def _hull_polygon(p: ModuleType, cid: int, hoop: int, floor: int, scene: Scene) -> Polygon:

@@ -40,6 +40,7 @@ from hoopbench.engines.base import CHUNK_STEPS, Engine, Simulation, check_diverg
 from hoopbench.engines.options import Option, Variant, integer, number, optional
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
+from hoopbench.engines.stopping import StopMonitor
 from hoopbench.models import kinematics
 from hoopbench.models.pymunk_space import PymunkSpec, build_space, scene_to_pymunk
 from hoopbench.models.scene import Scene
@@ -163,6 +164,8 @@ class PymunkEngine(Engine):
         rows = [np.array([[p.x, p.y, body.angle, v.x, v.y, body.angular_velocity]])]
         diverged = None
         done = 0
+        monitor = StopMonitor.for_run(scene, settings.stop, dt, detectors=self.detectors)
+        stopped = None
 
         start = time.perf_counter()
         while done < n_total:
@@ -177,7 +180,9 @@ class PymunkEngine(Engine):
             rows.append(chunk)
             done += m
             diverged = check_divergence(scene, _our_state(scene, chunk), self.limits)
-            if diverged:
+            if monitor and not diverged:
+                stopped = monitor.feed(_our_state(scene, chunk), done)
+            if diverged or stopped:
                 break
         wall = time.perf_counter() - start
 
@@ -198,7 +203,11 @@ class PymunkEngine(Engine):
             contact=n > 0,
         )
         return Simulation(
-            trajectory=trajectory, n_steps=len(raw) - 1, wall_time_s=wall, diverged=diverged
+            trajectory=trajectory,
+            n_steps=len(raw) - 1,
+            wall_time_s=wall,
+            diverged=diverged,
+            stop_reason=stopped,
         )
 
     def bare_loop_time(self, scene: Scene, settings: RunSettings | None = None) -> float:

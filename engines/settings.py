@@ -12,6 +12,7 @@ from types import MappingProxyType
 from typing import Any
 
 from hoopbench.engines.options import Profile
+from hoopbench.engines.stopping import StopRule
 from hoopbench.models.checks import check_integer, check_real
 
 __all__ = ["BYTES_PER_STEP", "DEFAULT_TIMESTEP", "MAX_STEPS", "RunSettings", "parse_option_value"]
@@ -50,6 +51,9 @@ class RunSettings:
     """A run needing more steps than this is refused before it starts."""
     profile: Profile = Profile.TUNED
     """Option values the run starts from: hoopbench's (tuned) or the engine's own (stock)."""
+    stop: StopRule | None = None
+    """When the run may end before the window's end (engines/stopping.py); None: it runs
+    the whole window."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "max_steps", check_integer("max_steps", self.max_steps, low=1))
@@ -65,12 +69,16 @@ class RunSettings:
         except ValueError:
             allowed = ", ".join(p.value for p in Profile)
             raise ValueError(f"profile must be one of {allowed}, got {self.profile!r}") from None
+        if self.stop is not None and not isinstance(self.stop, StopRule):
+            raise ValueError(f"stop must be a StopRule or None, got {self.stop!r}")
 
     def with_(self, **changes: Any) -> RunSettings:
         return replace(self, **changes)
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        """The settings as plain values; ``stop`` only when set, so that the rows and run ids
+        of runs without one are as before it existed."""
+        out = {
             "timestep": self.timestep,
             "mu": self.mu,
             "restitution": self.restitution,
@@ -78,6 +86,9 @@ class RunSettings:
             "profile": str(self.profile),
             **{k: _plain(v) for k, v in self.options.items()},
         }
+        if self.stop is not None:
+            out["stop"] = self.stop.to_dict()
+        return out
 
 
 def _plain(value: Any) -> Any:
