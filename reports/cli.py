@@ -1,6 +1,7 @@
 """The ``hoopbench`` command line.
 
-Sub-commands: ``scenes``, ``reference``, ``simulate``, ``model``, ``report``, ``figure``.
+Sub-commands: ``scenes``, ``reference``, ``simulate``, ``model``, ``settings``, ``compare``,
+``map``, ``report``, ``findings``, ``figure``.
 Bad arguments give a one-line error on stderr and exit status 2. JSON goes to stdout only.
 """
 
@@ -440,6 +441,100 @@ def _cmd_figure(args: argparse.Namespace) -> int:
     return 0
 
 
+# --------------------------------------------------------------------------- map
+def _grid(text: str) -> tuple[int, int]:
+    """'40x40' -> (40, 40)."""
+    nx, sep, ny = text.lower().partition("x")
+    try:
+        grid = (int(nx), int(ny)) if sep else None
+    except ValueError:
+        grid = None
+    if grid is None or min(grid) < 1:
+        raise argparse.ArgumentTypeError(f"must be NXxNY, whole numbers >= 1, got {text!r}")
+    return grid
+
+
+def _map_spec(args: argparse.Namespace) -> Any:
+    """The map's spec from the options; on --resume, options not given come from the map
+    stored in --out (run_map refuses a spec that differs from it)."""
+    from hoopbench.reports.hop_map import MAP_FILE, Axis, MapSpec, load_spec
+
+    given: dict[str, Any] = {
+        key: value
+        for key, value in (
+            ("x", args.x),
+            ("y", args.y),
+            ("x_range", None if args.x_range is None else tuple(args.x_range)),
+            ("y_range", None if args.y_range is None else tuple(args.y_range)),
+            ("t_end", args.t_end),
+            ("engines", None if args.engines is None else tuple(args.engines)),
+            ("timestep", args.dt),
+            ("profile", args.profile),
+        )
+        if value is not None
+    }
+    if args.grid is not None:
+        given["nx"], given["ny"] = args.grid
+    fixed = {str(a): getattr(args, str(a)) for a in Axis if getattr(args, str(a)) is not None}
+    stored_file = Path(args.out) / MAP_FILE
+    if not (args.resume and stored_file.is_file()):
+        return MapSpec(**given, fixed=fixed)
+    try:
+        base = load_spec(args.out).to_dict()
+    except ValueError as exc:
+        raise UsageError(f"--resume: {stored_file}: {exc}") from None
+    base.pop("format_version")
+    stored_fixed = base.pop("fixed")
+    merged = {**base, **given}
+    for axis, range_key in (("x", "x_range"), ("y", "y_range")):
+        if merged[axis] != base[axis] and range_key not in given:
+            merged[range_key] = None  # another parameter: its own default range
+    axes = (merged["x"], merged["y"])
+    old_fixed = {name: value for name, value in stored_fixed.items() if name not in axes}
+    return MapSpec(**merged, fixed={**old_fixed, **fixed})
+
+
+def _cmd_map(args: argparse.Namespace) -> int:
+    from hoopbench.reports.cluster import executor_from_args
+    from hoopbench.reports.hop_map import run_map
+    from hoopbench.reports.map_report import write_map_outputs
+    from hoopbench.reports.runner import RunnerError
+
+    spec = _map_spec(args)  # every value is checked before anything runs
+    try:
+        with executor_from_args(args) as executor:
+            summary = run_map(
+                spec,
+                args.out,
+                jobs=args.jobs,
+                executor=executor,
+                resume=args.resume,
+                quiet=args.quiet,
+            )
+    except RunnerError as exc:
+        raise UsageError(str(exc)) from None
+    if summary.interrupted is not None:
+        print(
+            f"hoopbench: interrupted by {summary.interrupted.name}; {summary.total} run(s) "
+            f"stored, {summary.unfinished} left. Resume with: hoopbench map --out {args.out} "
+            "--resume",
+            file=sys.stderr,
+        )
+        return summary.exit_code
+    if not args.quiet:
+        counts = ", ".join(f"{n} {s}" for s, n in sorted(summary.counts.items()) if n)
+        print(f"hoopbench: {counts or 'nothing to run'} -> {args.out}", file=sys.stderr)
+        if summary.unfinished:
+            print(
+                f"hoopbench: {summary.unfinished} run(s) still to do (a point's reference "
+                f"timed out or crashed): hoopbench map --out {args.out} --resume",
+                file=sys.stderr,
+            )
+    for path in write_map_outputs(args.out):
+        print(path)
+    return summary.exit_code
+
+
 # --------------------------------------------------------------------------- parser
 _TRAJECTORY_SUFFIXES = (".csv", ".parquet")
 
@@ -471,6 +566,54 @@ def _engine_options(p: argparse.ArgumentParser, engines: Sequence[str]) -> None:
         default=MAX_STEPS,
         help=f"refuse a run needing more steps (default {MAX_STEPS:.0e})",
     )
+
+
+def _add_map_options(p: argparse.ArgumentParser) -> None:
+    from hoopbench.reports.hop_map import AXES, DEFAULT_ENGINES, DEFAULT_GRID, Axis
+
+    axes = [str(a) for a in Axis]
+    p.add_argument("--x", choices=axes, help="parameter along x (default lam)")
+    p.add_argument("--y", choices=axes, help="parameter along y (default chi)")
+    p.add_argument(
+        "--grid",
+        type=_grid,
+        metavar="NXxNY",
+        help=f"points along x and y (default {DEFAULT_GRID[0]}x{DEFAULT_GRID[1]})",
+    )
+    p.add_argument("--x-range", nargs=2, type=float, metavar=("LO", "HI"), help="x's range")
+    p.add_argument("--y-range", nargs=2, type=float, metavar=("LO", "HI"), help="y's range")
+    group = p.add_argument_group("fixed values", "the parameters that are not axes")
+    for axis, info in AXES.items():
+        unit = f" {info.unit}" if info.unit else ""
+        group.add_argument(
+            f"--{str(axis).replace('_', '-')}",
+            dest=str(axis),
+            type=float,
+            help=f"(default {info.fixed:g}{unit}; as an axis {info.default_range[0]:g} to "
+            f"{info.default_range[1]:g})" + (": mus = muk" if axis is Axis.MU else ""),
+        )
+    p.add_argument("--t-end", type=float, help="end of each scene's window, s (default 3)")
+    p.add_argument(
+        "--engines",
+        nargs="*",
+        metavar="ENGINE",
+        help=f"engines to run at every point (default {' '.join(DEFAULT_ENGINES)}; "
+        "none: the exact regimes alone)",
+    )
+    p.add_argument("--dt", type=float, help=f"engine timestep, s (default {DEFAULT_TIMESTEP:g})")
+    p.add_argument(
+        "--profile", choices=[str(x) for x in Profile], help="engine option values (default tuned)"
+    )
+    p.add_argument("--out", required=True, help="map folder (new or empty, or --resume)")
+    p.add_argument(
+        "--jobs", type=_workers, default=min(2, os.cpu_count() or 1), help="worker processes"
+    )
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="finish the map stored in --out (its settings come from its map.toml)",
+    )
+    p.add_argument("--quiet", action="store_true", help="no progress output")
 
 
 def _parser() -> _Parser:
@@ -543,6 +686,13 @@ def _parser() -> _Parser:
     )
     add_cluster_arguments(p)
     p.set_defaults(func=_cmd_compare)
+
+    p = sub.add_parser(
+        "map", help="the hop map: exact regimes and engine verdicts over a grid of scenes"
+    )
+    _add_map_options(p)
+    add_cluster_arguments(p)
+    p.set_defaults(func=_cmd_map)
 
     p = sub.add_parser("report", help="write report.md and figures from stored results")
     p.add_argument(

@@ -43,6 +43,7 @@ from hoopbench.engines.base import MAX_STEPS, RunStatus, n_steps_for
 from hoopbench.engines.options import Profile
 from hoopbench.engines.registry import engine_class, engine_names, get_engine
 from hoopbench.engines.settings import DEFAULT_TIMESTEP, RunSettings
+from hoopbench.engines.stopping import StopRule
 from hoopbench.models.checks import check_integer, check_real
 from hoopbench.models.events import Outcome
 from hoopbench.models.scene import DegenerateSceneError, Scene
@@ -73,7 +74,6 @@ __all__ = [
     "agreement_table",
     "load_spec",
     "map_frame",
-    "map_markdown",
     "reference_tasks",
     "run_map",
     "run_map_task",
@@ -639,9 +639,11 @@ def _reference_row(task: MapTask) -> dict[str, Any]:
 
 
 def _engine_settings(task: MapTask, t_settled: float | None) -> RunSettings:
-    # TODO(map): stop at the first impact or once settled (StopRule, engines/stopping.py) as
-    # soon as it lands; until then the run covers the whole window.
-    return RunSettings(timestep=task.timestep, profile=task.profile)
+    """The run ends shortly after its first impact, where the exact window ends too, or once
+    it has rolled a full turn after the reference's last event (t_settled), when nothing new
+    can happen; mu is the scene's (mus = muk)."""
+    stop = StopRule(at_first_impact=True, settle_after=t_settled)
+    return RunSettings(timestep=task.timestep, profile=task.profile, stop=stop)
 
 
 def _engine_row(task: MapTask) -> dict[str, Any]:
@@ -666,7 +668,7 @@ def _engine_row(task: MapTask) -> dict[str, Any]:
         wall_time_s=info.wall_time_s,
         n_steps=info.n_steps,
         sim_time_s=None if info.n_steps is None else info.n_steps * task.timestep,
-        stop_reason=getattr(info, "stop_reason", None),
+        stop_reason=info.stop_reason,
     )
     if result.events is not None and result.trajectory is not None:
         row.update(event_columns(result.events, result.trajectory, scene, exact))
@@ -935,29 +937,3 @@ def agreement_markdown(table: pd.DataFrame) -> str:
 
 def _cell(count: int, judged: int, pct: float) -> str:
     return f"{count}/{judged} ({pct:.0f} %)" if judged else "-"
-
-
-def map_markdown(frame: pd.DataFrame, spec: MapSpec) -> str:
-    """The map's summary as Markdown: what ran, the exact regimes, the agreement tables."""
-    x_lo, x_hi = spec.x_range  # type: ignore[misc]
-    y_lo, y_hi = spec.y_range  # type: ignore[misc]
-    fixed = ", ".join(f"{k} = {v:g}" for k, v in spec.fixed_values.items())
-    lines = [
-        "# Hop map",
-        "",
-        f"{spec.nx} x {spec.ny} points: {spec.x} from {x_lo:g} to {x_hi:g}, {spec.y} from "
-        f"{y_lo:g} to {y_hi:g}; {fixed}; t_end = {spec.t_end:g} s. Engines: "
-        f"{', '.join(spec.engines) or 'none'}, dt = {spec.timestep:g} s, {spec.profile}.",
-        "",
-    ]
-    refs = frame[frame["engine"] == REFERENCE]
-    counts = refs["regime"].value_counts()
-    lines += ["| exact regime | points |", "|---|---:|"]
-    lines += [f"| {r} | {int(counts[str(r)])} |" for r in Regime if str(r) in counts]
-    failed = int((refs["status"] != str(RunStatus.OK)).sum())
-    if failed:
-        lines += ["", f"{failed} point(s) have no exact classification (see runs.csv)."]
-    if spec.engines and (frame["engine"] != REFERENCE).any():
-        lines += ["", "## Agreement with the exact reference", ""]
-        lines.append(agreement_markdown(agreement_table(frame)))
-    return "\n".join(lines).rstrip() + "\n"
