@@ -1,1 +1,320 @@
-"""Placeholder: being written."""
+"""The hop map's Markdown: its section of the report, and the files ``hoopbench map`` writes.
+
+A map folder (it holds ``map.toml`` beside ``runs/``) becomes one section: what was mapped
+(from the stored spec), findings generated from the numbers, the figures
+(:mod:`hoopbench.reports.map_figures`) and the agreement tables
+(:func:`hoopbench.reports.hop_map.agreement_table`). Every sentence is a template filled from
+the rows: none is written by hand.
+
+- :func:`map_section` is the section (``hoopbench report`` adds one per map folder);
+- :func:`write_map_outputs` writes the figures and ``DIR/map.md`` (``hoopbench map`` calls it
+  after its runs).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import pandas as pd
+
+from hoopbench.reference.regimes import Regime
+from hoopbench.reports import results
+from hoopbench.reports.hop_map import (
+    ALL_REGIMES,
+    AXES,
+    MAP_FILE,
+    REFERENCE,
+    Axis,
+    MapSpec,
+    agreement_markdown,
+    agreement_table,
+    load_spec,
+    map_frame,
+)
+from hoopbench.reports.map_figures import (
+    engines_of,
+    hop_error_figure,
+    regime_figure,
+    verdict_figure,
+)
+from hoopbench.reports.verdict import HOP_HEIGHT_FACTOR, Verdict
+
+__all__ = [
+    "MAP_MARKDOWN",
+    "is_map_folder",
+    "map_findings",
+    "map_section",
+    "map_sections",
+    "write_map_figures",
+    "write_map_outputs",
+]
+
+MAP_MARKDOWN = "map.md"
+"""The map's own summary, beside its runs (written by ``hoopbench map``)."""
+
+_FIGURES: dict[str, tuple[Callable[[pd.DataFrame, Path], Path], str, bool]] = {
+    "regimes": (regime_figure, "the exact reference's regimes and hop height", False),
+    "verdicts": (verdict_figure, "where each engine's verdict differs from the reference", True),
+    "hop_error": (hop_error_figure, "hop height over the exact one where both hop", True),
+}
+"""Figure name -> (drawing function, alt text, needs engine rows)."""
+
+
+def is_map_folder(path: str | Path) -> bool:
+    """Whether a results folder holds a hop map (its map.toml)."""
+    return (Path(path) / MAP_FILE).is_file()
+
+
+# --------------------------------------------------------------------------- numbers
+def _pct(count: int, total: int) -> str:
+    return f"{100 * count / total:.0f} %" if total else "-"
+
+
+def _share(count: int, total: int) -> str:
+    """'12/40 (30 %)'."""
+    return f"{count}/{total} ({_pct(count, total)})"
+
+
+def _engine_rows(frame: pd.DataFrame) -> pd.DataFrame:
+    return frame[frame["engine"] != REFERENCE]
+
+
+def _regime_counts(refs: pd.DataFrame) -> pd.Series:
+    """Points per regime, in Regime's order, regimes with none left out."""
+    counts = refs["regime"].value_counts()
+    return pd.Series({str(r): int(counts[str(r)]) for r in Regime if str(r) in counts}, dtype=int)
+
+
+def _regime_sentence(frame: pd.DataFrame) -> str:
+    refs = frame[frame["engine"] == REFERENCE]
+    counts = _regime_counts(refs)
+    if counts.empty:
+        return ""
+    counts = counts.sort_values(ascending=False, kind="stable")  # ties in Regime's order
+    n = len(refs)
+    parts = [f"{int(c)} {regime} ({_pct(int(c), n)})" for regime, c in counts.items()]
+    text = f"The exact reference classifies the {n} points: {', '.join(parts)}"
+    unclassified = n - int(counts.sum())
+    return text + (f"; {unclassified} have no regime (the solve failed)." if unclassified else ".")
+
+
+def _ranking_sentence(table: pd.DataFrame) -> str:
+    """Most and least agreement, by outcome (then the full verdict)."""
+    overall = table[(table["regime"] == ALL_REGIMES) & (table["judged"] > 0)]
+    if overall.empty:
+        return ""
+    ranked = overall.sort_values(
+        ["outcome_agrees_pct", "agrees_pct"], ascending=False, kind="stable"
+    )
+
+    def numbers(row: pd.Series) -> str:
+        return (
+            f"the outcome on {_share(row['outcome_agrees'], row['judged'])} of its judged "
+            f"points, the phases too on {_share(row['agrees'], row['judged'])}"
+        )
+
+    best, worst = ranked.iloc[0], ranked.iloc[-1]
+    if len(ranked) == 1:
+        return f"{best['engine']} agrees with the reference on {numbers(best)}."
+    return (
+        f"{best['engine']} agrees most with the reference: {numbers(best)}; "
+        f"{worst['engine']} least: {numbers(worst)}."
+    )
+
+
+def _worst_regime_sentence(frame: pd.DataFrame, table: pd.DataFrame, engine: str) -> str:
+    """The regime where an engine's verdict is most often not 'agrees', and its usual verdict."""
+    rows = table[(table["engine"] == engine) & (table["regime"] != ALL_REGIMES)]
+    rows = rows[rows["judged"] > 0].assign(wrong=lambda t: t["judged"] - t["agrees"])
+    rows = rows[rows["wrong"] > 0]
+    if rows.empty:
+        return ""
+    # Highest share first; more points break a tie (a bigger sample says more).
+    worst = rows.assign(share=rows["wrong"] / rows["judged"]).sort_values(
+        ["share", "judged"], ascending=False, kind="stable"
+    )
+    worst = worst.iloc[0]
+    mine = _engine_rows(frame)
+    mine = mine[(mine["engine"] == engine) & (mine["regime"] == worst["regime"])]
+    counts = mine["verdict"].value_counts()
+    wrong = pd.Series({str(v): counts.get(str(v), 0) for v in Verdict if v != Verdict.AGREES})
+    wrong = wrong[wrong > 0].sort_values(ascending=False, kind="stable")  # ties: Verdict's order
+    usual = ", ".join(f"{v} {int(c)}" for v, c in wrong.items())
+    return (
+        f"{engine} disagrees most in regime {worst['regime']}: "
+        f"{_share(int(worst['wrong']), int(worst['judged']))} have a verdict other than agrees "
+        f"({usual})."
+    )
+
+
+def _hardest_regime_sentence(table: pd.DataFrame) -> str:
+    """The regime with the lowest agreement over all engines together."""
+    rows = table[table["regime"] != ALL_REGIMES]
+    sums = rows.groupby("regime", sort=False)[["judged", "agrees", "outcome_agrees"]].sum()
+    sums = sums[sums["judged"] > 0]
+    if len(sums) < 2:
+        return ""
+    share = sums["agrees"] / sums["judged"]
+    hard, easy = share.idxmin(), share.idxmax()
+    if share[hard] == share[easy]:
+        return ""
+    h, e = sums.loc[hard], sums.loc[easy]
+    return (
+        f"Over all engines, runs agree least often in regime {hard} "
+        f"({_share(int(h['agrees']), int(h['judged']))} of its judged runs, the outcome alone "
+        f"{_pct(int(h['outcome_agrees']), int(h['judged']))}) and most often in regime {easy} "
+        f"({_share(int(e['agrees']), int(e['judged']))})."
+    )
+
+
+def _hop_sentence(frame: pd.DataFrame, engine: str) -> str:
+    """Hop heights where both hop: how many within the verdict's factor, the median ratio."""
+    mine = _engine_rows(frame)
+    mine = mine[mine["engine"] == engine]
+    error = pd.to_numeric(mine["hop_height_error"], errors="coerce")
+    exact = pd.to_numeric(mine["exact_hop_height"], errors="coerce")
+    both = error.notna() & (exact > 0)
+    if not both.any():
+        return ""
+    ratio = 1.0 + error[both] / exact[both]
+    within = int(((ratio >= 1 / HOP_HEIGHT_FACTOR) & (ratio <= HOP_HEIGHT_FACTOR)).sum())
+    return (
+        f"Where both hop, {engine}'s hop height is within a factor {HOP_HEIGHT_FACTOR:g} of "
+        f"the exact one at {_share(within, int(both.sum()))} points (median ratio "
+        f"{ratio.median():.3g}, range {ratio.min():.3g} to {ratio.max():.3g})."
+    )
+
+
+def _stop_sentence(frame: pd.DataFrame) -> str:
+    """How the engine runs ended, and their simulated and wall time."""
+    runs = _engine_rows(frame)
+    ran = runs[runs["status"].notna() & runs["n_steps"].notna()]
+    if ran.empty:
+        return ""
+    reasons = ran["stop_reason"].fillna("window").value_counts()
+    named = {"impact": "at their first impact", "settled": "once settled"}
+    parts = [
+        f"{int(c)} {named.get(str(r), 'at the end of the window')}" for r, c in reasons.items()
+    ]
+    sim = pd.to_numeric(ran["sim_time_s"], errors="coerce")
+    t_end = pd.to_numeric(ran["t_end"], errors="coerce")
+    wall = ran.groupby("engine", sort=False)["wall_time_s"].mean()
+    cost = ", ".join(f"{e} {w:.3g} s" for e, w in wall.items())
+    return (
+        f"Of the {len(ran)} engine runs, {', '.join(parts)}; they simulated "
+        f"{sim.mean():.3g} s of a {t_end.max():g} s window on average. Mean wall time per run: "
+        f"{cost}."
+    )
+
+
+def map_findings(frame: pd.DataFrame) -> list[str]:
+    """The map's findings, one sentence each, every one filled from the frame's numbers."""
+    sentences = [_regime_sentence(frame)]
+    engines = engines_of(frame)
+    if engines:
+        table = agreement_table(frame)
+        sentences += [_ranking_sentence(table), _hardest_regime_sentence(table)]
+        sentences += [_worst_regime_sentence(frame, table, e) for e in engines]
+        sentences += [_hop_sentence(frame, e) for e in engines]
+        sentences.append(_stop_sentence(frame))
+    return [s for s in sentences if s]
+
+
+# --------------------------------------------------------------------------- text
+def _axis_text(axis: Axis, value: float) -> str:
+    unit = AXES[axis].unit
+    return f"{value:g} {unit}" if unit else f"{value:g}"
+
+
+def _spec_text(spec: MapSpec) -> str:
+    x_lo, x_hi = spec.x_range  # type: ignore[misc]
+    y_lo, y_hi = spec.y_range  # type: ignore[misc]
+    fixed = ", ".join(f"{k} = {_axis_text(Axis(k), v)}" for k, v in spec.fixed_values.items())
+    engines = ", ".join(spec.engines) or "none (the reference's regimes alone)"
+    return (
+        f"A {spec.nx} x {spec.ny} grid: {spec.x} (x) from {_axis_text(spec.x, x_lo)} to "
+        f"{_axis_text(spec.x, x_hi)}, {spec.y} (y) from {_axis_text(spec.y, y_lo)} to "
+        f"{_axis_text(spec.y, y_hi)}, both ends included; fixed {fixed} (mus = muk = mu); "
+        f"window t_end = {spec.t_end:g} s. Engines: {engines}, dt = {spec.timestep:g} s, "
+        f"profile {spec.profile}."
+    )
+
+
+def _status_text(frame: pd.DataFrame) -> str:
+    counts = frame["status"].value_counts()
+    return f"Rows: {len(frame)}; status " + ", ".join(f"{k} {int(v)}" for k, v in counts.items())
+
+
+def _regime_table(frame: pd.DataFrame) -> str:
+    refs = frame[frame["engine"] == REFERENCE]
+    lines = ["| exact regime | points | share |", "|---|---:|---:|"]
+    lines += [f"| {r} | {c} | {_pct(c, len(refs))} |" for r, c in _regime_counts(refs).items()]
+    return "\n".join(lines)
+
+
+def write_map_figures(frame: pd.DataFrame, out: str | Path, *, prefix: str = "map") -> list[Path]:
+    """The map's figures as ``out/<prefix>_<name>.png`` (the per-engine ones only if the
+    frame has engine rows); their paths."""
+    out = Path(out)
+    has_engines = bool(engines_of(frame))
+    return [
+        draw(frame, out / f"{prefix}_{name}.png")
+        for name, (draw, _, needs_engines) in _FIGURES.items()
+        if has_engines or not needs_engines
+    ]
+
+
+def _section(results_dir: Path, out: Path, prefix: str, level: int) -> tuple[str, list[Path]]:
+    spec, frame = load_spec(results_dir), map_frame(results_dir)
+    h = "#" * level
+    lines = [f"{h} Hop map: {spec.x} x {spec.y} (`{results_dir.name}`)", ""]
+    lines += [_spec_text(spec), "", _status_text(frame) + ".", ""]
+    if frame.empty:
+        return "\n".join([*lines, "No runs stored yet.", ""]), []
+    lines += [f"{h}# Findings", ""]
+    lines += [f"- {s}" for s in map_findings(frame)]
+    lines += ["", f"{h}# Figures", ""]
+    figures = write_map_figures(frame, out, prefix=prefix)
+    for path in figures:
+        alt = _FIGURES[path.stem.removeprefix(f"{prefix}_")][1]
+        lines += [f"![{alt}]({path.name})", ""]
+    lines += [f"{h}# Exact regimes", "", _regime_table(frame), ""]
+    if engines_of(frame):
+        lines += [f"{h}# Agreement with the exact reference", ""]
+        lines += [
+            "Per engine and exact regime: judged points (those with an exact answer) whose "
+            "outcome agrees, and whose verdict is agrees (the phases too).",
+            "",
+            agreement_markdown(agreement_table(frame)),
+        ]
+    return "\n".join(lines).rstrip() + "\n", figures
+
+
+def map_section(
+    results_dir: str | Path, out: str | Path | None = None, *, prefix: str = "map", level: int = 2
+) -> str:
+    """The Markdown of a map folder's section, its figures written to ``out`` (default: the
+    folder itself) as ``<prefix>_*.png``. ``level``: the heading level of its title."""
+    results_dir = Path(results_dir)
+    out = results_dir if out is None else Path(out)
+    return _section(results_dir, out, prefix, level)[0]
+
+
+def map_sections(results_dirs: Sequence[str | Path], out: str | Path) -> list[str]:
+    """The sections of several map folders in one report, figures written to ``out`` with a
+    prefix per folder (map, or map1, map2, ... when there are several)."""
+    if len(results_dirs) == 1:
+        return [map_section(results_dirs[0], out)]
+    return [map_section(d, out, prefix=f"map{k + 1}") for k, d in enumerate(results_dirs)]
+
+
+def write_map_outputs(results_dir: str | Path) -> list[Path]:
+    """After ``hoopbench map``: the figures and ``DIR/map.md`` (the section as a document,
+    figures beside it); their paths, map.md last."""
+    results_dir = Path(results_dir)
+    text, figures = _section(results_dir, results_dir, "map", 1)
+    path = results.atomic_write(
+        results_dir / MAP_MARKDOWN, lambda tmp: tmp.write_text(text, encoding="utf-8")
+    )
+    return [*figures, path]

@@ -492,9 +492,20 @@ def _files_section() -> str:
 
 
 # --------------------------------------------------------------------------- the report
-def write_markdown(frame: pd.DataFrame, out: Path, *, generated: str) -> Path:
-    """Write out/report.md with tables and PNG figures; return its path. ``frame`` is unchanged."""
+def write_markdown(
+    frame: pd.DataFrame, out: Path, *, generated: str, extra: Sequence[str] = ()
+) -> Path:
+    """Write out/report.md with tables and PNG figures; return its path. ``frame`` is unchanged.
+
+    ``extra``: finished sections of other results (the hop maps'), placed before the Files
+    section; with an empty ``frame`` the report holds its title and those alone.
+    """
     out = Path(out)
+    if frame.empty:  # hop maps alone: no runs table to make sections of
+        when = f"Generated {generated} on {platform.platform()}."
+        path = out / "report.md"
+        path.write_text("\n".join([_section("# hoopbench report", "", when), *extra]))
+        return path
     everything = _with_optional_columns(frame)
     # The stability suite's stiff and extreme scenes have a section of their own; the event
     # tables and agreement counts are the comparison suites' alone.
@@ -514,7 +525,7 @@ def write_markdown(frame: pd.DataFrame, out: Path, *, generated: str) -> Path:
             run_time,
             _stability_section(runs),
         ]
-    sections += [stability, figures, _files_section()]
+    sections += [stability, figures, *extra, _files_section()]
     path = out / "report.md"
     path.write_text("\n".join(section for section in sections if section))
     return path

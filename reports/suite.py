@@ -357,17 +357,21 @@ def build_report(
     """report.md and its figures from stored results alone (no simulation).
 
     Several results folders (e.g. the default suite and the stability suite) make one report;
-    each row keeps the name of its suite in the column ``suite``. ``out`` defaults to the
-    first folder.
+    each row keeps the name of its suite in the column ``suite``. A hop map folder (it holds
+    map.toml) adds its own section (reports/map_report.py). ``out`` defaults to the first
+    folder.
     """
+    from hoopbench.reports.map_report import is_map_folder, map_sections
     from hoopbench.reports.markdown import write_markdown
 
     dirs = [Path(d) for d in (results_dirs if isinstance(results_dirs, list) else [results_dirs])]
     out = Path(out) if out is not None else dirs[0]
-    frame = pd.concat([report_frame(d) for d in dirs], ignore_index=True)
+    maps = [d for d in dirs if is_map_folder(d)]  # hop maps: a section each, not runs rows
+    runs = [report_frame(d) for d in dirs if d not in maps]
+    frame = pd.concat(runs, ignore_index=True) if runs else pd.DataFrame()
     out.mkdir(parents=True, exist_ok=True)
     generated = datetime.now(UTC).isoformat(timespec="seconds")
-    return write_markdown(frame, out, generated=generated)
+    return write_markdown(frame, out, generated=generated, extra=map_sections(maps, out))
 
 
 def report_frame(results_dir: str | Path) -> pd.DataFrame:

@@ -2,13 +2,19 @@
 
 from __future__ import annotations
 
+import re
+from collections import Counter
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
 from PIL import Image
 
 from hoopbench.reference.regimes import Regime
-from hoopbench.reports import map_figures
+from hoopbench.reports import map_figures, results
+from hoopbench.reports.cli import main
+from hoopbench.reports.hop_map import MAP_FILE, MapSpec, map_frame
 from hoopbench.reports.map_figures import (
     figure_pixels,
     hop_error_figure,
@@ -19,6 +25,7 @@ from hoopbench.reports.map_figures import (
     verdict_cells,
     verdict_figure,
 )
+from hoopbench.reports.map_report import map_findings, map_section, write_map_outputs
 from hoopbench.reports.verdict import Verdict
 
 ENGINES = ("mujoco", "pybullet", "pymunk")
@@ -26,12 +33,26 @@ _HOPS = (Regime.HOPS, Regime.LIFTS_AT_START)
 _NO_ANSWER = (Regime.DEGENERATE, Regime.ERROR)
 
 
-def synthetic_frame(nx: int, ny: int, engines=ENGINES, *, seed: int = 0) -> pd.DataFrame:
-    """A map frame over lam x chi: every regime and every verdict appear on a 4x3 grid; the
-    hop heights are random over three decades, the engines' within a factor 8."""
+def synthetic_frame(*args, **kwargs) -> pd.DataFrame:
+    """The rows of :func:`synthetic_rows` as a frame."""
+    return pd.DataFrame(synthetic_rows(*args, **kwargs))
+
+
+def synthetic_rows(
+    nx: int,
+    ny: int,
+    engines=ENGINES,
+    *,
+    xs: np.ndarray | None = None,
+    ys: np.ndarray | None = None,
+    seed: int = 0,
+) -> list[dict]:
+    """Map rows over lam x chi (by default lam linear, chi geometric): every regime and
+    every verdict appear on a 4x3 grid; hop heights are random over three decades, the
+    engines' within a factor 8 of them."""
     rng = np.random.default_rng(seed)
-    lams = np.linspace(0.5, 1.0, nx)
-    chis = np.geomspace(0.05, 2.0, ny) if ny > 1 else np.array([0.5])
+    lams = np.linspace(0.5, 1.0, nx) if xs is None else xs
+    chis = (np.geomspace(0.05, 2.0, ny) if ny > 1 else np.array([0.5])) if ys is None else ys
     regimes, verdicts = list(Regime), list(Verdict)
     rows = []
     for ix, lam in enumerate(lams):
@@ -77,9 +98,13 @@ def synthetic_frame(nx: int, ny: int, engines=ENGINES, *, seed: int = 0) -> pd.D
                         else verdict in (Verdict.AGREES, Verdict.WRONG_PHASES),
                         "hop_height": None if ratio is None else hop * ratio,
                         "hop_height_error": None if ratio is None else hop * (ratio - 1.0),
+                        "stop_reason": ("impact", "settled", None)[(ix + iy + k) % 3],
+                        "n_steps": 1000 * (1 + iy),
+                        "sim_time_s": 0.1 * (1 + iy),
+                        "wall_time_s": 0.01 * (1 + k),
                     }
                 )
-    return pd.DataFrame(rows)
+    return rows
 
 
 # --------------------------------------------------------------------------- the cells
@@ -205,3 +230,123 @@ def test_a_frame_without_engines_has_no_verdict_figure(tmp_path):
     assert regime_figure(frame, tmp_path / "r.png").stat().st_size > 0
     with pytest.raises(ValueError, match="no engine rows"):
         verdict_figure(frame, tmp_path / "v.png")
+
+
+# --------------------------------------------------------------------------- the report
+@pytest.fixture(scope="module")
+def map_dir(tmp_path_factory) -> Path:
+    """A map folder as `hoopbench map` leaves it (map.toml, runs/), from synthetic rows
+    written with the results writer."""
+    out = tmp_path_factory.mktemp("map")
+    spec = MapSpec(nx=4, ny=3, engines=ENGINES)
+    (out / MAP_FILE).write_text(spec.to_toml(), encoding="utf-8")
+    rows = synthetic_rows(
+        spec.nx, spec.ny, spec.engines, xs=spec.axis_values(spec.x), ys=spec.axis_values(spec.y)
+    )
+    writer = results.RunsWriter(out / results.RUNS_NAME)
+    for row in rows:
+        writer.add(row)
+    writer.flush()
+    return out
+
+
+def _fractions(text: str) -> list[tuple[int, int]]:
+    return [(int(a), int(b)) for a, b in re.findall(r"(\d+)/(\d+)", text)]
+
+
+def _counts_by_hand(frame: pd.DataFrame) -> dict[str, dict[str, int]]:
+    """Per engine: judged points, outcome agreements, verdict agreements (a plain loop)."""
+    counts = {e: {"judged": 0, "outcome": 0, "agrees": 0} for e in ENGINES}
+    for _, row in frame[frame["engine"] != "reference"].iterrows():
+        if isinstance(row["verdict"], str):
+            c = counts[row["engine"]]
+            c["judged"] += 1
+            c["outcome"] += row["outcome_agrees"] == True  # noqa: E712
+            c["agrees"] += row["verdict"] == "agrees"
+    return counts
+
+
+def _sentence(findings: list[str], start: str) -> str:
+    found = [s for s in findings if s.startswith(start)]
+    assert len(found) == 1, (start, findings)
+    return found[0]
+
+
+def test_map_findings_carry_the_frames_numbers(map_dir):
+    frame = map_frame(map_dir)
+    findings = map_findings(frame)
+    refs = frame[frame["engine"] == "reference"]
+    regimes = _sentence(findings, "The exact reference classifies")
+    for regime, n in Counter(refs["regime"]).items():
+        assert f" {n} {regime} (" in regimes
+    counts = _counts_by_hand(frame)
+    key = {e: (c["outcome"] / c["judged"], c["agrees"] / c["judged"]) for e, c in counts.items()}
+    best = max(ENGINES, key=key.__getitem__)
+    worst = min(reversed(ENGINES), key=key.__getitem__)
+    ranking = _sentence(findings, f"{best} agrees most")
+    assert f"; {worst} least" in ranking
+    expected = []
+    for engine in (best, worst):
+        c = counts[engine]
+        expected += [(c["outcome"], c["judged"]), (c["agrees"], c["judged"])]
+    assert _fractions(ranking) == expected
+    for engine in ENGINES:
+        mine = frame[frame["engine"] == engine]
+        both = mine[mine["hop_height_error"].notna()]
+        ratio = both["hop_height"] / both["exact_hop_height"]
+        within = int(((ratio >= 0.5) & (ratio <= 2.0)).sum())
+        hops = _sentence(findings, f"Where both hop, {engine}'s")
+        assert _fractions(hops) == [(within, len(both))]
+        assert f"median ratio {ratio.median():.3g}" in hops
+        # The regime with the largest share of verdicts other than agrees.
+        judged = mine[mine["verdict"].notna()]
+        shares = {
+            r: ((g["verdict"] != "agrees").sum(), len(g)) for r, g in judged.groupby("regime")
+        }
+        top = max(w / n for w, n in shares.values())
+        worst_regimes = {r: wn for r, wn in shares.items() if wn[0] / wn[1] == top}
+        text = _sentence(findings, f"{engine} disagrees most in regime")
+        regime = text.removeprefix(f"{engine} disagrees most in regime ").split(":")[0]
+        assert regime in worst_regimes
+        assert _fractions(text) == [tuple(int(v) for v in worst_regimes[regime])]
+
+
+def test_the_map_section_has_the_tables_and_figures(map_dir, tmp_path):
+    text = map_section(map_dir, tmp_path)
+    assert text.startswith("## Hop map: lam x chi")
+    for figure in re.findall(r"\]\((map_\w+\.png)\)", text):
+        assert (tmp_path / figure).stat().st_size > 0
+    assert len(re.findall(r"\]\((map_\w+\.png)\)", text)) == 3
+    counts = _counts_by_hand(map_frame(map_dir))
+    outcome_all, verdict_all = re.findall(r"^\| all \|.*$", text, flags=re.MULTILINE)
+    assert _fractions(outcome_all) == [(counts[e]["outcome"], counts[e]["judged"]) for e in ENGINES]
+    assert _fractions(verdict_all) == [(counts[e]["agrees"], counts[e]["judged"]) for e in ENGINES]
+    assert "4 x 3 grid" in text and "dt = 0.0001 s" in text
+
+
+def test_write_map_outputs_writes_the_figures_and_map_md(map_dir):
+    paths = write_map_outputs(map_dir)
+    assert paths[-1] == map_dir / "map.md"
+    assert [p.name for p in paths[:-1]] == [
+        "map_regimes.png",
+        "map_verdicts.png",
+        "map_hop_error.png",
+    ]
+    text = paths[-1].read_text()
+    assert text.startswith("# Hop map") and "## Agreement with the exact reference" in text
+
+
+def test_report_of_a_map_folder(map_dir, tmp_path, capsys):
+    out = tmp_path / "report"
+    assert main(["report", "--results", str(map_dir), "--out", str(out)]) == 0
+    text = (out / "report.md").read_text()
+    assert text.startswith("# hoopbench report")
+    assert "## Hop map: lam x chi" in text and "### Findings" in text
+    for figure in ("map_regimes.png", "map_verdicts.png", "map_hop_error.png"):
+        assert f"]({figure})" in text and (out / figure).stat().st_size > 0
+    # Two map folders in one report: a section each, figures apart.
+    both = tmp_path / "both"
+    assert main(["report", "--results", str(map_dir), str(map_dir), "--out", str(both)]) == 0
+    text = (both / "report.md").read_text()
+    assert text.count("## Hop map:") == 2
+    assert "](map1_regimes.png)" in text and "](map2_regimes.png)" in text
