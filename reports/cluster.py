@@ -10,8 +10,9 @@
   the call to another worker; after ``distributed.scheduler.allowed-failures`` deaths (3) the
   future fails with ``KilledWorker``, which the runner counts as a crash: one more try, then
   a ``crashed`` row. A call that kills every worker it runs on thus costs 8 worker restarts.
-* ``cancel()`` on a timed-out call frees its place in the scheduler's queue; a call already
-  running keeps its worker thread until it returns (Dask cannot stop a thread).
+* Dask cannot stop a running thread, so :meth:`ClusterExecutor.kill` (the runner's answer
+  to a timeout) cancels the call and ends the process of the worker running it; its nanny
+  starts a new one.
 * A lost scheduler cancels every future. Then :meth:`ClusterExecutor.submit` raises
   ``BrokenExecutor`` (after waiting ``timeout`` seconds for the client to reconnect), so the
   sweep stops with the rows it has and ``--resume`` finishes it later.
@@ -19,18 +20,30 @@
 Rows are made on the workers and returned to this process, which writes them as the runs
 finish; workers only need ``hoopbench`` (same version, with its engines) importable. Dask is
 an optional dependency (``hoopbench[dask]``), imported only when a cluster is asked for.
+:func:`local_cluster` starts a scheduler and workers on this machine, as separate processes
+(the benchmark and the tests use it).
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import functools
 import ipaddress
+import json
+import os
+import signal
 import socket
+import subprocess
+import sys
+import tempfile
+import threading
 import time
-from collections.abc import Callable, Iterator
-from concurrent.futures import BrokenExecutor, Executor, Future
+from collections.abc import Callable, Iterator, Mapping
+from concurrent.futures import BrokenExecutor, Executor, Future, InvalidStateError
+from concurrent.futures import wait as wait_futures
 from dataclasses import dataclass
+from importlib import import_module
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
@@ -41,10 +54,12 @@ __all__ = [
     "DEFAULT_CONNECT_TIMEOUT",
     "ClusterError",
     "ClusterExecutor",
+    "LocalCluster",
     "TlsFiles",
     "add_cluster_arguments",
     "cluster_executor",
     "executor_from_args",
+    "local_cluster",
     "parse_address",
     "tls_files_from_args",
 ]
@@ -166,15 +181,22 @@ def _port(text: str, bad: str) -> int:
 
 # --------------------------------------------------------------------------- the executor
 class ClusterExecutor(Executor):
-    """Dask's ``ClientExecutor`` with ``pure=False``, the cluster's size, and a clear failure
-    when the scheduler is gone."""
+    """Calls on a Dask cluster as ``concurrent.futures`` futures.
+
+    What ``Client.get_executor(pure=False)`` does, plus :meth:`kill` for a hung call and a
+    ``BrokenExecutor`` from :meth:`submit` once the scheduler is gone for good.
+    """
 
     def __init__(self, client: Any, address: str, timeout: float) -> None:
         self._client = client
         self._address = address
         self._timeout = timeout
-        self._inner = client.get_executor(pure=False)
         self._threads = sum(client.nthreads().values())
+        self._lock = threading.Lock()
+        self._calls: dict[Future, Any] = {}
+        """Our future -> Dask's, until it is done; Dask drops a call nobody refers to."""
+        self._shutdown = False
+        self._preloaded: set[str] = set()
 
     @property
     def max_workers(self) -> int:
@@ -187,16 +209,99 @@ class ClusterExecutor(Executor):
         return self._client
 
     def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future:
+        if self._shutdown:
+            raise RuntimeError("cannot submit to a ClusterExecutor after shutdown")
+        self._wait_for_scheduler()
+        self._preload(fn)
+        remote = self._client.submit(fn, *args, pure=False, **kwargs)
+        future: Future = Future()
+        with self._lock:
+            self._calls[future] = remote
+        future.add_done_callback(functools.partial(_cancel_remote, remote))
+        remote.add_done_callback(functools.partial(self._relay, future))
+        return future
+
+    def kill(self, future: Future) -> None:
+        """Stop a call: cancel it, and end the process of a worker running it.
+
+        Dask cannot stop a running thread, so a hung call would hold its worker for good; the
+        worker's nanny starts a new process in about a second. Other calls on that worker
+        are given to other workers (Dask counts that towards their allowed failures).
+        """
+        with self._lock:
+            remote = self._calls.pop(future, None)
+        if remote is None or remote.done():
+            future.cancel()
+            return
+        running_on = [w for w, keys in self._client.processing().items() if remote.key in keys]
+        future.cancel()  # its callback cancels the Dask future
+        if running_on:
+            self._client.run(os._exit, 1, workers=running_on, on_error="return")
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        self._shutdown = True
+        with self._lock:
+            pending = list(self._calls)
+        if cancel_futures or not wait:
+            for future in pending:
+                future.cancel()
+        elif pending:
+            wait_futures(pending)
+
+    def _preload(self, fn: Callable[..., Any]) -> None:
+        """Have every worker, present and future, import ``fn``'s module before it takes calls
+        (as the local pool does): the runner times a call from its submission."""
+        module = getattr(fn, "__module__", None)
+        if not module or module in self._preloaded or module in ("__main__", "__mp_main__"):
+            return
+        self._preloaded.add(module)
+        self._client.register_plugin(_preloader(module), name=f"hoopbench-preload-{module}")
+
+    def _wait_for_scheduler(self) -> None:
         deadline = time.monotonic() + self._timeout
         while self._client.status != "running":
-            # "connecting": the client is trying to get the scheduler back; wait that out.
+            # "connecting": the client is trying to get a lost scheduler back; wait that out.
             if self._client.status != "connecting" or time.monotonic() > deadline:
                 raise BrokenExecutor(f"lost the Dask scheduler at {self._address}")
             time.sleep(0.1)
-        return self._inner.submit(fn, *args, **kwargs)
 
-    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
-        self._inner.shutdown(wait=wait and not cancel_futures)
+    def _relay(self, future: Future, remote: Any) -> None:
+        """Dask's outcome to our future (in a thread of the client's)."""
+        with self._lock:
+            self._calls.pop(future, None)
+        with contextlib.suppress(InvalidStateError):  # we cancelled it meanwhile
+            if remote.status == "finished":
+                try:
+                    future.set_result(remote.result())
+                except Exception as exc:  # the result could not be fetched
+                    future.set_exception(exc)
+            elif remote.status == "cancelled":  # by us, or the scheduler was lost
+                future.cancel()
+                future.set_running_or_notify_cancel()  # wakes concurrent.futures.wait
+            else:
+                future.set_exception(remote.exception())
+
+
+def _preloader(module: str) -> Any:
+    """A Dask worker plugin that imports ``module`` (defined here: Dask is imported late)."""
+    import distributed
+
+    class Preload(distributed.WorkerPlugin):
+        idempotent = True
+
+        def __init__(self, module: str) -> None:
+            self.module = module
+
+        def setup(self, worker: Any) -> None:
+            with contextlib.suppress(Exception):  # a call that needs it will say what is wrong
+                import_module(self.module)
+
+    return Preload(module)
+
+
+def _cancel_remote(remote: Any, future: Future) -> None:
+    if future.cancelled() and not remote.done():
+        remote.cancel()
 
 
 @contextlib.contextmanager
@@ -301,3 +406,109 @@ def _check_workers(client: Any, address: str, timeout: float) -> None:
                 f"Dask worker {worker} has hoopbench {theirs}, this client {ours}: install "
                 "the same version on every worker"
             )
+
+
+# --------------------------------------------------------------------------- a local cluster
+@dataclass(frozen=True)
+class LocalCluster:
+    """A scheduler and its workers running on this machine, each a process group of its own."""
+
+    address: str
+    scheduler: subprocess.Popen
+    workers: tuple[subprocess.Popen, ...]
+    log_dir: Path
+    """scheduler.log and worker-N.log."""
+
+
+@contextlib.contextmanager
+def local_cluster(
+    n_workers: int = 2,
+    *,
+    env: Mapping[str, str] | None = None,
+    timeout: float = 60.0,
+    log_dir: str | os.PathLike[str] | None = None,
+) -> Iterator[LocalCluster]:
+    """Start ``dask scheduler`` and ``n_workers`` single-threaded ``dask worker`` processes
+    on 127.0.0.1, as one would on several machines; stop them all on exit, whatever happens.
+
+    ``env`` replaces the processes' environment. Raises ClusterError if Dask is missing or
+    the cluster is not up within ``timeout`` seconds (with the end of the failing log).
+    """
+    _import_distributed()
+    with tempfile.TemporaryDirectory(prefix="hoopbench-dask-") as tmp:
+        logs = Path(log_dir) if log_dir is not None else Path(tmp)
+        logs.mkdir(parents=True, exist_ok=True)
+        file = Path(tmp) / "scheduler.json"
+        deadline = time.monotonic() + timeout
+        started: list[subprocess.Popen] = []
+        try:
+            scheduler = _spawn(
+                ["scheduler", "--host", "127.0.0.1", "--port", "0", "--scheduler-file", str(file)],
+                logs / "scheduler.log",
+                env,
+            )
+            started.append(scheduler)
+            address = _scheduler_address(file, scheduler, logs / "scheduler.log", deadline)
+            for i in range(n_workers):
+                command = ["worker", address, "--host", "127.0.0.1", "--nthreads", "1"]
+                started.append(_spawn(command, logs / f"worker-{i}.log", env))
+            _wait_for_workers(address, n_workers, deadline, started[1:], logs)
+            yield LocalCluster(address, scheduler, tuple(started[1:]), logs)
+        finally:
+            for process in reversed(started):
+                _stop(process)
+
+
+def _spawn(args: list[str], log: Path, env: Mapping[str, str] | None) -> subprocess.Popen:
+    with log.open("wb") as out:
+        return subprocess.Popen(
+            [sys.executable, "-m", "dask", *args, "--no-dashboard"],
+            stdin=subprocess.DEVNULL,
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            env=None if env is None else dict(env),
+            start_new_session=True,  # its own process group: the nanny's children end with it
+        )
+
+
+def _scheduler_address(file: Path, scheduler: subprocess.Popen, log: Path, deadline: float) -> str:
+    while time.monotonic() < deadline:
+        if scheduler.poll() is not None:
+            raise ClusterError(f"the Dask scheduler exited: {_tail(log)}")
+        with contextlib.suppress(OSError, ValueError, KeyError):
+            return str(json.loads(file.read_text())["address"])
+        time.sleep(0.1)
+    raise ClusterError(f"the Dask scheduler did not start in time: {_tail(log)}")
+
+
+def _wait_for_workers(
+    address: str, n: int, deadline: float, workers: list[subprocess.Popen], logs: Path
+) -> None:
+    distributed = _import_distributed()
+    with distributed.Client(address, timeout=10, set_as_default=False) as client:
+        while len(client.scheduler_info(n_workers=-1)["workers"]) < n:
+            for i, process in enumerate(workers):
+                if process.poll() is not None:
+                    raise ClusterError(f"Dask worker {i} exited: {_tail(logs / f'worker-{i}.log')}")
+            if time.monotonic() > deadline:
+                raise ClusterError(f"fewer than {n} Dask workers joined in time")
+            time.sleep(0.1)
+
+
+def _tail(log: Path) -> str:
+    lines = log.read_text(errors="replace").strip().splitlines() if log.is_file() else []
+    return lines[-1] if lines else "(no output)"
+
+
+def _stop(process: subprocess.Popen) -> None:
+    """SIGTERM to the process group, SIGKILL if it is still there after 5 s."""
+    for sig in (signal.SIGTERM, signal.SIGKILL):
+        with contextlib.suppress(ProcessLookupError, PermissionError):
+            os.killpg(process.pid, sig)
+        try:
+            process.wait(timeout=5)
+            break
+        except subprocess.TimeoutExpired:
+            continue
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(process.pid, signal.SIGKILL)  # the group's stragglers (resource tracker)

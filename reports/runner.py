@@ -910,8 +910,9 @@ def run_tasks(
                     if attempt.limit is None or start is None or now - start < attempt.limit:
                         continue
                     del in_flight[future]
-                    if isinstance(pool, WorkerPool):
-                        pool.kill(future)
+                    kill = getattr(pool, "kill", None)  # WorkerPool, the Dask ClusterExecutor
+                    if kill is not None:
+                        kill(future)
                     else:
                         future.cancel()  # a running call cannot be cancelled: abandoned
                     text = f"no result after {attempt.limit:g} s; the call was stopped"

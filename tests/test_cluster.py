@@ -1,0 +1,284 @@
+"""Sweeps on a real Dask cluster (issue 11): a scheduler and two single-threaded workers,
+each a process of its own on 127.0.0.1, started once for the module and always stopped.
+
+The cluster's runs must give the local runs' rows (timing columns aside), and a worker that
+dies or hangs must cost no run: its run is retried, or stored as crashed or timeout. The
+workers see the fault engines of tests/fault_engines.py through HOOPBENCH_ENGINE_MODULES, and
+the scheduler gives up on a call at the first death of its worker (KilledWorker) instead of
+Dask's fourth, so that the runner's own retry is what is tested, and quickly.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from hoopbench.reports.cluster import (
+    ClusterError,
+    add_cluster_arguments,
+    cluster_executor,
+    local_cluster,
+    parse_address,
+    tls_files_from_args,
+)
+from hoopbench.reports.results import TIMING_COLUMNS, read_runs
+from hoopbench.reports.suite import compare as run_suite
+
+distributed = pytest.importorskip("distributed")
+
+TESTS = Path(__file__).resolve().parent
+CLI = [sys.executable, "-m", "hoopbench.reports.cli"]
+TIMING = {*TIMING_COLUMNS, "wall_time_s", "us_per_step"}
+LIMIT = 120  # s: no subprocess may hang the test run
+
+TINY = """
+name = "tiny"
+engines = ["pymunk"]
+timesteps = [1e-3]
+scenes = ["seed-mu", "hop-bottom"]
+"""
+
+
+def environment() -> dict[str, str]:
+    env = dict(os.environ)
+    env["HOOPBENCH_ENGINE_MODULES"] = "fault_engines"
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(TESTS), env.get("PYTHONPATH")]))
+    env["DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES"] = "0"
+    return env
+
+
+@pytest.fixture(scope="module")
+def cluster(tmp_path_factory):
+    logs = tmp_path_factory.mktemp("dask-logs")
+    with local_cluster(2, env=environment(), timeout=60, log_dir=logs) as running:
+        yield running
+
+
+@pytest.fixture
+def client(cluster):
+    """Our own view of the cluster, with both workers up (a test may have killed one)."""
+    with distributed.Client(cluster.address, timeout=10, set_as_default=False) as view:
+        view.wait_for_workers(2, timeout=30)
+        yield view
+
+
+def hoopbench(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [*CLI, *args],
+        env=environment(),
+        capture_output=True,
+        text=True,
+        timeout=LIMIT,
+        cwd=cwd,
+    )
+
+
+def compare(suite: str, tmp_path: Path, out: str, *args: str) -> subprocess.CompletedProcess:
+    path = tmp_path / "suite.toml"
+    path.write_text(suite)
+    return hoopbench(
+        "compare", "--suite", str(path), "--out", str(tmp_path / out), "--quiet", *args,
+        cwd=tmp_path,
+    )  # fmt: skip
+
+
+def comparable(frame: pd.DataFrame, key: str = "run_id") -> pd.DataFrame:
+    keep = [c for c in frame.columns if c not in TIMING]
+    return frame[keep].sort_values(key).reset_index(drop=True)
+
+
+def suite_of(engines: list[str], scenes: list[str]) -> str:
+    return f"name = 'faults'\nengines = {engines}\ntimesteps = [1e-3]\nscenes = {scenes}\n"
+
+
+# --------------------------------------------------------------------------- same rows
+@pytest.mark.slow
+def test_compare_on_the_cluster_gives_the_local_rows(tmp_path, cluster):
+    suite = tmp_path / "tiny.toml"
+    suite.write_text(TINY)
+    with cluster_executor(cluster.address) as executor:
+        remote = run_suite(suite, tmp_path / "remote", executor=executor, quiet=True)
+    local = run_suite(suite, tmp_path / "local", jobs=2, quiet=True)
+    assert remote.counts == local.counts
+    rows = read_runs(tmp_path / "remote")
+    assert len(rows) == 2 and set(rows["status"]) == {"ok"}
+    pd.testing.assert_frame_equal(comparable(rows), comparable(read_runs(tmp_path / "local")))
+
+
+@pytest.mark.slow
+def test_a_map_on_the_cluster_gives_the_local_rows(tmp_path, cluster):
+    """The issue's "done when": a map through --scheduler equals the local one row for row."""
+    hop_map = pytest.importorskip("hoopbench.reports.hop_map")
+    if not hasattr(hop_map, "run_map"):
+        pytest.skip("run_map is not written yet")
+    spec = hop_map.MapSpec(nx=3, ny=3, engines=("pymunk", "mujoco"), timestep=1e-3)
+    with cluster_executor(cluster.address, timeout=10) as executor:
+        remote = hop_map.run_map(spec, tmp_path / "remote", executor=executor, quiet=True)
+    local = hop_map.run_map(spec, tmp_path / "local", jobs=2, quiet=True)
+    assert remote.counts == local.counts
+    frame = hop_map.map_frame(tmp_path / "remote")
+    assert len(frame) == 9 * 3  # the reference and two engines at every point
+    pd.testing.assert_frame_equal(
+        comparable(frame), comparable(hop_map.map_frame(tmp_path / "local"))
+    )
+
+
+# --------------------------------------------------------------------------- faults
+@pytest.mark.slow
+def test_a_worker_killed_mid_run_costs_no_run(tmp_path, cluster, client):
+    scenes = ["seed-mu", "hop-top", "hop-low", "hop-bottom", "slip-reversal", "low-friction"]
+    suite = tmp_path / "suite.toml"
+    suite.write_text(suite_of(["test-slow"], scenes))
+    out = tmp_path / "out"
+    command = ["compare", "--suite", str(suite), "--out", str(out), "--quiet"]
+    proc = subprocess.Popen(
+        [*CLI, *command, "--scheduler", cluster.address],
+        env=environment(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=tmp_path,
+    )
+    try:
+        pids = client.run(os.getpid)
+        victim = None
+        deadline = time.monotonic() + 60
+        while victim is None and time.monotonic() < deadline and proc.poll() is None:
+            busy = [w for w, keys in client.processing().items() if keys]
+            victim = busy[0] if busy else None
+            time.sleep(0.02)
+        assert victim is not None, "no run was seen on a worker"
+        os.kill(pids[victim], signal.SIGKILL)
+        _, err = proc.communicate(timeout=LIMIT)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, err
+    rows = read_runs(out)
+    assert sorted(rows["scene"]) == sorted(scenes)  # one row each: none lost, none twice
+    assert set(rows["status"]) == {"ok"}, rows[["scene", "status", "message"]]
+    assert (rows["attempts"] == 2).any()  # the killed worker's run, retried
+
+
+@pytest.mark.slow
+def test_a_run_that_kills_every_worker_is_retried_once_then_crashed(tmp_path, cluster, client):
+    done = compare(suite_of(["reference", "test-crash"], ["seed-mu"]), tmp_path, "out",
+                   "--scheduler", cluster.address)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    rows = read_runs(tmp_path / "out").set_index("engine")
+    assert rows.loc["reference", "status"] == "ok"
+    assert rows.loc["test-crash", "status"] == "crashed"
+    assert rows.loc["test-crash", "attempts"] == 2
+    assert "KilledWorker" in rows.loc["test-crash", "message"]
+
+
+@pytest.mark.slow
+def test_a_hung_run_times_out_and_frees_its_worker(tmp_path, cluster, client):
+    """Both workers get a run that sleeps 1000 s: unless a timed-out run's worker is ended,
+    the reference runs behind them time out too."""
+    suite = suite_of(["test-hang", "reference"], ["seed-mu", "hop-bottom"])
+    done = compare(suite, tmp_path, "out", "--scheduler", cluster.address, "--run-timeout", "8")
+    assert done.returncode == 0, done.stderr
+    rows = read_runs(tmp_path / "out")
+    status = rows.groupby("engine")["status"].agg(sorted).to_dict()
+    assert status == {"test-hang": ["timeout", "timeout"], "reference": ["ok", "ok"]}
+
+
+# --------------------------------------------------------------------------- bad clusters
+def test_no_scheduler_there_is_one_line_and_exit_2(tmp_path):
+    done = compare(TINY, tmp_path, "out", "--scheduler", "tcp://127.0.0.1:1")
+    assert done.returncode == 2
+    assert done.stderr.strip().splitlines() == [
+        "hoopbench: error: cannot reach a Dask scheduler at tcp://127.0.0.1:1: Connection refused"
+    ]
+    assert not (tmp_path / "out").exists()
+
+
+def test_without_dask_the_error_says_what_to_install(tmp_path):
+    blocker = tmp_path / "block"
+    blocker.mkdir()
+    (blocker / "distributed.py").write_text("raise ImportError('no Dask here')\n")
+    env = environment()
+    env["PYTHONPATH"] = os.pathsep.join([str(blocker), env["PYTHONPATH"]])
+    path = tmp_path / "suite.toml"
+    path.write_text(TINY)
+    done = subprocess.run(
+        [*CLI, "compare", "--suite", str(path), "--out", "out", "--scheduler", "tcp://h:8786"],
+        env=env, capture_output=True, text=True, timeout=LIMIT, cwd=tmp_path,
+    )  # fmt: skip
+    assert done.returncode == 2
+    assert done.stderr.strip() == (
+        "hoopbench: error: --scheduler needs Dask: install hoopbench[dask] "
+        "(pip install 'hoopbench[dask]')"
+    )
+
+
+@pytest.mark.parametrize(
+    ("address", "expected"),
+    [
+        ("tcp://10.0.0.5:8786", ("tcp", "10.0.0.5", 8786)),
+        ("node-1.lan:8786", ("tcp", "node-1.lan", 8786)),
+        ("tls://[::1]:8786", ("tls", "::1", 8786)),
+    ],
+)
+def test_good_addresses(address, expected):
+    assert parse_address(address) == expected
+
+
+@pytest.mark.parametrize(
+    ("address", "message"),
+    [
+        ("http://host:8786", "the scheme must be tcp:// or tls://, not http://"),
+        ("tcp://host", "expected tcp://HOST:PORT"),
+        ("tcp://:8786", "expected tcp://HOST:PORT"),
+        ("tcp://host:0", "the port must be a number from 1 to 65535, not '0'"),
+        ("tcp://host:http", "the port must be a number from 1 to 65535, not 'http'"),
+        ("tcp://a b:8786", "'a b' is not a host name or address"),
+        ("tls://[nope]:8786", "'nope' is not an IPv6 address"),
+    ],
+)
+def test_bad_addresses_are_named(address, message):
+    with pytest.raises(ClusterError) as caught:
+        parse_address(address)
+    assert str(caught.value) == f"--scheduler {address!r}: {message}"
+
+
+def _args(*argv: str):
+    import argparse
+
+    parser = argparse.ArgumentParser()
+    add_cluster_arguments(parser)
+    return parser.parse_args(argv)
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--tls-cert", "c.pem"], "--tls-cert: only with --scheduler tls://HOST:PORT"),
+        (["--scheduler", "tls://h:1", "--tls-cert", "c.pem"], "TLS needs --tls-ca-file as well"),
+    ],
+)
+def test_half_a_tls_setup_is_refused(argv, message):
+    with pytest.raises(ClusterError, match=message):
+        tls_files_from_args(_args(*argv))
+
+
+def test_tls_files_must_exist_and_match_the_scheme(tmp_path):
+    ca = tmp_path / "ca.pem"
+    ca.write_text("")
+    tls = tls_files_from_args(
+        _args("--scheduler", "tls://127.0.0.1:1", "--tls-ca-file", str(ca), "--tls-cert", "no.pem")
+    )
+    missing = re.escape("--tls-cert 'no.pem': no such file")
+    with pytest.raises(ClusterError, match=missing), cluster_executor("tls://127.0.0.1:1", tls):
+        pass
+    tcp = "need a tls:// scheduler address"
+    with pytest.raises(ClusterError, match=tcp), cluster_executor("tcp://127.0.0.1:1", tls):
+        pass
