@@ -9,15 +9,23 @@ detectors' own bias against the exact events can be measured (see reports).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
 from hoopbench.models.events import Events, Outcome, Phase, PhaseKind
+from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 
-__all__ = ["FLOOR_LEVEL", "DetectorSettings", "detect_events", "detect_phases", "refined_onset"]
+__all__ = [
+    "FLOOR_LEVEL",
+    "DetectorSettings",
+    "detect_events",
+    "detect_phases",
+    "hoop_scale",
+    "refined_onset",
+]
 
 FLOOR_LEVEL = 1e-9
 """Clearance (m) at or below which the hoop counts as on the floor: the round-off of an exact
@@ -27,7 +35,37 @@ penetration."""
 
 @dataclass(frozen=True)
 class DetectorSettings:
-    """Detector thresholds. Defaults are documented here and nowhere else."""
+    """Detector thresholds for a hoop of radius ``a`` under gravity ``g``. Defaults are
+    documented here and nowhere else; they are stated for the catalogue's hoop (a = 1 m,
+    g = 9.8 m/s^2), and :meth:`for_scene` carries them to any other hoop.
+
+    **How they scale.** The rigid hoop has no length, speed or time of its own but a,
+    sqrt(g a) and sqrt(a / g): a hoop of another size does the same motion in those units
+    (the 1 cm hoop slips at 1/10 of the 1 m hoop's time, at 1/10 of its speeds, and re-sticks
+    for 1/10 as long). So every threshold scales as what it measures: the lengths
+    (lift_clearance, lift_level, hop_clearance) with a, the slip speeds (slip_threshold,
+    restick_threshold) with sqrt(g a), the durations (restick_sustain, lift_sustain) with
+    sqrt(a / g). Absolute thresholds would judge a 1 cm hoop with a 1 m hoop's yardstick:
+    its 4.4 ms roll between re-stick and reverse slip is shorter than a 5 ms sustain, and
+    its 0.3 mm hops (the catalogue's hop-low, scaled) are below a 1 mm hop threshold.
+
+    No threshold keeps an absolute floor, measured on seed-mu, hop-top and hop-low scaled to
+    a = 1 cm (timestep scaled by 1/10 too; docs/report.md, "Detector thresholds"). The
+    reference reads exactly the same events in the hoop's units. The engines' noise at 1 cm,
+    in the hoop's units: pymunk's and PyBullet's the same as at 1 m; MuJoCo's and Drake's
+    rolling slip velocity is absolute (6-9 um/s, Drake's from its stiction tolerance), 11x
+    below the scaled 0.1 mm/s; MuJoCo's slip-chatter blips shrink (0.2 um, 2e-5 a, with
+    the tuned settings). Only stock MuJoCo's blips grow in the hoop's units (to 0.9-1.4e-3
+    a at 1 cm, from 1-3e-4 a at 1 m: its 20 ms contact time constant is absolute), and a
+    14 um one at dt 1e-3 now counts as a hop: a real lift-off of 1.4e-3 a, as a 1.4 mm one
+    counts on the 1 m hoop. FLOOR_LEVEL, the round-off of an exact contact, stays absolute;
+    lift_level must stay above it, so the detectors refuse hoops below a = 0.1 mm.
+    """
+
+    a: float = 1.0
+    """Hoop radius, m, these thresholds are stated for."""
+    g: float = 9.8
+    """Gravity, m/s^2, these thresholds are stated for."""
 
     slip_threshold: float = 1e-3
     """|slip velocity| above which the hoop slips, m/s."""
@@ -47,19 +85,18 @@ class DetectorSettings:
     """Peak hoop-centre clearance, m, that a lift-off must exceed to count as a hop; a flight
     that stays below it is contact noise (its size is kept as the run's max_clearance). The
     one home of the hop threshold: the judge (engines/event_checks.py) and the verdict
-    (reports/verdict.py) read it here.
+    (reports/verdict.py) read it here, carried to the run's hoop.
 
-    1 mm, absolute rather than a fraction of a, because what it rejects is the engines'
-    contact noise, which their solvers set in metres (penetration, margins, step size), not
-    the hoop's size; and because the lift-off it judges is found by the absolute
-    lift_clearance above: a scaled threshold would fall below that on small hoops. On the
-    catalogue (every scene has a = 1 m, so 1 mm = 1e-3 a) it sits 3-9 times above MuJoCo's
-    slip-chatter blips (0.11-0.29 mm, lasting 8-30 ms, at dt >= 5e-4 or with the
-    pyramidal cone) and 33 times below the smallest real hop (hop-low, 33 mm); a ballistic
-    1 mm hop lasts 2 sqrt(2 h / g) = 29 ms, well above lift_sustain."""
+    1 mm on the 1 m hoop, 1e-3 a: it sits 3-9 times above MuJoCo's slip-chatter blips
+    (0.11-0.29 mm, lasting 8-30 ms, at dt >= 5e-4 or with the pyramidal cone) and 33 times
+    below the smallest real hop (hop-low, 33 mm); a ballistic 1 mm hop lasts
+    2 sqrt(2 h / g) = 29 ms, well above lift_sustain. It scales with a like every length
+    here (class docstring): on the 1 cm hoop it is 10 um, and hop-low's hop is 0.33 mm."""
 
     def __post_init__(self) -> None:
         for name in (
+            "a",
+            "g",
             "slip_threshold",
             "restick_threshold",
             "lift_clearance",
@@ -78,11 +115,52 @@ class DetectorSettings:
                 f"hop_clearance ({self.hop_clearance} m) must not be below lift_clearance "
                 f"({self.lift_clearance} m)"
             )
+        if self.lift_level <= FLOOR_LEVEL:
+            raise ValueError(
+                f"lift_level ({self.lift_level:g} m) must be above the floor level "
+                f"({FLOOR_LEVEL:g} m): a hoop of radius {self.a:g} m is too small to detect on"
+            )
         if self.lift_level >= self.lift_clearance:
             raise ValueError(
                 f"lift_level ({self.lift_level} m) must be below lift_clearance "
                 f"({self.lift_clearance} m)"
             )
+
+    def for_scene(self, scene: Scene) -> DetectorSettings:
+        """These thresholds carried to the scene's hoop (:meth:`for_hoop` with its a and g)."""
+        return self.for_hoop(scene.a, scene.g)
+
+    def for_hoop(self, a: float, g: float) -> DetectorSettings:
+        """These thresholds carried to a hoop of radius ``a`` (m) under gravity ``g``
+        (m/s^2): lengths, speeds and durations each times its factor of
+        :func:`hoop_scale` (the class docstring says why). The identity for the hoop they
+        are stated for, so applying it twice changes nothing."""
+        length, speed, duration = hoop_scale(a, g, self.a, self.g)
+        if length == speed == duration == 1.0:
+            return self
+        factor = {**dict.fromkeys(_LENGTHS, length), **dict.fromkeys(_SPEEDS, speed)}
+        factor |= dict.fromkeys(_DURATIONS, duration)
+        scaled = {name: getattr(self, name) * k for name, k in factor.items()}
+        return replace(self, a=a, g=g, **scaled)
+
+
+def hoop_scale(a: float, g: float, a0: float, g0: float) -> tuple[float, float, float]:
+    """(length, speed, duration) factors from a hoop of radius a0 under g0 to one of radius
+    a under g: a / a0, sqrt(g a / (g0 a0)), sqrt((a / g) / (a0 / g0)). Exactly 1.0 each for
+    the same hoop. The one statement of how the rigid hoop's events scale; the detectors'
+    thresholds (DetectorSettings.for_hoop) and the verdict's lift-off timing read it."""
+    for name, value in (("a", a), ("g", g), ("a0", a0), ("g0", g0)):
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be > 0, got {value}")
+    if a == a0 and g == g0:
+        return 1.0, 1.0, 1.0
+    return a / a0, math.sqrt(g * a / (g0 * a0)), math.sqrt(a * g0 / (g * a0))
+
+
+# What each threshold measures (tests/test_detectors.py checks that every field is listed).
+_LENGTHS = ("lift_clearance", "lift_level", "hop_clearance")
+_SPEEDS = ("slip_threshold", "restick_threshold")
+_DURATIONS = ("restick_sustain", "lift_sustain")
 
 
 def _crossing_time(t: NDArray, y: NDArray, i: int, level: float) -> float:

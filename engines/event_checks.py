@@ -183,6 +183,7 @@ def check_flight(
         )
     if scene is None or t_lift is None or t_impact is None or height is None:
         return events  # no scene, or no completed flight: nothing to bound
+    settings = (settings or DetectorSettings()).for_scene(scene)
     t = trajectory.t
     duration = t_impact - t_lift
     inside = (t >= t_lift) & (t <= t_impact)
@@ -208,7 +209,9 @@ def checked_events(
     scene: Scene | None = None,
 ) -> Events:
     """The shared detectors' events, then both checks: contact noise screened out, an
-    impossible hop flagged and withheld (the flight bound only with a scene)."""
+    impossible hop flagged and withheld (the flight bound only with a scene). With a scene,
+    the thresholds are carried to its hoop (:meth:`DetectorSettings.for_scene`)."""
     cfg = settings or DetectorSettings()
+    cfg = cfg if scene is None else cfg.for_scene(scene)
     events = screen_contact_noise(trajectory, detect_events(trajectory, cfg), cfg)
     return check_flight(events, trajectory, scene, cfg)

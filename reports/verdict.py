@@ -10,14 +10,18 @@ fresh one) and returns a :class:`Judgement`; :func:`verdict_columns` gives the r
 slip, hop (``hops`` and ``lifts-at-start``) and, for the exact side only, Painlevé.
 
 - An engine's lift-off is a hop only if its clearance exceeds the hop threshold,
-  ``DetectorSettings.hop_clearance`` (1 mm, with its reason, in engines/detectors.py). The
-  judge already reads a smaller lift-off as contact noise; the verdict applies the same
-  threshold to the row, so rows judged before that rule, or built by hand, are judged alike.
-  Below it the run's class is slip if it slipped, roll otherwise.
+  ``DetectorSettings.hop_clearance`` (1 mm on the 1 m hoop, with its reason, in
+  engines/detectors.py). The judge already reads a smaller lift-off as contact noise; the
+  verdict applies the same threshold to the row, so rows judged before that rule, or built
+  by hand, are judged alike. Below it the run's class is slip if it slipped, roll otherwise.
 - ``outcome_agrees`` is true only when the engine has the reference's class and, where the
   reference hops, the engine's hop height is within a factor HOP_HEIGHT_FACTOR (2) of the
   exact one and its lift-off within LIFT_TIME_TOLERANCE (50 ms) of the exact lift-off. A hop
   whose numbers were withheld as inconsistent (engines/event_checks.py) cannot pass this.
+- **The hoop's size.** Both thresholds are stated for the catalogue's 1 m hoop and carried
+  to the row's hoop as the detectors' are (engines/detectors.py, ``hoop_scale``): the hop
+  threshold with a, the 50 ms with sqrt(a / g). A row without ``a`` (or ``g``) is judged
+  for a = 1 m (g = 9.8 m/s^2).
 - **Painlevé.** The exact solution reaches a point where no consistent contact force exists
   (D = 0 while slipping) at ``exact_t_painleve``, and the rigid model says nothing after it;
   a compliant contact resolves it somehow (an impulsive normal force, a lift-off, a stick).
@@ -45,17 +49,19 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any
 
-from hoopbench.engines.detectors import DetectorSettings
+from hoopbench.engines.detectors import DetectorSettings, hoop_scale
 from hoopbench.models.events import Events, Outcome
 
 __all__ = [
     "HOP_CLEARANCE",
     "HOP_HEIGHT_FACTOR",
     "LIFT_TIME_TOLERANCE",
+    "HoopThresholds",
     "Judgement",
     "Verdict",
     "classify",
     "counts_as_hop",
+    "hoop_thresholds",
     "hop_matches",
     "number_or_none",
     "painleve_time",
@@ -63,7 +69,8 @@ __all__ = [
 ]
 
 HOP_CLEARANCE = DetectorSettings().hop_clearance
-"""The hop threshold, m: read from its one home, ``DetectorSettings.hop_clearance``."""
+"""The hop threshold of the 1 m hoop, m: read from its one home,
+``DetectorSettings.hop_clearance``; :func:`hoop_thresholds` carries it to a row's hoop."""
 
 HOP_HEIGHT_FACTOR = 2.0
 """An engine's hop agrees in size when its height is within this factor of the exact one
@@ -71,8 +78,9 @@ HOP_HEIGHT_FACTOR = 2.0
 hop-low, -26 %), narrow enough that a hop of another kind (a few mm against a metre) fails."""
 
 LIFT_TIME_TOLERANCE = 0.05
-"""s: how far an engine's lift-off may be from the exact one (the issue's rule), about a
-twentieth of the hop scenes' flight times (0.5-1 s)."""
+"""s: how far an engine's lift-off may be from the exact one on the 1 m hoop (the issue's
+rule), about a twentieth of the hop scenes' flight times (0.5-1 s); it scales with the
+flight times, as sqrt(a / g)."""
 
 
 class Verdict(StrEnum):
@@ -136,13 +144,40 @@ def _text(value: Any) -> str | None:
     return value if isinstance(value, str) else None
 
 
-def counts_as_hop(hop_height: float | None, max_clearance: float | None = None) -> bool:
+@dataclass(frozen=True)
+class HoopThresholds:
+    """The verdict's two sizes, carried to one hoop."""
+
+    hop_clearance: float
+    """m: a lift-off must rise above this to be a hop."""
+    lift_time_tolerance: float
+    """s: how far a hop's lift-off may be from the exact one."""
+
+
+def hoop_thresholds(a: Any = None, g: Any = None) -> HoopThresholds:
+    """HOP_CLEARANCE and LIFT_TIME_TOLERANCE for a hoop of radius ``a`` (m) under ``g``
+    (m/s^2), the 1 m hoop's where either is missing."""
+    base = DetectorSettings()
+    a, g = number_or_none(a) or base.a, number_or_none(g) or base.g
+    length, _, duration = hoop_scale(a, g, base.a, base.g)
+    return HoopThresholds(length * HOP_CLEARANCE, duration * LIFT_TIME_TOLERANCE)
+
+
+def _row_thresholds(row: Mapping[str, Any]) -> HoopThresholds:
+    return hoop_thresholds(row.get("a"), row.get("g"))
+
+
+def counts_as_hop(
+    hop_height: float | None,
+    max_clearance: float | None = None,
+    threshold: float = HOP_CLEARANCE,
+) -> bool:
     """Whether a detected lift-off is a hop: its height (or, where that was withheld, the
-    run's largest clearance) exceeds HOP_CLEARANCE. With neither known, the detectors' word
-    stands."""
+    run's largest clearance) exceeds ``threshold`` (m; the 1 m hoop's HOP_CLEARANCE unless
+    given). With neither known, the detectors' word stands."""
     size = number_or_none(hop_height)
     size = number_or_none(max_clearance) if size is None else size
-    return size is None or size > HOP_CLEARANCE
+    return size is None or size > threshold
 
 
 def hop_matches(
@@ -150,15 +185,15 @@ def hop_matches(
     t_lift: float | None,
     exact_hop_height: float | None,
     exact_t_lift: float | None,
+    tolerance: float = LIFT_TIME_TOLERANCE,
 ) -> bool:
     """Whether an engine's hop is the exact one: height within HOP_HEIGHT_FACTOR, lift-off
-    within LIFT_TIME_TOLERANCE. False where any of the four numbers is missing."""
+    within ``tolerance`` (s; the 1 m hoop's LIFT_TIME_TOLERANCE unless given). False where
+    any of the four numbers is missing."""
     h, t, h0, t0 = (number_or_none(v) for v in (hop_height, t_lift, exact_hop_height, exact_t_lift))
     if h is None or t is None or h0 is None or t0 is None or h0 <= 0:
         return False
-    return h0 / HOP_HEIGHT_FACTOR <= h <= h0 * HOP_HEIGHT_FACTOR and abs(t - t0) <= (
-        LIFT_TIME_TOLERANCE
-    )
+    return h0 / HOP_HEIGHT_FACTOR <= h <= h0 * HOP_HEIGHT_FACTOR and abs(t - t0) <= tolerance
 
 
 def painleve_time(exact: Events) -> float | None:
@@ -177,7 +212,10 @@ def _engine_class(row: Mapping[str, Any]) -> _Class | None:
     outcome = _text(row.get("outcome"))
     if outcome is None:
         return None
-    if outcome in _HOP_OUTCOMES and counts_as_hop(row.get("hop_height"), row.get("max_clearance")):
+    threshold = _row_thresholds(row).hop_clearance
+    if outcome in _HOP_OUTCOMES and counts_as_hop(
+        row.get("hop_height"), row.get("max_clearance"), threshold
+    ):
         return _Class.HOP
     if outcome == str(Outcome.PAINLEVE):
         return _Class.PAINLEVE
@@ -211,28 +249,32 @@ def _mm(value: Any) -> str:
 
 def _outcome(row: Mapping[str, Any], engine: _Class, exact: _Class) -> tuple[Verdict | None, str]:
     """The outcome part of the verdict: a failing Verdict, or None if the outcome agrees."""
+    sizes = _row_thresholds(row)
+    tolerance = sizes.lift_time_tolerance
     if exact is _Class.HOP:
         if engine is not _Class.HOP:
             largest = _mm(row.get("max_clearance"))
-            return Verdict.MISSED_HOP, f"no hop above {_mm(HOP_CLEARANCE)} (largest {largest})"
+            threshold = _mm(sizes.hop_clearance)
+            return Verdict.MISSED_HOP, f"no hop above {threshold} (largest {largest})"
         if not hop_matches(
             row.get("hop_height"),
             row.get("t_lift"),
             row.get("exact_hop_height"),
             row.get("exact_t_lift"),
+            tolerance,
         ):
             return Verdict.MISSED_HOP, (
                 f"hop {_mm(row.get('hop_height'))} at t = {number_or_none(row.get('t_lift'))} s "
                 f"against {_mm(row.get('exact_hop_height'))} at "
                 f"{number_or_none(row.get('exact_t_lift'))} s: "
-                f"not within a factor {HOP_HEIGHT_FACTOR:g} and {1e3 * LIFT_TIME_TOLERANCE:g} ms"
+                f"not within a factor {HOP_HEIGHT_FACTOR:g} and {1e3 * tolerance:.3g} ms"
             )
         return None, "the exact hop"
     if exact is _Class.PAINLEVE:
         t_p = number_or_none(row.get("exact_t_painleve")) or 0.0
         if engine is _Class.HOP:
             t_lift = number_or_none(row.get("t_lift"))
-            if t_lift is None or t_lift < t_p - LIFT_TIME_TOLERANCE:
+            if t_lift is None or t_lift < t_p - tolerance:
                 when = "withheld" if t_lift is None else f"{t_lift:.6g} s"
                 return Verdict.FALSE_HOP, f"lift-off ({when}) before the Painlevé point {t_p:.6g} s"
             return None, f"lift-off at {t_lift:.6g} s, not before the Painlevé point {t_p:.6g} s"

@@ -191,3 +191,58 @@ def test_a_lift_off_at_the_first_sample_has_only_a_flight_phase():
     assert events.outcome is Outcome.LIFTS_AT_START
     assert events.phase_code == "F"
     assert events.t_slip is None
+
+
+# --------------------------------------------------------------------------- the hoop's size
+def _scaled(scene, a):
+    """The same motion on a hoop of radius a: the spin parameter kept, time scaled by
+    sqrt(a / scene.a)."""
+    k = math.sqrt(a / scene.a)
+    return scene.with_(a=a, thetadot0=scene.thetadot0 / k, t_end=scene.t_end * k)
+
+
+def test_every_threshold_scales_as_what_it_measures():
+    base = DetectorSettings()
+    small = base.for_hoop(0.01, 9.8)
+    lengths = ("lift_clearance", "lift_level", "hop_clearance")
+    speeds = ("slip_threshold", "restick_threshold")
+    durations = ("restick_sustain", "lift_sustain")
+    for name in lengths:
+        assert getattr(small, name) == pytest.approx(0.01 * getattr(base, name), rel=1e-12)
+    for name in (*speeds, *durations):
+        assert getattr(small, name) == pytest.approx(0.1 * getattr(base, name), rel=1e-12)
+    # A threshold added later must be classified: here, it would not have changed.
+    listed = {"a", "g", *lengths, *speeds, *durations}
+    assert listed == set(DetectorSettings.__dataclass_fields__)
+    assert (small.a, small.g) == (0.01, 9.8)
+    assert base.for_hoop(1.0, 9.8) is base  # the 1 m hoop: exactly the stated thresholds
+    assert small.for_hoop(0.01, 9.8) == small  # applying it twice changes nothing
+    faster = base.for_hoop(1.0, 4 * 9.8)  # g alone: speeds x2, durations /2, lengths kept
+    assert (faster.slip_threshold, faster.lift_sustain) == pytest.approx((2e-3, 2.5e-3))
+    assert faster.hop_clearance == base.hop_clearance
+
+
+def test_a_hoop_too_small_for_the_floor_level_is_refused():
+    with pytest.raises(ValueError, match="too small to detect on"):
+        DetectorSettings().for_hoop(5e-5, 9.8)
+
+
+@pytest.mark.parametrize("name", ["seed-mu", "hop-low", "slip-reversal"])
+def test_the_1_cm_hoop_reads_as_the_1_m_hoop(name):
+    """The exact motion of a catalogue scene on a 1 cm hoop, sampled 10 times finer, gives
+    the same events in the hoop's own units (times / 10, heights / 100) as on the 1 m hoop.
+    With the 1 m thresholds it did not: seed-mu's 4.4 ms roll between re-stick and reverse
+    slip was shorter than the 5 ms re-stick sustain, and hop-low's 0.33 mm hop was below
+    the 1 mm hop threshold."""
+    from hoopbench.engines.event_checks import checked_events
+    from hoopbench.models.catalogue import get_scene
+
+    big = get_scene(name)
+    small = _scaled(big, 0.01)
+    on_big = checked_events(solve_exact(big).sample_uniform(1e-4), scene=big)
+    on_small = checked_events(solve_exact(small).sample_uniform(1e-5), scene=small)
+    assert on_small.phase_code == on_big.phase_code == solve_exact(big).events.phase_code
+    for got, want in zip(on_small.phases, on_big.phases, strict=True):
+        assert 10 * got.t_start == pytest.approx(want.t_start, abs=1e-6)
+    if on_big.hop_height is not None:
+        assert 100 * on_small.hop_height == pytest.approx(on_big.hop_height, rel=1e-6)

@@ -312,3 +312,14 @@ def test_the_row_of_a_blip_against_a_real_hop():
 def test_the_row_of_a_run_that_produced_nothing():
     row = failure_row(_task(), RunStatus.TIMEOUT, "over 60 s")
     assert (row["verdict"], row["outcome_agrees"]) == ("failed", False)
+
+
+def test_the_hop_rules_scale_with_the_hoop():
+    """On a 1 cm hoop (a in the row) a 0.3 mm hop is a hop and agrees with a 0.33 mm exact
+    one leaving 4 ms apart; read for the 1 m hoop (no a) it would be contact noise."""
+    row = {**HOP_ROW, "exact_hop_height": 3.3e-4, "hop_height": 3e-4, "max_clearance": 3e-4}
+    row |= {"t_lift": 1.004}
+    assert _verdict({**row, "a": 0.01}) == (Verdict.AGREES, True)
+    assert _verdict(row) == (Verdict.MISSED_HOP, False)
+    late = {**row, "a": 0.01, "t_lift": 1.0 + 0.12 * LIFT_TIME_TOLERANCE}  # 6 ms: over 5 ms
+    assert _verdict(late) == (Verdict.MISSED_HOP, False)
