@@ -29,7 +29,7 @@ from matplotlib.colors import BoundaryNorm, ListedColormap, LogNorm, Normalize
 from matplotlib.patches import Patch
 
 from hoopbench.reference.regimes import Regime
-from hoopbench.reports.verdict import Verdict
+from hoopbench.reports.verdict import HOP_HEIGHT_FACTOR, Verdict
 
 __all__ = [
     "DPI",
@@ -81,9 +81,13 @@ VERDICT_COLOURS: dict[Verdict, str] = {
 """One colour per verdict (Okabe-Ito); ``agrees`` faint grey."""
 
 _NOT_JUDGED = "#FFFFFF"
-"""Cells with no verdict (the reference has no answer: degenerate, error)."""
-_NOT_SHOWN = "#F0F0F0"
-"""Background of the hop-error panels: the reference hops there, the engine does not."""
+"""Cells with no verdict: the reference has no answer (degenerate, error), or the engine
+could not run the scene (I = 0)."""
+_NO_HOP = "#F0F0F0"
+"""Cells of the hop-height panel where the reference does not hop."""
+_NOT_COMPARED = "#8C8C8C"
+"""Hop-error cells where the reference hops and the engine does not (or did not run): a
+mid grey, unlike any colour of the diverging scale (whose centre, ratio 1, is near white)."""
 
 PANEL_SIZE = (4.6, 4.0)
 """Inches (width, height) of one panel, its colour bar or legend included."""
@@ -291,6 +295,11 @@ def _mesh(ax: plt.Axes, grid: MapGrid, cells: np.ndarray, **kwargs):
     )
 
 
+def _fill(ax: plt.Axes, grid: MapGrid, where: np.ndarray, colour: str) -> None:
+    """One colour on the cells where ``where`` (shape (ny, nx), bool) holds."""
+    _mesh(ax, grid, np.where(where, 0.0, np.nan), cmap=ListedColormap([colour]))
+
+
 def _categorical(ax: plt.Axes, grid: MapGrid, cells: np.ndarray, colours: list[str]) -> None:
     """Cells holding indices into ``colours``."""
     n = len(colours)
@@ -326,12 +335,7 @@ def regime_figure(frame: pd.DataFrame, path: str | Path) -> Path:
         low, high = np.nanmin(heights), np.nanmax(heights)
         if high <= low * 1.01:  # one height: a decade around it keeps LogNorm defined
             low, high = low / 3.0, high * 3.0
-        _mesh(
-            right,
-            grid,
-            np.where(np.isfinite(regimes), 0.0, np.nan),
-            cmap=ListedColormap([_NOT_SHOWN]),
-        )
+        _fill(right, grid, np.isfinite(regimes), _NO_HOP)
         mesh = _mesh(right, grid, heights, cmap="viridis", norm=LogNorm(low, high))
         fig.colorbar(mesh, ax=right, label="exact hop height (m)")
     else:
@@ -368,13 +372,14 @@ def verdict_figure(frame: pd.DataFrame, path: str | Path) -> Path:
     for ax, engine in zip(axes, engines, strict=True):
         cells = verdict_cells(frame, engine, grid)
         ran = _judged_cells(frame, engine, grid)
-        _mesh(ax, grid, ran, cmap=ListedColormap([_NOT_JUDGED]))  # under the verdicts
+        _fill(ax, grid, np.isfinite(ran), _NOT_JUDGED)  # under the verdicts
         _categorical(ax, grid, cells, list(VERDICT_COLOURS.values()))
         present |= {v for k, v in enumerate(Verdict) if np.any(cells == k)}
         ax.set_title(_agreement_title(engine, cells), fontsize=10)
         _set_axes(ax, grid)
     handles = [Patch(color=VERDICT_COLOURS[v], label=str(v)) for v in Verdict if v in present]
-    handles.append(Patch(facecolor=_NOT_JUDGED, edgecolor="0.6", label="no exact answer"))
+    no_verdict = "no verdict (no exact answer, or not run)"
+    handles.append(Patch(facecolor=_NOT_JUDGED, edgecolor="0.6", label=no_verdict))
     fig.legend(handles=handles, loc="outside lower center", ncols=min(len(handles), 5), fontsize=8)
     return _save(fig, path)
 
@@ -387,7 +392,8 @@ def hop_error_figure(frame: pd.DataFrame, path: str | Path) -> Path:
     """Per engine, its hop height over the exact one where both hop, on a log2 colour scale
     centred on 1 (a ratio, not engine - exact: hop heights across a map span decades, and
     the verdict's rule is a factor, HOP_HEIGHT_FACTOR, so equal colours mean equal factors
-    whatever the height). Grey: the reference hops, the engine does not."""
+    whatever the height). Dark grey: the reference hops, the engine does not (or did not
+    run); white: the reference does not hop."""
     grid = map_grid(frame)
     engines = engines_of(frame)
     if not engines:
@@ -398,15 +404,18 @@ def hop_error_figure(frame: pd.DataFrame, path: str | Path) -> Path:
     mesh = None
     for ax, engine in zip(axes, engines, strict=True):
         ratio = hop_ratio_cells(frame, engine, grid)
-        _mesh(ax, grid, np.where(hops, 0.0, np.nan), cmap=ListedColormap([_NOT_SHOWN]))
+        _fill(ax, grid, hops, _NOT_COMPARED)
         mesh = _mesh(ax, grid, np.log2(ratio), cmap="RdBu_r", norm=norm)
         n = int(np.isfinite(ratio).sum())
-        ax.set_title(f"{engine}: {n} of {int(hops.sum())} exact hops", fontsize=10)
+        title = f"{engine}: hops at {n} of {int(hops.sum())} exact hops (grey: no hop)"
+        ax.set_title(title, fontsize=10)
         if not hops.any():
             _message(ax, "no hop on this map")
         _set_axes(ax, grid)
     ticks = np.arange(-_RATIO_LIMIT, _RATIO_LIMIT + 1)
     bar = fig.colorbar(mesh, ax=list(axes), ticks=ticks, extend="both")
     bar.set_ticklabels([f"{2.0**t:g}" if t >= 0 else f"1/{2.0**-t:g}" for t in ticks])
-    bar.set_label("hop height / exact hop height")
+    for factor in (HOP_HEIGHT_FACTOR, 1 / HOP_HEIGHT_FACTOR):  # the verdict's hop-size rule
+        bar.ax.axhline(math.log2(factor), color="k", lw=1.0)
+    bar.set_label(f"engine / exact hop height (lines: factor {HOP_HEIGHT_FACTOR:g})")
     return _save(fig, path)
