@@ -309,7 +309,7 @@ class MujocoEngine(Engine):
                 for key, values in com.items():
                     out[key][rows] = values
                 diverged = _warning_reason(mujoco, data, warnings) or check_divergence(
-                    scene, {key: val[rows] for key, val in out.items()}, self.limits
+                    scene, {key: val[rows] for key, val in out.items()}, self.limits, shape
                 )
                 if monitor and not diverged:
                     stopped = monitor.feed({key: val[rows] for key, val in out.items()}, done + k)

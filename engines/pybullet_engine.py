@@ -341,7 +341,7 @@ class PybulletEngine(Engine):
                 wall += time.perf_counter() - start
                 blocks.append(block)
                 done += todo
-                diverged = check_divergence(scene, _com_state(scene, block), self.limits)
+                diverged = check_divergence(scene, _com_state(scene, block), self.limits, shape)
                 if monitor and not diverged:
                     stopped = monitor.feed(_com_state(scene, block), done)
             start = time.perf_counter()

@@ -193,3 +193,28 @@ def test_mujoco_starts_at_its_own_contact_distance(geometry, scene):
     recorded = start("mujoco", geometry, scene).trajectory.clearance[0]
     assert recorded == pytest.approx(deepest, abs=1e-12)
     assert -MAX_START_DEPTH < deepest <= 0.0
+
+
+# ----------------------------------------------------------------------------- divergence
+@pytest.mark.parametrize("segments", [3, 4, 8])
+def test_a_coarse_ring_on_its_side_is_not_penetration(segments):
+    """The divergence check bounds the penetration of the body's lowest point: a ring of few
+    capsules resting on a side has its centre well below a ((a - rc)(1 - cos(pi / N)), 7.6 %
+    of a for N = 8, over the 5 % limit) and is fine; the same centre with the hoop's circle
+    is 7.6 % deep. MuJoCo stopped such rings as diverged at the first chunk."""
+    from hoopbench.engines.base import DivergenceLimits, check_divergence
+
+    sc = SCENES["seed-mu"]
+    settings = RunSettings(geometry="ring", options={"ring_segments": segments})
+    shape = contact_shape(sc, "ring", MujocoEngine().check(sc, settings))
+    # theta0 puts a vertex straight down; half a side's turn puts a side down.
+    theta = np.array([sc.theta0 + np.pi / segments])
+    depth = float(kinematics.contact_depth(sc, theta, shape)[0])
+    X, Y = kinematics.com_position(sc, np.zeros(1), np.array([depth]), theta)
+    state = {"X": X, "Y": Y, "theta": theta, "Xdot": np.zeros(1), "Ydot": np.zeros(1)}
+    state["thetadot"] = np.zeros(1)
+    assert check_divergence(sc, state, DivergenceLimits(), shape) is None
+    assert "penetration" in check_divergence(sc, state, DivergenceLimits())
+    settings = RunSettings(timestep=1e-3, geometry="ring", options=settings.options)
+    run = get_engine("mujoco").run(sc.with_(t_end=0.5), settings)
+    assert run.info.status is RunStatus.OK, run.info.message
