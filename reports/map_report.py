@@ -227,15 +227,21 @@ def _axis_text(axis: Axis, value: float) -> str:
     return f"{value:g} {unit}" if unit else f"{value:g}"
 
 
+def _axis_span(spec: MapSpec, axis: Axis, which: str, n: int) -> str:
+    """'lam (x): 6 points from 0.5 to 1' (the grid's values: spec.axis_values)."""
+    values = spec.axis_values(axis)
+    if n == 1:
+        return f"{axis} ({which}) = {_axis_text(axis, values[0])}"
+    first, last = _axis_text(axis, values[0]), _axis_text(axis, values[-1])
+    return f"{axis} ({which}): {n} points from {first} to {last}"
+
+
 def _spec_text(spec: MapSpec) -> str:
-    x_lo, x_hi = spec.x_range  # type: ignore[misc]
-    y_lo, y_hi = spec.y_range  # type: ignore[misc]
     fixed = ", ".join(f"{k} = {_axis_text(Axis(k), v)}" for k, v in spec.fixed_values.items())
     engines = ", ".join(spec.engines) or "none (the reference's regimes alone)"
     return (
-        f"A {spec.nx} x {spec.ny} grid: {spec.x} (x) from {_axis_text(spec.x, x_lo)} to "
-        f"{_axis_text(spec.x, x_hi)}, {spec.y} (y) from {_axis_text(spec.y, y_lo)} to "
-        f"{_axis_text(spec.y, y_hi)}, both ends included; fixed {fixed} (mus = muk = mu); "
+        f"A {spec.nx} x {spec.ny} grid, {_axis_span(spec, spec.x, 'x', spec.nx)}, "
+        f"{_axis_span(spec, spec.y, 'y', spec.ny)}; fixed {fixed} (mus = muk = mu); "
         f"window t_end = {spec.t_end:g} s. Engines: {engines}, dt = {spec.timestep:g} s, "
         f"profile {spec.profile}."
     )
