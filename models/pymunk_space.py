@@ -9,9 +9,10 @@ pymunk conventions differ from hoopbench's in two ways, both handled here:
   velocity of the centre of gravity (our centre of mass).
 
 Mass and moment come from the scene; the circle carries no mass, because pymunk would
-otherwise add a disc's moment to the body. Friction and elasticity are products of the two
-shapes' values in pymunk, so the floor gets 1.0 and the hoop carries mu and the restitution:
-the products are then exactly mu and e.
+otherwise add a disc's moment to the body. The hoop starts START_OVERLAP deep in the floor
+(its reason is given there): pymunk makes a contact only where shapes overlap. Friction
+and elasticity are products of the two shapes' values in pymunk, so the floor gets 1.0 and
+the hoop carries mu and the restitution: the products are then exactly mu and e.
 
 :func:`build_space` imports pymunk lazily: this module only describes the model.
 """
@@ -19,6 +20,7 @@ the products are then exactly mu and e.
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -26,10 +28,26 @@ from hoopbench.models import kinematics
 from hoopbench.models.checks import check_real
 from hoopbench.models.scene import Scene
 
-__all__ = ["PymunkSpec", "build_space", "scene_to_pymunk"]
+__all__ = ["START_OVERLAP", "PymunkSpec", "build_space", "scene_to_pymunk"]
 
 _FLOOR_MARGIN = 10.0
 """Floor beyond the farthest reachable hoop centre, in hoop radii."""
+
+START_OVERLAP = 1e-6
+"""Overlap of the hoop with the floor at the start, in units of a: the start's placement by
+pymunk's real contact surface. Chipmunk makes a contact only where shapes overlap, and it
+moves positions before it collides: placed exactly touching, a hoop rolling with the weight
+in its upper half rises by lam a (1 - cos(thetadot dt)) cos(theta) in its first step (5 nm
+on seed-mu at dt 1e-4) and has no contact for that step, then falls freely (-0.86 g dt;
+-0.75 on a tilted start). Below the collision slop no bias pushes an overlap out and the
+contact holds the hoop as it is, so the start keeps its contact until that per-step rise
+has used the overlap up: measured at dt 1e-4, 1e-7 a lost it at step 10 of the tilted
+start, 1e-6 a held all 20 steps of a 2 ms start on every tested one. On the catalogue's 1 m
+hoop it is below the slop of both profiles (1e-5 m tuned, 0.1 stock), and it is 100 times
+below the detectors' lift-off clearance (1e-4 a). A hoop that leaves the floor at once
+(lifts-at-start: free, its lowest point accelerates upward) starts exactly touching, as it
+does in MuJoCo and Drake: started deep, it would roll for the time it takes to rise out of
+the overlap (0.2 ms at dt 1e-4) before its flight."""
 
 
 @dataclass(frozen=True)
@@ -61,7 +79,9 @@ class PymunkSpec:
     gravity: tuple[float, float]
     """Space gravity, m/s^2."""
     position: tuple[float, float]
-    """Initial body position (hoop centre), m."""
+    """Initial body position (hoop centre), m: start_overlap below touching the floor."""
+    start_overlap: float
+    """Overlap of the hoop with the floor at the start, m (START_OVERLAP times a)."""
     angle: float
     """Initial body angle, rad, counter-clockwise (= -theta0)."""
     velocity: tuple[float, float]
@@ -104,6 +124,10 @@ def scene_to_pymunk(scene: Scene, *, mu: float, restitution: float = 0.0) -> Pym
     X, Y, theta, Xdot, Ydot, thetadot = scene.initial_state()
     x, y = kinematics.centre_position(scene, X, Y, theta)
     half = _FLOOR_MARGIN * a + kinematics.reach(scene)
+    # Free of the floor, the lowest point's acceleration is -g + lam a thetadot^2 cos(theta)
+    # (ballistic centre of mass, constant spin); at >= 0 no contact force acts at the start.
+    leaves = -scene.g + scene.com_offset * thetadot**2 * math.cos(theta) >= 0.0
+    overlap = 0.0 if leaves else START_OVERLAP * a
     # A thick floor cannot be tunnelled through; its top surface is exactly y = 0.
     floor_radius = a
     return PymunkSpec(
@@ -119,7 +143,8 @@ def scene_to_pymunk(scene: Scene, *, mu: float, restitution: float = 0.0) -> Pym
         hoop_elasticity=restitution,
         floor_elasticity=1.0,
         gravity=(0.0, -scene.g),
-        position=(float(x), float(y)),
+        position=(float(x), float(y) - overlap),
+        start_overlap=overlap,
         angle=-theta,
         velocity=(Xdot, Ydot),
         angular_velocity=-thetadot,
