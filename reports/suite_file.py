@@ -60,7 +60,7 @@ _SCENE_KEYS = (
     "t_end",
     "xdot0",
 )
-_VARIANT_KEYS = ("engine", "name", "profile", "geometry", "options", "timesteps")
+_VARIANT_KEYS = ("engine", "name", "profile", "geometry", "options", "timesteps", "scenes")
 
 
 class TrajectoryChoice(StrEnum):
@@ -87,6 +87,8 @@ class VariantSpec:
     """s; None: the suite's timesteps."""
     profile: Profile = Profile.TUNED
     """The option values the variant's own options start from."""
+    scenes: tuple[str, ...] | None = None
+    """Names of the suite's scenes the variant runs on; None: all of them."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "options", MappingProxyType(dict(self.options)))
@@ -149,7 +151,11 @@ class Suite:
                     VariantSpec(engine, DEFAULT_VARIANT, profile=p)
                     for p in _distinct_profiles(engine, self.profiles)
                 ]
-                mine = [v for v in self.variants if v.engine == engine]
+                mine = [
+                    v
+                    for v in self.variants
+                    if v.engine == engine and (v.scenes is None or scene.name in v.scenes)
+                ]
                 for variant in (*defaults, *mine):
                     for dt in variant.timesteps or self.timesteps:
                         tasks.append(_task(scene, variant, dt, trajectory_dir))
@@ -250,7 +256,7 @@ def parse_suite(data: Mapping[str, Any]) -> Suite:
     repeated = sorted({n for n in names if names.count(n) > 1})
     if repeated:
         raise SuiteError(f"scene name(s) {', '.join(repeated)} given twice")
-    variants = _variants(data.get("variant", []), engines)
+    variants = _variants(data.get("variant", []), engines, names)
     profiles = _profiles(data.get("profiles", ["tuned"]), "profiles")
     suite = Suite(name, engines, timesteps, tuple(scenes), variants, profiles)
     _check_runs(suite)
@@ -345,7 +351,7 @@ def _param_scene(table: Any, k: int) -> Scene:
         raise SuiteError(f"{where}: {exc}") from None
 
 
-def _variants(value: Any, engines: Sequence[str]) -> tuple[VariantSpec, ...]:
+def _variants(value: Any, engines: Sequence[str], scenes: Sequence[str]) -> tuple[VariantSpec, ...]:
     if not isinstance(value, list):
         raise SuiteError(f"[[variant]] must be a list of tables, got {value!r}")
     variants: list[VariantSpec] = []
@@ -371,13 +377,29 @@ def _variants(value: Any, engines: Sequence[str]) -> tuple[VariantSpec, ...]:
         if timesteps is not None:
             timesteps = _timesteps(timesteps, f"{where}: timesteps")
         (profile,) = _profiles(table.get("profile", "tuned"), f"{where}: profile")
+        only = _variant_scenes(table.get("scenes"), scenes, where)
         try:
             settings = RunSettings(geometry=geometry, options=options, profile=profile)
             engine_class(engine).resolve(settings)
         except ValueError as exc:
             raise SuiteError(f"{where}: {exc}") from None
-        variants.append(VariantSpec(engine, name, geometry, options, timesteps, profile))
+        variants.append(VariantSpec(engine, name, geometry, options, timesteps, profile, only))
     return tuple(variants)
+
+
+def _variant_scenes(value: Any, scenes: Sequence[str], where: str) -> tuple[str, ...] | None:
+    """A variant's ``scenes``: None (all), or a non-empty list of the suite's scene names."""
+    if value is None:
+        return None
+    if not isinstance(value, list) or not value or not all(isinstance(s, str) for s in value):
+        raise SuiteError(f"{where}: scenes must be a non-empty list of scene names, got {value!r}")
+    unknown = [s for s in value if s not in scenes]
+    if unknown:
+        raise SuiteError(
+            f"{where}: scenes: {', '.join(map(repr, unknown))} not in the suite "
+            f"(it has {', '.join(scenes)})"
+        )
+    return tuple(value)
 
 
 def _check_runs(suite: Suite) -> None:

@@ -121,6 +121,8 @@ BAD = [
     (HS + V + V, "mujoco variant 'v' is given twice"),
     (HS + V + "timesteps = [0]\n", "got 0"),
     (HS + V + "restitution = 0.5\n", "unknown key(s) restitution"),
+    (HS + V + 'scenes = ["seed"]\n', "scenes: 'seed' not in the suite (it has seed-mu)"),
+    (HS + V + "scenes = []\n", "scenes must be a non-empty list of scene names"),
     (
         H + 'engines = ["pybullet"]\n' + S + "lam = 0.9\nchi = 0.1\nmus = 0.8\nM = 1e-12\n",
         "M must be >= 1e-08 kg",
@@ -163,3 +165,9 @@ def test_parse_accepts_the_parsed_toml_directly():
         {"name": "d", "timesteps": [1e-3], "scenes": ["hop-top"], "engines": ["pymunk"]}
     )
     assert [t.engine for t in suite.tasks()] == ["pymunk"]
+
+
+def test_a_variant_runs_on_its_scenes_only(tmp_path):
+    text = GOOD + 'scenes = ["hop-top", "spun"]\n'
+    tasks = [t for t in load_suite(write(tmp_path, text)).tasks() if t.variant == "pyramidal"]
+    assert sorted(t.scene.name for t in tasks) == ["hop-top", "spun"]
