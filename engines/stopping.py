@@ -93,9 +93,10 @@ class StopThresholds:
 
 
 def stop_thresholds(scene: Scene, detectors: DetectorSettings | None = None) -> StopThresholds:
-    """The thresholds the judge applies to this scene's runs: the one place that reads them
-    from DetectorSettings for stopping (``scene`` is here for thresholds that scale with it)."""
-    cfg = detectors or DetectorSettings()
+    """The thresholds the judge applies to this scene's runs, carried to its hoop
+    (:meth:`DetectorSettings.for_scene`, as the judge does): the one place that reads them
+    from DetectorSettings for stopping."""
+    cfg = (detectors or DetectorSettings()).for_scene(scene)
     return StopThresholds(
         floor_level=FLOOR_LEVEL,
         lift_clearance=cfg.lift_clearance,

@@ -28,9 +28,8 @@ LIMITS = DetectorSettings()
 
 
 # --------------------------------------------------------------------------- synthetic
-def _states(theta, thetadot, clearance, slip):
+def _states(theta, thetadot, clearance, slip, scene: Scene = SYNTHETIC):
     """COM states with this clearance (m) and slip velocity (m/s) for the circle."""
-    scene = SYNTHETIC
     r, a = scene.com_offset, scene.a
     theta, thetadot = np.asarray(theta, float), np.asarray(thetadot, float)
     return {
@@ -119,6 +118,17 @@ def test_no_impact_without_a_hop():
     airborne = _flight(6000, 5000, 0.5, 0.05)
     states = _record(6000, clearance=noise + blip + airborne)
     assert _feed(_monitor(StopRule()), states, 1000) == [None] * 6
+
+
+def test_thresholds_scale_with_the_hoop():
+    """On a 1 cm hoop the judge's hop threshold is 10 um (DetectorSettings.for_scene): a
+    0.5 mm hop, contact noise on the 1 m hoop, is a hop there."""
+    small = SYNTHETIC.with_(a=0.01)
+    clearance = _flight(3000, 500, 0.02, 5e-4)
+    t = np.arange(3001) * DT
+    states = _states(t, np.ones(3001), clearance, np.zeros(3001), scene=small)
+    assert _feed(StopMonitor(small, StopRule(), DT), states, 1000) == [StopReason.IMPACT]
+    assert _feed(_monitor(StopRule()), _record(3000, clearance=clearance), 1000) == [None] * 3
 
 
 def test_impact_only_when_asked():
