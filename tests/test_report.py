@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import re
+
 import pandas as pd
 import pytest
 
 from hoopbench.engines.base import RunStatus
+from hoopbench.engines.options import Profile
 from hoopbench.engines.registry import engine_class, engine_names
 from hoopbench.reports.markdown import write_markdown
 from hoopbench.reports.suite import ROW_COLUMNS, build_report, compare, report_frame, run_task
@@ -89,21 +92,82 @@ def test_a_broken_run_becomes_an_error_row():
     assert row["run_id"] == task.run_id and row["scene"] == "seed-mu"
 
 
-def test_default_suite_runs_every_engine_its_declared_variants_and_the_hop_scenes():
+LEFT_OUT = re.compile(r"^# left out: (\S+) (\S+): (.{10,})$", re.MULTILINE)
+"""A line of a suite file naming an engine's variant or knob it leaves out, with the reason."""
+
+
+def _left_out(name: str) -> set[tuple[str, str]]:
+    return {(m[1], m[2]) for m in LEFT_OUT.finditer(builtin_suite(name).read_text())}
+
+
+def _declared(engine: str) -> set[tuple]:
+    return {
+        (v.name, v.geometry, tuple(sorted(v.options.items())))
+        for v in engine_class(engine).variants
+    }
+
+
+def _in_file(suite, engine: str) -> set[tuple]:
+    return {
+        (v.name, v.geometry, tuple(sorted(v.options.items())))
+        for v in suite.variants
+        if v.engine == engine
+    }
+
+
+def _stock_knobs(engine: str) -> dict[str, object]:
+    """Option name -> stock value, for the options whose stock value is not the tuned one."""
+    cls = engine_class(engine)
+    stock, tuned = cls.defaults(Profile.STOCK), cls.defaults(Profile.TUNED)
+    return {k: v for k, v in stock.items() if v != tuned[k]}
+
+
+def test_the_full_suite_runs_every_engine_and_every_declared_variant():
+    full = load_suite(builtin_suite("full"))
+    assert set(full.engines) == set(engine_names())
+    assert set(full.profiles) == set(Profile)
+    for engine in full.engines:
+        assert _declared(engine) <= _in_file(full, engine), engine
+
+
+def test_the_default_suite_runs_each_declared_variant_or_says_why_not():
     suite = load_suite(builtin_suite("default"))
     assert set(suite.engines) == set(engine_names())  # every registered engine
+    assert set(suite.profiles) == set(Profile)  # stock beside tuned
     assert {"seed-mu", "hop-top", "hop-low", "hop-bottom"} <= {s.name for s in suite.scenes}
+    left_out = _left_out("default")
     for engine in suite.engines:
-        declared = {
-            (v.name, v.geometry, tuple(sorted(v.options.items())))
-            for v in engine_class(engine).variants
-        }
-        in_file = {
-            (v.name, v.geometry, tuple(sorted(v.options.items())))
-            for v in suite.variants
-            if v.engine == engine
-        }
-        assert in_file == declared, engine
+        missing = {name for name, _, _ in _declared(engine) - _in_file(suite, engine)}
+        assert missing <= {name for e, name in left_out if e == engine}, (engine, missing)
+
+
+def test_the_default_suite_runs_each_stock_knob_alone_or_says_why_not():
+    """Every knob whose stock value differs from the tuned one runs alone at its stock value
+    on the tuned settings, on a slip scene and a hop scene (the contact-settings tables), or
+    the file says why not. Every left-out line names a real variant or knob."""
+    suite = load_suite(builtin_suite("default"))
+    left_out = _left_out("default")
+    for engine in suite.engines:
+        tuned = engine_class(engine).defaults(Profile.TUNED)
+        scenes_by_knob: dict[str, set[str]] = {}
+        for task in suite.tasks():
+            if task.engine != engine or task.variant == "default" or task.geometry != "sphere":
+                continue
+            off = {k: v for k, v in task.options if v != tuned[k]}
+            if len(off) == 1:
+                scenes_by_knob.setdefault(next(iter(off)), set()).add(task.scene.name)
+        for knob, value in _stock_knobs(engine).items():
+            if (engine, knob) in left_out:
+                continue
+            ran = scenes_by_knob.get(knob, set())
+            assert {"seed-mu", "hop-top"} <= ran, (engine, knob, value, ran)
+        real = {name for name, _, _ in _declared(engine)} | set(_stock_knobs(engine))
+        stale = {name for e, name in left_out if e == engine} - real
+        assert not stale, (engine, stale)
+
+
+def test_the_stability_suite_file_holds_every_engine():
+    assert set(load_suite(builtin_suite("stability")).engines) == set(engine_names())
 
 
 def test_seed_section_sets_the_ports_numbers_beside_the_printed_ones():
