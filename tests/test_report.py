@@ -191,3 +191,80 @@ def test_a_scene_table_leaves_out_the_events_its_scene_lacks(quick_report):
     assert "t_slip s" in seed and "hop m" not in seed and "impact error" not in seed
     assert "hop m" in hop and "impact error ms" in hop
     assert "s solve" in seed  # the reference's cost is its solve time, not us per step
+
+
+def _knob_row(engine, profile, variant, options, scene, **values):
+    hops = scene == "hop-top"
+    return {
+        "engine": engine,
+        "profile": profile,
+        "variant": variant,
+        "options": options,
+        "geometry": values.pop("geometry", "sphere"),
+        "scene": scene,
+        "timestep": 1e-4,
+        "status": "ok",
+        "exact_t_lift": 1.17 if hops else None,
+        "exact_t_slip": 0.44 if hops else 0.987,
+        "err_t_slip_ms": values.pop("slip", None),
+        "err_hop_height_rel": values.pop("hop", None),
+        "verdict": values.pop("verdict", "agrees"),
+        "us_per_step": 20.0,
+    }
+
+
+def test_the_contact_settings_table_names_each_knob_its_values_and_what_it_moves():
+    """Synthetic rows: each line names the knob off its tuned value (from the run's full
+    option values, whatever the profile it started from), marks a stock value, and shows the
+    slip-onset error on the slip scene and the hop-height error on the hop scene."""
+    from hoopbench.reports.markdown import _settings_section, _with_optional_columns
+
+    rows = [
+        _knob_row("mujoco", "tuned", "default", "{}", "seed-mu", slip=2.4),
+        _knob_row("mujoco", "tuned", "default", "{}", "hop-top", hop=-0.011),
+        _knob_row("mujoco", "stock", "default", "{}", "seed-mu", slip=-914.0),
+        _knob_row("mujoco", "stock", "default", "{}", "hop-top", verdict="missed-hop"),
+        _knob_row(
+            "mujoco", "tuned", "cone=pyramidal", '{"cone": "pyramidal"}', "seed-mu", slip=-1.17
+        ),
+        _knob_row(
+            "mujoco",
+            "tuned",
+            "cone=pyramidal",
+            '{"cone": "pyramidal"}',
+            "hop-top",
+            hop=-0.997,
+            verdict="missed-hop",
+        ),
+        _knob_row("mujoco", "tuned", "geometry=ring", "{}", "seed-mu", slip=1.0, geometry="ring"),
+        _knob_row(
+            "pymunk",
+            "stock",
+            "collision_bias=None",
+            '{"collision_slop": 1e-05, "iterations": 50}',
+            "seed-mu",
+            slip=3.9,
+        ),
+    ]
+    text = _settings_section(_with_optional_columns(pd.DataFrame(rows)))
+    mujoco = text.split("### mujoco")[1].split("###")[0]
+    assert "| knob | tuned value | this run | seed-mu slip onset | hop-top hop height |" in mujoco
+    assert "| (all tuned) |  |  | +2.4 ms | -1.1 % |" in mujoco
+    assert "| (all stock) |  |  | -914 ms | missed-hop |" in mujoco
+    assert "| cone | elliptic | pyramidal (stock) | -1.17 ms | -99.7 % (missed-hop) |" in mujoco
+    assert "| geometry | sphere | ring | +1 ms | not run |" in mujoco
+    pymunk = text.split("### pymunk")[1]
+    assert "| collision_bias | 1e-40 | None (stock) | +3.9 ms |" in pymunk
+
+
+def test_the_timestep_table_keeps_stock_and_tuned_apart():
+    from hoopbench.reports.markdown import _timestep_section, _with_optional_columns
+
+    rows = [
+        {**_knob_row("pymunk", p, "default", "{}", "seed-mu", slip=s), "outcome_agrees": a}
+        | {"wall_time_s": w}
+        for p, s, a, w in (("tuned", 3.9, True, 0.2), ("stock", 4.9, False, 0.1))
+    ]
+    text = _timestep_section(_with_optional_columns(pd.DataFrame(rows)))
+    assert "| pymunk | tuned | 0.0001 | 0.2 | 3.9 | 1/1 |" in text
+    assert "| pymunk | stock | 0.0001 | 0.1 | 4.9 | 0/1 |" in text
