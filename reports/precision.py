@@ -108,6 +108,7 @@ def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import NullFormatter
 
     # One scene per metric keeps the figure readable (the table covers every scene): the
     # cross-engine slip scene for slips, the first hop scene for hops.
@@ -152,6 +153,8 @@ def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
         ax.axhline(metric.target, color="grey", lw=0.8, ls=":")
         ax.set_xscale("log")
         ax.set_yscale("log")
+        # A narrow range labels its minor ticks too, and they overlap: majors only.
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel("wall time of the run (s)")
         ax.set_ylabel(f"|error| ({metric.unit})")
         ax.set_title(f"{scene}: {metric.label}", fontsize=9)

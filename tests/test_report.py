@@ -268,3 +268,10 @@ def test_the_timestep_table_keeps_stock_and_tuned_apart():
     text = _timestep_section(_with_optional_columns(pd.DataFrame(rows)))
     assert "| pymunk | tuned | 0.0001 | 0.2 | 3.9 | 1/1 |" in text
     assert "| pymunk | stock | 0.0001 | 0.1 | 4.9 | 0/1 |" in text
+
+
+def test_figures_drawn_side_by_side_come_back_in_order():
+    from hoopbench.reports.markdown import _drawn
+
+    assert _drawn([(pow, (2, k)) for k in range(6)]) == [1, 2, 4, 8, 16, 32]
+    assert _drawn([(pow, (3, 2))]) == [9]  # one call: drawn here
