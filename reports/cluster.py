@@ -409,6 +409,12 @@ def _check_workers(client: Any, address: str, timeout: float) -> None:
 
 
 # --------------------------------------------------------------------------- a local cluster
+ORPHAN_IDLE_S = 300.0
+"""s: a local cluster's scheduler with no work for this long stops (its client was killed)."""
+ORPHAN_DEATH_S = 30.0
+"""s: a local cluster's worker without its scheduler for this long stops."""
+
+
 @dataclass(frozen=True)
 class LocalCluster:
     """A scheduler and its workers running on this machine, each a process group of its own."""
@@ -432,7 +438,9 @@ def local_cluster(
     on 127.0.0.1, as one would on several machines; stop them all on exit, whatever happens.
 
     ``env`` replaces the processes' environment. Raises ClusterError if Dask is missing or
-    the cluster is not up within ``timeout`` seconds (with the end of the failing log).
+    the cluster is not up within ``timeout`` seconds (with the end of the failing log). If
+    this process is killed before it can stop them, the scheduler ends itself after
+    ORPHAN_IDLE_S seconds without work and its workers ORPHAN_DEATH_S seconds later.
     """
     _import_distributed()
     with tempfile.TemporaryDirectory(prefix="hoopbench-dask-") as tmp:
@@ -442,15 +450,14 @@ def local_cluster(
         deadline = time.monotonic() + timeout
         started: list[subprocess.Popen] = []
         try:
-            scheduler = _spawn(
-                ["scheduler", "--host", "127.0.0.1", "--port", "0", "--scheduler-file", str(file)],
-                logs / "scheduler.log",
-                env,
-            )
+            command = ["scheduler", "--host", "127.0.0.1", "--port", "0"]
+            command += ["--scheduler-file", str(file), "--idle-timeout", f"{ORPHAN_IDLE_S:g}"]
+            scheduler = _spawn(command, logs / "scheduler.log", env)
             started.append(scheduler)
             address = _scheduler_address(file, scheduler, logs / "scheduler.log", deadline)
             for i in range(n_workers):
                 command = ["worker", address, "--host", "127.0.0.1", "--nthreads", "1"]
+                command += ["--death-timeout", f"{ORPHAN_DEATH_S:g}"]
                 started.append(_spawn(command, logs / f"worker-{i}.log", env))
             _wait_for_workers(address, n_workers, deadline, started[1:], logs)
             yield LocalCluster(address, scheduler, tuple(started[1:]), logs)
