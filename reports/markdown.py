@@ -8,7 +8,6 @@ the two sections with figures also take the output folder and return the figures
 
 from __future__ import annotations
 
-import json
 import math
 import multiprocessing
 import os
@@ -25,7 +24,7 @@ from hoopbench.models.catalogue import get_scene, scene_names
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.reports import seed_reproduction
 from hoopbench.reports.figures import events_figure, hoop_figure, paths_figure
-from hoopbench.reports.findings import findings_markdown
+from hoopbench.reports.findings import findings_markdown, off_tuned, option_text
 from hoopbench.reports.precision import cheapest_runs, precision_figure
 from hoopbench.reports.stability import (
     ENERGY_GAIN_LIMIT,
@@ -193,42 +192,28 @@ def _knob_table(engine: str, rows: pd.DataFrame) -> str:
 
 
 def _setting_labels(engine: str, rows: pd.DataFrame) -> list[tuple[str, str, str]]:
-    """Per row: (knob, its tuned value, its value in this run), from the run's full option
-    values against the engine's tuned ones; '(all tuned)' and '(all stock)' for its defaults."""
-    from hoopbench.engines.options import Profile
-    from hoopbench.engines.registry import engine_class
-
-    try:
-        cls = engine_class(engine)
-    except ValueError:  # an engine no longer registered: its variant labels alone
-        return [(str(r["variant"]), "-", "-") for _, r in rows.iterrows()]
-    tuned, stock = cls.defaults(Profile.TUNED), cls.defaults(Profile.STOCK)
+    """Per row: (knob, its tuned value, its value in this run), from the run's options off
+    the engine's tuned ones (:func:`off_tuned`); '(all tuned)' and '(all stock)' for its
+    defaults, the variant's name where the engine is no longer registered."""
     labels = []
     for _, row in rows.iterrows():
-        profile = Profile(row["profile"]) if isinstance(row["profile"], str) else Profile.TUNED
         if row["variant"] == "default":
-            labels.append((f"(all {profile})", "", ""))
+            labels.append(
+                (f"(all {row['profile'] if isinstance(row['profile'], str) else 'tuned'})", "", "")
+            )
             continue
-        changed = json.loads(row["options"]) if isinstance(row["options"], str) else {}
-        full = {**cls.defaults(profile), **changed}
-        off = {k: v for k, v in full.items() if _value(v) != _value(tuned.get(k))}
-        if row["geometry"] != cls.geometries[0]:
-            off["geometry"] = row["geometry"]
+        off = off_tuned(engine, row)
+        if off is None:
+            labels.append((str(row["variant"]), "-", "-"))
+            continue
         knobs = ", ".join(off) or str(row["variant"])
-        before = ", ".join(_value(tuned.get(k, cls.geometries[0])) for k in off)
+        before = ", ".join(option_text(tuned) for tuned, _, _ in off.values())
         now = ", ".join(
-            _value(v) + (" (stock)" if k in stock and _value(v) == _value(stock[k]) else "")
-            for k, v in off.items()
+            option_text(value) + (" (stock)" if is_stock else "")
+            for _, value, is_stock in off.values()
         )
         labels.append((knobs, before, now))
     return labels
-
-
-def _value(value) -> str:
-    """An option value as the suite files write it."""
-    if isinstance(value, list | tuple):
-        return "(" + ", ".join(_value(v) for v in value) + ")"
-    return "None" if value is None else f"{value:g}" if isinstance(value, float) else str(value)
 
 
 def _event_cell(row: pd.Series | None) -> str:

@@ -77,3 +77,44 @@ def test_the_readme_block_is_replaced_between_its_markers(tmp_path):
     (tmp_path / "bare.md").write_text("no markers")
     with pytest.raises(ValueError, match="has no findings markers"):
         update_readme(tmp_path / "bare.md", "- new")
+
+
+def test_the_stock_knobs_that_break_a_tuned_outcome_are_named():
+    """A knob at its stock value alone (cone: pyramidal) that loses the tuned run's hop is
+    named with its verdict and error; one that changes no outcome (tolerance) is listed apart;
+    a variant that is not a stock value (noslip_iterations = 10) is not a stock knob."""
+    hop = {"exact_t_lift": 1.17, "geometry": "sphere"}
+    runs = frame(
+        row("mujoco", "hop-top", options="{}", err_hop_height_rel=-0.011, **hop),
+        row(
+            "mujoco",
+            "hop-top",
+            variant="cone=pyramidal",
+            options='{"cone": "pyramidal"}',
+            err_hop_height_rel=-0.997,
+            verdict="missed-hop",
+            outcome_agrees=False,
+            **hop,
+        ),
+        row(
+            "mujoco",
+            "hop-top",
+            variant="tolerance=1e-8",
+            options='{"tolerance": 1e-08}',
+            err_hop_height_rel=-0.011,
+            **hop,
+        ),
+        row(
+            "mujoco",
+            "hop-top",
+            variant="noslip",
+            options='{"noslip_iterations": 10}',
+            verdict="missed-hop",
+            outcome_agrees=False,
+            **hop,
+        ),
+    )
+    (text,) = [s for s in findings(runs) if "stock knob" in s]
+    assert "cone = pyramidal on hop-top (missed-hop, -99.7 %)" in text
+    assert text.endswith("tolerance = 1e-08 keeps every outcome.")
+    assert "noslip" not in text
