@@ -328,7 +328,11 @@ def cluster_executor(
             address, security=dask_security, timeout=timeout, set_as_default=False
         )
     except Exception as exc:  # OSError, TimeoutError, ssl errors: all say "not usable"
-        raise ClusterError(f"cannot connect to the Dask scheduler at {address}: {exc}") from None
+        text = " ".join(str(exc).split())  # one line
+        hint = " (a TLS scheduler needs tls:// and the --tls-* options)" if scheme == "tcp" else ""
+        raise ClusterError(
+            f"cannot connect to the Dask scheduler at {address}: {text}{hint}"
+        ) from None
     try:
         _check_workers(client, address, timeout)
         yield ClusterExecutor(client, address, timeout)
@@ -433,11 +437,13 @@ def local_cluster(
     env: Mapping[str, str] | None = None,
     timeout: float = 60.0,
     log_dir: str | os.PathLike[str] | None = None,
+    tls: TlsFiles | None = None,
 ) -> Iterator[LocalCluster]:
     """Start ``dask scheduler`` and ``n_workers`` single-threaded ``dask worker`` processes
     on 127.0.0.1, as one would on several machines; stop them all on exit, whatever happens.
 
-    ``env`` replaces the processes' environment. Raises ClusterError if Dask is missing or
+    ``env`` replaces the processes' environment. With ``tls``, every process speaks TLS with
+    that certificate (Dask allows one for all roles). Raises ClusterError if Dask is missing or
     the cluster is not up within ``timeout`` seconds (with the end of the failing log). If
     this process is killed before it can stop them, the scheduler ends itself after
     ORPHAN_IDLE_S seconds without work and its workers ORPHAN_DEATH_S seconds later.
@@ -450,20 +456,28 @@ def local_cluster(
         deadline = time.monotonic() + timeout
         started: list[subprocess.Popen] = []
         try:
-            command = ["scheduler", "--host", "127.0.0.1", "--port", "0"]
+            command = ["scheduler", "--host", "127.0.0.1", "--port", "0", *_tls_args(tls)]
             command += ["--scheduler-file", str(file), "--idle-timeout", f"{ORPHAN_IDLE_S:g}"]
             scheduler = _spawn(command, logs / "scheduler.log", env)
             started.append(scheduler)
             address = _scheduler_address(file, scheduler, logs / "scheduler.log", deadline)
             for i in range(n_workers):
                 command = ["worker", address, "--host", "127.0.0.1", "--nthreads", "1"]
-                command += ["--death-timeout", f"{ORPHAN_DEATH_S:g}"]
+                command += ["--death-timeout", f"{ORPHAN_DEATH_S:g}", *_tls_args(tls)]
                 started.append(_spawn(command, logs / f"worker-{i}.log", env))
-            _wait_for_workers(address, n_workers, deadline, started[1:], logs)
+            security = _security(_import_distributed(), "tls" if tls else "tcp", tls, address)
+            _wait_for_workers(address, n_workers, deadline, started[1:], logs, security)
             yield LocalCluster(address, scheduler, tuple(started[1:]), logs)
         finally:
             for process in reversed(started):
                 _stop(process)
+
+
+def _tls_args(tls: TlsFiles | None) -> list[str]:
+    if tls is None:
+        return []
+    args = ["--protocol", "tls", "--tls-ca-file", str(tls.ca_file), "--tls-cert", str(tls.cert)]
+    return args if tls.key is None else [*args, "--tls-key", str(tls.key)]
 
 
 def _spawn(args: list[str], log: Path, env: Mapping[str, str] | None) -> subprocess.Popen:
@@ -489,10 +503,15 @@ def _scheduler_address(file: Path, scheduler: subprocess.Popen, log: Path, deadl
 
 
 def _wait_for_workers(
-    address: str, n: int, deadline: float, workers: list[subprocess.Popen], logs: Path
+    address: str,
+    n: int,
+    deadline: float,
+    workers: list[subprocess.Popen],
+    logs: Path,
+    security: Any,
 ) -> None:
     distributed = _import_distributed()
-    with distributed.Client(address, timeout=10, set_as_default=False) as client:
+    with distributed.Client(address, security=security, timeout=10, set_as_default=False) as client:
         while len(client.scheduler_info(n_workers=-1)["workers"]) < n:
             for i, process in enumerate(workers):
                 if process.poll() is not None:

@@ -12,10 +12,12 @@ from __future__ import annotations
 
 import os
 import re
+import shutil
 import signal
 import subprocess
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import pandas as pd
@@ -23,6 +25,7 @@ import pytest
 
 from hoopbench.reports.cluster import (
     ClusterError,
+    TlsFiles,
     add_cluster_arguments,
     cluster_executor,
     local_cluster,
@@ -282,3 +285,38 @@ def test_tls_files_must_exist_and_match_the_scheme(tmp_path):
     tcp = "need a tls:// scheduler address"
     with pytest.raises(ClusterError, match=tcp), cluster_executor("tcp://127.0.0.1:1", tls):
         pass
+
+
+# --------------------------------------------------------------------------- TLS
+def _openssl(*args: str, cwd: Path) -> None:
+    subprocess.run(["openssl", *args], cwd=cwd, check=True, capture_output=True, timeout=60)
+
+
+def make_certificates(folder: Path) -> TlsFiles:
+    """A throwaway CA and one certificate it signed, for every process of the cluster."""
+    _openssl("req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", "1", "-subj", "/CN=ca",
+             "-keyout", "ca.key", "-out", "ca.pem", cwd=folder)  # fmt: skip
+    _openssl("req", "-newkey", "rsa:2048", "-nodes", "-subj", "/CN=node",
+             "-keyout", "node.key", "-out", "node.csr", cwd=folder)  # fmt: skip
+    _openssl("x509", "-req", "-in", "node.csr", "-CA", "ca.pem", "-CAkey", "ca.key",
+             "-CAcreateserial", "-days", "1", "-out", "node.pem", cwd=folder)  # fmt: skip
+    return TlsFiles(folder / "ca.pem", folder / "node.pem", folder / "node.key")
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(shutil.which("openssl") is None, reason="needs the openssl command")
+def test_a_tls_cluster_takes_our_certificates_and_nothing_less(tmp_path):
+    tls = make_certificates(tmp_path)
+    with local_cluster(1, env=environment(), tls=tls, log_dir=tmp_path / "logs") as running:
+        assert running.address.startswith("tls://")
+        with cluster_executor(running.address, tls, timeout=10) as executor:
+            assert executor.submit(pow, 2, 10).result(timeout=30) == 1024
+        plain = running.address.replace("tls://", "tcp://")
+        refused = "cannot connect to the Dask scheduler"
+        with pytest.raises(ClusterError, match=refused), cluster_executor(plain, timeout=3):
+            pass
+        (tmp_path / "other").mkdir()
+        stranger = replace(make_certificates(tmp_path / "other"), ca_file=tls.ca_file)
+        stranger_executor = cluster_executor(running.address, stranger, timeout=3)
+        with pytest.raises(ClusterError, match=refused), stranger_executor:
+            pass
