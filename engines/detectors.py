@@ -174,6 +174,24 @@ def _crossing_time(t: NDArray, y: NDArray, i: int, level: float) -> float:
     return float(t[i - 1] + min(max(frac, 0.0), 1.0) * (t[i] - t[i - 1]))
 
 
+def _without_unresolved_start(phases: list[Phase], sustain: float) -> list[Phase]:
+    """The phases without a first roll shorter than ``sustain`` (the next phase starts at
+    the first one's start instead).
+
+    A roll is called only after ``restick_sustain`` of quiet slip velocity later in a run;
+    at t = 0 the same evidence is missing when the hoop slips or leaves within that time.
+    Such a roll is the time the slip velocity or the clearance takes to cross its
+    threshold (0.01-0.3 ms for a scene that slips or lifts at t = 0), not a phase: keeping
+    it made a scene that slips at once read 'R S+ ...' against the exact 'S+ ...'.
+    """
+    if len(phases) < 2 or phases[0].kind is not PhaseKind.ROLL:
+        return phases
+    first, second = phases[0], phases[1]
+    if first.t_end - first.t_start >= sustain:
+        return phases
+    return [replace(second, t_start=first.t_start), *phases[2:]]
+
+
 def _first_sustained(mask: NDArray, t: NDArray, start: int, duration: float) -> int | None:
     """First index >= start where mask holds and keeps holding for ``duration`` seconds."""
     idx = start
@@ -339,6 +357,7 @@ def detect_events(traj: Trajectory, settings: DetectorSettings | None = None) ->
     ]
     if t_lift is not None:
         phases.append(Phase(PhaseKind.FLIGHT, t_lift, t_window_end))
+    phases = _without_unresolved_start(phases, cfg.restick_sustain)
 
     if t_lift is not None:
         outcome = Outcome.LIFTS_AT_START if t_lift <= t[0] else Outcome.HOPS

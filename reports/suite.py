@@ -56,6 +56,7 @@ ROW_COLUMNS = (
     "run_id",
     "scene",
     "a",
+    "g",
     "engine",
     "profile",
     "variant",
@@ -152,6 +153,7 @@ def _task_columns(task: RunTask) -> dict[str, Any]:
         "run_id": task.run_id,
         "scene": task.scene.name,
         "a": task.scene.a,
+        "g": task.scene.g,  # with a, carries the verdict's thresholds to the scene's hoop
         "engine": task.engine,
         "profile": str(task.profile),
         "variant": task.variant,

@@ -184,6 +184,28 @@ def test_a_dwell_at_zero_is_a_re_stick():
     assert events.t_restick == pytest.approx(0.5, abs=2e-3)
 
 
+@pytest.mark.parametrize(("roll_time", "code"), [(2e-4, "S+ R"), (3e-3, "S+ R"), (8e-3, "R S+ R")])
+def test_a_first_roll_shorter_than_the_re_stick_time_is_not_a_phase(roll_time, code):
+    """A hoop that slips at once crosses the slip threshold after a fraction of a ms: that
+    time is no roll phase (a roll needs restick_sustain = 5 ms of quiet, as a re-stick does);
+    a longer first roll is kept."""
+    t = np.arange(0.0, 1.0, 1e-4)
+    s = np.interp(t, [0.0, roll_time, roll_time + 0.1, 0.5, 1.0], [0.0, 0.0, 1.0, 0.0, 0.0])
+    events = detect_events(_synthetic(t, s))
+    assert events.phase_code == code
+    assert events.phases[0].t_start == 0.0
+    assert events.t_slip == pytest.approx(roll_time, abs=2e-4)
+
+
+def test_a_short_first_roll_before_a_flight_is_not_a_phase():
+    t = np.arange(0.0, 0.5, 1e-4)
+    lift = 3e-4
+    clearance = np.where(t > lift, 1.0 * (t - lift) * (0.3 - t), 0.0)
+    events = detect_events(_synthetic(t, np.zeros_like(t), clearance))
+    assert events.phase_code == "F"
+    assert events.t_lift == pytest.approx(lift, abs=2e-4)
+
+
 def test_a_lift_off_at_the_first_sample_has_only_a_flight_phase():
     t = np.arange(0.0, 0.5, 1e-4)
     clearance = 1.0 * t * (0.3 - t)

@@ -259,6 +259,30 @@ def test_no_exact_answer_no_verdict(exact):
     assert _verdict({**SLIP_ROW, "exact_outcome": exact}) == (None, None)
 
 
+@pytest.mark.parametrize(
+    ("exact_height", "judged"), [(7.2e-5, False), (1e-3, False), (1.2e-3, True)]
+)
+def test_an_exact_hop_below_the_hop_threshold_is_not_judged(exact_height, judged):
+    """A lifts-at-start hop of 0.07 mm (lam chi just above 1): no engine hop that small is
+    read as a hop, and the exact solution ends at its impact, so there is nothing to judge;
+    the same row with an exact hop above the threshold is judged (here: missed)."""
+    row = {
+        **HOP_ROW,
+        "exact_outcome": "lifts-at-start",
+        "exact_t_lift": 0.0,
+        "exact_hop_height": exact_height,
+        "exact_phases": "F",
+        "t_lift": 0.9,
+        "hop_height": 1.5,
+        "max_clearance": 1.5,
+    }
+    judgement = classify(row)
+    assert (judgement.verdict is not None) is judged
+    if not judged:
+        assert judgement.outcome_agrees is None
+        assert "below the 1 mm hop threshold" in judgement.reason
+
+
 def test_a_stored_row_with_nan_is_judged_alike():
     """Rows read back from Parquet or CSV carry NaN for a missing number."""
     row = {**SLIP_ROW, "outcome": "hops", "t_lift": 1.2, "hop_height": 5e-3, "phases": "R S+ F"}
@@ -316,10 +340,12 @@ def test_the_row_of_a_run_that_produced_nothing():
 
 def test_the_hop_rules_scale_with_the_hoop():
     """On a 1 cm hoop (a in the row) a 0.3 mm hop is a hop and agrees with a 0.33 mm exact
-    one leaving 4 ms apart; read for the 1 m hoop (no a) it would be contact noise."""
+    one leaving 4 ms apart; read for the 1 m hoop (no a) both would be below the hop
+    threshold: the engine's contact noise, the exact one no hop to judge against."""
     row = {**HOP_ROW, "exact_hop_height": 3.3e-4, "hop_height": 3e-4, "max_clearance": 3e-4}
     row |= {"t_lift": 1.004}
     assert _verdict({**row, "a": 0.01}) == (Verdict.AGREES, True)
-    assert _verdict(row) == (Verdict.MISSED_HOP, False)
+    assert _verdict(row) == (None, None)
+    assert _verdict({**row, "exact_hop_height": 0.01}) == (Verdict.MISSED_HOP, False)
     late = {**row, "a": 0.01, "t_lift": 1.0 + 0.12 * LIFT_TIME_TOLERANCE}  # 6 ms: over 5 ms
     assert _verdict(late) == (Verdict.MISSED_HOP, False)
