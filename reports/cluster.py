@@ -31,6 +31,7 @@ import contextlib
 import functools
 import ipaddress
 import json
+import logging
 import os
 import signal
 import socket
@@ -333,12 +334,25 @@ def cluster_executor(
         raise ClusterError(
             f"cannot connect to the Dask scheduler at {address}: {text}{hint}"
         ) from None
+    with _quiet_client_log():
+        try:
+            _check_workers(client, address, timeout)
+            yield ClusterExecutor(client, address, timeout)
+        finally:
+            with contextlib.suppress(Exception):
+                client.close(timeout=timeout)
+
+
+@contextlib.contextmanager
+def _quiet_client_log() -> Iterator[None]:
+    """The client's own log lines off stderr: a lost scheduler is our one-line error."""
+    log = logging.getLogger("distributed.client")
+    level = log.level
+    log.setLevel(logging.CRITICAL)
     try:
-        _check_workers(client, address, timeout)
-        yield ClusterExecutor(client, address, timeout)
+        yield
     finally:
-        with contextlib.suppress(Exception):
-            client.close(timeout=timeout)
+        log.setLevel(level)
 
 
 def _import_distributed() -> Any:

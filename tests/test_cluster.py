@@ -98,8 +98,8 @@ def comparable(frame: pd.DataFrame, key: str = "run_id") -> pd.DataFrame:
     return frame[keep].sort_values(key).reset_index(drop=True)
 
 
-def suite_of(engines: list[str], scenes: list[str]) -> str:
-    return f"name = 'faults'\nengines = {engines}\ntimesteps = [1e-3]\nscenes = {scenes}\n"
+def suite_of(engines: list[str], scenes: list[str], timesteps: str = "[1e-3]") -> str:
+    return f"name = 'faults'\nengines = {engines}\ntimesteps = {timesteps}\nscenes = {scenes}\n"
 
 
 # --------------------------------------------------------------------------- same rows
@@ -192,6 +192,37 @@ def test_a_hung_run_times_out_and_frees_its_worker(tmp_path, cluster, client):
     rows = read_runs(tmp_path / "out")
     status = rows.groupby("engine")["status"].agg(sorted).to_dict()
     assert status == {"test-hang": ["timeout", "timeout"], "reference": ["ok", "ok"]}
+
+
+@pytest.mark.slow
+def test_a_lost_scheduler_stops_the_sweep_in_one_line_and_keeps_its_rows(tmp_path):
+    """A cluster of its own: this test kills the scheduler."""
+    scenes = ["seed-mu", "hop-top", "hop-low", "hop-bottom", "slip-reversal", "low-friction"]
+    suite = tmp_path / "suite.toml"
+    suite.write_text(suite_of(["test-slow"], scenes, "[1e-3, 5e-4]"))  # 12 runs, 5 s or more
+    out = tmp_path / "out"
+    with local_cluster(1, env=environment(), log_dir=tmp_path / "logs") as doomed:
+        proc = subprocess.Popen(
+            [*CLI, "compare", "--suite", str(suite), "--out", str(out), "--quiet",
+             "--scheduler", doomed.address, "--scheduler-timeout", "2"],
+            env=environment(), stderr=subprocess.PIPE, text=True, cwd=tmp_path,
+        )  # fmt: skip
+        try:
+            deadline = time.monotonic() + 60
+            while not list((out / "runs").glob("part-*.parquet")) and time.monotonic() < deadline:
+                time.sleep(0.05)  # the first rows are on disk: the sweep is under way
+            os.killpg(doomed.scheduler.pid, signal.SIGKILL)
+            _, err = proc.communicate(timeout=LIMIT)
+        finally:
+            proc.kill()
+    assert proc.returncode == 2
+    assert err.strip().splitlines() == [
+        "hoopbench: error: the executor is broken (BrokenExecutor: lost the Dask scheduler at "
+        f"{doomed.address}); resume the sweep with a new one"
+    ]
+    rows = read_runs(out)
+    assert 0 < len(rows) < 2 * len(scenes)
+    assert set(rows["status"]) == {"ok"}  # the runs the loss cut short are not stored as failed
 
 
 # --------------------------------------------------------------------------- bad clusters
