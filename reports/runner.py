@@ -770,10 +770,11 @@ def run_tasks(
     Without ``executor``, a :class:`WorkerPool` of ``jobs`` workers (default: CPU count) runs
     the tasks: a hung call's worker is killed, a dead worker's call is retried once. A
     foreign executor (``concurrent.futures`` or Dask's ``Client.get_executor()``) is not
-    shut down here; a timed-out call is cancelled if possible and otherwise abandoned (it
-    keeps its worker), and an exception from a future counts as a crash. Its calls are
-    timed from submission, with at most ``max_in_flight`` (default: its ``max_workers``,
-    ``_max_workers``, ``jobs`` or the CPU count) submitted at once.
+    shut down here; a timed-out call goes to its ``kill(future)`` if it has one (the Dask
+    ``ClusterExecutor`` of :mod:`hoopbench.reports.cluster`), else is cancelled if possible
+    and otherwise abandoned (it keeps its worker); an exception from a future counts as a
+    crash. Its calls are timed from submission, with at most ``max_in_flight`` (default: its
+    ``max_workers``, ``_max_workers``, ``jobs`` or the CPU count) submitted at once.
 
     Raises :class:`OutputDirNotEmptyError` if ``out_dir`` holds files and ``resume`` is
     false; with ``resume``, runs whose latest row has a final status are skipped.
