@@ -32,6 +32,7 @@ import functools
 import ipaddress
 import json
 import logging
+import math
 import os
 import signal
 import socket
@@ -317,8 +318,8 @@ def cluster_executor(
     worker cannot import this version of hoopbench. The client is closed on exit; the
     scheduler and workers keep running.
     """
-    if not timeout > 0:
-        raise ClusterError(f"--scheduler-timeout must be > 0 s, got {timeout}")
+    if not 0 < timeout < math.inf:
+        raise ClusterError(f"--scheduler-timeout must be a number of seconds > 0, got {timeout}")
     scheme, host, port = parse_address(address)
     address = f"{scheme}://[{host}]:{port}" if ":" in host else f"{scheme}://{host}:{port}"
     distributed = _import_distributed()

@@ -10,6 +10,7 @@ Dask's fourth, so that the runner's own retry is what is tested, and quickly.
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import shutil
@@ -351,3 +352,11 @@ def test_a_tls_cluster_takes_our_certificates_and_nothing_less(tmp_path):
         stranger_executor = cluster_executor(running.address, stranger, timeout=3)
         with pytest.raises(ClusterError, match=refused), stranger_executor:
             pass
+
+
+@pytest.mark.parametrize("timeout", [0.0, -1.0, math.nan, math.inf])
+def test_a_timeout_must_be_a_positive_number(timeout):
+    message = f"--scheduler-timeout must be a number of seconds > 0, got {timeout}"
+    executor = cluster_executor("tcp://127.0.0.1:1", timeout=timeout)
+    with pytest.raises(ClusterError, match=re.escape(message)), executor:
+        pass
