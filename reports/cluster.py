@@ -1,7 +1,8 @@
 """Run a sweep on a Dask cluster: the ``--scheduler`` options and an executor for run_tasks.
 
-:func:`hoopbench.reports.runner.run_tasks` drives any ``concurrent.futures`` executor; Dask's
-``Client.get_executor()`` is one, with these behaviours the runner relies on:
+:func:`hoopbench.reports.runner.run_tasks` drives any ``concurrent.futures`` executor.
+:class:`ClusterExecutor` is what Dask's ``Client.get_executor()`` gives, built on
+``Client.submit`` so that it behaves as the runner needs:
 
 * Calls are submitted with ``pure=False``. Dask's default (``pure=True``) names a call by
   its function and arguments, so the runner's retry of a failed call would get the failed
@@ -235,10 +236,15 @@ class ClusterExecutor(Executor):
         if remote is None or remote.done():
             future.cancel()
             return
-        running_on = [w for w, keys in self._client.processing().items() if remote.key in keys]
+        try:
+            running = self._client.processing().items()
+        except Exception:  # no scheduler to ask: there is nothing more to stop
+            running = {}.items()
+        running_on = [worker for worker, keys in running if remote.key in keys]
         future.cancel()  # its callback cancels the Dask future
         if running_on:
-            self._client.run(os._exit, 1, workers=running_on, on_error="return")
+            with contextlib.suppress(Exception):  # it may have gone meanwhile
+                self._client.run(os._exit, 1, workers=running_on, on_error="return")
 
     def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
         self._shutdown = True
