@@ -356,7 +356,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
     path = Path(args.suite)
     if not path.suffix and not path.exists():
-        path = builtin_suite(args.suite)  # a shipped suite by name: quick, default, full
+        path = builtin_suite(args.suite)  # a shipped suite by name
     suite = load_suite(path)  # the whole file is checked before anything runs
     if args.run_timeout is not None and not (args.run_timeout > 0):
         raise UsageError(f"--run-timeout must be > 0 s, got {args.run_timeout}")
@@ -618,7 +618,7 @@ def _add_map_options(p: argparse.ArgumentParser) -> None:
 
 def _parser() -> _Parser:
     from hoopbench.reports.cluster import add_cluster_arguments
-    from hoopbench.reports.suite_file import TrajectoryChoice
+    from hoopbench.reports.suite_file import TrajectoryChoice, shipped_suites
 
     parser = _Parser(
         prog="hoopbench",
@@ -663,7 +663,9 @@ def _parser() -> _Parser:
 
     p = sub.add_parser("compare", help="run a suite file: isolated, resumable, stored as Parquet")
     p.add_argument(
-        "--suite", required=True, help="suite file (.toml), or a shipped one: quick, default, full"
+        "--suite",
+        required=True,
+        help=f"suite file (.toml), or a shipped one: {', '.join(shipped_suites())}",
     )
     p.add_argument("--out", required=True, help="results folder (new or empty, or --resume)")
     p.add_argument(

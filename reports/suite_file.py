@@ -232,12 +232,16 @@ def load_suite(path: str | Path) -> Suite:
         raise SuiteError(f"{path.name}: {exc}") from None
 
 
+def shipped_suites() -> tuple[str, ...]:
+    """The names of the suite files hoopbench ships, sorted."""
+    return tuple(sorted(p.stem for p in SUITES_DIR.glob("*.toml")))
+
+
 def builtin_suite(name: str) -> Path:
-    """The path of a shipped suite file by its name (quick, default, full, ...)."""
+    """The path of a shipped suite file by its name (one of :func:`shipped_suites`)."""
     path = SUITES_DIR / f"{name}.toml"
     if not path.is_file():
-        known = ", ".join(sorted(p.stem for p in SUITES_DIR.glob("*.toml")))
-        raise SuiteError(f"no shipped suite {name!r}; shipped: {known}")
+        raise SuiteError(f"no shipped suite {name!r}; shipped: {', '.join(shipped_suites())}")
     return path
 
 
