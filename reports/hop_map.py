@@ -485,6 +485,7 @@ EXACT_CARRIED = (
     "exact_theta_slip_deg",
     "exact_t_painleve",
     "exact_t_settled",
+    "exact_t_last_phase",
 )
 """The reference row's columns an engine task carries and its row repeats."""
 
@@ -573,6 +574,7 @@ MAP_COLUMNS = (
     "exact_theta_slip_deg",
     "exact_t_painleve",
     "exact_t_settled",
+    "exact_t_last_phase",
     "outcome",
     "hop_height",
     "max_clearance",
@@ -597,6 +599,8 @@ MAP_COLUMNS = (
     "max_penetration_m",
     "consistent",
     "event_flags",
+    "t_last_phase",
+    "t_final",
     "phases_agree",
 )
 """Every column of a map row, in order. Reference rows leave the engine's columns empty;

@@ -33,7 +33,7 @@ from hoopbench.reference.exact import ExactSolution, solve_exact
 from hoopbench.reports import results
 from hoopbench.reports.runner import RunSummary, run_tasks
 from hoopbench.reports.suite_file import RunTask, Suite, TrajectoryChoice, load_suite
-from hoopbench.reports.verdict import Verdict, painleve_time, verdict_columns
+from hoopbench.reports.verdict import Verdict, painleve_time, phases_agree, verdict_columns
 
 __all__ = [
     "FORMAT_VERSION",
@@ -48,9 +48,11 @@ __all__ = [
     "run_timeout",
 ]
 
-FORMAT_VERSION = 3
+FORMAT_VERSION = 4
 """Version of the runs table layout (2: run_id and the runner's bookkeeping columns; 3: the
-verdict, max_clearance, consistent, event_flags and exact_t_painleve columns)."""
+verdict, max_clearance, consistent, event_flags and exact_t_painleve columns; 4: g, and the
+last phases' start times and the run's last sample time, t_last_phase, exact_t_last_phase and
+t_final, for the phase comparison at the window's end)."""
 
 ROW_COLUMNS = (
     "run_id",
@@ -78,6 +80,7 @@ ROW_COLUMNS = (
     "exact_t_impact",
     "exact_t_painleve",
     "exact_phases",
+    "exact_t_last_phase",
     "outcome",
     "t_slip",
     "t_slip_threshold",
@@ -101,6 +104,8 @@ ROW_COLUMNS = (
     "verdict",
     "outcome_agrees",
     "phases",
+    "t_last_phase",
+    "t_final",
     "phases_agree",
     "trajectory_file",
 )
@@ -176,6 +181,7 @@ def exact_columns(exact: Events) -> dict[str, Any]:
         "exact_t_impact": exact.t_impact,
         "exact_t_painleve": painleve_time(exact),
         "exact_phases": exact.phase_code,
+        "exact_t_last_phase": exact.phases[-1].t_start if exact.phases else None,
     }
 
 
@@ -190,6 +196,8 @@ def event_columns(
     before = traj.t < (events.t_slip if events.t_slip is not None else traj.t[-1])
     e0 = traj.energy[0]
     exact_hop = exact["exact_hop_height"]
+    t_last_phase = events.phases[-1].t_start if events.phases else None
+    t_final = float(traj.t[-1])
     return {
         "outcome": str(events.outcome),
         "t_slip": events.t_slip,
@@ -215,7 +223,15 @@ def event_columns(
         "consistent": not events.flags,
         "event_flags": " ".join(events.flags),
         "phases": events.phase_code,
-        "phases_agree": events.phase_code == exact["exact_phases"],
+        "t_last_phase": t_last_phase,
+        "t_final": t_final,
+        "phases_agree": phases_agree(
+            events.phase_code,
+            exact["exact_phases"],
+            t_last=t_last_phase,
+            exact_t_last=exact.get("exact_t_last_phase"),
+            t_final=t_final,
+        ),
     }
 
 

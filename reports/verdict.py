@@ -65,6 +65,7 @@ __all__ = [
     "hop_matches",
     "number_or_none",
     "painleve_time",
+    "phases_agree",
     "verdict_columns",
 ]
 
@@ -232,14 +233,42 @@ def _exact_class(outcome: str) -> _Class:
     return _Class.SLIP if outcome == str(Outcome.SLIPS) else _Class.ROLL
 
 
-def _phases_agree(phases: Any, exact_phases: Any, *, prefix: bool) -> bool | None:
+def phases_agree(
+    phases: Any,
+    exact_phases: Any,
+    *,
+    prefix: bool = False,
+    t_last: Any = None,
+    exact_t_last: Any = None,
+    t_final: Any = None,
+    tolerance: float = LIFT_TIME_TOLERANCE,
+) -> bool | None:
     """Whether the phase codes agree (None if either is missing); with ``prefix``, the
-    engine's sequence need only begin with the exact one."""
+    engine's sequence need only begin with the exact one.
+
+    At the window's end the two may differ by one last phase: the exact solution re-sticks
+    at 2.996 s of a 3 s window and the engine 10 ms later, past its last sample. So a
+    sequence that is the other's plus one last phase agrees when that phase starts within
+    ``tolerance`` (the lift-off tolerance, s) of ``t_final``, the run's last sample (s);
+    ``t_last`` and ``exact_t_last`` are the start times of the engine's and the exact last
+    phases.
+    """
     code, exact = _text(phases), _text(exact_phases)
     if code is None or exact is None:
         return None
     tokens, expected = code.split(), exact.split()
-    return tokens[: len(expected)] == expected if prefix else tokens == expected
+    if (tokens[: len(expected)] == expected) if prefix else (tokens == expected):
+        return True
+    end = number_or_none(t_final)
+    if end is None:
+        return False
+    if len(tokens) == len(expected) + 1 and tokens[:-1] == expected:
+        start = number_or_none(t_last)
+    elif len(expected) == len(tokens) + 1 and expected[:-1] == tokens:
+        start = number_or_none(exact_t_last)
+    else:
+        return False
+    return start is not None and end - start <= tolerance
 
 
 def _mm(value: Any) -> str:
@@ -332,8 +361,14 @@ def classify(row: Mapping[str, Any]) -> Judgement:
     failure, reason = _outcome(row, engine, exact)
     if failure is not None:
         return Judgement(failure, False, reason)
-    phases = _phases_agree(
-        row.get("phases"), row.get("exact_phases"), prefix=exact is _Class.PAINLEVE
+    phases = phases_agree(
+        row.get("phases"),
+        row.get("exact_phases"),
+        prefix=exact is _Class.PAINLEVE,
+        t_last=row.get("t_last_phase"),
+        exact_t_last=row.get("exact_t_last_phase"),
+        t_final=row.get("t_final"),
+        tolerance=_row_thresholds(row).lift_time_tolerance,
     )
     if phases is False:
         return Judgement(

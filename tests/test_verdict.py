@@ -283,6 +283,30 @@ def test_an_exact_hop_below_the_hop_threshold_is_not_judged(exact_height, judged
         assert "below the 1 mm hop threshold" in judgement.reason
 
 
+@pytest.mark.parametrize(
+    ("phases", "t_last", "exact_t_last", "verdict"),
+    [
+        ("R S+ R S-", 2.6, 2.996, Verdict.AGREES),  # the exact re-stick 4 ms before the end
+        ("R S+ R S-", 2.6, 2.94, Verdict.WRONG_PHASES),  # 60 ms: the engine missed it
+        ("R S+ R S- R S+", 2.99, 2.7, Verdict.AGREES),  # the engine's slip 10 ms before the end
+        ("R S+ R S- R S+", 2.9, 2.7, Verdict.WRONG_PHASES),
+        ("R S+ S-", 2.6, 2.996, Verdict.WRONG_PHASES),  # not a trailing phase
+    ],
+)
+def test_one_last_phase_at_the_window_end_may_differ(phases, t_last, exact_t_last, verdict):
+    """The exact solution re-sticks 4 ms before the window's end and the engine after its
+    last sample: the sequences differ by one last phase that the window cannot show."""
+    row = {
+        **SLIP_ROW,
+        "exact_phases": "R S+ R S- R",
+        "exact_t_last_phase": exact_t_last,
+        "phases": phases,
+        "t_last_phase": t_last,
+        "t_final": 3.0,
+    }
+    assert _verdict(row)[0] is verdict
+
+
 def test_a_stored_row_with_nan_is_judged_alike():
     """Rows read back from Parquet or CSV carry NaN for a missing number."""
     row = {**SLIP_ROW, "outcome": "hops", "t_lift": 1.2, "hop_height": 5e-3, "phases": "R S+ F"}
