@@ -682,10 +682,13 @@ def _engine_row(task: MapTask) -> dict[str, Any]:
 
 
 def _hop_height_error(row: Mapping[str, Any]) -> float | None:
-    """Engine minus exact hop height, m, where both hop (the engine above the hop threshold)."""
+    """Engine minus exact hop height, m, where both hop (the engine above the hop threshold)
+    and the run is judged (an exact hop below the threshold is not: reports/verdict.py)."""
     height, exact = number_or_none(row.get("hop_height")), number_or_none(row["exact_hop_height"])
     engine_hops = row.get("outcome") in _HOPS and counts_as_hop(height, row.get("max_clearance"))
     if height is None or exact is None or not engine_hops or row["exact_outcome"] not in _HOPS:
+        return None
+    if row.get("verdict") is None:
         return None
     return height - exact
 

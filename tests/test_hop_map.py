@@ -253,6 +253,23 @@ def test_the_hop_height_error_is_engine_minus_exact_where_both_hop(tiny):
     assert runs["hop_height_error"][~both].isna().all()
 
 
+def test_no_hop_height_error_where_the_run_is_not_judged():
+    """An exact hop below the hop threshold (lam chi just above 1) has no verdict, and its
+    hop-height ratio (up to 7e5 on a 40x40 map) must not reach the figures and findings."""
+    from hoopbench.reports.hop_map import _hop_height_error
+
+    row = {
+        "outcome": "hops",
+        "hop_height": 1.5,
+        "max_clearance": 1.5,
+        "exact_outcome": "lifts-at-start",
+        "exact_hop_height": 7e-5,
+        "verdict": None,
+    }
+    assert _hop_height_error(row) is None
+    assert _hop_height_error({**row, "verdict": "missed-hop"}) == pytest.approx(1.5 - 7e-5)
+
+
 def test_every_event_column_of_compare_is_a_map_column():
     scene = Scene.from_chi(2.0, lam=0.5, mus=0.8, muk=0.8, t_end=1.0)
     result = get_engine("pymunk").run(scene, RunSettings(timestep=1e-3))
