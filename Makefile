@@ -31,12 +31,9 @@ test: $(STAMP)
 	$(BIN)/ruff format --check .
 	$(BIN)/python -m pytest
 
-# The stability suite without Drake, whose 40 stiff runs alone would cost a third of the
-# 3-minute budget (reports/suites/stability.toml says how to run them).
-STABILITY_ENGINES := reference mujoco pybullet pymunk
 report: $(STAMP)
 	$(BIN)/hoopbench compare --suite default --out $(OUT)/default --trajectories default
-	$(BIN)/hoopbench compare --suite stability --out $(OUT)/stability --engines $(STABILITY_ENGINES)
+	$(BIN)/hoopbench compare --suite stability --out $(OUT)/stability
 	$(BIN)/hoopbench report --results $(OUT)/default $(OUT)/stability --out $(OUT)
 
 # The README's findings and figures from the newest report folder (or RESULTS=...).

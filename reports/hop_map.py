@@ -486,6 +486,7 @@ EXACT_CARRIED = (
     "exact_t_painleve",
     "exact_t_settled",
     "exact_t_last_phase",
+    "exact_max_slip_speed",
 )
 """The reference row's columns an engine task carries and its row repeats."""
 
@@ -575,6 +576,7 @@ MAP_COLUMNS = (
     "exact_t_painleve",
     "exact_t_settled",
     "exact_t_last_phase",
+    "exact_max_slip_speed",
     "outcome",
     "hop_height",
     "max_clearance",
@@ -636,7 +638,7 @@ def _reference_row(task: MapTask) -> dict[str, Any]:
             "wall_time_s": point.solve_time_s,
             "regime": str(point.regime),
             "n_slips": point.n_slips,
-            **exact_columns(point.events),
+            **exact_columns(point.events, point.max_slip_speed),
             "exact_t_settled": point.t_settled,
         }
     )

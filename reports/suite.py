@@ -30,6 +30,7 @@ from hoopbench.models.events import Events
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.reference.exact import ExactSolution, solve_exact
+from hoopbench.reference.regimes import max_slip_speed
 from hoopbench.reports import results
 from hoopbench.reports.runner import RunSummary, run_tasks
 from hoopbench.reports.suite_file import RunTask, Suite, TrajectoryChoice, load_suite
@@ -52,7 +53,7 @@ FORMAT_VERSION = 4
 """Version of the runs table layout (2: run_id and the runner's bookkeeping columns; 3: the
 verdict, max_clearance, consistent, event_flags and exact_t_painleve columns; 4: g, and the
 last phases' start times and the run's last sample time, t_last_phase, exact_t_last_phase and
-t_final, for the phase comparison at the window's end)."""
+t_final, for the phase comparison at the window's end, and exact_max_slip_speed)."""
 
 ROW_COLUMNS = (
     "run_id",
@@ -81,6 +82,7 @@ ROW_COLUMNS = (
     "exact_t_painleve",
     "exact_phases",
     "exact_t_last_phase",
+    "exact_max_slip_speed",
     "outcome",
     "t_slip",
     "t_slip_threshold",
@@ -123,6 +125,11 @@ def _exact_solution(scene: Scene, mu: float) -> ExactSolution:
 
 def _exact_events(scene: Scene, mu: float) -> Events:
     return _exact_solution(scene, mu).events
+
+
+@functools.cache
+def _exact_max_slip_speed(scene: Scene, mu: float) -> float | None:
+    return max_slip_speed(_exact_solution(scene, mu))
 
 
 def rms_position_error(trajectory: Trajectory, exact: ExactSolution) -> float | None:
@@ -168,8 +175,9 @@ def _task_columns(task: RunTask) -> dict[str, Any]:
     }
 
 
-def exact_columns(exact: Events) -> dict[str, Any]:
-    """The ``exact_*`` columns of a row: the exact events of its scene (and mu)."""
+def exact_columns(exact: Events, max_slip_speed: float | None = None) -> dict[str, Any]:
+    """The ``exact_*`` columns of a row: the exact events of its scene (and mu), and the
+    exact slips' largest speed, m/s (reference/regimes.py ``max_slip_speed``)."""
     return {
         "exact_outcome": str(exact.outcome),
         "exact_t_slip": exact.t_slip,
@@ -182,6 +190,7 @@ def exact_columns(exact: Events) -> dict[str, Any]:
         "exact_t_painleve": painleve_time(exact),
         "exact_phases": exact.phase_code,
         "exact_t_last_phase": exact.phases[-1].t_start if exact.phases else None,
+        "exact_max_slip_speed": max_slip_speed,
     }
 
 
@@ -235,7 +244,9 @@ def event_columns(
     }
 
 
-def _row(task: RunTask, result: RunResult, exact: Events) -> dict[str, Any]:
+def _row(
+    task: RunTask, result: RunResult, exact: Events, exact_slip_speed: float | None = None
+) -> dict[str, Any]:
     info, events, traj = result.info, result.events, result.trajectory
     row: dict[str, Any] = {
         **_task_columns(task),
@@ -248,7 +259,7 @@ def _row(task: RunTask, result: RunResult, exact: Events) -> dict[str, Any]:
         "us_per_step": None
         if not info.n_steps or info.wall_time_s is None
         else 1e6 * info.wall_time_s / info.n_steps,
-        **exact_columns(exact),
+        **exact_columns(exact, exact_slip_speed),
     }
     if events is not None and traj is not None:
         row.update(event_columns(events, traj, task.scene, row))
@@ -273,7 +284,7 @@ def run_task(task: RunTask) -> dict[str, Any]:
 def _run_task(task: RunTask) -> dict[str, Any]:
     result = get_engine(task.engine).run(task.scene, task.settings())
     mu = result.info.mu if result.info.mu is not None else task.scene.mus
-    row = _row(task, result, _exact_events(task.scene, mu))
+    row = _row(task, result, _exact_events(task.scene, mu), _exact_max_slip_speed(task.scene, mu))
     if result.trajectory is not None and result.events is not None:
         row["rms_position_m"] = rms_position_error(
             result.trajectory, _exact_solution(task.scene, mu)

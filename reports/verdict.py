@@ -147,21 +147,25 @@ def _text(value: Any) -> str | None:
 
 @dataclass(frozen=True)
 class HoopThresholds:
-    """The verdict's two sizes, carried to one hoop."""
+    """The verdict's sizes, carried to one hoop."""
 
     hop_clearance: float
     """m: a lift-off must rise above this to be a hop."""
     lift_time_tolerance: float
     """s: how far a hop's lift-off may be from the exact one."""
+    slip_threshold: float
+    """m/s: the detectors' slip threshold; an exact slip slower than this is invisible."""
 
 
 def hoop_thresholds(a: Any = None, g: Any = None) -> HoopThresholds:
-    """HOP_CLEARANCE and LIFT_TIME_TOLERANCE for a hoop of radius ``a`` (m) under ``g``
-    (m/s^2), the 1 m hoop's where either is missing."""
+    """HOP_CLEARANCE, LIFT_TIME_TOLERANCE and the detectors' slip threshold for a hoop of
+    radius ``a`` (m) under ``g`` (m/s^2), the 1 m hoop's where either is missing."""
     base = DetectorSettings()
     a, g = number_or_none(a) or base.a, number_or_none(g) or base.g
-    length, _, duration = hoop_scale(a, g, base.a, base.g)
-    return HoopThresholds(length * HOP_CLEARANCE, duration * LIFT_TIME_TOLERANCE)
+    length, speed, duration = hoop_scale(a, g, base.a, base.g)
+    return HoopThresholds(
+        length * HOP_CLEARANCE, duration * LIFT_TIME_TOLERANCE, speed * base.slip_threshold
+    )
 
 
 def _row_thresholds(row: Mapping[str, Any]) -> HoopThresholds:
@@ -321,6 +325,24 @@ def _outcome(row: Mapping[str, Any], engine: _Class, exact: _Class) -> tuple[Ver
     return None, f"{exact}s as the reference does"
 
 
+def _exact_slips_below_threshold(row: Mapping[str, Any]) -> str | None:
+    """Why exact slips cannot be judged, or None: none of them reaches the slip threshold.
+
+    The detectors call a slip when |slip velocity| exceeds the threshold (1 mm/s on the 1 m
+    hoop), so an engine that reproduced such slips exactly would still read as rolling: a
+    'missed-slip' would be the harness's blind spot, not the engine's. On a lam x chi map at
+    mu 0.8 such slips (0.05-0.2 mm/s, 17-20 ms long) made every engine 'miss' them.
+    """
+    speed = number_or_none(row.get("exact_max_slip_speed"))
+    threshold = _row_thresholds(row).slip_threshold
+    if speed is None or speed > threshold:
+        return None
+    return (
+        f"the exact slips reach {1e3 * speed:.3g} mm/s, below the {1e3 * threshold:.3g} mm/s "
+        "slip threshold: no engine slip can be judged against them"
+    )
+
+
 def _exact_hop_below_threshold(row: Mapping[str, Any]) -> str | None:
     """Why an exact hop cannot be judged, or None: it is no higher than the hop threshold.
 
@@ -353,6 +375,7 @@ def classify(row: Mapping[str, Any]) -> Judgement:
         return Judgement(None, None, f"no exact answer to judge against ({exact_outcome})")
     exact = _exact_class(exact_outcome)
     below = _exact_hop_below_threshold(row) if exact is _Class.HOP else None
+    below = below or (_exact_slips_below_threshold(row) if exact is _Class.SLIP else None)
     if below:
         return Judgement(None, None, below)
     engine = _engine_class(row)

@@ -11,7 +11,7 @@ from hoopbench.models.catalogue import get_scene
 from hoopbench.models.events import Events, Outcome, Phase, PhaseKind
 from hoopbench.models.scene import Scene
 from hoopbench.reference.exact import solve_exact
-from hoopbench.reference.regimes import Regime, classify, regime_of
+from hoopbench.reference.regimes import Regime, classify, max_slip_speed, regime_of
 
 ROLLING = Scene.from_chi(1.0, lam=0.5, eps=0.0, mus=0.8, muk=0.8)
 """Rolls with no slip and completes a full turn at about 1.436 s (exact)."""
@@ -134,3 +134,17 @@ def test_early_stop_keeps_the_events(scene: Scene) -> None:
     assert stopped.regime is full.regime
     assert stopped.t_settled == pytest.approx(full.t_settled, abs=1e-10)
     assert solve_exact(scene, stop_when_settled=True).t_final < scene.t_end
+
+
+def test_max_slip_speed_finds_the_largest_slip_speed():
+    """Dense sampling of the seed's slips agrees with the 201-sample estimate; a scene that
+    never slips has none; a sub-threshold slip scene of the hop map reads as one."""
+    solution = solve_exact(get_scene("seed"))
+    t = np.linspace(0.0, solution.t_final, 300_001)
+    dense = np.abs(solution.sample(t).slip_velocity).max()
+    assert max_slip_speed(solution) == pytest.approx(dense, rel=1e-3)
+    rolling = Scene.from_chi(0.05, lam=0.5, mus=0.8, muk=0.8, t_end=0.5)
+    assert max_slip_speed(solve_exact(rolling)) is None
+    faint = classify(Scene.from_chi(1.25, lam=0.5 + 0.5 * 3 / 39, mus=0.8, muk=0.8))
+    assert faint.regime is Regime.SLIPS
+    assert faint.max_slip_speed < 1e-4

@@ -307,6 +307,20 @@ def test_one_last_phase_at_the_window_end_may_differ(phases, t_last, exact_t_las
     assert _verdict(row)[0] is verdict
 
 
+@pytest.mark.parametrize(("speed", "judged"), [(5e-5, False), (1e-3, False), (1.1e-3, True)])
+def test_exact_slips_below_the_slip_threshold_are_not_judged(speed, judged):
+    """Exact slips of 0.05 mm/s: an engine that reproduced them would still read as rolling,
+    so its 'missed-slip' would be the detectors' blind spot."""
+    row = {**SLIP_ROW, "exact_max_slip_speed": speed, "outcome": "rolls", "t_slip": None}
+    row |= {"phases": "R"}
+    judgement = classify(row)
+    assert (judgement.verdict is not None) is judged
+    if judged:
+        assert judgement.verdict is Verdict.MISSED_SLIP
+    else:
+        assert "below the 1 mm/s slip threshold" in judgement.reason
+
+
 def test_a_stored_row_with_nan_is_judged_alike():
     """Rows read back from Parquet or CSV carry NaN for a missing number."""
     row = {**SLIP_ROW, "outcome": "hops", "t_lift": 1.2, "hop_height": 5e-3, "phases": "R S+ F"}
