@@ -378,7 +378,7 @@ def verdict_figure(frame: pd.DataFrame, path: str | Path) -> Path:
         ax.set_title(_agreement_title(engine, cells), fontsize=10)
         _set_axes(ax, grid)
     handles = [Patch(color=VERDICT_COLOURS[v], label=str(v)) for v in Verdict if v in present]
-    no_verdict = "no verdict (no exact answer, or not run)"
+    no_verdict = "no verdict (no exact answer, too small to see, or not run)"
     handles.append(Patch(facecolor=_NOT_JUDGED, edgecolor="0.6", label=no_verdict))
     fig.legend(handles=handles, loc="outside lower center", ncols=min(len(handles), 5), fontsize=8)
     return _save(fig, path)
