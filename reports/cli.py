@@ -14,7 +14,7 @@ import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 from hoopbench.engines.options import Profile
 from hoopbench.engines.registry import engine_class, engine_classes, get_engine
@@ -23,6 +23,9 @@ from hoopbench.models.catalogue import get_scene, scene_names
 from hoopbench.models.events import Outcome
 from hoopbench.models.scene import DegenerateSceneError, Scene
 from hoopbench.reference.exact import DEFAULT_ATOL, DEFAULT_RTOL
+
+if TYPE_CHECKING:  # the runner is imported only by the commands that run sweeps
+    from hoopbench.reports.runner import RunSummary
 
 __all__ = ["main"]
 
@@ -382,17 +385,22 @@ def _cmd_compare(args: argparse.Namespace) -> int:
             )
     except RunnerError as exc:
         raise UsageError(str(exc)) from None
+    resume = f"hoopbench compare --suite {args.suite} --out {args.out} --resume"
+    _say_how_the_sweep_ended(summary, args.out, resume, args.quiet)
+    return summary.exit_code
+
+
+def _say_how_the_sweep_ended(summary: RunSummary, out: str, resume: str, quiet: bool) -> None:
+    """On stderr: how to resume an interrupted sweep, else (unless quiet) its status counts."""
     if summary.interrupted is not None:
         print(
             f"hoopbench: interrupted by {summary.interrupted.name}; {summary.total} run(s) "
-            f"stored, {summary.unfinished} left. Resume with: hoopbench compare --suite "
-            f"{args.suite} --out {args.out} --resume",
+            f"stored, {summary.unfinished} left. Resume with: {resume}",
             file=sys.stderr,
         )
-    elif not args.quiet:
+    elif not quiet:
         counts = ", ".join(f"{n} {s}" for s, n in sorted(summary.counts.items()) if n)
-        print(f"hoopbench: {counts or 'nothing to run'} -> {args.out}", file=sys.stderr)
-    return summary.exit_code
+        print(f"hoopbench: {counts or 'nothing to run'} -> {out}", file=sys.stderr)
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
@@ -513,23 +521,17 @@ def _cmd_map(args: argparse.Namespace) -> int:
             )
     except RunnerError as exc:
         raise UsageError(str(exc)) from None
+    _say_how_the_sweep_ended(
+        summary, args.out, f"hoopbench map --out {args.out} --resume", args.quiet
+    )
     if summary.interrupted is not None:
+        return summary.exit_code
+    if not args.quiet and summary.unfinished:
         print(
-            f"hoopbench: interrupted by {summary.interrupted.name}; {summary.total} run(s) "
-            f"stored, {summary.unfinished} left. Resume with: hoopbench map --out {args.out} "
-            "--resume",
+            f"hoopbench: {summary.unfinished} run(s) still to do (a point's reference "
+            f"timed out or crashed): hoopbench map --out {args.out} --resume",
             file=sys.stderr,
         )
-        return summary.exit_code
-    if not args.quiet:
-        counts = ", ".join(f"{n} {s}" for s, n in sorted(summary.counts.items()) if n)
-        print(f"hoopbench: {counts or 'nothing to run'} -> {args.out}", file=sys.stderr)
-        if summary.unfinished:
-            print(
-                f"hoopbench: {summary.unfinished} run(s) still to do (a point's reference "
-                f"timed out or crashed): hoopbench map --out {args.out} --resume",
-                file=sys.stderr,
-            )
     for path in write_map_outputs(args.out):
         print(path)
     return summary.exit_code

@@ -34,7 +34,7 @@ from hoopbench.reference.regimes import max_slip_speed
 from hoopbench.reports import results
 from hoopbench.reports.runner import RunSummary, run_tasks
 from hoopbench.reports.suite_file import RunTask, Suite, TrajectoryChoice, load_suite
-from hoopbench.reports.verdict import Verdict, painleve_time, phases_agree, verdict_columns
+from hoopbench.reports.verdict import Verdict, painleve_time, row_phases_agree, verdict_columns
 
 __all__ = [
     "FORMAT_VERSION",
@@ -205,9 +205,7 @@ def event_columns(
     before = traj.t < (events.t_slip if events.t_slip is not None else traj.t[-1])
     e0 = traj.energy[0]
     exact_hop = exact["exact_hop_height"]
-    t_last_phase = events.phases[-1].t_start if events.phases else None
-    t_final = float(traj.t[-1])
-    return {
+    columns = {
         "outcome": str(events.outcome),
         "t_slip": events.t_slip,
         "t_slip_threshold": events.extra.get("t_slip_threshold"),
@@ -232,15 +230,12 @@ def event_columns(
         "consistent": not events.flags,
         "event_flags": " ".join(events.flags),
         "phases": events.phase_code,
-        "t_last_phase": t_last_phase,
-        "t_final": t_final,
-        "phases_agree": phases_agree(
-            events.phase_code,
-            exact["exact_phases"],
-            t_last=t_last_phase,
-            exact_t_last=exact.get("exact_t_last_phase"),
-            t_final=t_final,
-        ),
+        "t_last_phase": events.phases[-1].t_start if events.phases else None,
+        "t_final": float(traj.t[-1]),
+    }
+    return {
+        **columns,
+        "phases_agree": row_phases_agree({**exact, **columns, "a": scene.a, "g": scene.g}),
     }
 
 

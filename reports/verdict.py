@@ -66,6 +66,7 @@ __all__ = [
     "number_or_none",
     "painleve_time",
     "phases_agree",
+    "row_phases_agree",
     "verdict_columns",
 ]
 
@@ -275,6 +276,22 @@ def phases_agree(
     return start is not None and end - start <= tolerance
 
 
+def row_phases_agree(row: Mapping[str, Any]) -> bool | None:
+    """:func:`phases_agree` on a row's columns: the verdict's phase rule (a prefix where the
+    exact solution reaches a Painlevé point, the lift-off tolerance carried to the row's
+    hoop)."""
+    outcome = _text(row.get("exact_outcome"))
+    return phases_agree(
+        row.get("phases"),
+        row.get("exact_phases"),
+        prefix=outcome is not None and _exact_class(outcome) is _Class.PAINLEVE,
+        t_last=row.get("t_last_phase"),
+        exact_t_last=row.get("exact_t_last_phase"),
+        t_final=row.get("t_final"),
+        tolerance=_row_thresholds(row).lift_time_tolerance,
+    )
+
+
 def _mm(value: Any) -> str:
     number = number_or_none(value)
     return "-" if number is None else f"{1e3 * number:.3g} mm"
@@ -384,15 +401,7 @@ def classify(row: Mapping[str, Any]) -> Judgement:
     failure, reason = _outcome(row, engine, exact)
     if failure is not None:
         return Judgement(failure, False, reason)
-    phases = phases_agree(
-        row.get("phases"),
-        row.get("exact_phases"),
-        prefix=exact is _Class.PAINLEVE,
-        t_last=row.get("t_last_phase"),
-        exact_t_last=row.get("exact_t_last_phase"),
-        t_final=row.get("t_final"),
-        tolerance=_row_thresholds(row).lift_time_tolerance,
-    )
+    phases = row_phases_agree(row)
     if phases is False:
         return Judgement(
             Verdict.WRONG_PHASES,

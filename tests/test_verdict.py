@@ -23,6 +23,7 @@ from hoopbench.reports.verdict import (
     Verdict,
     classify,
     painleve_time,
+    row_phases_agree,
     verdict_columns,
 )
 
@@ -319,6 +320,17 @@ def test_exact_slips_below_the_slip_threshold_are_not_judged(speed, judged):
         assert judgement.verdict is Verdict.MISSED_SLIP
     else:
         assert "below the 1 mm/s slip threshold" in judgement.reason
+
+
+def test_the_phases_agree_column_follows_the_verdicts_rule():
+    """row_phases_agree (the runs table's phases_agree) is the verdict's phase rule: a prefix
+    up to a Painlevé point, and the window-end tolerance carried to the row's hoop."""
+    assert row_phases_agree({**PAINLEVE_ROW, "phases": "S+ F"}) is True
+    assert row_phases_agree({**PAINLEVE_ROW, "phases": "R S+ F"}) is False
+    row = {**SLIP_ROW, "exact_phases": "R S+ R", "phases": "R S+", "t_final": 3.0}
+    row |= {"exact_t_last_phase": 2.98, "t_last_phase": 1.0}
+    assert row_phases_agree(row) is True  # 20 ms before the end of a 1 m hoop's window
+    assert row_phases_agree({**row, "a": 0.01}) is False  # 5 ms tolerance on a 1 cm hoop
 
 
 def test_a_stored_row_with_nan_is_judged_alike():
