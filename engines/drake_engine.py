@@ -399,10 +399,11 @@ class DrakeEngine(Engine):
             chunks.append(np.array(log.data()))  # a copy: data() is a view of the log
             log.Clear()
             done += m
-            diverged = check_divergence(scene, _our_state(scene, chunks[-1]), self.limits)
+            state = _our_state(scene, chunks[-1])
+            diverged = check_divergence(scene, state, self.limits)
             if monitor and not diverged:
                 # The logger's samples end at step done + extra (published on k*dt).
-                stopped = monitor.feed(_our_state(scene, chunks[-1]), done + extra)
+                stopped = monitor.feed(state, done + extra)
             if diverged or stopped:
                 break
         wall = time.perf_counter() - start

@@ -309,10 +309,10 @@ class MujocoEngine(Engine):
                 for key, values in com.items():
                     out[key][rows] = values
                 diverged = _warning_reason(mujoco, data, warnings) or check_divergence(
-                    scene, {key: val[rows] for key, val in out.items()}, self.limits, shape
+                    scene, com, self.limits, shape
                 )
                 if monitor and not diverged:
-                    stopped = monitor.feed({key: val[rows] for key, val in out.items()}, done + k)
+                    stopped = monitor.feed(com, done + k)
                 done += k
                 if diverged or stopped:
                     break

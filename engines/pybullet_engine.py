@@ -341,9 +341,10 @@ class PybulletEngine(Engine):
                 wall += time.perf_counter() - start
                 blocks.append(block)
                 done += todo
-                diverged = check_divergence(scene, _com_state(scene, block), self.limits, shape)
+                state = _com_state(scene, block)
+                diverged = check_divergence(scene, state, self.limits, shape)
                 if monitor and not diverged:
-                    stopped = monitor.feed(_com_state(scene, block), done)
+                    stopped = monitor.feed(state, done)
             start = time.perf_counter()
             step(cid)
             normal = friction = 0.0

@@ -179,9 +179,10 @@ class PymunkEngine(Engine):
             buffer.clear()
             rows.append(chunk)
             done += m
-            diverged = check_divergence(scene, _our_state(scene, chunk), self.limits)
+            state = _our_state(scene, chunk)
+            diverged = check_divergence(scene, state, self.limits)
             if monitor and not diverged:
-                stopped = monitor.feed(_our_state(scene, chunk), done)
+                stopped = monitor.feed(state, done)
             if diverged or stopped:
                 break
         wall = time.perf_counter() - start
