@@ -52,7 +52,8 @@ from hoopbench.reports import results
 from hoopbench.reports.runner import (
     RunnerError,
     RunSummary,
-    _prepare_dir,
+    is_final_status,
+    prepare_dir,
     run_tasks,
 )
 from hoopbench.reports.suite import event_columns, exact_columns, run_timeout
@@ -719,7 +720,7 @@ def _prepare(out: Path, spec: MapSpec, resume: bool) -> None:
         return
     if resume and out.is_dir() and any(out.iterdir()):
         raise RunnerError(f"{out} holds no {MAP_FILE}: it is not a hop map folder to resume")
-    _prepare_dir(out, resume=False)  # the runner's checks: not a file, empty
+    prepare_dir(out, resume=False)  # the runner's checks: not a file, empty
     results.atomic_write(path, lambda tmp: tmp.write_text(spec.to_toml(), encoding="utf-8"))
 
 
@@ -733,7 +734,7 @@ def _stage_two_tasks(spec: MapSpec, out: Path) -> tuple[list[MapTask], int]:
     n_refs = 0
     for ref in reference_tasks(spec):
         row = refs.get(ref.run_id)
-        if row is None or not _is_final(row["status"]):
+        if row is None or not is_final_status(row["status"]):
             continue  # timed out or crashed: a resumed map tries it again, then its engines
         tasks.append(ref)
         n_refs += 1
@@ -805,17 +806,10 @@ def _stage_one(
 ) -> RunSummary:
     """Stage 1, or nothing when every classification is stored (a resume in stage 2)."""
     stored = results.stored_statuses(out)
-    if refs and all(_is_final(stored.get(t.run_id)) for t in refs):
+    if refs and all(is_final_status(stored.get(t.run_id)) for t in refs):
         return RunSummary(out, {}, 0.0, None, len(refs), 0)
     _say(f"hop map, stage 1 of 2: the exact reference at {len(refs)} points", quiet, stream)
     return run_tasks(refs, run_map_task, out, **common)  # type: ignore[arg-type]
-
-
-def _is_final(status: str | None) -> bool:
-    try:
-        return status is not None and RunStatus(status).is_final
-    except ValueError:
-        return False
 
 
 def _summary(spec: MapSpec, out: Path, stages: Sequence[RunSummary], n_refs: int) -> RunSummary:

@@ -64,6 +64,8 @@ __all__ = [
     "WorkerCrashedError",
     "WorkerKilledError",
     "WorkerPool",
+    "is_final_status",
+    "prepare_dir",
     "run_tasks",
 ]
 
@@ -701,7 +703,17 @@ def _exception_text(exc: BaseException) -> str:
     return text if len(text) <= 500 else text[:497] + "..."
 
 
-def _prepare_dir(out: Path, resume: bool) -> None:
+def is_final_status(status: str | None) -> bool:
+    """Whether a stored row's status is final (a resumed sweep skips the run)."""
+    try:
+        return status is not None and RunStatus(status).is_final
+    except ValueError:
+        return False
+
+
+def prepare_dir(out: Path, resume: bool) -> None:
+    """Make the results folder; RunnerError if it is a file, or holds files without
+    ``resume``."""
     if out.exists() and not out.is_dir():
         raise RunnerError(f"{out} exists and is not a directory")
     if not resume and out.is_dir() and any(out.iterdir()):
@@ -791,7 +803,7 @@ def run_tasks(
             raise ValueError(f"run_id {run_id!r} appears twice")
         seen.add(run_id)
     out = Path(out_dir)
-    _prepare_dir(out, resume)
+    prepare_dir(out, resume)
     stream = sys.stderr if stream is None else stream
     notes: list[str] = []
 
@@ -808,13 +820,7 @@ def run_tasks(
             note(f"resume: ignoring {len(leftovers)} leftover temporary file(s): {names}")
         stored = results.stored_statuses(out)
 
-    def is_final(status: str | None) -> bool:
-        try:
-            return status is not None and RunStatus(status).is_final
-        except ValueError:
-            return False
-
-    todo = [t for t in tasks if not is_final(stored.get(t.run_id))]
+    todo = [t for t in tasks if not is_final_status(stored.get(t.run_id))]
     skipped = len(tasks) - len(todo)
     session = {"ran": len(todo), "skipped": skipped}
     task_order = [t.run_id for t in tasks]
