@@ -786,15 +786,29 @@ def run_map(
     tasks, n_refs = _stage_two_tasks(spec, out)
     engines = ", ".join(spec.engines) or "none"
     _say(f"hop map, stage 2 of 2: {len(tasks) - n_refs} engine runs ({engines})", quiet, stream)
-    # Stage 1's runs.csv and meta.json (or a stale pair) go: they are written again at the end
-    # of stage 2 with every row, as a map's must be, and never stand for the map meanwhile.
-    for name in (results.CSV_NAME, results.META_NAME):
-        (out / name).unlink(missing_ok=True)
+    finished = _is_finished(spec, out, tasks)
+    if not finished:
+        # Stage 1's runs.csv and meta.json (or a stale pair) go: they are written again at the
+        # end of stage 2 with every row, as a map's must be, and never stand for it meanwhile.
+        for name in (results.CSV_NAME, results.META_NAME):
+            (out / name).unlink(missing_ok=True)
     second = run_tasks(tasks, run_map_task, out, **common)  # type: ignore[arg-type]
     summary = _summary(spec, out, [first, second], n_refs)
-    if second.interrupted is None:
+    if second.interrupted is None and not finished:
         _complete_meta(out, started_at, resume, summary)
     return summary
+
+
+def _is_finished(spec: MapSpec, out: Path, tasks: Sequence[MapTask]) -> bool:
+    """Every run of the map stored with a final status, and its runs.csv and meta.json
+    there: a resume has nothing to run, and those files (of the run that finished the map,
+    with its wall time) stay as they are."""
+    if not all((out / name).is_file() for name in (results.CSV_NAME, results.META_NAME)):
+        return False
+    stored = results.stored_statuses(out)
+    return len(tasks) == spec.run_count and all(
+        is_final_status(stored.get(t.run_id)) for t in tasks
+    )
 
 
 def _stage_one(

@@ -313,6 +313,20 @@ def test_a_resumed_map_equals_the_uninterrupted_one(tiny, tmp_path, n, stage):
     assert len(results.read_runs(out, latest=False)) == 12
 
 
+def test_resuming_a_finished_map_leaves_its_files_alone(tiny, tmp_path):
+    out = tmp_path / "map"
+    assert run_tiny(out).completed
+    files = {name: (out / name).read_bytes() for name in (results.CSV_NAME, results.META_NAME)}
+    again = run_tiny(out, resume=True)
+    assert again.total == 0 and again.skipped == 12
+    assert not any("wrote the missing" in note for note in again.notes)
+    assert {name: (out / name).read_bytes() for name in files} == files  # wall time kept
+    (out / results.CSV_NAME).unlink()  # a file gone is written again, and said so
+    again = run_tiny(out, resume=True)
+    assert any("wrote the missing runs.csv" in note for note in again.notes)
+    assert len(pd.read_csv(out / results.CSV_NAME)) == 12
+
+
 def test_a_folder_is_never_overwritten(tiny, tmp_path):
     with pytest.raises(OutputDirNotEmptyError, match="is not empty"):
         run_map(TINY, tiny, quiet=True)
