@@ -54,6 +54,7 @@ from hoopbench.reports.runner import (
     RunSummary,
     is_final_status,
     prepare_dir,
+    refuse_in_a_starting_worker,
     run_tasks,
 )
 from hoopbench.reports.suite import event_columns, exact_columns, run_timeout
@@ -765,6 +766,7 @@ def run_map(
     folder that holds files when ``resume`` is false, MapSpecMismatchError when it holds
     another map; both before anything runs. The summary covers both stages.
     """
+    refuse_in_a_starting_worker()
     out = Path(out)
     _prepare(out, spec, resume)
     started_at = datetime.now(UTC)

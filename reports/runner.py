@@ -66,6 +66,7 @@ __all__ = [
     "WorkerPool",
     "is_final_status",
     "prepare_dir",
+    "refuse_in_a_starting_worker",
     "run_tasks",
 ]
 
@@ -163,6 +164,21 @@ def _default_context() -> BaseContext:
     return multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
 
 
+def refuse_in_a_starting_worker() -> None:
+    """RuntimeError if this process is a worker still importing its parent's main script.
+
+    Workers import the main script; one that starts a sweep at import (no ``if __name__ ==
+    '__main__':``) would start it again in every worker. Python refuses the new pool's
+    processes in its manager thread, where no one hears it, and the parent's sweep waited
+    for ever. Sweeps call this first, so each worker says why it cannot start instead.
+    """
+    if getattr(multiprocessing.current_process(), "_inheriting", False):
+        raise RuntimeError(
+            "a hoopbench worker is importing the main script, which starts a sweep again: "
+            "put the script's code under  if __name__ == '__main__':"
+        )
+
+
 class WorkerPool(Executor):
     """A process pool whose workers run one call at a time and can be killed one by one.
 
@@ -183,6 +199,7 @@ class WorkerPool(Executor):
         self._max_workers = max_workers or os.cpu_count() or 1
         if self._max_workers < 1:
             raise ValueError("max_workers must be at least 1")
+        refuse_in_a_starting_worker()
         self._ctx = mp_context or _default_context()
         self._preload = tuple(preload)
         if self._ctx.get_start_method() == "forkserver":
@@ -791,6 +808,7 @@ def run_tasks(
     Raises :class:`OutputDirNotEmptyError` if ``out_dir`` holds files and ``resume`` is
     false; with ``resume``, runs whose latest row has a final status are skipped.
     """
+    refuse_in_a_starting_worker()
     wall_start = time.monotonic()
     started_at = datetime.now(UTC)
     tasks = list(tasks)

@@ -463,6 +463,32 @@ def processes_with(marker: str) -> list[int]:
     return found
 
 
+UNGUARDED_SCRIPT = """
+import sys
+sys.path.insert(0, {tests!r})
+from test_runner import job_failure_row, job_worker, sweep_tasks
+from hoopbench.reports.runner import run_tasks
+summary = run_tasks(sweep_tasks()[:2], job_worker, sys.argv[1], failure_row=job_failure_row, jobs=1)
+print(summary.counts)
+"""
+
+
+def test_a_script_without_a_main_guard_is_told_so_and_does_not_hang(tmp_path):
+    """The workers import the parent's main script; one that starts a sweep at import would
+    start a pool inside a worker, which Python refuses where no one hears, and the sweep hung
+    (seen: 12 minutes). Now each worker says why it cannot start, and the runs are crashed."""
+    script = tmp_path / "unguarded.py"
+    script.write_text(UNGUARDED_SCRIPT.format(tests=str(TESTS)))
+    done = subprocess.run(
+        [sys.executable, str(script), str(tmp_path / "out")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert "put the script's code under  if __name__ == '__main__':" in done.stderr
+    assert set(read_runs(tmp_path / "out")["status"]) == {"crashed"}
+
+
 def test_sigint_in_a_real_sweep_then_resume_gives_the_uninterrupted_rows(tmp_path):
     out = tmp_path / "interrupted"
     proc, marker = start_sweep(tmp_path, str(out))
