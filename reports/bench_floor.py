@@ -24,6 +24,7 @@ at a time; run it on an otherwise idle machine.
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 from dataclasses import dataclass, replace
@@ -32,10 +33,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from hoopbench.engines.base import n_steps_for
+from hoopbench.engines.base import RunStatus, n_steps_for
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.scene import Scene
+from hoopbench.reference.regimes import Regime
+from hoopbench.reports import results
 from hoopbench.reports.hop_map import REFERENCE, MapPoint, MapSpec, load_spec, map_frame
 
 FULL = "full"
@@ -44,7 +47,7 @@ FULL = "full"
 GROUP = ["engine", "regime", "stop"]
 """What a run's bare cost per step is taken to depend on: its model and what it does."""
 
-MUST_RUN_REGIMES = ("hops", "lifts-at-start", "slips")
+MUST_RUN_REGIMES = tuple(str(r) for r in (Regime.HOPS, Regime.LIFTS_AT_START, Regime.SLIPS))
 """Regimes whose runs the stopping bound keeps (rolling points could stop at once)."""
 
 
@@ -62,7 +65,7 @@ class Floor:
 
 def engine_rows(frame: pd.DataFrame) -> pd.DataFrame:
     """The map's engine rows that ran (status ok, steps taken), with their stop label."""
-    rows = frame[(frame["engine"] != REFERENCE) & (frame["status"] == "ok")]
+    rows = frame[(frame["engine"] != REFERENCE) & (frame["status"] == str(RunStatus.OK))]
     rows = rows[rows["n_steps"].fillna(0) > 0].copy()
     rows["stop"] = rows["stop_reason"].fillna(FULL).astype(str)
     rows["n_steps"] = rows["n_steps"].astype(int)
@@ -114,7 +117,7 @@ def group_floor(rows: pd.DataFrame, sampled: pd.DataFrame, bare_s: np.ndarray) -
 def must_run_steps(rows: pd.DataFrame, timestep: float) -> pd.Series:
     """Steps no stopping rule can leave out (module docstring), per row."""
     steps = rows["n_steps"].where(rows["regime"].isin(MUST_RUN_REGIMES), 0)
-    slips = rows["regime"] == "slips"
+    slips = rows["regime"] == str(Regime.SLIPS)
     # The step at or after the last event; an event on a step up to round-off is that step.
     last = np.ceil(rows["exact_t_last_phase"].fillna(0.0) / timestep * (1 - 1e-12))
     return steps.where(~slips, np.minimum(rows["n_steps"], last)).astype(int)
@@ -168,10 +171,8 @@ def report(floor: Floor, cores: int, map_wall_s: float | None) -> str:
 
 
 def _map_wall(out: Path) -> float | None:
-    import json
-
     try:
-        return float(json.loads((out / "meta.json").read_text())["wall_time_s"])
+        return float(json.loads((out / results.META_NAME).read_text())["wall_time_s"])
     except (OSError, ValueError, KeyError, TypeError):
         return None
 
