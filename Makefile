@@ -9,7 +9,7 @@ ifndef OUT
 OUT := reports/output/$(shell date +%Y%m%d-%H%M%S)
 endif
 PACKAGE_FILES := $(sort $(wildcard about/*.py models/*.py reference/*.py engines/*.py \
-	reports/*.py reports/*.toml reports/suites/*.toml))
+	reports/*.py reports/*.toml reports/compare/suites/*.toml))
 
 .PHONY: test report findings lint format clean bench FORCE
 
@@ -44,7 +44,7 @@ findings: $(STAMP)
 	cp $(dir $(RESULTS))error_vs_time.png $(dir $(RESULTS))stability.png reports/img/
 
 bench: $(STAMP)
-	$(BIN)/python -m hoopbench.reports.bench_overhead
+	$(BIN)/python -m hoopbench.reports.bench.overhead
 
 lint: $(STAMP)
 	$(BIN)/ruff check .

@@ -3,10 +3,10 @@
 Engine libraries (mujoco, pybullet, pymunk) are imported only when a run uses them.
 """
 
-from hoopbench.engines.base import Run, RunInfo, RunResult, RunStatus
-from hoopbench.engines.detectors import DetectorSettings, detect_events
-from hoopbench.engines.judge import judge
+from hoopbench.engines.judging.detectors import DetectorSettings, detect_events
+from hoopbench.engines.judging.judge import judge
 from hoopbench.engines.registry import engine_class, engine_names, get_engine
+from hoopbench.engines.run import Run, RunInfo, RunResult, RunStatus
 from hoopbench.engines.settings import RunSettings
 
 __all__ = [

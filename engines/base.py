@@ -8,7 +8,8 @@ these declarations.
 
 Stepping and judging are separate: :meth:`Engine.simulate` validates the settings, imports
 the engine lazily, steps, and returns a :class:`Run` (trajectory plus what the engine
-reports); ``hoopbench.engines.judge.judge`` turns a run into events with the shared detectors.
+reports); ``hoopbench.engines.judging.judge.judge`` turns a run into events with the shared
+detectors.
 :meth:`Engine.run` does both. A failing or missing engine is a status, never an exception.
 """
 
@@ -19,16 +20,17 @@ import sys
 import traceback
 from abc import ABC, abstractmethod
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from enum import StrEnum
+from dataclasses import dataclass
 from importlib.metadata import PackageNotFoundError, version
 from types import ModuleType
 from typing import Any, ClassVar
 
 import numpy as np
 
-from hoopbench.engines.detectors import DetectorSettings
+from hoopbench.engines.judging.detectors import DetectorSettings
+from hoopbench.engines.judging.judge import judge
 from hoopbench.engines.options import Option, Profile, Variant
+from hoopbench.engines.run import Run, RunInfo, RunResult, RunStatus
 from hoopbench.engines.settings import BYTES_PER_STEP, MAX_STEPS, RunSettings
 from hoopbench.engines.stopping import StopReason
 from hoopbench.models import kinematics
@@ -43,10 +45,6 @@ __all__ = [
     "DivergenceLimits",
     "Engine",
     "EngineUnavailableError",
-    "Run",
-    "RunInfo",
-    "RunResult",
-    "RunStatus",
     "Simulation",
     "check_divergence",
     "equilibrium_depth",
@@ -56,25 +54,6 @@ __all__ = [
 
 CHUNK_STEPS = 1000
 """Steps an adapter takes between divergence checks (and per recording chunk)."""
-
-
-class RunStatus(StrEnum):
-    OK = "ok"
-    DIVERGED = "diverged"
-    """NaN, runaway energy or deep penetration: detected, the run stopped early."""
-    ERROR = "error"
-    """The engine raised; the message says what."""
-    UNAVAILABLE = "unavailable"
-    """The engine is not installed or cannot be imported."""
-    TIMEOUT = "timeout"
-    """The suite runner stopped the run at its time limit (set by the runner, not by an engine)."""
-    CRASHED = "crashed"
-    """The worker process running it died twice (segfault, killed for memory, os._exit)."""
-
-    @property
-    def is_final(self) -> bool:
-        """True for statuses a resumed suite keeps; timeout and crashed are tried again."""
-        return self not in (RunStatus.TIMEOUT, RunStatus.CRASHED)
 
 
 class EngineUnavailableError(RuntimeError):
@@ -149,77 +128,6 @@ class Simulation:
     error row: e.g. the reference solver reached a degenerate or budget-limited end)."""
     stop_reason: StopReason | None = None
     """Why the run ended before its window's end (``RunSettings.stop``); None: it did not."""
-
-
-@dataclass(frozen=True)
-class RunInfo:
-    engine: str
-    engine_version: str | None
-    status: RunStatus
-    message: str = ""
-    wall_time_s: float | None = None
-    """Wall time of the stepping, s."""
-    n_steps: int | None = None
-    mu: float | None = None
-    """The pair's friction coefficient actually used."""
-    timestep: float | None = None
-    """s."""
-    settings: dict[str, Any] = field(default_factory=dict)
-    stop_reason: str | None = None
-    """A StopReason value if the run ended early by its stop rule; None: the window's end
-    (or a failure). ``n_steps`` counts the steps recorded either way."""
-
-    def to_dict(self) -> dict[str, Any]:
-        out = {
-            "engine": self.engine,
-            "engine_version": self.engine_version,
-            "status": str(self.status),
-            "message": self.message,
-            "wall_time_s": self.wall_time_s,
-            "n_steps": self.n_steps,
-            "mu": self.mu,
-            "timestep": self.timestep,
-            "settings": self.settings,
-        }
-        if self.stop_reason is not None:  # absent otherwise: output as before stop rules
-            out["stop_reason"] = self.stop_reason
-        return out
-
-
-@dataclass(frozen=True)
-class Run:
-    """A simulated run before judging: trajectory (None if it failed first) and run info."""
-
-    trajectory: Trajectory | None
-    info: RunInfo
-    exact_events: Events | None = None
-    """For the reference engine: the exact events of the solved scene."""
-
-
-@dataclass(frozen=True)
-class RunResult:
-    """A judged run: trajectory, the events the shared detectors found, and run info."""
-
-    trajectory: Trajectory | None
-    events: Events | None
-    info: RunInfo
-    exact_events: Events | None = None
-    """For the reference engine: the exact events, beside the detected ones."""
-
-    @property
-    def ok(self) -> bool:
-        return self.info.status is RunStatus.OK
-
-    def to_dict(self) -> dict[str, Any]:
-        """Events fields (as ``hoopbench reference --json``) plus the run info."""
-        out: dict[str, Any] = {} if self.events is None else self.events.to_dict()
-        info = self.info.to_dict()
-        out.update({k: info[k] for k in ("engine", "engine_version", "status")})
-        out.update({k: info[k] for k in ("wall_time_s", "n_steps", "mu", "timestep")})
-        if info["message"]:
-            out["status_message"] = info["message"]
-        out["settings"] = info["settings"]
-        return out
 
 
 class Engine(ABC):
@@ -365,8 +273,6 @@ class Engine(ABC):
 
     def run(self, scene: Scene, settings: RunSettings | None = None) -> RunResult:
         """Simulate, then judge with this engine's detectors."""
-        from hoopbench.engines.judge import judge
-
         return judge(self.simulate(scene, settings), self.detectors, scene)
 
 

@@ -15,6 +15,7 @@ from hoopbench.engines.settings import RunSettings
 from hoopbench.models.events import Outcome
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
+from hoopbench.reference import exact
 from hoopbench.reference.exact import DEFAULT_ATOL, DEFAULT_RTOL
 
 __all__ = ["ReferenceEngine"]
@@ -50,8 +51,6 @@ class ReferenceEngine(Engine):
     )
 
     def _import(self) -> ModuleType:
-        from hoopbench.reference import exact
-
         return exact
 
     def _simulate(

@@ -5,8 +5,9 @@ decide it. :class:`StopRule` (``RunSettings.stop``) says when a run may end earl
 :class:`StopMonitor`, fed by an engine's chunked stepping loop with each chunk of states,
 says when it does:
 
-* **IMPACT**: after the first impact, as the judge (engines/detectors.py with the contact-noise
-  screen of engines/event_checks.py) reads one: an excursion of the clearance above
+* **IMPACT**: after the first impact, as the judge (engines/judging/detectors.py with the
+  contact-noise screen of engines/judging/event_checks.py) reads one: an excursion of the
+  clearance above
   FLOOR_LEVEL that peaks above hop_clearance, with a stretch above lift_clearance lasting
   lift_sustain, ended by a sample back at FLOOR_LEVEL or below. The judge reads lift-off,
   hop height and impact from the samples up to that sample, and the contact phases before
@@ -35,7 +36,7 @@ from enum import StrEnum
 import numpy as np
 from numpy.typing import NDArray
 
-from hoopbench.engines.detectors import FLOOR_LEVEL, DetectorSettings
+from hoopbench.engines.judging.detectors import FLOOR_LEVEL, DetectorSettings
 from hoopbench.models import kinematics
 from hoopbench.models.scene import Scene
 

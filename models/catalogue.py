@@ -1,7 +1,7 @@
 """The named scenes hoopbench runs: their parameters and why each one is here.
 
 This module holds parameters only. The numbers quoted in each scene's ``why`` come from the
-exact solver and were found with ``python -m hoopbench.reports.find_scenes``, which sweeps the
+exact solver and were found with ``python -m hoopbench.reference.find_scenes``, which sweeps the
 parameter space and checks that the hop scenes keep their outcome under 1e-3 relative changes of
 every parameter; ``tests/test_catalogue.py`` checks every quoted number against the exact solver.
 Times in s, angles in deg, lengths in m, "slip (+)" means sigma = sign(xdot - a*thetadot) = +1.

@@ -25,7 +25,7 @@ from hoopbench.models.scene import DegenerateSceneError, Scene
 from hoopbench.reference.exact import DEFAULT_ATOL, DEFAULT_RTOL
 
 if TYPE_CHECKING:  # the runner is imported only by the commands that run sweeps
-    from hoopbench.reports.runner import RunSummary
+    from hoopbench.reports.sweep.runner import RunSummary
 
 __all__ = ["main"]
 
@@ -312,7 +312,7 @@ def _cmd_model(args: argparse.Namespace) -> int:
 def _cmd_settings(args: argparse.Namespace) -> int:
     from dataclasses import asdict
 
-    from hoopbench.engines.detectors import DetectorSettings
+    from hoopbench.engines.judging.detectors import DetectorSettings
 
     classes = engine_classes()
     names = [args.engine] if args.engine else list(classes)
@@ -352,10 +352,10 @@ def _engine_declaration(cls: Any) -> dict[str, Any]:
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
-    from hoopbench.reports.cluster import executor_from_args
-    from hoopbench.reports.runner import RunnerError
-    from hoopbench.reports.suite import compare
-    from hoopbench.reports.suite_file import builtin_suite, load_suite
+    from hoopbench.reports.compare.suite import compare
+    from hoopbench.reports.compare.suite_file import builtin_suite, load_suite
+    from hoopbench.reports.sweep.cluster import executor_from_args
+    from hoopbench.reports.sweep.runner import RunnerError
 
     path = Path(args.suite)
     if not path.suffix and not path.exists():
@@ -404,7 +404,7 @@ def _say_how_the_sweep_ended(summary: RunSummary, out: str, resume: str, quiet: 
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from hoopbench.reports.suite import build_report
+    from hoopbench.reports.report.build import build_report
 
     for folder in args.results:
         if not (Path(folder) / "runs").is_dir():
@@ -424,8 +424,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
 def _cmd_findings(args: argparse.Namespace) -> int:
     import pandas as pd
 
-    from hoopbench.reports.findings import findings_markdown, update_readme
-    from hoopbench.reports.suite import report_frame
+    from hoopbench.reports.report.build import report_frame
+    from hoopbench.reports.report.findings import findings_markdown, update_readme
 
     for folder in args.results:
         if not (Path(folder) / "runs").is_dir():
@@ -440,7 +440,7 @@ def _cmd_findings(args: argparse.Namespace) -> int:
 
 
 def _cmd_figure(args: argparse.Namespace) -> int:
-    from hoopbench.reports.figures import hoop_figure
+    from hoopbench.reports.report.figures import hoop_figure
 
     scene = _scene_from_args(args)
     out = _output_file(args.out, (".png", ".pdf", ".svg"), args.force)
@@ -465,7 +465,7 @@ def _grid(text: str) -> tuple[int, int]:
 def _map_spec(args: argparse.Namespace) -> Any:
     """The map's spec from the options; on --resume, options not given come from the map
     stored in --out (run_map refuses a spec that differs from it)."""
-    from hoopbench.reports.hop_map import MAP_FILE, Axis, MapSpec, load_spec
+    from hoopbench.reports.hop_map.spec import MAP_FILE, Axis, MapSpec, load_spec
 
     given: dict[str, Any] = {
         key: value
@@ -503,10 +503,10 @@ def _map_spec(args: argparse.Namespace) -> Any:
 
 
 def _cmd_map(args: argparse.Namespace) -> int:
-    from hoopbench.reports.cluster import executor_from_args
-    from hoopbench.reports.hop_map import run_map
-    from hoopbench.reports.map_report import write_map_outputs
-    from hoopbench.reports.runner import RunnerError
+    from hoopbench.reports.hop_map.stages import run_map
+    from hoopbench.reports.report.map_section import write_map_outputs
+    from hoopbench.reports.sweep.cluster import executor_from_args
+    from hoopbench.reports.sweep.runner import RunnerError
 
     spec = _map_spec(args)  # every value is checked before anything runs
     try:
@@ -571,7 +571,7 @@ def _engine_options(p: argparse.ArgumentParser, engines: Sequence[str]) -> None:
 
 
 def _add_map_options(p: argparse.ArgumentParser) -> None:
-    from hoopbench.reports.hop_map import AXES, DEFAULT_ENGINES, DEFAULT_GRID, Axis
+    from hoopbench.reports.hop_map.spec import AXES, DEFAULT_ENGINES, DEFAULT_GRID, Axis
 
     axes = [str(a) for a in Axis]
     p.add_argument("--x", choices=axes, help="parameter along x (default lam)")
@@ -619,8 +619,8 @@ def _add_map_options(p: argparse.ArgumentParser) -> None:
 
 
 def _parser() -> _Parser:
-    from hoopbench.reports.cluster import add_cluster_arguments
-    from hoopbench.reports.suite_file import TrajectoryChoice, shipped_suites
+    from hoopbench.reports.compare.suite_file import TrajectoryChoice, shipped_suites
+    from hoopbench.reports.sweep.cluster import add_cluster_arguments
 
     parser = _Parser(
         prog="hoopbench",

@@ -1,4 +1,4 @@
-"""The floor benchmark (reports/bench_floor.py): its arithmetic by hand, and a run on a tiny map.
+"""The floor benchmark (reports/bench/floor.py): its arithmetic by hand, and a run on a tiny map.
 
 The benchmark prints times and asserts none; these tests check what it computes from them:
 the per-group floor (steps times the sampled bare cost per step), the steps the stopping
@@ -15,8 +15,8 @@ import pandas as pd
 import pytest
 
 from hoopbench.engines.base import n_steps_for
-from hoopbench.reports import bench_floor
-from hoopbench.reports.bench_floor import (
+from hoopbench.reports.bench import floor as bench_floor
+from hoopbench.reports.bench.floor import (
     Floor,
     engine_rows,
     floor_scene,
@@ -25,7 +25,8 @@ from hoopbench.reports.bench_floor import (
     report,
     stopping_bound,
 )
-from hoopbench.reports.hop_map import MapSpec, run_map
+from hoopbench.reports.hop_map.spec import MapSpec
+from hoopbench.reports.hop_map.stages import run_map
 
 TINY = MapSpec(nx=2, ny=2, engines=("pymunk",), timestep=1e-3, t_end=1.0)
 

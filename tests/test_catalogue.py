@@ -15,7 +15,7 @@ from hoopbench.models.events import Outcome, PhaseKind
 from hoopbench.models.scene import Scene
 from hoopbench.reference import dynamics
 from hoopbench.reference.exact import ExactSolution, solve_exact
-from hoopbench.reports.find_scenes import perturbations
+from hoopbench.reference.find_scenes import perturbations
 
 # Numbers each scene's `why` quotes, as the text written there: the test checks that the text is
 # in the `why` and that the exact solver's value rounds to it. Keys are Events fields, or

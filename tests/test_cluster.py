@@ -24,7 +24,11 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from hoopbench.reports.cluster import (
+from hoopbench.reports.compare.suite import compare as run_suite
+from hoopbench.reports.hop_map.spec import MapSpec
+from hoopbench.reports.hop_map.stages import run_map
+from hoopbench.reports.hop_map.table import map_frame
+from hoopbench.reports.sweep.cluster import (
     ClusterError,
     TlsFiles,
     add_cluster_arguments,
@@ -33,8 +37,7 @@ from hoopbench.reports.cluster import (
     parse_address,
     tls_files_from_args,
 )
-from hoopbench.reports.results import TIMING_COLUMNS, read_runs
-from hoopbench.reports.suite import compare as run_suite
+from hoopbench.reports.sweep.results import TIMING_COLUMNS, read_runs
 
 distributed = pytest.importorskip("distributed")
 
@@ -120,19 +123,14 @@ def test_compare_on_the_cluster_gives_the_local_rows(tmp_path, cluster):
 @pytest.mark.slow
 def test_a_map_on_the_cluster_gives_the_local_rows(tmp_path, cluster):
     """The issue's "done when": a map through --scheduler equals the local one row for row."""
-    hop_map = pytest.importorskip("hoopbench.reports.hop_map")
-    if not hasattr(hop_map, "run_map"):
-        pytest.skip("run_map is not written yet")
-    spec = hop_map.MapSpec(nx=3, ny=3, engines=("pymunk", "mujoco"), timestep=1e-3)
+    spec = MapSpec(nx=3, ny=3, engines=("pymunk", "mujoco"), timestep=1e-3)
     with cluster_executor(cluster.address, timeout=10) as executor:
-        remote = hop_map.run_map(spec, tmp_path / "remote", executor=executor, quiet=True)
-    local = hop_map.run_map(spec, tmp_path / "local", jobs=2, quiet=True)
+        remote = run_map(spec, tmp_path / "remote", executor=executor, quiet=True)
+    local = run_map(spec, tmp_path / "local", jobs=2, quiet=True)
     assert remote.counts == local.counts
-    frame = hop_map.map_frame(tmp_path / "remote")
+    frame = map_frame(tmp_path / "remote")
     assert len(frame) == 9 * 3  # the reference and two engines at every point
-    pd.testing.assert_frame_equal(
-        comparable(frame), comparable(hop_map.map_frame(tmp_path / "local"))
-    )
+    pd.testing.assert_frame_equal(comparable(frame), comparable(map_frame(tmp_path / "local")))
 
 
 # --------------------------------------------------------------------------- faults

@@ -17,7 +17,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from hoopbench.reports.results import TIMING_COLUMNS, read_runs
+from hoopbench.reports.sweep.results import TIMING_COLUMNS, read_runs
 
 TESTS = Path(__file__).resolve().parent
 CLI = [sys.executable, "-m", "hoopbench.reports.cli"]

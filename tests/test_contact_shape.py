@@ -15,7 +15,7 @@ import math
 import numpy as np
 import pytest
 
-from hoopbench.engines.detectors import detect_events
+from hoopbench.engines.judging.detectors import detect_events
 from hoopbench.models import kinematics
 from hoopbench.models.kinematics import Polygon
 from hoopbench.models.scene import Scene

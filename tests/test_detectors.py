@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from physics_scenes import SEED
 
-from hoopbench.engines.detectors import DetectorSettings, detect_events, refined_onset
+from hoopbench.engines.judging.detectors import DetectorSettings, detect_events, refined_onset
 from hoopbench.models.events import Outcome
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.reference.exact import solve_exact
@@ -256,7 +256,7 @@ def test_the_1_cm_hoop_reads_as_the_1_m_hoop(name):
     With the 1 m thresholds it did not: seed-mu's 4.4 ms roll between re-stick and reverse
     slip was shorter than the 5 ms re-stick sustain, and hop-low's 0.33 mm hop was below
     the 1 mm hop threshold."""
-    from hoopbench.engines.event_checks import checked_events
+    from hoopbench.engines.judging.event_checks import checked_events
     from hoopbench.models.catalogue import get_scene
 
     big = get_scene(name)

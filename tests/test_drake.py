@@ -21,13 +21,13 @@ from pydrake.multibody.plant import (
     DiscreteContactApproximation,
 )
 
-from hoopbench.engines.base import RunStatus
 from hoopbench.engines.drake_engine import (
     APPROXIMATIONS,
     DrakeEngine,
     contact_parameters,
 )
 from hoopbench.engines.options import Profile
+from hoopbench.engines.run import RunStatus
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene
 from hoopbench.models.scene import DegenerateSceneError, Scene
@@ -381,7 +381,7 @@ def test_stdout_stays_clean_and_drakes_warnings_are_kept_off():
 
 
 def test_bare_loop_steps_the_same_model():
-    """bare_loop_time (the yardstick of reports/bench_overhead.py) runs and rejects bad
+    """bare_loop_time (the yardstick of reports/bench/overhead.py) runs and rejects bad
     options like run(); the overhead ratio itself is measured by the benchmark, not here."""
     engine = DrakeEngine()
     assert engine.bare_loop_time(seed_mu(t_end=0.05), RunSettings(timestep=DT)) > 0

@@ -1,4 +1,4 @@
-"""Every engine against the exact reference, with the tolerances of reports/tolerances.toml.
+"""Every engine against the exact reference, with the tolerances of reports/report/tolerances.toml.
 
 One run per (engine, scene) is cached for the whole module: the engines are the slow part.
 """
@@ -11,13 +11,14 @@ from functools import cache
 import numpy as np
 import pytest
 
-from hoopbench.engines.base import DivergenceLimits, EngineUnavailableError, RunResult, RunStatus
+from hoopbench.engines.base import DivergenceLimits, EngineUnavailableError
 from hoopbench.engines.registry import engine_names, get_engine
+from hoopbench.engines.run import RunResult, RunStatus
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene, scene_names
 from hoopbench.models.scene import Scene
 from hoopbench.reference.exact import solve_exact
-from hoopbench.reports.tolerances import tolerances
+from hoopbench.reports.report.tolerances import tolerances
 
 TOL = tolerances()
 ENGINES = [name for name in engine_names() if name != "reference"]

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-from hoopbench.reports.findings import README_BEGIN, README_END, findings, update_readme
+from hoopbench.reports.report.findings import README_BEGIN, README_END, findings, update_readme
 
 
 def row(engine, scene="seed-mu", **values):

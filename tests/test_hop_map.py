@@ -1,4 +1,4 @@
-"""The hop map (reports/hop_map.py, `hoopbench map`): the spec and its file, the two stages into
+"""The hop map (reports/hop_map/, `hoopbench map`): the spec and its file, the two stages into
 one runs dataset, rows as compare builds them, resume after an interruption in either stage,
 the agreement table, and the command line's answers to bad input.
 
@@ -19,30 +19,26 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from hoopbench.engines.judging.verdict import verdict_columns
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.scene import Scene
 from hoopbench.reference.regimes import classify
-from hoopbench.reports import results
 from hoopbench.reports.cli import main
-from hoopbench.reports.hop_map import (
+from hoopbench.reports.compare.suite import event_columns
+from hoopbench.reports.hop_map.spec import (
     AXES,
-    MAP_COLUMNS,
     MAP_FILE,
     REFERENCE,
     Axis,
     MapSpec,
     MapSpecMismatchError,
-    agreement_table,
     load_spec,
-    map_frame,
-    reference_tasks,
-    run_map,
-    run_map_task,
 )
-from hoopbench.reports.runner import OutputDirNotEmptyError, RunnerError
-from hoopbench.reports.suite import event_columns
-from hoopbench.reports.verdict import verdict_columns
+from hoopbench.reports.hop_map.stages import MAP_COLUMNS, reference_tasks, run_map, run_map_task
+from hoopbench.reports.hop_map.table import agreement_table, map_frame
+from hoopbench.reports.sweep import results
+from hoopbench.reports.sweep.runner import OutputDirNotEmptyError, RunnerError
 
 TINY = MapSpec(nx=3, ny=2, engines=("pymunk",), timestep=1e-3, t_end=1.0)
 """lam 0.5, 0.75, 1 x chi 0.05, 2: rolls at chi 0.05, a hop (lam 0.5, chi 2), lifts-at-start
@@ -256,7 +252,7 @@ def test_the_hop_height_error_is_engine_minus_exact_where_both_hop(tiny):
 def test_no_hop_height_error_where_the_run_is_not_judged():
     """An exact hop below the hop threshold (lam chi just above 1) has no verdict, and its
     hop-height ratio (up to 7e5 on a 40x40 map) must not reach the figures and findings."""
-    from hoopbench.reports.hop_map import _hop_height_error
+    from hoopbench.reports.hop_map.stages import _hop_height_error
 
     row = {
         "outcome": "hops",

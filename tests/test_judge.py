@@ -9,9 +9,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from hoopbench.engines.base import Engine, Run, RunStatus, Simulation
-from hoopbench.engines.judge import judge
+from hoopbench.engines.base import Engine, Simulation
+from hoopbench.engines.judging.judge import judge
 from hoopbench.engines.registry import engine_names, get_engine, register, unregister
+from hoopbench.engines.run import Run, RunStatus
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene
 from hoopbench.models.trajectory import Trajectory

@@ -11,11 +11,13 @@ import pandas as pd
 import pytest
 from PIL import Image
 
+from hoopbench.engines.judging.verdict import Verdict
 from hoopbench.reference.regimes import Regime
-from hoopbench.reports import map_figures, results
 from hoopbench.reports.cli import main
-from hoopbench.reports.hop_map import MAP_FILE, MapSpec, map_frame
-from hoopbench.reports.map_figures import (
+from hoopbench.reports.hop_map.spec import MAP_FILE, MapSpec
+from hoopbench.reports.hop_map.table import map_frame
+from hoopbench.reports.report import map_figures
+from hoopbench.reports.report.map_figures import (
     figure_pixels,
     hop_error_figure,
     hop_ratio_cells,
@@ -25,8 +27,8 @@ from hoopbench.reports.map_figures import (
     verdict_cells,
     verdict_figure,
 )
-from hoopbench.reports.map_report import map_findings, map_section, write_map_outputs
-from hoopbench.reports.verdict import Verdict
+from hoopbench.reports.report.map_section import map_findings, map_section, write_map_outputs
+from hoopbench.reports.sweep import results
 
 ENGINES = ("mujoco", "pybullet", "pymunk")
 _HOPS = (Regime.HOPS, Regime.LIFTS_AT_START)

@@ -18,8 +18,9 @@ import mujoco  # a declared dependency: missing it is a failure, not a skip
 import numpy as np
 import pytest
 
-from hoopbench.engines.base import CHUNK_STEPS, DivergenceLimits, RunStatus
+from hoopbench.engines.base import CHUNK_STEPS, DivergenceLimits
 from hoopbench.engines.mujoco_engine import MujocoEngine
+from hoopbench.engines.run import RunStatus
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene
 from hoopbench.models.mjcf import scene_to_mjcf

@@ -26,10 +26,10 @@ import numpy as np
 import pybullet
 import pytest
 
-from hoopbench.engines.base import RunResult, RunStatus
 from hoopbench.engines.mujoco_engine import MujocoEngine
 from hoopbench.engines.pybullet_engine import PybulletEngine
 from hoopbench.engines.registry import engine_classes, get_engine
+from hoopbench.engines.run import RunResult, RunStatus
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models import kinematics
 from hoopbench.models.catalogue import get_scene

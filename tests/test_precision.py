@@ -4,7 +4,12 @@ from __future__ import annotations
 
 import pandas as pd
 
-from hoopbench.reports.precision import METRICS, cheapest_runs, pareto_front, precision_figure
+from hoopbench.reports.report.precision import (
+    METRICS,
+    cheapest_runs,
+    pareto_front,
+    precision_figure,
+)
 
 
 def test_the_front_keeps_only_runs_no_cheaper_run_beats():

@@ -8,7 +8,7 @@ from hoopbench.engines.options import SAME, Profile
 from hoopbench.engines.registry import engine_class, engine_names, get_engine
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene
-from hoopbench.reports.suite_file import SuiteError, parse_suite
+from hoopbench.reports.compare.suite_file import SuiteError, parse_suite
 
 # The engines' own documented defaults, written out here independently of the declarations.
 STOCK = {

@@ -16,9 +16,10 @@ import numpy as np
 import pybullet  # a declared dependency: missing it is a failure, not a skip
 import pytest
 
-from hoopbench.engines.base import CHUNK_STEPS, RunResult, RunStatus
+from hoopbench.engines.base import CHUNK_STEPS
 from hoopbench.engines.pybullet_engine import MAX_PAIR_FRICTION, PybulletEngine
 from hoopbench.engines.reference_engine import ReferenceEngine
+from hoopbench.engines.run import RunResult, RunStatus
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene
 from hoopbench.models.scene import DegenerateSceneError, Scene
@@ -30,7 +31,7 @@ from hoopbench.models.urdf import (
     scene_to_urdf,
 )
 from hoopbench.reference.exact import solve_exact
-from hoopbench.reports.tolerances import tolerances
+from hoopbench.reports.report.tolerances import tolerances
 
 TOL = tolerances()
 ROOT = Path(__file__).resolve().parents[1]

@@ -10,8 +10,9 @@ import numpy as np
 import pymunk  # a declared dependency: missing it is a failure, not a skip
 import pytest
 
-from hoopbench.engines.base import DivergenceLimits, RunStatus
+from hoopbench.engines.base import DivergenceLimits
 from hoopbench.engines.pymunk_engine import PymunkEngine
+from hoopbench.engines.run import RunStatus
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene
 from hoopbench.models.pymunk_space import START_OVERLAP, build_space, scene_to_pymunk
@@ -300,7 +301,7 @@ def test_divergence_stops_the_run_with_a_partial_trajectory():
 
 
 def test_bare_loop_steps_the_same_model():
-    """bare_loop_time (the yardstick of reports/bench_overhead.py) runs and rejects bad
+    """bare_loop_time (the yardstick of reports/bench/overhead.py) runs and rejects bad
     options like run(); the overhead ratio itself is measured by the benchmark, not here."""
     engine = PymunkEngine()
     scene, settings = seed_mu(t_end=0.1), RunSettings(timestep=DT)

@@ -7,12 +7,13 @@ import re
 import pandas as pd
 import pytest
 
-from hoopbench.engines.base import RunStatus
 from hoopbench.engines.options import Profile
 from hoopbench.engines.registry import engine_class, engine_names
-from hoopbench.reports.markdown import write_markdown
-from hoopbench.reports.suite import ROW_COLUMNS, build_report, compare, report_frame, run_task
-from hoopbench.reports.suite_file import builtin_suite, load_suite, parse_suite
+from hoopbench.engines.run import RunStatus
+from hoopbench.reports.compare.suite import ROW_COLUMNS, compare, run_task
+from hoopbench.reports.compare.suite_file import builtin_suite, load_suite, parse_suite
+from hoopbench.reports.report.build import build_report, report_frame
+from hoopbench.reports.report.markdown import write_markdown
 
 
 @pytest.fixture(scope="module")
@@ -171,7 +172,7 @@ def test_the_stability_suite_file_holds_every_engine():
 
 
 def test_seed_section_sets_the_ports_numbers_beside_the_printed_ones():
-    from hoopbench.reports import seed_reproduction
+    from hoopbench.reports.report import seed_reproduction
 
     steps = seed_reproduction.timestep_table().set_index("dt")
     assert steps.loc[0.002, "steps"] == steps.loc[0.002, "seed steps"] == 14
@@ -217,7 +218,7 @@ def test_the_contact_settings_table_names_each_knob_its_values_and_what_it_moves
     """Synthetic rows: each line names the knob off its tuned value (from the run's full
     option values, whatever the profile it started from), marks a stock value, and shows the
     slip-onset error on the slip scene and the hop-height error on the hop scene."""
-    from hoopbench.reports.markdown import _settings_section, _with_optional_columns
+    from hoopbench.reports.report.markdown import _settings_section, _with_optional_columns
 
     rows = [
         _knob_row("mujoco", "tuned", "default", "{}", "seed-mu", slip=2.4),
@@ -258,7 +259,7 @@ def test_the_contact_settings_table_names_each_knob_its_values_and_what_it_moves
 
 
 def test_the_timestep_table_keeps_stock_and_tuned_apart():
-    from hoopbench.reports.markdown import _timestep_section, _with_optional_columns
+    from hoopbench.reports.report.markdown import _timestep_section, _with_optional_columns
 
     rows = [
         {**_knob_row("pymunk", p, "default", "{}", "seed-mu", slip=s), "outcome_agrees": a}
@@ -271,7 +272,7 @@ def test_the_timestep_table_keeps_stock_and_tuned_apart():
 
 
 def test_figures_drawn_side_by_side_come_back_in_order():
-    from hoopbench.reports.markdown import _drawn
+    from hoopbench.reports.report.markdown import _drawn
 
     assert _drawn([(pow, (2, k)) for k in range(6)]) == [1, 2, 4, 8, 16, 32]
     assert _drawn([(pow, (3, 2))]) == [9]  # one call: drawn here

@@ -25,10 +25,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hoopbench.engines.base import RunStatus
-from hoopbench.reports import results
-from hoopbench.reports.results import TIMING_COLUMNS, read_runs
-from hoopbench.reports.runner import (
+from hoopbench.engines.run import RunStatus
+from hoopbench.reports.sweep import results
+from hoopbench.reports.sweep.results import TIMING_COLUMNS, read_runs
+from hoopbench.reports.sweep.runner import (
     ExecutorBrokenError,
     OutputDirNotEmptyError,
     RemoteTracebackError,
@@ -417,7 +417,7 @@ SWEEP_SCRIPT = """
 import sys
 sys.path.insert(0, {tests!r})
 from test_runner import Job, job_failure_row, job_worker, sweep_tasks
-from hoopbench.reports.runner import run_tasks
+from hoopbench.reports.sweep.runner import run_tasks
 
 def main():
     out, resume = sys.argv[1], "--resume" in sys.argv
@@ -467,7 +467,7 @@ UNGUARDED_SCRIPT = """
 import sys
 sys.path.insert(0, {tests!r})
 from test_runner import job_failure_row, job_worker, sweep_tasks
-from hoopbench.reports.runner import run_tasks
+from hoopbench.reports.sweep.runner import run_tasks
 summary = run_tasks(sweep_tasks()[:2], job_worker, sys.argv[1], failure_row=job_failure_row, jobs=1)
 print(summary.counts)
 """

@@ -5,8 +5,10 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-from hoopbench.reports.markdown import write_markdown
-from hoopbench.reports.stability import (
+from hoopbench.reports.compare.suite import ROW_COLUMNS
+from hoopbench.reports.compare.suite_file import builtin_suite, load_suite
+from hoopbench.reports.report.markdown import write_markdown
+from hoopbench.reports.report.stability import (
     ENERGY_GAIN_LIMIT,
     PENETRATION_LIMIT,
     Stability,
@@ -14,8 +16,6 @@ from hoopbench.reports.stability import (
     stability_figure,
     stability_matrix,
 )
-from hoopbench.reports.suite import ROW_COLUMNS
-from hoopbench.reports.suite_file import builtin_suite, load_suite
 
 CLEAN = {
     "status": "ok",

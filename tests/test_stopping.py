@@ -9,9 +9,10 @@ from functools import cache
 import numpy as np
 import pytest
 
-from hoopbench.engines.base import RunResult, n_steps_for
-from hoopbench.engines.detectors import DetectorSettings
+from hoopbench.engines.base import n_steps_for
+from hoopbench.engines.judging.detectors import DetectorSettings
 from hoopbench.engines.registry import get_engine
+from hoopbench.engines.run import RunResult
 from hoopbench.engines.settings import RunSettings
 from hoopbench.engines.stopping import StopMonitor, StopReason, StopRule
 from hoopbench.models.catalogue import get_scene

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from hoopbench.reports.suite_file import (
+from hoopbench.reports.compare.suite_file import (
     SUITES_DIR,
     SuiteError,
     builtin_suite,

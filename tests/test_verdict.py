@@ -1,4 +1,4 @@
-"""The verdict on a run, from synthetic rows of the runs table (reports/verdict.py), and the
+"""The verdict on a run, from synthetic rows of the runs table (engines/judging/verdict.py), and the
 row builder that writes it."""
 
 from __future__ import annotations
@@ -10,14 +10,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hoopbench.engines.base import Run, RunInfo, RunStatus
-from hoopbench.engines.judge import judge
-from hoopbench.models import kinematics
-from hoopbench.models.events import Events, Outcome, Phase, PhaseKind
-from hoopbench.models.trajectory import Trajectory
-from hoopbench.reports.suite import ROW_COLUMNS, _row, failure_row
-from hoopbench.reports.suite_file import parse_suite
-from hoopbench.reports.verdict import (
+from hoopbench.engines.judging.judge import judge
+from hoopbench.engines.judging.verdict import (
     HOP_CLEARANCE,
     LIFT_TIME_TOLERANCE,
     Verdict,
@@ -26,6 +20,12 @@ from hoopbench.reports.verdict import (
     row_phases_agree,
     verdict_columns,
 )
+from hoopbench.engines.run import Run, RunInfo, RunStatus
+from hoopbench.models import kinematics
+from hoopbench.models.events import Events, Outcome, Phase, PhaseKind
+from hoopbench.models.trajectory import Trajectory
+from hoopbench.reports.compare.suite import ROW_COLUMNS, _row, failure_row
+from hoopbench.reports.compare.suite_file import parse_suite
 
 HOP_ROW: dict[str, Any] = {
     "status": "ok",

@@ -1,6 +1,6 @@
 """Benchmark: what the isolated suite runner costs against a plain ProcessPoolExecutor.
 
-Run with ``python -m hoopbench.reports.bench_runner [--cheap N] [--cpu N] [--cpu-seconds S]``.
+Run with ``python -m hoopbench.reports.bench.runner [--cheap N] [--cpu N] [--cpu-seconds S]``.
 The runner buys isolation (one call per worker at a time, killable, replaced when it dies),
 a results dataset written as runs finish, and resume; this prints its price on the same
 tasks: rows per second with 1 and 2 jobs for a trivial worker (the per-run overhead shows
@@ -23,7 +23,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hoopbench.reports.runner import run_tasks
+from hoopbench.reports.compare.suite import run_task
+from hoopbench.reports.compare.suite_file import builtin_suite, load_suite
+from hoopbench.reports.sweep.runner import run_tasks
 
 
 @dataclass(frozen=True)
@@ -71,8 +73,8 @@ def peak_rss_mb(n_tasks: int) -> float:
     """The parent's peak RSS for an n-task cheap sweep, measured in a fresh interpreter."""
     code = (
         "import resource, tempfile, pathlib;"
-        "from hoopbench.reports.bench_runner import _tasks, cheap_worker;"
-        "from hoopbench.reports.runner import run_tasks;"
+        "from hoopbench.reports.bench.runner import _tasks, cheap_worker;"
+        "from hoopbench.reports.sweep.runner import run_tasks;"
         "tmp = tempfile.mkdtemp();"
         f"run_tasks(_tasks({n_tasks}), cheap_worker, pathlib.Path(tmp) / 'out', jobs=2,"
         " quiet=True);"
@@ -85,9 +87,6 @@ def peak_rss_mb(n_tasks: int) -> float:
 def bench_suite(name: str, repeat: int) -> int:
     """The real worker on a real suite: the isolated runner against a plain process pool
     (today's runner before isolation), alternating so that load drift hits both."""
-    from hoopbench.reports.suite import run_task
-    from hoopbench.reports.suite_file import builtin_suite, load_suite
-
     tasks = load_suite(builtin_suite(name)).tasks()
     print(f"suite {name}: {len(tasks)} runs, 2 jobs, best of {repeat}")
     ours, plain = [], []

@@ -22,17 +22,17 @@ import pandas as pd
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
 from hoopbench.models.catalogue import get_scene, scene_names
 from hoopbench.models.trajectory import Trajectory
-from hoopbench.reports import seed_reproduction
-from hoopbench.reports.figures import events_figure, hoop_figure, paths_figure
-from hoopbench.reports.findings import findings_markdown, off_tuned, option_text
-from hoopbench.reports.precision import cheapest_runs, precision_figure
-from hoopbench.reports.stability import (
+from hoopbench.reports.report import seed_reproduction
+from hoopbench.reports.report.figures import events_figure, hoop_figure, paths_figure
+from hoopbench.reports.report.findings import findings_markdown, off_tuned, option_text
+from hoopbench.reports.report.precision import cheapest_runs, precision_figure
+from hoopbench.reports.report.stability import (
     ENERGY_GAIN_LIMIT,
     PENETRATION_LIMIT,
     stability_figure,
     stability_matrix,
 )
-from hoopbench.reports.tolerances import tolerances
+from hoopbench.reports.report.tolerances import tolerances
 
 __all__ = ["markdown_table", "write_markdown"]
 
@@ -63,7 +63,7 @@ _OPTIONAL_COLUMNS = (
 
 # --------------------------------------------------------------------------- tables
 STABILITY_SUITE = "stability"
-"""Name of the suite whose rows make the stability matrix (reports/suites/stability.toml)."""
+"""Name of the suite whose rows make the stability matrix (compare/suites/stability.toml)."""
 
 
 def _cell(value) -> str:
@@ -132,7 +132,7 @@ def _header(runs: pd.DataFrame, generated: str) -> str:
         f"Engines: {_versions(runs)}.",
         "",
         "Every engine event is read off its trajectory by the same detectors "
-        "(`engines/detectors.py`); the exact events come from the event-driven reference "
+        "(`engines/judging/detectors.py`); the exact events come from the event-driven reference "
         "solver for the same scene with mus = muk = the run's mu. Errors are engine minus "
         "exact. Times in s (errors in ms), angles in degrees, lengths in m. "
         f"Tolerances of the regression tests: slip {tol['slip']['t_s'] * 1e3:g} ms and "
@@ -423,7 +423,7 @@ def _stability_section(runs: pd.DataFrame) -> str:
 
 
 def _findings_section(runs: pd.DataFrame) -> str:
-    """Plain sentences generated from the numbers below (reports/findings.py)."""
+    """Plain sentences generated from the numbers below (reports/report/findings.py)."""
     text = findings_markdown(runs)
     return _section("## Findings", "", text) if text else ""
 

@@ -14,19 +14,17 @@ import numpy as np
 from hoopbench.models import kinematics
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
+from hoopbench.reference.exact import solve_exact
+from hoopbench.reference.seed_euler import solve_seed_euler
 
 __all__ = ["events_figure", "hoop_figure", "paths_figure"]
 
 
 def _solve(scene: Scene, method: str) -> tuple[Trajectory, object]:
     if method == "exact":
-        from hoopbench.reference.exact import solve_exact
-
         solution = solve_exact(scene)
         t = np.linspace(0.0, solution.t_final, 2001)
         return solution.sample(t), solution.events
-    from hoopbench.reference.seed_euler import solve_seed_euler
-
     result = solve_seed_euler(scene)
     return result.trajectory(), result.events
 

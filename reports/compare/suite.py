@@ -1,7 +1,7 @@
 """The comparison suite: the worker that runs one task, and the compare and report steps.
 
-A suite file (:mod:`hoopbench.reports.suite_file`) expands into tasks; the isolated runner
-(:mod:`hoopbench.reports.runner`) runs :func:`run_task` for each in a worker process and
+A suite file (:mod:`hoopbench.reports.compare.suite_file`) expands into tasks; the isolated runner
+(:mod:`hoopbench.reports.sweep.runner`) runs :func:`run_task` for each in a worker process and
 stores one tidy row per run: the run's settings, its status and cost, its detected events,
 the exact events for the same scene and mu, and the errors (engine minus exact).
 """
@@ -15,36 +15,38 @@ import shutil
 from collections.abc import Mapping
 from concurrent.futures import Executor
 from dataclasses import replace
-from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from hoopbench.engines.base import RunResult, RunStatus
-from hoopbench.engines.event_checks import check_flight
+from hoopbench.engines.judging.event_checks import check_flight
+from hoopbench.engines.judging.verdict import (
+    Verdict,
+    painleve_time,
+    row_phases_agree,
+    verdict_columns,
+)
 from hoopbench.engines.registry import engine_class, get_engine
+from hoopbench.engines.run import RunResult, RunStatus
 from hoopbench.models import kinematics
 from hoopbench.models.events import Events
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.reference.exact import ExactSolution, solve_exact
 from hoopbench.reference.regimes import max_slip_speed
-from hoopbench.reports import results
-from hoopbench.reports.runner import RunSummary, run_tasks
-from hoopbench.reports.suite_file import RunTask, Suite, TrajectoryChoice, load_suite
-from hoopbench.reports.verdict import Verdict, painleve_time, row_phases_agree, verdict_columns
+from hoopbench.reports.compare.suite_file import RunTask, Suite, TrajectoryChoice, load_suite
+from hoopbench.reports.sweep import results
+from hoopbench.reports.sweep.runner import RunSummary, run_tasks
 
 __all__ = [
     "FORMAT_VERSION",
     "TrajectoryChoice",
-    "build_report",
     "compare",
     "event_columns",
     "exact_columns",
     "failure_row",
-    "report_frame",
     "run_task",
     "run_timeout",
 ]
@@ -372,62 +374,6 @@ def _without_trajectory(task: RunTask) -> RunTask:
 
 def _engine_versions(engines: tuple[str, ...]) -> dict[str, str | None]:
     return {name: engine_class(name)().version() for name in engines}
-
-
-# --------------------------------------------------------------------------- report
-def build_report(
-    results_dirs: str | Path | list[str | Path], out: str | Path | None = None
-) -> Path:
-    """report.md and its figures from stored results alone (no simulation).
-
-    Several results folders (e.g. the default suite and the stability suite) make one report;
-    each row keeps the name of its suite in the column ``suite``. A hop map folder (it holds
-    map.toml) adds its own section (reports/map_report.py). ``out`` defaults to the first
-    folder.
-    """
-    from hoopbench.reports.map_report import is_map_folder, map_sections
-    from hoopbench.reports.markdown import write_markdown
-
-    dirs = [Path(d) for d in (results_dirs if isinstance(results_dirs, list) else [results_dirs])]
-    out = Path(out) if out is not None else dirs[0]
-    maps = [d for d in dirs if is_map_folder(d)]  # hop maps: a section each, not runs rows
-    runs = [report_frame(d) for d in dirs if d not in maps]
-    frame = pd.concat(runs, ignore_index=True) if runs else pd.DataFrame()
-    out.mkdir(parents=True, exist_ok=True)
-    generated = datetime.now(UTC).isoformat(timespec="seconds")
-    return write_markdown(frame, out, generated=generated, extra=map_sections(maps, out))
-
-
-def report_frame(results_dir: str | Path) -> pd.DataFrame:
-    """The runs of a results folder as the report reads them: trajectory paths resolved
-    (they are stored relative to the folder, so that the folder can move)."""
-    results_dir = Path(results_dir)
-    frame = runs_frame(results_dir)
-    paths = [
-        str(results_dir / p) if isinstance(p, str) and p else None for p in frame["trajectory_file"]
-    ]
-    frame = frame.assign(trajectory_file=paths, suite=_suite_name(results_dir))
-    # Rows are stored as runs finish; tables read best in the suite's own order.
-    order = _suite_order(results_dir / "suite.toml")
-    rank = [order.get(run_id, len(order)) for run_id in frame["run_id"]]
-    return frame.iloc[sorted(range(len(frame)), key=rank.__getitem__)].reset_index(drop=True)
-
-
-def _suite_name(results_dir: Path) -> str:
-    """The suite a results folder holds (from meta.json; the folder name if it is missing)."""
-    try:
-        return str(json.loads((results_dir / results.META_NAME).read_text())["suite"])
-    except (OSError, ValueError, KeyError):
-        return results_dir.name
-
-
-def _suite_order(suite_file: Path) -> dict[str, int]:
-    """run_id -> position in the suite as run (empty if its copy is missing or unreadable)."""
-    try:
-        tasks = load_suite(suite_file).tasks()
-    except ValueError:
-        return {}
-    return {task.run_id: k for k, task in enumerate(tasks)}
 
 
 def runs_frame(results_dir: str | Path) -> pd.DataFrame:

@@ -11,15 +11,15 @@ slip, hop (``hops`` and ``lifts-at-start``) and, for the exact side only, Painle
 
 - An engine's lift-off is a hop only if its clearance exceeds the hop threshold,
   ``DetectorSettings.hop_clearance`` (1 mm on the 1 m hoop, with its reason, in
-  engines/detectors.py). The judge already reads a smaller lift-off as contact noise; the
+  engines/judging/detectors.py). The judge already reads a smaller lift-off as contact noise; the
   verdict applies the same threshold to the row, so rows judged before that rule, or built
   by hand, are judged alike. Below it the run's class is slip if it slipped, roll otherwise.
 - ``outcome_agrees`` is true only when the engine has the reference's class and, where the
   reference hops, the engine's hop height is within a factor HOP_HEIGHT_FACTOR (2) of the
   exact one and its lift-off within LIFT_TIME_TOLERANCE (50 ms) of the exact lift-off. A hop
-  whose numbers were withheld as inconsistent (engines/event_checks.py) cannot pass this.
+  whose numbers were withheld as inconsistent (engines/judging/event_checks.py) cannot pass this.
 - **The hoop's size.** Both thresholds are stated for the catalogue's 1 m hoop and carried
-  to the row's hoop as the detectors' are (engines/detectors.py, ``hoop_scale``): the hop
+  to the row's hoop as the detectors' are (engines/judging/detectors.py, ``hoop_scale``): the hop
   threshold with a, the 50 ms with sqrt(a / g). A row without ``a`` (or ``g``) is judged
   for a = 1 m (g = 9.8 m/s^2).
 - **Painlevé.** The exact solution reaches a point where no consistent contact force exists
@@ -49,7 +49,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any
 
-from hoopbench.engines.detectors import DetectorSettings, hoop_scale
+from hoopbench.engines.judging.detectors import DetectorSettings, hoop_scale
 from hoopbench.models.events import Events, Outcome
 
 __all__ = [

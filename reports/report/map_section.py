@@ -2,7 +2,7 @@
 
 A map folder (it holds ``map.toml`` beside ``runs/``) becomes one section: what was mapped
 (from the stored spec), findings generated from the numbers, the figures
-(:mod:`hoopbench.reports.map_figures`) and the agreement tables
+(:mod:`hoopbench.reports.report.map_figures`) and the agreement tables
 (:func:`hoopbench.reports.hop_map.agreement_table`). Every sentence is a template filled from
 the rows: none is written by hand.
 
@@ -18,27 +18,22 @@ from pathlib import Path
 
 import pandas as pd
 
+from hoopbench.engines.judging.verdict import HOP_HEIGHT_FACTOR, Verdict
 from hoopbench.reference.regimes import Regime
-from hoopbench.reports import results
-from hoopbench.reports.hop_map import (
+from hoopbench.reports.hop_map.spec import AXES, MAP_FILE, REFERENCE, Axis, MapSpec, load_spec
+from hoopbench.reports.hop_map.table import (
     ALL_REGIMES,
-    AXES,
-    MAP_FILE,
-    REFERENCE,
-    Axis,
-    MapSpec,
     agreement_markdown,
     agreement_table,
-    load_spec,
     map_frame,
 )
-from hoopbench.reports.map_figures import (
+from hoopbench.reports.report.map_figures import (
     engines_of,
     hop_error_figure,
     regime_figure,
     verdict_figure,
 )
-from hoopbench.reports.verdict import HOP_HEIGHT_FACTOR, Verdict
+from hoopbench.reports.sweep import results
 
 __all__ = [
     "MAP_MARKDOWN",

@@ -15,7 +15,10 @@ from typing import Any
 
 import pandas as pd
 
+from hoopbench.engines.options import Profile
+from hoopbench.engines.registry import engine_class
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
+from hoopbench.reports.report.stability import Stability, classify
 
 __all__ = [
     "README_BEGIN",
@@ -43,9 +46,6 @@ def off_tuned(engine: str, row: Mapping[str, Any]) -> dict[str, tuple[Any, Any, 
     value, the run's value, whether that is the engine's stock value), the geometry included.
     Read from the row's options (stored as the changes from its profile's values) and its
     profile; None for an engine no longer registered."""
-    from hoopbench.engines.options import Profile
-    from hoopbench.engines.registry import engine_class
-
     try:
         cls = engine_class(engine)
     except ValueError:
@@ -181,8 +181,6 @@ def _knob_sentence(runs: pd.DataFrame, engine: str) -> str:
 
 
 def _stability_sentence(runs: pd.DataFrame, engine: str) -> str:
-    from hoopbench.reports.stability import Stability, classify
-
     rows = runs[(runs["engine"] == engine) & (runs["variant"] == "default")]
     if rows.empty:
         return ""

@@ -1,6 +1,6 @@
 """Benchmark: the hop map on local worker processes and on a local Dask cluster.
 
-Run with ``python -m hoopbench.reports.bench_map [--grid 40x40] [--engines ...] [--dt 1e-4]``.
+Run with ``python -m hoopbench.reports.bench.map [--grid 40x40] [--engines ...] [--dt 1e-4]``.
 The same map (lam x chi, default ranges and fixed values) runs four times: with the local
 pool of 1 and of 2 jobs, and through ``--scheduler`` on a Dask cluster of 1 and of 2 workers
 started here (a scheduler and single-threaded workers, each its own process, on 127.0.0.1,
@@ -36,9 +36,11 @@ import psutil  # Dask's dependency: the benchmark needs hoopbench[dask] anyway
 
 from hoopbench.engines.options import Profile
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
-from hoopbench.reports.cluster import cluster_executor, local_cluster
-from hoopbench.reports.hop_map import DEFAULT_ENGINES, MapSpec, map_frame, run_map
-from hoopbench.reports.results import TIMING_COLUMNS
+from hoopbench.reports.hop_map.spec import DEFAULT_ENGINES, MapSpec
+from hoopbench.reports.hop_map.stages import run_map
+from hoopbench.reports.hop_map.table import map_frame
+from hoopbench.reports.sweep.cluster import cluster_executor, local_cluster
+from hoopbench.reports.sweep.results import TIMING_COLUMNS
 
 TIMING = (*TIMING_COLUMNS, "wall_time_s")
 """Columns that differ between two runs of the same map."""

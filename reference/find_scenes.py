@@ -1,6 +1,6 @@
 """Search parameter space with the exact solver for the scenes of the catalogue.
 
-Run ``python -m hoopbench.reports.find_scenes`` (about ten seconds on two cores; ``--quick``
+Run ``python -m hoopbench.reference.find_scenes`` (about ten seconds on two cores; ``--quick``
 skips the sweeps and only checks the catalogue). The script
 
 1. sweeps three families of scenes with :func:`hoopbench.reference.exact.solve_exact` and prints the

@@ -84,8 +84,8 @@ class DetectorSettings:
     hop_clearance: float = 1e-3
     """Peak hoop-centre clearance, m, that a lift-off must exceed to count as a hop; a flight
     that stays below it is contact noise (its size is kept as the run's max_clearance). The
-    one home of the hop threshold: the judge (engines/event_checks.py) and the verdict
-    (reports/verdict.py) read it here, carried to the run's hoop.
+    one home of the hop threshold: the judge (engines/judging/event_checks.py) and the verdict
+    (engines/judging/verdict.py) read it here, carried to the run's hoop.
 
     1 mm on the 1 m hoop, 1e-3 a: it sits 3-9 times above MuJoCo's slip-chatter blips
     (0.11-0.29 mm, lasting 8-30 ms, at dt >= 5e-4 or with the pyramidal cone) and 33 times

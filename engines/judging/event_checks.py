@@ -1,6 +1,6 @@
 """Checks the judge makes on detected events: is a lift-off a hop at all, and is a hop possible?
 
-The detectors (:mod:`hoopbench.engines.detectors`) read events off a trajectory with
+The detectors (:mod:`hoopbench.engines.judging.detectors`) read events off a trajectory with
 thresholds. Two questions they do not ask are asked here, for every engine and the reference
 alike, by :func:`checked_events`, which the judge calls in their place:
 
@@ -49,7 +49,7 @@ from enum import StrEnum
 
 import numpy as np
 
-from hoopbench.engines.detectors import FLOOR_LEVEL, DetectorSettings, detect_events
+from hoopbench.engines.judging.detectors import FLOOR_LEVEL, DetectorSettings, detect_events
 from hoopbench.models.events import Events
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory

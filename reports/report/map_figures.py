@@ -28,8 +28,8 @@ import pandas as pd
 from matplotlib.colors import BoundaryNorm, ListedColormap, LogNorm, Normalize
 from matplotlib.patches import Patch
 
+from hoopbench.engines.judging.verdict import HOP_HEIGHT_FACTOR, Verdict
 from hoopbench.reference.regimes import Regime
-from hoopbench.reports.verdict import HOP_HEIGHT_FACTOR, Verdict
 
 __all__ = [
     "DPI",

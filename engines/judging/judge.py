@@ -11,9 +11,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from hoopbench.engines.base import Run, RunResult, RunStatus
-from hoopbench.engines.detectors import DetectorSettings
-from hoopbench.engines.event_checks import checked_events
+from hoopbench.engines.judging.detectors import DetectorSettings
+from hoopbench.engines.judging.event_checks import checked_events
+from hoopbench.engines.run import Run, RunResult, RunStatus
 from hoopbench.models.events import Outcome
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import COLUMNS, Trajectory
@@ -37,7 +37,7 @@ def judge(
     its status and gets no events. A non-finite value anywhere makes an ``ok`` run
     ``diverged`` (an adapter must never pass NaN on as a result).
 
-    The events pass the checks of :mod:`hoopbench.engines.event_checks`: a lift-off below
+    The events pass the checks of :mod:`hoopbench.engines.judging.event_checks`: a lift-off below
     the hop threshold is contact noise, not a hop, and an impossible hop (an impact before
     its lift-off; with ``scene``, a height its flight time cannot give) is flagged and its
     numbers withheld."""

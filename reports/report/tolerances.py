@@ -1,4 +1,4 @@
-"""Loads reports/tolerances.toml: the one source of the regression tolerances."""
+"""Loads reports/report/tolerances.toml: the one source of the regression tolerances."""
 
 from __future__ import annotations
 
@@ -13,4 +13,4 @@ __all__ = ["tolerances"]
 @cache
 def tolerances() -> dict[str, Any]:
     """The parsed tolerances file (read once)."""
-    return tomllib.loads(files("hoopbench.reports").joinpath("tolerances.toml").read_text())
+    return tomllib.loads(files("hoopbench.reports.report").joinpath("tolerances.toml").read_text())

@@ -13,7 +13,7 @@ into a broken pool that fails every run still queued, and it cannot stop one hun
 * :func:`run_tasks` drives any executor-like backend (``submit`` returning futures; e.g.
   Dask's ``Client.get_executor()``). It keeps only rows, a few futures and counters, so its
   memory does not grow with the sweep; rows go to disk every couple of seconds
-  (:mod:`hoopbench.reports.results`), so an interrupted or killed sweep loses only the runs
+  (:mod:`hoopbench.reports.sweep.results`), so an interrupted or killed sweep loses only the runs
   in progress, and ``resume=True`` runs what is missing. A run past its time limit becomes a
   ``timeout`` row, a run whose worker died twice a ``crashed`` row; both are retried by a
   resumed sweep. SIGINT and SIGTERM stop the sweep cleanly and are reported in the summary,
@@ -51,8 +51,8 @@ from typing import Any, Protocol, TextIO
 # on a terminal; off a terminal it is disabled and we print plain, throttled lines instead.
 from tqdm import tqdm
 
-from hoopbench.engines.base import RunStatus
-from hoopbench.reports import results
+from hoopbench.engines.run import RunStatus
+from hoopbench.reports.sweep import results
 
 __all__ = [
     "ExecutorBrokenError",
@@ -800,7 +800,7 @@ def run_tasks(
     the tasks: a hung call's worker is killed, a dead worker's call is retried once. A
     foreign executor (``concurrent.futures`` or Dask's ``Client.get_executor()``) is not
     shut down here; a timed-out call goes to its ``kill(future)`` if it has one (the Dask
-    ``ClusterExecutor`` of :mod:`hoopbench.reports.cluster`), else is cancelled if possible
+    ``ClusterExecutor`` of :mod:`hoopbench.reports.sweep.cluster`), else is cancelled if possible
     and otherwise abandoned (it keeps its worker); an exception from a future counts as a
     crash. Its calls are timed from submission, with at most ``max_in_flight`` (default: its
     ``max_workers``, ``_max_workers``, ``jobs`` or the CPU count) submitted at once.

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from hoopbench.reports.verdict import number_or_none
+from hoopbench.engines.judging.verdict import number_or_none
 
 __all__ = [
     "ENERGY_GAIN_LIMIT",

@@ -1,6 +1,6 @@
 """Benchmark: how close a finished hop map came to its engines' bare-stepping floor.
 
-Run with ``python -m hoopbench.reports.bench_floor MAPDIR [--per-group 12] [--cores 2]``.
+Run with ``python -m hoopbench.reports.bench.floor MAPDIR [--per-group 12] [--cores 2]``.
 
 Every engine row of the map stored how many steps it took (``n_steps``: its window, or less
 when it stopped early) and how long its stepping loop ran (``wall_time_s``: stepping,
@@ -33,13 +33,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from hoopbench.engines.base import RunStatus, n_steps_for
+from hoopbench.engines.base import n_steps_for
 from hoopbench.engines.registry import get_engine
+from hoopbench.engines.run import RunStatus
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.scene import Scene
 from hoopbench.reference.regimes import Regime
-from hoopbench.reports import results
-from hoopbench.reports.hop_map import REFERENCE, MapPoint, MapSpec, load_spec, map_frame
+from hoopbench.reports.hop_map.spec import REFERENCE, MapPoint, MapSpec, load_spec
+from hoopbench.reports.hop_map.table import map_frame
+from hoopbench.reports.sweep import results
 
 FULL = "full"
 """The stop label of a run that ran its whole window."""

@@ -1,7 +1,7 @@
 """Benchmark: an adapter's full run against a bare stepping loop of the same engine and model.
 
 Run with ``make bench`` or
-``python -m hoopbench.reports.bench_overhead [--scene NAME] [--repeat N]``.
+``python -m hoopbench.reports.bench.overhead [--scene NAME] [--repeat N]``.
 Prints, per engine, the best-of-N wall time of the adapter's stepping (recording every step,
 reading contact forces, checking divergence), of a bare loop of the same number of steps
 (the adapter's ``bare_loop_time``), their ratio (target: at most 1.3) and the cost per step.

@@ -1,6 +1,6 @@
 """Run a sweep on a Dask cluster: the ``--scheduler`` options and an executor for run_tasks.
 
-:func:`hoopbench.reports.runner.run_tasks` drives any ``concurrent.futures`` executor.
+:func:`hoopbench.reports.sweep.runner.run_tasks` drives any ``concurrent.futures`` executor.
 :class:`ClusterExecutor` is what Dask's ``Client.get_executor()`` gives, built on
 ``Client.submit`` so that it behaves as the runner needs:
 
@@ -51,7 +51,7 @@ from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
-from hoopbench.reports.runner import RunnerError
+from hoopbench.reports.sweep.runner import RunnerError
 
 __all__ = [
     "DEFAULT_CONNECT_TIMEOUT",

@@ -1,0 +1,104 @@
+"""What a run gives back: its status, its information, and its trajectory before and after
+judging. Shared by the engines, the judge and the sweeps, so it depends on nothing above models.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import StrEnum
+from typing import Any
+
+from hoopbench.models.events import Events
+from hoopbench.models.trajectory import Trajectory
+
+__all__ = ["Run", "RunInfo", "RunResult", "RunStatus"]
+
+
+class RunStatus(StrEnum):
+    OK = "ok"
+    DIVERGED = "diverged"
+    """NaN, runaway energy or deep penetration: detected, the run stopped early."""
+    ERROR = "error"
+    """The engine raised; the message says what."""
+    UNAVAILABLE = "unavailable"
+    """The engine is not installed or cannot be imported."""
+    TIMEOUT = "timeout"
+    """The suite runner stopped the run at its time limit (set by the runner, not by an engine)."""
+    CRASHED = "crashed"
+    """The worker process running it died twice (segfault, killed for memory, os._exit)."""
+
+    @property
+    def is_final(self) -> bool:
+        """True for statuses a resumed suite keeps; timeout and crashed are tried again."""
+        return self not in (RunStatus.TIMEOUT, RunStatus.CRASHED)
+
+
+@dataclass(frozen=True)
+class RunInfo:
+    engine: str
+    engine_version: str | None
+    status: RunStatus
+    message: str = ""
+    wall_time_s: float | None = None
+    """Wall time of the stepping, s."""
+    n_steps: int | None = None
+    mu: float | None = None
+    """The pair's friction coefficient actually used."""
+    timestep: float | None = None
+    """s."""
+    settings: dict[str, Any] = field(default_factory=dict)
+    stop_reason: str | None = None
+    """A StopReason value if the run ended early by its stop rule; None: the window's end
+    (or a failure). ``n_steps`` counts the steps recorded either way."""
+
+    def to_dict(self) -> dict[str, Any]:
+        out = {
+            "engine": self.engine,
+            "engine_version": self.engine_version,
+            "status": str(self.status),
+            "message": self.message,
+            "wall_time_s": self.wall_time_s,
+            "n_steps": self.n_steps,
+            "mu": self.mu,
+            "timestep": self.timestep,
+            "settings": self.settings,
+        }
+        if self.stop_reason is not None:  # absent otherwise: output as before stop rules
+            out["stop_reason"] = self.stop_reason
+        return out
+
+
+@dataclass(frozen=True)
+class Run:
+    """A simulated run before judging: trajectory (None if it failed first) and run info."""
+
+    trajectory: Trajectory | None
+    info: RunInfo
+    exact_events: Events | None = None
+    """For the reference engine: the exact events of the solved scene."""
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """A judged run: trajectory, the events the shared detectors found, and run info."""
+
+    trajectory: Trajectory | None
+    events: Events | None
+    info: RunInfo
+    exact_events: Events | None = None
+    """For the reference engine: the exact events, beside the detected ones."""
+
+    @property
+    def ok(self) -> bool:
+        return self.info.status is RunStatus.OK
+
+    def to_dict(self) -> dict[str, Any]:
+        """Events fields (as ``hoopbench reference --json``) plus the run info."""
+        out: dict[str, Any] = {} if self.events is None else self.events.to_dict()
+        info = self.info.to_dict()
+        out.update({k: info[k] for k in ("engine", "engine_version", "status")})
+        out.update({k: info[k] for k in ("wall_time_s", "n_steps", "mu", "timestep")})
+        if info["message"]:
+            out["status_message"] = info["message"]
+        out["settings"] = info["settings"]
+        return out

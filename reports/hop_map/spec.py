@@ -1,0 +1,442 @@
+"""The hop map's spec: its axes, ranges, grid, fixed values, window and engines.
+
+A :class:`MapSpec` names two of the scene's parameters (:class:`Axis`) as the map's axes, their
+ranges and grid, the fixed values of the other three, the window, the engines, their timestep
+and profile. It is stored as ``DIR/map.toml`` so that a resumed map and the report can rebuild
+it (and a resume with a different spec is refused).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, fields
+from enum import StrEnum
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+
+from hoopbench.engines.base import MAX_STEPS
+from hoopbench.engines.options import Profile
+from hoopbench.engines.registry import engine_class, engine_names
+from hoopbench.engines.settings import DEFAULT_TIMESTEP, RunSettings
+from hoopbench.models.checks import check_integer, check_real
+from hoopbench.models.scene import Scene
+from hoopbench.reports.sweep.runner import (
+    RunnerError,
+)
+
+__all__ = [
+    "AXES",
+    "DEFAULT_ENGINES",
+    "DEFAULT_GRID",
+    "DEFAULT_T_END",
+    "FORMAT_VERSION",
+    "MAP_FILE",
+    "MAX_GRID",
+    "REFERENCE",
+    "REFERENCE_TIMEOUT",
+    "Axis",
+    "AxisInfo",
+    "MapPoint",
+    "MapSpec",
+    "MapSpecMismatchError",
+    "load_spec",
+]
+
+
+MAP_FILE = "map.toml"
+"""The spec of a map folder, beside runs/."""
+FORMAT_VERSION = 1
+"""Version of map.toml and of the map's row layout."""
+REFERENCE = "reference"
+"""The engine name of stage 1's rows (the exact classification)."""
+MAX_GRID = 999
+"""Largest number of points along an axis: a point's run_id has three digits per axis, and a
+999 x 999 map is already a million engine runs."""
+REFERENCE_TIMEOUT = 60.0
+"""s a classification may take before it becomes a timeout row (40 ms mean, 113 ms at most
+on a 10 x 10 map; the solver's own work budget ends a stuck solve long before)."""
+
+
+# --------------------------------------------------------------------------- axes
+class Axis(StrEnum):
+    """A scene parameter a map can sweep (theta0 in degrees, as on the command line)."""
+
+    LAM = "lam"
+    CHI = "chi"
+    MU = "mu"
+    EPS = "eps"
+    THETA0_DEG = "theta0_deg"
+
+
+@dataclass(frozen=True)
+class AxisInfo:
+    """What a map needs to know about a parameter: where it may go, where it goes by default."""
+
+    low: float
+    """Smallest allowed value (inclusive)."""
+    high: float | None
+    """Largest allowed value (inclusive); None: unbounded."""
+    default_range: tuple[float, float]
+    """The axis's range when none is given."""
+    fixed: float
+    """The parameter's value when it is not an axis."""
+    unit: str
+    reason: str
+    """Why these defaults."""
+
+
+AXES: Mapping[Axis, AxisInfo] = MappingProxyType(
+    {
+        Axis.LAM: AxisInfo(
+            0.0,
+            1.0,
+            (0.5, 1.0),
+            0.8,
+            "",
+            "Range: a start lifts off when lam chi > 1 (physics.md), so below lam = 0.5 no "
+            "chi of the default range hops at once and the hoop mostly rolls or slips; 1 is the "
+            "massless ring (at eps = 0, I = 0: the degenerate column). Fixed: 0.8, heavy enough "
+            "to hop, and Painleve needs muk > sqrt(1 - lam^2)/lam = 0.75, inside the mu range.",
+        ),
+        Axis.CHI: AxisInfo(
+            0.0,
+            None,
+            (0.05, 2.0),
+            0.5,
+            "",
+            "Range: from a slow start, where gravity on the weight drives the motion, to twice "
+            "the spin at which even a massless ring lifts off at the start (lam chi = 1); a "
+            "10 x 10 lam-chi map over it holds rolls, slips, hops and lifts-at-start. Fixed: "
+            "0.5, lam chi = 0.4 < 1, so the hoop starts on the floor.",
+        ),
+        Axis.MU: AxisInfo(
+            0.0,
+            None,
+            (0.05, 1.5),
+            0.8,
+            "",
+            "mus = muk = mu. Range: from nearly frictionless (slips at once) to beyond the "
+            "Painleve bound sqrt(1 - lam^2)/lam (0.75 at lam = 0.8). Fixed: 0.8, the seed's mus.",
+        ),
+        Axis.EPS: AxisInfo(
+            0.0,
+            None,
+            (0.0, 1.0),
+            0.0,
+            "",
+            "The weight's own inertia, I = M a^2 (1 - lam^2 + lam eps). Range: from a point "
+            "weight to a weight as wide as the hoop. Fixed: 0, the point weight of the "
+            "closed forms.",
+        ),
+        Axis.THETA0_DEG: AxisInfo(
+            -360.0,
+            360.0,
+            (0.0, 360.0),
+            0.0,
+            "deg",
+            "Range: one turn of the start angle (beyond a turn either way is the same start; "
+            "the bound catches radians given as degrees). Fixed: 0, the weight on top, the "
+            "seed's start.",
+        ),
+    }
+)
+"""Every axis's domain and defaults: the one place they live."""
+
+DEFAULT_ENGINES = ("mujoco", "pybullet", "pymunk")
+"""The issue's map: the three engines every install has (Drake is an optional extra)."""
+DEFAULT_GRID = (10, 10)
+"""Points along x and y: the 10 x 10 map of the issue's measurements, about a minute."""
+DEFAULT_T_END = 3.0
+"""s: the catalogue's window (Scene.t_end's default)."""
+
+
+# --------------------------------------------------------------------------- the spec
+class MapSpecMismatchError(RunnerError):
+    """A resumed map whose spec differs from the one stored in its folder."""
+
+
+def _axis(name: str, value: Any) -> Axis:
+    try:
+        return Axis(value)
+    except ValueError:
+        allowed = ", ".join(a.value for a in Axis)
+        raise ValueError(f"{name} must be one of {allowed}, got {value!r}") from None
+
+
+def _check_value(name: str, axis: Axis, value: Any) -> float:
+    info = AXES[axis]
+    return check_real(name, value, low=info.low, high=info.high, unit=info.unit)
+
+
+def _check_range(name: str, axis: Axis, value: Any) -> tuple[float, float]:
+    if isinstance(value, str) or not isinstance(value, Sequence) or len(value) != 2:
+        raise ValueError(f"{name} must be two numbers (low, high), got {value!r}")
+    low, high = (_check_value(f"{name} of {axis}", axis, v) for v in value)
+    if not low < high:
+        raise ValueError(f"{name} of {axis} must have low < high, got [{low:g}, {high:g}]")
+    return (low, high)
+
+
+@dataclass(frozen=True)
+class MapSpec:
+    """What a map runs. Validated on construction: a bad value raises ValueError naming it."""
+
+    x: Axis = Axis.LAM
+    y: Axis = Axis.CHI
+    x_range: tuple[float, float] | None = None
+    """Range of x (both ends are grid points); None: the axis's default (AXES)."""
+    y_range: tuple[float, float] | None = None
+    nx: int = DEFAULT_GRID[0]
+    """Points along x, 1 to MAX_GRID (one point sits at the range's low end)."""
+    ny: int = DEFAULT_GRID[1]
+    fixed: Mapping[str, float] | tuple[tuple[str, float], ...] = ()
+    """Values of the parameters that are not axes (missing ones: AXES defaults); stored as
+    sorted (name, value) pairs, all three of them."""
+    t_end: float = DEFAULT_T_END
+    """End of each scene's window, s (it also ends at the first impact)."""
+    engines: tuple[str, ...] = DEFAULT_ENGINES
+    """Engines to run at every point (none: the reference's regime map alone)."""
+    timestep: float = DEFAULT_TIMESTEP
+    """The engines' step, s."""
+    profile: Profile = Profile.TUNED
+    """The engines' option values: hoopbench's tuned ones or the engines' stock ones."""
+
+    def __post_init__(self) -> None:
+        x, y = _axis("x", self.x), _axis("y", self.y)
+        if x == y:
+            raise ValueError(f"x and y are both {x}: a map needs two different parameters")
+        set_ = object.__setattr__
+        set_(self, "x", x)
+        set_(self, "y", y)
+        for name, axis in (("x_range", x), ("y_range", y)):
+            value = getattr(self, name)
+            value = AXES[axis].default_range if value is None else value
+            set_(self, name, _check_range(name, axis, value))
+        set_(self, "nx", check_integer("nx", self.nx, low=1, high=MAX_GRID))
+        set_(self, "ny", check_integer("ny", self.ny, low=1, high=MAX_GRID))
+        set_(self, "fixed", self._checked_fixed())
+        set_(self, "t_end", check_real("t_end", self.t_end, low=0.0, low_open=True, unit="s"))
+        self._check_timestep()
+        try:
+            set_(self, "profile", Profile(self.profile))
+        except ValueError:
+            allowed = ", ".join(p.value for p in Profile)
+            raise ValueError(f"profile must be one of {allowed}, got {self.profile!r}") from None
+        set_(self, "engines", self._checked_engines())
+
+    def _checked_fixed(self) -> tuple[tuple[str, float], ...]:
+        given = dict(self.fixed)
+        for name in given:
+            axis = _axis("fixed parameter", name)
+            if axis in (self.x, self.y):
+                which = "x" if axis == self.x else "y"
+                raise ValueError(
+                    f"{axis} = {given[name]} is fixed, but {axis} is the {which} axis: "
+                    f"give its range ({which}_range) instead"
+                )
+        return tuple(
+            (str(axis), _check_value(str(axis), axis, given.get(str(axis), AXES[axis].fixed)))
+            for axis in Axis
+            if axis not in (self.x, self.y)
+        )
+
+    def _check_timestep(self) -> None:
+        dt = check_real("timestep", self.timestep, low=0.0, low_open=True, unit="s")
+        object.__setattr__(self, "timestep", dt)
+        if dt > self.t_end:
+            raise ValueError(
+                f"timestep {dt:g} s is longer than the window t_end = {self.t_end:g} s"
+            )
+        steps = self.t_end / dt
+        if steps > MAX_STEPS:
+            raise ValueError(
+                f"timestep {dt:g} s needs {steps:.3g} steps per run over t_end = {self.t_end:g} s,"
+                f" over max_steps = {MAX_STEPS:.3g}"
+            )
+
+    def _checked_engines(self) -> tuple[str, ...]:
+        if isinstance(self.engines, str):
+            raise ValueError(f"engines must be a list of engine names, got {self.engines!r}")
+        engines = tuple(self.engines)
+        known = [name for name in engine_names() if name != REFERENCE]
+        for name in engines:
+            if name not in known:
+                raise ValueError(f"unknown engine {name!r} for a map; known: {', '.join(known)}")
+            # Options and profile as a run checks them: a bad one fails before anything runs.
+            engine_class(name).resolve(RunSettings(timestep=self.timestep, profile=self.profile))
+        repeated = sorted({name for name in engines if engines.count(name) > 1})
+        if repeated:
+            raise ValueError(f"engine {repeated[0]!r} is given twice")
+        return engines
+
+    # ----------------------------------------------------------------- derived
+    @property
+    def fixed_values(self) -> dict[str, float]:
+        """The fixed parameters, name -> value."""
+        return dict(self.fixed)  # type: ignore[arg-type]
+
+    def axis_values(self, axis: Axis) -> np.ndarray:
+        """The grid values along x or y: shape (nx,) or (ny,), both range ends included."""
+        if axis == self.x:
+            return np.linspace(*self.x_range, self.nx)  # type: ignore[misc]
+        if axis == self.y:
+            return np.linspace(*self.y_range, self.ny)  # type: ignore[misc]
+        raise ValueError(f"{axis} is not an axis of this map ({self.x}, {self.y})")
+
+    def points(self) -> tuple[MapPoint, ...]:
+        """Every point of the grid, x outer and y inner (the order of their run_ids)."""
+        xs, ys = self.axis_values(self.x), self.axis_values(self.y)
+        base = self.fixed_values
+        return tuple(
+            MapPoint(
+                ix=ix,
+                iy=iy,
+                x_axis=self.x,
+                y_axis=self.y,
+                x=float(x),
+                y=float(y),
+                t_end=self.t_end,
+                **{**base, str(self.x): float(x), str(self.y): float(y)},
+            )
+            for ix, x in enumerate(xs)
+            for iy, y in enumerate(ys)
+        )
+
+    @property
+    def run_count(self) -> int:
+        """Runs of the whole map: the reference and every engine at every point."""
+        return self.nx * self.ny * (1 + len(self.engines))
+
+    # ----------------------------------------------------------------- TOML
+    def to_dict(self) -> dict[str, Any]:
+        """Plain values (the TOML's keys)."""
+        return {
+            "format_version": FORMAT_VERSION,
+            "x": str(self.x),
+            "y": str(self.y),
+            "x_range": list(self.x_range),  # type: ignore[arg-type]
+            "y_range": list(self.y_range),  # type: ignore[arg-type]
+            "nx": self.nx,
+            "ny": self.ny,
+            "t_end": self.t_end,
+            "engines": list(self.engines),
+            "timestep": self.timestep,
+            "profile": str(self.profile),
+            "fixed": self.fixed_values,
+        }
+
+    def to_toml(self) -> str:
+        """The spec as TOML (floats written by repr, so they read back exactly)."""
+        data = self.to_dict()
+        fixed = data.pop("fixed")
+        lines = ["# A hoopbench hop map (hoopbench map); read by --resume and the report."]
+        lines += [f"{key} = {_toml_value(value)}" for key, value in data.items()]
+        lines += ["", "[fixed]"]
+        lines += [f"{key} = {_toml_value(value)}" for key, value in fixed.items()]
+        return "\n".join(lines) + "\n"
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> MapSpec:
+        data = dict(data)
+        version = data.pop("format_version", FORMAT_VERSION)
+        if version != FORMAT_VERSION:
+            raise ValueError(f"map format_version {version!r} is not {FORMAT_VERSION}")
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise ValueError(f"unknown map key(s) {', '.join(unknown)}; known: {', '.join(known)}")
+        for key in ("x_range", "y_range", "engines"):
+            if isinstance(data.get(key), list):
+                data[key] = tuple(data[key])
+        return cls(**data)
+
+    @classmethod
+    def from_toml(cls, text: str) -> MapSpec:
+        try:
+            return cls.from_dict(tomllib.loads(text))
+        except tomllib.TOMLDecodeError as exc:
+            raise ValueError(f"{MAP_FILE} is not valid TOML: {exc}") from None
+
+    def differences(self, other: MapSpec) -> list[str]:
+        """'name value (other: value)' for every field that differs."""
+        mine, theirs = self.to_dict(), other.to_dict()
+        return [f"{k} {mine[k]!r} (stored: {theirs[k]!r})" for k in mine if mine[k] != theirs[k]]
+
+
+@dataclass(frozen=True)
+class MapPoint:
+    """One grid point: its indices, axis values and the full parameter set of its scene."""
+
+    ix: int
+    iy: int
+    x_axis: Axis
+    y_axis: Axis
+    x: float
+    y: float
+    lam: float
+    chi: float
+    mu: float
+    """mus = muk = mu."""
+    eps: float
+    theta0_deg: float
+    """deg."""
+    t_end: float
+    """s."""
+
+    @property
+    def name(self) -> str:
+        """'r017-023': stable and readable, the prefix of the point's run_ids."""
+        return f"r{self.ix:03d}-{self.iy:03d}"
+
+    def scene(self) -> Scene:
+        """The point's scene (a rolling start, chi via Scene.from_chi)."""
+        return Scene.from_chi(
+            self.chi,
+            lam=self.lam,
+            mus=self.mu,
+            muk=self.mu,
+            eps=self.eps,
+            theta0=math.radians(self.theta0_deg),
+            t_end=self.t_end,
+            name=self.name,
+        )
+
+    def columns(self) -> dict[str, Any]:
+        return {
+            "ix": self.ix,
+            "iy": self.iy,
+            "x_axis": str(self.x_axis),
+            "y_axis": str(self.y_axis),
+            "x": self.x,
+            "y": self.y,
+            "lam": self.lam,
+            "chi": self.chi,
+            "mu": self.mu,
+            "eps": self.eps,
+            "theta0_deg": self.theta0_deg,
+            "t_end": self.t_end,
+        }
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int | float):
+        return repr(value) if isinstance(value, int) else repr(float(value))
+    if isinstance(value, str):
+        return json.dumps(value)  # a JSON string is a TOML basic string
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    raise TypeError(f"cannot write {type(value).__name__} to TOML")
+
+
+def load_spec(out: str | Path) -> MapSpec:
+    """The spec stored in a map folder (FileNotFoundError without one)."""
+    path = Path(out) / MAP_FILE
+    return MapSpec.from_toml(path.read_text(encoding="utf-8"))

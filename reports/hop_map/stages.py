@@ -1,0 +1,458 @@
+"""The hop map (issue 11): the exact regime and every engine's verdict over a grid of scenes.
+
+A :class:`MapSpec` names two of the scene's parameters (:class:`Axis`) as the map's axes, their
+ranges and grid, the fixed values of the other three, the window, the engines, their timestep
+and profile. It is stored as ``DIR/map.toml`` so that a resumed map and the report can rebuild
+it (and a resume with a different spec is refused).
+
+__all__ = [
+    "EXACT_CARRIED",
+    "MAP_COLUMNS",
+    "MapTask",
+    "map_failure_row",
+    "reference_tasks",
+    "run_map",
+    "run_map_task",
+]
+
+
+:func:`run_map` runs the map in two stages through the same runner as ``compare``
+(:func:`hoopbench.reports.sweep.runner.run_tasks`: isolated workers, time limits, resume), both into
+the one runs dataset ``DIR/runs/``:
+
+1. one task per point, engine ``reference``: the exact solver classifies the scene
+   (:func:`hoopbench.reference.regimes.classify`);
+2. one task per (point, engine), carrying the reference's exact columns and ``t_settled``; the
+   engine run stops at its first impact, or once it has rolled a full turn after the
+   reference's last event, when nothing new can happen. Its row has the event, error and
+   verdict columns that ``compare`` gives (the same functions build them).
+
+:func:`map_frame` reads the latest row of every run (columns :data:`MAP_COLUMNS`) and
+:func:`agreement_table` counts, per engine and regime, how often the engine agrees.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from collections import Counter
+from collections.abc import Mapping, Sequence
+from concurrent.futures import Executor
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any, TextIO
+
+from hoopbench.engines.base import n_steps_for
+from hoopbench.engines.judging.verdict import counts_as_hop, number_or_none, verdict_columns
+from hoopbench.engines.options import Profile
+from hoopbench.engines.registry import get_engine
+from hoopbench.engines.run import RunStatus
+from hoopbench.engines.settings import RunSettings
+from hoopbench.engines.stopping import StopRule
+from hoopbench.models.events import Outcome
+from hoopbench.models.scene import DegenerateSceneError
+from hoopbench.reference.regimes import classify
+from hoopbench.reports.compare.suite import event_columns, exact_columns, run_timeout
+from hoopbench.reports.hop_map.spec import (
+    FORMAT_VERSION,
+    MAP_FILE,
+    REFERENCE,
+    REFERENCE_TIMEOUT,
+    MapPoint,
+    MapSpec,
+    MapSpecMismatchError,
+    load_spec,
+)
+from hoopbench.reports.sweep import results
+from hoopbench.reports.sweep.runner import (
+    RunnerError,
+    RunSummary,
+    is_final_status,
+    prepare_dir,
+    refuse_in_a_starting_worker,
+    run_tasks,
+)
+
+# --------------------------------------------------------------------------- points, tasks
+EXACT_CARRIED = (
+    "regime",
+    "n_slips",
+    "exact_outcome",
+    "exact_hop_height",
+    "exact_t_slip",
+    "exact_t_lift",
+    "exact_t_impact",
+    "exact_phases",
+    "exact_theta_slip_deg",
+    "exact_t_painleve",
+    "exact_t_settled",
+    "exact_t_last_phase",
+    "exact_max_slip_speed",
+)
+"""The reference row's columns an engine task carries and its row repeats."""
+
+
+@dataclass(frozen=True)
+class MapTask:
+    """One run of a map: small and picklable, for a worker process or a Dask worker."""
+
+    run_id: str
+    point: MapPoint
+    engine: str
+    """An engine name, or REFERENCE for the exact classification."""
+    timestep: float | None = None
+    """s (engines only)."""
+    profile: Profile | None = None
+    """Engines only."""
+    exact: tuple[tuple[str, Any], ...] = ()
+    """The reference row's EXACT_CARRIED columns (engines only; empty if it failed)."""
+
+    @property
+    def label(self) -> str:
+        """What the run is, for progress lines."""
+        p = self.point
+        return f"{p.x_axis}={p.x:.4g} {p.y_axis}={p.y:.4g} {self.engine}"
+
+    @property
+    def n_steps(self) -> int:
+        """Steps of the whole window (sizes the time limit; an early stop only shortens it)."""
+        return 0 if self.timestep is None else n_steps_for(self.point.scene(), self.timestep)
+
+
+def reference_tasks(spec: MapSpec) -> list[MapTask]:
+    """Stage 1: one classification per point."""
+    return [MapTask(f"{p.name}-{REFERENCE}", p, REFERENCE) for p in spec.points()]
+
+
+def _engine_task(spec: MapSpec, point: MapPoint, engine: str, exact: Mapping[str, Any]) -> MapTask:
+    carried = tuple((c, exact[c]) for c in EXACT_CARRIED if c in exact)
+    return MapTask(f"{point.name}-{engine}", point, engine, spec.timestep, spec.profile, carried)
+
+
+def _stored_exact(row: Mapping[str, Any]) -> dict[str, Any]:
+    """A stored reference row's carried columns, NaN read back as None."""
+    out: dict[str, Any] = {}
+    for column in EXACT_CARRIED:
+        value = row.get(column)
+        out[column] = value if isinstance(value, str) else number_or_none(value)
+    if out["n_slips"] is not None:
+        out["n_slips"] = int(out["n_slips"])
+    return out
+
+
+# --------------------------------------------------------------------------- rows
+MAP_COLUMNS = (
+    "run_id",
+    "ix",
+    "iy",
+    "x_axis",
+    "y_axis",
+    "x",
+    "y",
+    "lam",
+    "chi",
+    "mu",
+    "eps",
+    "theta0_deg",
+    "t_end",
+    "engine",
+    "profile",
+    "timestep",
+    "status",
+    "message",
+    "engine_version",
+    "wall_time_s",
+    "n_steps",
+    "sim_time_s",
+    "stop_reason",
+    *EXACT_CARRIED,
+    "outcome",
+    "hop_height",
+    "max_clearance",
+    "t_slip",
+    "t_lift",
+    "t_impact",
+    "phases",
+    "verdict",
+    "outcome_agrees",
+    "hop_height_error",
+    # compare's other event columns (suite.event_columns), for the same diagnostics
+    "t_slip_threshold",
+    "theta_slip_deg",
+    "t_restick",
+    "err_t_slip_ms",
+    "err_theta_slip_deg",
+    "err_t_lift_ms",
+    "err_t_impact_ms",
+    "err_hop_height_rel",
+    "energy_rise_before_slip",
+    "energy_change_end",
+    "max_penetration_m",
+    "consistent",
+    "event_flags",
+    "t_last_phase",
+    "t_final",
+    "phases_agree",
+)
+"""Every column of a map row, in order. Reference rows leave the engine's columns empty;
+wall_time_s is the classification's time there. sim_time_s: simulated time, s (the run may
+stop early: stop_reason). hop_height_error: engine minus exact hop height, m, only where both
+hop. Times s, lengths m, angles deg."""
+
+_HOPS = (str(Outcome.HOPS), str(Outcome.LIFTS_AT_START))
+
+
+def _task_columns(task: MapTask) -> dict[str, Any]:
+    """The descriptive columns of a task's row (also those of a timeout or crash row)."""
+    return {
+        "run_id": task.run_id,
+        **task.point.columns(),
+        "engine": task.engine,
+        "profile": None if task.profile is None else str(task.profile),
+        "timestep": task.timestep,
+    }
+
+
+def _ordered(row: Mapping[str, Any]) -> dict[str, Any]:
+    return {column: row.get(column) for column in MAP_COLUMNS}
+
+
+def _reference_row(task: MapTask) -> dict[str, Any]:
+    point = classify(task.point.scene())
+    return _ordered(
+        {
+            **_task_columns(task),
+            "status": str(RunStatus.OK),
+            "message": point.events.message,
+            "wall_time_s": point.solve_time_s,
+            "regime": str(point.regime),
+            "n_slips": point.n_slips,
+            **exact_columns(point.events, point.max_slip_speed),
+            "exact_t_settled": point.t_settled,
+        }
+    )
+
+
+def _engine_settings(task: MapTask, t_settled: float | None) -> RunSettings:
+    """The run ends shortly after its first impact, where the exact window ends too, or once
+    it has rolled a full turn after the reference's last event (t_settled), when nothing new
+    can happen; mu is the scene's (mus = muk)."""
+    stop = StopRule(at_first_impact=True, settle_after=t_settled)
+    return RunSettings(timestep=task.timestep, profile=task.profile, stop=stop)
+
+
+def _engine_row(task: MapTask) -> dict[str, Any]:
+    exact = {column: None for column in EXACT_CARRIED} | dict(task.exact)
+    row: dict[str, Any] = {**_task_columns(task), **exact}
+    scene = task.point.scene()
+    if scene.is_degenerate:
+        # No engine builds a body without inertia (each would fail the same way), and no
+        # engine answer means nothing to judge: a row saying so, with no verdict.
+        message = "not run: degenerate scene"
+        try:
+            scene.require_inertia("an engine's rigid body")
+        except DegenerateSceneError as exc:
+            message = f"not run: {exc}"
+        return _ordered({**row, "status": str(RunStatus.ERROR), "message": message})
+    result = get_engine(task.engine).run(scene, _engine_settings(task, exact["exact_t_settled"]))
+    info = result.info
+    row.update(
+        status=str(info.status),
+        message=info.message,
+        engine_version=info.engine_version,
+        wall_time_s=info.wall_time_s,
+        n_steps=info.n_steps,
+        sim_time_s=None if info.n_steps is None else info.n_steps * task.timestep,
+        stop_reason=info.stop_reason,
+    )
+    if result.events is not None and result.trajectory is not None:
+        row.update(event_columns(result.events, result.trajectory, scene, exact))
+    row.update(verdict_columns(row))
+    row["hop_height_error"] = _hop_height_error(row)
+    return _ordered(row)
+
+
+def _hop_height_error(row: Mapping[str, Any]) -> float | None:
+    """Engine minus exact hop height, m, where both hop (the engine above the hop threshold)
+    and the run is judged (an exact hop below the threshold is not: engines/judging/verdict.py)."""
+    height, exact = number_or_none(row.get("hop_height")), number_or_none(row["exact_hop_height"])
+    engine_hops = row.get("outcome") in _HOPS and counts_as_hop(height, row.get("max_clearance"))
+    if height is None or exact is None or not engine_hops or row["exact_outcome"] not in _HOPS:
+        return None
+    if row.get("verdict") is None:
+        return None
+    return height - exact
+
+
+def run_map_task(task: MapTask) -> dict[str, Any]:
+    """The worker: one map row; an exception anywhere becomes a row with status error."""
+    try:
+        return _reference_row(task) if task.engine == REFERENCE else _engine_row(task)
+    except Exception as exc:  # one broken run must not stop a map
+        return map_failure_row(task, RunStatus.ERROR, f"{type(exc).__name__}: {exc}")
+
+
+def map_failure_row(task: MapTask, status: RunStatus, message: str) -> dict[str, Any]:
+    """The row of a run that produced nothing (timeout, crash, an exception)."""
+    row = {**_task_columns(task), **dict(task.exact), "status": str(status), "message": message}
+    if task.engine != REFERENCE:
+        row.update(verdict_columns(row))
+    return _ordered(row)
+
+
+def _timeout(task: MapTask) -> float:
+    # An engine run gets compare's limit for its whole window: stopping early only shortens it.
+    return REFERENCE_TIMEOUT if task.engine == REFERENCE else run_timeout(task)  # type: ignore[arg-type]
+
+
+# --------------------------------------------------------------------------- running
+def _prepare(out: Path, spec: MapSpec, resume: bool) -> None:
+    """Check the folder (and a stored spec on resume); write map.toml if it is not there."""
+    path = out / MAP_FILE
+    if resume and path.is_file():
+        stored = load_spec(out)
+        if stored != spec:
+            differ = "; ".join(spec.differences(stored))
+            raise MapSpecMismatchError(
+                f"{path} holds another map ({differ}): resume it with its own settings, "
+                "or choose a new folder"
+            )
+        return
+    if resume and out.is_dir() and any(out.iterdir()):
+        raise RunnerError(f"{out} holds no {MAP_FILE}: it is not a hop map folder to resume")
+    prepare_dir(out, resume=False)  # the runner's checks: not a file, empty
+    results.atomic_write(path, lambda tmp: tmp.write_text(spec.to_toml(), encoding="utf-8"))
+
+
+def _stage_two_tasks(spec: MapSpec, out: Path) -> tuple[list[MapTask], int]:
+    """Engine tasks of the points whose reference row is final, each point's reference task
+    before them (stored: skipped, but it puts runs.csv in map order); and how many of those
+    reference tasks there are."""
+    stored = results.read_runs(out)
+    refs = {row["run_id"]: row for row in stored.to_dict("records") if row["engine"] == REFERENCE}
+    tasks: list[MapTask] = []
+    n_refs = 0
+    for ref in reference_tasks(spec):
+        row = refs.get(ref.run_id)
+        if row is None or not is_final_status(row["status"]):
+            continue  # timed out or crashed: a resumed map tries it again, then its engines
+        tasks.append(ref)
+        n_refs += 1
+        exact = _stored_exact(row) if row["status"] == RunStatus.OK else {}
+        tasks += [_engine_task(spec, ref.point, engine, exact) for engine in spec.engines]
+    return tasks, n_refs
+
+
+def _say(text: str, quiet: bool, stream: TextIO | None) -> None:
+    if not quiet:
+        print(text, file=stream or sys.stderr, flush=True)
+
+
+def run_map(
+    spec: MapSpec,
+    out: str | Path,
+    *,
+    jobs: int = 2,
+    executor: Executor | None = None,
+    resume: bool = False,
+    quiet: bool = False,
+    stream: TextIO | None = None,
+) -> RunSummary:
+    """Run the map into ``out`` (two stages, one runs dataset; see the module docstring).
+
+    ``executor``: any ``concurrent.futures.Executor`` (e.g. Dask's ``Client.get_executor()``);
+    None: the runner's local pool of ``jobs`` processes. Raises OutputDirNotEmptyError for a
+    folder that holds files when ``resume`` is false, MapSpecMismatchError when it holds
+    another map; both before anything runs. The summary covers both stages.
+    """
+    refuse_in_a_starting_worker()
+    out = Path(out)
+    _prepare(out, spec, resume)
+    started_at = datetime.now(UTC)
+    meta = {"map": spec.to_dict(), "runs_format_version": FORMAT_VERSION}
+    common = dict(
+        failure_row=map_failure_row,
+        timeout=_timeout,
+        jobs=jobs,
+        executor=executor,
+        resume=True,  # the folder holds map.toml; resume=False would refuse it
+        meta=meta,
+        quiet=quiet,
+        stream=stream,
+    )
+    refs = reference_tasks(spec)
+    first = _stage_one(refs, out, common, quiet, stream)
+    if first.interrupted is not None:
+        return _summary(spec, out, [first], 0)
+    tasks, n_refs = _stage_two_tasks(spec, out)
+    engines = ", ".join(spec.engines) or "none"
+    _say(f"hop map, stage 2 of 2: {len(tasks) - n_refs} engine runs ({engines})", quiet, stream)
+    finished = _is_finished(spec, out, tasks)
+    if not finished:
+        # Stage 1's runs.csv and meta.json (or a stale pair) go: they are written again at the
+        # end of stage 2 with every row, as a map's must be, and never stand for it meanwhile.
+        for name in (results.CSV_NAME, results.META_NAME):
+            (out / name).unlink(missing_ok=True)
+    second = run_tasks(tasks, run_map_task, out, **common)  # type: ignore[arg-type]
+    summary = _summary(spec, out, [first, second], n_refs)
+    if second.interrupted is None and not finished:
+        _complete_meta(out, started_at, resume, summary)
+    return summary
+
+
+def _is_finished(spec: MapSpec, out: Path, tasks: Sequence[MapTask]) -> bool:
+    """Every run of the map stored with a final status, and its runs.csv and meta.json
+    there: a resume has nothing to run, and those files (of the run that finished the map,
+    with its wall time) stay as they are."""
+    if not all((out / name).is_file() for name in (results.CSV_NAME, results.META_NAME)):
+        return False
+    stored = results.stored_statuses(out)
+    return len(tasks) == spec.run_count and all(
+        is_final_status(stored.get(t.run_id)) for t in tasks
+    )
+
+
+def _stage_one(
+    refs: list[MapTask],
+    out: Path,
+    common: Mapping[str, Any],
+    quiet: bool,
+    stream: TextIO | None,
+) -> RunSummary:
+    """Stage 1, or nothing when every classification is stored (a resume in stage 2)."""
+    stored = results.stored_statuses(out)
+    if refs and all(is_final_status(stored.get(t.run_id)) for t in refs):
+        return RunSummary(out, {}, 0.0, None, len(refs), 0)
+    _say(f"hop map, stage 1 of 2: the exact reference at {len(refs)} points", quiet, stream)
+    return run_tasks(refs, run_map_task, out, **common)  # type: ignore[arg-type]
+
+
+def _summary(spec: MapSpec, out: Path, stages: Sequence[RunSummary], n_refs: int) -> RunSummary:
+    counts: Counter[RunStatus] = Counter()
+    for stage in stages:
+        counts.update(stage.counts)
+    stored = results.stored_statuses(out) if (out / results.RUNS_NAME).is_dir() else {}
+    return RunSummary(
+        out_dir=out,
+        counts=dict(counts),
+        wall_time_s=sum(s.wall_time_s for s in stages),
+        interrupted=next((s.interrupted for s in stages if s.interrupted is not None), None),
+        # stage 2 lists the stored reference tasks only to order runs.csv
+        skipped=sum(s.skipped for s in stages) - n_refs,
+        unfinished=spec.run_count - len(stored),
+        notes=tuple(note for s in stages for note in s.notes),
+    )
+
+
+def _complete_meta(out: Path, started_at: datetime, resume: bool, summary: RunSummary) -> None:
+    """meta.json of both stages (the runner wrote stage 2's, and always resumes here)."""
+    path = out / results.META_NAME
+    meta = json.loads(path.read_text())
+    meta.update(
+        started_at=started_at.isoformat(),
+        wall_time_s=round(summary.wall_time_s, 3),
+        resumed=resume,
+        session={"ran": summary.total, "skipped": summary.skipped},
+    )
+    results.write_meta(meta, path)

@@ -1,0 +1,110 @@
+"""Reading a map folder: the latest row of every run, and agreement per engine and regime."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from hoopbench.reference.regimes import Regime
+from hoopbench.reports.hop_map.spec import REFERENCE, load_spec
+from hoopbench.reports.hop_map.stages import MAP_COLUMNS
+from hoopbench.reports.sweep import results
+
+# --------------------------------------------------------------------------- reading
+__all__ = [
+    "ALL_REGIMES",
+    "agreement_markdown",
+    "agreement_table",
+    "map_frame",
+]
+
+
+def map_frame(out: str | Path) -> pd.DataFrame:
+    """The latest row of every run of a map folder, one per (point, engine), the reference
+    included: MAP_COLUMNS first (missing ones empty), then the runner's bookkeeping; in map
+    order (x, y, then the reference and the engines as the spec lists them)."""
+    out = Path(out)
+    frame = results.read_runs(out)
+    missing = [c for c in MAP_COLUMNS if c not in frame.columns]
+    frame = frame.assign(**dict.fromkeys(missing, None))
+    frame = frame[[*MAP_COLUMNS, *(c for c in frame.columns if c not in MAP_COLUMNS)]]
+    try:
+        engines = (REFERENCE, *load_spec(out).engines)
+    except (OSError, ValueError):
+        engines = (REFERENCE,)
+    rank = {name: k for k, name in enumerate(engines)}
+    key = frame["engine"].map(lambda e: rank.get(e, len(rank)))
+    order = np.lexsort((frame["engine"].astype(str), key, frame["iy"], frame["ix"]))
+    return frame.iloc[order].reset_index(drop=True)
+
+
+# --------------------------------------------------------------------------- tables
+ALL_REGIMES = "all"
+"""The regime label of an engine's overall row in the agreement table."""
+
+
+def agreement_table(frame: pd.DataFrame) -> pd.DataFrame:
+    """Agreement with the reference per engine, overall and per exact regime.
+
+    One row per (engine, regime) with ``points`` (engine rows), ``judged`` (those with a
+    verdict: the rest have no exact answer, e.g. degenerate), ``outcome_agrees`` (count of
+    outcome_agrees, the outcome class with the hop's size and timing) and ``agrees`` (count of
+    verdict 'agrees': the outcome and the phase sequence), each with its percentage of
+    ``judged`` (NaN where nothing was judged). Regimes in Regime's order, the overall row
+    (regime 'all') first.
+    """
+    runs = frame[frame["engine"] != REFERENCE]
+    regimes = [str(r) for r in Regime if (runs["regime"] == str(r)).any()]
+    engines = list(dict.fromkeys(runs["engine"]))
+    rows = []
+    for engine in engines:
+        mine = runs[runs["engine"] == engine]
+        for regime in (ALL_REGIMES, *regimes):
+            part = mine if regime == ALL_REGIMES else mine[mine["regime"] == regime]
+            rows.append({"engine": engine, "regime": regime, **_agreement(part)})
+    columns = ["engine", "regime", "points", "judged", "outcome_agrees", "outcome_agrees_pct"]
+    return pd.DataFrame(rows, columns=[*columns, "agrees", "agrees_pct"])
+
+
+def _agreement(part: pd.DataFrame) -> dict[str, Any]:
+    judged = int(part["verdict"].notna().sum())
+    outcome = int(part["outcome_agrees"].eq(True).sum())
+    agrees = int(part["verdict"].eq("agrees").sum())
+    return {
+        "points": len(part),
+        "judged": judged,
+        "outcome_agrees": outcome,
+        "outcome_agrees_pct": 100.0 * outcome / judged if judged else math.nan,
+        "agrees": agrees,
+        "agrees_pct": 100.0 * agrees / judged if judged else math.nan,
+    }
+
+
+def agreement_markdown(table: pd.DataFrame) -> str:
+    """Two Markdown tables from :func:`agreement_table`: the outcome agreement and the full
+    agreement (outcome and phases), regimes down, engines across, cells 'agree/judged (%)'."""
+    blocks = []
+    for column, title in (
+        ("outcome_agrees", "Outcome agrees (class, hop size and lift-off time)"),
+        ("agrees", "Verdict agrees (the outcome and the phase sequence)"),
+    ):
+        engines = list(dict.fromkeys(table["engine"]))
+        regimes = list(dict.fromkeys(table["regime"]))
+        lines = [f"**{title}**", "", "| regime | " + " | ".join(engines) + " |"]
+        lines.append("|---|" + "---:|" * len(engines))
+        for regime in regimes:
+            cells = []
+            for engine in engines:
+                row = table[(table["engine"] == engine) & (table["regime"] == regime)].iloc[0]
+                cells.append(_cell(row[column], row["judged"], row[f"{column}_pct"]))
+            lines.append(f"| {regime} | " + " | ".join(cells) + " |")
+        blocks.append("\n".join(lines))
+    return "\n\n".join(blocks) + "\n"
+
+
+def _cell(count: int, judged: int, pct: float) -> str:
+    return f"{count}/{judged} ({pct:.0f} %)" if judged else "-"

@@ -1,0 +1,1 @@
+"""The report: report.md from stored results, its sections, figures and findings."""
