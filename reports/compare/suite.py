@@ -47,6 +47,7 @@ __all__ = [
     "event_columns",
     "exact_columns",
     "failure_row",
+    "run_and_row",
     "run_task",
     "run_timeout",
 ]
@@ -279,6 +280,20 @@ def run_task(task: RunTask) -> dict[str, Any]:
 
 
 def _run_task(task: RunTask) -> dict[str, Any]:
+    result, row = run_and_row(task)
+    if task.trajectory_dir and result.trajectory is not None:
+        name = f"{task.run_id}.parquet"
+        path = Path(task.trajectory_dir) / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        trajectory = result.trajectory
+        results.atomic_write(path, lambda tmp: trajectory.write(tmp, suffix=".parquet"))
+        row["trajectory_file"] = f"{TRAJECTORY_DIR}/{name}"
+    return row
+
+
+def run_and_row(task: RunTask) -> tuple[RunResult, dict[str, Any]]:
+    """Run one task and judge it against the exact solution: the judged run and its row
+    (nothing stored). Engine failures are statuses in both; bad settings raise ValueError."""
     result = get_engine(task.engine).run(task.scene, task.settings())
     mu = result.info.mu if result.info.mu is not None else task.scene.mus
     row = _row(task, result, _exact_events(task.scene, mu), _exact_max_slip_speed(task.scene, mu))
@@ -286,13 +301,7 @@ def _run_task(task: RunTask) -> dict[str, Any]:
         row["rms_position_m"] = rms_position_error(
             result.trajectory, _exact_solution(task.scene, mu)
         )
-    if task.trajectory_dir and result.trajectory is not None:
-        name = f"{task.run_id}.parquet"
-        path = Path(task.trajectory_dir) / name
-        path.parent.mkdir(parents=True, exist_ok=True)
-        results.atomic_write(path, lambda tmp: result.trajectory.write(tmp, suffix=".parquet"))
-        row["trajectory_file"] = f"{TRAJECTORY_DIR}/{name}"
-    return row
+    return result, row
 
 
 def failure_row(task: RunTask, status: RunStatus, message: str) -> dict[str, Any]:
