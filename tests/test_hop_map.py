@@ -19,13 +19,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from hoopbench.engines.judging.comparison import event_columns
 from hoopbench.engines.judging.verdict import verdict_columns
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.scene import Scene
 from hoopbench.reference.regimes import classify
 from hoopbench.reports.cli import main
-from hoopbench.reports.compare.suite import event_columns
 from hoopbench.reports.hop_map.spec import (
     AXES,
     MAP_FILE,

@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from hoopbench.engines.judging.comparison import exact_columns, judged_columns
 from hoopbench.engines.judging.judge import judge
 from hoopbench.engines.judging.verdict import (
     HOP_CLEARANCE,
@@ -24,7 +25,7 @@ from hoopbench.engines.run import Run, RunInfo, RunStatus
 from hoopbench.models import kinematics
 from hoopbench.models.events import Events, Outcome, Phase, PhaseKind
 from hoopbench.models.trajectory import Trajectory
-from hoopbench.reports.compare.suite import ROW_COLUMNS, _row, failure_row
+from hoopbench.reports.compare.suite import ROW_COLUMNS, failure_row
 from hoopbench.reports.compare.suite_file import parse_suite
 
 HOP_ROW: dict[str, Any] = {
@@ -373,7 +374,9 @@ def test_the_row_of_a_blip_against_a_real_hop():
     """Judge, then row: the blip is no hop, its lift-off error is empty, its size is kept."""
     task = _task()
     exact = Events(Outcome.HOPS, t_lift=0.31, hop_height=0.43, t_impact=1.02)
-    row = _row(task, judge(_blip_run(task)), exact)
+    run = _blip_run(task)
+    base = {**exact_columns(exact), "status": "ok", "a": task.scene.a, "g": task.scene.g}
+    row = {**base, **judged_columns(base, judge(run, scene=task.scene), task.scene)}
     assert set(row) <= set(ROW_COLUMNS)
     assert row["outcome"] == "rolls"
     assert row["t_lift"] is None and row["err_t_lift_ms"] is None

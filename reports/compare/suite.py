@@ -8,34 +8,22 @@ the exact events for the same scene and mu, and the errors (engine minus exact).
 
 from __future__ import annotations
 
-import functools
 import json
-import math
 import shutil
-from collections.abc import Mapping
 from concurrent.futures import Executor
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pandas as pd
 
-from hoopbench.engines.judging.event_checks import check_flight
+from hoopbench.engines.judging.columns import Col
+from hoopbench.engines.judging.comparison import exact_solution, judged_columns, scene_exact_columns
 from hoopbench.engines.judging.verdict import (
     Verdict,
-    painleve_time,
-    row_phases_agree,
-    verdict_columns,
 )
 from hoopbench.engines.registry import engine_class, get_engine
 from hoopbench.engines.run import RunResult, RunStatus
-from hoopbench.models import kinematics
-from hoopbench.models.events import Events
-from hoopbench.models.scene import Scene
-from hoopbench.models.trajectory import Trajectory
-from hoopbench.reference.exact import ExactSolution, solve_exact
-from hoopbench.reference.regimes import max_slip_speed
 from hoopbench.reports.compare.suite_file import RunTask, Suite, TrajectoryChoice, load_suite
 from hoopbench.reports.sweep import results
 from hoopbench.reports.sweep.runner import RunSummary, run_tasks
@@ -44,8 +32,6 @@ __all__ = [
     "FORMAT_VERSION",
     "TrajectoryChoice",
     "compare",
-    "event_columns",
-    "exact_columns",
     "failure_row",
     "run_and_row",
     "run_task",
@@ -121,45 +107,6 @@ TRAJECTORY_DIR = "trajectories"
 
 
 # --------------------------------------------------------------------------- one run
-@functools.cache  # one exact solve per (scene, mu) per worker process, not one per run
-def _exact_solution(scene: Scene, mu: float) -> ExactSolution:
-    return solve_exact(scene.with_(mus=mu, muk=mu))
-
-
-def _exact_events(scene: Scene, mu: float) -> Events:
-    return _exact_solution(scene, mu).events
-
-
-@functools.cache
-def _exact_max_slip_speed(scene: Scene, mu: float) -> float | None:
-    return max_slip_speed(_exact_solution(scene, mu))
-
-
-def rms_position_error(trajectory: Trajectory, exact: ExactSolution) -> float | None:
-    """RMS distance, m, between the run's and the exact hoop-centre positions over the common
-    window (from 0 to whichever ends first: the run, or the exact solution at its impact).
-
-    The hoop centre, not the centre of mass: it is where the contact events happen, and its
-    path is the one the report draws.
-    """
-    t = trajectory.t[trajectory.t <= exact.t_final]
-    if len(t) < 2:
-        return None
-    n = len(t)
-    ref = exact.sample(t)
-    x, y = kinematics.centre_position(
-        exact.scene, trajectory.X[:n], trajectory.Y[:n], trajectory.theta[:n]
-    )
-    x0, y0 = kinematics.centre_position(exact.scene, ref.X, ref.Y, ref.theta)
-    return float(np.sqrt(np.mean((x - x0) ** 2 + (y - y0) ** 2)))
-
-
-def _error(value: float | None, reference: float | None) -> float | None:
-    if value is None or reference is None:
-        return None
-    return value - reference
-
-
 def _task_columns(task: RunTask) -> dict[str, Any]:
     """The descriptive columns of a task's row (also those of a timeout or crash row)."""
     defaults = engine_class(task.engine).defaults(task.profile)
@@ -178,94 +125,24 @@ def _task_columns(task: RunTask) -> dict[str, Any]:
     }
 
 
-def exact_columns(exact: Events, max_slip_speed: float | None = None) -> dict[str, Any]:
-    """The ``exact_*`` columns of a row: the exact events of its scene (and mu), and the
-    exact slips' largest speed, m/s (reference/regimes.py ``max_slip_speed``)."""
-    return {
-        "exact_outcome": str(exact.outcome),
-        "exact_t_slip": exact.t_slip,
-        "exact_theta_slip_deg": None
-        if exact.theta_slip is None
-        else math.degrees(exact.theta_slip),
-        "exact_t_lift": exact.t_lift,
-        "exact_hop_height": exact.hop_height,
-        "exact_t_impact": exact.t_impact,
-        "exact_t_painleve": painleve_time(exact),
-        "exact_phases": exact.phase_code,
-        "exact_t_last_phase": exact.phases[-1].t_start if exact.phases else None,
-        "exact_max_slip_speed": max_slip_speed,
-    }
-
-
-def event_columns(
-    events: Events, traj: Trajectory, scene: Scene, exact: Mapping[str, Any]
-) -> dict[str, Any]:
-    """A judged run's event columns and their errors against ``exact`` (the row's
-    ``exact_*`` columns, :func:`exact_columns`, with None for a missing value)."""
-    # The judge has no scene; the flight-time bound needs g and lam a (engines/event_checks).
-    events = check_flight(events, traj, scene)
-    theta_deg = None if events.theta_slip is None else math.degrees(events.theta_slip)
-    before = traj.t < (events.t_slip if events.t_slip is not None else traj.t[-1])
-    e0 = traj.energy[0]
-    exact_hop = exact["exact_hop_height"]
-    columns = {
-        "outcome": str(events.outcome),
-        "t_slip": events.t_slip,
-        "t_slip_threshold": events.extra.get("t_slip_threshold"),
-        "theta_slip_deg": theta_deg,
-        "t_restick": events.t_restick,
-        "t_lift": events.t_lift,
-        "hop_height": events.hop_height,
-        "t_impact": events.t_impact,
-        "err_t_slip_ms": _ms(_error(events.t_slip, exact["exact_t_slip"])),
-        "err_theta_slip_deg": _error(theta_deg, exact["exact_theta_slip_deg"]),
-        "err_t_lift_ms": _ms(_error(events.t_lift, exact["exact_t_lift"])),
-        "err_t_impact_ms": _ms(_error(events.t_impact, exact["exact_t_impact"])),
-        "err_hop_height_rel": None
-        if events.hop_height is None or not exact_hop
-        else events.hop_height / exact_hop - 1.0,
-        "energy_rise_before_slip": float((traj.energy[before].max() - e0) / e0)
-        if before.any()
-        else None,
-        "energy_change_end": float((traj.energy[-1] - e0) / e0),
-        "max_penetration_m": float(max(0.0, -traj.clearance.min())),
-        "max_clearance": float(traj.clearance.max()),
-        "consistent": not events.flags,
-        "event_flags": " ".join(events.flags),
-        "phases": events.phase_code,
-        "t_last_phase": events.phases[-1].t_start if events.phases else None,
-        "t_final": float(traj.t[-1]),
-    }
-    return {
-        **columns,
-        "phases_agree": row_phases_agree({**exact, **columns, "a": scene.a, "g": scene.g}),
-    }
-
-
-def _row(
-    task: RunTask, result: RunResult, exact: Events, exact_slip_speed: float | None = None
-) -> dict[str, Any]:
-    info, events, traj = result.info, result.events, result.trajectory
+def _row(task: RunTask, result: RunResult) -> dict[str, Any]:
+    info = result.info
+    mu = info.mu if info.mu is not None else task.scene.mus
     row: dict[str, Any] = {
         **_task_columns(task),
-        "status": str(info.status),
-        "message": info.message,
-        "engine_version": info.engine_version,
-        "mu": info.mu,
-        "wall_time_s": info.wall_time_s,
-        "n_steps": info.n_steps,
-        "us_per_step": None
+        Col.STATUS: str(info.status),
+        Col.MESSAGE: info.message,
+        Col.ENGINE_VERSION: info.engine_version,
+        Col.MU: info.mu,
+        Col.WALL_TIME_S: info.wall_time_s,
+        Col.N_STEPS: info.n_steps,
+        Col.US_PER_STEP: None
         if not info.n_steps or info.wall_time_s is None
         else 1e6 * info.wall_time_s / info.n_steps,
-        **exact_columns(exact, exact_slip_speed),
+        **scene_exact_columns(task.scene, mu),
     }
-    if events is not None and traj is not None:
-        row.update(event_columns(events, traj, task.scene, row))
-    return {**row, **verdict_columns(row)}
-
-
-def _ms(seconds: float | None) -> float | None:
-    return None if seconds is None else 1e3 * seconds
+    exact = exact_solution(task.scene, mu)
+    return {**row, **judged_columns(row, result, task.scene, exact)}
 
 
 def run_task(task: RunTask) -> dict[str, Any]:
@@ -295,13 +172,7 @@ def run_and_row(task: RunTask) -> tuple[RunResult, dict[str, Any]]:
     """Run one task and judge it against the exact solution: the judged run and its row
     (nothing stored). Engine failures are statuses in both; bad settings raise ValueError."""
     result = get_engine(task.engine).run(task.scene, task.settings())
-    mu = result.info.mu if result.info.mu is not None else task.scene.mus
-    row = _row(task, result, _exact_events(task.scene, mu), _exact_max_slip_speed(task.scene, mu))
-    if result.trajectory is not None and result.events is not None:
-        row["rms_position_m"] = rms_position_error(
-            result.trajectory, _exact_solution(task.scene, mu)
-        )
-    return result, row
+    return result, _row(task, result)
 
 
 def failure_row(task: RunTask, status: RunStatus, message: str) -> dict[str, Any]:

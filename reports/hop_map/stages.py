@@ -44,6 +44,8 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from hoopbench.engines.base import n_steps_for
+from hoopbench.engines.judging.columns import Col
+from hoopbench.engines.judging.comparison import exact_columns, judged_columns
 from hoopbench.engines.judging.verdict import counts_as_hop, number_or_none, verdict_columns
 from hoopbench.engines.options import Profile
 from hoopbench.engines.registry import get_engine
@@ -53,7 +55,7 @@ from hoopbench.engines.stopping import StopRule
 from hoopbench.models.events import Outcome
 from hoopbench.models.scene import DegenerateSceneError
 from hoopbench.reference.regimes import classify
-from hoopbench.reports.compare.suite import event_columns, exact_columns, run_timeout
+from hoopbench.reports.compare.suite import run_timeout
 from hoopbench.reports.hop_map.spec import (
     FORMAT_VERSION,
     MAP_FILE,
@@ -177,7 +179,7 @@ MAP_COLUMNS = (
     "verdict",
     "outcome_agrees",
     "hop_height_error",
-    # compare's other event columns (suite.event_columns), for the same diagnostics
+    # the other event columns (judging.comparison.event_columns), for the same diagnostics
     "t_slip_threshold",
     "theta_slip_deg",
     "t_restick",
@@ -266,10 +268,8 @@ def _engine_row(task: MapTask) -> dict[str, Any]:
         sim_time_s=None if info.n_steps is None else info.n_steps * task.timestep,
         stop_reason=info.stop_reason,
     )
-    if result.events is not None and result.trajectory is not None:
-        row.update(event_columns(result.events, result.trajectory, scene, exact))
-    row.update(verdict_columns(row))
-    row["hop_height_error"] = _hop_height_error(row)
+    row.update(judged_columns(row, result, scene))
+    row[Col.HOP_HEIGHT_ERROR] = _hop_height_error(row)
     return _ordered(row)
 
 

@@ -1,0 +1,119 @@
+"""The names of a judged run's row: one vocabulary for the suites, the map, the verdict and
+the report.
+
+Rows are plain mappings (they travel to worker processes and into Parquet), so a column is
+read by name. Reading ``row.get(Col.EXACT_T_SLIP)`` instead of ``row.get("exact_t_slip")``
+makes a misspelt name an AttributeError (and a type checker's error) instead of a column that
+silently reads as missing. ``Col`` is a StrEnum: its members are the plain strings stored.
+"""
+
+from __future__ import annotations
+
+from enum import StrEnum
+
+__all__ = ["EXACT_COLUMNS", "Col"]
+
+
+class Col(StrEnum):
+    """Every column a runs table (a suite's or a map's) may hold, in no particular order;
+    each table states its own order (``ROW_COLUMNS``, ``MAP_COLUMNS``)."""
+
+    # What was run.
+    RUN_ID = "run_id"
+    SCENE = "scene"
+    A = "a"
+    """Hoop radius, m: with g, carries the verdict's thresholds to the row's hoop."""
+    G = "g"
+    """m/s^2."""
+    ENGINE = "engine"
+    PROFILE = "profile"
+    VARIANT = "variant"
+    TIMESTEP = "timestep"
+    """s."""
+    GEOMETRY = "geometry"
+    OPTIONS = "options"
+    """JSON of the options that differ from the profile's values."""
+    # A map point's coordinates.
+    IX = "ix"
+    IY = "iy"
+    X_AXIS = "x_axis"
+    Y_AXIS = "y_axis"
+    X = "x"
+    Y = "y"
+    LAM = "lam"
+    CHI = "chi"
+    MU = "mu"
+    """The pair's friction coefficient used."""
+    EPS = "eps"
+    THETA0_DEG = "theta0_deg"
+    T_END = "t_end"
+    """s."""
+    # How the run went.
+    STATUS = "status"
+    MESSAGE = "message"
+    ENGINE_VERSION = "engine_version"
+    WALL_TIME_S = "wall_time_s"
+    N_STEPS = "n_steps"
+    US_PER_STEP = "us_per_step"
+    SIM_TIME_S = "sim_time_s"
+    STOP_REASON = "stop_reason"
+    # The exact solution of the row's scene and mu.
+    REGIME = "regime"
+    N_SLIPS = "n_slips"
+    EXACT_OUTCOME = "exact_outcome"
+    EXACT_T_SLIP = "exact_t_slip"
+    EXACT_THETA_SLIP_DEG = "exact_theta_slip_deg"
+    EXACT_T_LIFT = "exact_t_lift"
+    EXACT_HOP_HEIGHT = "exact_hop_height"
+    EXACT_T_IMPACT = "exact_t_impact"
+    EXACT_T_PAINLEVE = "exact_t_painleve"
+    EXACT_PHASES = "exact_phases"
+    EXACT_T_LAST_PHASE = "exact_t_last_phase"
+    EXACT_MAX_SLIP_SPEED = "exact_max_slip_speed"
+    EXACT_T_SETTLED = "exact_t_settled"
+    # The engine's events and their errors against the exact ones.
+    OUTCOME = "outcome"
+    T_SLIP = "t_slip"
+    T_SLIP_THRESHOLD = "t_slip_threshold"
+    THETA_SLIP_DEG = "theta_slip_deg"
+    T_RESTICK = "t_restick"
+    T_LIFT = "t_lift"
+    HOP_HEIGHT = "hop_height"
+    T_IMPACT = "t_impact"
+    ERR_T_SLIP_MS = "err_t_slip_ms"
+    ERR_THETA_SLIP_DEG = "err_theta_slip_deg"
+    ERR_T_LIFT_MS = "err_t_lift_ms"
+    ERR_T_IMPACT_MS = "err_t_impact_ms"
+    ERR_HOP_HEIGHT_REL = "err_hop_height_rel"
+    ENERGY_RISE_BEFORE_SLIP = "energy_rise_before_slip"
+    ENERGY_CHANGE_END = "energy_change_end"
+    MAX_PENETRATION_M = "max_penetration_m"
+    RMS_POSITION_M = "rms_position_m"
+    MAX_CLEARANCE = "max_clearance"
+    CONSISTENT = "consistent"
+    EVENT_FLAGS = "event_flags"
+    PHASES = "phases"
+    T_LAST_PHASE = "t_last_phase"
+    T_FINAL = "t_final"
+    PHASES_AGREE = "phases_agree"
+    # The verdict.
+    VERDICT = "verdict"
+    OUTCOME_AGREES = "outcome_agrees"
+    HOP_HEIGHT_ERROR = "hop_height_error"
+    # Where the run's trajectory is stored.
+    TRAJECTORY_FILE = "trajectory_file"
+
+
+EXACT_COLUMNS = (
+    Col.EXACT_OUTCOME,
+    Col.EXACT_T_SLIP,
+    Col.EXACT_THETA_SLIP_DEG,
+    Col.EXACT_T_LIFT,
+    Col.EXACT_HOP_HEIGHT,
+    Col.EXACT_T_IMPACT,
+    Col.EXACT_T_PAINLEVE,
+    Col.EXACT_PHASES,
+    Col.EXACT_T_LAST_PHASE,
+    Col.EXACT_MAX_SLIP_SPEED,
+)
+"""The exact columns every judged row carries (:func:`comparison.exact_columns`)."""
