@@ -49,7 +49,9 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any
 
+from hoopbench.engines.judging.columns import Col
 from hoopbench.engines.judging.detectors import DetectorSettings, hoop_scale
+from hoopbench.engines.run import RunStatus
 from hoopbench.models.events import Events, Outcome
 
 __all__ = [
@@ -119,7 +121,6 @@ class _Class(StrEnum):
 
 _HOP_OUTCOMES = (str(Outcome.HOPS), str(Outcome.LIFTS_AT_START))
 _NO_ANSWER = (str(Outcome.DEGENERATE), str(Outcome.ERROR))
-_FAILED_STATUSES = ("error", "timeout", "crashed", "unavailable")
 
 
 @dataclass(frozen=True)
@@ -170,7 +171,7 @@ def hoop_thresholds(a: Any = None, g: Any = None) -> HoopThresholds:
 
 
 def _row_thresholds(row: Mapping[str, Any]) -> HoopThresholds:
-    return hoop_thresholds(row.get("a"), row.get("g"))
+    return hoop_thresholds(row.get(Col.A), row.get(Col.G))
 
 
 def counts_as_hop(
@@ -215,17 +216,17 @@ def painleve_time(exact: Events) -> float | None:
 
 
 def _engine_class(row: Mapping[str, Any]) -> _Class | None:
-    outcome = _text(row.get("outcome"))
+    outcome = _text(row.get(Col.OUTCOME))
     if outcome is None:
         return None
     threshold = _row_thresholds(row).hop_clearance
     if outcome in _HOP_OUTCOMES and counts_as_hop(
-        row.get("hop_height"), row.get("max_clearance"), threshold
+        row.get(Col.HOP_HEIGHT), row.get(Col.MAX_CLEARANCE), threshold
     ):
         return _Class.HOP
     if outcome == str(Outcome.PAINLEVE):
         return _Class.PAINLEVE
-    if outcome == str(Outcome.SLIPS) or number_or_none(row.get("t_slip")) is not None:
+    if outcome == str(Outcome.SLIPS) or number_or_none(row.get(Col.T_SLIP)) is not None:
         return _Class.SLIP
     return _Class.ROLL
 
@@ -280,14 +281,14 @@ def row_phases_agree(row: Mapping[str, Any]) -> bool | None:
     """:func:`phases_agree` on a row's columns: the verdict's phase rule (a prefix where the
     exact solution reaches a Painlevé point, the lift-off tolerance carried to the row's
     hoop)."""
-    outcome = _text(row.get("exact_outcome"))
+    outcome = _text(row.get(Col.EXACT_OUTCOME))
     return phases_agree(
-        row.get("phases"),
-        row.get("exact_phases"),
+        row.get(Col.PHASES),
+        row.get(Col.EXACT_PHASES),
         prefix=outcome is not None and _exact_class(outcome) is _Class.PAINLEVE,
-        t_last=row.get("t_last_phase"),
-        exact_t_last=row.get("exact_t_last_phase"),
-        t_final=row.get("t_final"),
+        t_last=row.get(Col.T_LAST_PHASE),
+        exact_t_last=row.get(Col.EXACT_T_LAST_PHASE),
+        t_final=row.get(Col.T_FINAL),
         tolerance=_row_thresholds(row).lift_time_tolerance,
     )
 
@@ -303,36 +304,38 @@ def _outcome(row: Mapping[str, Any], engine: _Class, exact: _Class) -> tuple[Ver
     tolerance = sizes.lift_time_tolerance
     if exact is _Class.HOP:
         if engine is not _Class.HOP:
-            largest = _mm(row.get("max_clearance"))
+            largest = _mm(row.get(Col.MAX_CLEARANCE))
             threshold = _mm(sizes.hop_clearance)
             return Verdict.MISSED_HOP, f"no hop above {threshold} (largest {largest})"
         if not hop_matches(
-            row.get("hop_height"),
-            row.get("t_lift"),
-            row.get("exact_hop_height"),
-            row.get("exact_t_lift"),
+            row.get(Col.HOP_HEIGHT),
+            row.get(Col.T_LIFT),
+            row.get(Col.EXACT_HOP_HEIGHT),
+            row.get(Col.EXACT_T_LIFT),
             tolerance,
         ):
             return Verdict.MISSED_HOP, (
-                f"hop {_mm(row.get('hop_height'))} at t = {number_or_none(row.get('t_lift'))} s "
-                f"against {_mm(row.get('exact_hop_height'))} at "
-                f"{number_or_none(row.get('exact_t_lift'))} s: "
+                f"hop {_mm(row.get(Col.HOP_HEIGHT))} at "
+                f"t = {number_or_none(row.get(Col.T_LIFT))} s "
+                f"against {_mm(row.get(Col.EXACT_HOP_HEIGHT))} at "
+                f"{number_or_none(row.get(Col.EXACT_T_LIFT))} s: "
                 f"not within a factor {HOP_HEIGHT_FACTOR:g} and {1e3 * tolerance:.3g} ms"
             )
         return None, "the exact hop"
     if exact is _Class.PAINLEVE:
-        t_p = number_or_none(row.get("exact_t_painleve")) or 0.0
+        t_p = number_or_none(row.get(Col.EXACT_T_PAINLEVE)) or 0.0
         if engine is _Class.HOP:
-            t_lift = number_or_none(row.get("t_lift"))
+            t_lift = number_or_none(row.get(Col.T_LIFT))
             if t_lift is None or t_lift < t_p - tolerance:
                 when = "withheld" if t_lift is None else f"{t_lift:.6g} s"
                 return Verdict.FALSE_HOP, f"lift-off ({when}) before the Painlevé point {t_p:.6g} s"
             return None, f"lift-off at {t_lift:.6g} s, not before the Painlevé point {t_p:.6g} s"
-        if engine is _Class.ROLL and number_or_none(row.get("exact_t_slip")) is not None:
+        if engine is _Class.ROLL and number_or_none(row.get(Col.EXACT_T_SLIP)) is not None:
             return Verdict.MISSED_SLIP, "no slip before the Painlevé point"
         return None, "nothing contradicts the motion up to the Painlevé point"
     if engine is _Class.HOP:
-        return Verdict.FALSE_HOP, f"a {_mm(row.get('hop_height'))} hop the reference does not have"
+        height = _mm(row.get(Col.HOP_HEIGHT))
+        return Verdict.FALSE_HOP, f"a {height} hop the reference does not have"
     if engine is _Class.PAINLEVE:
         engine = _Class.SLIP  # only the reference reports it, and it was slipping
     if exact is _Class.SLIP and engine is _Class.ROLL:
@@ -350,7 +353,7 @@ def _exact_slips_below_threshold(row: Mapping[str, Any]) -> str | None:
     'missed-slip' would be the harness's blind spot, not the engine's. On a lam x chi map at
     mu 0.8 such slips (0.05-0.2 mm/s, 17-20 ms long) made every engine 'miss' them.
     """
-    speed = number_or_none(row.get("exact_max_slip_speed"))
+    speed = number_or_none(row.get(Col.EXACT_MAX_SLIP_SPEED))
     threshold = _row_thresholds(row).slip_threshold
     if speed is None or speed > threshold:
         return None
@@ -368,7 +371,7 @@ def _exact_hop_below_threshold(row: Mapping[str, Any]) -> str | None:
     so neither "agrees" nor "missed" would be true. Such hops occur where the normal force
     only just turns negative (lam chi close to 1 from above: 0.07 mm on a lam x chi map).
     """
-    height = number_or_none(row.get("exact_hop_height"))
+    height = number_or_none(row.get(Col.EXACT_HOP_HEIGHT))
     threshold = _row_thresholds(row).hop_clearance
     if height is None or height > threshold:
         return None
@@ -382,12 +385,12 @@ def classify(row: Mapping[str, Any]) -> Judgement:
     """The verdict on one run from its row (the columns status, outcome, t_slip, t_lift,
     hop_height, max_clearance, phases and their exact_* counterparts, exact_t_painleve).
     See the module docstring for the rules."""
-    status = _text(row.get("status"))
-    if status == "diverged":
-        return Judgement(Verdict.DIVERGED, False, row.get("message") or "diverged")
-    if status != "ok":
-        return Judgement(Verdict.FAILED, False, f"status {status}: {row.get('message') or ''}")
-    exact_outcome = _text(row.get("exact_outcome"))
+    status = _text(row.get(Col.STATUS))
+    if status == RunStatus.DIVERGED:
+        return Judgement(Verdict.DIVERGED, False, row.get(Col.MESSAGE) or "diverged")
+    if status != RunStatus.OK:
+        return Judgement(Verdict.FAILED, False, f"status {status}: {row.get(Col.MESSAGE) or ''}")
+    exact_outcome = _text(row.get(Col.EXACT_OUTCOME))
     if exact_outcome is None or exact_outcome in _NO_ANSWER:
         return Judgement(None, None, f"no exact answer to judge against ({exact_outcome})")
     exact = _exact_class(exact_outcome)
@@ -406,7 +409,7 @@ def classify(row: Mapping[str, Any]) -> Judgement:
         return Judgement(
             Verdict.WRONG_PHASES,
             True,
-            f"{reason}; phases {row.get('phases')} against {row.get('exact_phases')}",
+            f"{reason}; phases {row.get(Col.PHASES)} against {row.get(Col.EXACT_PHASES)}",
         )
     return Judgement(Verdict.AGREES, True, reason)
 
@@ -415,4 +418,4 @@ def verdict_columns(row: Mapping[str, Any]) -> dict[str, Any]:
     """The row's ``verdict`` (a string, None without an exact answer) and ``outcome_agrees``."""
     judgement = classify(row)
     verdict = None if judgement.verdict is None else str(judgement.verdict)
-    return {"verdict": verdict, "outcome_agrees": judgement.outcome_agrees}
+    return {Col.VERDICT: verdict, Col.OUTCOME_AGREES: judgement.outcome_agrees}

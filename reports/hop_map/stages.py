@@ -78,19 +78,19 @@ from hoopbench.reports.sweep.runner import (
 
 # --------------------------------------------------------------------------- points, tasks
 EXACT_CARRIED = (
-    "regime",
-    "n_slips",
-    "exact_outcome",
-    "exact_hop_height",
-    "exact_t_slip",
-    "exact_t_lift",
-    "exact_t_impact",
-    "exact_phases",
-    "exact_theta_slip_deg",
-    "exact_t_painleve",
-    "exact_t_settled",
-    "exact_t_last_phase",
-    "exact_max_slip_speed",
+    Col.REGIME,
+    Col.N_SLIPS,
+    Col.EXACT_OUTCOME,
+    Col.EXACT_HOP_HEIGHT,
+    Col.EXACT_T_SLIP,
+    Col.EXACT_T_LIFT,
+    Col.EXACT_T_IMPACT,
+    Col.EXACT_PHASES,
+    Col.EXACT_THETA_SLIP_DEG,
+    Col.EXACT_T_PAINLEVE,
+    Col.EXACT_T_SETTLED,
+    Col.EXACT_T_LAST_PHASE,
+    Col.EXACT_MAX_SLIP_SPEED,
 )
 """The reference row's columns an engine task carries and its row repeats."""
 
@@ -138,64 +138,64 @@ def _stored_exact(row: Mapping[str, Any]) -> dict[str, Any]:
     for column in EXACT_CARRIED:
         value = row.get(column)
         out[column] = value if isinstance(value, str) else number_or_none(value)
-    if out["n_slips"] is not None:
-        out["n_slips"] = int(out["n_slips"])
+    if out[Col.N_SLIPS] is not None:
+        out[Col.N_SLIPS] = int(out[Col.N_SLIPS])
     return out
 
 
 # --------------------------------------------------------------------------- rows
 MAP_COLUMNS = (
-    "run_id",
-    "ix",
-    "iy",
-    "x_axis",
-    "y_axis",
-    "x",
-    "y",
-    "lam",
-    "chi",
-    "mu",
-    "eps",
-    "theta0_deg",
-    "t_end",
-    "engine",
-    "profile",
-    "timestep",
-    "status",
-    "message",
-    "engine_version",
-    "wall_time_s",
-    "n_steps",
-    "sim_time_s",
-    "stop_reason",
+    Col.RUN_ID,
+    Col.IX,
+    Col.IY,
+    Col.X_AXIS,
+    Col.Y_AXIS,
+    Col.X,
+    Col.Y,
+    Col.LAM,
+    Col.CHI,
+    Col.MU,
+    Col.EPS,
+    Col.THETA0_DEG,
+    Col.T_END,
+    Col.ENGINE,
+    Col.PROFILE,
+    Col.TIMESTEP,
+    Col.STATUS,
+    Col.MESSAGE,
+    Col.ENGINE_VERSION,
+    Col.WALL_TIME_S,
+    Col.N_STEPS,
+    Col.SIM_TIME_S,
+    Col.STOP_REASON,
     *EXACT_CARRIED,
-    "outcome",
-    "hop_height",
-    "max_clearance",
-    "t_slip",
-    "t_lift",
-    "t_impact",
-    "phases",
-    "verdict",
-    "outcome_agrees",
-    "hop_height_error",
+    Col.OUTCOME,
+    Col.HOP_HEIGHT,
+    Col.MAX_CLEARANCE,
+    Col.T_SLIP,
+    Col.T_LIFT,
+    Col.T_IMPACT,
+    Col.PHASES,
+    Col.VERDICT,
+    Col.OUTCOME_AGREES,
+    Col.HOP_HEIGHT_ERROR,
     # the other event columns (judging.comparison.event_columns), for the same diagnostics
-    "t_slip_threshold",
-    "theta_slip_deg",
-    "t_restick",
-    "err_t_slip_ms",
-    "err_theta_slip_deg",
-    "err_t_lift_ms",
-    "err_t_impact_ms",
-    "err_hop_height_rel",
-    "energy_rise_before_slip",
-    "energy_change_end",
-    "max_penetration_m",
-    "consistent",
-    "event_flags",
-    "t_last_phase",
-    "t_final",
-    "phases_agree",
+    Col.T_SLIP_THRESHOLD,
+    Col.THETA_SLIP_DEG,
+    Col.T_RESTICK,
+    Col.ERR_T_SLIP_MS,
+    Col.ERR_THETA_SLIP_DEG,
+    Col.ERR_T_LIFT_MS,
+    Col.ERR_T_IMPACT_MS,
+    Col.ERR_HOP_HEIGHT_REL,
+    Col.ENERGY_RISE_BEFORE_SLIP,
+    Col.ENERGY_CHANGE_END,
+    Col.MAX_PENETRATION_M,
+    Col.CONSISTENT,
+    Col.EVENT_FLAGS,
+    Col.T_LAST_PHASE,
+    Col.T_FINAL,
+    Col.PHASES_AGREE,
 )
 """Every column of a map row, in order. Reference rows leave the engine's columns empty;
 wall_time_s is the classification's time there. sim_time_s: simulated time, s (the run may
@@ -208,11 +208,11 @@ _HOPS = (str(Outcome.HOPS), str(Outcome.LIFTS_AT_START))
 def _task_columns(task: MapTask) -> dict[str, Any]:
     """The descriptive columns of a task's row (also those of a timeout or crash row)."""
     return {
-        "run_id": task.run_id,
+        Col.RUN_ID: task.run_id,
         **task.point.columns(),
-        "engine": task.engine,
-        "profile": None if task.profile is None else str(task.profile),
-        "timestep": task.timestep,
+        Col.ENGINE: task.engine,
+        Col.PROFILE: None if task.profile is None else str(task.profile),
+        Col.TIMESTEP: task.timestep,
     }
 
 
@@ -225,13 +225,13 @@ def _reference_row(task: MapTask) -> dict[str, Any]:
     return _ordered(
         {
             **_task_columns(task),
-            "status": str(RunStatus.OK),
-            "message": point.events.message,
-            "wall_time_s": point.solve_time_s,
-            "regime": str(point.regime),
-            "n_slips": point.n_slips,
+            Col.STATUS: str(RunStatus.OK),
+            Col.MESSAGE: point.events.message,
+            Col.WALL_TIME_S: point.solve_time_s,
+            Col.REGIME: str(point.regime),
+            Col.N_SLIPS: point.n_slips,
             **exact_columns(point.events, point.max_slip_speed),
-            "exact_t_settled": point.t_settled,
+            Col.EXACT_T_SETTLED: point.t_settled,
         }
     )
 
@@ -256,8 +256,8 @@ def _engine_row(task: MapTask) -> dict[str, Any]:
             scene.require_inertia("an engine's rigid body")
         except DegenerateSceneError as exc:
             message = f"not run: {exc}"
-        return _ordered({**row, "status": str(RunStatus.ERROR), "message": message})
-    result = get_engine(task.engine).run(scene, _engine_settings(task, exact["exact_t_settled"]))
+        return _ordered({**row, Col.STATUS: str(RunStatus.ERROR), Col.MESSAGE: message})
+    result = get_engine(task.engine).run(scene, _engine_settings(task, exact[Col.EXACT_T_SETTLED]))
     info = result.info
     row.update(
         status=str(info.status),
@@ -276,11 +276,16 @@ def _engine_row(task: MapTask) -> dict[str, Any]:
 def _hop_height_error(row: Mapping[str, Any]) -> float | None:
     """Engine minus exact hop height, m, where both hop (the engine above the hop threshold)
     and the run is judged (an exact hop below the threshold is not: engines/judging/verdict.py)."""
-    height, exact = number_or_none(row.get("hop_height")), number_or_none(row["exact_hop_height"])
-    engine_hops = row.get("outcome") in _HOPS and counts_as_hop(height, row.get("max_clearance"))
-    if height is None or exact is None or not engine_hops or row["exact_outcome"] not in _HOPS:
+    height, exact = (
+        number_or_none(row.get(Col.HOP_HEIGHT)),
+        number_or_none(row[Col.EXACT_HOP_HEIGHT]),
+    )
+    engine_hops = row.get(Col.OUTCOME) in _HOPS and counts_as_hop(
+        height, row.get(Col.MAX_CLEARANCE)
+    )
+    if height is None or exact is None or not engine_hops or row[Col.EXACT_OUTCOME] not in _HOPS:
         return None
-    if row.get("verdict") is None:
+    if row.get(Col.VERDICT) is None:
         return None
     return height - exact
 
@@ -295,7 +300,7 @@ def run_map_task(task: MapTask) -> dict[str, Any]:
 
 def map_failure_row(task: MapTask, status: RunStatus, message: str) -> dict[str, Any]:
     """The row of a run that produced nothing (timeout, crash, an exception)."""
-    row = {**_task_columns(task), **dict(task.exact), "status": str(status), "message": message}
+    row = {**_task_columns(task), **dict(task.exact), Col.STATUS: str(status), Col.MESSAGE: message}
     if task.engine != REFERENCE:
         row.update(verdict_columns(row))
     return _ordered(row)
@@ -330,16 +335,18 @@ def _stage_two_tasks(spec: MapSpec, out: Path) -> tuple[list[MapTask], int]:
     before them (stored: skipped, but it puts runs.csv in map order); and how many of those
     reference tasks there are."""
     stored = results.read_runs(out)
-    refs = {row["run_id"]: row for row in stored.to_dict("records") if row["engine"] == REFERENCE}
+    refs = {
+        row[Col.RUN_ID]: row for row in stored.to_dict("records") if row[Col.ENGINE] == REFERENCE
+    }
     tasks: list[MapTask] = []
     n_refs = 0
     for ref in reference_tasks(spec):
         row = refs.get(ref.run_id)
-        if row is None or not is_final_status(row["status"]):
+        if row is None or not is_final_status(row[Col.STATUS]):
             continue  # timed out or crashed: a resumed map tries it again, then its engines
         tasks.append(ref)
         n_refs += 1
-        exact = _stored_exact(row) if row["status"] == RunStatus.OK else {}
+        exact = _stored_exact(row) if row[Col.STATUS] == RunStatus.OK else {}
         tasks += [_engine_task(spec, ref.point, engine, exact) for engine in spec.engines]
     return tasks, n_refs
 
