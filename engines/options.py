@@ -22,6 +22,7 @@ __all__ = [
     "Option",
     "Profile",
     "Variant",
+    "check_profile",
     "choice",
     "flag",
     "integer",
@@ -38,6 +39,16 @@ class Profile(StrEnum):
     """hoopbench's defaults, each chosen for this problem, with its reason."""
     STOCK = "stock"
     """The engine's own documented defaults: what a new user gets out of the box."""
+
+
+def check_profile(name: str, value: Any) -> Profile:
+    """The profile named ``value`` (exact spelling); ValueError naming ``name``, the allowed
+    profiles and the value. The one check of a profile, wherever one is given."""
+    try:
+        return Profile(value)
+    except (ValueError, TypeError):
+        allowed = ", ".join(p.value for p in Profile)
+        raise ValueError(f"{name} must be one of {allowed}, got {value!r}") from None
 
 
 class _Same:

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import pytest
 
-from hoopbench.engines.options import SAME, Profile
+from hoopbench.engines.options import SAME, Profile, check_profile
 from hoopbench.engines.registry import engine_class, engine_names, get_engine
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene
 from hoopbench.reports.compare.suite_file import SuiteError, parse_suite
+from hoopbench.reports.hop_map.spec import MapSpec
 
 # The engines' own documented defaults, written out here independently of the declarations.
 STOCK = {
@@ -60,3 +61,18 @@ def test_suites_run_each_engines_defaults_once_per_profile():
     assert [t.profile for t in reference.tasks()] == [Profile.TUNED]
     with pytest.raises(SuiteError, match="profiles must be one or more of tuned, stock"):
         parse_suite({**data, "profiles": ["factory"]})
+
+
+@pytest.mark.parametrize("value", ["Tuned", "fast", 1, None, ["tuned"]])
+def test_one_profile_check_names_the_value(value):
+    """engines/options.check_profile is the one check the suites and the map call."""
+    with pytest.raises(ValueError) as err:
+        check_profile("profile", value)
+    assert str(err.value) == f"profile must be one of tuned, stock, got {value!r}"
+    with pytest.raises(ValueError, match="profile must be one of tuned, stock, got"):
+        MapSpec(profile=value)
+
+
+def test_a_profile_check_gives_the_enum():
+    assert check_profile("p", "stock") is Profile.STOCK
+    assert check_profile("p", Profile.TUNED) is Profile.TUNED

@@ -21,7 +21,8 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
-from hoopbench.engines.options import Profile
+from hoopbench.engines.base import n_steps_for
+from hoopbench.engines.options import Profile, check_profile
 from hoopbench.engines.registry import engine_class, engine_names
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene, scene_names
@@ -127,7 +128,7 @@ class RunTask:
     @property
     def n_steps(self) -> int:
         """Steps of the run (sizes its time limit)."""
-        return math.floor(self.scene.t_end / self.timestep)
+        return n_steps_for(self.scene, self.timestep)
 
 
 @dataclass(frozen=True)
@@ -302,13 +303,17 @@ def _timesteps(value: Any, key: str) -> tuple[float, ...]:
 
 
 def _profiles(value: Any, key: str) -> tuple[Profile, ...]:
-    allowed = [p.value for p in Profile]
     items = value if isinstance(value, list) else [value]
-    if not items or not all(isinstance(p, str) and p in allowed for p in items):
-        raise SuiteError(f"{key} must be one or more of {', '.join(allowed)}, got {value!r}")
+    try:
+        profiles = tuple(check_profile(key, p) for p in items if isinstance(p, str))
+    except ValueError:
+        profiles = ()
+    if not items or len(profiles) != len(items):
+        allowed = ", ".join(p.value for p in Profile)
+        raise SuiteError(f"{key} must be one or more of {allowed}, got {value!r}")
     if len(set(items)) != len(items):
         raise SuiteError(f"{key}: a profile is listed twice in {value!r}")
-    return tuple(Profile(p) for p in items)
+    return profiles
 
 
 def _catalogue_scenes(value: Any) -> list[Scene]:

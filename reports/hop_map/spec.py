@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from hoopbench.engines.base import MAX_STEPS
-from hoopbench.engines.options import Profile
+from hoopbench.engines.options import Profile, check_profile
 from hoopbench.engines.registry import engine_class, engine_names
 from hoopbench.engines.settings import DEFAULT_TIMESTEP, RunSettings
 from hoopbench.models.checks import check_integer, check_real
@@ -223,11 +223,7 @@ class MapSpec:
         set_(self, "fixed", self._checked_fixed())
         set_(self, "t_end", check_real("t_end", self.t_end, low=0.0, low_open=True, unit="s"))
         self._check_timestep()
-        try:
-            set_(self, "profile", Profile(self.profile))
-        except ValueError:
-            allowed = ", ".join(p.value for p in Profile)
-            raise ValueError(f"profile must be one of {allowed}, got {self.profile!r}") from None
+        set_(self, "profile", check_profile("profile", self.profile))
         set_(self, "engines", self._checked_engines())
 
     def _checked_fixed(self) -> tuple[tuple[str, float], ...]:
