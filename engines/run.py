@@ -11,7 +11,10 @@ from typing import Any
 from hoopbench.models.events import Events
 from hoopbench.models.trajectory import Trajectory
 
-__all__ = ["Run", "RunInfo", "RunResult", "RunStatus"]
+__all__ = ["REFERENCE_ENGINE", "Run", "RunInfo", "RunResult", "RunStatus"]
+
+REFERENCE_ENGINE = "reference"
+"""The engine name of the exact reference's runs and rows (engines/reference_engine.py)."""
 
 
 class RunStatus(StrEnum):

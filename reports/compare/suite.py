@@ -24,7 +24,13 @@ from hoopbench.engines.judging.verdict import (
 )
 from hoopbench.engines.registry import engine_class, get_engine
 from hoopbench.engines.run import RunResult, RunStatus
-from hoopbench.reports.compare.suite_file import RunTask, Suite, TrajectoryChoice, load_suite
+from hoopbench.reports.compare.suite_file import (
+    DEFAULT_VARIANT,
+    RunTask,
+    Suite,
+    TrajectoryChoice,
+    load_suite,
+)
 from hoopbench.reports.sweep import results
 from hoopbench.reports.sweep.runner import RunSummary, run_tasks
 
@@ -221,7 +227,7 @@ def compare(
     traj_dir = out / TRAJECTORY_DIR
     tasks = suite.tasks(str(traj_dir) if trajectories != TrajectoryChoice.NONE else None)
     if trajectories == TrajectoryChoice.DEFAULT:
-        tasks = [t if t.variant == "default" else _without_trajectory(t) for t in tasks]
+        tasks = [t if t.variant == DEFAULT_VARIANT else _without_trajectory(t) for t in tasks]
     timeout = run_timeout if run_timeout_s is None else run_timeout_s
     meta = {
         "suite": suite.name,

@@ -23,6 +23,7 @@ import numpy as np
 from hoopbench.engines.base import MAX_STEPS
 from hoopbench.engines.options import Profile, check_profile
 from hoopbench.engines.registry import engine_class, engine_names
+from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.engines.settings import DEFAULT_TIMESTEP, RunSettings
 from hoopbench.models.checks import check_integer, check_real
 from hoopbench.models.scene import Scene
@@ -53,7 +54,7 @@ MAP_FILE = "map.toml"
 """The spec of a map folder, beside runs/."""
 FORMAT_VERSION = 1
 """Version of map.toml and of the map's row layout."""
-REFERENCE = "reference"
+REFERENCE = REFERENCE_ENGINE
 """The engine name of stage 1's rows (the exact classification)."""
 MAX_GRID = 999
 """Largest number of points along an axis: a point's run_id has three digits per axis, and a
