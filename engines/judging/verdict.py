@@ -119,7 +119,6 @@ class _Class(StrEnum):
 
 _HOP_OUTCOMES = (str(Outcome.HOPS), str(Outcome.LIFTS_AT_START))
 _NO_ANSWER = (str(Outcome.DEGENERATE), str(Outcome.ERROR))
-_FAILED_STATUSES = ("error", "timeout", "crashed", "unavailable")
 
 
 @dataclass(frozen=True)
