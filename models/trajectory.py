@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, fields
 from pathlib import Path
 
@@ -10,12 +11,19 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from hoopbench.models import kinematics
+from hoopbench.models.formats import FileFormat
 from hoopbench.models.scene import Scene
 
-__all__ = ["COLUMNS", "FORMAT_VERSION", "Trajectory"]
+__all__ = ["COLUMNS", "FORMAT_KEY", "FORMAT_VERSION", "TRAJECTORY_FILE", "Trajectory"]
 
 FORMAT_VERSION = 1
 """Version of the trajectory file layout (CSV comment line / Parquet metadata)."""
+FORMAT_KEY = "hoopbench_trajectory_format"
+"""The frame attribute holding the version in a Parquet file (pandas stores attrs there)."""
+TRAJECTORY_FILE = FileFormat("trajectory file", FORMAT_VERSION, oldest=1)
+"""Reading checks a file's version against this (a file without one counts as version 1)."""
+_CSV_VERSION = re.compile(r"#\s*hoopbench trajectory format\s+([^;\s]*)")
+"""The CSV's first line, as :meth:`Trajectory.write` writes it."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -135,7 +143,7 @@ class Trajectory:
         frame = self.to_frame()
         suffix = path.suffix if suffix is None else suffix
         if suffix == ".parquet":
-            frame.attrs["hoopbench_trajectory_format"] = FORMAT_VERSION
+            frame.attrs[FORMAT_KEY] = FORMAT_VERSION
             frame.to_parquet(path, index=False)
         elif suffix == ".csv":
             with path.open("w", newline="") as fh:
@@ -147,10 +155,25 @@ class Trajectory:
 
     @classmethod
     def read(cls, path: str | Path) -> Trajectory:
+        """Read a file :meth:`write` wrote; an older format is migrated, a newer one refused
+        (FormatVersionError, a ValueError naming both versions)."""
         path = Path(path)
         if path.suffix == ".parquet":
-            return cls.from_frame(pd.read_parquet(path))
-        return cls.from_frame(pd.read_csv(path, comment="#"))
+            frame = pd.read_parquet(path)
+            recorded = frame.attrs.get(FORMAT_KEY)
+        else:
+            frame, recorded = pd.read_csv(path, comment="#"), _csv_version(path)
+        return cls.from_frame(TRAJECTORY_FILE.upgrade(frame, recorded, str(path)))
+
+
+def _csv_version(path: Path) -> int | str | None:
+    """The version a CSV's first line records (the text itself when it is not a number)."""
+    with path.open(newline="") as fh:
+        match = _CSV_VERSION.match(fh.readline())
+    if match is None:
+        return None
+    text = match.group(1)
+    return int(text) if text.isascii() and text.isdigit() else text
 
 
 COLUMNS: tuple[str, ...] = tuple(f.name for f in fields(Trajectory))

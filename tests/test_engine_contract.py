@@ -10,6 +10,7 @@ from functools import cache
 
 import numpy as np
 import pytest
+from conftest import engine_unavailable
 
 from hoopbench.engines.base import DivergenceLimits, EngineUnavailableError
 from hoopbench.engines.registry import engine_names, get_engine
@@ -37,7 +38,7 @@ def run(engine: str, scene_name: str, timestep: float = TIMESTEP) -> RunResult:
     scene = seed_scene() if scene_name == "seed" else get_scene(scene_name)
     result = get_engine(engine).run(scene, RunSettings(timestep=timestep))
     if result.info.status is RunStatus.UNAVAILABLE:
-        pytest.skip(f"{engine} unavailable: {result.info.message}")
+        engine_unavailable(engine, result.info.message)
     return result
 
 

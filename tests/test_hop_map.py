@@ -20,7 +20,6 @@ import pandas as pd
 import pytest
 
 from hoopbench.engines.judging.comparison import event_columns
-from hoopbench.engines.judging.verdict import verdict_columns
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.scene import Scene
@@ -214,14 +213,27 @@ def test_the_reference_row_is_the_classification(tiny):
         assert (exact.events.t_lift is None) == (t_lift is None or math.isnan(t_lift))
 
 
-def test_an_engine_row_carries_the_verdict_verdict_py_gives(tiny):
+TINY_VERDICTS = {
+    "r000-000-pymunk": ("agrees", True),  # rolls, as the exact solution does
+    "r000-001-pymunk": ("missed-hop", False),  # see below
+    "r001-000-pymunk": ("false-slip", False),  # slips again and again where the exact rolls
+    "r001-001-pymunk": ("agrees", True),  # leaves the floor at once, as the exact does
+}
+"""(verdict, outcome_agrees) of the tiny map's judged rows, read off their events by hand.
+The hop at lam 0.5, chi 2 lifts off 0.92 s into the 1 s window and is cut there (3 mm high),
+while the exact hop, 0.17 m, lands at 1.53 s: a missed hop."""
+
+
+def test_an_engine_row_carries_its_verdict_and_its_points_exact_answer(tiny):
     frame = map_frame(tiny)
     runs = frame[(frame["engine"] != REFERENCE) & (frame["lam"] < 1)]
-    assert len(runs) == 4 and (runs["status"] == "ok").all()
+    assert (runs["status"] == "ok").all()
+    stored = {row["run_id"]: (row["verdict"], row["outcome_agrees"]) for _, row in runs.iterrows()}
+    assert stored == TINY_VERDICTS
     for row in runs.to_dict("records"):
-        expected = verdict_columns(row)
-        assert row["verdict"] == expected["verdict"], row["run_id"]
-        assert row["outcome_agrees"] == expected["outcome_agrees"]
+        point = next(p for p in TINY.points() if (p.ix, p.iy) == (row["ix"], row["iy"]))
+        exact = classify(point.scene()).events
+        assert (row["exact_outcome"], row["exact_phases"]) == (exact.outcome, exact.phase_code)
     assert set(runs["stop_reason"].dropna()) <= {"impact", "settled"}
     landed = runs[runs["t_impact"].notna()]
     assert len(landed) >= 1 and (landed["stop_reason"] == "impact").all()

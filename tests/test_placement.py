@@ -25,6 +25,7 @@ import mujoco
 import numpy as np
 import pybullet
 import pytest
+from conftest import engine_unavailable
 
 from hoopbench.engines.mujoco_engine import MujocoEngine
 from hoopbench.engines.pybullet_engine import PybulletEngine
@@ -76,7 +77,7 @@ def start(engine: str, geometry: str, scene: str) -> RunResult:
     settings = RunSettings(timestep=TIMESTEP, geometry=geometry)
     result = get_engine(engine).run(SCENES[scene].with_(t_end=START_WINDOW), settings)
     if result.info.status is RunStatus.UNAVAILABLE:
-        pytest.skip(f"{engine} unavailable: {result.info.message}")
+        engine_unavailable(engine, result.info.message)
     assert result.info.status is RunStatus.OK, result.info.message
     return result
 
@@ -228,6 +229,6 @@ def test_a_hoop_that_leaves_at_once_starts_in_flight(engine):
     every engine reads lifts-at-start, one flight phase from t = 0."""
     result = get_engine(engine).run(LIFTS, RunSettings(timestep=TIMESTEP))
     if result.info.status is RunStatus.UNAVAILABLE:
-        pytest.skip(f"{engine} unavailable")
+        engine_unavailable(engine, result.info.message)
     assert result.events.outcome == "lifts-at-start", result.events.phase_code
     assert result.events.phase_code == "F"

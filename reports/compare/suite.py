@@ -24,6 +24,7 @@ from hoopbench.engines.judging.verdict import (
 )
 from hoopbench.engines.registry import engine_class, get_engine
 from hoopbench.engines.run import RunResult, RunStatus
+from hoopbench.reports.compare.rows import FORMAT_VERSION, RUNS_TABLE
 from hoopbench.reports.compare.suite_file import (
     DEFAULT_VARIANT,
     RunTask,
@@ -43,12 +44,6 @@ __all__ = [
     "run_task",
     "run_timeout",
 ]
-
-FORMAT_VERSION = 4
-"""Version of the runs table layout (2: run_id and the runner's bookkeeping columns; 3: the
-verdict, max_clearance, consistent, event_flags and exact_t_painleve columns; 4: g, and the
-last phases' start times and the run's last sample time, t_last_phase, exact_t_last_phase and
-t_final, for the phase comparison at the window's end, and exact_max_slip_speed)."""
 
 ROW_COLUMNS = (
     Col.RUN_ID,
@@ -217,8 +212,9 @@ def compare(
 ) -> RunSummary:
     """Run a suite file into ``out`` (see the README's results layout).
 
-    Raises SuiteError for a bad suite file and OutputDirNotEmptyError for a folder that holds
-    files when ``resume`` is false; both before any run starts.
+    Raises SuiteError for a bad suite file, OutputDirNotEmptyError for a folder that holds
+    files when ``resume`` is false, and FormatVersionError for resuming a folder a newer
+    hoopbench wrote; all before any run starts.
     """
     suite = suite or load_suite(suite_file)
     if engines:
@@ -229,10 +225,12 @@ def compare(
     if trajectories == TrajectoryChoice.DEFAULT:
         tasks = [t if t.variant == DEFAULT_VARIANT else _without_trajectory(t) for t in tasks]
     timeout = run_timeout if run_timeout_s is None else run_timeout_s
+    # A resumed folder keeps an older version (its old rows are still there); a newer one stops.
+    version = results.resumed_format_version(out, RUNS_TABLE) if resume else FORMAT_VERSION
     meta = {
         "suite": suite.name,
         "suite_file": Path(suite_file).name,
-        "runs_format_version": FORMAT_VERSION,
+        results.FORMAT_KEY: version,
         "units": {"times": "s", "angles": "deg", "lengths": "m", "*_ms": "ms"},
         "engine_versions": _engine_versions(suite.engines),
     }
@@ -263,8 +261,7 @@ def _engine_versions(engines: tuple[str, ...]) -> dict[str, str | None]:
 
 
 def runs_frame(results_dir: str | Path) -> pd.DataFrame:
-    """The latest row of every run of a results folder, with every row column (a sweep in
-    which every run failed has no event columns of its own)."""
-    frame = results.read_runs(results_dir)
-    missing = [c for c in ROW_COLUMNS if c not in frame.columns]
-    return frame.assign(**dict.fromkeys(missing, None)) if missing else frame
+    """The latest row of every run of a results folder in the current layout (an older table
+    migrated, a newer one refused: rows.RUNS_TABLE), with every row column (a sweep in which
+    every run failed has no event columns of its own)."""
+    return results.with_columns(results.read_table(results_dir, RUNS_TABLE), ROW_COLUMNS)

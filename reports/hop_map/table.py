@@ -9,28 +9,33 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from hoopbench.models.formats import FileFormat
 from hoopbench.reference.regimes import Regime
-from hoopbench.reports.hop_map.spec import REFERENCE, load_spec
+from hoopbench.reports.hop_map.spec import FORMAT_VERSION, REFERENCE, load_spec
 from hoopbench.reports.hop_map.stages import MAP_COLUMNS
 from hoopbench.reports.sweep import results
 
 # --------------------------------------------------------------------------- reading
 __all__ = [
     "ALL_REGIMES",
+    "MAP_TABLE",
     "agreement_markdown",
     "agreement_table",
     "map_frame",
 ]
 
+MAP_TABLE = FileFormat("hop map runs table", FORMAT_VERSION, oldest=1)
+"""A map folder's runs table (its version in meta.json, as a compare folder's); version 1 is
+the first, so there is nothing to migrate yet: a version 2 adds its migration here."""
+
 
 def map_frame(out: str | Path) -> pd.DataFrame:
     """The latest row of every run of a map folder, one per (point, engine), the reference
     included: MAP_COLUMNS first (missing ones empty), then the runner's bookkeeping; in map
-    order (x, y, then the reference and the engines as the spec lists them)."""
+    order (x, y, then the reference and the engines as the spec lists them). A table in a
+    newer format is refused (FormatVersionError)."""
     out = Path(out)
-    frame = results.read_runs(out)
-    missing = [c for c in MAP_COLUMNS if c not in frame.columns]
-    frame = frame.assign(**dict.fromkeys(missing, None))
+    frame = results.with_columns(results.read_table(out, MAP_TABLE), MAP_COLUMNS)
     frame = frame[[*MAP_COLUMNS, *(c for c in frame.columns if c not in MAP_COLUMNS)]]
     try:
         engines = (REFERENCE, *load_spec(out).engines)

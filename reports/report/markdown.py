@@ -22,6 +22,7 @@ import pandas as pd
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
 from hoopbench.models.catalogue import get_scene, scene_names
 from hoopbench.models.trajectory import Trajectory
+from hoopbench.reports.compare.suite import ROW_COLUMNS
 from hoopbench.reports.report import seed_reproduction
 from hoopbench.reports.report.figures import events_figure, hoop_figure, paths_figure
 from hoopbench.reports.report.findings import findings_markdown, off_tuned, option_text
@@ -33,32 +34,13 @@ from hoopbench.reports.report.stability import (
     stability_matrix,
 )
 from hoopbench.reports.report.tolerances import tolerances
+from hoopbench.reports.sweep import results
 
 __all__ = ["markdown_table", "write_markdown"]
 
-_OPTIONAL_COLUMNS = (
-    "suite",
-    "verdict",
-    "phases",
-    "exact_phases",
-    "profile",
-    "a",
-    "err_t_slip_ms",
-    "err_theta_slip_deg",
-    "err_t_lift_ms",
-    "err_t_impact_ms",
-    "err_hop_height_rel",
-    "outcome",
-    "t_slip_threshold",
-    "max_penetration_m",
-    "energy_rise_before_slip",
-    "outcome_agrees",
-    "hop_height",
-    "phases",
-    "phases_agree",
-    "exact_phases",
-)
-"""Columns a runs table may lack (older tables, hand-made frames): the report shows them blank."""
+_REPORT_COLUMNS = (*ROW_COLUMNS, "suite")
+"""Every column the sections read: a stored run's (runs_frame has them all, an old table
+migrated) and its suite's name (report_frame)."""
 
 
 # --------------------------------------------------------------------------- tables
@@ -96,13 +78,8 @@ def _section(*lines: str) -> str:
 
 # --------------------------------------------------------------------------- selections
 def _with_optional_columns(frame: pd.DataFrame) -> pd.DataFrame:
-    """A new frame: ``frame`` plus every missing optional column, all None."""
-    blank = {
-        name: pd.Series([None] * len(frame), index=frame.index)
-        for name in _OPTIONAL_COLUMNS
-        if name not in frame
-    }
-    return frame.assign(**blank)
+    """A new frame: ``frame`` plus every report column it lacks (a hand-made frame), empty."""
+    return results.with_columns(frame, _REPORT_COLUMNS)
 
 
 def _default(runs: pd.DataFrame) -> pd.DataFrame:

@@ -17,6 +17,10 @@ on ``DIR/runs`` mid-sweep). Hence:
   of a column disagree in ways Arrow cannot promote, the column becomes text.
 * ``runs.csv`` (plain CSV, header on line 1) and ``meta.json`` are written once the sweep has
   finished, from the latest row of every run.
+* ``meta.json`` records the version of the rows' layout (:data:`FORMAT_KEY`), which
+  :func:`read_table` checks against the table kind's ``FileFormat`` (models/formats.py): a
+  newer version is refused, an older one migrated. A folder without it (a sweep still
+  running, or interrupted) counts as the oldest version: migrations leave current rows alone.
 """
 
 from __future__ import annotations
@@ -43,9 +47,12 @@ import pyarrow.compute as pc
 import pyarrow.dataset as ds
 import pyarrow.parquet as pq
 
+from hoopbench.models.formats import FileFormat
+
 __all__ = [
     "BOOKKEEPING_COLUMNS",
     "CSV_NAME",
+    "FORMAT_KEY",
     "META_NAME",
     "RUNS_NAME",
     "SCHEMA_FILE",
@@ -55,7 +62,11 @@ __all__ = [
     "environment_meta",
     "leftover_temp_files",
     "read_runs",
+    "read_table",
+    "recorded_format_version",
+    "resumed_format_version",
     "stored_statuses",
+    "with_columns",
     "write_csv",
     "write_meta",
 ]
@@ -64,6 +75,8 @@ RUNS_NAME = "runs"
 """The Parquet dataset folder inside the results directory."""
 CSV_NAME = "runs.csv"
 META_NAME = "meta.json"
+FORMAT_KEY = "runs_format_version"
+"""meta.json's key for the version of the rows' layout (the table kind's FileFormat.version)."""
 SCHEMA_FILE = "0-schema.parquet"
 """Empty table holding the dataset's schema; its name sorts before every part ('part-...')."""
 TEMP_SUFFIX = ".tmp"
@@ -303,6 +316,47 @@ def read_runs(
     if latest:
         frame = frame.drop_duplicates("run_id", keep="last")
     return frame.reset_index(drop=True)
+
+
+def with_columns(frame: pd.DataFrame, names: Iterable[str]) -> pd.DataFrame:
+    """A new frame: ``frame`` with each of ``names`` it lacks added at the end, all empty."""
+    return frame.assign(**dict.fromkeys([n for n in names if n not in frame.columns], None))
+
+
+def recorded_format_version(out_dir: str | os.PathLike[str]) -> object:
+    """The format version ``out_dir/meta.json`` records; None without one (no meta.json yet:
+    a sweep still running or interrupted). ValueError for a meta.json that is not a JSON
+    object."""
+    path = Path(out_dir) / META_NAME
+    try:
+        meta = json.loads(path.read_text())
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{path} is unreadable: {exc}") from None
+    if not isinstance(meta, dict):
+        raise ValueError(f"{path} is unreadable: not a JSON object but {meta!r:.40}")
+    return meta.get(FORMAT_KEY)
+
+
+def read_table(
+    out_dir: str | os.PathLike[str], table: FileFormat, *, latest: bool = True
+) -> pd.DataFrame:
+    """:func:`read_runs` in the current layout of ``table``: meta.json's version checked
+    (FormatVersionError, a ValueError, for a newer one), an older table migrated."""
+    recorded = recorded_format_version(out_dir)
+    table.version_of(recorded, str(out_dir))  # refused before anything is read
+    return table.upgrade(read_runs(out_dir, latest=latest), recorded, str(out_dir))
+
+
+def resumed_format_version(out_dir: str | os.PathLike[str], table: FileFormat) -> int:
+    """The version to record for a sweep resumed into ``out_dir``: the current one for a
+    folder without rows; else the stored one, kept when older (the folder then holds rows of
+    both: the migrations leave the new ones alone) and the oldest when none is recorded.
+    FormatVersionError for a newer one: an older hoopbench must not append to it."""
+    if not (Path(out_dir) / RUNS_NAME).is_dir():
+        return table.version
+    return table.version_of(recorded_format_version(out_dir), str(out_dir))
 
 
 def stored_statuses(out_dir: str | os.PathLike[str]) -> dict[str, str]:

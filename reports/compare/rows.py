@@ -1,0 +1,56 @@
+"""The runs table's layout versions, and the migration of a table stored in an older one.
+
+A compare results folder records its version in meta.json (``runs_format_version``);
+:func:`hoopbench.reports.compare.suite.runs_frame` reads every folder through
+:data:`RUNS_TABLE`, so an old table is patched here and nowhere else.
+"""
+
+from __future__ import annotations
+
+import pandas as pd
+
+from hoopbench.engines.options import Profile
+from hoopbench.models.formats import FileFormat
+from hoopbench.reports.sweep import results
+
+__all__ = ["FORMAT_VERSION", "RUNS_TABLE"]
+
+FORMAT_VERSION = 4
+"""Version of the runs table layout (1: runs.parquet and runs.json, before the runs/ dataset;
+2: run_id and the runner's bookkeeping columns; 3: the verdict, max_clearance, consistent,
+event_flags and exact_t_painleve columns; 4: g, and the last phases' start times and the run's
+last sample time, t_last_phase, exact_t_last_phase and t_final, for the phase comparison at
+the window's end, and exact_max_slip_speed). Columns also arrived between bumps (profile and a
+late in 2, rms_position_m with 3, g late in 3, exact_max_slip_speed early in 4): a table may
+lack one its version lists, and reads it empty."""
+
+_ADDED_IN = {
+    3: (
+        "exact_t_painleve",
+        "rms_position_m",
+        "max_clearance",
+        "consistent",
+        "event_flags",
+        "verdict",
+    ),
+    4: ("g", "exact_t_last_phase", "t_last_phase", "t_final", "exact_max_slip_speed"),
+}
+"""The columns each version added (or, for g and exact_max_slip_speed, came with it): an
+older table's rows have them empty."""
+
+
+def _to_3(frame: pd.DataFrame) -> pd.DataFrame:
+    """Rows from before profiles (early in version 2) ran hoopbench's own option values, the
+    tuned profile; the verdict columns stay empty (the report falls back on outcome_agrees)."""
+    frame = results.with_columns(frame, ("profile", *_ADDED_IN[3]))
+    return frame.assign(profile=frame["profile"].fillna(str(Profile.TUNED)))
+
+
+def _to_4(frame: pd.DataFrame) -> pd.DataFrame:
+    """The window-end times and g stay empty: the stored verdicts were judged without them."""
+    return results.with_columns(frame, _ADDED_IN[4])
+
+
+RUNS_TABLE = FileFormat("runs table", FORMAT_VERSION, oldest=2, migrations={2: _to_3, 3: _to_4})
+"""A compare folder's runs table; a folder that records no version counts as 2, the first
+runs/ dataset (version 1 folders have no runs/ and are not read)."""

@@ -1,0 +1,66 @@
+"""Test-wide rules: under CI a skipped test fails the session.
+
+A test may skip only for want of an optional extra (drake, dask[distributed]); the engines and
+libraries hoopbench depends on are imported plainly, so that a broken install fails. CI
+installs the test extra, which holds both optional extras: there any skip means a test that
+did not run, and the session fails with one line naming the skipped tests.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import NoReturn
+
+import pytest
+
+pytest_plugins = ["pytester"]  # tests/test_skips_under_ci.py runs pytest on made-up tests
+
+OPTIONAL_ENGINES = frozenset({"drake"})
+"""Engines of an optional extra: a test may skip when one is unavailable, never for another."""
+CI_VARIABLE = "CI"
+"""Set, to anything but the empty string, by CI services (GitHub Actions sets CI=true)."""
+
+
+def engine_unavailable(engine: str, message: str | None) -> NoReturn:
+    """For a test whose engine run came back unavailable: a skip for an optional extra's
+    engine, a failure for a hard dependency (MuJoCo, PyBullet, pymunk): a broken install must
+    not pass as skipped tests."""
+    if engine in OPTIONAL_ENGINES:
+        pytest.skip(f"{engine} unavailable: {message}")
+    pytest.fail(f"{engine} is a hard dependency, and unavailable: {message}")
+
+
+class SkipsFailUnderCI:
+    """Collects every skipped test and collection; fails the session under CI if any."""
+
+    def __init__(self) -> None:
+        self.skipped: list[str] = []
+
+    def pytest_collectreport(self, report: pytest.CollectReport) -> None:
+        if report.skipped:  # a module-level skip: pytest.importorskip at import
+            self.skipped.append(report.nodeid)
+
+    def pytest_runtest_logreport(self, report: pytest.TestReport) -> None:
+        # An expected failure (xfail) is reported as skipped too, with wasxfail set.
+        if report.skipped and not hasattr(report, "wasxfail"):
+            self.skipped.append(report.nodeid)
+
+    def failing(self) -> bool:
+        return bool(os.environ.get(CI_VARIABLE)) and bool(self.skipped)
+
+    def pytest_sessionfinish(self, session: pytest.Session) -> None:
+        # Other statuses (failures, an interrupt, a usage error) say more and stay.
+        passing = (pytest.ExitCode.OK, pytest.ExitCode.NO_TESTS_COLLECTED)
+        if self.failing() and session.exitstatus in passing:
+            session.exitstatus = pytest.ExitCode.TESTS_FAILED
+
+    def pytest_terminal_summary(self, terminalreporter: pytest.TerminalReporter) -> None:
+        if self.failing():
+            names = ", ".join(self.skipped)
+            terminalreporter.write_line(
+                f"{CI_VARIABLE} is set and {len(self.skipped)} test(s) skipped: {names}", red=True
+            )
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.pluginmanager.register(SkipsFailUnderCI(), "hoopbench-skips-fail-under-ci")

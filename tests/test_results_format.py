@@ -1,0 +1,274 @@
+"""Stored tables carry their format version: an older table is read migrated, a newer one is
+refused with one line naming both versions (the command line: exit 2 with that line).
+
+The old tables are made as an older release wrote them: a current table rewritten without the
+columns the newer versions added, and with an older version (or none) in meta.json.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from hoopbench.models.formats import FileFormat, FormatVersionError
+from hoopbench.models.trajectory import FORMAT_VERSION as TRAJECTORY_VERSION
+from hoopbench.models.trajectory import Trajectory
+from hoopbench.reports.cli import main
+from hoopbench.reports.compare.suite import FORMAT_VERSION, ROW_COLUMNS, compare, runs_frame
+from hoopbench.reports.hop_map.spec import FORMAT_VERSION as MAP_VERSION
+from hoopbench.reports.hop_map.table import map_frame
+from hoopbench.reports.sweep import results
+
+SUITE = """
+name = "formats"
+engines = ["reference", "pymunk"]
+timesteps = [1e-3]
+scenes = ["seed-mu"]
+"""
+
+NEW_IN_3 = ["exact_t_painleve", "rms_position_m", "max_clearance", "consistent", "event_flags"]
+NEW_IN_4 = ["g", "exact_t_last_phase", "t_last_phase", "t_final", "exact_max_slip_speed"]
+VERSION_2 = [*NEW_IN_3, "verdict", *NEW_IN_4, "profile"]
+"""The columns an early version-2 table lacks (profile came late in 2)."""
+
+
+def run_suite(out: Path, *, resume: bool = False) -> None:
+    suite = out.parent / "formats.toml"
+    suite.write_text(SUITE)
+    with ThreadPoolExecutor(2) as pool:
+        summary = compare(
+            suite, out, executor=pool, quiet=True, resume=resume, trajectories="default"
+        )
+    assert summary.completed
+
+
+@pytest.fixture(scope="module")
+def current(tmp_path_factory) -> Path:
+    """A results folder as this hoopbench writes it: two runs, their trajectories."""
+    out = tmp_path_factory.mktemp("current") / "out"
+    run_suite(out)
+    return out
+
+
+def older(
+    current: Path,
+    folder: Path,
+    *,
+    drop: list[str],
+    version: int | None,
+    timed_out: str | None = None,
+) -> Path:
+    """The rows of ``current`` stored again without the columns ``drop``, meta.json saying
+    ``version`` (None: no meta.json, as before the sweep ended); the run of engine
+    ``timed_out``, if given, stored as a timeout (a resume runs it again)."""
+    rows = results.read_runs(current).drop(columns=[*drop, "seq"])
+    if timed_out is not None:
+        rows.loc[rows["engine"] == timed_out, "status"] = "timeout"
+    writer = results.RunsWriter(folder / results.RUNS_NAME)
+    for row in rows.to_dict("records"):
+        writer.add(row)
+    writer.flush()
+    if version is not None:
+        meta = json.loads((current / results.META_NAME).read_text())
+        results.write_meta({**meta, results.FORMAT_KEY: version}, folder / results.META_NAME)
+    shutil.copy(current / "suite.toml", folder / "suite.toml")
+    return folder
+
+
+def newer_message(source: object, what: str, version: int) -> str:
+    return (
+        f"{source}: {what} format version {version + 1} is newer than this hoopbench's "
+        f"{version}: use a newer hoopbench"
+    )
+
+
+# --------------------------------------------------------------------------- runs tables
+def test_a_new_table_records_the_current_version_and_reads_unchanged(current):
+    meta = json.loads((current / results.META_NAME).read_text())
+    assert meta[results.FORMAT_KEY] == FORMAT_VERSION
+    frame = runs_frame(current)
+    stored = results.read_runs(current)
+    pd.testing.assert_frame_equal(frame[stored.columns], stored)
+    assert set(frame["profile"]) == {"tuned"} and frame["verdict"].notna().all()
+
+
+@pytest.mark.parametrize("version", [2, None], ids=["version-2", "no-version"])
+def test_an_early_version_2_table_is_read_migrated(current, tmp_path, version):
+    old = older(current, tmp_path, drop=VERSION_2, version=version)
+    frame = runs_frame(old)
+    assert list(frame["profile"]) == ["tuned", "tuned"]  # the profile every run had then
+    assert frame[[*NEW_IN_3, "verdict", *NEW_IN_4]].isna().all().all()
+    assert set(ROW_COLUMNS) <= set(frame.columns)
+    kept = [c for c in results.read_runs(current).columns if c not in {*VERSION_2, "seq"}]
+    expected = runs_frame(current)[kept]
+    pd.testing.assert_frame_equal(frame[kept], expected, check_dtype=False)
+
+
+def test_the_recorded_version_chooses_the_migrations(current, tmp_path):
+    """The same rows without a profile: a version-4 table is not patched (its rows always have
+    one), so an empty profile stays empty."""
+    old = older(current, tmp_path, drop=["profile"], version=4)
+    assert runs_frame(old)["profile"].isna().all()
+
+
+def test_a_newer_table_is_refused_with_both_versions(current, tmp_path):
+    new = older(current, tmp_path / "new", drop=[], version=FORMAT_VERSION + 1)
+    message = newer_message(new, "runs table", FORMAT_VERSION)
+    with pytest.raises(FormatVersionError) as caught:
+        runs_frame(new)
+    assert str(caught.value) == message
+
+
+def test_the_command_line_refuses_a_newer_table_in_one_line(current, tmp_path, capsys):
+    new = older(current, tmp_path / "new", drop=[], version=FORMAT_VERSION + 1)
+    code = main(["report", "--results", str(new), "--out", str(tmp_path / "report")])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err == f"hoopbench: error: {newer_message(new, 'runs table', FORMAT_VERSION)}\n"
+    assert not (tmp_path / "report" / "report.md").exists()
+
+
+@pytest.mark.parametrize("text", ["{not json", "[4]"])
+def test_a_meta_json_that_is_not_a_json_object_is_one_line(current, tmp_path, text):
+    old = older(current, tmp_path, drop=[], version=FORMAT_VERSION)
+    (old / results.META_NAME).write_text(text)
+    with pytest.raises(ValueError, match=r"^\S+meta\.json is unreadable: \w[^\n]*$"):
+        runs_frame(old)
+
+
+def test_resuming_an_older_table_keeps_its_version(current, tmp_path):
+    """A version-3 folder whose pymunk run timed out, resumed: the new row joins the old one,
+    and meta.json still says 3, so that the old row is migrated on reading."""
+    out = older(current, tmp_path / "out", drop=NEW_IN_4, version=3, timed_out="pymunk")
+    run_suite(out, resume=True)
+    assert json.loads((out / results.META_NAME).read_text())[results.FORMAT_KEY] == 3
+    frame = runs_frame(out).set_index("engine")
+    assert frame.loc["pymunk", "status"] == "ok"
+    assert pd.notna(frame.loc["pymunk", "t_final"])  # the new row, whole
+    assert pd.isna(frame.loc["reference", "t_final"])  # the old row, as stored
+
+
+def test_resuming_a_table_without_a_version_records_the_oldest(current, tmp_path):
+    out = older(current, tmp_path / "out", drop=[], version=None)
+    run_suite(out, resume=True)  # nothing to run: it writes the missing runs.csv and meta.json
+    assert json.loads((out / results.META_NAME).read_text())[results.FORMAT_KEY] == 2
+
+
+def test_resuming_a_newer_table_is_refused_before_any_run(current, tmp_path):
+    out = older(current, tmp_path / "out", drop=[], version=FORMAT_VERSION + 1, timed_out="pymunk")
+    with pytest.raises(FormatVersionError) as caught:
+        run_suite(out, resume=True)
+    assert str(caught.value) == newer_message(out, "runs table", FORMAT_VERSION)
+    stored = results.read_runs(out, latest=False)
+    assert len(stored) == 2 and "timeout" in set(stored["status"])
+
+
+# --------------------------------------------------------------------------- hop maps
+def map_folder(folder: Path, version: int | None) -> Path:
+    writer = results.RunsWriter(folder / results.RUNS_NAME)
+    for k, engine in enumerate(("reference", "pymunk")):
+        writer.add({"run_id": f"r000-00{k}-{engine}", "status": "ok", "ix": 0, "iy": k})
+    writer.flush()
+    if version is not None:
+        results.write_meta({results.FORMAT_KEY: version}, folder / results.META_NAME)
+    return folder
+
+
+@pytest.mark.parametrize("version", [MAP_VERSION, None])
+def test_a_map_table_is_read_at_its_version_or_without_one(tmp_path, version):
+    frame = map_frame(map_folder(tmp_path, version))
+    assert list(frame["run_id"]) == ["r000-000-reference", "r000-001-pymunk"]
+
+
+def test_a_newer_map_table_is_refused_with_both_versions(tmp_path):
+    folder = map_folder(tmp_path, MAP_VERSION + 1)
+    with pytest.raises(FormatVersionError) as caught:
+        map_frame(folder)
+    assert str(caught.value) == newer_message(folder, "hop map runs table", MAP_VERSION)
+
+
+# --------------------------------------------------------------------------- trajectories
+@pytest.fixture
+def trajectory(current) -> Path:
+    return sorted((current / "trajectories").glob("*.parquet"))[0]
+
+
+def test_a_trajectory_records_its_version(trajectory, tmp_path):
+    assert pd.read_parquet(trajectory).attrs == {"hoopbench_trajectory_format": 1}
+    csv = Trajectory.read(trajectory).write(tmp_path / "t.csv")
+    assert csv.read_text().startswith("# hoopbench trajectory format 1; SI units\n")
+
+
+def test_trajectories_without_a_version_are_read_as_the_oldest(trajectory, tmp_path):
+    expected = Trajectory.read(trajectory).to_frame()
+    bare = pd.read_parquet(trajectory)
+    bare.attrs.clear()
+    bare.to_parquet(tmp_path / "bare.parquet", index=False)
+    bare.to_csv(tmp_path / "bare.csv", index=False, float_format="%.17g")  # no comment line
+    for path in (tmp_path / "bare.parquet", tmp_path / "bare.csv"):
+        pd.testing.assert_frame_equal(Trajectory.read(path).to_frame(), expected)
+
+
+def test_a_newer_trajectory_is_refused_with_both_versions(trajectory, tmp_path):
+    frame = pd.read_parquet(trajectory)
+    frame.attrs["hoopbench_trajectory_format"] = TRAJECTORY_VERSION + 1
+    parquet = tmp_path / "new.parquet"
+    frame.to_parquet(parquet, index=False)
+    csv = Trajectory.read(trajectory).write(tmp_path / "new.csv")
+    csv.write_text(csv.read_text().replace("format 1;", f"format {TRAJECTORY_VERSION + 1};", 1))
+    for path in (parquet, csv):
+        with pytest.raises(FormatVersionError) as caught:
+            Trajectory.read(path)
+        assert str(caught.value) == newer_message(path, "trajectory file", TRAJECTORY_VERSION)
+
+
+def test_a_trajectory_version_that_is_not_a_number_is_one_line(trajectory, tmp_path):
+    csv = Trajectory.read(trajectory).write(tmp_path / "t.csv")
+    csv.write_text(csv.read_text().replace("format 1;", "format 1b;", 1))
+    with pytest.raises(FormatVersionError, match=r"must be a whole number, got '1b'$"):
+        Trajectory.read(csv)
+
+
+# --------------------------------------------------------------------------- the mechanism
+def test_migrations_run_in_order_from_the_recorded_version():
+    calls = []
+
+    def step(k: int):
+        def migrate(frame: pd.DataFrame) -> pd.DataFrame:
+            calls.append(k)
+            return frame.assign(v=k + 1)
+
+        return migrate
+
+    table = FileFormat("t", 4, oldest=1, migrations={k: step(k) for k in (1, 2, 3)})
+    start = pd.DataFrame({"v": [2]})
+    assert table.upgrade(start, 2, "x")["v"].iloc[0] == 4 and calls == [2, 3]
+    calls.clear()
+    assert table.upgrade(start, None, "x")["v"].iloc[0] == 4 and calls == [1, 2, 3]
+    calls.clear()
+    assert table.upgrade(start, 4, "x") is start and calls == []
+
+
+@pytest.mark.parametrize(
+    ("recorded", "message"),
+    [
+        (True, "x: t format version must be a whole number, got True"),
+        ("4", "x: t format version must be a whole number, got '4'"),
+        (0, "x: t format version 0 is older than the oldest this hoopbench reads (1)"),
+    ],
+)
+def test_a_recorded_version_this_hoopbench_cannot_read_is_one_line(recorded, message):
+    table = FileFormat("t", 2, oldest=1, migrations={1: lambda frame: frame})
+    with pytest.raises(FormatVersionError) as caught:
+        table.version_of(recorded, "x")
+    assert str(caught.value) == message
+
+
+def test_a_version_without_its_migration_is_caught_where_it_is_declared():
+    with pytest.raises(ValueError, match=r"t format 3 lacks migrations from \[2\]"):
+        FileFormat("t", 3, oldest=1, migrations={1: lambda frame: frame})
