@@ -377,7 +377,7 @@ def run_map(
     out = Path(out)
     _prepare(out, spec, resume)
     started_at = datetime.now(UTC)
-    meta = {"map": spec.to_dict(), "runs_format_version": FORMAT_VERSION}
+    meta = {"map": spec.to_dict(), results.FORMAT_KEY: FORMAT_VERSION}
     common = dict(
         failure_row=map_failure_row,
         timeout=_timeout,
