@@ -267,52 +267,52 @@ class MujocoEngine(Engine):
             return
         from mujoco import rollout
 
-        n_steps = n_steps_for(scene, settings.timestep)
-        with _captured_warnings(mujoco) as warnings, rollout.Rollout(nthread=0) as runner:
-            run.recording = _Recording.start(mujoco, model, data, n_steps, runner, warnings)
+        with _captured_warnings(mujoco) as run.warnings, rollout.Rollout(nthread=0) as run.runner:
+            run.allocate(n_steps_for(scene, settings.timestep))
             yield run
 
     def _advance(self, run: _Run, done: int, steps: int, last: bool) -> Chunk:
         """Roll out ``steps`` steps in C; the last chunk takes one more for the last force."""
-        rec, scene = run.recording, run.scene
+        mujoco, scene = run.mujoco, run.scene
         extra = 1 if last else 0
-        rec.runner.rollout(
+        run.runner.rollout(
             [run.model],
             [run.data],
-            rec.states[:, done],
-            initial_warmstart=rec.warmstart,
+            run.states[:, done],
+            initial_warmstart=run.warmstart,
             nstep=steps + extra,
-            state=rec.states[:, done + 1 : done + 1 + steps + extra],
-            sensordata=rec.sensors[:, done : done + steps + extra],
+            state=run.states[:, done + 1 : done + 1 + steps + extra],
+            sensordata=run.sensors[:, done : done + steps + extra],
             skip_checks=True,
         )
-        rec.warmstart[0] = run.data.qacc_warmstart
+        run.warmstart[0] = run.data.qacc_warmstart
         rows = slice(done, done + steps + 1)
-        q = rec.states[0, rows, rec.qpos_at : rec.qpos_at + 3]
-        v = rec.states[0, rows, rec.qvel_at : rec.qvel_at + 3]
+        qpos_at = mujoco.mj_stateSize(run.model, mujoco.mjtState.mjSTATE_TIME.value)
+        qvel_at = qpos_at + run.model.nq
+        q = run.states[0, rows, qpos_at : qpos_at + 3]
+        v = run.states[0, rows, qvel_at : qvel_at + 3]
         # The slide z joint is the hoop centre's height above its resting height.
         com = kinematics.com_state(scene, q[:, 0], scene.a + q[:, 1], q[:, 2], *v.T)
         for key, values in com.items():
-            rec.com[key][rows] = values
+            run.com[key][rows] = values
         return Chunk(com, done + steps)
 
     def _diverged(self, run: _Run) -> str | None:
-        return _warning_reason(run.mujoco, run.data, run.recording.warnings)
+        return _warning_reason(run.mujoco, run.data, run.warnings)
 
     def _contact_shape(self, run: _Run) -> Polygon | None:
         return run.shape
 
     def _trajectory(self, run: _Run, done: int, ended_early: bool) -> Trajectory:
-        rec, scene = run.recording, run.scene
         # A run stopped early has no force for its last state: drop that state.
         n = done if ended_early else done + 1
         # Sensor layout: found, then the force (x, y, z) on the hoop in the world frame.
-        fx = rec.sensors[0, :n, 1] / scene.M
-        fz = rec.sensors[0, :n, 3] / scene.M
+        fx = run.sensors[0, :n, 1] / run.scene.M
+        fz = run.sensors[0, :n, 3] / run.scene.M
         return Trajectory.from_state(
-            scene,
+            run.scene,
             t=np.arange(n) * run.timestep,
-            **{key: val[:n] for key, val in rec.com.items()},
+            **{key: val[:n] for key, val in run.com.items()},
             normal_force=fz,
             friction_force=fx,
             # The ring is a polygon: clearance and slip are read at its lowest point.
@@ -325,55 +325,9 @@ class MujocoEngine(Engine):
 
 
 @dataclass
-class _Recording:
-    """A recorded run's buffers. Row i of ``states`` is the full physics state at t_i, row i
-    of ``sensors`` the force at t_i (MuJoCo evaluates sensors before it integrates a step)."""
-
-    runner: Any
-    """The ``mujoco.rollout.Rollout`` that steps the run."""
-    warnings: list[str]
-    """MuJoCo's warning texts, captured while the run steps."""
-    states: np.ndarray
-    sensors: np.ndarray
-    warmstart: np.ndarray
-    qpos_at: int
-    """Column of qpos in a state row (after the time)."""
-    qvel_at: int
-    com: dict[str, np.ndarray]
-    """The centre-of-mass state per recorded row (X, Y, theta, Xdot, Ydot, thetadot)."""
-
-    @classmethod
-    def start(
-        cls,
-        mujoco: ModuleType,
-        model: Any,
-        data: Any,
-        n_steps: int,
-        runner: Any,
-        warnings: list[str],
-    ) -> _Recording:
-        """Buffers for ``n_steps`` steps, the initial state in row 0."""
-        spec = mujoco.mjtState.mjSTATE_FULLPHYSICS.value
-        qpos_at = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_TIME.value)
-        # One state and one force more than the window: the extra step gives t_end its force.
-        states = np.empty((1, n_steps + 2, mujoco.mj_stateSize(model, spec)))
-        sensors = np.empty((1, n_steps + 1, model.nsensordata))
-        mujoco.mj_getState(model, data, states[0, 0], spec)
-        return cls(
-            runner=runner,
-            warnings=warnings,
-            states=states,
-            sensors=sensors,
-            warmstart=np.array(data.qacc_warmstart).reshape(1, model.nv),
-            qpos_at=qpos_at,
-            qvel_at=qpos_at + model.nq,
-            com={k: np.empty(n_steps + 1) for k in ("X", "Y", "theta", "Xdot", "Ydot", "thetadot")},
-        )
-
-
-@dataclass
 class _Run:
-    """One run's model and data at the initial state; its recording once it records."""
+    """One run's model and data at the initial state; when it records, its rollout, the
+    warnings MuJoCo gave, and its buffers (``allocate``)."""
 
     mujoco: ModuleType
     scene: Scene
@@ -382,7 +336,27 @@ class _Run:
     data: Any
     shape: Polygon | None
     """The contact shape (the ring's polygon; None: a circle)."""
-    recording: _Recording = field(init=False)
+    runner: Any = None
+    warnings: list[str] = field(default_factory=list)
+    states: np.ndarray = field(init=False)
+    sensors: np.ndarray = field(init=False)
+    warmstart: np.ndarray = field(init=False)
+    com: dict[str, np.ndarray] = field(init=False)
+
+    def allocate(self, n_steps: int) -> None:
+        """Buffers for a window of ``n_steps`` and the extra step that gives t_end its force.
+        Row i of ``states`` is the full physics state at t_i (row 0 is set here), row i of
+        ``sensors`` the force at t_i (MuJoCo evaluates sensors before a step integrates), and
+        ``com`` holds the centre-of-mass state per row."""
+        mujoco, model, data = self.mujoco, self.model, self.data
+        spec = mujoco.mjtState.mjSTATE_FULLPHYSICS.value
+        self.states = np.empty((1, n_steps + 2, mujoco.mj_stateSize(model, spec)))
+        self.sensors = np.empty((1, n_steps + 1, model.nsensordata))
+        mujoco.mj_getState(model, data, self.states[0, 0], spec)
+        self.warmstart = np.array(data.qacc_warmstart).reshape(1, model.nv)
+        self.com = {
+            k: np.empty(n_steps + 1) for k in ("X", "Y", "theta", "Xdot", "Ydot", "thetadot")
+        }
 
 
 @contextmanager
