@@ -187,10 +187,12 @@ class Engine(ABC):
         The run's contact shape, which the divergence check and the monitor read the lowest
         point of. Default None: the hoop's circle.
     ``_finish(run, ended_early)``, optional
-        Timed, after the last chunk: e.g. one more step that gives the last row its force.
+        Timed, after the last chunk, whether the run ended early or not: e.g. one more step
+        that gives the last row its force.
 
-    An engine that does not step (the exact reference) overrides ``_simulate`` instead and
-    has no bare loop.
+    An exception in a hook makes the run an error row with the exception's message; the
+    context of ``_open`` is left as usual. An engine that does not step (the exact
+    reference) overrides ``_simulate`` instead and has no bare loop.
     """
 
     name: ClassVar[str]
