@@ -1,10 +1,11 @@
 """The engine interface: one class per engine declares everything about it.
 
 An engine module subclasses :class:`Engine`, declares its import, geometries, options (each
-with its default and the reason for it), settings variants and model writer, implements one
-stepping hook, ``_simulate``, and registers itself (``hoopbench.engines.registry``). The
-registry, the CLI choices, ``hoopbench settings`` and the suites' variants are derived from
-these declarations.
+with its default and the reason for it), settings variants and model writer, implements the
+stepping hooks (the contract is in :class:`Engine`'s docstring: the loop itself is the base
+class's, the same for every engine), and registers itself (``hoopbench.engines.registry``).
+The registry, the CLI choices, ``hoopbench settings`` and the suites' variants are derived
+from these declarations.
 
 Stepping and judging are separate: :meth:`Engine.simulate` validates the settings, imports
 the engine lazily, steps, and returns a :class:`Run` (trajectory plus what the engine
@@ -15,11 +16,14 @@ detectors.
 
 from __future__ import annotations
 
+import gc
 import math
 import sys
+import time
 import traceback
-from abc import ABC, abstractmethod
-from collections.abc import Callable
+from abc import ABC
+from collections.abc import Callable, Iterator
+from contextlib import AbstractContextManager, contextmanager
 from dataclasses import dataclass
 from importlib.metadata import PackageNotFoundError, version
 from types import ModuleType
@@ -32,7 +36,7 @@ from hoopbench.engines.judging.judge import judge
 from hoopbench.engines.options import Option, Profile, Variant
 from hoopbench.engines.run import Run, RunInfo, RunResult, RunStatus
 from hoopbench.engines.settings import BYTES_PER_STEP, MAX_STEPS, RunSettings
-from hoopbench.engines.stopping import StopReason
+from hoopbench.engines.stopping import StopMonitor, StopReason
 from hoopbench.models import kinematics
 from hoopbench.models.events import Events
 from hoopbench.models.scene import Scene
@@ -42,6 +46,7 @@ __all__ = [
     "BYTES_PER_STEP",
     "CHUNK_STEPS",
     "MAX_STEPS",
+    "Chunk",
     "DivergenceLimits",
     "Engine",
     "EngineUnavailableError",
@@ -53,7 +58,7 @@ __all__ = [
 ]
 
 CHUNK_STEPS = 1000
-"""Steps an adapter takes between divergence checks (and per recording chunk)."""
+"""Steps the loop has an adapter take between divergence checks (and per recording chunk)."""
 
 
 class EngineUnavailableError(RuntimeError):
@@ -112,8 +117,20 @@ def check_divergence(
 
 
 @dataclass(frozen=True)
+class Chunk:
+    """What an adapter's ``_advance`` returns: one chunk of a run, as the loop checks it."""
+
+    state: dict[str, np.ndarray]
+    """Centre-of-mass states: arrays X, Y, theta, Xdot, Ydot, thetadot of one length (m, rad,
+    m/s, rad/s), read by check_divergence and the stop monitor. May begin with a row already
+    given (the previous chunk's last state): the monitor skips rows it has seen."""
+    last_step: int
+    """Step index of the last row (its time is last_step * timestep): what the monitor is fed."""
+
+
+@dataclass(frozen=True)
 class Simulation:
-    """What an adapter's ``_simulate`` returns."""
+    """What ``Engine._simulate`` returns."""
 
     trajectory: Trajectory
     n_steps: int
@@ -132,8 +149,51 @@ class Simulation:
 
 class Engine(ABC):
     """Base class of the engines. A subclass declares the class attributes below, implements
-    ``_simulate`` (and ``_model_text`` if the engine reads a model file), and is registered
-    with ``hoopbench.engines.registry.register``."""
+    the stepping hooks (and ``_model_text`` if the engine reads a model file), and is
+    registered with ``hoopbench.engines.registry.register``.
+
+    The stepping loop is this class's, the same for every engine (``_simulate``): it takes
+    ``n_steps_for(scene, settings.timestep)`` steps in chunks of at most ``CHUNK_STEPS``;
+    after each chunk it checks divergence (the engine's own reason, then ``check_divergence``)
+    and feeds the run's ``StopMonitor`` (``settings.stop``; the monitor skips rows it has
+    seen), and ends at the first chunk that diverges or stops; it times the stepping (chunks
+    and finishing step, with the checks) with the garbage collector off, and returns the
+    ``Simulation`` (``n_steps``: the trajectory's rows less one). :meth:`bare_loop_time` is
+    the class's too. An adapter implements only these hooks. They act on a per-run object of
+    the adapter's own (``run``: the model and what it has recorded), as the engine instance
+    may serve several runs:
+
+    ``_open(module, scene, settings, options, *, record)``, a context manager giving ``run``
+        Build the model at the scene's initial state, ready to step from t = 0, and release
+        what it holds (a client, files, handlers) on exit. ``record=False`` is for
+        :meth:`bare_loop_time`: nothing will be recorded or read, so an adapter may leave
+        out its loggers and buffers.
+    ``_advance(run, done, steps, last) -> Chunk``
+        Take ``steps`` steps from step ``done``, record them, and return the chunk's
+        centre-of-mass states with the step index of its last row. ``last``: the chunk
+        reaches the window's end (an engine that needs one step more for the last row's
+        force may take it here; it is not counted in ``n_steps``).
+    ``_trajectory(run, done, ended_early) -> Trajectory``
+        What was recorded over ``done`` steps (``ended_early``: the run diverged or was
+        stopped), states and contact forces per unit mass, each row's force by the engine's
+        own timing convention (``Trajectory.from_state``). Its rows set ``n_steps``.
+    ``_step_bare(run, steps)``
+        Step a ``record=False`` model ``steps`` times, the engine's cheapest way, reading
+        nothing: the yardstick :meth:`bare_loop_time` times.
+    ``_diverged(run) -> str | None``, optional
+        The engine's own reason to call the run diverged after a chunk (MuJoCo resets its
+        state instead of producing NaN; its warning counters tell). Default None.
+    ``_contact_shape(run) -> Polygon | None``, optional
+        The run's contact shape, which the divergence check and the monitor read the lowest
+        point of. Default None: the hoop's circle.
+    ``_finish(run, ended_early)``, optional
+        Timed, after the last chunk, whether the run ended early or not: e.g. one more step
+        that gives the last row its force.
+
+    An exception in a hook makes the run an error row with the exception's message; the
+    context of ``_open`` is left as usual. An engine that does not step (the exact
+    reference) overrides ``_simulate`` instead and has no bare loop.
+    """
 
     name: ClassVar[str]
     """Engine name on the command line and in the runs table."""
@@ -188,11 +248,44 @@ class Engine(ABC):
         """Import the engine; EngineUnavailableError if it cannot be used."""
         return import_engine(*self.modules)
 
-    @abstractmethod
-    def _simulate(
-        self, module: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
-    ) -> Simulation:
-        """Step the scene from t = 0 for ``n_steps_for(scene, settings.timestep)`` steps."""
+    def _open(
+        self,
+        module: ModuleType,
+        scene: Scene,
+        settings: RunSettings,
+        options: dict[str, Any],
+        *,
+        record: bool,
+    ) -> AbstractContextManager[Any]:
+        """The run's model at its initial state (class docstring)."""
+        raise self._no_hook("_open")
+
+    def _advance(self, run: Any, done: int, steps: int, last: bool) -> Chunk:
+        """Take and record ``steps`` steps from step ``done`` (class docstring)."""
+        raise self._no_hook("_advance")
+
+    def _trajectory(self, run: Any, done: int, ended_early: bool) -> Trajectory:
+        """The recorded trajectory after ``done`` steps (class docstring)."""
+        raise self._no_hook("_trajectory")
+
+    def _step_bare(self, run: Any, steps: int) -> None:
+        """Step a bare model ``steps`` times, reading nothing (class docstring)."""
+        raise self._no_hook("_step_bare")
+
+    def _diverged(self, run: Any) -> str | None:
+        """The engine's own divergence reason after a chunk, or None."""
+        return None
+
+    def _contact_shape(self, run: Any) -> kinematics.Polygon | None:
+        """The run's contact shape (None: the hoop's circle)."""
+        return None
+
+    def _finish(self, run: Any, ended_early: bool) -> None:
+        """Anything timed after the last chunk (e.g. a step for the last force)."""
+        return None
+
+    def _no_hook(self, hook: str) -> NotImplementedError:
+        return NotImplementedError(f"engine {self.name} does not step: it implements no {hook}")
 
     def _check(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> None:
         """Raise ValueError for a scene or settings the engine cannot represent."""
@@ -274,6 +367,83 @@ class Engine(ABC):
     def run(self, scene: Scene, settings: RunSettings | None = None) -> RunResult:
         """Simulate, then judge with this engine's detectors."""
         return judge(self.simulate(scene, settings), self.detectors, scene)
+
+    def bare_loop_time(self, scene: Scene, settings: RunSettings | None = None) -> float:
+        """Wall time, s, of stepping the run's model as many times as a run would, reading
+        and recording nothing, with the garbage collector off: the engine's own cost, the
+        yardstick for a run's ``wall_time_s``, measured alike for every engine.
+
+        ValueError for bad settings (as :meth:`check`), EngineUnavailableError if the engine
+        cannot be imported, NotImplementedError for an engine that does not step.
+        """
+        settings = settings or RunSettings()
+        options = self.check(scene, settings)
+        module = self._import()
+        n_steps = n_steps_for(scene, settings.timestep)
+        with self._open(module, scene, settings, options, record=False) as run, _collector_paused():
+            start = time.perf_counter()
+            self._step_bare(run, n_steps)
+            return time.perf_counter() - start
+
+    # ----------------------------------------------------------------- the loop
+    def _simulate(
+        self, module: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
+    ) -> Simulation:
+        """Step the scene from t = 0 for ``n_steps_for(scene, settings.timestep)`` steps, or
+        until it diverges or its monitor stops it: the loop of the class docstring."""
+        with self._open(module, scene, settings, options, record=True) as run:
+            with _collector_paused():
+                start = time.perf_counter()
+                done, diverged, stopped = self._step_chunks(run, scene, settings)
+                ended_early = diverged is not None or stopped is not None
+                self._finish(run, ended_early)
+                wall = time.perf_counter() - start
+            trajectory = self._trajectory(run, done, ended_early)
+        return Simulation(
+            trajectory=trajectory,
+            n_steps=len(trajectory) - 1,
+            wall_time_s=wall,
+            diverged=diverged,
+            stop_reason=stopped,
+        )
+
+    def _step_chunks(
+        self, run: Any, scene: Scene, settings: RunSettings
+    ) -> tuple[int, str | None, StopReason | None]:
+        """Advance chunk by chunk to the window's end, a divergence or the monitor's stop:
+        (steps taken, divergence reason or None, stop reason or None)."""
+        n_steps = n_steps_for(scene, settings.timestep)
+        shape = self._contact_shape(run)
+        monitor = StopMonitor.for_run(
+            scene, settings.stop, settings.timestep, detectors=self.detectors, shape=shape
+        )
+        done = 0
+        while done < n_steps:
+            steps = min(CHUNK_STEPS, n_steps - done)
+            chunk = self._advance(run, done, steps, done + steps == n_steps)
+            done += steps
+            diverged = self._diverged(run) or check_divergence(
+                scene, chunk.state, self.limits, shape
+            )
+            if diverged:
+                return done, diverged, None
+            stopped = monitor.feed(chunk.state, chunk.last_step) if monitor else None
+            if stopped:
+                return done, None, stopped
+        return done, None, None
+
+
+@contextmanager
+def _collector_paused() -> Iterator[None]:
+    """The garbage collector off, as it was on exit: a stepping loop makes many short-lived
+    floats and no cycles, and a collection's rescans would be timed as the engine's cost."""
+    was_enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was_enabled:
+            gc.enable()
 
 
 def equilibrium_depth(

@@ -44,28 +44,18 @@ from __future__ import annotations
 
 import logging
 import math
-import time
 from collections.abc import Iterator
-from contextlib import contextmanager
-from dataclasses import dataclass
+from contextlib import AbstractContextManager, contextmanager, nullcontext
+from dataclasses import dataclass, field
 from types import ModuleType
 from typing import Any
 
 import numpy as np
 
-from hoopbench.engines.base import (
-    CHUNK_STEPS,
-    Engine,
-    Simulation,
-    check_divergence,
-    equilibrium_depth,
-    import_engine,
-    n_steps_for,
-)
+from hoopbench.engines.base import Chunk, Engine, equilibrium_depth, import_engine
 from hoopbench.engines.options import Option, Variant, choice, number, optional
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
-from hoopbench.engines.stopping import StopMonitor
 from hoopbench.models import kinematics
 from hoopbench.models.scene import Scene
 from hoopbench.models.sdformat import MODEL_NAME, check_restitution, scene_to_sdformat
@@ -371,78 +361,69 @@ class DrakeEngine(Engine):
         if model.log is not None:
             model.log.FindMutableLog(model.simulator.get_mutable_context()).Clear()
 
-    # ----------------------------------------------------------------- stepping
-    def _simulate(
-        self, module: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
-    ) -> Simulation:
-        model = self._build(module, scene, settings, options, record=True)
+    # ----------------------------------------------------------------- stepping hooks
+    def _open(
+        self,
+        module: ModuleType,
+        scene: Scene,
+        settings: RunSettings,
+        options: dict[str, Any],
+        *,
+        record: bool,
+    ) -> AbstractContextManager[_Run]:
+        """The diagram, initialized; a bare one has no logger."""
+        model = self._build(module, scene, settings, options, record=record)
         simulator = model.simulator
-        context = simulator.get_context()
-        dt = settings.timestep
-        n_steps = n_steps_for(scene, dt)
-        log = model.log.FindLog(context)
-        chunks = []
-        diverged: str | None = None
-        done = 0  # steps taken whose states are recorded
-        monitor = StopMonitor.for_run(scene, settings.stop, dt, detectors=self.detectors)
-        stopped = None
+        log = model.log.FindLog(simulator.get_context()) if record else None
+        simulator.Initialize()  # the logger's sample at t = 0
+        return nullcontext(_Run(model, scene, settings.timestep, log))
 
-        start = time.perf_counter()
-        simulator.Initialize()
-        while done < n_steps:
-            m = min(CHUNK_STEPS, n_steps - done)
-            # A discrete plant's last force comes from one step more. The logger publishes on
-            # the grid k*dt; stopping half a step past the chunk's last sample keeps a rounded
-            # stop time from leaving that sample out.
-            extra = 1 if model.discrete and done + m == n_steps else 0
-            simulator.AdvanceTo((done + m + extra + 0.5) * dt)
-            chunks.append(np.array(log.data()))  # a copy: data() is a view of the log
-            log.Clear()
-            done += m
-            state = _our_state(scene, chunks[-1])
-            diverged = check_divergence(scene, state, self.limits)
-            if monitor and not diverged:
-                # The logger's samples end at step done + extra (published on k*dt).
-                stopped = monitor.feed(state, done + extra)
-            if diverged or stopped:
-                break
-        wall = time.perf_counter() - start
+    def _advance(self, run: _Run, done: int, steps: int, last: bool) -> Chunk:
+        """Advance to the chunk's last sample and take the logger's samples out."""
+        # A discrete plant's last force comes from one step more. The logger publishes on
+        # the grid k*dt; stopping half a step past the chunk's last sample keeps a rounded
+        # stop time from leaving that sample out.
+        extra = 1 if run.model.discrete and last else 0
+        run.model.simulator.AdvanceTo((done + steps + extra + 0.5) * run.timestep)
+        run.chunks.append(np.array(run.log.data()))  # a copy: data() is a view of the log
+        run.log.Clear()
+        # The logger's samples end at step done + steps + extra (published on k*dt).
+        return Chunk(_our_state(run.scene, run.chunks[-1]), done + steps + extra)
 
-        rows = np.hstack(chunks)
+    def _trajectory(self, run: _Run, done: int, ended_early: bool) -> Trajectory:
+        rows = np.hstack(run.chunks)
         state, force = rows[:6], rows[6:]
-        if model.discrete:
+        if run.model.discrete:
             force = force[:, 1:]  # row i: the force of the step from state i
         n = min(done + 1, state.shape[1], force.shape[1])
-        if not (diverged or stopped) and n != n_steps + 1:
-            raise RuntimeError(f"Drake's logger recorded {n} samples, expected {n_steps + 1}")
+        if not ended_early and n != done + 1:
+            raise RuntimeError(f"Drake's logger recorded {n} samples, expected {done + 1}")
         state, force = state[:, :n], force[:, :n]
         # The planar joint's generalized forces: along world x, along world z, about -y.
-        trajectory = Trajectory.from_state(
-            scene,
-            t=dt * np.arange(n),
-            **_our_state(scene, state),
-            normal_force=force[1] / scene.M,
-            friction_force=force[0] / scene.M,
-        )
-        return Simulation(
-            trajectory=trajectory,
-            n_steps=n - 1,
-            wall_time_s=wall,
-            diverged=diverged,
-            stop_reason=stopped,
+        return Trajectory.from_state(
+            run.scene,
+            t=run.timestep * np.arange(n),
+            **_our_state(run.scene, state),
+            normal_force=force[1] / run.scene.M,
+            friction_force=force[0] / run.scene.M,
         )
 
-    # ----------------------------------------------------------------- benchmark
-    def bare_loop_time(self, scene: Scene, settings: RunSettings | None = None) -> float:
-        """Wall time, s, of ``Simulator.AdvanceTo`` over the run's steps for the same plant,
-        with no loggers, no reading back and no divergence checks: Drake's own cost."""
-        settings = settings or RunSettings()
-        model = self.build(scene, settings, record=False)
-        n_steps = n_steps_for(scene, settings.timestep)
-        start = time.perf_counter()
-        model.simulator.Initialize()
-        model.simulator.AdvanceTo((n_steps + 0.5) * settings.timestep)
-        return time.perf_counter() - start
+    def _step_bare(self, run: _Run, steps: int) -> None:
+        """``Simulator.AdvanceTo`` over the steps, no logger: Drake's own cost."""
+        run.model.simulator.AdvanceTo((steps + 0.5) * run.timestep)
+
+
+@dataclass
+class _Run:
+    """One run's diagram and the logger's samples taken out of it."""
+
+    model: DrakeModel
+    scene: Scene
+    timestep: float
+    log: Any | None
+    """The VectorLog in the simulator's context (None: a bare model)."""
+    chunks: list[np.ndarray] = field(default_factory=list)
+    """The logger's samples per chunk: rows [q; v; generalized contact forces]."""
 
 
 def _our_state(scene: Scene, raw: np.ndarray) -> dict[str, np.ndarray]:

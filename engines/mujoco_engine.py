@@ -50,22 +50,15 @@ The sensor is read at the first RK4 stage: the force at the recorded state.
 
 from __future__ import annotations
 
-import time
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass, field
 from types import ModuleType
 from typing import Any
 
 import numpy as np
 
-from hoopbench.engines.base import (
-    CHUNK_STEPS,
-    Engine,
-    Simulation,
-    check_divergence,
-    equilibrium_depth,
-    n_steps_for,
-)
+from hoopbench.engines.base import Chunk, Engine, equilibrium_depth, n_steps_for
 from hoopbench.engines.options import (
     Option,
     Variant,
@@ -76,8 +69,8 @@ from hoopbench.engines.options import (
 )
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
-from hoopbench.engines.stopping import StopMonitor
 from hoopbench.models import kinematics
+from hoopbench.models.kinematics import Polygon
 from hoopbench.models.mjcf import (
     CONES,
     INTEGRATORS,
@@ -254,107 +247,116 @@ class MujocoEngine(Engine):
         mujoco.mj_forward(model, data)
         return model, data
 
-    # ----------------------------------------------------------------- stepping
-    def _simulate(
-        self, module: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
-    ) -> Simulation:
+    # ----------------------------------------------------------------- stepping hooks
+    @contextmanager
+    def _open(
+        self,
+        module: ModuleType,
+        scene: Scene,
+        settings: RunSettings,
+        options: dict[str, Any],
+        *,
+        record: bool,
+    ) -> Iterator[_Run]:
         mujoco = module
+        model, data = self._build(mujoco, scene, settings, options)
+        shape = contact_shape(scene, settings.geometry, options)
+        run = _Run(mujoco, scene, settings.timestep, model, data, shape)
+        if not record:
+            yield run
+            return
         from mujoco import rollout
 
-        model, data = self._build(mujoco, scene, settings, options)
-        dt = settings.timestep
-        n_steps = n_steps_for(scene, dt)
-        spec = mujoco.mjtState.mjSTATE_FULLPHYSICS.value
-        nstate = mujoco.mj_stateSize(model, spec)
-        nsens = model.nsensordata
-        qpos_at = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_TIME.value)
-        qvel_at = qpos_at + model.nq
+        with _captured_warnings(mujoco) as run.warnings, rollout.Rollout(nthread=0) as run.runner:
+            run.allocate(n_steps_for(scene, settings.timestep))
+            yield run
 
-        # Row i of ``states`` is the state at t_i; row i of ``sensors`` is the force at t_i.
-        # One extra step gives the force at t_end.
-        states = np.empty((1, n_steps + 2, nstate))
-        sensors = np.empty((1, n_steps + 1, nsens))
-        mujoco.mj_getState(model, data, states[0, 0], spec)
-        warmstart = np.array(data.qacc_warmstart).reshape(1, model.nv)
-        out = {k: np.empty(n_steps + 1) for k in ("X", "Y", "theta", "Xdot", "Ydot", "thetadot")}
-        diverged: str | None = None
-        done = 0  # states 0..done are recorded
-        shape = contact_shape(scene, settings.geometry, options)
-        monitor = StopMonitor.for_run(
-            scene, settings.stop, dt, detectors=self.detectors, shape=shape
+    def _advance(self, run: _Run, done: int, steps: int, last: bool) -> Chunk:
+        """Roll out ``steps`` steps in C; the last chunk takes one more for the last force."""
+        mujoco, scene = run.mujoco, run.scene
+        extra = 1 if last else 0
+        run.runner.rollout(
+            [run.model],
+            [run.data],
+            run.states[:, done],
+            initial_warmstart=run.warmstart,
+            nstep=steps + extra,
+            state=run.states[:, done + 1 : done + 1 + steps + extra],
+            sensordata=run.sensors[:, done : done + steps + extra],
+            skip_checks=True,
         )
-        stopped = None
+        run.warmstart[0] = run.data.qacc_warmstart
+        rows = slice(done, done + steps + 1)
+        qpos_at = mujoco.mj_stateSize(run.model, mujoco.mjtState.mjSTATE_TIME.value)
+        qvel_at = qpos_at + run.model.nq
+        q = run.states[0, rows, qpos_at : qpos_at + 3]
+        v = run.states[0, rows, qvel_at : qvel_at + 3]
+        # The slide z joint is the hoop centre's height above its resting height.
+        com = kinematics.com_state(scene, q[:, 0], scene.a + q[:, 1], q[:, 2], *v.T)
+        for key, values in com.items():
+            run.com[key][rows] = values
+        return Chunk(com, done + steps)
 
-        start = time.perf_counter()
-        with _captured_warnings(mujoco) as warnings, rollout.Rollout(nthread=0) as runner:
-            while done < n_steps:
-                k = min(CHUNK_STEPS, n_steps - done)
-                extra = 1 if done + k == n_steps else 0  # the step that gives the last force
-                runner.rollout(
-                    [model],
-                    [data],
-                    states[:, done],
-                    initial_warmstart=warmstart,
-                    nstep=k + extra,
-                    state=states[:, done + 1 : done + 1 + k + extra],
-                    sensordata=sensors[:, done : done + k + extra],
-                    skip_checks=True,
-                )
-                warmstart[0] = data.qacc_warmstart
-                rows = slice(done, done + k + 1)
-                q = states[0, rows, qpos_at : qpos_at + 3]
-                v = states[0, rows, qvel_at : qvel_at + 3]
-                # The slide z joint is the hoop centre's height above its resting height.
-                com = kinematics.com_state(scene, q[:, 0], scene.a + q[:, 1], q[:, 2], *v.T)
-                for key, values in com.items():
-                    out[key][rows] = values
-                diverged = _warning_reason(mujoco, data, warnings) or check_divergence(
-                    scene, com, self.limits, shape
-                )
-                if monitor and not diverged:
-                    stopped = monitor.feed(com, done + k)
-                done += k
-                if diverged or stopped:
-                    break
-        wall = time.perf_counter() - start
+    def _diverged(self, run: _Run) -> str | None:
+        return _warning_reason(run.mujoco, run.data, run.warnings)
 
+    def _contact_shape(self, run: _Run) -> Polygon | None:
+        return run.shape
+
+    def _trajectory(self, run: _Run, done: int, ended_early: bool) -> Trajectory:
         # A run stopped early has no force for its last state: drop that state.
-        n = done + 1 if not (diverged or stopped) else done
+        n = done if ended_early else done + 1
         # Sensor layout: found, then the force (x, y, z) on the hoop in the world frame.
-        fx = sensors[0, :n, 1] / scene.M
-        fz = sensors[0, :n, 3] / scene.M
-        trajectory = Trajectory.from_state(
-            scene,
-            t=np.arange(n) * dt,
-            **{key: val[:n] for key, val in out.items()},
+        fx = run.sensors[0, :n, 1] / run.scene.M
+        fz = run.sensors[0, :n, 3] / run.scene.M
+        return Trajectory.from_state(
+            run.scene,
+            t=np.arange(n) * run.timestep,
+            **{key: val[:n] for key, val in run.com.items()},
             normal_force=fz,
             friction_force=fx,
             # The ring is a polygon: clearance and slip are read at its lowest point.
-            shape=shape,
-        )
-        return Simulation(
-            trajectory=trajectory,
-            n_steps=n - 1,
-            wall_time_s=wall,
-            diverged=diverged,
-            stop_reason=stopped,
+            shape=run.shape,
         )
 
-    # ----------------------------------------------------------------- benchmark
-    def bare_loop_time(self, scene: Scene, settings: RunSettings | None = None) -> float:
-        """Wall time, s, of ``mj_step`` called in C for the same model and number of steps.
+    def _step_bare(self, run: _Run, steps: int) -> None:
+        """``mj_step`` in C: no sensors read, nothing recorded."""
+        run.mujoco.mj_step(run.model, run.data, nstep=steps)
 
-        No recording, no sensors read, no divergence checks: the engine's own cost, to set
-        against a run's ``wall_time_s``.
-        """
-        settings = settings or RunSettings()
-        options = self.check(scene, settings)
-        mujoco = self._import()
-        model, data = self._build(mujoco, scene, settings, options)
-        n_steps = n_steps_for(scene, settings.timestep)
-        start = time.perf_counter()
-        mujoco.mj_step(model, data, nstep=n_steps)
-        return time.perf_counter() - start
+
+@dataclass
+class _Run:
+    """One run's model and data at the initial state; when it records, its rollout, the
+    warnings MuJoCo gave, and its buffers (``allocate``)."""
+
+    mujoco: ModuleType
+    scene: Scene
+    timestep: float
+    model: Any
+    data: Any
+    shape: Polygon | None
+    """The contact shape (the ring's polygon; None: a circle)."""
+    runner: Any = None
+    warnings: list[str] = field(default_factory=list)
+    states: np.ndarray = field(init=False)
+    sensors: np.ndarray = field(init=False)
+    warmstart: np.ndarray = field(init=False)
+    com: dict[str, np.ndarray] = field(init=False)
+
+    def allocate(self, n_steps: int) -> None:
+        """Buffers for a window of ``n_steps`` and the extra step that gives t_end its force.
+        Row i of ``states`` is the full physics state at t_i (row 0 is set here), row i of
+        ``sensors`` the force at t_i (MuJoCo evaluates sensors before a step integrates), and
+        ``com`` holds the centre-of-mass state per row."""
+        mujoco, model, data = self.mujoco, self.model, self.data
+        spec = mujoco.mjtState.mjSTATE_FULLPHYSICS.value
+        self.states = np.empty((1, n_steps + 2, mujoco.mj_stateSize(model, spec)))
+        self.sensors = np.empty((1, n_steps + 1, model.nsensordata))
+        mujoco.mj_getState(model, data, self.states[0, 0], spec)
+        self.warmstart = np.array(data.qacc_warmstart).reshape(1, model.nv)
+        self.com = {
+            k: np.empty(n_steps + 1) for k in ("X", "Y", "theta", "Xdot", "Ydot", "thetadot")
+        }
 
 
 @contextmanager

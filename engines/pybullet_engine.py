@@ -40,23 +40,21 @@ and the result depends on the parity of numSolverIterations.
 
 from __future__ import annotations
 
-import gc
 import tempfile
-import time
 from array import array
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
 from typing import Any
 
 import numpy as np
 
-from hoopbench.engines.base import CHUNK_STEPS, Engine, Simulation, check_divergence, n_steps_for
+from hoopbench.engines.base import Chunk, Engine
 from hoopbench.engines.options import Option, Variant, flag, integer, number, optional
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
-from hoopbench.engines.stopping import StopMonitor
 from hoopbench.models import kinematics
 from hoopbench.models.kinematics import Polygon
 from hoopbench.models.scene import Scene
@@ -172,37 +170,6 @@ class PybulletEngine(Engine):
     def _model_text(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
         return scene_to_urdf(scene, geometry=settings.geometry, mu=self.mu_for(scene, settings))
 
-    def _simulate(
-        self, module: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
-    ) -> Simulation:
-        p = module
-        n_steps = n_steps_for(scene, settings.timestep)
-        with _client(p) as cid, tempfile.TemporaryDirectory(prefix="hoopbench-pb-") as tmp:
-            hoop, floor, shape = self._build(p, cid, Path(tmp), scene, settings, options)
-            return self._step_and_record(p, cid, hoop, floor, scene, settings, n_steps, shape)
-
-    # ----------------------------------------------------------------- public extras
-    def bare_loop_time(self, scene: Scene, settings: RunSettings | None = None) -> float:
-        """Wall time, s, of stepping the same model as ``run`` for the same number of steps,
-        with no recording: the yardstick of the adapter's own overhead."""
-        settings = settings or RunSettings()
-        options = self.check(scene, settings)
-        p = self._import()
-        n_steps = n_steps_for(scene, settings.timestep)
-        with _client(p) as cid, tempfile.TemporaryDirectory(prefix="hoopbench-pb-") as tmp:
-            self._build(p, cid, Path(tmp), scene, settings, options)
-            step = p.stepSimulation
-            gc_was_enabled = gc.isenabled()
-            gc.disable()
-            try:
-                start = time.perf_counter()
-                for _ in range(n_steps):
-                    step(cid)
-                return time.perf_counter() - start
-            finally:
-                if gc_was_enabled:
-                    gc.enable()
-
     # ----------------------------------------------------------------- helpers
     def _build(
         self,
@@ -286,97 +253,109 @@ class PybulletEngine(Engine):
             p.resetJointState(hoop, j, q, v, physicsClientId=cid)
         return hoop, floor, shape
 
-    def _step_and_record(
+    # ----------------------------------------------------------------- stepping hooks
+    @contextmanager
+    def _open(
         self,
-        p: ModuleType,
-        cid: int,
-        hoop: int,
-        floor: int,
+        module: ModuleType,
         scene: Scene,
         settings: RunSettings,
-        n_steps: int,
-        shape: Polygon | None = None,
-    ) -> Simulation:
-        """Step n_steps times and record every state (``shape``: the contact polygon).
+        options: dict[str, Any],
+        *,
+        record: bool,
+    ) -> Iterator[_Run]:
+        p = module
+        with _client(p) as cid, tempfile.TemporaryDirectory(prefix="hoopbench-pb-") as tmp:
+            hoop, floor, shape = self._build(p, cid, Path(tmp), scene, settings, options)
+            run = _Run(p, cid, hoop, floor, shape, scene, settings.timestep)
+            if record:
+                run.blocks.append(_joint_rows(p, cid, hoop)[:, :6])
+            yield run
+
+    def _advance(self, run: _Run, done: int, steps: int, last: bool) -> Chunk:
+        """Step, reading the joints and contact points after each step.
 
         Row i of the trajectory holds the state at t_i and the contact force that the solver
         applies from that state over [t_i, t_i + dt], i.e. the force that takes the velocity
-        from row i to row i + 1. So row 0 gets the first step's force, and one extra step
-        (not recorded as a state) gives the last row's.
+        from row i to row i + 1: a step's force goes with the state before it (``_trajectory``).
         """
+        p, cid, hoop, floor, link = run.p, run.cid, run.hoop, run.floor, _HOOP_LINK
         joints = list(range(len(JOINT_NAMES)))
-        step = p.stepSimulation
-        joint_states = p.getJointStates
-        contacts = p.getContactPoints
-        link = _HOOP_LINK
-        (qx, vx, _, _), (qz, vz, _, _), (qt, vt, _, _) = joint_states(hoop, joints, cid)
-        first = np.array([[qx, qz, qt, vx, vz, vt]])
-        blocks: list[np.ndarray] = []
-        diverged: str | None = None
-        done = 0
-        wall = 0.0
-        monitor = StopMonitor.for_run(
-            scene, settings.stop, settings.timestep, detectors=self.detectors, shape=shape
-        )
-        stopped = None
-        gc_was_enabled = gc.isenabled()
-        try:
-            # The collector would rescan every float the loop makes; nothing here is cyclic.
-            gc.disable()
-            while done < n_steps and diverged is None and stopped is None:
-                todo = min(CHUNK_STEPS, n_steps - done)
-                start = time.perf_counter()
-                # Plain doubles in an array: keeping PyBullet's nested tuples costs more than
-                # unpacking them at once (measured: 1.33x the bare loop against 1.5x).
-                buf = array("d")
-                record = buf.extend
-                for _ in range(todo):
-                    step(cid)
-                    (qx, vx, _, _), (qz, vz, _, _), (qt, vt, _, _) = joint_states(hoop, joints, cid)
-                    normal = friction = 0.0
-                    for point in contacts(hoop, floor, link, -1, cid):
-                        normal += point[9]
-                        friction -= point[10] * point[11][0] + point[12] * point[13][0]
-                    record((qx, qz, qt, vx, vz, vt, normal, friction))
-                block = np.frombuffer(buf).reshape(-1, _ROW)
-                wall += time.perf_counter() - start
-                blocks.append(block)
-                done += todo
-                state = _com_state(scene, block)
-                diverged = check_divergence(scene, state, self.limits, shape)
-                if monitor and not diverged:
-                    stopped = monitor.feed(state, done)
-            start = time.perf_counter()
+        step, joint_states, contacts = p.stepSimulation, p.getJointStates, p.getContactPoints
+        # Plain doubles in an array: keeping PyBullet's nested tuples costs more than
+        # unpacking them at once (measured: 1.33x the bare loop against 1.5x).
+        buf = array("d")
+        record = buf.extend
+        for _ in range(steps):
             step(cid)
-            normal = friction = 0.0
-            for point in contacts(hoop, floor, link, -1, cid):
-                normal += point[9]
-                friction -= point[10] * point[11][0] + point[12] * point[13][0]
-            wall += time.perf_counter() - start
-        finally:
-            if gc_was_enabled:
-                gc.enable()
+            (qx, vx, _, _), (qz, vz, _, _), (qt, vt, _, _) = joint_states(hoop, joints, cid)
+            record((qx, qz, qt, vx, vz, vt, *_contact_force(contacts(hoop, floor, link, -1, cid))))
+        block = np.frombuffer(buf).reshape(-1, _ROW)
+        run.blocks.append(block)
+        return Chunk(_com_state(run.scene, block), done + steps)
 
-        rows = np.concatenate(blocks) if blocks else np.empty((0, _ROW))
-        state = _com_state(scene, np.concatenate([first, rows[:, :6]]))
-        force = np.concatenate([rows[:, 6:], [[normal, friction]]]) / scene.M
-        t = np.arange(len(force)) * settings.timestep
-        trajectory = Trajectory.from_state(
-            scene,
-            t=t,
+    def _contact_shape(self, run: _Run) -> Polygon | None:
+        return run.shape
+
+    def _finish(self, run: _Run, ended_early: bool) -> None:
+        """One more step, not recorded as a state, gives the last row its force."""
+        run.p.stepSimulation(run.cid)
+        points = run.p.getContactPoints(run.hoop, run.floor, _HOOP_LINK, -1, run.cid)
+        run.last_force = _contact_force(points)
+
+    def _trajectory(self, run: _Run, done: int, ended_early: bool) -> Trajectory:
+        first, rows = run.blocks[0], np.concatenate(run.blocks[1:] or [np.empty((0, _ROW))])
+        state = _com_state(run.scene, np.concatenate([first, rows[:, :6]]))
+        force = np.concatenate([rows[:, 6:], [run.last_force]]) / run.scene.M
+        return Trajectory.from_state(
+            run.scene,
+            t=np.arange(len(force)) * run.timestep,
             **state,
             normal_force=force[:, 0],
             friction_force=force[:, 1],
             contact=force[:, 0] > 0.0,
-            shape=shape,
+            shape=run.shape,
         )
-        return Simulation(
-            trajectory=trajectory,
-            n_steps=done,
-            wall_time_s=wall,
-            diverged=diverged,
-            stop_reason=stopped,
-        )
+
+    def _step_bare(self, run: _Run, steps: int) -> None:
+        step, cid = run.p.stepSimulation, run.cid
+        for _ in range(steps):
+            step(cid)
+
+
+@dataclass
+class _Run:
+    """One run's client, bodies and contact shape, and what it recorded."""
+
+    p: ModuleType
+    cid: int
+    hoop: int
+    floor: int
+    shape: Polygon | None
+    """The contact polygon (the hull); None for a circle."""
+    scene: Scene
+    timestep: float
+    blocks: list[np.ndarray] = field(default_factory=list)
+    """The initial joint state (6 columns), then a block of _ROW columns per chunk."""
+    last_force: tuple[float, float] = (0.0, 0.0)
+    """Normal and friction force, N, of the step after the last state (``_finish``)."""
+
+
+def _joint_rows(p: ModuleType, cid: int, hoop: int) -> np.ndarray:
+    """The joints' state as one row: x, z, theta, then their rates."""
+    joints = list(range(len(JOINT_NAMES)))
+    (qx, vx, _, _), (qz, vz, _, _), (qt, vt, _, _) = p.getJointStates(hoop, joints, cid)
+    return np.array([[qx, qz, qt, vx, vz, vt]])
+
+
+def _contact_force(points: Any) -> tuple[float, float]:
+    """(normal, friction along x) on the hoop, N, summed over ``getContactPoints``' points: the
+    friction forces reported are the floor's, so the hoop gets minus their x components."""
+    normal = friction = 0.0
+    for point in points:
+        normal += point[9]
+        friction -= point[10] * point[11][0] + point[12] * point[13][0]
+    return normal, friction
 
 
 def _hull_polygon(p: ModuleType, cid: int, hoop: int, floor: int, scene: Scene) -> Polygon:

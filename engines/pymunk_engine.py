@@ -29,18 +29,18 @@ Known behaviour of the engine (measured, see the report of tests/test_pymunk.py)
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
+from contextlib import AbstractContextManager, nullcontext
+from dataclasses import dataclass
 from types import ModuleType
 from typing import Any
 
 import numpy as np
 
-from hoopbench.engines.base import CHUNK_STEPS, Engine, Simulation, check_divergence, n_steps_for
+from hoopbench.engines.base import Chunk, Engine
 from hoopbench.engines.options import Option, Variant, integer, number, optional
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
-from hoopbench.engines.stopping import StopMonitor
 from hoopbench.models import kinematics
 from hoopbench.models.pymunk_space import PymunkSpec, build_space, scene_to_pymunk
 from hoopbench.models.scene import Scene
@@ -147,47 +147,47 @@ class PymunkEngine(Engine):
             collision_bias=options["collision_bias"],
         )
 
-    # ----------------------------------------------------------------- running
-    def _simulate(
-        self, module: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
-    ) -> Simulation:
+    # ----------------------------------------------------------------- stepping hooks
+    def _open(
+        self,
+        module: ModuleType,
+        scene: Scene,
+        settings: RunSettings,
+        options: dict[str, Any],
+        *,
+        record: bool,
+    ) -> AbstractContextManager[_Run]:
         space, body, _hoop = self._build(scene, settings, options)
-        dt = settings.timestep
-        n_total = n_steps_for(scene, dt)
-        body_id = body.id
-        gy = float(space.gravity.y)
-
         buffer = module.batch.Buffer()
-        record = _body_recorder(module, space, buffer)
-        step = space.step
         p, v = body.position, body.velocity
-        rows = [np.array([[p.x, p.y, body.angle, v.x, v.y, body.angular_velocity]])]
-        diverged = None
-        done = 0
-        monitor = StopMonitor.for_run(scene, settings.stop, dt, detectors=self.detectors)
-        stopped = None
+        run = _Run(
+            scene=scene,
+            timestep=settings.timestep,
+            space=space,
+            body_id=body.id,
+            buffer=buffer,
+            record=_body_recorder(module, space, buffer),
+            rows=[np.array([[p.x, p.y, body.angle, v.x, v.y, body.angular_velocity]])],
+        )
+        return nullcontext(run)
 
-        start = time.perf_counter()
-        while done < n_total:
-            m = min(CHUNK_STEPS, n_total - done)
-            for _ in range(m):
-                step(dt)
-                record()
-            ids = np.frombuffer(buffer.int_buf(), dtype=np.uintp)
-            floats = np.frombuffer(buffer.float_buf(), dtype=float).reshape(-1, _N_FIELDS)
-            chunk = floats[ids == body_id]  # boolean indexing copies out of the buffer
-            buffer.clear()
-            rows.append(chunk)
-            done += m
-            state = _our_state(scene, chunk)
-            diverged = check_divergence(scene, state, self.limits)
-            if monitor and not diverged:
-                stopped = monitor.feed(state, done)
-            if diverged or stopped:
-                break
-        wall = time.perf_counter() - start
+    def _advance(self, run: _Run, done: int, steps: int, last: bool) -> Chunk:
+        """Step and record each step into the batch buffer; decode the chunk once."""
+        step, record, dt = run.space.step, run.record, run.timestep
+        for _ in range(steps):
+            step(dt)
+            record()
+        ids = np.frombuffer(run.buffer.int_buf(), dtype=np.uintp)
+        floats = np.frombuffer(run.buffer.float_buf(), dtype=float).reshape(-1, _N_FIELDS)
+        chunk = floats[ids == run.body_id]  # boolean indexing copies out of the buffer
+        run.buffer.clear()
+        run.rows.append(chunk)
+        return Chunk(_our_state(run.scene, chunk), done + steps)
 
-        raw = np.vstack(rows)
+    def _trajectory(self, run: _Run, done: int, ended_early: bool) -> Trajectory:
+        """Every recorded row, with the finite-difference force of the module doc."""
+        raw = np.vstack(run.rows)
+        dt, gy = run.timestep, float(run.space.gravity.y)
         vx, vy = raw[:, 3], raw[:, 4]
         f = np.empty(len(raw))
         n = np.empty(len(raw))
@@ -195,33 +195,35 @@ class PymunkEngine(Engine):
         f[1:] = (vx[1:] - (vx[:-1] + 0.0 * dt)) / dt
         n[1:] = (vy[1:] - (vy[:-1] + gy * dt)) / dt
         f[0], n[0] = f[1], n[1]
-        trajectory = Trajectory.from_state(
-            scene,
+        return Trajectory.from_state(
+            run.scene,
             t=dt * np.arange(len(raw)),
-            **_our_state(scene, raw),
+            **_our_state(run.scene, raw),
             normal_force=n,
             friction_force=f,
             contact=n > 0,
         )
-        return Simulation(
-            trajectory=trajectory,
-            n_steps=len(raw) - 1,
-            wall_time_s=wall,
-            diverged=diverged,
-            stop_reason=stopped,
-        )
 
-    def bare_loop_time(self, scene: Scene, settings: RunSettings | None = None) -> float:
-        """Wall time, s, of stepping the model of :meth:`run` as often, recording nothing."""
-        settings = settings or RunSettings()
-        space, _body, _hoop = self.build(scene, settings)
-        dt = settings.timestep
-        step = space.step
-        n_total = n_steps_for(scene, dt)
-        start = time.perf_counter()
-        for _ in range(n_total):
+    def _step_bare(self, run: _Run, steps: int) -> None:
+        step, dt = run.space.step, run.timestep
+        for _ in range(steps):
             step(dt)
-        return time.perf_counter() - start
+
+
+@dataclass
+class _Run:
+    """One run's space and what it recorded."""
+
+    scene: Scene
+    timestep: float
+    space: Any
+    body_id: int
+    buffer: Any
+    """pymunk.batch.Buffer that ``record`` appends every body's state to."""
+    record: Callable[[], None]
+    rows: list[np.ndarray]
+    """Recorded rows (x, y, angle, vx, vy, angular velocity): the initial one, then a block
+    per chunk."""
 
 
 def _our_state(scene: Scene, raw: np.ndarray) -> dict[str, np.ndarray]:

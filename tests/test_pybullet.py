@@ -333,10 +333,10 @@ def test_client_closed_after_error(monkeypatch):
 
 
 def test_divergence_stops_and_keeps_the_partial_trajectory(monkeypatch):
-    import hoopbench.engines.pybullet_engine as adapter
+    import hoopbench.engines.base as base
 
     ids = _spy_connect(monkeypatch)
-    monkeypatch.setattr(adapter, "check_divergence", lambda *args: "made up for the test")
+    monkeypatch.setattr(base, "check_divergence", lambda *args: "made up for the test")
     result = PybulletEngine().run(seed_mu(t_end=1.0))
     assert result.info.status is RunStatus.DIVERGED
     assert result.info.message == "made up for the test"
