@@ -52,9 +52,11 @@ __all__ = [
     "EngineUnavailableError",
     "Simulation",
     "check_divergence",
+    "check_steps",
     "equilibrium_depth",
     "import_engine",
     "n_steps_for",
+    "steps_in",
 ]
 
 CHUNK_STEPS = 1000
@@ -475,19 +477,33 @@ def equilibrium_depth(
 
 def n_steps_for(scene: Scene, timestep: float) -> int:
     """Steps a run takes: the whole steps that fit in [0, scene.t_end] (never past it)."""
-    return math.floor(scene.t_end / timestep * (1.0 + 1e-12))
+    return steps_in(scene.t_end, timestep)
+
+
+def steps_in(t_end: float, timestep: float) -> int:
+    """The whole steps of ``timestep`` (s) that fit in [0, t_end] (s); the guard keeps a
+    window that is a whole number of steps from losing its last one to round-off."""
+    return math.floor(t_end / timestep * (1.0 + 1e-12))
 
 
 def check_window(scene: Scene, settings: RunSettings) -> None:
     """ValueError for a timestep longer than the window or a run over settings.max_steps."""
-    dt = settings.timestep
-    if dt > scene.t_end:
-        raise ValueError(f"timestep {dt:g} s is longer than the window t_end = {scene.t_end:g} s")
-    n_steps = n_steps_for(scene, dt)
-    if n_steps > settings.max_steps:
+    check_steps(scene.t_end, settings.timestep, settings.max_steps)
+
+
+def check_steps(t_end: float, timestep: float, max_steps: int) -> int:
+    """The steps of a run over [0, t_end] (s) at ``timestep`` (s): the one check of a run's
+    window, for a run and for a sweep's settings before any run starts. ValueError for a
+    timestep longer than the window or a run over ``max_steps``."""
+    dt = timestep
+    if dt > t_end:
+        raise ValueError(f"timestep {dt:g} s is longer than the window t_end = {t_end:g} s")
+    n_steps = steps_in(t_end, dt)
+    if n_steps > max_steps:
         gigabytes = n_steps * BYTES_PER_STEP / 1e9
         raise ValueError(
-            f"the run needs {n_steps:.3g} steps (t_end {scene.t_end:g} s / timestep {dt:g} s, "
-            f"about {gigabytes:.3g} GB), over max_steps = {settings.max_steps:.3g}: "
+            f"the run needs {n_steps:.3g} steps (t_end {t_end:g} s / timestep {dt:g} s, "
+            f"about {gigabytes:.3g} GB), over max_steps = {max_steps:.3g}: "
             "shorten t_end, raise the timestep, or raise max_steps"
         )
+    return n_steps

@@ -133,7 +133,7 @@ BAD_SPECS = [
     (dict(t_end=0), "t_end must be a number > 0 s, got 0"),
     (dict(timestep=0), "timestep must be a number > 0 s, got 0"),
     (dict(timestep=5.0), "timestep 5 s is longer than the window t_end = 3 s"),
-    (dict(timestep=1e-9), "needs 3e+09 steps per run"),
+    (dict(timestep=1e-9), "the run needs 3e+09 steps"),
     (dict(engines=("nope",)), "unknown engine 'nope' for a map"),
     (dict(engines=("reference",)), "unknown engine 'reference' for a map"),
     (dict(engines="pymunk"), "engines must be a list of engine names, got 'pymunk'"),

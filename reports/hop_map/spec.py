@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from hoopbench.engines.base import MAX_STEPS
+from hoopbench.engines.base import MAX_STEPS, check_steps
 from hoopbench.engines.options import Profile, check_profile
 from hoopbench.engines.registry import engine_class, engine_names
 from hoopbench.engines.run import REFERENCE_ENGINE
@@ -246,16 +246,7 @@ class MapSpec:
     def _check_timestep(self) -> None:
         dt = check_real("timestep", self.timestep, low=0.0, low_open=True, unit="s")
         object.__setattr__(self, "timestep", dt)
-        if dt > self.t_end:
-            raise ValueError(
-                f"timestep {dt:g} s is longer than the window t_end = {self.t_end:g} s"
-            )
-        steps = self.t_end / dt
-        if steps > MAX_STEPS:
-            raise ValueError(
-                f"timestep {dt:g} s needs {steps:.3g} steps per run over t_end = {self.t_end:g} s,"
-                f" over max_steps = {MAX_STEPS:.3g}"
-            )
+        check_steps(self.t_end, dt, MAX_STEPS)  # the runs' own window check, before any run
 
     def _checked_engines(self) -> tuple[str, ...]:
         if isinstance(self.engines, str):
