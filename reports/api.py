@@ -399,7 +399,8 @@ def compare(
     executor: Executor | None = None,
 ) -> pd.DataFrame:
     """Run a suite (a .toml file or a shipped suite's name) into the folder ``out``, or
-    finish it there (``resume=True``), and return its runs table: one row per run.
+    finish it there (``resume=True``), and return its runs table: one row per run, in the
+    suite's order.
 
     As ``hoopbench compare``: ``jobs`` worker processes (default 2), ``run_timeout`` s per
     run, only some ``engines`` of the suite, ``trajectories`` stored for none, the default
@@ -409,7 +410,15 @@ def compare(
     job = suite_job(suite, run_timeout=run_timeout, engines=engines, trajectories=trajectories)
     summary = run_suite(job, out, jobs=jobs, resume=resume, quiet=quiet, executor=executor)
     _raise_if_interrupted(summary)
-    return suite_runs.runs_frame(out)
+    return _in_suite_order(suite_runs.runs_frame(out), job.suite)
+
+
+def _in_suite_order(frame: pd.DataFrame, suite: Suite) -> pd.DataFrame:
+    """Rows are stored as runs finish; a table reads best in the suite's own order (rows of
+    runs the suite no longer has, from an earlier session in the folder, last)."""
+    rank = {task.run_id: k for k, task in enumerate(suite.tasks())}
+    order = frame["run_id"].map(lambda run_id: rank.get(run_id, len(rank)))
+    return frame.iloc[order.argsort(kind="stable")].reset_index(drop=True)
 
 
 def _raise_if_interrupted(summary: RunSummary) -> None:

@@ -135,6 +135,7 @@ def test_run_rows_are_the_rows_a_suite_stores(tmp_path):
         hb.run("pymunk", "hop-top", timestep=1e-3),
         hb.run("pymunk", "hop-top", timestep=1e-3, options={"iterations": 20}, variant="it20"),
     ]
+    assert list(stored.index) == [run.row["run_id"] for run in runs]  # in the suite's order
     for run in runs:
         row = stored.loc[run.row["run_id"]]
         for key, value in run.row.items():
@@ -168,6 +169,15 @@ def test_bad_compare_options_raise_before_anything_runs(tmp_path, kwargs, messag
     with pytest.raises(ValueError, match=_literal(message)):
         hb.compare(kwargs.pop("suite"), out, **kwargs)
     assert not out.exists()
+
+
+def test_the_runs_table_is_in_the_suite_order(tmp_path):
+    suite = tmp_path / "tiny.toml"
+    suite.write_text(TINY_SUITE)
+    ids = [task.run_id for task in api.suite_job(suite).suite.tasks()]
+    stored = pd.DataFrame({"run_id": ["elsewhere", *reversed(ids)]})  # as the runs finished
+    ordered = api._in_suite_order(stored, api.suite_job(suite).suite)
+    assert list(ordered["run_id"]) == [*ids, "elsewhere"]
 
 
 def test_compare_refuses_a_folder_that_holds_files(tmp_path):
