@@ -16,6 +16,7 @@ anything runs; a sweep's folder that cannot be used raises RunnerError (a Runtim
 from __future__ import annotations
 
 import math
+import numbers
 import os
 from collections.abc import Mapping, Sequence
 from concurrent.futures import Executor
@@ -139,8 +140,8 @@ def check_grid(value: str | Sequence[int]) -> tuple[int, int]:
             grid = None
     else:
         pair = tuple(value) if isinstance(value, Sequence) else ()
-        ints = len(pair) == 2 and all(isinstance(n, int) and not isinstance(n, bool) for n in pair)
-        grid = pair if ints else None  # type: ignore[assignment]
+        whole = [isinstance(n, numbers.Integral) and not isinstance(n, bool) for n in pair]
+        grid = (int(pair[0]), int(pair[1])) if len(pair) == 2 and all(whole) else None
     if grid is None or min(grid) < 1:
         raise ValueError(f"must be NXxNY, whole numbers >= 1, got {value!r}")
     return grid
@@ -232,7 +233,7 @@ def exact(
 
 
 # --------------------------------------------------------------------------- one run
-@dataclass(frozen=True, repr=False)
+@dataclass(frozen=True, repr=False, eq=False)  # eq: a DataFrame has no truth value
 class EngineRun:
     """One engine run judged against the exact solution: what a suite stores, and more.
 

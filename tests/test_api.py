@@ -10,6 +10,7 @@ import subprocess
 import sys
 import textwrap
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -196,6 +197,7 @@ def test_map_spec_on_resume_takes_the_stored_map(tmp_path):
     moved = api.map_spec(tmp_path, resume=True, y="chi")
     assert (moved.y, moved.y_range, moved.fixed_values["mu"]) == ("chi", (0.05, 2.0), 0.8)
     assert api.map_spec(tmp_path, grid=(4, 2)) == MapSpec(nx=4, ny=2)  # a new map: no stored one
+    assert api.check_grid((np.int64(3), 2)) == (3, 2) == api.check_grid("3X2")
 
 
 @pytest.mark.parametrize(
