@@ -3,9 +3,17 @@
 The engine modules of this package (``*_engine.py``) are found and imported on first use.
 Importing one is cheap: an engine's own library is imported only when a run uses it.
 
-Engines from elsewhere: the environment variable ``HOOPBENCH_ENGINE_MODULES`` lists more
-modules to import at discovery (comma-separated, importable names), each registering its
-engines. Every process reads it, suite workers included, so an engine of your own (or the
+Engines from elsewhere, in two ways, both loaded at discovery (the registry's first use):
+
+* plugins: an installed distribution declares its engine in the entry-point group
+  ``hoopbench.engines`` (``tiny = "tiny_hoop.engine:TinyEngine"``; an entry point may also
+  name a module that registers its engines itself), as pytest and Gymnasium plugins do. A
+  plugin that cannot load stops discovery with one line naming it and its distribution;
+  ``HOOPBENCH_DISABLE_PLUGINS=1`` skips them all;
+* the environment variable ``HOOPBENCH_ENGINE_MODULES`` lists more modules to import
+  (comma-separated, importable names), each registering its engines.
+
+Every process discovers them, suite workers included, so an engine of your own (or the
 tests' engines that crash, hang or return NaN) runs in ``hoopbench compare`` too.
 """
 
@@ -14,7 +22,8 @@ from __future__ import annotations
 import os
 import pkgutil
 from importlib import import_module
-from types import MappingProxyType
+from importlib.metadata import EntryPoint, entry_points
+from types import MappingProxyType, ModuleType
 from typing import TypeVar
 
 from hoopbench.engines.base import Engine
@@ -29,9 +38,16 @@ __all__ = [
 ]
 
 ENGINE_MODULES_VARIABLE = "HOOPBENCH_ENGINE_MODULES"
+PLUGIN_GROUP = "hoopbench.engines"
+"""The entry-point group of engine plugins."""
+DISABLE_PLUGINS_VARIABLE = "HOOPBENCH_DISABLE_PLUGINS"
+"""Set (to anything but empty or 0): no plugin is loaded, e.g. to get past a broken one."""
 
 _ENGINES: dict[str, type[Engine]] = {}
 _discovered = False
+_discovery_error: str | None = None
+"""Why discovery failed: raised again by every later use, so that a broken plugin is never
+dropped silently after its first error."""
 
 E = TypeVar("E", bound=type[Engine])
 
@@ -51,14 +67,25 @@ def unregister(name: str) -> None:
 
 
 def _discover() -> None:
-    global _discovered
-    if _discovered:
-        return
-    _discovered = True
+    global _discovered, _discovery_error
+    if not _discovered:
+        _discovered = True
+        try:
+            _load_engines()
+        except ValueError as exc:
+            _discovery_error = str(exc)
+    if _discovery_error is not None:
+        raise ValueError(_discovery_error)
+
+
+def _load_engines() -> None:
     package = import_module("hoopbench.engines")
     for module in pkgutil.iter_modules(package.__path__):
         if module.name.endswith("_engine"):
             import_module(f"hoopbench.engines.{module.name}")
+    if os.environ.get(DISABLE_PLUGINS_VARIABLE, "") in ("", "0"):
+        for entry in entry_points(group=PLUGIN_GROUP):
+            _load_plugin(entry)
     for name in os.environ.get(ENGINE_MODULES_VARIABLE, "").split(","):
         if name.strip():
             try:
@@ -68,6 +95,32 @@ def _discover() -> None:
                     f"{ENGINE_MODULES_VARIABLE}: cannot import engine module {name.strip()!r}: "
                     f"{exc}"
                 ) from None
+
+
+def _load_plugin(entry: EntryPoint) -> None:
+    """Load one entry point: an Engine class (registered here) or a module that registers
+    its engines on import. ValueError: one line naming the plugin, whatever went wrong."""
+    dist = entry.dist.name if entry.dist is not None else "an unknown distribution"
+    where = f"engine plugin {entry.name!r} ({entry.value}) of {dist}"
+    try:
+        loaded = entry.load()
+    except Exception as exc:  # a plugin's import may raise anything: name it, in one line
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+        raise ValueError(
+            f"{where} cannot be loaded: {type(exc).__name__}: {first} "
+            f"(uninstall it, or set {DISABLE_PLUGINS_VARIABLE}=1)"
+        ) from None
+    if isinstance(loaded, type) and issubclass(loaded, Engine):
+        if getattr(loaded, "name", None) != entry.name:
+            raise ValueError(
+                f"{where}: its class is named {getattr(loaded, 'name', None)!r}, not {entry.name!r}"
+            )
+        try:
+            register(loaded)
+        except ValueError as exc:  # another engine, built in or a plugin, has its name
+            raise ValueError(f"{where}: {exc}") from None
+    elif not isinstance(loaded, ModuleType):
+        raise ValueError(f"{where} is neither an Engine class nor a module")
 
 
 def engine_classes() -> MappingProxyType[str, type[Engine]]:

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import sys
 from collections.abc import Sequence
@@ -42,18 +41,24 @@ class _Parser(argparse.ArgumentParser):
 
 
 # --------------------------------------------------------------------------- scenes
-_SCENE_FIELDS = {
-    # option -> (Scene field, converter)
-    "lam": ("lam", float),
-    "eps": ("eps", float),
-    "mus": ("mus", float),
-    "muk": ("muk", float),
-    "g": ("g", float),
-    "a": ("a", float),
-    "M": ("M", float),
-    "t_end": ("t_end", float),
-    "xdot0": ("xdot0", float),
-}
+_SCENE_OPTIONS = (
+    # hoopbench.reports.api.scene's keywords, each an option here (--theta0-deg, --t-end)
+    "lam",
+    "eps",
+    "chi",
+    "thetadot0",
+    "theta0_deg",
+    "mus",
+    "muk",
+    "g",
+    "a",
+    "M",
+    "t_end",
+    "xdot0",
+)
+
+_OPTION_TEXT = {"name": "--scene NAME"}
+"""The API's keywords whose option is not --keyword (api.OptionError names them so)."""
 
 
 def _add_scene_options(parser: argparse.ArgumentParser) -> None:
@@ -77,62 +82,34 @@ def _add_scene_options(parser: argparse.ArgumentParser) -> None:
 
 
 def _scene_from_args(args: argparse.Namespace) -> Scene:
-    """The scene: a catalogue scene with explicit parameters over it, or parameters alone.
+    """The scene: a catalogue scene with explicit parameters over it, or parameters alone
+    (hoopbench.reports.api.scene: the spin is set last, from the final a and g)."""
+    import hoopbench.reports.api as api
 
-    The spin is set last, from the final a and g: --chi goes through Scene.from_chi, and a
-    catalogue scene whose a or g is changed keeps its chi (a dimensionless scene), unless
-    --thetadot0 gives the spin in rad/s.
-    """
-    changes: dict[str, Any] = {
-        field: getattr(args, option)
-        for option, (field, _) in _SCENE_FIELDS.items()
-        if getattr(args, option) is not None
-    }
-    if args.theta0_deg is not None:
-        changes["theta0"] = math.radians(args.theta0_deg)
-    if args.scene is not None:
-        base = get_scene(args.scene)
-        fields = {**base.to_dict(), "why": base.why, **changes}
-        fields.pop("chi")
-        thetadot0 = fields.pop("thetadot0")
-        if args.thetadot0 is not None:
-            return Scene(thetadot0=args.thetadot0, **fields)
-        if args.chi is None and not {"a", "g"} & set(changes):
-            return Scene(thetadot0=thetadot0, **fields)  # the catalogue's spin, unrounded
-        chi = base.chi if args.chi is None else args.chi
-        return Scene.from_chi(chi, **fields)
-    missing = [name for name in ("lam", "mus") if name not in changes]
-    if args.chi is None and args.thetadot0 is None:
-        missing.append("chi or thetadot0")
-    if missing:
-        raise UsageError(
-            f"give --scene NAME or the scene parameters; missing: {', '.join(missing)}"
-        )
-    changes.setdefault("muk", changes["mus"])
-    if args.chi is not None:
-        return Scene.from_chi(args.chi, **changes)
-    return Scene(thetadot0=args.thetadot0, **changes)
+    return api.scene(args.scene, **{key: getattr(args, key) for key in _SCENE_OPTIONS})
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
-    return value
+def _argument(check_name: str) -> Any:
+    """An argparse type: the API's check of that name, its message as argparse shows it
+    ('argument --jobs: must be >= 1, got 0')."""
+
+    def convert(text: str) -> Any:
+        import hoopbench.reports.api as api
+
+        try:
+            return getattr(api, check_name)(text)
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+
+    convert.__name__ = check_name.removeprefix("check_")  # argparse's fallback message
+    return convert
 
 
-def _workers(text: str) -> int:
-    """1 up to the machine's cores: more processes than cores only slow a sweep down."""
-    value = _positive_int(text)
-    cores = os.cpu_count() or 1
-    if value > cores:
-        raise argparse.ArgumentTypeError(
-            f"must be at most {cores} (this machine's cores), got {value}"
-        )
-    return value
+_positive_int = _argument("check_positive_int")
+_workers = _argument("check_workers")
+"""1 up to the machine's cores: more processes than cores only slow a sweep down."""
+_grid = _argument("check_grid")
+"""'40x40' -> (40, 40)."""
 
 
 def _output_file(path: str, suffixes: Sequence[str], force: bool) -> Path:
@@ -352,17 +329,16 @@ def _engine_declaration(cls: Any) -> dict[str, Any]:
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
-    from hoopbench.reports.compare.suite import compare
-    from hoopbench.reports.compare.suite_file import builtin_suite, load_suite
+    import hoopbench.reports.api as api
     from hoopbench.reports.sweep.cluster import executor_from_args
     from hoopbench.reports.sweep.runner import RunnerError
 
-    path = Path(args.suite)
-    if not path.suffix and not path.exists():
-        path = builtin_suite(args.suite)  # a shipped suite by name
-    suite = load_suite(path)  # the whole file is checked before anything runs
-    if args.run_timeout is not None and not (args.run_timeout > 0):
-        raise UsageError(f"--run-timeout must be > 0 s, got {args.run_timeout}")
+    job = api.suite_job(  # the whole suite and every option checked before anything runs
+        args.suite,
+        run_timeout=args.run_timeout,
+        engines=args.engines,
+        trajectories=args.trajectories,
+    )
     if args.scheduler and args.trajectories != "none" and not args.quiet:
         print(
             "hoopbench: note: the Dask workers write the trajectories into --out as they see "
@@ -371,16 +347,12 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         )
     try:
         with executor_from_args(args) as executor:
-            summary = compare(
-                path,
+            summary = api.run_suite(
+                job,
                 args.out,
                 jobs=args.jobs,
                 resume=args.resume,
-                run_timeout_s=args.run_timeout,
-                engines=args.engines,
                 quiet=args.quiet,
-                trajectories=args.trajectories,
-                suite=suite,
                 executor=executor,
             )
     except RunnerError as exc:
@@ -404,20 +376,9 @@ def _say_how_the_sweep_ended(summary: RunSummary, out: str, resume: str, quiet: 
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from hoopbench.reports.report.build import build_report
+    import hoopbench.reports.api as api
 
-    for folder in args.results:
-        if not (Path(folder) / "runs").is_dir():
-            raise UsageError(
-                f"--results {folder!r} holds no results (no runs/ folder): "
-                "run hoopbench compare first"
-            )
-    out = Path(args.out) if args.out else Path(args.results[0])
-    if out.exists() and not out.is_dir():
-        raise UsageError(f"--out {str(out)!r} is a file, not a folder")
-    if (out / "report.md").exists() and not args.force:
-        raise UsageError(f"{str(out / 'report.md')!r} exists; pass --force to replace it")
-    print(build_report([Path(f) for f in args.results], out))
+    print(api.report(args.results, args.out, force=args.force))
     return 0
 
 
@@ -450,60 +411,31 @@ def _cmd_figure(args: argparse.Namespace) -> int:
 
 
 # --------------------------------------------------------------------------- map
-def _grid(text: str) -> tuple[int, int]:
-    """'40x40' -> (40, 40)."""
-    nx, sep, ny = text.lower().partition("x")
-    try:
-        grid = (int(nx), int(ny)) if sep else None
-    except ValueError:
-        grid = None
-    if grid is None or min(grid) < 1:
-        raise argparse.ArgumentTypeError(f"must be NXxNY, whole numbers >= 1, got {text!r}")
-    return grid
-
-
 def _map_spec(args: argparse.Namespace) -> Any:
     """The map's spec from the options; on --resume, options not given come from the map
-    stored in --out (run_map refuses a spec that differs from it)."""
-    from hoopbench.reports.hop_map.spec import MAP_FILE, Axis, MapSpec, load_spec
+    stored in --out (hoopbench.reports.api.map_spec)."""
+    import hoopbench.reports.api as api
+    from hoopbench.reports.hop_map.spec import Axis
 
-    given: dict[str, Any] = {
-        key: value
-        for key, value in (
-            ("x", args.x),
-            ("y", args.y),
-            ("x_range", None if args.x_range is None else tuple(args.x_range)),
-            ("y_range", None if args.y_range is None else tuple(args.y_range)),
-            ("t_end", args.t_end),
-            ("engines", None if args.engines is None else tuple(args.engines)),
-            ("timestep", args.dt),
-            ("profile", args.profile),
-        )
-        if value is not None
-    }
-    if args.grid is not None:
-        given["nx"], given["ny"] = args.grid
     fixed = {str(a): getattr(args, str(a)) for a in Axis if getattr(args, str(a)) is not None}
-    stored_file = Path(args.out) / MAP_FILE
-    if not (args.resume and stored_file.is_file()):
-        return MapSpec(**given, fixed=fixed)
-    try:
-        base = load_spec(args.out).to_dict()
-    except ValueError as exc:
-        raise UsageError(f"--resume: {stored_file}: {exc}") from None
-    base.pop("format_version")
-    stored_fixed = base.pop("fixed")
-    merged = {**base, **given}
-    for axis, range_key in (("x", "x_range"), ("y", "y_range")):
-        if merged[axis] != base[axis] and range_key not in given:
-            merged[range_key] = None  # another parameter: its own default range
-    axes = (merged["x"], merged["y"])
-    old_fixed = {name: value for name, value in stored_fixed.items() if name not in axes}
-    return MapSpec(**merged, fixed={**old_fixed, **fixed})
+    return api.map_spec(
+        args.out,
+        resume=args.resume,
+        x=args.x,
+        y=args.y,
+        x_range=args.x_range,
+        y_range=args.y_range,
+        grid=args.grid,
+        fixed=fixed,
+        t_end=args.t_end,
+        engines=args.engines,
+        timestep=args.dt,
+        profile=args.profile,
+    )
 
 
 def _cmd_map(args: argparse.Namespace) -> int:
-    from hoopbench.reports.hop_map.stages import run_map
+    import hoopbench.reports.api as api
     from hoopbench.reports.report.map_section import write_map_outputs
     from hoopbench.reports.sweep.cluster import executor_from_args
     from hoopbench.reports.sweep.runner import RunnerError
@@ -511,7 +443,7 @@ def _cmd_map(args: argparse.Namespace) -> int:
     spec = _map_spec(args)  # every value is checked before anything runs
     try:
         with executor_from_args(args) as executor:
-            summary = run_map(
+            summary = api.run_hop_map(
                 spec,
                 args.out,
                 jobs=args.jobs,
@@ -607,9 +539,7 @@ def _add_map_options(p: argparse.ArgumentParser) -> None:
         "--profile", choices=[str(x) for x in Profile], help="engine option values (default tuned)"
     )
     p.add_argument("--out", required=True, help="map folder (new or empty, or --resume)")
-    p.add_argument(
-        "--jobs", type=_workers, default=min(2, os.cpu_count() or 1), help="worker processes"
-    )
+    p.add_argument("--jobs", type=_workers, help="worker processes (default 2, at most the cores)")
     p.add_argument(
         "--resume",
         action="store_true",
@@ -670,9 +600,7 @@ def _parser() -> _Parser:
         help=f"suite file (.toml), or a shipped one: {', '.join(shipped_suites())}",
     )
     p.add_argument("--out", required=True, help="results folder (new or empty, or --resume)")
-    p.add_argument(
-        "--jobs", type=_workers, default=min(2, os.cpu_count() or 1), help="worker processes"
-    )
+    p.add_argument("--jobs", type=_workers, help="worker processes (default 2, at most the cores)")
     p.add_argument("--resume", action="store_true", help="skip runs already stored")
     p.add_argument(
         "--run-timeout",
@@ -739,8 +667,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         if isinstance(exc, DegenerateSceneError):
             print(f"hoopbench: degenerate scene: {exc}", file=sys.stderr)
         else:
-            print(f"hoopbench: error: {exc}", file=sys.stderr)
+            print(f"hoopbench: error: {_message(exc)}", file=sys.stderr)
         return EXIT_USAGE
+
+
+def _message(exc: Exception) -> str:
+    """The error's line; an API option's name spelled as this command's option."""
+    api = sys.modules.get("hoopbench.reports.api")  # not loaded: the error is not the API's
+    if api is None or not isinstance(exc, api.OptionError):
+        return str(exc)
+    return exc.spelled(_OPTION_TEXT.get(exc.option, "--" + exc.option.replace("_", "-")))
 
 
 if __name__ == "__main__":

@@ -225,3 +225,41 @@ def test_settings_lists_every_engine_default(capsys):
     defaults = json.loads(json.dumps(engine_class("mujoco").defaults()))  # tuples as lists
     assert out["engines"]["mujoco"]["options"] == defaults
     assert out["detectors"]["slip_threshold"] == 1e-3
+
+
+def _broken_map(tmp_path):
+    (tmp_path / "map.toml").write_text("x = [")
+    return ["map", "--out", str(tmp_path), "--resume"]
+
+
+def _report_there(tmp_path):
+    (tmp_path / "runs").mkdir()
+    (tmp_path / "report.md").write_text("")
+    return ["report", "--results", str(tmp_path)]
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (
+            lambda tmp: ["reference", "--lam", "0.9"],
+            "give --scene NAME or the scene parameters; missing: mus, chi or thetadot0",
+        ),
+        (
+            lambda tmp: ["compare", "--suite", "quick", "--out", str(tmp), "--run-timeout", "0"],
+            "--run-timeout must be > 0 s, got 0.0",
+        ),
+        (_broken_map, "--resume: {tmp}/map.toml: map.toml is not valid TOML"),
+        (_report_there, "'{tmp}/report.md' exists; pass --force to replace it"),
+        (
+            lambda tmp: ["map", "--out", str(tmp), "--grid", "0x3"],
+            "argument --grid: must be NXxNY, whole numbers >= 1, got '0x3'",
+        ),
+    ],
+)
+def test_api_checks_name_the_command_options(capsys, tmp_path, argv, message):
+    """The command line shares the API's checks (reports/api.py) and names its own options."""
+    assert main(argv(tmp_path)) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("hoopbench: error: " + message.format(tmp=tmp_path)), err
+    assert len(err.strip().splitlines()) == 1

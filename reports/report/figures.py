@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping
 from pathlib import Path
 
 import matplotlib
 
-matplotlib.use("Agg")  # files only; no display is assumed
+# Files only, no display assumed: Agg, unless a backend is chosen (Jupyter chooses its inline
+# one, and switching away from it would end a notebook's figures).
+matplotlib.use(os.environ.get("MPLBACKEND") or "Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 

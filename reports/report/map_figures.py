@@ -16,12 +16,15 @@ in log) is drawn on a log scale with geometric midpoints.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
 import matplotlib
 
-matplotlib.use("Agg")  # files only; no display is assumed
+# Files only, no display assumed: Agg, unless a backend is chosen (Jupyter chooses its inline
+# one, and switching away from it would end a notebook's figures).
+matplotlib.use(os.environ.get("MPLBACKEND") or "Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd

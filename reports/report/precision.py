@@ -8,6 +8,7 @@ against itself, drawn at the bottom of the axis.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -106,7 +107,7 @@ def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
     """One panel per (metric, scene): error against wall time, families and the front."""
     import matplotlib
 
-    matplotlib.use("Agg")
+    matplotlib.use(os.environ.get("MPLBACKEND") or "Agg")  # as at the top of figures.py
     import matplotlib.pyplot as plt
     from matplotlib.ticker import NullFormatter
 

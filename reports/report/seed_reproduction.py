@@ -8,6 +8,7 @@ tables and the figure that show it; the report prints them (a few tenths of a se
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -90,7 +91,7 @@ def delta_figure(out: str | Path) -> Path:
     """Hop height against delta (log axes): the scheme's, the seed's prints, the exact none."""
     import matplotlib
 
-    matplotlib.use("Agg")
+    matplotlib.use(os.environ.get("MPLBACKEND") or "Agg")  # as at the top of figures.py
     import matplotlib.pyplot as plt
 
     heights = [solve_seed_euler(seed_scene(), dt=0.002, delta=d).events.hop_height for d in DELTAS]

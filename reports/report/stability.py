@@ -6,6 +6,7 @@ limits are stated here once; the report's table and heat map read them from this
 
 from __future__ import annotations
 
+import os
 from enum import StrEnum
 from pathlib import Path
 
@@ -121,7 +122,7 @@ def stability_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
     """A heat map of the matrix (rows scene x engine, columns timestep), coloured by class."""
     import matplotlib
 
-    matplotlib.use("Agg")
+    matplotlib.use(os.environ.get("MPLBACKEND") or "Agg")  # as at the top of figures.py
     import matplotlib.pyplot as plt
     from matplotlib.colors import ListedColormap
     from matplotlib.patches import Patch
