@@ -1,20 +1,7 @@
-"""The hop map (issue 11): the exact regime and every engine's verdict over a grid of scenes.
+"""The hop map's runs: the exact regime and every engine's verdict over a grid of scenes.
 
-A :class:`MapSpec` names two of the scene's parameters (:class:`Axis`) as the map's axes, their
-ranges and grid, the fixed values of the other three, the window, the engines, their timestep
-and profile. It is stored as ``DIR/map.toml`` so that a resumed map and the report can rebuild
-it (and a resume with a different spec is refused).
-
-__all__ = [
-    "EXACT_CARRIED",
-    "MAP_COLUMNS",
-    "MapTask",
-    "map_failure_row",
-    "reference_tasks",
-    "run_map",
-    "run_map_task",
-]
-
+The spec (:class:`hoopbench.reports.hop_map.spec.MapSpec`, stored as ``DIR/map.toml``) gives
+the points, engines and settings.
 
 :func:`run_map` runs the map in two stages through the same runner as ``compare``
 (:func:`hoopbench.reports.sweep.runner.run_tasks`: isolated workers, time limits, resume), both into
@@ -27,8 +14,7 @@ the one runs dataset ``DIR/runs/``:
    reference's last event, when nothing new can happen. Its row has the event, error and
    verdict columns that ``compare`` gives (the same functions build them).
 
-:func:`map_frame` reads the latest row of every run (columns :data:`MAP_COLUMNS`) and
-:func:`agreement_table` counts, per engine and regime, how often the engine agrees.
+Its table (columns :data:`MAP_COLUMNS`) is read by :mod:`hoopbench.reports.hop_map.table`.
 """
 
 from __future__ import annotations
@@ -75,6 +61,17 @@ from hoopbench.reports.sweep.runner import (
     refuse_in_a_starting_worker,
     run_tasks,
 )
+
+__all__ = [
+    "EXACT_CARRIED",
+    "MAP_COLUMNS",
+    "MapTask",
+    "map_failure_row",
+    "reference_tasks",
+    "run_map",
+    "run_map_task",
+]
+
 
 # --------------------------------------------------------------------------- points, tasks
 EXACT_CARRIED = (
