@@ -9,7 +9,7 @@ ifndef OUT
 OUT := reports/output/$(shell date +%Y%m%d-%H%M%S)
 endif
 PACKAGE_FILES := $(sort $(wildcard about/*.py models/*.py reference/*.py engines/*.py \
-	reports/*.py reports/*.toml reports/compare/suites/*.toml))
+	engines/*/*.py reports/*.py reports/*/*.py reports/*/*.toml reports/compare/suites/*.toml))
 
 .PHONY: test report findings lint format clean bench FORCE
 
