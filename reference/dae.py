@@ -245,7 +245,7 @@ def _solve_mode(
         sol = np.linalg.solve(A, np.concatenate([rhs, np.zeros(2)]))
         return sol[:3], -sol[4] / scene.M, -sol[3] / scene.M
     # Slip: one row (y = a); friction follows the multiplier, so its column joins the normal's.
-    muk_sigma = scene.muk * sigma
+    muk_sigma = scene.muk * _slip_sigma(sigma)
     A = np.zeros((4, 4))
     A[:3, :3] = Mq
     A[:3, 3] = _E_N - muk_sigma * e_t
@@ -268,6 +268,11 @@ def _compliance(scene: Scene, z: NDArray, sigma: int) -> float:
 
 def _slip_velocity(scene: Scene, z: NDArray) -> float:
     return float(z[3] - scene.a * z[5])
+
+
+def _slip_sigma(sigma: int | None) -> int:
+    assert sigma is not None  # every slip has a direction; None belongs to the other modes
+    return sigma
 
 
 # --------------------------------------------------------------------------- phases
@@ -352,7 +357,7 @@ def _run(
             # The only singularity of these equations is the slip KKT matrix going singular:
             # the normal force grows like 1/w and the steps shrink toward that instant.
             z_last = np.asarray(stepper.y, dtype=float)
-            if kind == _SLIP and _compliance(scene, z_last, sigma) < 1e-3:
+            if kind == _SLIP and _compliance(scene, z_last, _slip_sigma(sigma)) < 1e-3:
                 return _Segment(kind, t0, stepper.t, sigma, dense), _End(
                     stepper.t, z_last, "painleve"
                 )

@@ -22,6 +22,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import Enum
+from typing import Protocol, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -158,7 +159,7 @@ class _StepBudget:
     def exhausted(self) -> bool:
         return self.used >= self.max_steps
 
-    def event(self) -> Callable:
+    def event(self) -> _EventFunction:
         """A terminal event for one phase that fires at the step where the budget runs out.
 
         solve_ivp evaluates each event once per accepted step (and once at the start), so the
@@ -288,10 +289,20 @@ FLIGHT_MAX_SAMPLES = 20_000_000
 
 
 # --------------------------------------------------------------------------- phases
-def _event(fun: Callable, direction: float) -> Callable:
-    fun.terminal = True
-    fun.direction = direction
-    return fun
+class _EventFunction(Protocol):
+    """A solve_ivp event: a function of (t, y) that carries the options solve_ivp reads."""
+
+    terminal: bool
+    direction: float
+
+    def __call__(self, t: float, y: NDArray, /) -> float: ...
+
+
+def _event(fun: Callable[[float, NDArray], float], direction: float) -> _EventFunction:
+    event = cast(_EventFunction, fun)  # the same function, now carrying its options
+    event.terminal = True
+    event.direction = direction
+    return event
 
 
 @dataclass(frozen=True)
@@ -318,7 +329,7 @@ def _integrate(
     y0: list[float],
     t0: float,
     t_end: float,
-    events: list[Callable],
+    events: list[_EventFunction],
     opts: _Options,
     atol_kinds: str,
     budget: _StepBudget,
@@ -335,7 +346,7 @@ def _integrate(
     def scaled_rhs(s, y):
         return [unit * v for v in rhs(s * unit, y)]
 
-    def scaled_event(event: Callable) -> Callable:
+    def scaled_event(event: _EventFunction) -> _EventFunction:
         return _event(lambda s, y: event(s * unit, y), event.direction)
 
     # solve_ivp looks for event sign changes only at step ends; the step cap keeps an event
@@ -440,7 +451,7 @@ def _roll_phase(
 
 def _slip_events(
     scene: Scene, sigma: int, slip_arm: float
-) -> tuple[list[EventReason], list[Callable]]:
+) -> tuple[list[EventReason], list[_EventFunction]]:
     """The slip phase's events and why each ends it, in the order that breaks ties."""
 
     def directed_slip(y) -> float:

@@ -186,16 +186,15 @@ class SeedEulerResult:
                 ]
             )
             contact[after] = not flying
-        X, Y, th, Xd, Yd, w = states
         return Trajectory.from_state(
             self.scene,
             t=t,
-            X=X,
-            Y=Y,
-            theta=th,
-            Xdot=Xd,
-            Ydot=Yd,
-            thetadot=w,
+            X=states[0],
+            Y=states[1],
+            theta=states[2],
+            Xdot=states[3],
+            Ydot=states[4],
+            thetadot=states[5],
             normal_force=n,
             friction_force=f,
             contact=contact,
