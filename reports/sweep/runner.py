@@ -324,7 +324,8 @@ class WorkerPool(Executor):
 
     def _start_worker(self) -> None:
         conn, child_conn = self._ctx.Pipe(duplex=True)
-        process = self._ctx.Process(
+        # Every context has Process; typeshed declares it on the concrete contexts only.
+        process = self._ctx.Process(  # type: ignore[attr-defined]
             target=_worker_main,
             args=(child_conn, self._lifeline_r, self._lifeline_w, self._preload),
             name="hoopbench-worker",
@@ -713,12 +714,12 @@ class _Sweep:
             kind = type(value).__name__
             return self.failed_row(task, RunStatus.ERROR, f"worker returned {kind}, not a row")
         row = dict(value)
+        found: Any = row.get("status")  # whatever the worker put there: checked here
         try:
-            row["status"] = RunStatus(row.get("status"))
+            row["status"] = RunStatus(found)
         except ValueError:
-            found = row.get("status")
-            message = f"worker row has no valid status ({found!r}); {row.get('message') or ''}"
-            row["status"], row["message"] = RunStatus.ERROR, message.rstrip("; ")
+            text = f"worker row has no valid status ({found!r}); {row.get('message') or ''}"
+            row["status"], row["message"] = RunStatus.ERROR, text.rstrip("; ")
         message = row.get("message")
         row["message"] = "" if message is None else str(message)
         return row
