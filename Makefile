@@ -1,4 +1,5 @@
-# Two entry points: `make report` and `make test`. Both build .venv on first use.
+# Two entry points: `make report` and `make test` (lint: ruff and mypy; then pytest). Both
+# build .venv on first use.
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
 BIN := $(VENV)/bin
@@ -26,9 +27,7 @@ $(STAMP): pyproject.toml $(FILES)
 	$(BIN)/python -m pip install --quiet -e ".[test]" --config-settings editable_mode=strict
 	touch $(STAMP)
 
-test: $(STAMP)
-	$(BIN)/ruff check .
-	$(BIN)/ruff format --check .
+test: lint
 	$(BIN)/python -m pytest
 
 report: $(STAMP)
@@ -46,9 +45,14 @@ findings: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python -m hoopbench.reports.bench.overhead
 
+# mypy checks the package as installed, `hoopbench.*`: from the editable install's tree of
+# links (build/__editable__.*/), which the installed package itself points to, so that the
+# repository's folders (about/, models/, ...) are never taken for top-level packages.
 lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
+	cd "$$($(BIN)/python -c 'import hoopbench, os; print(os.path.dirname(hoopbench.__path__[0]))')" \
+		&& $(CURDIR)/$(BIN)/mypy --config-file $(CURDIR)/pyproject.toml -p hoopbench
 
 format: $(STAMP)
 	$(BIN)/ruff format .

@@ -131,13 +131,13 @@ def rolling_start(
     X, Y, theta, Xdot, Ydot, thetadot = scene.initial_state()
     x, y = centre_position(scene, X, Y, theta)
     xdot, ydot = centre_velocity(scene, Xdot, Ydot, theta, thetadot)
-    if shape is not None:
-        slip = float(xdot) - scene.a * thetadot
-        depth = float(contact_depth(scene, theta, shape))
-        y = depth
-        xdot = slip + depth * thetadot
-        ydot = float(contact_offset(scene, theta, shape)) * thetadot
-    return float(x), float(y), theta, float(xdot), float(ydot), thetadot
+    if shape is None:
+        return float(x), float(y), theta, float(xdot), float(ydot), thetadot
+    slip = float(xdot) - scene.a * thetadot
+    depth = float(contact_depth(scene, theta, shape))
+    xdot_on_floor = slip + depth * thetadot
+    ydot_on_floor = float(contact_offset(scene, theta, shape)) * thetadot
+    return float(x), depth, theta, float(xdot_on_floor), float(ydot_on_floor), thetadot
 
 
 def centre_position(

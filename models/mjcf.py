@@ -134,22 +134,22 @@ def contact_shape(scene: Scene, geometry: str, options: Mapping[str, Any]) -> Po
 def _hoop_geoms(body: ET.Element, scene: Scene, geometry: str, opts: Mapping, mu: float) -> list:
     """Collision geoms of the hoop; their names, for the contact pairs."""
     a = scene.a
+    # Attributes as dicts, which ElementTree writes in order: the shape's first, then these.
     common = {"contype": "0", "conaffinity": "0", "friction": _vec(mu, 0, 0), "condim": "3"}
     rgba = "0.3 0.5 0.8 0.35"
     if geometry == "sphere":
-        ET.SubElement(body, "geom", name="hoop", type="sphere", size=_num(a), rgba=rgba, **common)
+        attrib = {"name": "hoop", "type": "sphere", "size": _num(a), "rgba": rgba}
+        ET.SubElement(body, "geom", {**attrib, **common})
         return ["hoop"]
     if geometry == "cylinder":
-        ET.SubElement(
-            body,
-            "geom",
-            name="hoop",
-            type="cylinder",
-            size=_vec(a, CYLINDER_HALF_LENGTH * a),
-            zaxis="0 1 0",
-            rgba=rgba,
-            **common,
-        )
+        attrib = {
+            "name": "hoop",
+            "type": "cylinder",
+            "size": _vec(a, CYLINDER_HALF_LENGTH * a),
+            "zaxis": "0 1 0",
+            "rgba": rgba,
+        }
+        ET.SubElement(body, "geom", {**attrib, **common})
         return ["hoop"]
     # ring: one capsule along each side of the polygon (see _ring).
     ring = _ring(scene, opts["ring_segments"])
@@ -159,16 +159,14 @@ def _hoop_geoms(body: ET.Element, scene: Scene, geometry: str, opts: Mapping, mu
     for i in range(n):
         (u0, w0), (u1, w1) = ring.vertices[i], ring.vertices[(i + 1) % n]
         name = f"hoop_{i:0{width}d}"
-        ET.SubElement(
-            body,
-            "geom",
-            name=name,
-            type="capsule",
-            size=_num(ring.rounding),
-            fromto=_vec(u0, 0, w0, u1, 0, w1),
-            rgba="0.3 0.5 0.8 1",
-            **common,
-        )
+        attrib = {
+            "name": name,
+            "type": "capsule",
+            "size": _num(ring.rounding),
+            "fromto": _vec(u0, 0, w0, u1, 0, w1),
+            "rgba": "0.3 0.5 0.8 1",
+        }
+        ET.SubElement(body, "geom", {**attrib, **common})
         names.append(name)
     return names
 
@@ -206,8 +204,20 @@ def scene_to_mjcf(
     check_restitution(restitution)
     opts = options
 
-    a, M, r, inertia = scene.a, scene.M, scene.com_offset, scene.inertia_com
     root = ET.Element("mujoco", model=f"hoopbench {scene.name}".strip())
+    _add_settings(root, scene, timestep, opts)
+    names = _add_world(root, scene, mu, geometry, opts)
+    _add_contacts(root, names, mu, opts)
+    ET.indent(root, space="  ")
+    return (
+        _header(scene, mu, timestep, restitution, geometry, opts)
+        + ET.tostring(root, encoding="unicode")
+        + "\n"
+    )
+
+
+def _add_settings(root: ET.Element, scene: Scene, timestep: float, opts: Mapping) -> None:
+    """Compiler, solver options, and the look of the viewer."""
     ET.SubElement(root, "compiler", angle="radian", inertiafromgeom="false")
     ET.SubElement(
         root,
@@ -239,6 +249,12 @@ def scene_to_mjcf(
         asset, "material", name="grid", texture="grid", texrepeat="1 1", texuniform="true"
     )
 
+
+def _add_world(
+    root: ET.Element, scene: Scene, mu: float, geometry: str, opts: Mapping
+) -> list[str]:
+    """The floor and the hoop's body; the names of the hoop's collision geoms."""
+    a, M, r, inertia = scene.a, scene.M, scene.com_offset, scene.inertia_com
     world = ET.SubElement(root, "worldbody")
     ET.SubElement(world, "light", pos=_vec(0, -4 * a, 4 * a), dir="0 1 -1", directional="true")
     ET.SubElement(
@@ -276,7 +292,11 @@ def scene_to_mjcf(
         mass="0",
         rgba="0.8 0.2 0.1 1",
     )
+    return names
 
+
+def _add_contacts(root: ET.Element, names: list[str], mu: float, opts: Mapping) -> None:
+    """One contact pair per hoop geom with the floor, and the contact-force sensor."""
     contact = ET.SubElement(root, "contact")
     for name in names:
         ET.SubElement(
@@ -302,10 +322,4 @@ def scene_to_mjcf(
         body2="hoop",
         reduce="netforce",
         data="found force",
-    )
-    ET.indent(root, space="  ")
-    return (
-        _header(scene, mu, timestep, restitution, geometry, opts)
-        + ET.tostring(root, encoding="unicode")
-        + "\n"
     )

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from typing import TypedDict, Unpack
 
 from hoopbench.models.checks import check_finite
 
@@ -29,6 +30,29 @@ class DegenerateSceneError(ValueError):
 def _check_range(name: str, value: float, low: float, high: float, allowed: str) -> None:
     if not (low <= value <= high):
         raise ValueError(f"{name} must be {allowed}, got {value}")
+
+
+class _Settings(TypedDict, total=False):
+    """Scene fields a constructor takes by keyword besides the initial spin (see Scene)."""
+
+    lam: float
+    mus: float
+    muk: float
+    eps: float
+    theta0: float
+    g: float
+    a: float
+    M: float
+    t_end: float
+    xdot0: float | None
+    name: str
+    why: str
+
+
+class _Changes(_Settings, total=False):
+    """Scene fields :meth:`Scene.with_` may change: the settings and the initial spin."""
+
+    thetadot0: float
 
 
 @dataclass(frozen=True)
@@ -71,6 +95,10 @@ class Scene:
             object.__setattr__(self, name, check_finite(name, getattr(self, name)))
         if self.xdot0 is not None:
             object.__setattr__(self, "xdot0", check_finite("xdot0", self.xdot0))
+        self._check_dimensions()
+        self._check_coefficients()
+
+    def _check_dimensions(self) -> None:
         if self.a <= 0:
             raise ValueError(f"a (hoop radius) must be > 0 m, got {self.a}")
         if self.g <= 0:
@@ -79,6 +107,8 @@ class Scene:
             raise ValueError(f"M (total mass) must be > 0 kg, got {self.M}")
         if self.t_end <= 0:
             raise ValueError(f"t_end must be > 0 s, got {self.t_end}")
+
+    def _check_coefficients(self) -> None:
         _check_range("lam", self.lam, 0.0, 1.0, "in [0, 1]")
         if self.eps < 0:
             raise ValueError(f"eps must be >= 0, got {self.eps}")
@@ -91,7 +121,7 @@ class Scene:
 
     # ----------------------------------------------------------------- constructors
     @classmethod
-    def from_chi(cls, chi: float, **kwargs: float | str | None) -> Scene:
+    def from_chi(cls, chi: float, **kwargs: Unpack[_Settings]) -> Scene:
         """A scene whose initial spin is given by chi = a*thetadot0**2/g (>= 0)."""
         chi = check_finite("chi", chi)
         if chi < 0:
@@ -103,7 +133,7 @@ class Scene:
         return cls(thetadot0=math.sqrt(chi * g / a), **kwargs)
 
     @classmethod
-    def from_energy(cls, energy_per_mass: float, **kwargs: float | str | None) -> Scene:
+    def from_energy(cls, energy_per_mass: float, **kwargs: Unpack[_Settings]) -> Scene:
         """A rolling scene whose initial spin gives this energy per unit mass (J/kg).
 
         Raises ValueError when the energy is below the potential energy at theta0: the hoop
@@ -123,7 +153,7 @@ class Scene:
         factor = 0.5 * probe.a**2 * probe.rolling_inertia_factor(probe.theta0)
         return replace(probe, thetadot0=math.sqrt(kinetic / factor))
 
-    def with_(self, **changes: float | str | None) -> Scene:
+    def with_(self, **changes: Unpack[_Changes]) -> Scene:
         """A copy with some fields changed (validated again)."""
         return replace(self, **changes)
 

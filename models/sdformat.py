@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
+from dataclasses import dataclass
 
 from hoopbench.models.checks import check_real
 from hoopbench.models.scene import Scene
@@ -95,25 +96,48 @@ def check_restitution(restitution: float) -> None:
         )
 
 
-def _contact(
-    collision: ET.Element,
-    *,
-    mu: float,
-    stiffness: float | None,
-    dissipation: float | None,
-    relaxation_time: float | None,
-) -> None:
-    """Per-geometry values that Drake's combination rules turn into the pair's own; None
-    leaves a value out (Drake then uses its own estimate, or default)."""
-    props = _sub(collision, "drake:proximity_properties")
-    if stiffness is not None:
-        _sub(props, "drake:point_contact_stiffness", _num(2.0 * stiffness))
-    if dissipation is not None:
-        _sub(props, "drake:hunt_crossley_dissipation", _num(dissipation))
-    if relaxation_time is not None:
-        _sub(props, "drake:relaxation_time", _num(relaxation_time / 2.0))
-    _sub(props, "drake:mu_dynamic", _num(mu))
-    _sub(props, "drake:mu_static", _num(mu))
+@dataclass(frozen=True)
+class _PairContact:
+    """The contact values wanted for the hoop-floor pair; None leaves a value to Drake."""
+
+    mu: float
+    stiffness: float | None
+    """N/m."""
+    dissipation: float | None
+    """Hunt-Crossley, s/m."""
+    relaxation_time: float | None
+    """s, SAP only."""
+
+    @classmethod
+    def checked(
+        cls,
+        mu: float,
+        stiffness: float | None,
+        dissipation: float | None,
+        relaxation_time: float | None,
+    ) -> _PairContact:
+        """The values as floats; ValueError naming a bad one."""
+        mu = check_real("mu", mu, low=0.0)
+        if stiffness is not None:
+            stiffness = check_real("stiffness", stiffness, low=0.0, low_open=True, unit="N/m")
+        if dissipation is not None:
+            dissipation = check_real("dissipation", dissipation, low=0.0, unit="s/m")
+        if relaxation_time is not None:
+            relaxation_time = check_real("relaxation_time", relaxation_time, low=0.0, unit="s")
+        return cls(mu, stiffness, dissipation, relaxation_time)
+
+    def add_to(self, collision: ET.Element) -> None:
+        """Per-geometry values that Drake's combination rules turn into the pair's own; None
+        leaves a value out (Drake then uses its own estimate, or default)."""
+        props = _sub(collision, "drake:proximity_properties")
+        if self.stiffness is not None:
+            _sub(props, "drake:point_contact_stiffness", _num(2.0 * self.stiffness))
+        if self.dissipation is not None:
+            _sub(props, "drake:hunt_crossley_dissipation", _num(self.dissipation))
+        if self.relaxation_time is not None:
+            _sub(props, "drake:relaxation_time", _num(self.relaxation_time / 2.0))
+        _sub(props, "drake:mu_dynamic", _num(self.mu))
+        _sub(props, "drake:mu_static", _num(self.mu))
 
 
 def _inertial(link: ET.Element, mass: float, com: tuple[float, float, float], i: tuple) -> None:
@@ -123,6 +147,53 @@ def _inertial(link: ET.Element, mass: float, com: tuple[float, float, float], i:
     inertia = _sub(inertial, "inertia")
     for name, value in zip(("ixx", "iyy", "izz", "ixy", "ixz", "iyz"), (*i, 0, 0, 0), strict=True):
         _sub(inertia, name, _num(value))
+
+
+def _weld(model: ET.Element, name: str, child: str) -> None:
+    weld = _sub(model, "joint", name=name, type="fixed")
+    _sub(weld, "parent", "world")
+    _sub(weld, "child", child)
+
+
+def _add_floor(model: ET.Element, a: float, contact: _PairContact) -> None:
+    """The floor: a half space welded to the world."""
+    floor = _sub(model, "link", name="floor")
+    collision = _sub(floor, "collision", name=GEOMETRY_NAMES[0])
+    plane = _sub(_sub(collision, "geometry"), "plane")
+    _sub(plane, "normal", "0 0 1")
+    _sub(plane, "size", _vec(_PLANE_SIZE * a, _PLANE_SIZE * a))
+    contact.add_to(collision)
+    visual = _sub(floor, "visual", name="floor")
+    plane = _sub(_sub(visual, "geometry"), "plane")
+    _sub(plane, "normal", "0 0 1")
+    _sub(plane, "size", _vec(_PLANE_SIZE * a, _PLANE_SIZE * a))
+    _weld(model, "floor_weld", "floor")
+    _inertial(floor, 0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))  # SDFormat's default is 1 kg
+
+
+def _add_hoop(model: ET.Element, scene: Scene, contact: _PairContact) -> None:
+    """The massless ``plane`` link, the hoop's link and the planar joint between them."""
+    a, r, inertia = scene.a, scene.com_offset, scene.inertia_com
+    turn = _vec(math.pi / 2, 0, 0)  # link x: world x, link y: world z (up), link z: world -y
+    anchor = _sub(model, "link", name="plane")
+    _sub(anchor, "pose", f"{_vec(0, 0, a)} {turn}")
+    _inertial(anchor, 0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    _weld(model, "plane_weld", "plane")
+
+    hoop = _sub(model, "link", name="hoop")
+    _sub(hoop, "pose", f"{_vec(0, 0, a)} {turn}")
+    _inertial(hoop, scene.M, (0.0, r, 0.0), (inertia, inertia, inertia))
+    collision = _sub(hoop, "collision", name=GEOMETRY_NAMES[1])
+    _sub(_sub(_sub(collision, "geometry"), "sphere"), "radius", _num(a))
+    contact.add_to(collision)
+    visual = _sub(hoop, "visual", name="weight")
+    _sub(visual, "pose", _vec(0, a, 0, 0, 0, 0))
+    _sub(_sub(_sub(visual, "geometry"), "sphere"), "radius", _num(_WEIGHT_RADIUS * a))
+
+    joint = _sub(model, "drake:joint", name=JOINT_NAME, type="planar")
+    _sub(joint, "drake:parent", "plane")
+    _sub(joint, "drake:child", "hoop")
+    _sub(joint, "drake:damping", "0 0 0")
 
 
 def scene_to_sdformat(
@@ -145,62 +216,13 @@ def scene_to_sdformat(
     ``comment`` goes into an XML comment at the top. ValueError for a bad value, restitution
     other than 0, or a scene with I = 0.
     """
-    mu = check_real("mu", mu, low=0.0)
-    if stiffness is not None:
-        stiffness = check_real("stiffness", stiffness, low=0.0, low_open=True, unit="N/m")
-    if dissipation is not None:
-        dissipation = check_real("dissipation", dissipation, low=0.0, unit="s/m")
-    if relaxation_time is not None:
-        relaxation_time = check_real("relaxation_time", relaxation_time, low=0.0, unit="s")
+    contact = _PairContact.checked(mu, stiffness, dissipation, relaxation_time)
     check_restitution(restitution)
     scene.require_inertia("a Drake hoop")
-    a, r, inertia = scene.a, scene.com_offset, scene.inertia_com
-    turn = _vec(math.pi / 2, 0, 0)  # link x: world x, link y: world z (up), link z: world -y
-    contact = dict(
-        mu=mu, stiffness=stiffness, dissipation=dissipation, relaxation_time=relaxation_time
-    )
-
     sdf = ET.Element("sdf", {"version": "1.9", "xmlns:drake": DRAKE_NAMESPACE})
     model = _sub(sdf, "model", name=MODEL_NAME)
-
-    floor = _sub(model, "link", name="floor")
-    collision = _sub(floor, "collision", name=GEOMETRY_NAMES[0])
-    plane = _sub(_sub(collision, "geometry"), "plane")
-    _sub(plane, "normal", "0 0 1")
-    _sub(plane, "size", _vec(_PLANE_SIZE * a, _PLANE_SIZE * a))
-    _contact(collision, **contact)
-    visual = _sub(floor, "visual", name="floor")
-    plane = _sub(_sub(visual, "geometry"), "plane")
-    _sub(plane, "normal", "0 0 1")
-    _sub(plane, "size", _vec(_PLANE_SIZE * a, _PLANE_SIZE * a))
-    weld = _sub(model, "joint", name="floor_weld", type="fixed")
-    _sub(weld, "parent", "world")
-    _sub(weld, "child", "floor")
-
-    _inertial(floor, 0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))  # SDFormat's default is 1 kg
-
-    anchor = _sub(model, "link", name="plane")
-    _sub(anchor, "pose", f"{_vec(0, 0, a)} {turn}")
-    _inertial(anchor, 0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-    weld = _sub(model, "joint", name="plane_weld", type="fixed")
-    _sub(weld, "parent", "world")
-    _sub(weld, "child", "plane")
-
-    hoop = _sub(model, "link", name="hoop")
-    _sub(hoop, "pose", f"{_vec(0, 0, a)} {turn}")
-    _inertial(hoop, scene.M, (0.0, r, 0.0), (inertia, inertia, inertia))
-    collision = _sub(hoop, "collision", name=GEOMETRY_NAMES[1])
-    _sub(_sub(_sub(collision, "geometry"), "sphere"), "radius", _num(a))
-    _contact(collision, **contact)
-    visual = _sub(hoop, "visual", name="weight")
-    _sub(visual, "pose", _vec(0, a, 0, 0, 0, 0))
-    _sub(_sub(_sub(visual, "geometry"), "sphere"), "radius", _num(_WEIGHT_RADIUS * a))
-
-    joint = _sub(model, "drake:joint", name=JOINT_NAME, type="planar")
-    _sub(joint, "drake:parent", "plane")
-    _sub(joint, "drake:child", "hoop")
-    _sub(joint, "drake:damping", "0 0 0")
-
+    _add_floor(model, scene.a, contact)
+    _add_hoop(model, scene, contact)
     ET.indent(sdf)
     text = ET.tostring(sdf, encoding="unicode")
     head = '<?xml version="1.0"?>\n'

@@ -245,7 +245,7 @@ def _solve_mode(
         sol = np.linalg.solve(A, np.concatenate([rhs, np.zeros(2)]))
         return sol[:3], -sol[4] / scene.M, -sol[3] / scene.M
     # Slip: one row (y = a); friction follows the multiplier, so its column joins the normal's.
-    muk_sigma = scene.muk * sigma
+    muk_sigma = scene.muk * _slip_sigma(sigma)
     A = np.zeros((4, 4))
     A[:3, :3] = Mq
     A[:3, 3] = _E_N - muk_sigma * e_t
@@ -268,6 +268,11 @@ def _compliance(scene: Scene, z: NDArray, sigma: int) -> float:
 
 def _slip_velocity(scene: Scene, z: NDArray) -> float:
     return float(z[3] - scene.a * z[5])
+
+
+def _slip_sigma(sigma: int | None) -> int:
+    assert sigma is not None  # every slip has a direction; None belongs to the other modes
+    return sigma
 
 
 # --------------------------------------------------------------------------- phases
@@ -352,7 +357,7 @@ def _run(
             # The only singularity of these equations is the slip KKT matrix going singular:
             # the normal force grows like 1/w and the steps shrink toward that instant.
             z_last = np.asarray(stepper.y, dtype=float)
-            if kind == _SLIP and _compliance(scene, z_last, sigma) < 1e-3:
+            if kind == _SLIP and _compliance(scene, z_last, _slip_sigma(sigma)) < 1e-3:
                 return _Segment(kind, t0, stepper.t, sigma, dense), _End(
                     stepper.t, z_last, "painleve"
                 )
@@ -519,86 +524,136 @@ def solve_dae(scene: Scene, *, rtol: float = 1e-10, atol: float = 1e-12) -> DaeS
     for name, value in (("rtol", rtol), ("atol", atol)):
         if not (value > 0 and math.isfinite(value)):
             raise ValueError(f"{name} must be a positive number, got {value}")
-    t, z = 0.0, _initial_state(scene)
-    segments: list[_Segment] = []
-    phases: list[DaePhase] = []
-    found: dict[str, float] = {}
-    outcome: str | None = None
-    message = ""
+    solve = _DaeSolve(scene, rtol, atol, z=_initial_state(scene))
+    solve.run()
+    return solve.solution()
 
-    mode, sigma = _next_mode(scene, z, allow_roll=True)
-    if mode == _FLIGHT:
-        outcome = "lifts-at-start"
-    while outcome is None or mode == _FLIGHT:
-        if mode == _PAINLEVE:
-            outcome = "painleve"
-            found["t_painleve"] = t
-            message = f"no consistent contact force (Painlevé) at t = {t:.6g} s"
-            break
-        if mode != _FLIGHT and t >= scene.t_end:
-            break
-        if len(phases) > 1000:
-            raise RuntimeError("DAE: more than 1000 phases")
-        if mode == _FLIGHT:
-            seg, t_impact, height = _flight(scene, t, z, rtol, atol)
-            segments.append(seg)
-            phases.append(DaePhase(_FLIGHT, t, t_impact))
-            found.update(t_lift=t, t_impact=t_impact, hop_height=height)
-            outcome = outcome or "hops"
-            break
-        if mode == _SLIP:
-            if "t_slip" not in found:
-                found.update(t_slip=t, theta_slip=float(z[2]), thetadot_slip=float(z[5]))
-            if scene.inertia_com <= 0:
-                outcome = "degenerate"
-                message = f"slip at t = {t:.6g} s needs a positive moment of inertia"
+
+@dataclass
+class _DaeSolve:
+    """One call of :func:`solve_dae`: its contact modes and what it has found so far
+    (mutable: every phase moves it on)."""
+
+    scene: Scene
+    rtol: float
+    atol: float
+    z: NDArray
+    t: float = 0.0
+    mode: str = _ROLL
+    sigma: int | None = None
+    segments: list[_Segment] = field(default_factory=list)
+    phases: list[DaePhase] = field(default_factory=list)
+    found: dict[str, float] = field(default_factory=dict)
+    """The events found so far, by their name in :class:`DaeSolution`."""
+    outcome: str | None = None
+    message: str = ""
+
+    def run(self) -> None:
+        """Phase after phase, until the window ends, the hoop lands or the solve stops."""
+        self.mode, self.sigma = _next_mode(self.scene, self.z, allow_roll=True)
+        if self.mode == _FLIGHT:
+            self.outcome = "lifts-at-start"
+        while self.outcome is None or self.mode == _FLIGHT:
+            if not self._step():
                 break
-            seg, end = _slip(scene, t, z, sigma, scene.t_end, rtol, atol)
-        else:
-            seg, end = _roll(scene, t, z, scene.t_end, rtol, atol)
-        segments.append(seg)
-        phases.append(DaePhase(mode, t, end.t, sigma if mode == _SLIP else None))
-        t, z = end.t, end.z
+
+    def solution(self) -> DaeSolution:
+        outcome = self.outcome
+        if outcome is None:
+            outcome = "slips" if "t_slip" in self.found else "rolls"
+        segments = self.segments
+        if not segments:
+            frozen = self.z.copy()
+            segments = [
+                _Segment(
+                    _ROLL, 0.0, 0.0, None, lambda tt: np.tile(frozen[:, None], (1, np.size(tt)))
+                )
+            ]
+        found = self.found
+        return DaeSolution(
+            scene=self.scene,
+            outcome=outcome,
+            phases=tuple(self.phases),
+            t_slip=found.get("t_slip"),
+            theta_slip=found.get("theta_slip"),
+            thetadot_slip=found.get("thetadot_slip"),
+            t_restick=found.get("t_restick"),
+            t_lift=found.get("t_lift"),
+            t_impact=found.get("t_impact"),
+            hop_height=found.get("hop_height"),
+            t_painleve=found.get("t_painleve"),
+            message=self.message,
+            segments=tuple(segments),
+        )
+
+    def _step(self) -> bool:
+        """The next phase and the mode after it; False once the solve is over."""
+        t = self.t
+        if self.mode == _PAINLEVE:
+            self.outcome = "painleve"
+            self.found["t_painleve"] = t
+            self.message = f"no consistent contact force (Painlevé) at t = {t:.6g} s"
+            return False
+        if self.mode != _FLIGHT and t >= self.scene.t_end:
+            return False
+        if len(self.phases) > 1000:
+            raise RuntimeError("DAE: more than 1000 phases")
+        if self.mode == _FLIGHT:
+            self._fly()
+            return False
+        phase = self._contact_phase()
+        return phase is not None and self._after(*phase)
+
+    def _fly(self) -> None:
+        t = self.t
+        seg, t_impact, height = _flight(self.scene, t, self.z, self.rtol, self.atol)
+        self.segments.append(seg)
+        self.phases.append(DaePhase(_FLIGHT, t, t_impact))
+        self.found.update(t_lift=t, t_impact=t_impact, hop_height=height)
+        self.outcome = self.outcome or "hops"
+
+    def _contact_phase(self) -> tuple[_Segment, _End] | None:
+        """The next roll or slip phase; None (the solve ends) for a slip with no inertia."""
+        scene, t, z = self.scene, self.t, self.z
+        if self.mode != _SLIP:
+            return _roll(scene, t, z, scene.t_end, self.rtol, self.atol)
+        if "t_slip" not in self.found:
+            self.found.update(t_slip=t, theta_slip=float(z[2]), thetadot_slip=float(z[5]))
+        if scene.inertia_com <= 0:
+            self.outcome = "degenerate"
+            self.message = f"slip at t = {t:.6g} s needs a positive moment of inertia"
+            return None
+        return _slip(scene, t, z, self.sigma, scene.t_end, self.rtol, self.atol)
+
+    def _after(self, seg: _Segment, end: _End) -> bool:
+        """Keep a contact phase and choose the mode after it; False once the solve is over."""
+        mode = self.mode
+        self.segments.append(seg)
+        self.phases.append(DaePhase(mode, self.t, end.t, self.sigma if mode == _SLIP else None))
+        self.t, self.z = end.t, end.z
         if end.reason == "end":
-            break
+            return False
         if end.reason in ("slip", "stop"):
             # The contact point is at rest here: remove the rounding left in xdot - a thetadot
             # so that the next mode starts exactly on its constraint.
-            z = z.copy()
-            z[3] = scene.a * z[5]
-        if end.reason == "slip":
-            # Static friction just failed, so rolling is not an option at this instant.
-            mode, sigma = _next_mode(scene, z, allow_roll=False)
-        elif end.reason == "stop":
-            mode, sigma = _next_mode(scene, z, allow_roll=True)
-            if mode == _ROLL:
-                found.setdefault("t_restick", t)
-        elif end.reason == "lift" and phases[-1].kind == _ROLL:
-            mode, sigma = _next_mode(scene, z, allow_roll=False)
-        elif end.reason == "lift":
-            mode, sigma = _FLIGHT, None
-        else:  # painleve
-            mode = _PAINLEVE
+            self.z = self.z.copy()
+            self.z[3] = self.scene.a * self.z[5]
+        self._next(end.reason)
+        return True
 
-    if outcome is None:
-        outcome = "slips" if "t_slip" in found else "rolls"
-    if not segments:
-        frozen = z.copy()
-        segments.append(
-            _Segment(_ROLL, 0.0, 0.0, None, lambda tt: np.tile(frozen[:, None], (1, np.size(tt))))
-        )
-    return DaeSolution(
-        scene=scene,
-        outcome=outcome,
-        phases=tuple(phases),
-        t_slip=found.get("t_slip"),
-        theta_slip=found.get("theta_slip"),
-        thetadot_slip=found.get("thetadot_slip"),
-        t_restick=found.get("t_restick"),
-        t_lift=found.get("t_lift"),
-        t_impact=found.get("t_impact"),
-        hop_height=found.get("hop_height"),
-        t_painleve=found.get("t_painleve"),
-        message=message,
-        segments=tuple(segments),
-    )
+    def _next(self, reason: str) -> None:
+        """The mode after a contact phase that ended on an event."""
+        scene, z = self.scene, self.z
+        if reason == "slip":
+            # Static friction just failed, so rolling is not an option at this instant.
+            self.mode, self.sigma = _next_mode(scene, z, allow_roll=False)
+        elif reason == "stop":
+            self.mode, self.sigma = _next_mode(scene, z, allow_roll=True)
+            if self.mode == _ROLL:
+                self.found.setdefault("t_restick", self.t)
+        elif reason == "lift" and self.phases[-1].kind == _ROLL:
+            self.mode, self.sigma = _next_mode(scene, z, allow_roll=False)
+        elif reason == "lift":
+            self.mode, self.sigma = _FLIGHT, None
+        else:  # painleve
+            self.mode = _PAINLEVE

@@ -22,6 +22,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import Enum
+from typing import Protocol, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -158,7 +159,7 @@ class _StepBudget:
     def exhausted(self) -> bool:
         return self.used >= self.max_steps
 
-    def event(self) -> Callable:
+    def event(self) -> _EventFunction:
         """A terminal event for one phase that fires at the step where the budget runs out.
 
         solve_ivp evaluates each event once per accepted step (and once at the start), so the
@@ -288,10 +289,20 @@ FLIGHT_MAX_SAMPLES = 20_000_000
 
 
 # --------------------------------------------------------------------------- phases
-def _event(fun: Callable, direction: float) -> Callable:
-    fun.terminal = True
-    fun.direction = direction
-    return fun
+class _EventFunction(Protocol):
+    """A solve_ivp event: a function of (t, y) that carries the options solve_ivp reads."""
+
+    terminal: bool
+    direction: float
+
+    def __call__(self, t: float, y: NDArray, /) -> float: ...
+
+
+def _event(fun: Callable[[float, NDArray], float], direction: float) -> _EventFunction:
+    event = cast(_EventFunction, fun)  # the same function, now carrying its options
+    event.terminal = True
+    event.direction = direction
+    return event
 
 
 @dataclass(frozen=True)
@@ -318,7 +329,7 @@ def _integrate(
     y0: list[float],
     t0: float,
     t_end: float,
-    events: list[Callable],
+    events: list[_EventFunction],
     opts: _Options,
     atol_kinds: str,
     budget: _StepBudget,
@@ -335,7 +346,7 @@ def _integrate(
     def scaled_rhs(s, y):
         return [unit * v for v in rhs(s * unit, y)]
 
-    def scaled_event(event: Callable) -> Callable:
+    def scaled_event(event: _EventFunction) -> _EventFunction:
         return _event(lambda s, y: event(s * unit, y), event.direction)
 
     # solve_ivp looks for event sign changes only at step ends; the step cap keeps an event
@@ -363,7 +374,7 @@ def _integrate(
     )
 
 
-def _which_event(sol, names: list[EventReason]) -> EventReason:
+def _which_event(sol: _Solved, names: list[EventReason]) -> EventReason:
     """The event that ended the integration: the earliest one (ties: first in ``names``).
 
     ``names`` lists the physical events; the budget event that :func:`_integrate` appends is
@@ -438,22 +449,10 @@ def _roll_phase(
     return seg, _PhaseEnd(t1, tuple(states(np.array([t1]))[:, 0]), reason)
 
 
-def _slip_phase(
-    scene: Scene,
-    t0: float,
-    state: State,
-    sigma: int,
-    t_end: float,
-    opts: _Options,
-    budget: _StepBudget,
-) -> tuple[Segment, _PhaseEnd]:
-    a, r = scene.a, scene.com_offset
-    slip_arm = SLIP_ARM * opts.units.velocity
-
-    def rhs(t, y):
-        _, theta, Xdot, thetadot = y
-        Xddot, _, thetaddot, _ = dynamics.slip_accelerations(scene, theta, thetadot, sigma)
-        return (Xdot, thetadot, Xddot, thetaddot)
+def _slip_events(
+    scene: Scene, sigma: int, slip_arm: float
+) -> tuple[list[EventReason], list[_EventFunction]]:
+    """The slip phase's events and why each ends it, in the order that breaks ties."""
 
     def directed_slip(y) -> float:
         return sigma * float(kinematics.slip_velocity(scene, y[2], y[1], y[3]))
@@ -486,8 +485,13 @@ def _slip_phase(
     if sigma != 0:
         names[:0] = [EventReason.RESTICK, EventReason.WRONG_WAY]
         events[:0] = [_event(restick, -1), _event(wrong_way, -1)]
-    y0 = [state[0], state[2], state[3], state[5]]
-    sol = _integrate(rhs, y0, t0, t_end, events, opts, "xavw", budget)
+    return names, events
+
+
+def _slip_end(
+    scene: Scene, sol: _Solved, names: list[EventReason], sigma: int, units: _Units
+) -> tuple[EventReason, float]:
+    """Why and when the slip phase ended, correcting what its events alone would say."""
     try:
         reason = _which_event(sol, names)
     except RuntimeError:
@@ -498,12 +502,35 @@ def _slip_phase(
         else:
             raise
     if reason is EventReason.WRONG_WAY:
-        reason, sol_t1 = _restick_inside_first_step(scene, sol, sigma, opts.units)
+        reason, t1 = _restick_inside_first_step(scene, sol, sigma, units)
     else:
-        sol_t1 = float(sol.t[-1])
+        t1 = float(sol.t[-1])
     if reason is EventReason.LIFT and dynamics.slip_denominator(scene, sol.y[1, -1], sigma) < 1e-6:
         # n -> 0 together with D -> 0: the Painlevé point, not a hop
         reason = EventReason.PAINLEVE
+    return reason, t1
+
+
+def _slip_phase(
+    scene: Scene,
+    t0: float,
+    state: State,
+    sigma: int,
+    t_end: float,
+    opts: _Options,
+    budget: _StepBudget,
+) -> tuple[Segment, _PhaseEnd]:
+    a, r = scene.a, scene.com_offset
+
+    def rhs(t, y):
+        _, theta, Xdot, thetadot = y
+        Xddot, _, thetaddot, _ = dynamics.slip_accelerations(scene, theta, thetadot, sigma)
+        return (Xdot, thetadot, Xddot, thetaddot)
+
+    names, events = _slip_events(scene, sigma, SLIP_ARM * opts.units.velocity)
+    y0 = [state[0], state[2], state[3], state[5]]
+    sol = _integrate(rhs, y0, t0, t_end, events, opts, "xavw", budget)
+    reason, t1 = _slip_end(scene, sol, names, sigma, opts.units)
     dense = sol.sol
 
     def states(t):
@@ -517,13 +544,12 @@ def _slip_phase(
         n = dynamics.slip_normal_force(scene, theta, thetadot, sigma)
         return -sigma * scene.muk * n, n
 
-    t1 = sol_t1
     seg = Segment(PhaseKind.SLIP, t0, t1, sigma, states, forces)
     return seg, _PhaseEnd(t1, tuple(states(np.array([t1]))[:, 0]), reason)
 
 
 def _restick_inside_first_step(
-    scene: Scene, sol, sigma: int, units: _Units
+    scene: Scene, sol: _Solved, sigma: int, units: _Units
 ) -> tuple[EventReason, float]:
     """After a "wrong-way" event: did the slip go the right way and come back first?
 
@@ -554,40 +580,29 @@ def _flight_clearance(scene: Scene, state: State, tau: NDArray) -> NDArray:
     return kinematics.clearance(scene, Yt, theta + thetadot * tau)
 
 
-def flight_phase(
-    scene: Scene, t0: float, state: State, *, max_samples: int | None = None
-) -> tuple[Segment, float, float]:
-    """Ballistic phase from a lift-off; returns the segment, the impact time and hop height.
+@dataclass(frozen=True)
+class _FlightGrid:
+    """Times after a lift-off at which a flight's clearance is sampled: node k at (k + 1) h."""
 
-    The clearance is scanned on a grid of 400 points per spin period (or per fall time, if
-    that is shorter) up to the first impact, in chunks, so memory stays bounded; more than
-    ``max_samples`` grid points before the impact (an extreme spin in a long flight; default
-    :data:`FLIGHT_MAX_SAMPLES`) raise :class:`WorkBudgetError`.
+    h: float
+    """s."""
+    n: int
+    """Nodes up to the latest possible impact."""
+
+    def node(self, k: int) -> float:
+        return float(k + 1) * self.h  # grid point k; the scan uses the same values
+
+
+def _scan_for_impact(
+    clear: Callable[[ArrayLike], NDArray], h: float, scanned: int
+) -> tuple[int, int, float]:
+    """The first of ``scanned`` nodes below the floor (-1 if none), the highest node before it
+    (the first one of equal values, as a single argmax would) and its clearance.
+
+    Chunk by chunk, so that memory stays bounded however long the flight.
     """
-    if max_samples is None:
-        max_samples = FLIGHT_MAX_SAMPLES
-    X, Y, theta, Xdot, Ydot, thetadot = state
-    g, a, r = scene.g, scene.a, scene.com_offset
-    units = _Units.of(scene)
-
-    def clear(tau):
-        return _flight_clearance(scene, state, np.asarray(tau, dtype=float))
-
-    # y - a <= Y - a + r: once the centre of mass falls below a - r the hoop is down for sure.
-    disc = Ydot**2 + 2.0 * g * (Y - (a - r))
-    tau_max = (Ydot + math.sqrt(max(disc, 0.0))) / g + 1e-9 * units.time
-    spin_period = 2.0 * math.pi / abs(thetadot) if thetadot != 0 else math.inf
-    h = min(tau_max, spin_period) / 400.0
-    n_grid = math.ceil(tau_max / h) + 1
-
-    def node(k: int) -> float:
-        return float(k + 1) * h  # grid point k; the scan below uses the same values
-
-    # Scan chunk by chunk for the first sample below the floor, keeping the highest sample
-    # before it (the first one of equal values, as a single argmax would).
     i = j = -1
     best = -math.inf
-    scanned = min(n_grid, max_samples)
     for start in range(0, scanned, FLIGHT_CHUNK):
         c = clear(np.arange(start + 1, min(start + FLIGHT_CHUNK, scanned) + 1) * h)
         below = np.nonzero(c < 0.0)[0]
@@ -599,28 +614,32 @@ def flight_phase(
         if below.size:
             i = start + stop
             break
-    if i < 0 and scanned < n_grid:
-        raise WorkBudgetError(
-            f"the flight from t = {t0:.6g} s does not land within max_samples = {max_samples} "
-            f"clearance samples ({n_grid:.3g} reach its latest possible impact, {tau_max:.3g} s "
-            f"later, at 400 a spin period of {spin_period:.3g} s)"
-        )
-    if i < 0:  # cannot happen: tau_max is past the fall
-        raise RuntimeError("flight: no impact found")
-    lo = node(i - 1) if i > 0 else h * 1e-6
-    tau_impact = brentq(clear, lo, node(i), xtol=1e-15 * units.time, rtol=4 * np.finfo(float).eps)
-    # Hop height: the largest sampled clearance, refined on its neighbourhood.
-    height = 0.0
-    if i > 0:
-        lo_h = node(j - 1) if j > 0 else 0.0
-        hi_h = node(j + 1) if j + 1 < n_grid else node(j)
-        res = minimize_scalar(
-            lambda s: -float(clear(s)),
-            bounds=(lo_h, min(hi_h, tau_impact)),
-            method="bounded",
-            options={"xatol": 1e-13 * units.time},
-        )
-        height = max(best, -float(res.fun), 0.0)
+    return i, j, best
+
+
+def _hop_height(
+    clear: Callable[[ArrayLike], NDArray],
+    grid: _FlightGrid,
+    highest: tuple[int, float],
+    tau_impact: float,
+    time_unit: float,
+) -> float:
+    """The largest sampled clearance ``highest`` (node, value), refined on its neighbourhood."""
+    j, best = highest
+    lo_h = grid.node(j - 1) if j > 0 else 0.0
+    hi_h = grid.node(j + 1) if j + 1 < grid.n else grid.node(j)
+    res = minimize_scalar(
+        lambda s: -float(clear(s)),
+        bounds=(lo_h, min(hi_h, tau_impact)),
+        method="bounded",
+        options={"xatol": 1e-13 * time_unit},
+    )
+    return max(best, -float(res.fun), 0.0)
+
+
+def _flight_segment(scene: Scene, t0: float, state: State, t_impact: float) -> Segment:
+    X, Y, theta, Xdot, Ydot, thetadot = state
+    g = scene.g
 
     def states(t):
         tau = np.asarray(t) - t0
@@ -639,8 +658,52 @@ def flight_phase(
         z = np.zeros_like(np.asarray(t, dtype=float))
         return z, z.copy()
 
+    return Segment(PhaseKind.FLIGHT, t0, t_impact, None, states, forces)
+
+
+def flight_phase(
+    scene: Scene, t0: float, state: State, *, max_samples: int | None = None
+) -> tuple[Segment, float, float]:
+    """Ballistic phase from a lift-off; returns the segment, the impact time and hop height.
+
+    The clearance is scanned on a grid of 400 points per spin period (or per fall time, if
+    that is shorter) up to the first impact, in chunks, so memory stays bounded; more than
+    ``max_samples`` grid points before the impact (an extreme spin in a long flight; default
+    :data:`FLIGHT_MAX_SAMPLES`) raise :class:`WorkBudgetError`.
+    """
+    if max_samples is None:
+        max_samples = FLIGHT_MAX_SAMPLES
+    _, Y, _, _, Ydot, thetadot = state
+    g, a, r = scene.g, scene.a, scene.com_offset
+    units = _Units.of(scene)
+
+    def clear(tau):
+        return _flight_clearance(scene, state, np.asarray(tau, dtype=float))
+
+    # y - a <= Y - a + r: once the centre of mass falls below a - r the hoop is down for sure.
+    disc = Ydot**2 + 2.0 * g * (Y - (a - r))
+    tau_max = (Ydot + math.sqrt(max(disc, 0.0))) / g + 1e-9 * units.time
+    spin_period = 2.0 * math.pi / abs(thetadot) if thetadot != 0 else math.inf
+    h = min(tau_max, spin_period) / 400.0
+    grid = _FlightGrid(h, math.ceil(tau_max / h) + 1)
+    scanned = min(grid.n, max_samples)
+    i, j, best = _scan_for_impact(clear, h, scanned)
+    if i < 0 and scanned < grid.n:
+        raise WorkBudgetError(
+            f"the flight from t = {t0:.6g} s does not land within max_samples = {max_samples} "
+            f"clearance samples ({grid.n:.3g} reach its latest possible impact, {tau_max:.3g} s "
+            f"later, at 400 a spin period of {spin_period:.3g} s)"
+        )
+    if i < 0:  # cannot happen: tau_max is past the fall
+        raise RuntimeError("flight: no impact found")
+    lo = grid.node(i - 1) if i > 0 else h * 1e-6
+    tau_impact = brentq(
+        clear, lo, grid.node(i), xtol=1e-15 * units.time, rtol=4 * np.finfo(float).eps
+    )
+    # The first node is already below the floor (i = 0): no sample above it to refine.
+    height = _hop_height(clear, grid, (j, best), tau_impact, units.time) if i > 0 else 0.0
     t_impact = t0 + float(tau_impact)
-    return Segment(PhaseKind.FLIGHT, t0, t_impact, None, states, forces), t_impact, height
+    return _flight_segment(scene, t0, state, t_impact), t_impact, height
 
 
 # --------------------------------------------------------------------------- driver
@@ -676,6 +739,55 @@ def _leave_rolling(scene: Scene, state: State, f_roll: float) -> tuple[Mode, int
     return Mode.SLIP, _initial_slip_direction(scene, f_roll)
 
 
+def _rolling_start(scene: Scene) -> tuple[Mode, int | None]:
+    """The first mode of a rolling start: roll, unless the contact forces cannot hold it."""
+    f0, n0 = (float(v) for v in dynamics.rolling_forces(scene, scene.theta0, scene.thetadot0))
+    if n0 < 0:
+        return _leave_rolling(scene, scene.initial_state(), f0)
+    if abs(f0) > scene.mus * n0 or (scene.mus == 0 and f0 != 0):
+        return Mode.SLIP, _initial_slip_direction(scene, f0)
+    return Mode.ROLL, None
+
+
+def _sliding_start(scene: Scene) -> tuple[Mode, int | None]:
+    """The first mode of a start with a slip velocity: slip, flight, or no contact force."""
+    s0 = scene.centre_velocity0 - scene.a * scene.thetadot0
+    sigma = 1 if s0 > 0 else -1
+    if scene.is_degenerate:
+        mode = Mode.SLIP
+    else:
+        n0 = float(dynamics.slip_normal_force(scene, scene.theta0, scene.thetadot0, sigma))
+        d0 = float(dynamics.slip_denominator(scene, scene.theta0, sigma))
+        mode = Mode.PAINLEVE if d0 <= 0 else (Mode.FLIGHT if n0 < 0 else Mode.SLIP)
+    if scene.muk == 0:
+        sigma = 0 if scene.mus == 0 else sigma
+    return mode, sigma
+
+
+def _checked_options(
+    scene: Scene,
+    rtol: float,
+    atol: float,
+    method: str,
+    max_step: float | None,
+    budgets: tuple[int, int],
+) -> _Options:
+    """The integrator settings; ValueError for a tolerance, step cap or budget
+    (``budgets``: max_steps, max_phases) that is not a positive number."""
+    for name, value in (("rtol", rtol), ("atol", atol)):
+        if not (value > 0 and math.isfinite(value)):
+            raise ValueError(f"{name} must be a positive number, got {value}")
+    units = _Units.of(scene)
+    if max_step is None:
+        max_step = MAX_STEP * units.time
+    if not (max_step > 0):
+        raise ValueError(f"max_step must be a positive number of seconds, got {max_step}")
+    for name, budget in zip(("max_steps", "max_phases"), budgets, strict=True):
+        if not (isinstance(budget, int) and budget > 0):
+            raise ValueError(f"{name} must be a positive integer, got {budget!r}")
+    return _Options(rtol, atol, method, max_step, units)
+
+
 def solve_exact(
     scene: Scene,
     *,
@@ -708,178 +820,246 @@ def solve_exact(
     of the whole window (the last roll phase is reported up to t_end), but the dense solution
     ends at that turn, :attr:`ExactSolution.t_settled`.
     """
-    for name, value in (("rtol", rtol), ("atol", atol)):
-        if not (value > 0 and math.isfinite(value)):
-            raise ValueError(f"{name} must be a positive number, got {value}")
-    units = _Units.of(scene)
-    if max_step is None:
-        max_step = MAX_STEP * units.time
-    if not (max_step > 0):
-        raise ValueError(f"max_step must be a positive number of seconds, got {max_step}")
-    for name, value in (("max_steps", max_steps), ("max_phases", max_phases)):
-        if not (isinstance(value, int) and value > 0):
-            raise ValueError(f"{name} must be a positive integer, got {value!r}")
-    opts = _Options(rtol, atol, method, max_step, units)
-    budget = _StepBudget(max_steps)
-    t, state = 0.0, scene.initial_state()
-    segments: list[Segment] = []
-    phases: list[Phase] = []
-    found: dict[str, float] = {}
+    opts = _checked_options(scene, rtol, atol, method, max_step, (max_steps, max_phases))
+    mode, sigma = _rolling_start(scene) if scene.rolls_at_start else _sliding_start(scene)
+    solve = _Solve(
+        scene,
+        opts,
+        _StepBudget(max_steps),
+        max_phases,
+        stop_when_settled,
+        mode=mode,
+        sigma=sigma,
+        state=scene.initial_state(),
+    )
+    solve.run()
+    return solve.solution()
+
+
+@dataclass
+class _Solve:
+    """One call of :func:`solve_exact`: its mode machine and what it has found so far
+    (mutable: every phase moves it on)."""
+
+    scene: Scene
+    opts: _Options
+    budget: _StepBudget
+    max_phases: int
+    settle: bool
+    """Stop once a roll phase has turned theta by a full turn (``stop_when_settled``)."""
+    mode: Mode
+    sigma: int | None
+    """Slip direction while the mode is SLIP (0 without friction); None while rolling."""
+    state: State
+    t: float = 0.0
+    segments: list[Segment] = field(default_factory=list)
+    phases: list[Phase] = field(default_factory=list)
+    found: dict[str, float] = field(default_factory=dict)
+    """The events found so far, by their name in :class:`Events`."""
     outcome: Outcome | None = None
-    message = ""
-    extra: dict[str, float | None] = {}
-    flips = 0
+    message: str = ""
+    extra: dict[str, float | int | str | None] = field(default_factory=dict)
+    flips: int = 0
+    """Wrong-way slips in a row that ended at once: two mean neither direction holds."""
     t_settled: float | None = None
 
-    def over_budget(what: str) -> str:
-        time_scale = math.sqrt(scene.a / scene.g)
-        return (
-            f"work budget exceeded: {what} at t = {t:.6g} s; the window t_end = "
-            f"{scene.t_end:g} s spans {scene.t_end / time_scale:.3g} time scales sqrt(a/g) = "
-            f"{time_scale:.3g} s (shorten t_end, or raise the budget)"
+    def run(self) -> None:
+        """Phase after phase, until the window ends, the hoop lands or the solve stops."""
+        if self.mode is Mode.PAINLEVE:
+            self.outcome = Outcome.PAINLEVE
+            self.message = "D <= 0 at t = 0: no consistent contact force for this sliding start"
+        if self.mode is Mode.FLIGHT:
+            self.outcome = Outcome.LIFTS_AT_START
+        while self.outcome is None or self.mode is Mode.FLIGHT:
+            if not self._step():
+                break
+
+    def solution(self) -> ExactSolution:
+        outcome = self.outcome
+        if outcome is None:
+            outcome = Outcome.SLIPS if "t_slip" in self.found else Outcome.ROLLS
+        found = self.found
+        events = Events(
+            outcome=outcome,
+            t_slip=found.get("t_slip"),
+            theta_slip=found.get("theta_slip"),
+            thetadot_slip=found.get("thetadot_slip"),
+            t_restick=found.get("t_restick"),
+            t_lift=found.get("t_lift"),
+            hop_height=found.get("hop_height"),
+            t_impact=found.get("t_impact"),
+            phases=tuple(self.phases),
+            message=self.message,
+            extra=self.extra,
+        )
+        # Nothing integrable (Painlevé or degenerate at t = 0): one frozen segment, so that
+        # the solution can still be sampled at t = 0.
+        segments = self.segments or [_frozen_segment(self.scene, self.state)]
+        opts = self.opts
+        return ExactSolution(
+            self.scene, events, tuple(segments), opts.rtol, opts.atol, self.t_settled
         )
 
-    # Which mode does the hoop start in?
-    s0 = scene.centre_velocity0 - scene.a * scene.thetadot0
-    if scene.rolls_at_start:
-        f0, n0 = (float(v) for v in dynamics.rolling_forces(scene, scene.theta0, scene.thetadot0))
-        if n0 < 0:
-            mode, sigma = _leave_rolling(scene, scene.initial_state(), f0)
-        elif abs(f0) > scene.mus * n0 or (scene.mus == 0 and f0 != 0):
-            mode, sigma = Mode.SLIP, _initial_slip_direction(scene, f0)
-        else:
-            mode, sigma = Mode.ROLL, None
-    else:
-        sigma = 1 if s0 > 0 else -1
+    # ------------------------------------------------------------------ one phase
+    def _step(self) -> bool:
+        """The next phase and the mode after it; False once the solve is over."""
+        if not self._may_go_on():
+            return False
+        if self.mode is Mode.FLIGHT:
+            self._fly()
+            return False
+        phase = self._roll() if self.mode is Mode.ROLL else self._slip()
+        return phase is not None and self._after(*phase)
+
+    def _may_go_on(self) -> bool:
+        """Whether a phase may start now; if a budget ran out, the solve ends with an error.
+
+        A flight that has started before t_end is followed to its impact: neither the window
+        nor the step budget stops it.
+        """
+        in_contact = self.mode is not Mode.FLIGHT
+        if in_contact and self.t >= self.scene.t_end:
+            return False
+        if len(self.segments) >= self.max_phases:
+            return self._stop(Outcome.ERROR, self._over_budget(self._phases_used))
+        if in_contact and self.budget.exhausted:
+            return self._stop(Outcome.ERROR, self._over_budget(self._steps_used))
+        return True
+
+    def _roll(self) -> tuple[Segment, _PhaseEnd]:
+        scene = self.scene
+        return _roll_phase(
+            scene, self.t, self.state, scene.t_end, self.opts, self.budget, settle=self.settle
+        )
+
+    def _slip(self) -> tuple[Segment, _PhaseEnd] | None:
+        """The next slip phase; None (the solve ends) where sliding has no solution."""
+        scene, t, state = self.scene, self.t, self.state
+        if "t_slip" not in self.found:
+            self.found.update(t_slip=t, theta_slip=state[2], thetadot_slip=state[5])
         if scene.is_degenerate:
-            mode = Mode.SLIP
-        else:
-            n0 = float(dynamics.slip_normal_force(scene, scene.theta0, scene.thetadot0, sigma))
-            d0 = float(dynamics.slip_denominator(scene, scene.theta0, sigma))
-            mode = Mode.PAINLEVE if d0 <= 0 else (Mode.FLIGHT if n0 < 0 else Mode.SLIP)
-        if scene.muk == 0:
-            sigma = 0 if scene.mus == 0 else sigma
-
-    def first_slip(t_now: float, st: State) -> None:
-        if "t_slip" not in found:
-            found["t_slip"] = t_now
-            found["theta_slip"] = st[2]
-            found["thetadot_slip"] = st[5]
-
-    if mode is Mode.PAINLEVE:
-        outcome = Outcome.PAINLEVE
-        message = "D <= 0 at t = 0: no consistent contact force for this sliding start"
-    if mode is Mode.FLIGHT:
-        outcome = Outcome.LIFTS_AT_START
-    while outcome is None or mode is Mode.FLIGHT:
-        if mode is not Mode.FLIGHT and t >= scene.t_end:
-            break
-        if len(segments) >= max_phases:
-            outcome = Outcome.ERROR
-            message = over_budget(f"max_phases = {max_phases} phases used")
-            break
-        if mode is not Mode.FLIGHT and budget.exhausted:
-            outcome = Outcome.ERROR
-            message = over_budget(f"max_steps = {max_steps} integrator steps used")
-            break
-        if mode is Mode.ROLL:
-            seg, end = _roll_phase(
-                scene, t, state, scene.t_end, opts, budget, settle=stop_when_settled
+            self._stop(
+                Outcome.DEGENERATE,
+                f"slip at t = {t:.6g} s needs I > 0; lam = {scene.lam}, eps = {scene.eps} "
+                "give I = 0 (degenerate case)",
             )
-        elif mode is Mode.SLIP:
-            first_slip(t, state)
-            if scene.is_degenerate:
-                outcome = Outcome.DEGENERATE
-                message = (
-                    f"slip at t = {t:.6g} s needs I > 0; lam = {scene.lam}, eps = {scene.eps} "
-                    "give I = 0 (degenerate case)"
-                )
-                break
-            if sigma and dynamics.slip_denominator(scene, state[2], sigma) <= 0:
-                outcome = Outcome.PAINLEVE
-                message = f"D <= 0 when slip starts at t = {t:.6g} s: no consistent contact force"
-                break
-            seg, end = _slip_phase(scene, t, state, sigma, scene.t_end, opts, budget)
-        else:  # flight
-            try:
-                seg, t_impact, height = flight_phase(scene, t, state)
-            except WorkBudgetError as exc:
-                found["t_lift"] = t
-                outcome = Outcome.ERROR
-                message = over_budget(str(exc))
-                break
-            segments.append(seg)
-            phases.append(Phase(PhaseKind.FLIGHT, seg.t_start, seg.t_end))
-            found["t_lift"] = t
-            found["t_impact"] = t_impact
-            found["hop_height"] = height
-            outcome = outcome or Outcome.HOPS
-            break
-        segments.append(seg)
-        if end.reason is EventReason.SETTLED:
-            # Nothing happens any more: the phase runs to the window's end, to the very number
-            # an unstopped integration ends on (solve_ivp stops exactly at t_end / unit).
-            t_window = scene.t_end / units.time * units.time
-            phases.append(Phase(seg.kind, seg.t_start, t_window, seg.sigma))
-            t_settled = end.t
-            break
-        if seg.t_end - seg.t_start > MIN_PHASE * units.time or end.reason is EventReason.END:
-            phases.append(Phase(seg.kind, seg.t_start, seg.t_end, seg.sigma))
-        t, state = end.t, end.state
-        if end.reason is EventReason.END:
-            break
-        if end.reason is EventReason.BUDGET:
-            outcome = Outcome.ERROR
-            message = over_budget(f"max_steps = {max_steps} integrator steps used")
-            break
-        if end.reason is EventReason.SLIP:
-            f, _ = dynamics.rolling_forces(scene, state[2], state[5])
-            mode, sigma = Mode.SLIP, _initial_slip_direction(scene, float(f))
-        elif end.reason is EventReason.LIFT and seg.kind is PhaseKind.ROLL:
-            f, _ = dynamics.rolling_forces(scene, state[2], state[5])
-            mode, sigma = _leave_rolling(scene, state, float(f))
-        elif end.reason is EventReason.LIFT:
-            mode = Mode.FLIGHT
-        elif end.reason is EventReason.WRONG_WAY:
-            # Neither direction consistent right at onset (a grazing touch of the friction
-            # cone): the hoop keeps rolling.
-            flips = flips + 1 if end.t - seg.t_start < MIN_PHASE * units.time else 0
-            mode, sigma = (Mode.ROLL, None) if flips >= 2 else (Mode.SLIP, -sigma)
-        elif end.reason is EventReason.RESTICK:
-            f, n = (float(v) for v in dynamics.rolling_forces(scene, state[2], state[5]))
-            if abs(f) <= scene.mus * n:
-                mode = Mode.ROLL
-                found.setdefault("t_restick", t)
-            else:
-                sigma = -sigma  # the slip velocity passes through zero: slip reverses
-            # Snap the centre velocity onto s = 0 so the next phase starts consistent.
-            X, Y, th, Xdot, Ydot, thd = state
-            s = float(kinematics.slip_velocity(scene, Xdot, th, thd))
-            state = (X, Y, th, Xdot - s, Ydot, thd)
-        elif end.reason is EventReason.PAINLEVE:
-            outcome = Outcome.PAINLEVE
-            extra["t_painleve"] = t
-            extra["theta_painleve_deg"] = math.degrees(state[2])
-            message = f"D = 0 (Painlevé) at t = {t:.6g} s, theta = {math.degrees(state[2]):.4f} deg"
+            return None
+        sigma = self._slip_sigma()
+        if sigma and dynamics.slip_denominator(scene, state[2], sigma) <= 0:
+            message = f"D <= 0 when slip starts at t = {t:.6g} s: no consistent contact force"
+            self._stop(Outcome.PAINLEVE, message)
+            return None
+        return _slip_phase(scene, t, state, sigma, scene.t_end, self.opts, self.budget)
 
-    if outcome is None:
-        outcome = Outcome.SLIPS if "t_slip" in found else Outcome.ROLLS
-    events = Events(
-        outcome=outcome,
-        t_slip=found.get("t_slip"),
-        theta_slip=found.get("theta_slip"),
-        thetadot_slip=found.get("thetadot_slip"),
-        t_restick=found.get("t_restick"),
-        t_lift=found.get("t_lift"),
-        hop_height=found.get("hop_height"),
-        t_impact=found.get("t_impact"),
-        phases=tuple(phases),
-        message=message,
-        extra=extra,
-    )
-    if not segments:  # nothing integrable (Painlevé or degenerate at t = 0)
-        segments.append(_frozen_segment(scene, state))
-    return ExactSolution(scene, events, tuple(segments), rtol, atol, t_settled)
+    def _fly(self) -> None:
+        """The flight to the first impact, which ends the solve."""
+        self.found["t_lift"] = self.t
+        try:
+            seg, t_impact, height = flight_phase(self.scene, self.t, self.state)
+        except WorkBudgetError as exc:
+            self._stop(Outcome.ERROR, self._over_budget(str(exc)))
+            return
+        self.segments.append(seg)
+        self.phases.append(Phase(PhaseKind.FLIGHT, seg.t_start, seg.t_end))
+        self.found.update(t_impact=t_impact, hop_height=height)
+        self.outcome = self.outcome or Outcome.HOPS
+
+    def _after(self, seg: Segment, end: _PhaseEnd) -> bool:
+        """Keep a contact phase and choose the mode after it; False once the solve is over."""
+        self.segments.append(seg)
+        if end.reason is EventReason.SETTLED:
+            self._settled(seg, end)
+            return False
+        min_phase = MIN_PHASE * self.opts.units.time
+        if seg.t_end - seg.t_start > min_phase or end.reason is EventReason.END:
+            self.phases.append(Phase(seg.kind, seg.t_start, seg.t_end, seg.sigma))
+        self.t, self.state = end.t, end.state
+        if end.reason is EventReason.END:
+            return False
+        if end.reason is EventReason.BUDGET:
+            return self._stop(Outcome.ERROR, self._over_budget(self._steps_used))
+        self._next_mode(seg, end)
+        return True
+
+    # ------------------------------------------------------------------ mode changes
+    def _next_mode(self, seg: Segment, end: _PhaseEnd) -> None:
+        """The mode after a contact phase that ended on a physical event."""
+        scene, state, reason = self.scene, self.state, end.reason
+        if reason is EventReason.SLIP:
+            f, _ = dynamics.rolling_forces(scene, state[2], state[5])
+            self.mode, self.sigma = Mode.SLIP, _initial_slip_direction(scene, float(f))
+        elif reason is EventReason.LIFT and seg.kind is PhaseKind.ROLL:
+            f, _ = dynamics.rolling_forces(scene, state[2], state[5])
+            self.mode, self.sigma = _leave_rolling(scene, state, float(f))
+        elif reason is EventReason.LIFT:
+            self.mode = Mode.FLIGHT
+        elif reason is EventReason.WRONG_WAY:
+            self._wrong_way(seg, end)
+        elif reason is EventReason.RESTICK:
+            self._restick()
+        elif reason is EventReason.PAINLEVE:
+            t, theta_deg = self.t, math.degrees(state[2])
+            self.extra.update(t_painleve=t, theta_painleve_deg=theta_deg)
+            message = f"D = 0 (Painlevé) at t = {t:.6g} s, theta = {theta_deg:.4f} deg"
+            self._stop(Outcome.PAINLEVE, message)
+
+    def _wrong_way(self, seg: Segment, end: _PhaseEnd) -> None:
+        # Neither direction consistent right at onset (a grazing touch of the friction
+        # cone): the hoop keeps rolling.
+        at_once = end.t - seg.t_start < MIN_PHASE * self.opts.units.time
+        self.flips = self.flips + 1 if at_once else 0
+        if self.flips >= 2:
+            self.mode, self.sigma = Mode.ROLL, None
+        else:
+            self.mode, self.sigma = Mode.SLIP, -self._slip_sigma()
+
+    def _restick(self) -> None:
+        scene, state = self.scene, self.state
+        f, n = (float(v) for v in dynamics.rolling_forces(scene, state[2], state[5]))
+        if abs(f) <= scene.mus * n:
+            self.mode = Mode.ROLL
+            self.found.setdefault("t_restick", self.t)
+        else:
+            self.sigma = -self._slip_sigma()  # the slip velocity passes through zero: reverses
+        # Snap the centre velocity onto s = 0 so the next phase starts consistent.
+        X, Y, th, Xdot, Ydot, thd = state
+        s = float(kinematics.slip_velocity(scene, Xdot, th, thd))
+        self.state = (X, Y, th, Xdot - s, Ydot, thd)
+
+    def _settled(self, seg: Segment, end: _PhaseEnd) -> None:
+        # Nothing happens any more: the phase runs to the window's end, to the very number
+        # an unstopped integration ends on (solve_ivp stops exactly at t_end / unit).
+        units = self.opts.units
+        t_window = self.scene.t_end / units.time * units.time
+        self.phases.append(Phase(seg.kind, seg.t_start, t_window, seg.sigma))
+        self.t_settled = end.t
+
+    # ------------------------------------------------------------------ helpers
+    def _slip_sigma(self) -> int:
+        # Every way into Mode.SLIP sets a direction; None belongs to rolling only.
+        assert self.sigma is not None, "slip mode without a slip direction"
+        return self.sigma
+
+    def _stop(self, outcome: Outcome, message: str) -> bool:
+        """End the solve with this outcome and message; returns False (the solve is over)."""
+        self.outcome, self.message = outcome, message
+        return False
+
+    @property
+    def _steps_used(self) -> str:
+        return f"max_steps = {self.budget.max_steps} integrator steps used"
+
+    @property
+    def _phases_used(self) -> str:
+        return f"max_phases = {self.max_phases} phases used"
+
+    def _over_budget(self, what: str) -> str:
+        time_scale = math.sqrt(self.scene.a / self.scene.g)
+        return (
+            f"work budget exceeded: {what} at t = {self.t:.6g} s; the window t_end = "
+            f"{self.scene.t_end:g} s spans {self.scene.t_end / time_scale:.3g} time scales "
+            f"sqrt(a/g) = {time_scale:.3g} s (shorten t_end, or raise the budget)"
+        )
 
 
 def _frozen_segment(scene: Scene, state: State) -> Segment:

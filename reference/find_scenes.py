@@ -41,6 +41,7 @@ import warnings
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -153,8 +154,10 @@ def _d_lift(solution: ExactSolution) -> float | None:
         or segs[-2].kind is not PhaseKind.SLIP
     ):
         return None
-    theta = segs[-2].states(np.array([segs[-2].t_end]))[2]
-    return float(dynamics.slip_denominator(solution.scene, theta, segs[-2].sigma)[0])
+    slip = segs[-2]
+    assert slip.sigma is not None  # a slip segment always has a direction
+    theta = slip.states(np.array([slip.t_end]))[2]
+    return float(dynamics.slip_denominator(solution.scene, theta, slip.sigma)[0])
 
 
 def _d_min(solution: ExactSolution) -> float:
@@ -164,6 +167,7 @@ def _d_min(solution: ExactSolution) -> float:
     d_min = math.inf
     for seg in solution.segments:
         if seg.kind is PhaseKind.SLIP and seg.t_end > seg.t_start:
+            assert seg.sigma is not None  # a slip segment always has a direction
             theta = seg.states(np.linspace(seg.t_start, seg.t_end, 201))[2]
             d_min = min(d_min, float(np.min(dynamics.slip_denominator(scene, theta, seg.sigma))))
     return d_min
@@ -225,7 +229,7 @@ def perturbations(scene: Scene, rel: float = REL_STEP) -> list[tuple[str, Scene]
     """
     out: list[tuple[str, Scene]] = []
 
-    def add(label: str, **changes: float) -> None:
+    def add(label: str, **changes: Any) -> None:  # Any: the field names are chosen at run time
         with contextlib.suppress(ValueError):  # outside the valid range: lam > 1, eps < 0, ...
             out.append((label, scene.with_(**changes)))
 

@@ -186,16 +186,15 @@ class SeedEulerResult:
                 ]
             )
             contact[after] = not flying
-        X, Y, th, Xd, Yd, w = states
         return Trajectory.from_state(
             self.scene,
             t=t,
-            X=X,
-            Y=Y,
-            theta=th,
-            Xdot=Xd,
-            Ydot=Yd,
-            thetadot=w,
+            X=states[0],
+            Y=states[1],
+            theta=states[2],
+            Xdot=states[3],
+            Ydot=states[4],
+            thetadot=states[5],
             normal_force=n,
             friction_force=f,
             contact=contact,
@@ -224,6 +223,28 @@ class SeedEulerResult:
             flight = t_last + self.dt * np.arange(1, math.ceil((self.t_final - t_last) / self.dt))
             times += [flight[flight < self.t_final], np.array([self.t_final])]
         return self.sample(np.concatenate(times))
+
+    @classmethod
+    def _without_slip(cls, exact: ExactSolution, dt: float, delta: float) -> SeedEulerResult:
+        """The result for a scene that never slips in its window: the exact one, no steps."""
+        empty = np.empty(0)
+        return cls(
+            exact.scene,
+            exact.events,
+            0,
+            dt,
+            delta,
+            t=empty,
+            X=empty,
+            Y=empty,
+            theta=empty,
+            Xdot=empty,
+            Ydot=empty,
+            thetadot=empty,
+            n=empty,
+            accelerations=np.empty((3, 0)),
+            exact=exact,
+        )
 
     def _columns(self) -> tuple[NDArray, ...]:
         return (self.X, self.Y, self.theta, self.Xdot, self.Ydot, self.thetadot)
@@ -330,37 +351,77 @@ def solve_seed_euler(
         raise ValueError(f"max_steps must be a positive integer, got {max_steps!r}")
     scene.require_inertia("the seed's slipping scheme")
     exact = solve_exact(scene, rtol=rtol, atol=atol)
-    ev0 = exact.events
-    if ev0.t_slip is None:
-        empty = np.empty(0)
-        return SeedEulerResult(scene, ev0, 0, dt, delta, *([empty] * 8), np.empty((3, 0)), exact)
+    if exact.events.t_slip is None:
+        return SeedEulerResult._without_slip(exact, dt, delta)
     if not scene.rolls_at_start:
         raise ValueError(
             "scene starts sliding (xdot0 differs from a*thetadot0): the seed scheme starts "
             "from a rolling phase"
         )
-    t_slip = float(ev0.t_slip)
-    slip_phase = next(p for p in ev0.phases if p.kind is PhaseKind.SLIP)
-    sigma = slip_phase.sigma if slip_phase.sigma else 1
-
-    g, a, lam, k, muk = scene.g, scene.a, scene.lam, scene.k, scene.muk
-    X, Y, th, Xd, Yd, w = (float(v) for v in exact.state(t_slip)[:, 0])
-    n = _rolling_normal_force(scene, th, w)
-    ay_prev = _rolling_normal_force(scene, *_rolling_state_at(scene, exact, t_slip - dt)) - g
-
-    window_steps = math.ceil((scene.t_end - t_slip) / dt)
+    onset = _Onset.of(exact, float(exact.events.t_slip), dt)
+    window_steps = math.ceil((scene.t_end - onset.t) / dt)
     if window_steps > max_steps:
         raise ValueError(
             f"dt = {dt:g} s would take up to {window_steps:.3g} steps from the slip onset at "
-            f"t = {t_slip:.6g} s to t_end = {scene.t_end:g} s, more than max_steps = {max_steps}"
+            f"t = {onset.t:.6g} s to t_end = {scene.t_end:g} s, more than max_steps = {max_steps}"
         )
+    steps = _step_scheme(scene, onset, dt, delta, window_steps)
+    return _seed_result(exact, onset, steps, dt, delta)
+
+
+@dataclass(frozen=True)
+class _Onset:
+    """Where the scheme starts: the exact slip onset."""
+
+    t: float
+    """s."""
+    sigma: int
+    """Slip direction, the exact one (+1 if the exact slip has none)."""
+    state: tuple[float, float, float, float, float, float]
+    """(X, Y, theta, Xdot, Ydot, thetadot) at t, SI units."""
+    n: float
+    """Rolling normal force per unit mass at t, m/s^2."""
+    ay_prev: float
+    """Vertical acceleration of the centre of mass one step dt before t, m/s^2."""
+
+    @classmethod
+    def of(cls, exact: ExactSolution, t_slip: float, dt: float) -> _Onset:
+        scene = exact.scene
+        slip_phase = next(p for p in exact.events.phases if p.kind is PhaseKind.SLIP)
+        sigma = slip_phase.sigma if slip_phase.sigma else 1
+        X, Y, th, Xd, Yd, w = (float(v) for v in exact.state(t_slip)[:, 0])
+        n = _rolling_normal_force(scene, th, w)
+        before = _rolling_state_at(scene, exact, t_slip - dt)
+        ay_prev = _rolling_normal_force(scene, *before) - scene.g
+        return cls(t_slip, sigma, (X, Y, th, Xd, Yd, w), n, ay_prev)
+
+
+@dataclass(frozen=True, eq=False)
+class _Steps:
+    """What the slipping steps gave: states and forces per step, and why they stopped."""
+
+    n_steps: int
+    cols: NDArray
+    """(X, Y, theta, Xdot, Ydot, thetadot) after each step, shape (6, n_steps + 1)."""
+    per_step: NDArray
+    """(n, Xddot, Yddot, thetaddot) used over each step, shape (4, n_steps + 1)."""
+    outcome: Outcome
+    message: str
+
+
+def _step_scheme(scene: Scene, onset: _Onset, dt: float, delta: float, window_steps: int) -> _Steps:
+    """The seed's improved-Euler steps from the slip onset, until the clearance exceeds delta,
+    the window ends or D <= 0. One loop with local variables: a step costs microseconds."""
+    g, a, lam, k, muk = scene.g, scene.a, scene.lam, scene.k, scene.muk
+    sigma, t_slip = onset.sigma, onset.t
+    X, Y, th, Xd, Yd, w = onset.state
+    n, ay_prev = onset.n, onset.ay_prev
     # Preallocated (np.empty/np.zeros only commit the pages that get written): per-step
     # Python tuples would take ~450 bytes a step.
     cols = np.empty((6, window_steps + 1))
     per_step = np.zeros((4, window_steps + 1))  # (n, Xddot, Yddot, thetaddot) per step
     cols[:, 0] = (X, Y, th, Xd, Yd, w)
     n_steps = 0
-    outcome: Outcome | None = None
     message = ""
     while True:
         y = Y - lam * a * math.cos(th)
@@ -403,15 +464,24 @@ def solve_seed_euler(
         cols[:, n_steps] = (X, Y, th, Xd, Yd, w)
         n = max(0.0, n + (aY - ay_prev))
         ay_prev = aY
-
     # Copies, so that the unused tail of the preallocated arrays is released.
     cols = cols[:, : n_steps + 1].copy()
     per_step = per_step[:, : n_steps + 1].copy()
+    return _Steps(n_steps, cols, per_step, outcome, message)
+
+
+def _seed_result(
+    exact: ExactSolution, onset: _Onset, steps: _Steps, dt: float, delta: float
+) -> SeedEulerResult:
+    """The result: the steps' events, with the flight to the impact after a lift-off."""
+    scene, ev0, t_slip = exact.scene, exact.events, onset.t
+    n_steps, cols, per_step = steps.n_steps, steps.cols, steps.per_step
+    outcome, message = steps.outcome, steps.message
     t = t_slip + dt * np.arange(n_steps + 1)
     t_end_steps = float(t[-1])
     clearance = kinematics.clearance(scene, cols[1], cols[2])
     phases = [Phase(PhaseKind.ROLL, 0.0, t_slip)] if t_slip > 0.0 else []
-    phases.append(Phase(PhaseKind.SLIP, t_slip, t_end_steps, sigma))
+    phases.append(Phase(PhaseKind.SLIP, t_slip, t_end_steps, onset.sigma))
     t_lift = hop_height = t_impact = None
     if outcome is Outcome.HOPS:
         t_lift = t_end_steps
@@ -434,6 +504,21 @@ def solve_seed_euler(
         message=message,
         extra={"n_steps": n_steps, "dt": dt, "delta": delta},
     )
+    X, Y, theta, Xdot, Ydot, thetadot = cols
     return SeedEulerResult(
-        scene, events, n_steps, dt, delta, t, *cols, per_step[0], per_step[1:], exact
+        scene,
+        events,
+        n_steps,
+        dt,
+        delta,
+        t,
+        X,
+        Y,
+        theta,
+        Xdot,
+        Ydot,
+        thetadot,
+        n=per_step[0],
+        accelerations=per_step[1:],
+        exact=exact,
     )

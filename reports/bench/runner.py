@@ -17,7 +17,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,7 +25,7 @@ from typing import Any
 
 from hoopbench.reports.compare.suite import run_task
 from hoopbench.reports.compare.suite_file import builtin_suite, load_suite
-from hoopbench.reports.sweep.runner import run_tasks
+from hoopbench.reports.sweep.runner import Task, run_tasks
 
 
 @dataclass(frozen=True)
@@ -51,7 +51,7 @@ def _tasks(n: int, seconds: float = 0.0) -> list[BenchTask]:
     return [BenchTask(f"t{i:06d}", seconds) for i in range(n)]
 
 
-def time_runner(worker: Callable, tasks: list[BenchTask], jobs: int) -> float:
+def time_runner(worker: Callable, tasks: Sequence[Task], jobs: int) -> float:
     with tempfile.TemporaryDirectory() as tmp:
         start = time.perf_counter()
         summary = run_tasks(tasks, worker, Path(tmp) / "out", jobs=jobs, quiet=True)
@@ -60,7 +60,7 @@ def time_runner(worker: Callable, tasks: list[BenchTask], jobs: int) -> float:
     return wall
 
 
-def time_plain_pool(worker: Callable, tasks: list[BenchTask], jobs: int) -> float:
+def time_plain_pool(worker: Callable, tasks: Sequence[Task], jobs: int) -> float:
     start = time.perf_counter()
     with ProcessPoolExecutor(max_workers=jobs) as pool:
         rows = list(pool.map(worker, tasks))

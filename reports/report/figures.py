@@ -15,6 +15,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from hoopbench.models import kinematics
+from hoopbench.models.events import Events
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.reference.exact import solve_exact
@@ -23,7 +24,7 @@ from hoopbench.reference.seed_euler import solve_seed_euler
 __all__ = ["events_figure", "hoop_figure", "paths_figure"]
 
 
-def _solve(scene: Scene, method: str) -> tuple[Trajectory, object]:
+def _solve(scene: Scene, method: str) -> tuple[Trajectory, Events]:
     if method == "exact":
         solution = solve_exact(scene)
         t = np.linspace(0.0, solution.t_final, 2001)

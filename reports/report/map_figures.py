@@ -415,6 +415,7 @@ def hop_error_figure(frame: pd.DataFrame, path: str | Path) -> Path:
         if not hops.any():
             _message(ax, "no hop on this map")
         _set_axes(ax, grid)
+    assert mesh is not None  # one per engine, and there is one at least
     ticks = np.arange(-_RATIO_LIMIT, _RATIO_LIMIT + 1)
     bar = fig.colorbar(mesh, ax=list(axes), ticks=ticks, extend="both")
     bar.set_ticklabels([f"{2.0**t:g}" if t >= 0 else f"1/{2.0**-t:g}" for t in ticks])

@@ -315,7 +315,9 @@ def write_map_outputs(results_dir: str | Path) -> list[Path]:
     figures beside it); their paths, map.md last."""
     results_dir = Path(results_dir)
     text, figures = _section(results_dir, results_dir, "map", 1)
-    path = results.atomic_write(
-        results_dir / MAP_MARKDOWN, lambda tmp: tmp.write_text(text, encoding="utf-8")
-    )
+
+    def write(tmp: Path) -> None:
+        tmp.write_text(text, encoding="utf-8")
+
+    path = results.atomic_write(results_dir / MAP_MARKDOWN, write)
     return [*figures, path]

@@ -540,7 +540,11 @@ def _figures_section(figures: Sequence[Path]) -> str:
     return _section(*lines)
 
 
-def _drawn(jobs: Sequence[tuple[Callable, tuple]]) -> list[Any]:
+_Job = tuple[Callable[..., Any], tuple[Any, ...]]
+"""A figure-drawing call: the function and its arguments."""
+
+
+def _drawn(jobs: Sequence[_Job]) -> list[Any]:
     """The results of independent figure-drawing calls, in order. Drawing is most of a
     report's time and one process draws on one core: the calls run in FIGURE_WORKERS
     processes from a fork server (not forked from here: the report has read Parquet with
@@ -592,7 +596,10 @@ def write_markdown(
     # A report of the stability suite alone has no event tables and no run-time section.
     head = [] if runs.empty else [(_run_time_section, (runs, out))]
     tail = [] if runs.empty else _figure_jobs(runs, out)
-    both = [(_seed_section, (out,)), (_stability_matrix_section, (everything[is_stability], out))]
+    both: list[_Job] = [
+        (_seed_section, (out,)),
+        (_stability_matrix_section, (everything[is_stability], out)),
+    ]
     drawn = _drawn([*head, *both, *tail])
     (seed, _), (stability, _) = drawn[len(head) : len(head) + 2]
     sections = [_header(everything, generated), _findings_section(everything), seed]

@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -52,7 +53,10 @@ _FLOOR = 1e-6
 
 def _family(frame: pd.DataFrame) -> pd.Series:
     # Results written before profiles existed ran hoopbench's defaults: tuned.
-    profile = frame["profile"].fillna("tuned") if "profile" in frame.columns else "tuned"
+    if "profile" in frame.columns:
+        profile = frame["profile"].fillna("tuned")
+    else:  # a Series too: a bare "tuned" has no astype (the report adds the column first)
+        profile = pd.Series("tuned", index=frame.index)
     return frame["engine"] + " " + profile.astype(str) + " " + frame["variant"]
 
 
@@ -85,7 +89,7 @@ def cheapest_runs(runs: pd.DataFrame) -> pd.DataFrame:
         for scene in _scenes(engines, metric):
             points = _metric_runs(engines, metric, scene)
             good = points[points["error"] <= metric.target].sort_values("wall_time_s")
-            row = {
+            row: dict[str, Any] = {
                 "metric": metric.label,
                 "scene": scene,
                 "target": f"{metric.target:g} {metric.unit}",

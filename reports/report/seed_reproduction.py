@@ -31,13 +31,16 @@ DELTAS = tuple(float(d) for d in np.logspace(-5, -1.5, 8))
 
 
 def seed_scene() -> Scene:
-    params = dict(SEED_PARAMETERS)
-    return Scene.from_chi(params.pop("chi"), name="seed", **params)
+    p = SEED_PARAMETERS
+    return Scene.from_chi(
+        p["chi"], name="seed", lam=p["lam"], eps=p["eps"], mus=p["mus"], muk=p["muk"]
+    )
 
 
 def onset_table() -> pd.DataFrame:
     """Slip onset, lift-off and outcome: the seed's print, the exact solver."""
     exact = solve_exact(seed_scene()).events
+    assert exact.theta_slip is not None  # the seed scene slips
     return pd.DataFrame(
         [
             {"source": "seed (printed)", "t_slip": SEED_T_SLIP, "outcome": "hops (small)"},

@@ -324,7 +324,8 @@ class WorkerPool(Executor):
 
     def _start_worker(self) -> None:
         conn, child_conn = self._ctx.Pipe(duplex=True)
-        process = self._ctx.Process(
+        # Every context has Process; typeshed declares it on the concrete contexts only.
+        process = self._ctx.Process(  # type: ignore[attr-defined]
             target=_worker_main,
             args=(child_conn, self._lifeline_r, self._lifeline_w, self._preload),
             name="hoopbench-worker",
@@ -428,30 +429,15 @@ class WorkerPool(Executor):
 
     def _manage_loop(self) -> None:
         while True:
-            outcomes: list[tuple[PoolFuture, Any, bool]] = []
             with self._lock:
                 self._dispatch()
                 busy = any(w.future is not None for w in self._workers)
                 if self._shutdown and not self._pending and not busy:
                     return
-                waitables: list[Any] = [self._wake_r]
-                for w in self._workers:
-                    waitables.append(w.process.sentinel)
-                    if w.conn_open:
-                        waitables.append(w.conn)
+                waitables = self._waitables()
             ready = multiprocessing.connection.wait(waitables)
             with self._lock:
-                if self._wake_r in ready:
-                    with contextlib.suppress(BlockingIOError, OSError):
-                        os.read(self._wake_r, 4096)
-                for w in list(self._workers):
-                    if w.conn_open and w.conn in ready:
-                        outcome = self._receive(w)
-                        if outcome:
-                            outcomes.append(outcome)
-                for w in list(self._workers):
-                    if w.process.sentinel in ready:
-                        outcomes.extend(self._reap(w))
+                outcomes = self._collect(ready)
             # Outside the lock: a done-callback may submit again.
             for future, value, ok in outcomes:
                 if future.done():
@@ -460,6 +446,31 @@ class WorkerPool(Executor):
                     future.set_result(value)
                 else:
                     future.set_exception(value)
+
+    def _waitables(self) -> list[Any]:
+        """What the manager waits on: the wake pipe, each worker's sentinel and pipe (lock held)."""
+        waitables: list[Any] = [self._wake_r]
+        for w in self._workers:
+            waitables.append(w.process.sentinel)
+            if w.conn_open:
+                waitables.append(w.conn)
+        return waitables
+
+    def _collect(self, ready: list[Any]) -> list[tuple[PoolFuture, Any, bool]]:
+        """Messages and deaths of the ready workers: outcomes to set on futures (lock held)."""
+        outcomes: list[tuple[PoolFuture, Any, bool]] = []
+        if self._wake_r in ready:
+            with contextlib.suppress(BlockingIOError, OSError):
+                os.read(self._wake_r, 4096)
+        for w in list(self._workers):
+            if w.conn_open and w.conn in ready:
+                outcome = self._receive(w)
+                if outcome:
+                    outcomes.append(outcome)
+        for w in list(self._workers):
+            if w.process.sentinel in ready:
+                outcomes.extend(self._reap(w))
+        return outcomes
 
     def _stop_workers(self) -> None:
         with self._lock:
@@ -687,18 +698,28 @@ class _Sweep:
             self.writer.flush()
             self.last_flush = time.monotonic()
 
+    def close(self, failed: bool) -> None:
+        """Write the rows still buffered and close the progress bar. A write error is raised
+        unless the sweep has failed already: the first error is the one to report."""
+        try:
+            self.maybe_flush(force=True)
+        except Exception:
+            if not failed:
+                raise
+        self.progress.close()
+
     def worker_row(self, task: Any, value: Any) -> Row:
         """The worker's row, with run_id, a valid status and a message."""
         if not isinstance(value, Mapping):
             kind = type(value).__name__
             return self.failed_row(task, RunStatus.ERROR, f"worker returned {kind}, not a row")
         row = dict(value)
+        found: Any = row.get("status")  # whatever the worker put there: checked here
         try:
-            row["status"] = RunStatus(row.get("status"))
+            row["status"] = RunStatus(found)
         except ValueError:
-            found = row.get("status")
-            message = f"worker row has no valid status ({found!r}); {row.get('message') or ''}"
-            row["status"], row["message"] = RunStatus.ERROR, message.rstrip("; ")
+            text = f"worker row has no valid status ({found!r}); {row.get('message') or ''}"
+            row["status"], row["message"] = RunStatus.ERROR, text.rstrip("; ")
         message = row.get("message")
         row["message"] = "" if message is None else str(message)
         return row
@@ -771,6 +792,161 @@ def _finalize(
     results.write_meta(full, out / results.META_NAME)
 
 
+def _check_run_ids(tasks: Sequence[Any]) -> None:
+    """TypeError for a task without a run_id string, ValueError for a run_id seen twice."""
+    seen: set[str] = set()
+    for task in tasks:
+        run_id = getattr(task, "run_id", None)
+        if not isinstance(run_id, str) or not run_id:
+            raise TypeError(f"task {task!r} has no run_id string")
+        if run_id in seen:
+            raise ValueError(f"run_id {run_id!r} appears twice")
+        seen.add(run_id)
+
+
+def _resumed_statuses(out: Path, note: Callable[[str], None]) -> dict[str, str]:
+    """The latest stored status of every run; leftover temporary files are named, not read."""
+    leftovers = results.leftover_temp_files(out)
+    if leftovers:
+        names = ", ".join(str(p.relative_to(out)) for p in leftovers)
+        note(f"resume: ignoring {len(leftovers)} leftover temporary file(s): {names}")
+    return results.stored_statuses(out)
+
+
+def _pool_for(
+    worker: Worker, executor: Executor | None, jobs: int | None, max_in_flight: int | None
+) -> tuple[Executor, int]:
+    """The executor that runs the calls (a new WorkerPool without ``executor``) and how many
+    calls may be submitted at once."""
+    if executor is None:
+        module = getattr(worker, "__module__", None)
+        preload = [module] if module and module not in ("__main__", "__mp_main__") else []
+        local = WorkerPool(jobs, preload=preload)
+        # Twice the workers: a call is queued in the pool, ready the moment a worker is free.
+        return local, max_in_flight or 2 * local.max_workers
+    # A public max_workers (WorkerPool, the Dask cluster's threads) or the stdlib pools'.
+    guess = getattr(executor, "max_workers", None) or getattr(executor, "_max_workers", None)
+    return executor, max_in_flight or guess or jobs or os.cpu_count() or 1
+
+
+class _Calls:
+    """The calls of one sweep: attempts waiting, futures in flight, and the executor."""
+
+    def __init__(
+        self, sweep: _Sweep, pool: Executor, owned: bool, todo: Sequence[Any], limit: int
+    ) -> None:
+        self.sweep = sweep
+        self.pool = pool
+        self.owned = owned
+        """Whether this sweep made the pool (then it also shuts it down)."""
+        self.queue: deque[_Attempt] = deque(_Attempt(t, 1, None, 0.0) for t in todo)
+        self.in_flight: dict[Future, _Attempt] = {}
+        self.limit = limit
+        """Calls submitted at once, at most."""
+
+    @property
+    def unfinished(self) -> int:
+        return len(self.in_flight) + len(self.queue)
+
+    def run(self, flag: _StopFlag, tick: float) -> None:
+        """Submit, collect and time out calls until all are done or a signal arrives."""
+        while True:
+            self._submit(flag)
+            if flag.signal is not None or (not self.queue and not self.in_flight):
+                return
+            done, _ = wait_futures(list(self.in_flight), timeout=tick, return_when=FIRST_COMPLETED)
+            for future in done:
+                self._settle(future, self.in_flight.pop(future), stopping=False)
+            self._stop_overdue()
+            self.sweep.maybe_flush()
+
+    def stop(self) -> None:
+        """Done, interrupted or failed: stop the calls still running, keep every finished row."""
+        pool = self.pool
+        if isinstance(pool, WorkerPool) and self.owned:
+            if self.in_flight or self.queue:
+                pool.kill_workers()
+            else:
+                pool.shutdown(wait=True)
+        elif isinstance(pool, WorkerPool):  # the caller's pool: only our calls end
+            for future in self.in_flight:
+                pool.kill(future)
+        else:
+            for future in self.in_flight:
+                future.cancel()
+        for future, attempt in list(self.in_flight.items()):
+            if future.done() and not future.cancelled() and future.exception() is None:
+                self._settle(future, attempt, stopping=True)
+                del self.in_flight[future]
+
+    def _submit(self, flag: _StopFlag) -> None:
+        while self.queue and len(self.in_flight) < self.limit and flag.signal is None:
+            attempt = self.queue.popleft()
+            attempt.limit = self.sweep.limit(attempt.task)
+            attempt.submitted_at = time.monotonic()
+            try:
+                future = self.pool.submit(self.sweep.worker, attempt.task)
+            except BrokenExecutor as exc:
+                self.queue.appendleft(attempt)
+                raise ExecutorBrokenError(
+                    f"the executor is broken ({_exception_text(exc)}); "
+                    "resume the sweep with a new one"
+                ) from exc
+            self.in_flight[future] = attempt
+
+    def _stop_overdue(self) -> None:
+        """Calls past their time limit: stopped, and a timeout row for each."""
+        now = time.monotonic()
+        for future, attempt in list(self.in_flight.items()):
+            start = self._started(future, attempt)
+            if attempt.limit is None or start is None or now - start < attempt.limit:
+                continue
+            del self.in_flight[future]
+            kill = getattr(self.pool, "kill", None)  # WorkerPool, the Dask ClusterExecutor
+            if kill is not None:
+                kill(future)
+            else:
+                future.cancel()  # a running call cannot be cancelled: abandoned
+            text = f"no result after {attempt.limit:g} s; the call was stopped"
+            row = self.sweep.failed_row(attempt.task, RunStatus.TIMEOUT, text)
+            self.sweep.record(attempt, row, start)
+
+    @staticmethod
+    def _started(future: Future, attempt: _Attempt) -> float | None:
+        """When the call's clock started: on a worker (local pool), or at submission."""
+        return future.started_at if isinstance(future, PoolFuture) else attempt.submitted_at
+
+    def _crash(self, attempt: _Attempt, text: str) -> None:
+        if attempt.number == 1:
+            self.queue.appendleft(_Attempt(attempt.task, 2, None, 0.0))
+            return
+        message = f"worker died twice: {text}"
+        row = self.sweep.failed_row(attempt.task, RunStatus.CRASHED, message)
+        self.sweep.record(attempt, row, None)
+
+    def _settle(self, future: Future, attempt: _Attempt, stopping: bool) -> None:
+        """A finished future: its row, a retry, or (stopping) nothing unless it has a row."""
+        if future.cancelled():
+            if not stopping:
+                self._crash(attempt, "the call was cancelled")
+            return
+        exc = future.exception()
+        if exc is None:
+            row = self.sweep.worker_row(attempt.task, future.result())
+            self.sweep.record(attempt, row, self._started(future, attempt))
+        elif stopping:
+            return
+        elif isinstance(self.pool, WorkerPool) and not isinstance(
+            exc, WorkerCrashedError | WorkerKilledError
+        ):
+            # The worker function itself raised: a bug of the worker, not a dead process.
+            text = f"worker raised {_exception_text(exc)}"
+            row = self.sweep.failed_row(attempt.task, RunStatus.ERROR, text)
+            self.sweep.record(attempt, row, self._started(future, attempt))
+        else:
+            self._crash(attempt, _exception_text(exc))
+
+
 def run_tasks(
     tasks: Iterable[Any],
     worker: Worker,
@@ -812,32 +988,18 @@ def run_tasks(
     wall_start = time.monotonic()
     started_at = datetime.now(UTC)
     tasks = list(tasks)
-    seen: set[str] = set()
-    for task in tasks:
-        run_id = getattr(task, "run_id", None)
-        if not isinstance(run_id, str) or not run_id:
-            raise TypeError(f"task {task!r} has no run_id string")
-        if run_id in seen:
-            raise ValueError(f"run_id {run_id!r} appears twice")
-        seen.add(run_id)
+    _check_run_ids(tasks)
     out = Path(out_dir)
     prepare_dir(out, resume)
-    stream = sys.stderr if stream is None else stream
+    text_stream = sys.stderr if stream is None else stream
     notes: list[str] = []
 
     def note(text: str) -> None:
         notes.append(text)
         if not quiet:
-            print(text, file=stream, flush=True)
+            print(text, file=text_stream, flush=True)
 
-    stored: dict[str, str] = {}
-    if resume:
-        leftovers = results.leftover_temp_files(out)
-        if leftovers:
-            names = ", ".join(str(p.relative_to(out)) for p in leftovers)
-            note(f"resume: ignoring {len(leftovers)} leftover temporary file(s): {names}")
-        stored = results.stored_statuses(out)
-
+    stored = _resumed_statuses(out, note) if resume else {}
     todo = [t for t in tasks if not is_final_status(stored.get(t.run_id))]
     skipped = len(tasks) - len(todo)
     session = {"ran": len(todo), "skipped": skipped}
@@ -851,126 +1013,11 @@ def run_tasks(
         return RunSummary(out, {}, time.monotonic() - wall_start, None, skipped, 0, tuple(notes))
 
     writer = results.RunsWriter(out / results.RUNS_NAME)
-    owned = executor is None
-    if executor is None:
-        module = getattr(worker, "__module__", None)
-        preload = [module] if module and module not in ("__main__", "__mp_main__") else []
-        local = WorkerPool(jobs, preload=preload)
-        # Twice the workers: a call is queued in the pool, ready the moment a worker is free.
-        in_flight_limit = max_in_flight or 2 * local.max_workers
-        pool: Executor = local
-    else:
-        pool = executor
-        # A public max_workers (WorkerPool, the Dask cluster's threads) or the stdlib pools'.
-        guess = getattr(executor, "max_workers", None) or getattr(executor, "_max_workers", None)
-        in_flight_limit = max_in_flight or guess or jobs or os.cpu_count() or 1
-
-    progress = _Progress(len(todo), stream, quiet)
+    pool, in_flight_limit = _pool_for(worker, executor, jobs, max_in_flight)
+    progress = _Progress(len(todo), text_stream, quiet)
     sweep = _Sweep(worker, writer, progress, failure_row, timeout, flush_interval, flush_rows)
-    queue: deque[_Attempt] = deque(_Attempt(t, 1, None, 0.0) for t in todo)
-    in_flight: dict[Future, _Attempt] = {}
-    tick = 0.1 if timeout is not None else 0.25
-    stopped_by: signal.Signals | None = None
-
-    def started(future: Future, attempt: _Attempt) -> float | None:
-        """When the call's clock started: on a worker (local pool), or at submission."""
-        return future.started_at if isinstance(future, PoolFuture) else attempt.submitted_at
-
-    def crash(attempt: _Attempt, text: str) -> None:
-        if attempt.number == 1:
-            queue.appendleft(_Attempt(attempt.task, 2, None, 0.0))
-            return
-        message = f"worker died twice: {text}"
-        sweep.record(attempt, sweep.failed_row(attempt.task, RunStatus.CRASHED, message), None)
-
-    def settle(future: Future, attempt: _Attempt, stopping: bool) -> None:
-        """A finished future: its row, a retry, or (stopping) nothing unless it has a row."""
-        if future.cancelled():
-            if not stopping:
-                crash(attempt, "the call was cancelled")
-            return
-        exc = future.exception()
-        if exc is None:
-            row = sweep.worker_row(attempt.task, future.result())
-            sweep.record(attempt, row, started(future, attempt))
-        elif stopping:
-            return
-        elif isinstance(pool, WorkerPool) and not isinstance(
-            exc, WorkerCrashedError | WorkerKilledError
-        ):
-            # The worker function itself raised: a bug of the worker, not a dead process.
-            text = f"worker raised {_exception_text(exc)}"
-            row = sweep.failed_row(attempt.task, RunStatus.ERROR, text)
-            sweep.record(attempt, row, started(future, attempt))
-        else:
-            crash(attempt, _exception_text(exc))
-
-    # The handlers stay while the workers are stopped and the rows flushed: a second Ctrl-C
-    # must not cut that short.
-    with _stop_on_signals(handle_signals) as flag:
-        failed = True
-        try:
-            while True:
-                while queue and len(in_flight) < in_flight_limit and flag.signal is None:
-                    attempt = queue.popleft()
-                    attempt.limit = sweep.limit(attempt.task)
-                    attempt.submitted_at = time.monotonic()
-                    try:
-                        future = pool.submit(worker, attempt.task)
-                    except BrokenExecutor as exc:
-                        queue.appendleft(attempt)
-                        raise ExecutorBrokenError(
-                            f"the executor is broken ({_exception_text(exc)}); "
-                            "resume the sweep with a new one"
-                        ) from exc
-                    in_flight[future] = attempt
-                if flag.signal is not None or (not queue and not in_flight):
-                    break
-                done, _ = wait_futures(list(in_flight), timeout=tick, return_when=FIRST_COMPLETED)
-                for future in done:
-                    settle(future, in_flight.pop(future), stopping=False)
-                now = time.monotonic()
-                for future, attempt in list(in_flight.items()):
-                    start = started(future, attempt)
-                    if attempt.limit is None or start is None or now - start < attempt.limit:
-                        continue
-                    del in_flight[future]
-                    kill = getattr(pool, "kill", None)  # WorkerPool, the Dask ClusterExecutor
-                    if kill is not None:
-                        kill(future)
-                    else:
-                        future.cancel()  # a running call cannot be cancelled: abandoned
-                    text = f"no result after {attempt.limit:g} s; the call was stopped"
-                    row = sweep.failed_row(attempt.task, RunStatus.TIMEOUT, text)
-                    sweep.record(attempt, row, start)
-                sweep.maybe_flush()
-            stopped_by = flag.signal
-            failed = False
-        finally:
-            # Done, interrupted or failed: stop the workers and keep every finished row.
-            if isinstance(pool, WorkerPool) and owned:
-                if in_flight or queue:
-                    pool.kill_workers()
-                else:
-                    pool.shutdown(wait=True)
-            elif isinstance(pool, WorkerPool):  # the caller's pool: only our calls end
-                for future in in_flight:
-                    pool.kill(future)
-            else:
-                for future in in_flight:
-                    future.cancel()
-            for future, attempt in list(in_flight.items()):
-                if future.done() and not future.cancelled() and future.exception() is None:
-                    settle(future, attempt, stopping=True)
-                    del in_flight[future]
-            try:
-                sweep.maybe_flush(force=True)
-            except Exception:
-                if not failed:
-                    raise  # otherwise the first error is the one to report
-            progress.close()
-
-    unfinished = len(in_flight) + len(queue)
+    calls = _Calls(sweep, pool, executor is None, todo, in_flight_limit)
+    stopped_by = _drive(calls, handle_signals, tick=0.1 if timeout is not None else 0.25)
     if stopped_by is None:
         _finalize(out, task_order, meta, started_at, wall_start, resume, session)
     return RunSummary(
@@ -979,6 +1026,22 @@ def run_tasks(
         wall_time_s=time.monotonic() - wall_start,
         interrupted=stopped_by,
         skipped=skipped,
-        unfinished=unfinished,
+        unfinished=calls.unfinished,
         notes=tuple(notes),
     )
+
+
+def _drive(calls: _Calls, handle_signals: bool, tick: float) -> signal.Signals | None:
+    """Run the calls; the signal that stopped them, or None if they all ran."""
+    # The handlers stay while the workers are stopped and the rows flushed: a second Ctrl-C
+    # must not cut that short.
+    with _stop_on_signals(handle_signals) as flag:
+        failed = True
+        try:
+            calls.run(flag, tick)
+            stopped_by = flag.signal
+            failed = False
+        finally:
+            calls.stop()
+            calls.sweep.close(failed)
+    return stopped_by
