@@ -548,21 +548,13 @@ def _add_map_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress output")
 
 
-def _parser() -> _Parser:
-    from hoopbench.reports.compare.suite_file import TrajectoryChoice, shipped_suites
-    from hoopbench.reports.sweep.cluster import add_cluster_arguments
-
-    parser = _Parser(
-        prog="hoopbench",
-        description="Cross-validate physics engines on the hopping hoop.",
-    )
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    classes = engine_classes()
-
+def _add_scenes(sub: Any, classes: dict[str, Any]) -> None:
     p = sub.add_parser("scenes", help="list the scene catalogue")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_cmd_scenes)
 
+
+def _add_reference(sub: Any, classes: dict[str, Any]) -> None:
     p = sub.add_parser("reference", help="solve a scene with the reference solver")
     _add_scene_options(p)
     p.add_argument("--method", choices=("exact", "seed-euler"), default="exact")
@@ -575,6 +567,8 @@ def _parser() -> _Parser:
     p.add_argument("--force", action="store_true", help="overwrite an existing --csv file")
     p.set_defaults(func=_cmd_reference)
 
+
+def _add_simulate(sub: Any, classes: dict[str, Any]) -> None:
     p = sub.add_parser("simulate", help="run a scene in an engine and detect its events")
     _add_scene_options(p)
     _engine_options(p, tuple(classes))
@@ -583,15 +577,24 @@ def _parser() -> _Parser:
     p.add_argument("--force", action="store_true", help="overwrite an existing --csv file")
     p.set_defaults(func=_cmd_simulate)
 
+
+def _add_model(sub: Any, classes: dict[str, Any]) -> None:
     p = sub.add_parser("model", help="print the engine's native model of a scene")
     _add_scene_options(p)
     _engine_options(p, tuple(name for name, cls in classes.items() if cls.model_format))
     p.set_defaults(func=_cmd_model)
 
+
+def _add_settings(sub: Any, classes: dict[str, Any]) -> None:
     p = sub.add_parser("settings", help="print the default contact and detector settings")
     p.add_argument("--engine", choices=tuple(classes))
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_cmd_settings)
+
+
+def _add_compare(sub: Any, classes: dict[str, Any]) -> None:
+    from hoopbench.reports.compare.suite_file import TrajectoryChoice, shipped_suites
+    from hoopbench.reports.sweep.cluster import add_cluster_arguments
 
     p = sub.add_parser("compare", help="run a suite file: isolated, resumable, stored as Parquet")
     p.add_argument(
@@ -619,6 +622,10 @@ def _parser() -> _Parser:
     add_cluster_arguments(p)
     p.set_defaults(func=_cmd_compare)
 
+
+def _add_map(sub: Any, classes: dict[str, Any]) -> None:
+    from hoopbench.reports.sweep.cluster import add_cluster_arguments
+
     p = sub.add_parser(
         "map", help="the hop map: exact regimes and engine verdicts over a grid of scenes"
     )
@@ -626,6 +633,8 @@ def _parser() -> _Parser:
     add_cluster_arguments(p)
     p.set_defaults(func=_cmd_map)
 
+
+def _add_report(sub: Any, classes: dict[str, Any]) -> None:
     p = sub.add_parser("report", help="write report.md and figures from stored results")
     p.add_argument(
         "--results",
@@ -638,6 +647,8 @@ def _parser() -> _Parser:
     p.add_argument("--force", action="store_true", help="replace an existing report.md")
     p.set_defaults(func=_cmd_report)
 
+
+def _add_findings(sub: Any, classes: dict[str, Any]) -> None:
     p = sub.add_parser("findings", help="the report's findings, as Markdown sentences")
     p.add_argument("--results", required=True, nargs="+", metavar="DIR", help="results folders")
     p.add_argument(
@@ -645,12 +656,37 @@ def _parser() -> _Parser:
     )
     p.set_defaults(func=_cmd_findings)
 
+
+def _add_figure(sub: Any, classes: dict[str, Any]) -> None:
     p = sub.add_parser("figure", help="draw a hoop trajectory (weight and hoop positions)")
     _add_scene_options(p)
     p.add_argument("--method", choices=("exact", "seed-euler"), default="exact")
     p.add_argument("--out", default="hoop.png", help="image file (.png, .pdf or .svg)")
     p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
     p.set_defaults(func=_cmd_figure)
+
+
+def _parser() -> _Parser:
+    parser = _Parser(
+        prog="hoopbench",
+        description="Cross-validate physics engines on the hopping hoop.",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    classes = engine_classes()
+
+    for add in (
+        _add_scenes,
+        _add_reference,
+        _add_simulate,
+        _add_model,
+        _add_settings,
+        _add_compare,
+        _add_map,
+        _add_report,
+        _add_findings,
+        _add_figure,
+    ):
+        add(sub, classes)
     return parser
 
 

@@ -102,27 +102,50 @@ def _rolling_margins(scene: Scene, theta: float, thetadot: float) -> tuple[float
 
 def grazing(ex: ExactSolution, dae: DaeSolution) -> str | None:
     """Why this scene sits on a tie that either solver may break either way; None if clear."""
-    scene = dae.scene
-    # Decisions at t = 0: roll, slip or leave the floor.
-    if scene.rolls_at_start:
-        n0, cone0 = _rolling_margins(scene, scene.theta0, scene.thetadot0)
-        free0 = float(dynamics.free_centre_acceleration(scene, scene.theta0, scene.thetadot0))
-        for what, value in (("n(0)", n0), ("cone(0)", cone0), ("free(0)", free0 / scene.g)):
-            if abs(value) < DECISION_MARGIN:
-                return f"{what} = {value:.2e}"
-    # Boundaries near the end of the window.
+    checks = (
+        lambda: _start_tie(dae.scene),
+        lambda: _end_boundary(ex, dae),
+        lambda: _restick_tie(dae),
+        lambda: _near_miss(dae),
+    )
+    # In order, and lazily: a later check is not needed once an earlier one finds a tie.
+    return next((why for check in checks if (why := check()) is not None), None)
+
+
+def _start_tie(scene: Scene) -> str | None:
+    """Decisions at t = 0: roll, slip or leave the floor."""
+    if not scene.rolls_at_start:
+        return None
+    n0, cone0 = _rolling_margins(scene, scene.theta0, scene.thetadot0)
+    free0 = float(dynamics.free_centre_acceleration(scene, scene.theta0, scene.thetadot0))
+    for what, value in (("n(0)", n0), ("cone(0)", cone0), ("free(0)", free0 / scene.g)):
+        if abs(value) < DECISION_MARGIN:
+            return f"{what} = {value:.2e}"
+    return None
+
+
+def _end_boundary(ex: ExactSolution, dae: DaeSolution) -> str | None:
+    """Boundaries near the end of the window."""
     for sol_phases in (ex.events.phases, dae.phases):
         for p in sol_phases[:-1]:
-            if abs(p.t_end - scene.t_end) < END_MARGIN:
+            if abs(p.t_end - dae.scene.t_end) < END_MARGIN:
                 return f"boundary at {p.t_end} near t_end"
-    # Re-stick or reversal at the end of each slip.
+    return None
+
+
+def _restick_tie(dae: DaeSolution) -> str | None:
+    """Re-stick or reversal at the end of each slip."""
     for p in dae.phases[:-1]:
         if p.kind == "slip":
             _, _, theta, _, _, thetadot = dae.state(p.t_end)[:, 0]
-            _, cone = _rolling_margins(scene, theta, thetadot)
+            _, cone = _rolling_margins(dae.scene, theta, thetadot)
             if abs(cone) < DECISION_MARGIN:
                 return f"re-stick tie at {p.t_end}: cone margin {cone:.2e}"
-    # Near misses inside phases and tangential crossings at their ends.
+    return None
+
+
+def _near_miss(dae: DaeSolution) -> str | None:
+    """Near misses inside phases and tangential crossings at their ends."""
     ends_by_event = dae.outcome in ("painleve", "hops", "lifts-at-start", "degenerate")
     for p in dae.phases:
         if p.t_end - p.t_start < 1e-9:

@@ -295,6 +295,36 @@ def detect_phases(
     return phases
 
 
+def _flight(
+    t: NDArray, clear: NDArray, cfg: DetectorSettings, extra: dict[str, float | None]
+) -> tuple[float | None, float | None, float | None]:
+    """(t_lift, t_impact, hop_height) of the first sustained flight (Nones without one);
+    the threshold crossing goes into ``extra['t_lift_threshold']``.
+
+    Lift-off is the clearance above lift_clearance, sustained. The flight is the excursion
+    above lift_level that contains the sustained one; its start is extrapolated back from the
+    crossings of 1, 2 and 4 lift_level.
+    """
+    up = clear > cfg.lift_clearance
+    i_up = _first_sustained(up, t, 0, cfg.lift_sustain)
+    if i_up is None:
+        return None, None, None
+    above = np.maximum(clear, 0.0)
+    low = np.nonzero(clear[: i_up + 1] <= cfg.lift_level)[0]
+    i_rise = int(low[-1]) + 1 if low.size else 0
+    t_lift = float(t[0]) if i_rise == 0 else refined_onset(t, above, i_rise, cfg.lift_level)
+    if t_lift - t[0] < t[1] - t[0]:  # within the first step: the hoop left at once
+        t_lift = float(t[0])
+    floor = np.nonzero(clear[: i_up + 1] <= FLOOR_LEVEL)[0]
+    i0 = int(floor[-1]) + 1 if floor.size else 0
+    extra["t_lift_threshold"] = _crossing_time(t, clear, i_up, cfg.lift_clearance)
+    down = np.nonzero(clear[i_up:] <= FLOOR_LEVEL)[0]
+    if not down.size:
+        return t_lift, None, float(np.max(clear[i0:]))
+    k = i_up + int(down[0])
+    return t_lift, _crossing_time(t, clear, k, 0.0), float(np.max(clear[i0:k]))
+
+
 def detect_events(traj: Trajectory, settings: DetectorSettings | None = None) -> Events:
     """Slip onset (threshold and refined), re-stick, lift-off, hop height, impact.
 
@@ -308,31 +338,8 @@ def detect_events(traj: Trajectory, settings: DetectorSettings | None = None) ->
         raise ValueError("a trajectory needs at least two samples for event detection")
     extra: dict[str, float | None] = {}
 
-    # Lift-off: clearance above lift_clearance, sustained.
-    up = clear > cfg.lift_clearance
-    i_up = _first_sustained(up, t, 0, cfg.lift_sustain)
-    t_lift = t_impact = hop_height = None
-    end_contact = len(t)
-    if i_up is not None:
-        # The flight is the excursion above lift_level that contains the sustained one; its
-        # start is extrapolated back from the crossings of 1, 2 and 4 lift_level.
-        above = np.maximum(clear, 0.0)
-        low = np.nonzero(clear[: i_up + 1] <= cfg.lift_level)[0]
-        i_rise = int(low[-1]) + 1 if low.size else 0
-        t_lift = float(t[0]) if i_rise == 0 else refined_onset(t, above, i_rise, cfg.lift_level)
-        if t_lift - t[0] < t[1] - t[0]:  # within the first step: the hoop left at once
-            t_lift = float(t[0])
-        floor = np.nonzero(clear[: i_up + 1] <= FLOOR_LEVEL)[0]
-        i0 = int(floor[-1]) + 1 if floor.size else 0
-        extra["t_lift_threshold"] = _crossing_time(t, clear, i_up, cfg.lift_clearance)
-        down = np.nonzero(clear[i_up:] <= FLOOR_LEVEL)[0]
-        if down.size:
-            k = i_up + int(down[0])
-            t_impact = _crossing_time(t, clear, k, 0.0)
-            hop_height = float(np.max(clear[i0:k]))
-        else:
-            hop_height = float(np.max(clear[i0:]))
-        end_contact = int(np.searchsorted(t, t_lift))
+    t_lift, t_impact, hop_height = _flight(t, clear, cfg, extra)
+    end_contact = len(t) if t_lift is None else int(np.searchsorted(t, t_lift))
 
     # Contact modes while on the floor; the first slip and re-stick come from them.
     modes = detect_phases(t, s, end_contact, cfg)

@@ -298,41 +298,16 @@ def _mm(value: Any) -> str:
     return "-" if number is None else f"{1e3 * number:.3g} mm"
 
 
-def _outcome(row: Mapping[str, Any], engine: _Class, exact: _Class) -> tuple[Verdict | None, str]:
+_OutcomePart = tuple[Verdict | None, str]
+"""A failing Verdict (None: the outcome agrees) and the reason."""
+
+
+def _outcome(row: Mapping[str, Any], engine: _Class, exact: _Class) -> _OutcomePart:
     """The outcome part of the verdict: a failing Verdict, or None if the outcome agrees."""
-    sizes = _row_thresholds(row)
-    tolerance = sizes.lift_time_tolerance
     if exact is _Class.HOP:
-        if engine is not _Class.HOP:
-            largest = _mm(row.get(Col.MAX_CLEARANCE))
-            threshold = _mm(sizes.hop_clearance)
-            return Verdict.MISSED_HOP, f"no hop above {threshold} (largest {largest})"
-        if not hop_matches(
-            row.get(Col.HOP_HEIGHT),
-            row.get(Col.T_LIFT),
-            row.get(Col.EXACT_HOP_HEIGHT),
-            row.get(Col.EXACT_T_LIFT),
-            tolerance,
-        ):
-            return Verdict.MISSED_HOP, (
-                f"hop {_mm(row.get(Col.HOP_HEIGHT))} at "
-                f"t = {number_or_none(row.get(Col.T_LIFT))} s "
-                f"against {_mm(row.get(Col.EXACT_HOP_HEIGHT))} at "
-                f"{number_or_none(row.get(Col.EXACT_T_LIFT))} s: "
-                f"not within a factor {HOP_HEIGHT_FACTOR:g} and {1e3 * tolerance:.3g} ms"
-            )
-        return None, "the exact hop"
+        return _hop_outcome(row, engine)
     if exact is _Class.PAINLEVE:
-        t_p = number_or_none(row.get(Col.EXACT_T_PAINLEVE)) or 0.0
-        if engine is _Class.HOP:
-            t_lift = number_or_none(row.get(Col.T_LIFT))
-            if t_lift is None or t_lift < t_p - tolerance:
-                when = "withheld" if t_lift is None else f"{t_lift:.6g} s"
-                return Verdict.FALSE_HOP, f"lift-off ({when}) before the Painlevé point {t_p:.6g} s"
-            return None, f"lift-off at {t_lift:.6g} s, not before the Painlevé point {t_p:.6g} s"
-        if engine is _Class.ROLL and number_or_none(row.get(Col.EXACT_T_SLIP)) is not None:
-            return Verdict.MISSED_SLIP, "no slip before the Painlevé point"
-        return None, "nothing contradicts the motion up to the Painlevé point"
+        return _painleve_outcome(row, engine)
     if engine is _Class.HOP:
         height = _mm(row.get(Col.HOP_HEIGHT))
         return Verdict.FALSE_HOP, f"a {height} hop the reference does not have"
@@ -343,6 +318,46 @@ def _outcome(row: Mapping[str, Any], engine: _Class, exact: _Class) -> tuple[Ver
     if exact is _Class.ROLL and engine is _Class.SLIP:
         return Verdict.FALSE_SLIP, "slips where the reference rolls"
     return None, f"{exact}s as the reference does"
+
+
+def _hop_outcome(row: Mapping[str, Any], engine: _Class) -> _OutcomePart:
+    """Where the reference hops: the engine must hop, by the right height at the right time."""
+    sizes = _row_thresholds(row)
+    if engine is not _Class.HOP:
+        largest = _mm(row.get(Col.MAX_CLEARANCE))
+        threshold = _mm(sizes.hop_clearance)
+        return Verdict.MISSED_HOP, f"no hop above {threshold} (largest {largest})"
+    tolerance = sizes.lift_time_tolerance
+    if not hop_matches(
+        row.get(Col.HOP_HEIGHT),
+        row.get(Col.T_LIFT),
+        row.get(Col.EXACT_HOP_HEIGHT),
+        row.get(Col.EXACT_T_LIFT),
+        tolerance,
+    ):
+        return Verdict.MISSED_HOP, (
+            f"hop {_mm(row.get(Col.HOP_HEIGHT))} at "
+            f"t = {number_or_none(row.get(Col.T_LIFT))} s "
+            f"against {_mm(row.get(Col.EXACT_HOP_HEIGHT))} at "
+            f"{number_or_none(row.get(Col.EXACT_T_LIFT))} s: "
+            f"not within a factor {HOP_HEIGHT_FACTOR:g} and {1e3 * tolerance:.3g} ms"
+        )
+    return None, "the exact hop"
+
+
+def _painleve_outcome(row: Mapping[str, Any], engine: _Class) -> _OutcomePart:
+    """Where the reference reaches a Painlevé point: nothing may contradict the motion the
+    rigid model predicts up to it (module docstring)."""
+    t_p = number_or_none(row.get(Col.EXACT_T_PAINLEVE)) or 0.0
+    if engine is _Class.HOP:
+        t_lift = number_or_none(row.get(Col.T_LIFT))
+        if t_lift is None or t_lift < t_p - _row_thresholds(row).lift_time_tolerance:
+            when = "withheld" if t_lift is None else f"{t_lift:.6g} s"
+            return Verdict.FALSE_HOP, f"lift-off ({when}) before the Painlevé point {t_p:.6g} s"
+        return None, f"lift-off at {t_lift:.6g} s, not before the Painlevé point {t_p:.6g} s"
+    if engine is _Class.ROLL and number_or_none(row.get(Col.EXACT_T_SLIP)) is not None:
+        return Verdict.MISSED_SLIP, "no slip before the Painlevé point"
+    return None, "nothing contradicts the motion up to the Painlevé point"
 
 
 def _exact_slips_below_threshold(row: Mapping[str, Any]) -> str | None:
