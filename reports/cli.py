@@ -11,7 +11,7 @@ import argparse
 import json
 import os
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
 
@@ -234,7 +234,7 @@ def _cmd_reference(args: argparse.Namespace) -> int:
         events = result.events
         trajectory = result.trajectory() if csv else None
     payload = {"method": args.method, **events.to_dict(), "scene": scene.to_dict()}
-    if trajectory is not None:
+    if trajectory is not None and csv is not None:
         trajectory.write(csv)
         payload["trajectory_file"] = str(csv)
     _emit(args, payload)
@@ -548,13 +548,13 @@ def _add_map_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress output")
 
 
-def _add_scenes(sub: Any, classes: dict[str, Any]) -> None:
+def _add_scenes(sub: Any, classes: Mapping[str, Any]) -> None:
     p = sub.add_parser("scenes", help="list the scene catalogue")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_cmd_scenes)
 
 
-def _add_reference(sub: Any, classes: dict[str, Any]) -> None:
+def _add_reference(sub: Any, classes: Mapping[str, Any]) -> None:
     p = sub.add_parser("reference", help="solve a scene with the reference solver")
     _add_scene_options(p)
     p.add_argument("--method", choices=("exact", "seed-euler"), default="exact")
@@ -568,7 +568,7 @@ def _add_reference(sub: Any, classes: dict[str, Any]) -> None:
     p.set_defaults(func=_cmd_reference)
 
 
-def _add_simulate(sub: Any, classes: dict[str, Any]) -> None:
+def _add_simulate(sub: Any, classes: Mapping[str, Any]) -> None:
     p = sub.add_parser("simulate", help="run a scene in an engine and detect its events")
     _add_scene_options(p)
     _engine_options(p, tuple(classes))
@@ -578,21 +578,21 @@ def _add_simulate(sub: Any, classes: dict[str, Any]) -> None:
     p.set_defaults(func=_cmd_simulate)
 
 
-def _add_model(sub: Any, classes: dict[str, Any]) -> None:
+def _add_model(sub: Any, classes: Mapping[str, Any]) -> None:
     p = sub.add_parser("model", help="print the engine's native model of a scene")
     _add_scene_options(p)
     _engine_options(p, tuple(name for name, cls in classes.items() if cls.model_format))
     p.set_defaults(func=_cmd_model)
 
 
-def _add_settings(sub: Any, classes: dict[str, Any]) -> None:
+def _add_settings(sub: Any, classes: Mapping[str, Any]) -> None:
     p = sub.add_parser("settings", help="print the default contact and detector settings")
     p.add_argument("--engine", choices=tuple(classes))
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_cmd_settings)
 
 
-def _add_compare(sub: Any, classes: dict[str, Any]) -> None:
+def _add_compare(sub: Any, classes: Mapping[str, Any]) -> None:
     from hoopbench.reports.compare.suite_file import TrajectoryChoice, shipped_suites
     from hoopbench.reports.sweep.cluster import add_cluster_arguments
 
@@ -623,7 +623,7 @@ def _add_compare(sub: Any, classes: dict[str, Any]) -> None:
     p.set_defaults(func=_cmd_compare)
 
 
-def _add_map(sub: Any, classes: dict[str, Any]) -> None:
+def _add_map(sub: Any, classes: Mapping[str, Any]) -> None:
     from hoopbench.reports.sweep.cluster import add_cluster_arguments
 
     p = sub.add_parser(
@@ -634,7 +634,7 @@ def _add_map(sub: Any, classes: dict[str, Any]) -> None:
     p.set_defaults(func=_cmd_map)
 
 
-def _add_report(sub: Any, classes: dict[str, Any]) -> None:
+def _add_report(sub: Any, classes: Mapping[str, Any]) -> None:
     p = sub.add_parser("report", help="write report.md and figures from stored results")
     p.add_argument(
         "--results",
@@ -648,7 +648,7 @@ def _add_report(sub: Any, classes: dict[str, Any]) -> None:
     p.set_defaults(func=_cmd_report)
 
 
-def _add_findings(sub: Any, classes: dict[str, Any]) -> None:
+def _add_findings(sub: Any, classes: Mapping[str, Any]) -> None:
     p = sub.add_parser("findings", help="the report's findings, as Markdown sentences")
     p.add_argument("--results", required=True, nargs="+", metavar="DIR", help="results folders")
     p.add_argument(
@@ -657,7 +657,7 @@ def _add_findings(sub: Any, classes: dict[str, Any]) -> None:
     p.set_defaults(func=_cmd_findings)
 
 
-def _add_figure(sub: Any, classes: dict[str, Any]) -> None:
+def _add_figure(sub: Any, classes: Mapping[str, Any]) -> None:
     p = sub.add_parser("figure", help="draw a hoop trajectory (weight and hoop positions)")
     _add_scene_options(p)
     p.add_argument("--method", choices=("exact", "seed-euler"), default="exact")

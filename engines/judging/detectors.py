@@ -265,7 +265,8 @@ def detect_phases(
     """
     magnitude = np.abs(s[:end])
     phases: list[tuple[PhaseKind, float, int | None]] = []
-    kind, sigma, quiet_since = PhaseKind.ROLL, None, None
+    # sigma is the slip direction while slipping; 0 while rolling (a roll phase has None).
+    kind, sigma, quiet_since = PhaseKind.ROLL, 0, None
     for k in range(end):
         sk = s[k]
         if kind is PhaseKind.ROLL:
@@ -287,7 +288,7 @@ def detect_phases(
             if quiet_since is None:
                 quiet_since = k
             if t[k] - t[quiet_since] >= cfg.restick_sustain:
-                kind, sigma = PhaseKind.ROLL, None
+                kind, sigma = PhaseKind.ROLL, 0
                 phases.append((kind, float(t[quiet_since]), None))
                 quiet_since = None
         else:
@@ -296,7 +297,7 @@ def detect_phases(
 
 
 def _flight(
-    t: NDArray, clear: NDArray, cfg: DetectorSettings, extra: dict[str, float | None]
+    t: NDArray, clear: NDArray, cfg: DetectorSettings, extra: dict[str, float | int | str | None]
 ) -> tuple[float | None, float | None, float | None]:
     """(t_lift, t_impact, hop_height) of the first sustained flight (Nones without one);
     the threshold crossing goes into ``extra['t_lift_threshold']``.
@@ -336,7 +337,7 @@ def detect_events(traj: Trajectory, settings: DetectorSettings | None = None) ->
     t, s, clear = traj.t, traj.slip_velocity, traj.clearance
     if len(t) < 2:
         raise ValueError("a trajectory needs at least two samples for event detection")
-    extra: dict[str, float | None] = {}
+    extra: dict[str, float | int | str | None] = {}
 
     t_lift, t_impact, hop_height = _flight(t, clear, cfg, extra)
     end_contact = len(t) if t_lift is None else int(np.searchsorted(t, t_lift))
