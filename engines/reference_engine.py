@@ -11,6 +11,7 @@ import numpy as np
 from hoopbench.engines.base import Engine, Simulation, n_steps_for
 from hoopbench.engines.options import Option, number
 from hoopbench.engines.registry import register
+from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.events import Outcome
 from hoopbench.models.scene import Scene
@@ -33,7 +34,7 @@ class ReferenceEngine(Engine):
     ``RunResult.exact_events``, so the detectors' own bias can be measured.
     """
 
-    name = "reference"
+    name = REFERENCE_ENGINE
     distribution = "hoopbench"
     options = (
         Option(

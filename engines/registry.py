@@ -27,6 +27,7 @@ from types import MappingProxyType, ModuleType
 from typing import TypeVar
 
 from hoopbench.engines.base import Engine
+from hoopbench.engines.run import REFERENCE_ENGINE
 
 __all__ = [
     "engine_class",
@@ -126,7 +127,7 @@ def _load_plugin(entry: EntryPoint) -> None:
 def engine_classes() -> MappingProxyType[str, type[Engine]]:
     """Every registered engine, the reference first, then by name."""
     _discover()
-    order = sorted(_ENGINES, key=lambda name: (name != "reference", name))
+    order = sorted(_ENGINES, key=lambda name: (name != REFERENCE_ENGINE, name))
     return MappingProxyType({name: _ENGINES[name] for name in order})
 
 

@@ -490,8 +490,8 @@ def _engine_options(p: argparse.ArgumentParser, engines: Sequence[str]) -> None:
     )
     p.add_argument(
         "--profile",
-        choices=("tuned", "stock"),
-        default="tuned",
+        choices=tuple(str(p) for p in Profile),
+        default=str(Profile.TUNED),
         help="option values to start from: hoopbench's tuned defaults or the engine's own",
     )
     p.add_argument(

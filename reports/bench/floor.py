@@ -35,10 +35,10 @@ import pandas as pd
 
 from hoopbench.engines.base import n_steps_for
 from hoopbench.engines.registry import get_engine
-from hoopbench.engines.run import RunStatus
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.scene import Scene
 from hoopbench.reference.regimes import Regime
+from hoopbench.reports.compare import selection
 from hoopbench.reports.hop_map.spec import REFERENCE, MapPoint, MapSpec, load_spec
 from hoopbench.reports.hop_map.table import map_frame
 from hoopbench.reports.sweep import results
@@ -67,7 +67,7 @@ class Floor:
 
 def engine_rows(frame: pd.DataFrame) -> pd.DataFrame:
     """The map's engine rows that ran (status ok, steps taken), with their stop label."""
-    rows = frame[(frame["engine"] != REFERENCE) & (frame["status"] == str(RunStatus.OK))]
+    rows = selection.ok_rows(selection.engine_rows(frame))
     rows = rows[rows["n_steps"].fillna(0) > 0].copy()
     rows["stop"] = rows["stop_reason"].fillna(FULL).astype(str)
     rows["n_steps"] = rows["n_steps"].astype(int)

@@ -11,6 +11,7 @@ import pandas as pd
 
 from hoopbench.models.formats import FileFormat
 from hoopbench.reference.regimes import Regime
+from hoopbench.reports.compare.selection import engine_rows
 from hoopbench.reports.hop_map.spec import FORMAT_VERSION, REFERENCE, load_spec
 from hoopbench.reports.hop_map.stages import MAP_COLUMNS
 from hoopbench.reports.sweep import results
@@ -62,7 +63,7 @@ def agreement_table(frame: pd.DataFrame) -> pd.DataFrame:
     ``judged`` (NaN where nothing was judged). Regimes in Regime's order, the overall row
     (regime 'all') first.
     """
-    runs = frame[frame["engine"] != REFERENCE]
+    runs = engine_rows(frame)
     regimes = [str(r) for r in Regime if (runs["regime"] == str(r)).any()]
     engines = list(dict.fromkeys(runs["engine"]))
     rows = []

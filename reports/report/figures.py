@@ -14,6 +14,7 @@ matplotlib.use(os.environ.get("MPLBACKEND") or "Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.models import kinematics
 from hoopbench.models.events import Events
 from hoopbench.models.scene import Scene
@@ -120,7 +121,7 @@ def paths_figure(
     """Each engine's centre-of-mass path with its hoop centre and weight at equal time steps
     (the seed's Figure 3 kind), over the reference's path (grey), one panel per engine."""
     reference = runs.get("reference")
-    engines = [name for name in runs if name != "reference"] or list(runs)
+    engines = [name for name in runs if name != REFERENCE_ENGINE] or list(runs)
     fig, axes = plt.subplots(
         len(engines), 1, figsize=(9, 2.6 * len(engines)), squeeze=False, constrained_layout=True
     )

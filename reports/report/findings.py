@@ -18,6 +18,13 @@ import pandas as pd
 from hoopbench.engines.options import Profile
 from hoopbench.engines.registry import engine_class
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
+from hoopbench.reports.compare.selection import (
+    default_rows,
+    engine_names_of,
+    engine_rows,
+    profile_of,
+)
+from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
 from hoopbench.reports.report.stability import Stability, classify
 
 __all__ = [
@@ -66,21 +73,21 @@ def off_tuned(engine: str, row: Mapping[str, Any]) -> dict[str, tuple[Any, Any, 
 
 
 def _engines(runs: pd.DataFrame) -> list[str]:
-    return [e for e in dict.fromkeys(runs["engine"]) if e != "reference"]
+    return engine_names_of(runs)
 
 
 def _at_default(runs: pd.DataFrame) -> pd.DataFrame:
-    rows = runs[(runs["variant"] == "default") & (runs["timestep"] == DEFAULT_TIMESTEP)]
-    return rows[rows["engine"] != "reference"]
+    rows = default_rows(runs)
+    return engine_rows(rows[rows["timestep"] == DEFAULT_TIMESTEP])
 
 
 def _profiles(runs: pd.DataFrame) -> list[str]:
     present = set(runs["profile"].dropna())
-    return [p for p in ("tuned", "stock") if p in present] or ["tuned"]
+    return [str(p) for p in Profile if p in present] or [str(Profile.TUNED)]
 
 
 def _for_profile(rows: pd.DataFrame, profile: str) -> pd.DataFrame:
-    return rows[rows["profile"].fillna("tuned") == profile]
+    return rows[profile_of(rows) == profile]
 
 
 def _closest_sentence(rows: pd.DataFrame, column: str, what: str, unit: str, scale: float) -> str:
@@ -123,7 +130,7 @@ def _agreement_sentence(rows: pd.DataFrame, engine: str, label: str) -> str:
 
 def _coarsest_sentence(runs: pd.DataFrame, engine: str, profile: str) -> str:
     """The timesteps at which the engine gets the outcome right on every scene it ran."""
-    rows = runs[(runs["engine"] == engine) & (runs["variant"] == "default")]
+    rows = default_rows(runs[runs["engine"] == engine])
     rows = _for_profile(rows, profile)
     rows = rows[rows["verdict"].notna()]
     if rows.empty:
@@ -150,10 +157,10 @@ def _knob_sentence(runs: pd.DataFrame, engine: str) -> str:
     """Which of the engine's stock knob values, each alone on its tuned settings, turns an
     outcome the tuned run gets right into a wrong one (the contact-settings runs)."""
     rows = runs[(runs["engine"] == engine) & (runs["timestep"] == DEFAULT_TIMESTEP)]
-    tuned = _for_profile(rows[rows["variant"] == "default"], "tuned")
+    tuned = _for_profile(default_rows(rows), str(Profile.TUNED))
     right = set(tuned[tuned["outcome_agrees"] == True]["scene"])  # noqa: E712 - NaN is not True
     broke, kept = [], []
-    for _, group in rows[rows["variant"] != "default"].groupby("variant", sort=False):
+    for _, group in rows[rows["variant"] != DEFAULT_VARIANT].groupby("variant", sort=False):
         off = off_tuned(engine, group.iloc[0])
         if not off or len(off) != 1:
             continue
@@ -181,7 +188,7 @@ def _knob_sentence(runs: pd.DataFrame, engine: str) -> str:
 
 
 def _stability_sentence(runs: pd.DataFrame, engine: str) -> str:
-    rows = runs[(runs["engine"] == engine) & (runs["variant"] == "default")]
+    rows = default_rows(runs[runs["engine"] == engine])
     if rows.empty:
         return ""
     kinds = [classify(row)[0] for _, row in rows.iterrows()]

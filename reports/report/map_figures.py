@@ -33,6 +33,7 @@ from matplotlib.patches import Patch
 
 from hoopbench.engines.judging.verdict import HOP_HEIGHT_FACTOR, Verdict
 from hoopbench.reference.regimes import Regime
+from hoopbench.reports.compare.selection import engine_names_of, reference_rows
 
 __all__ = [
     "DPI",
@@ -51,9 +52,6 @@ __all__ = [
     "verdict_cells",
     "verdict_figure",
 ]
-
-REFERENCE = "reference"
-"""The engine name of the exact reference's rows."""
 
 HOP_REGIMES = (Regime.HOPS, Regime.LIFTS_AT_START)
 """The regimes with a hop height (RegimePoint.hop_height)."""
@@ -194,11 +192,11 @@ def _grid_values(rows: pd.DataFrame, values: pd.Series | np.ndarray, grid: MapGr
 
 def engines_of(frame: pd.DataFrame) -> list[str]:
     """The engines of a map frame, in order of appearance, the reference left out."""
-    return [str(e) for e in dict.fromkeys(frame["engine"]) if e != REFERENCE]
+    return engine_names_of(frame)
 
 
 def _reference(frame: pd.DataFrame) -> pd.DataFrame:
-    return frame[frame["engine"] == REFERENCE]
+    return reference_rows(frame)
 
 
 # --------------------------------------------------------------------------- cells to colour

@@ -20,7 +20,8 @@ import pandas as pd
 
 from hoopbench.engines.judging.verdict import HOP_HEIGHT_FACTOR, Verdict
 from hoopbench.reference.regimes import Regime
-from hoopbench.reports.hop_map.spec import AXES, MAP_FILE, REFERENCE, Axis, MapSpec, load_spec
+from hoopbench.reports.compare.selection import engine_rows, reference_rows
+from hoopbench.reports.hop_map.spec import AXES, MAP_FILE, Axis, MapSpec, load_spec
 from hoopbench.reports.hop_map.table import (
     ALL_REGIMES,
     agreement_markdown,
@@ -72,7 +73,7 @@ def _share(count: int, total: int) -> str:
 
 
 def _engine_rows(frame: pd.DataFrame) -> pd.DataFrame:
-    return frame[frame["engine"] != REFERENCE]
+    return engine_rows(frame)
 
 
 def _regime_counts(refs: pd.DataFrame) -> pd.Series:
@@ -82,7 +83,7 @@ def _regime_counts(refs: pd.DataFrame) -> pd.Series:
 
 
 def _regime_sentence(frame: pd.DataFrame) -> str:
-    refs = frame[frame["engine"] == REFERENCE]
+    refs = reference_rows(frame)
     counts = _regime_counts(refs)
     if counts.empty:
         return ""
@@ -248,7 +249,7 @@ def _status_text(frame: pd.DataFrame) -> str:
 
 
 def _regime_table(frame: pd.DataFrame) -> str:
-    refs = frame[frame["engine"] == REFERENCE]
+    refs = reference_rows(frame)
     lines = ["| exact regime | points | share |", "|---|---:|---:|"]
     lines += [f"| {r} | {c} | {_pct(c, len(refs))} |" for r, c in _regime_counts(refs).items()]
     return "\n".join(lines)

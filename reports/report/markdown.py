@@ -19,10 +19,19 @@ from typing import Any
 
 import pandas as pd
 
+from hoopbench.engines.options import Profile
+from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
 from hoopbench.models.catalogue import get_scene, scene_names
 from hoopbench.models.trajectory import Trajectory
+from hoopbench.reports.compare.selection import (
+    default_rows,
+    engine_rows,
+    profile_of,
+    reference_rows,
+)
 from hoopbench.reports.compare.suite import ROW_COLUMNS
+from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
 from hoopbench.reports.report import seed_reproduction
 from hoopbench.reports.report.figures import events_figure, hoop_figure, paths_figure
 from hoopbench.reports.report.findings import findings_markdown, off_tuned, option_text
@@ -83,7 +92,7 @@ def _with_optional_columns(frame: pd.DataFrame) -> pd.DataFrame:
 
 
 def _default(runs: pd.DataFrame) -> pd.DataFrame:
-    return runs[runs["variant"] == "default"]
+    return default_rows(runs)
 
 
 def _hops(runs: pd.DataFrame) -> pd.DataFrame:
@@ -125,7 +134,7 @@ def _settings_section(runs: pd.DataFrame) -> str:
     """How each engine's own knobs move slip onset and hop height, stock against tuned: a
     table per engine (:func:`_knob_table`). Empty when no run changed a setting."""
     at_dt = runs[runs["timestep"] == DEFAULT_TIMESTEP]
-    variants = at_dt[at_dt["variant"] != "default"]
+    variants = at_dt[at_dt["variant"] != DEFAULT_VARIANT]
     if not len(variants):
         return ""
     parts = [
@@ -139,7 +148,7 @@ def _settings_section(runs: pd.DataFrame) -> str:
         "and stands alone where the run has no such event.",
     ]
     for engine, rows in variants.groupby("engine", sort=False):
-        base = at_dt[(at_dt["engine"] == engine) & (at_dt["variant"] == "default")]
+        base = default_rows(at_dt[at_dt["engine"] == engine])
         parts += ["", f"### {engine}", "", _knob_table(engine, pd.concat([base, rows]))]
     return _section(*parts)
 
@@ -148,7 +157,7 @@ def _knob_table(engine: str, rows: pd.DataFrame) -> str:
     """One engine's settings table: a line per setting (tuned, stock, each knob), a column
     per scene of its variant runs (slip onset where the exact run only slips, hop height
     where it hops), and the cost per step."""
-    scenes = list(dict.fromkeys(rows[rows["variant"] != "default"]["scene"]))
+    scenes = list(dict.fromkeys(rows[rows["variant"] != DEFAULT_VARIANT]["scene"]))
     lines = []
     labelled = rows.assign(setting=_setting_labels(engine, rows))
     for label, group in labelled.groupby("setting", sort=False):
@@ -174,7 +183,7 @@ def _setting_labels(engine: str, rows: pd.DataFrame) -> list[tuple[str, str, str
     defaults, the variant's name where the engine is no longer registered."""
     labels = []
     for _, row in rows.iterrows():
-        if row["variant"] == "default":
+        if row["variant"] == DEFAULT_VARIANT:
             labels.append(
                 (f"(all {row['profile'] if isinstance(row['profile'], str) else 'tuned'})", "", "")
             )
@@ -210,7 +219,7 @@ def _timestep_section(runs: pd.DataFrame) -> str:
     default = _default(runs)
     hop_scenes = sorted(n for n in default["scene"].unique() if n.startswith("hop"))
     rows = []
-    profile = default["profile"].fillna("tuned")  # rows from before profiles ran the tuned ones
+    profile = profile_of(default)
     groups = default.assign(profile=profile).groupby(["engine", "profile", "timestep"], sort=False)
     for (engine, profile, dt), group in groups:
         seed = group[group["scene"] == "seed-mu"]
@@ -256,11 +265,11 @@ def _run_time_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[Path]]:
     figure = precision_figure(runs, out / "error_vs_time.png")
     cheapest = cheapest_runs(runs)
     cost = (
-        runs[runs["engine"] != "reference"]
+        engine_rows(runs)
         .groupby(["engine", "profile", "timestep"], as_index=False)[["us_per_step", "wall_time_s"]]
         .median()
     )
-    solve = runs[runs["engine"] == "reference"].groupby("scene", as_index=False)["wall_time_s"]
+    solve = reference_rows(runs).groupby("scene", as_index=False)["wall_time_s"]
     return (
         _section(
             "## Error against run time",
@@ -327,7 +336,7 @@ def _exact_summary(row: pd.Series) -> str:
 
 def _cost(row: pd.Series) -> str:
     """The reference's solve time; an engine's cost per step."""
-    if row["engine"] == "reference":
+    if row["engine"] == REFERENCE_ENGINE:
         return "-" if pd.isna(row["wall_time_s"]) else f"{row['wall_time_s']:.3g} s solve"
     return "-" if pd.isna(row["us_per_step"]) else f"{row['us_per_step']:.3g} us/step"
 
@@ -469,7 +478,7 @@ def _stored_trajectories(runs: pd.DataFrame, scene_name: str) -> dict[str, Traje
     """The recorded default-timestep, tuned default-settings trajectories of one scene."""
     rows = _default(runs)
     rows = rows[(rows["scene"] == scene_name) & (rows["timestep"] == DEFAULT_TIMESTEP)]
-    rows = rows[rows["profile"].fillna("tuned") == "tuned"]
+    rows = rows[profile_of(rows) == str(Profile.TUNED)]
     return {
         row["engine"]: Trajectory.read(row["trajectory_file"])
         for _, row in rows.iterrows()

@@ -16,6 +16,14 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from hoopbench.reports.compare.selection import (
+    default_rows,
+    engine_rows,
+    ok_rows,
+    profile_of,
+    reference_rows,
+)
+
 __all__ = ["METRICS", "Metric", "cheapest_runs", "pareto_front", "precision_figure"]
 
 
@@ -52,18 +60,14 @@ _FLOOR = 1e-6
 
 
 def _family(frame: pd.DataFrame) -> pd.Series:
-    # Results written before profiles existed ran hoopbench's defaults: tuned.
-    if "profile" in frame.columns:
-        profile = frame["profile"].fillna("tuned")
-    else:  # a Series too: a bare "tuned" has no astype (the report adds the column first)
-        profile = pd.Series("tuned", index=frame.index)
+    profile = profile_of(frame)
     return frame["engine"] + " " + profile.astype(str) + " " + frame["variant"]
 
 
 def _metric_runs(runs: pd.DataFrame, metric: Metric, scene: str) -> pd.DataFrame:
     """The runs of a scene with a measured error and a wall time, |error| in ``error``."""
     rows = runs[(runs["scene"] == scene) & runs["wall_time_s"].notna()]
-    rows = rows[rows[metric.column].notna() & (rows["status"] == "ok")]
+    rows = ok_rows(rows[rows[metric.column].notna()])
     return rows.assign(error=rows[metric.column].astype(float).abs(), family=_family(rows))
 
 
@@ -83,7 +87,7 @@ def _scenes(runs: pd.DataFrame, metric: Metric) -> list[str]:
 
 def cheapest_runs(runs: pd.DataFrame) -> pd.DataFrame:
     """Per metric and scene: the cheapest engine run within the metric's target, if any."""
-    engines = runs[runs["engine"] != "reference"]
+    engines = engine_rows(runs)
     rows = []
     for metric in METRICS:
         for scene in _scenes(engines, metric):
@@ -117,7 +121,7 @@ def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
 
     # One scene per metric keeps the figure readable (the table covers every scene): the
     # cross-engine slip scene for slips, the first hop scene for hops.
-    runs = runs[runs["variant"] == "default"]
+    runs = default_rows(runs)
     panels = []
     for metric in METRICS:
         scenes = [s for s in _scenes(runs, metric) if len(_metric_runs(runs, metric, s))]
@@ -132,7 +136,7 @@ def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
     )
     for ax, (metric, scene) in zip(axes.ravel(), panels, strict=False):
         points = _metric_runs(runs, metric, scene)
-        engines = points[points["engine"] != "reference"]
+        engines = engine_rows(points)
         for family, group in engines.groupby("family", sort=True):
             group = group.sort_values("wall_time_s")
             ax.plot(
@@ -143,7 +147,7 @@ def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
                 lw=1,
                 label=family,
             )
-        reference = runs[(runs["engine"] == "reference") & (runs["scene"] == scene)]
+        reference = reference_rows(runs[runs["scene"] == scene])
         if len(reference):
             ax.plot(reference["wall_time_s"].min(), _FLOOR, "k*", ms=10, label="exact reference")
         front = pareto_front(engines)

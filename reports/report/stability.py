@@ -13,6 +13,8 @@ from pathlib import Path
 import pandas as pd
 
 from hoopbench.engines.judging.verdict import number_or_none
+from hoopbench.engines.options import Profile
+from hoopbench.reports.compare.selection import default_rows, profile_of
 
 __all__ = [
     "ENERGY_GAIN_LIMIT",
@@ -93,14 +95,14 @@ def stability_matrix(runs: pd.DataFrame) -> pd.DataFrame:
     Only each engine's default settings count (the variant 'default'), stock and tuned
     profiles as separate rows when both ran.
     """
-    runs = runs[runs["variant"] == "default"]
+    runs = default_rows(runs)
     if runs.empty:
         return pd.DataFrame()
-    profile = runs["profile"] if "profile" in runs.columns else pd.Series("tuned", runs.index)
+    profile = profile_of(runs)
     cells = runs.assign(
         cell=[_cell(*classify(row)) for _, row in runs.iterrows()],
         engine=[
-            e if p == "tuned" else f"{e} ({p})"
+            e if p == Profile.TUNED else f"{e} ({p})"
             for e, p in zip(runs["engine"], profile, strict=True)
         ],
     )
