@@ -16,7 +16,6 @@ anything runs; a sweep's folder that cannot be used raises RunnerError (a Runtim
 from __future__ import annotations
 
 import math
-import numbers
 import os
 from collections.abc import Mapping, Sequence
 from concurrent.futures import Executor
@@ -44,7 +43,7 @@ from hoopbench.reports.compare.suite_file import (
     builtin_suite,
     load_suite,
 )
-from hoopbench.reports.hop_map.spec import MAP_FILE, Axis, MapSpec, load_spec
+from hoopbench.reports.hop_map.spec import MAP_FILE, Axis, MapSpec, check_grid, load_spec
 from hoopbench.reports.hop_map.stages import run_map
 from hoopbench.reports.hop_map.table import map_frame
 from hoopbench.reports.report.build import build_report
@@ -128,23 +127,6 @@ def check_workers(value: int | str) -> int:
 def default_jobs() -> int:
     """Worker processes when none are asked for: two, or one on a one-core machine."""
     return min(2, os.cpu_count() or 1)
-
-
-def check_grid(value: str | Sequence[int]) -> tuple[int, int]:
-    """Points along x and y: ``'40x40'`` or ``(40, 40)`` -> (40, 40), whole numbers >= 1."""
-    if isinstance(value, str):
-        nx, sep, ny = value.lower().partition("x")
-        try:
-            grid = (int(nx), int(ny)) if sep else None
-        except ValueError:
-            grid = None
-    else:
-        pair = tuple(value) if isinstance(value, Sequence) else ()
-        whole = [isinstance(n, numbers.Integral) and not isinstance(n, bool) for n in pair]
-        grid = (int(pair[0]), int(pair[1])) if len(pair) == 2 and all(whole) else None
-    if grid is None or min(grid) < 1:
-        raise ValueError(f"must be NXxNY, whole numbers >= 1, got {value!r}")
-    return grid
 
 
 def _choice(option: str, enum: type, value: Any) -> Any:

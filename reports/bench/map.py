@@ -36,7 +36,7 @@ import psutil  # Dask's dependency: the benchmark needs hoopbench[dask] anyway
 
 from hoopbench.engines.options import Profile
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
-from hoopbench.reports.hop_map.spec import DEFAULT_ENGINES, MapSpec
+from hoopbench.reports.hop_map.spec import DEFAULT_ENGINES, MapSpec, check_grid
 from hoopbench.reports.hop_map.stages import run_map
 from hoopbench.reports.hop_map.table import map_frame
 from hoopbench.reports.sweep.cluster import cluster_executor, local_cluster
@@ -151,10 +151,10 @@ def differing_columns(a: pd.DataFrame, b: pd.DataFrame) -> dict[str, int]:
 
 
 def _grid(text: str) -> tuple[int, int]:
-    nx, sep, ny = text.lower().partition("x")
-    if not sep or not nx.isdigit() or not ny.isdigit():
-        raise argparse.ArgumentTypeError(f"expected NXxNY such as 40x40, got {text!r}")
-    return int(nx), int(ny)
+    try:
+        return check_grid(text)  # the map's own check, as `hoopbench map --grid` has it
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import numbers
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
@@ -46,6 +47,7 @@ __all__ = [
     "MapPoint",
     "MapSpec",
     "MapSpecMismatchError",
+    "check_grid",
     "load_spec",
 ]
 
@@ -410,6 +412,23 @@ class MapPoint:
             "theta0_deg": self.theta0_deg,
             "t_end": self.t_end,
         }
+
+
+def check_grid(value: str | Sequence[int]) -> tuple[int, int]:
+    """Points along x and y: ``'40x40'`` or ``(40, 40)`` -> (40, 40), whole numbers >= 1."""
+    if isinstance(value, str):
+        nx, sep, ny = value.lower().partition("x")
+        try:
+            grid = (int(nx), int(ny)) if sep else None
+        except ValueError:
+            grid = None
+    else:
+        pair = tuple(value) if isinstance(value, Sequence) else ()
+        whole = [isinstance(n, numbers.Integral) and not isinstance(n, bool) for n in pair]
+        grid = (int(pair[0]), int(pair[1])) if len(pair) == 2 and all(whole) else None
+    if grid is None or min(grid) < 1:
+        raise ValueError(f"must be NXxNY, whole numbers >= 1, got {value!r}")
+    return grid
 
 
 def _toml_value(value: Any) -> str:
