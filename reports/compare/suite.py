@@ -33,7 +33,7 @@ from hoopbench.reports.compare.suite_file import (
     load_suite,
 )
 from hoopbench.reports.sweep import results
-from hoopbench.reports.sweep.runner import RunSummary, run_tasks
+from hoopbench.reports.sweep.runner import RunSummary, row_or_failure, run_tasks
 
 __all__ = [
     "FORMAT_VERSION",
@@ -151,10 +151,7 @@ def run_task(task: RunTask) -> dict[str, Any]:
 
     The worker function of the runner: importable, its input and output small and picklable.
     """
-    try:
-        return _run_task(task)
-    except Exception as exc:  # one broken run must not stop a sweep
-        return failure_row(task, RunStatus.ERROR, f"{type(exc).__name__}: {exc}")
+    return row_or_failure(_run_task, task, failure_row)
 
 
 def _run_task(task: RunTask) -> dict[str, Any]:

@@ -59,6 +59,7 @@ from hoopbench.reports.sweep.runner import (
     is_final_status,
     prepare_dir,
     refuse_in_a_starting_worker,
+    row_or_failure,
     run_tasks,
 )
 
@@ -289,10 +290,11 @@ def _hop_height_error(row: Mapping[str, Any]) -> float | None:
 
 def run_map_task(task: MapTask) -> dict[str, Any]:
     """The worker: one map row; an exception anywhere becomes a row with status error."""
-    try:
-        return _reference_row(task) if task.engine == REFERENCE else _engine_row(task)
-    except Exception as exc:  # one broken run must not stop a map
-        return map_failure_row(task, RunStatus.ERROR, f"{type(exc).__name__}: {exc}")
+    return row_or_failure(_map_row, task, map_failure_row)
+
+
+def _map_row(task: MapTask) -> dict[str, Any]:
+    return _reference_row(task) if task.engine == REFERENCE else _engine_row(task)
 
 
 def map_failure_row(task: MapTask, status: RunStatus, message: str) -> dict[str, Any]:

@@ -45,7 +45,7 @@ from datetime import UTC, datetime
 from importlib import import_module
 from multiprocessing.context import BaseContext
 from pathlib import Path
-from typing import Any, Protocol, TextIO
+from typing import Any, Protocol, TextIO, TypeVar
 
 # tqdm for the progress bar: small, no dependencies, and it shows done/total, rate and ETA
 # on a terminal; off a terminal it is disabled and we print plain, throttled lines instead.
@@ -67,6 +67,7 @@ __all__ = [
     "is_final_status",
     "prepare_dir",
     "refuse_in_a_starting_worker",
+    "row_or_failure",
     "run_tasks",
 ]
 
@@ -739,6 +740,22 @@ class _Sweep:
 def _exception_text(exc: BaseException) -> str:
     text = f"{type(exc).__name__}: {exc}"
     return text if len(text) <= 500 else text[:497] + "..."
+
+
+T = TypeVar("T")
+
+
+def row_or_failure(
+    work: Callable[[T], dict[str, Any]],
+    task: T,
+    failure_row: Callable[[T, RunStatus, str], dict[str, Any]],
+) -> dict[str, Any]:
+    """``work(task)``, the row of one task; an exception anywhere becomes the task's failure
+    row with status error, naming the exception: one broken run must not stop a sweep."""
+    try:
+        return work(task)
+    except Exception as exc:
+        return failure_row(task, RunStatus.ERROR, f"{type(exc).__name__}: {exc}")
 
 
 def is_final_status(status: str | None) -> bool:
