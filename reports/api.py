@@ -21,12 +21,13 @@ import os
 from collections.abc import Mapping, Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
+from enum import Enum
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import pandas as pd
 
-from hoopbench.engines.options import Profile
+from hoopbench.engines.options import Profile, check_profile
 from hoopbench.engines.registry import engine_class, engine_names
 from hoopbench.engines.run import RunResult, RunStatus
 from hoopbench.engines.settings import DEFAULT_TIMESTEP, RunSettings
@@ -140,14 +141,17 @@ def check_grid(value: str | Sequence[int]) -> tuple[int, int]:
             grid = None
     else:
         pair = tuple(value) if isinstance(value, Sequence) else ()
-        whole = [isinstance(n, numbers.Integral) and not isinstance(n, bool) for n in pair]
-        grid = (int(pair[0]), int(pair[1])) if len(pair) == 2 and all(whole) else None
+        whole = [n for n in pair if isinstance(n, numbers.Integral) and not isinstance(n, bool)]
+        grid = (int(whole[0]), int(whole[1])) if len(pair) == len(whole) == 2 else None
     if grid is None or min(grid) < 1:
         raise ValueError(f"must be NXxNY, whole numbers >= 1, got {value!r}")
     return grid
 
 
-def _choice(option: str, enum: type, value: Any) -> Any:
+_E = TypeVar("_E", bound=Enum)
+
+
+def _choice(option: str, enum: type[_E], value: Any) -> _E:
     try:
         return enum(value)
     except ValueError:
@@ -309,7 +313,10 @@ def _run_task(
 ) -> RunTask:
     """The run as a one-task suite builds it, so that its run_id and row are a suite's."""
     settings = RunSettings(
-        timestep=timestep, geometry=geometry, options=options or {}, profile=profile
+        timestep=timestep,
+        geometry=geometry,
+        options=options or {},
+        profile=check_profile("profile", profile),
     )
     engine_class(engine)().check(scene, settings)  # what a suite file is checked for
     plain = not settings.options and settings.geometry == "sphere"
