@@ -206,7 +206,8 @@ def scene(
     changes.setdefault("muk", changes["mus"])
     if chi is not None:
         return Scene.from_chi(chi, **changes)
-    return Scene(thetadot0=thetadot0, **changes)  # type: ignore[arg-type]
+    assert thetadot0 is not None  # else missing names "chi or thetadot0" above
+    return Scene(thetadot0=thetadot0, **changes)
 
 
 def _catalogue_scene(

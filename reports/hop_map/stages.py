@@ -378,7 +378,7 @@ def run_map(
     _prepare(out, spec, resume)
     started_at = datetime.now(UTC)
     meta = {"map": spec.to_dict(), results.FORMAT_KEY: FORMAT_VERSION}
-    common = dict(
+    common: dict[str, Any] = dict(  # run_tasks' keywords, the same for both stages
         failure_row=map_failure_row,
         timeout=_timeout,
         jobs=jobs,
@@ -401,7 +401,7 @@ def run_map(
         # end of stage 2 with every row, as a map's must be, and never stand for it meanwhile.
         for name in (results.CSV_NAME, results.META_NAME):
             (out / name).unlink(missing_ok=True)
-    second = run_tasks(tasks, run_map_task, out, **common)  # type: ignore[arg-type]
+    second = run_tasks(tasks, run_map_task, out, **common)
     summary = _summary(spec, out, [first, second], n_refs)
     if second.interrupted is None and not finished:
         _complete_meta(out, started_at, resume, summary)

@@ -85,14 +85,18 @@ def hoop_figure(
 
 
 def events_figure(
-    runs: Mapping[str, Trajectory], out: str | Path, *, title: str, t_window=None
+    runs: Mapping[str, Trajectory],
+    out: str | Path,
+    *,
+    title: str,
+    t_window: tuple[float, float] | None = None,
 ) -> Path:
     """Hoop-centre clearance and slip velocity against time, several engines on one scene,
     around its events (``t_window``, s)."""
     plt = pyplot()
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 5.6), sharex=True, constrained_layout=True)
     for label, traj in runs.items():
-        mask = slice(None)
+        mask: slice | np.ndarray = slice(None)
         if t_window is not None:
             mask = (traj.t >= t_window[0]) & (traj.t <= t_window[1])
         top.plot(traj.t[mask], traj.clearance[mask] * 1e3, label=label, lw=1.2)
