@@ -25,6 +25,7 @@ from abc import ABC
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager, contextmanager
 from dataclasses import dataclass
+from functools import partial
 from importlib.metadata import PackageNotFoundError, version
 from types import ModuleType
 from typing import Any, ClassVar
@@ -327,7 +328,8 @@ class Engine(ABC):
         """Step the scene. Bad settings raise ValueError; engine failures return a status."""
         settings = settings or RunSettings()
         options = self.check(scene, settings)
-        base = dict(
+        run_info = partial(
+            RunInfo,
             engine=self.name,
             mu=self.mu_for(scene, settings),
             timestep=settings.timestep,
@@ -336,18 +338,14 @@ class Engine(ABC):
         try:
             module = self._import()
         except EngineUnavailableError as exc:
-            info = RunInfo(
-                engine_version=None, status=RunStatus.UNAVAILABLE, message=str(exc), **base
-            )
+            info = run_info(engine_version=None, status=RunStatus.UNAVAILABLE, message=str(exc))
             return Run(None, info)
         engine_version = self.version()
         try:
             sim = self._simulate(module, scene, settings, options)
         except Exception as exc:  # an engine failure is a result, not a crash
             last = traceback.format_exception_only(type(exc), exc)[-1].strip()
-            info = RunInfo(
-                engine_version=engine_version, status=RunStatus.ERROR, message=last, **base
-            )
+            info = run_info(engine_version=engine_version, status=RunStatus.ERROR, message=last)
             return Run(None, info)
         if sim.failed:
             status, message = RunStatus.ERROR, sim.failed
@@ -355,14 +353,13 @@ class Engine(ABC):
             status, message = RunStatus.DIVERGED, sim.diverged
         else:
             status, message = RunStatus.OK, ""
-        info = RunInfo(
+        info = run_info(
             engine_version=engine_version,
             status=status,
             message=message,
             wall_time_s=sim.wall_time_s,
             n_steps=sim.n_steps,
             stop_reason=None if sim.stop_reason is None else str(sim.stop_reason),
-            **base,
         )
         return Run(sim.trajectory, info, sim.exact_events)
 

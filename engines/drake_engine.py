@@ -374,7 +374,8 @@ class DrakeEngine(Engine):
         """The diagram, initialized; a bare one has no logger."""
         model = self._build(module, scene, settings, options, record=record)
         simulator = model.simulator
-        log = model.log.FindLog(simulator.get_context()) if record else None
+        # A model built with record=True has a logger, a bare one none.
+        log = None if model.log is None else model.log.FindLog(simulator.get_context())
         simulator.Initialize()  # the logger's sample at t = 0
         return nullcontext(_Run(model, scene, settings.timestep, log))
 
@@ -383,6 +384,8 @@ class DrakeEngine(Engine):
         # A discrete plant's last force comes from one step more. The logger publishes on
         # the grid k*dt; stopping half a step past the chunk's last sample keeps a rounded
         # stop time from leaving that sample out.
+        if run.log is None:
+            raise RuntimeError("a bare Drake model has no logger: only _step_bare steps it")
         extra = 1 if run.model.discrete and last else 0
         run.model.simulator.AdvanceTo((done + steps + extra + 0.5) * run.timestep)
         run.chunks.append(np.array(run.log.data()))  # a copy: data() is a view of the log
@@ -406,6 +409,7 @@ class DrakeEngine(Engine):
             **_our_state(run.scene, state),
             normal_force=force[1] / run.scene.M,
             friction_force=force[0] / run.scene.M,
+            shape=None,  # the hoop's circle
         )
 
     def _step_bare(self, run: _Run, steps: int) -> None:

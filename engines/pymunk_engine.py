@@ -202,6 +202,7 @@ class PymunkEngine(Engine):
             normal_force=n,
             friction_force=f,
             contact=n > 0,
+            shape=None,  # the hoop's circle
         )
 
     def _step_bare(self, run: _Run, steps: int) -> None:

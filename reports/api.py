@@ -20,12 +20,13 @@ import os
 from collections.abc import Mapping, Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
+from enum import Enum
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import pandas as pd
 
-from hoopbench.engines.options import Profile
+from hoopbench.engines.options import Profile, check_profile
 from hoopbench.engines.registry import engine_class, engine_names
 from hoopbench.engines.run import RunResult, RunStatus
 from hoopbench.engines.settings import DEFAULT_TIMESTEP, RunSettings
@@ -129,7 +130,10 @@ def default_jobs() -> int:
     return min(2, os.cpu_count() or 1)
 
 
-def _choice(option: str, enum: type, value: Any) -> Any:
+_E = TypeVar("_E", bound=Enum)
+
+
+def _choice(option: str, enum: type[_E], value: Any) -> _E:
     try:
         return enum(value)
     except ValueError:
@@ -184,7 +188,8 @@ def scene(
     changes.setdefault("muk", changes["mus"])
     if chi is not None:
         return Scene.from_chi(chi, **changes)
-    return Scene(thetadot0=thetadot0, **changes)  # type: ignore[arg-type]
+    assert thetadot0 is not None  # else missing names "chi or thetadot0" above
+    return Scene(thetadot0=thetadot0, **changes)
 
 
 def _catalogue_scene(
@@ -291,7 +296,10 @@ def _run_task(
 ) -> RunTask:
     """The run as a one-task suite builds it, so that its run_id and row are a suite's."""
     settings = RunSettings(
-        timestep=timestep, geometry=geometry, options=options or {}, profile=profile
+        timestep=timestep,
+        geometry=geometry,
+        options=options or {},
+        profile=check_profile("profile", profile),
     )
     engine_class(engine)().check(scene, settings)  # what a suite file is checked for
     plain = not settings.options and settings.geometry == "sphere"

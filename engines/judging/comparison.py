@@ -150,7 +150,7 @@ def event_columns(
         Col.T_LAST_PHASE: events.phases[-1].t_start if events.phases else None,
         Col.T_FINAL: float(traj.t[-1]),
     }
-    hoop = {Col.A: scene.a, Col.G: scene.g}
+    hoop: dict[str, float] = {Col.A: scene.a, Col.G: scene.g}
     return {**columns, Col.PHASES_AGREE: row_phases_agree({**exact, **columns, **hoop})}
 
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from typing import Any
 
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.settings import RunSettings
@@ -23,12 +24,14 @@ from hoopbench.models.catalogue import get_scene
 ENGINES = ("mujoco", "pybullet", "pymunk", "drake")
 
 
-def measure(engine_name: str, scene_name: str, timestep: float, repeat: int) -> dict:
+def measure(engine_name: str, scene_name: str, timestep: float, repeat: int) -> dict[str, Any]:
     engine = get_engine(engine_name)
     scene = get_scene(scene_name)
     settings = RunSettings(timestep=timestep)
-    full, total, bare = [], [], []
-    n_steps = None
+    full: list[float] = []
+    total: list[float] = []
+    bare: list[float] = []
+    n_steps = 0
     for _ in range(repeat):
         start = time.perf_counter()
         result = engine.run(scene, settings)
@@ -39,8 +42,11 @@ def measure(engine_name: str, scene_name: str, timestep: float, repeat: int) -> 
                 "status": str(result.info.status),
                 "message": result.info.message,
             }
-        full.append(result.info.wall_time_s)
-        n_steps = result.info.n_steps
+        wall_time_s, steps = result.info.wall_time_s, result.info.n_steps
+        if wall_time_s is None or steps is None:  # Engine.simulate sets both for an ok run
+            raise RuntimeError(f"{engine_name}: an ok run without wall_time_s or n_steps")
+        full.append(wall_time_s)
+        n_steps = steps
         bare.append(engine.bare_loop_time(scene, settings))
     return {
         "engine": engine_name,

@@ -13,7 +13,7 @@ import shutil
 from concurrent.futures import Executor
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import pandas as pd
 
@@ -184,7 +184,14 @@ def failure_row(task: RunTask, status: RunStatus, message: str) -> dict[str, Any
     }
 
 
-def run_timeout(task: RunTask) -> float:
+class StepCounted(Protocol):
+    """A task that knows the steps of its whole window: a suite's RunTask, a map's MapTask."""
+
+    @property
+    def n_steps(self) -> int: ...
+
+
+def run_timeout(task: StepCounted) -> float:
     """Seconds a run may take before it becomes a timeout row: generous, from its size.
 
     The slowest engine here costs about 10 us a step (MuJoCo RK4, PyBullet); 0.5 ms a step

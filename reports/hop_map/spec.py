@@ -269,15 +269,20 @@ class MapSpec:
     @property
     def fixed_values(self) -> dict[str, float]:
         """The fixed parameters, name -> value."""
-        return dict(self.fixed)  # type: ignore[arg-type]
+        return dict(self.fixed)
+
+    def _range(self, axis: Axis) -> tuple[float, float]:
+        """The range (low, high) along x or y. The fields allow None as input only:
+        __post_init__ stores the axis's default (AXES) for it, as this does."""
+        if axis not in (self.x, self.y):
+            raise ValueError(f"{axis} is not an axis of this map ({self.x}, {self.y})")
+        given = self.x_range if axis == self.x else self.y_range
+        return AXES[axis].default_range if given is None else given
 
     def axis_values(self, axis: Axis) -> np.ndarray:
         """The grid values along x or y: shape (nx,) or (ny,), both range ends included."""
-        if axis == self.x:
-            return np.linspace(*self.x_range, self.nx)  # type: ignore[misc]
-        if axis == self.y:
-            return np.linspace(*self.y_range, self.ny)  # type: ignore[misc]
-        raise ValueError(f"{axis} is not an axis of this map ({self.x}, {self.y})")
+        low, high = self._range(axis)
+        return np.linspace(low, high, self.nx if axis == self.x else self.ny)
 
     def points(self) -> tuple[MapPoint, ...]:
         """Every point of the grid, x outer and y inner (the order of their run_ids)."""
@@ -310,8 +315,8 @@ class MapSpec:
             "format_version": FORMAT_VERSION,
             "x": str(self.x),
             "y": str(self.y),
-            "x_range": list(self.x_range),  # type: ignore[arg-type]
-            "y_range": list(self.y_range),  # type: ignore[arg-type]
+            "x_range": list(self._range(self.x)),
+            "y_range": list(self._range(self.y)),
             "nx": self.nx,
             "ny": self.ny,
             "t_end": self.t_end,
@@ -424,8 +429,8 @@ def check_grid(value: str | Sequence[int]) -> tuple[int, int]:
             grid = None
     else:
         pair = tuple(value) if isinstance(value, Sequence) else ()
-        whole = [isinstance(n, numbers.Integral) and not isinstance(n, bool) for n in pair]
-        grid = (int(pair[0]), int(pair[1])) if len(pair) == 2 and all(whole) else None
+        whole = [n for n in pair if isinstance(n, numbers.Integral) and not isinstance(n, bool)]
+        grid = (int(whole[0]), int(whole[1])) if len(pair) == len(whole) == 2 else None
     if grid is None or min(grid) < 1:
         raise ValueError(f"must be NXxNY, whole numbers >= 1, got {value!r}")
     return grid

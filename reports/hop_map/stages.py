@@ -238,6 +238,8 @@ def _engine_settings(task: MapTask, t_settled: float | None) -> RunSettings:
     """The run ends shortly after its first impact, where the exact window ends too, or once
     it has rolled a full turn after the reference's last event (t_settled), when nothing new
     can happen; mu is the scene's (mus = muk)."""
+    if task.timestep is None or task.profile is None:  # a reference task's: not an engine's
+        raise ValueError(f"{task.run_id}: an engine run needs a timestep and a profile")
     stop = StopRule(at_first_impact=True, settle_after=t_settled)
     return RunSettings(timestep=task.timestep, profile=task.profile, stop=stop)
 
@@ -255,7 +257,8 @@ def _engine_row(task: MapTask) -> dict[str, Any]:
         except DegenerateSceneError as exc:
             message = f"not run: {exc}"
         return _ordered({**row, Col.STATUS: str(RunStatus.ERROR), Col.MESSAGE: message})
-    result = get_engine(task.engine).run(scene, _engine_settings(task, exact[Col.EXACT_T_SETTLED]))
+    settings = _engine_settings(task, exact[Col.EXACT_T_SETTLED])
+    result = get_engine(task.engine).run(scene, settings)
     info = result.info
     row.update(
         status=str(info.status),
@@ -263,7 +266,7 @@ def _engine_row(task: MapTask) -> dict[str, Any]:
         engine_version=info.engine_version,
         wall_time_s=info.wall_time_s,
         n_steps=info.n_steps,
-        sim_time_s=None if info.n_steps is None else info.n_steps * task.timestep,
+        sim_time_s=None if info.n_steps is None else info.n_steps * settings.timestep,
         stop_reason=info.stop_reason,
     )
     row.update(judged_columns(row, result, scene))
@@ -307,7 +310,7 @@ def map_failure_row(task: MapTask, status: RunStatus, message: str) -> dict[str,
 
 def _timeout(task: MapTask) -> float:
     # An engine run gets compare's limit for its whole window: stopping early only shortens it.
-    return REFERENCE_TIMEOUT if task.engine == REFERENCE else run_timeout(task)  # type: ignore[arg-type]
+    return REFERENCE_TIMEOUT if task.engine == REFERENCE else run_timeout(task)
 
 
 # --------------------------------------------------------------------------- running
@@ -377,7 +380,7 @@ def run_map(
     _prepare(out, spec, resume)
     started_at = datetime.now(UTC)
     meta = {"map": spec.to_dict(), results.FORMAT_KEY: FORMAT_VERSION}
-    common = dict(
+    common: dict[str, Any] = dict(  # run_tasks' keywords, the same for both stages
         failure_row=map_failure_row,
         timeout=_timeout,
         jobs=jobs,
@@ -400,7 +403,7 @@ def run_map(
         # end of stage 2 with every row, as a map's must be, and never stand for it meanwhile.
         for name in (results.CSV_NAME, results.META_NAME):
             (out / name).unlink(missing_ok=True)
-    second = run_tasks(tasks, run_map_task, out, **common)  # type: ignore[arg-type]
+    second = run_tasks(tasks, run_map_task, out, **common)
     summary = _summary(spec, out, [first, second], n_refs)
     if second.interrupted is None and not finished:
         _complete_meta(out, started_at, resume, summary)
@@ -431,7 +434,7 @@ def _stage_one(
     if refs and all(is_final_status(stored.get(t.run_id)) for t in refs):
         return RunSummary(out, {}, 0.0, None, len(refs), 0)
     _say(f"hop map, stage 1 of 2: the exact reference at {len(refs)} points", quiet, stream)
-    return run_tasks(refs, run_map_task, out, **common)  # type: ignore[arg-type]
+    return run_tasks(refs, run_map_task, out, **common)
 
 
 def _summary(spec: MapSpec, out: Path, stages: Sequence[RunSummary], n_refs: int) -> RunSummary:

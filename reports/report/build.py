@@ -7,6 +7,8 @@ No simulation happens here: each results folder's rows (and a map folder's secti
 from __future__ import annotations
 
 import json
+import os
+from collections.abc import Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -22,7 +24,8 @@ __all__ = ["build_report", "report_frame"]
 
 
 def build_report(
-    results_dirs: str | Path | list[str | Path], out: str | Path | None = None
+    results_dirs: str | os.PathLike[str] | Sequence[str | os.PathLike[str]],
+    out: str | Path | None = None,
 ) -> Path:
     """report.md and its figures from stored results alone (no simulation).
 
@@ -31,7 +34,8 @@ def build_report(
     map.toml) adds its own section (reports/report/map_section.py). ``out`` defaults to the first
     folder.
     """
-    dirs = [Path(d) for d in (results_dirs if isinstance(results_dirs, list) else [results_dirs])]
+    given = [results_dirs] if isinstance(results_dirs, str | os.PathLike) else results_dirs
+    dirs = [Path(d) for d in given]
     out = Path(out) if out is not None else dirs[0]
     maps = [d for d in dirs if is_map_folder(d)]  # hop maps: a section each, not runs rows
     runs = [report_frame(d) for d in dirs if d not in maps]

@@ -2,16 +2,9 @@
 
 from __future__ import annotations
 
-import os
 from collections.abc import Mapping
 from pathlib import Path
 
-import matplotlib
-
-# Files only, no display assumed: Agg, unless a backend is chosen (Jupyter chooses its inline
-# one, and switching away from it would end a notebook's figures).
-matplotlib.use(os.environ.get("MPLBACKEND") or "Agg")
-import matplotlib.pyplot as plt
 import numpy as np
 
 from hoopbench.engines.run import REFERENCE_ENGINE
@@ -21,6 +14,7 @@ from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.reference.exact import solve_exact
 from hoopbench.reference.seed_euler import solve_seed_euler
+from hoopbench.reports.report.plotting import pyplot
 
 __all__ = ["events_figure", "hoop_figure", "paths_figure"]
 
@@ -42,6 +36,7 @@ def hoop_figure(
     Top: the path in the plane (the seed's Figure 3/5 kind). Bottom: hoop-centre clearance
     y - a and slip velocity against time, with the phases shaded.
     """
+    plt = pyplot()
     traj, events = _solve(scene, method)
     x, y = kinematics.centre_position(scene, traj.X, traj.Y, traj.theta)
     fig, (ax, ax2) = plt.subplots(
@@ -91,13 +86,18 @@ def hoop_figure(
 
 
 def events_figure(
-    runs: Mapping[str, Trajectory], out: str | Path, *, title: str, t_window=None
+    runs: Mapping[str, Trajectory],
+    out: str | Path,
+    *,
+    title: str,
+    t_window: tuple[float, float] | None = None,
 ) -> Path:
     """Hoop-centre clearance and slip velocity against time, several engines on one scene,
     around its events (``t_window``, s)."""
+    plt = pyplot()
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 5.6), sharex=True, constrained_layout=True)
     for label, traj in runs.items():
-        mask = slice(None)
+        mask: slice | np.ndarray = slice(None)
         if t_window is not None:
             mask = (traj.t >= t_window[0]) & (traj.t <= t_window[1])
         top.plot(traj.t[mask], traj.clearance[mask] * 1e3, label=label, lw=1.2)
@@ -120,6 +120,7 @@ def paths_figure(
 ) -> Path:
     """Each engine's centre-of-mass path with its hoop centre and weight at equal time steps
     (the seed's Figure 3 kind), over the reference's path (grey), one panel per engine."""
+    plt = pyplot()
     reference = runs.get("reference")
     engines = [name for name in runs if name != REFERENCE_ENGINE] or list(runs)
     fig, axes = plt.subplots(

@@ -16,24 +16,21 @@ in log) is drawn on a log scale with geometric midpoints.
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import matplotlib
-
-# Files only, no display assumed: Agg, unless a backend is chosen (Jupyter chooses its inline
-# one, and switching away from it would end a notebook's figures).
-matplotlib.use(os.environ.get("MPLBACKEND") or "Agg")
-import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
-from matplotlib.colors import BoundaryNorm, ListedColormap, LogNorm, Normalize
-from matplotlib.patches import Patch
 
 from hoopbench.engines.judging.verdict import HOP_HEIGHT_FACTOR, Verdict
 from hoopbench.reference.regimes import Regime
 from hoopbench.reports.compare.selection import engine_names_of, reference_rows
+from hoopbench.reports.report.plotting import pyplot
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 __all__ = [
     "DPI",
@@ -253,11 +250,11 @@ def figure_pixels(n_panels: int, *, columns: int = _MAX_COLUMNS, legend: bool = 
     return round(width * DPI), round(height * DPI)
 
 
-def _panels(n: int, *, legend: bool) -> tuple[plt.Figure, np.ndarray]:
+def _panels(n: int, *, legend: bool) -> tuple[Figure, np.ndarray]:
     ncols = min(n, _MAX_COLUMNS)
     nrows = math.ceil(n / ncols)
     width, height = figure_pixels(n, legend=legend)
-    fig, axes = plt.subplots(
+    fig, axes = pyplot().subplots(
         nrows,
         ncols,
         figsize=(width / DPI, height / DPI),
@@ -275,7 +272,7 @@ def _label(axis: str) -> str:
     return _AXIS_LABELS.get(axis, axis)
 
 
-def _set_axes(ax: plt.Axes, grid: MapGrid) -> None:
+def _set_axes(ax: Axes, grid: MapGrid) -> None:
     ax.set_facecolor("white")
     ax.set_xscale("log" if grid.x_log else "linear")
     ax.set_yscale("log" if grid.y_log else "linear")
@@ -290,34 +287,38 @@ def _set_axes(ax: plt.Axes, grid: MapGrid) -> None:
     ax.label_outer()
 
 
-def _mesh(ax: plt.Axes, grid: MapGrid, cells: np.ndarray, **kwargs):
+def _mesh(ax: Axes, grid: MapGrid, cells: np.ndarray, **kwargs):
     return ax.pcolormesh(
         grid.x_edges, grid.y_edges, np.ma.masked_invalid(cells), shading="flat", **kwargs
     )
 
 
-def _fill(ax: plt.Axes, grid: MapGrid, where: np.ndarray, colour: str) -> None:
+def _fill(ax: Axes, grid: MapGrid, where: np.ndarray, colour: str) -> None:
     """One colour on the cells where ``where`` (shape (ny, nx), bool) holds."""
+    from matplotlib.colors import ListedColormap
+
     _mesh(ax, grid, np.where(where, 0.0, np.nan), cmap=ListedColormap([colour]))
 
 
-def _categorical(ax: plt.Axes, grid: MapGrid, cells: np.ndarray, colours: list[str]) -> None:
+def _categorical(ax: Axes, grid: MapGrid, cells: np.ndarray, colours: list[str]) -> None:
     """Cells holding indices into ``colours``."""
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+
     n = len(colours)
     _mesh(
         ax, grid, cells, cmap=ListedColormap(colours), norm=BoundaryNorm(np.arange(n + 1) - 0.5, n)
     )
 
 
-def _save(fig: plt.Figure, path: str | Path) -> Path:
+def _save(fig: Figure, path: str | Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=DPI)
-    plt.close(fig)
+    pyplot().close(fig)
     return path
 
 
-def _message(ax: plt.Axes, text: str) -> None:
+def _message(ax: Axes, text: str) -> None:
     ax.text(0.5, 0.5, text, transform=ax.transAxes, ha="center", va="center", fontsize=9)
 
 
@@ -325,6 +326,9 @@ def regime_figure(frame: pd.DataFrame, path: str | Path) -> Path:
     """The reference's regime map (left, one colour per regime, a legend of those present)
     and its hop height where it hops (right, log colour scale: hop heights on a map span
     decades, from a millimetre to the hoop's size)."""
+    from matplotlib.colors import LogNorm
+    from matplotlib.patches import Patch
+
     grid = map_grid(frame)
     fig, (left, right) = _panels(2, legend=True)
     regimes = regime_cells(frame, grid)
@@ -364,6 +368,8 @@ def verdict_figure(frame: pd.DataFrame, path: str | Path) -> Path:
     """Per engine (one panel each, shared axes) the points where its verdict is not
     ``agrees``, coloured by verdict; agreeing points faint, points without an exact answer
     white. Each title gives the share of judged points whose verdict is ``agrees``."""
+    from matplotlib.patches import Patch
+
     grid = map_grid(frame)
     engines = engines_of(frame)
     if not engines:
@@ -395,6 +401,8 @@ def hop_error_figure(frame: pd.DataFrame, path: str | Path) -> Path:
     the verdict's rule is a factor, HOP_HEIGHT_FACTOR, so equal colours mean equal factors
     whatever the height). Dark grey: the reference hops, the engine does not (or did not
     run); white: the reference does not hop."""
+    from matplotlib.colors import Normalize
+
     grid = map_grid(frame)
     engines = engines_of(frame)
     if not engines:

@@ -8,7 +8,6 @@ against itself, drawn at the bottom of the axis.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -23,6 +22,7 @@ from hoopbench.reports.compare.selection import (
     profile_of,
     reference_rows,
 )
+from hoopbench.reports.report.plotting import pyplot
 
 __all__ = ["METRICS", "Metric", "cheapest_runs", "pareto_front", "precision_figure"]
 
@@ -113,10 +113,7 @@ def cheapest_runs(runs: pd.DataFrame) -> pd.DataFrame:
 
 def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
     """One panel per (metric, scene): error against wall time, families and the front."""
-    import matplotlib
-
-    matplotlib.use(os.environ.get("MPLBACKEND") or "Agg")  # as at the top of figures.py
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     from matplotlib.ticker import NullFormatter
 
     # One scene per metric keeps the figure readable (the table covers every scene): the

@@ -8,7 +8,6 @@ tables and the figure that show it; the report prints them (a few tenths of a se
 from __future__ import annotations
 
 import math
-import os
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +22,7 @@ from hoopbench.reference.seed_published import (
     SEED_PARAMETERS,
     SEED_T_SLIP,
 )
+from hoopbench.reports.report.plotting import pyplot
 
 __all__ = ["delta_figure", "delta_table", "onset_table", "seed_scene", "timestep_table"]
 
@@ -92,11 +92,7 @@ def delta_table() -> pd.DataFrame:
 
 def delta_figure(out: str | Path) -> Path:
     """Hop height against delta (log axes): the scheme's, the seed's prints, the exact none."""
-    import matplotlib
-
-    matplotlib.use(os.environ.get("MPLBACKEND") or "Agg")  # as at the top of figures.py
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     heights = [solve_seed_euler(seed_scene(), dt=0.002, delta=d).events.hop_height for d in DELTAS]
     fig, ax = plt.subplots(figsize=(5.5, 4.0), constrained_layout=True)
     ax.plot(DELTAS, [h or np.nan for h in heights], "o-", ms=3, label="seed scheme, dt = 2 ms")

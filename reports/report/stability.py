@@ -6,7 +6,6 @@ limits are stated here once; the report's table and heat map read them from this
 
 from __future__ import annotations
 
-import os
 from enum import StrEnum
 from pathlib import Path
 
@@ -15,6 +14,7 @@ import pandas as pd
 from hoopbench.engines.judging.verdict import number_or_none
 from hoopbench.engines.options import Profile
 from hoopbench.reports.compare.selection import default_rows, profile_of
+from hoopbench.reports.report.plotting import pyplot
 
 __all__ = [
     "ENERGY_GAIN_LIMIT",
@@ -122,10 +122,7 @@ def _cell(kind: Stability, figure: str) -> str:
 
 def stability_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
     """A heat map of the matrix (rows scene x engine, columns timestep), coloured by class."""
-    import matplotlib
-
-    matplotlib.use(os.environ.get("MPLBACKEND") or "Agg")  # as at the top of figures.py
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     from matplotlib.colors import ListedColormap
     from matplotlib.patches import Patch
 

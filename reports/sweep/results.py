@@ -105,8 +105,9 @@ def temp_path(path: Path) -> Path:
     return path.with_name(f".{path.name}.{os.getpid()}{TEMP_SUFFIX}")
 
 
-def atomic_write(path: str | os.PathLike[str], write: Callable[[Path], None]) -> Path:
-    """Call ``write(tmp)`` to fill a temporary file, flush it to disk, rename it to ``path``.
+def atomic_write(path: str | os.PathLike[str], write: Callable[[Path], object]) -> Path:
+    """Call ``write(tmp)`` to fill a temporary file (its return value is ignored), flush it to
+    disk, rename it to ``path``.
 
     A reader sees the old file or the new one, never half of one. If ``write`` fails, the
     temporary file is removed when possible (a crash leaves it: :func:`leftover_temp_files`).
