@@ -234,22 +234,48 @@ _KINDS = {
 }
 
 
-def _modes(t: NDArray, labels: NDArray, sustain: float) -> list[Mode]:
-    """The contact modes: runs of one label (:func:`_labels`), a run shorter than
-    ``sustain`` (and not at the end of the record) folded into the mode before it."""
+Run = tuple[int, float, float]
+"""(label, start time, end time in s; the last run ends at infinity)."""
+
+
+def _label_runs(t: NDArray, labels: NDArray) -> list[Run]:
     edges = np.nonzero(np.diff(labels))[0] + 1
     starts = np.concatenate(([0], edges))
     stops = np.concatenate((edges, [len(t)]))
+    return [
+        (int(labels[i]), float(t[i]), float(t[j]) if j < len(t) else math.inf)
+        for i, j in zip(starts, stops, strict=True)
+    ]
+
+
+def _takes_over(runs: list[Run], k: int, sustain: float) -> bool:
+    """Whether run k's label becomes the mode: it gathers ``sustain`` of time (its own runs,
+    interrupted or not) before any run of another label lasts ``sustain`` on its own. So a
+    slip whose friction leaves the cone for a step here and there (MuJoCo's contact bounces
+    at a slip onset) starts at its first saturated sample, and a single saturated step
+    inside a roll is no slip."""
+    label, held = runs[k][0], 0.0
+    for other, start, end in runs[k:]:
+        if other == label:
+            held += end - start
+            if held >= sustain:
+                return True
+        elif end - start >= sustain:
+            return False
+    return held > 0.0  # the record ends first: a mode at the window's end counts
+
+
+def _modes(t: NDArray, labels: NDArray, sustain: float) -> list[Mode]:
+    """The contact modes from the per-sample labels (:func:`_labels`): the mode changes at
+    the first run of a label that takes over (:func:`_takes_over`); the first mode starts at
+    t[0]."""
+    runs = _label_runs(t, labels)
     modes: list[tuple[int, float]] = []
-    for start, stop in zip(starts, stops, strict=True):
-        label = int(labels[start])
-        end = float(t[stop]) if stop < len(t) else math.inf
-        short = end - float(t[start]) < sustain
-        if modes and (short or modes[-1][0] == label):
-            continue  # a blip keeps the mode it interrupts
-        if not modes and short and stop < len(t):
-            continue  # the start's own blip: the first lasting mode begins at t[0]
-        modes.append((label, float(t[start]) if modes else float(t[0])))
+    for k, (label, start, _) in enumerate(runs):
+        if modes and modes[-1][0] == label:
+            continue
+        if _takes_over(runs, k, sustain):
+            modes.append((label, start if modes else float(t[0])))
     return [(_KINDS[label][0], start, _KINDS[label][1]) for label, start in modes]
 
 
