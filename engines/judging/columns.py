@@ -103,6 +103,7 @@ class Col(StrEnum):
     CONTACT_T_LIFT = "contact_t_lift"
     CONTACT_T_IMPACT = "contact_t_impact"
     CONTACT_HOP_HEIGHT = "contact_hop_height"
+    CONTACT_T_LAST_PHASE = "contact_t_last_phase"
     ERR_CONTACT_T_SLIP_MS = "err_contact_t_slip_ms"
     ERR_CONTACT_T_LIFT_MS = "err_contact_t_lift_ms"
     ERR_CONTACT_T_IMPACT_MS = "err_contact_t_impact_ms"
@@ -143,6 +144,7 @@ CONTACT_COLUMNS = (
     Col.CONTACT_T_LIFT,
     Col.CONTACT_T_IMPACT,
     Col.CONTACT_HOP_HEIGHT,
+    Col.CONTACT_T_LAST_PHASE,
     Col.ERR_CONTACT_T_SLIP_MS,
     Col.ERR_CONTACT_T_LIFT_MS,
     Col.ERR_CONTACT_T_IMPACT_MS,

@@ -166,7 +166,9 @@ def contact_columns(
 ) -> dict[str, Any]:
     """The run read through its contact force (engines/judging/contact.py) with the pair's
     ``mu``, and its event errors against ``exact`` (the row's exact columns)."""
-    reading = read_contact(traj, mu, ContactSettings().for_hoop(scene.a, scene.g))
+    settings = ContactSettings().for_hoop(scene.a, scene.g)
+    window_end = number_or_none(exact[Col.EXACT_T_IMPACT])
+    reading = read_contact(traj, mu, settings, window_end=window_end)
     return {
         Col.CONTACT_PHASES: reading.phases,
         Col.CONTACT_T_SLIP: reading.t_slip,
@@ -174,6 +176,7 @@ def contact_columns(
         Col.CONTACT_T_LIFT: reading.t_lift,
         Col.CONTACT_T_IMPACT: reading.t_impact,
         Col.CONTACT_HOP_HEIGHT: reading.hop_height,
+        Col.CONTACT_T_LAST_PHASE: reading.t_last_phase,
         Col.ERR_CONTACT_T_SLIP_MS: _ms(_error(reading.t_slip, exact[Col.EXACT_T_SLIP])),
         Col.ERR_CONTACT_T_LIFT_MS: _ms(_error(reading.t_lift, exact[Col.EXACT_T_LIFT])),
         Col.ERR_CONTACT_T_IMPACT_MS: _ms(_error(reading.t_impact, exact[Col.EXACT_T_IMPACT])),

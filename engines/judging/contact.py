@@ -105,6 +105,8 @@ class ContactReading:
     """Largest clearance inside the first hop."""
     phases: str
     """The contact modes as codes, e.g. 'R S+ R S- R' or 'R S+ F'."""
+    t_last_phase: float | None
+    """Start of the last contact mode (the phase comparison's window-end rule reads it)."""
     flights: tuple[Flight, ...]
     """Every stretch without contact, chatter included."""
     chatter_count: int
@@ -118,9 +120,18 @@ class ContactReading:
 
 
 def read_contact(
-    traj: Trajectory, mu: float, settings: ContactSettings | None = None
+    traj: Trajectory,
+    mu: float,
+    settings: ContactSettings | None = None,
+    *,
+    window_end: float | None = None,
 ) -> ContactReading:
-    """The contact reading of ``traj`` with the pair's friction coefficient ``mu``."""
+    """The contact reading of ``traj`` with the pair's friction coefficient ``mu``.
+
+    ``window_end`` (s): where the exact solution's window ends (its impact, for a hop). The
+    hop is the highest hop-sized flight that starts before it (a chatter flight that comes
+    first is not the hop), and the phases end with the hop's impact, as the exact ones do.
+    """
     cfg = settings or ContactSettings()
     t, n, f = traj.t, traj.normal_force, traj.friction_force
     touching = n > cfg.contact_level * cfg.g
@@ -128,30 +139,52 @@ def read_contact(
     flights = _flights(t, n, traj.clearance, touching, cfg)
     hops = [fl for fl in flights if _is_hop(fl, t, cfg)]
     chatter = [fl for fl in flights if fl not in hops]
-    in_hop = np.zeros(len(t), dtype=bool)
-    for hop in hops:
-        end = math.inf if hop.t_end is None else hop.t_end
-        in_hop |= (t >= hop.t_start) & (t <= end) & ~touching
-    modes = _modes(t, _labels(touching, saturated, f, in_hop), cfg.sustain)
-    creeping = touching & ~saturated & (np.abs(traj.slip_velocity) > cfg.slip_threshold)
-    first_hop = hops[0] if hops else None
-    slips = [k for k, (kind, _, _) in enumerate(modes) if kind is PhaseKind.SLIP]
-    restick = [m[1] for m in modes[slips[0] :] if m[0] is PhaseKind.ROLL] if slips else []
+    end = math.inf if window_end is None else window_end
+    hop = max((h for h in hops if h.t_start <= end), key=lambda h: h.max_clearance, default=None)
+    modes = _modes(t, _labels(touching, saturated, f, _inside(t, hops) & ~touching), cfg.sustain)
+    if hop is not None and hop.t_end is not None:
+        modes = [m for m in modes if m[1] <= hop.t_end]  # the exact model ends at the impact
     return ContactReading(
-        t_slip=modes[slips[0]][1] if slips else None,
-        t_restick=restick[0] if restick else None,
-        t_lift=None if first_hop is None else first_hop.t_start,
-        t_impact=None if first_hop is None else first_hop.t_end,
-        hop_height=None if first_hop is None else first_hop.max_clearance,
+        **_slip_events(modes),
+        t_lift=None if hop is None else hop.t_start,
+        t_impact=None if hop is None else hop.t_end,
+        hop_height=None if hop is None else hop.max_clearance,
         phases=" ".join(_code(kind, sigma) for kind, _, sigma in modes),
+        t_last_phase=modes[-1][1] if modes else None,
         flights=tuple(flights),
         chatter_count=len(chatter),
         chatter_max_clearance=max((fl.max_clearance for fl in chatter), default=None),
-        creep_time=float(np.sum(np.diff(t, append=t[-1])[creeping])),
-        creep_max_speed=float(np.max(np.abs(traj.slip_velocity[creeping])))
+        **_creep(t, traj.slip_velocity, touching & ~saturated, cfg.slip_threshold),
+    )
+
+
+def _inside(t: NDArray, flights: list[Flight]) -> NDArray:
+    """Samples within any of ``flights``."""
+    inside = np.zeros(len(t), dtype=bool)
+    for flight in flights:
+        end = math.inf if flight.t_end is None else flight.t_end
+        inside |= (t >= flight.t_start) & (t <= end)
+    return inside
+
+
+def _slip_events(modes: list[Mode]) -> dict[str, float | None]:
+    slips = [k for k, (kind, _, _) in enumerate(modes) if kind is PhaseKind.SLIP]
+    if not slips:
+        return {"t_slip": None, "t_restick": None}
+    restick = [m[1] for m in modes[slips[0] :] if m[0] is PhaseKind.ROLL]
+    return {"t_slip": modes[slips[0]][1], "t_restick": restick[0] if restick else None}
+
+
+def _creep(
+    t: NDArray, slip_velocity: NDArray, unsaturated: NDArray, threshold: float
+) -> dict[str, float | None]:
+    creeping = unsaturated & (np.abs(slip_velocity) > threshold)
+    return {
+        "creep_time": float(np.sum(np.diff(t, append=t[-1])[creeping])),
+        "creep_max_speed": float(np.max(np.abs(slip_velocity[creeping])))
         if creeping.any()
         else None,
-    )
+    }
 
 
 def _is_hop(flight: Flight, t: NDArray, cfg: ContactSettings) -> bool:
