@@ -118,6 +118,10 @@ class Col(StrEnum):
     # The verdict.
     VERDICT = "verdict"
     OUTCOME_AGREES = "outcome_agrees"
+    VERDICT_FLAGS = "verdict_flags"
+    """Every check the run failed, space-separated verdict values, the primary one first."""
+    VERDICT_REASON = "verdict_reason"
+    """The line that says why, for the primary verdict (which way and by how much)."""
     HOP_HEIGHT_ERROR = "hop_height_error"
     # Where the run's trajectory is stored.
     TRAJECTORY_FILE = "trajectory_file"

@@ -204,6 +204,8 @@ def judged_columns(
         mu = number_or_none(row.get(Col.MU))
         mu = scene.mus if mu is None else mu
         added.update(contact_columns(result.trajectory, scene, mu, row))
+        # The phase rule reads the events as the verdict does: from the contact reading now.
+        added[Col.PHASES_AGREE] = row_phases_agree({**row, **added})
     verdict = verdict_columns({**row, **added})
     if exact is not None and result.events is not None and result.trajectory is not None:
         added[Col.RMS_POSITION_M] = rms_position_error(result.trajectory, exact)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import pandas as pd
 
-from hoopbench.engines.judging.columns import CONTACT_COLUMNS
+from hoopbench.engines.judging.columns import CONTACT_COLUMNS, Col
 from hoopbench.engines.options import Profile
 from hoopbench.models.formats import FileFormat
 from hoopbench.reports.sweep import results
@@ -22,9 +22,9 @@ FORMAT_VERSION = 5
 event_flags and exact_t_painleve columns; 4: g, and the last phases' start times and the run's
 last sample time, t_last_phase, exact_t_last_phase and t_final, for the phase comparison at
 the window's end, and exact_max_slip_speed; 5: the contact reading's columns,
-CONTACT_COLUMNS). Columns also arrived between bumps (profile and a late in 2, rms_position_m
-with 3, g late in 3, exact_max_slip_speed early in 4): a table may lack one its version lists,
-and reads it empty."""
+CONTACT_COLUMNS, and the verdict's flags and reason). Columns also arrived between bumps
+(profile and a late in 2, rms_position_m with 3, g late in 3, exact_max_slip_speed early in
+4): a table may lack one its version lists, and reads it empty."""
 
 _ADDED_IN = {
     3: (
@@ -36,7 +36,7 @@ _ADDED_IN = {
         "verdict",
     ),
     4: ("g", "exact_t_last_phase", "t_last_phase", "t_final", "exact_max_slip_speed"),
-    5: tuple(CONTACT_COLUMNS),
+    5: (*CONTACT_COLUMNS, Col.VERDICT_FLAGS, Col.VERDICT_REASON),
 }
 """The columns each version added (or, for g and exact_max_slip_speed, came with it): an
 older table's rows have them empty."""

@@ -95,6 +95,8 @@ ROW_COLUMNS = (
     Col.EVENT_FLAGS,
     Col.VERDICT,
     Col.OUTCOME_AGREES,
+    Col.VERDICT_FLAGS,
+    Col.VERDICT_REASON,
     Col.PHASES,
     Col.T_LAST_PHASE,
     Col.T_FINAL,

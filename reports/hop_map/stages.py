@@ -77,7 +77,7 @@ __all__ = [
 # --------------------------------------------------------------------------- points, tasks
 ROWS_FORMAT_VERSION = 2
 """Version of the map's runs table (meta.json; map.toml has its own, FORMAT_VERSION): 2 adds
-the contact reading's columns (CONTACT_COLUMNS)."""
+the contact reading's columns (CONTACT_COLUMNS) and the verdict's flags and reason."""
 
 EXACT_CARRIED = (
     Col.REGIME,
@@ -180,6 +180,8 @@ MAP_COLUMNS = (
     Col.PHASES,
     Col.VERDICT,
     Col.OUTCOME_AGREES,
+    Col.VERDICT_FLAGS,
+    Col.VERDICT_REASON,
     Col.HOP_HEIGHT_ERROR,
     # the other event columns (judging.comparison.event_columns), for the same diagnostics
     Col.T_SLIP_THRESHOLD,

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from hoopbench.engines.judging.columns import CONTACT_COLUMNS
+from hoopbench.engines.judging.columns import CONTACT_COLUMNS, Col
 from hoopbench.models.formats import FileFormat
 from hoopbench.reference.regimes import Regime
 from hoopbench.reports.compare.selection import engine_rows
@@ -29,7 +29,7 @@ __all__ = [
 
 def _to_2(frame: pd.DataFrame) -> pd.DataFrame:
     """Maps run before the contact reading have its columns empty."""
-    return results.with_columns(frame, CONTACT_COLUMNS)
+    return results.with_columns(frame, (*CONTACT_COLUMNS, Col.VERDICT_FLAGS, Col.VERDICT_REASON))
 
 
 MAP_TABLE = FileFormat("hop map runs table", ROWS_FORMAT_VERSION, oldest=1, migrations={1: _to_2})
