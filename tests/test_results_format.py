@@ -20,7 +20,7 @@ from hoopbench.models.trajectory import FORMAT_VERSION as TRAJECTORY_VERSION
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.reports.cli import main
 from hoopbench.reports.compare.suite import FORMAT_VERSION, ROW_COLUMNS, compare, runs_frame
-from hoopbench.reports.hop_map.spec import FORMAT_VERSION as MAP_VERSION
+from hoopbench.reports.hop_map.stages import ROWS_FORMAT_VERSION as MAP_VERSION
 from hoopbench.reports.hop_map.table import map_frame
 from hoopbench.reports.sweep import results
 

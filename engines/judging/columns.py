@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from enum import StrEnum
 
-__all__ = ["EXACT_COLUMNS", "Col"]
+__all__ = ["CONTACT_COLUMNS", "EXACT_COLUMNS", "Col"]
 
 
 class Col(StrEnum):
@@ -96,9 +96,32 @@ class Col(StrEnum):
     T_LAST_PHASE = "t_last_phase"
     T_FINAL = "t_final"
     PHASES_AGREE = "phases_agree"
+    # The same run read through its contact force (engines/judging/contact.py).
+    CONTACT_PHASES = "contact_phases"
+    CONTACT_T_SLIP = "contact_t_slip"
+    CONTACT_T_RESTICK = "contact_t_restick"
+    CONTACT_T_LIFT = "contact_t_lift"
+    CONTACT_T_IMPACT = "contact_t_impact"
+    CONTACT_HOP_HEIGHT = "contact_hop_height"
+    CONTACT_T_LAST_PHASE = "contact_t_last_phase"
+    ERR_CONTACT_T_SLIP_MS = "err_contact_t_slip_ms"
+    ERR_CONTACT_T_LIFT_MS = "err_contact_t_lift_ms"
+    ERR_CONTACT_T_IMPACT_MS = "err_contact_t_impact_ms"
+    N_FLIGHTS = "n_flights"
+    """Stretches without contact force, hops and chatter together."""
+    CHATTER_COUNT = "chatter_count"
+    CHATTER_MAX_CLEARANCE = "chatter_max_clearance"
+    """m."""
+    CREEP_TIME_S = "creep_time_s"
+    CREEP_MAX_SPEED = "creep_max_speed"
+    """m/s."""
     # The verdict.
     VERDICT = "verdict"
     OUTCOME_AGREES = "outcome_agrees"
+    VERDICT_FLAGS = "verdict_flags"
+    """Every check the run failed, space-separated verdict values, the primary one first."""
+    VERDICT_REASON = "verdict_reason"
+    """The line that says why, for the primary verdict (which way and by how much)."""
     HOP_HEIGHT_ERROR = "hop_height_error"
     # Where the run's trajectory is stored.
     TRAJECTORY_FILE = "trajectory_file"
@@ -117,3 +140,23 @@ EXACT_COLUMNS = (
     Col.EXACT_MAX_SLIP_SPEED,
 )
 """The exact columns every judged row carries (:func:`comparison.exact_columns`)."""
+
+CONTACT_COLUMNS = (
+    Col.CONTACT_PHASES,
+    Col.CONTACT_T_SLIP,
+    Col.CONTACT_T_RESTICK,
+    Col.CONTACT_T_LIFT,
+    Col.CONTACT_T_IMPACT,
+    Col.CONTACT_HOP_HEIGHT,
+    Col.CONTACT_T_LAST_PHASE,
+    Col.ERR_CONTACT_T_SLIP_MS,
+    Col.ERR_CONTACT_T_LIFT_MS,
+    Col.ERR_CONTACT_T_IMPACT_MS,
+    Col.N_FLIGHTS,
+    Col.CHATTER_COUNT,
+    Col.CHATTER_MAX_CLEARANCE,
+    Col.CREEP_TIME_S,
+    Col.CREEP_MAX_SPEED,
+)
+"""The contact reading's columns (:func:`comparison.contact_columns`), in every judged row
+of a suite and a map."""

@@ -17,7 +17,13 @@ from typing import Any
 import numpy as np
 
 from hoopbench.engines.judging.columns import Col
-from hoopbench.engines.judging.verdict import painleve_time, row_phases_agree, verdict_columns
+from hoopbench.engines.judging.contact import ContactSettings, read_contact
+from hoopbench.engines.judging.verdict import (
+    number_or_none,
+    painleve_time,
+    row_phases_agree,
+    verdict_columns,
+)
 from hoopbench.engines.run import RunResult
 from hoopbench.models import kinematics
 from hoopbench.models.events import Events
@@ -27,6 +33,7 @@ from hoopbench.reference.exact import ExactSolution, solve_exact
 from hoopbench.reference.regimes import max_slip_speed
 
 __all__ = [
+    "contact_columns",
     "event_columns",
     "exact_columns",
     "exact_solution",
@@ -154,6 +161,33 @@ def event_columns(
     return {**columns, Col.PHASES_AGREE: row_phases_agree({**exact, **columns, **hoop})}
 
 
+def contact_columns(
+    traj: Trajectory, scene: Scene, mu: float, exact: Mapping[str, Any]
+) -> dict[str, Any]:
+    """The run read through its contact force (engines/judging/contact.py) with the pair's
+    ``mu``, and its event errors against ``exact`` (the row's exact columns)."""
+    settings = ContactSettings().for_hoop(scene.a, scene.g)
+    window_end = number_or_none(exact[Col.EXACT_T_IMPACT])
+    reading = read_contact(traj, mu, settings, window_end=window_end)
+    return {
+        Col.CONTACT_PHASES: reading.phases,
+        Col.CONTACT_T_SLIP: reading.t_slip,
+        Col.CONTACT_T_RESTICK: reading.t_restick,
+        Col.CONTACT_T_LIFT: reading.t_lift,
+        Col.CONTACT_T_IMPACT: reading.t_impact,
+        Col.CONTACT_HOP_HEIGHT: reading.hop_height,
+        Col.CONTACT_T_LAST_PHASE: reading.t_last_phase,
+        Col.ERR_CONTACT_T_SLIP_MS: _ms(_error(reading.t_slip, exact[Col.EXACT_T_SLIP])),
+        Col.ERR_CONTACT_T_LIFT_MS: _ms(_error(reading.t_lift, exact[Col.EXACT_T_LIFT])),
+        Col.ERR_CONTACT_T_IMPACT_MS: _ms(_error(reading.t_impact, exact[Col.EXACT_T_IMPACT])),
+        Col.N_FLIGHTS: len(reading.flights),
+        Col.CHATTER_COUNT: reading.chatter_count,
+        Col.CHATTER_MAX_CLEARANCE: reading.chatter_max_clearance,
+        Col.CREEP_TIME_S: reading.creep_time,
+        Col.CREEP_MAX_SPEED: reading.creep_max_speed,
+    }
+
+
 def judged_columns(
     row: Mapping[str, Any],
     result: RunResult,
@@ -167,6 +201,11 @@ def judged_columns(
     added: dict[str, Any] = {}
     if result.events is not None and result.trajectory is not None:
         added.update(event_columns(result.events, result.trajectory, scene, row))
+        mu = number_or_none(row.get(Col.MU))
+        mu = scene.mus if mu is None else mu
+        added.update(contact_columns(result.trajectory, scene, mu, row))
+        # The phase rule reads the events as the verdict does: from the contact reading now.
+        added[Col.PHASES_AGREE] = row_phases_agree({**row, **added})
     verdict = verdict_columns({**row, **added})
     if exact is not None and result.events is not None and result.trajectory is not None:
         added[Col.RMS_POSITION_M] = rms_position_error(result.trajectory, exact)

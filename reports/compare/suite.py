@@ -17,7 +17,7 @@ from typing import Any, Protocol
 
 import pandas as pd
 
-from hoopbench.engines.judging.columns import Col
+from hoopbench.engines.judging.columns import CONTACT_COLUMNS, Col
 from hoopbench.engines.judging.comparison import exact_solution, judged_columns, scene_exact_columns
 from hoopbench.engines.judging.verdict import (
     Verdict,
@@ -95,10 +95,13 @@ ROW_COLUMNS = (
     Col.EVENT_FLAGS,
     Col.VERDICT,
     Col.OUTCOME_AGREES,
+    Col.VERDICT_FLAGS,
+    Col.VERDICT_REASON,
     Col.PHASES,
     Col.T_LAST_PHASE,
     Col.T_FINAL,
     Col.PHASES_AGREE,
+    *CONTACT_COLUMNS,
     Col.TRAJECTORY_FILE,
 )
 """Every column of a run's row, in order; a failed run leaves most of them empty."""

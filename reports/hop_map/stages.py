@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from hoopbench.engines.base import n_steps_for
-from hoopbench.engines.judging.columns import Col
+from hoopbench.engines.judging.columns import CONTACT_COLUMNS, Col
 from hoopbench.engines.judging.comparison import exact_columns, judged_columns
 from hoopbench.engines.judging.verdict import counts_as_hop, number_or_none, verdict_columns
 from hoopbench.engines.options import Profile
@@ -43,7 +43,6 @@ from hoopbench.models.scene import DegenerateSceneError
 from hoopbench.reference.regimes import classify
 from hoopbench.reports.compare.suite import run_timeout
 from hoopbench.reports.hop_map.spec import (
-    FORMAT_VERSION,
     MAP_FILE,
     REFERENCE,
     REFERENCE_TIMEOUT,
@@ -66,6 +65,7 @@ from hoopbench.reports.sweep.runner import (
 __all__ = [
     "EXACT_CARRIED",
     "MAP_COLUMNS",
+    "ROWS_FORMAT_VERSION",
     "MapTask",
     "map_failure_row",
     "reference_tasks",
@@ -75,6 +75,10 @@ __all__ = [
 
 
 # --------------------------------------------------------------------------- points, tasks
+ROWS_FORMAT_VERSION = 2
+"""Version of the map's runs table (meta.json; map.toml has its own, FORMAT_VERSION): 2 adds
+the contact reading's columns (CONTACT_COLUMNS) and the verdict's flags and reason."""
+
 EXACT_CARRIED = (
     Col.REGIME,
     Col.N_SLIPS,
@@ -176,6 +180,8 @@ MAP_COLUMNS = (
     Col.PHASES,
     Col.VERDICT,
     Col.OUTCOME_AGREES,
+    Col.VERDICT_FLAGS,
+    Col.VERDICT_REASON,
     Col.HOP_HEIGHT_ERROR,
     # the other event columns (judging.comparison.event_columns), for the same diagnostics
     Col.T_SLIP_THRESHOLD,
@@ -194,6 +200,7 @@ MAP_COLUMNS = (
     Col.T_LAST_PHASE,
     Col.T_FINAL,
     Col.PHASES_AGREE,
+    *CONTACT_COLUMNS,
 )
 """Every column of a map row, in order. Reference rows leave the engine's columns empty;
 wall_time_s is the classification's time there. sim_time_s: simulated time, s (the run may
@@ -379,7 +386,7 @@ def run_map(
     out = Path(out)
     _prepare(out, spec, resume)
     started_at = datetime.now(UTC)
-    meta = {"map": spec.to_dict(), results.FORMAT_KEY: FORMAT_VERSION}
+    meta = {"map": spec.to_dict(), results.FORMAT_KEY: ROWS_FORMAT_VERSION}
     common: dict[str, Any] = dict(  # run_tasks' keywords, the same for both stages
         failure_row=map_failure_row,
         timeout=_timeout,

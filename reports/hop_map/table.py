@@ -9,11 +9,12 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from hoopbench.engines.judging.columns import CONTACT_COLUMNS, Col
 from hoopbench.models.formats import FileFormat
 from hoopbench.reference.regimes import Regime
 from hoopbench.reports.compare.selection import engine_rows
-from hoopbench.reports.hop_map.spec import FORMAT_VERSION, REFERENCE, load_spec
-from hoopbench.reports.hop_map.stages import MAP_COLUMNS
+from hoopbench.reports.hop_map.spec import REFERENCE, load_spec
+from hoopbench.reports.hop_map.stages import MAP_COLUMNS, ROWS_FORMAT_VERSION
 from hoopbench.reports.sweep import results
 
 # --------------------------------------------------------------------------- reading
@@ -25,9 +26,14 @@ __all__ = [
     "map_frame",
 ]
 
-MAP_TABLE = FileFormat("hop map runs table", FORMAT_VERSION, oldest=1)
-"""A map folder's runs table (its version in meta.json, as a compare folder's); version 1 is
-the first, so there is nothing to migrate yet: a version 2 adds its migration here."""
+
+def _to_2(frame: pd.DataFrame) -> pd.DataFrame:
+    """Maps run before the contact reading have its columns empty."""
+    return results.with_columns(frame, (*CONTACT_COLUMNS, Col.VERDICT_FLAGS, Col.VERDICT_REASON))
+
+
+MAP_TABLE = FileFormat("hop map runs table", ROWS_FORMAT_VERSION, oldest=1, migrations={1: _to_2})
+"""A map folder's runs table (its version in meta.json, as a compare folder's)."""
 
 
 def map_frame(out: str | Path) -> pd.DataFrame:

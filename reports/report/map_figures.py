@@ -70,13 +70,21 @@ VERDICT_COLOURS: dict[Verdict, str] = {
     Verdict.AGREES: "#E4E4E4",  # faint: the points that need no attention
     Verdict.FALSE_HOP: "#D55E00",
     Verdict.MISSED_HOP: "#E69F00",
+    Verdict.HOP_TOO_LOW: "#8C510A",  # the hop family: oranges and browns
+    Verdict.HOP_TOO_HIGH: "#BF812D",
+    Verdict.EARLY_LIFT_OFF: "#DFC27D",
+    Verdict.LATE_LIFT_OFF: "#A6611A",
     Verdict.MISSED_SLIP: "#0072B2",
     Verdict.FALSE_SLIP: "#56B4E9",
+    Verdict.EARLY_SLIP: "#009E73",  # the slip-onset pair: greens
+    Verdict.LATE_SLIP: "#66C2A4",
     Verdict.WRONG_PHASES: "#F0E442",
     Verdict.DIVERGED: "#000000",
     Verdict.FAILED: "#CC79A7",
 }
-"""One colour per verdict (Okabe-Ito); ``agrees`` faint grey."""
+"""One colour per verdict, in the order of Verdict (the categorical map indexes it so):
+Okabe-Ito, with browns for the hop's size and time and greens for the slip onset; ``agrees``
+faint grey."""
 
 _NOT_JUDGED = "#FFFFFF"
 """Cells with no verdict: the reference has no answer (degenerate, error), or the engine

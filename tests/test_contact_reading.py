@@ -1,0 +1,181 @@
+"""The contact reading (engines/judging/contact.py): on the exact solution it gives the exact
+events; on made-up force records it names flights, chatter, dropouts and creep for what
+they are."""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import pytest
+
+from hoopbench.engines.judging.contact import ContactSettings, read_contact
+from hoopbench.models import kinematics
+from hoopbench.models.catalogue import get_scene, scene_names
+from hoopbench.models.scene import Scene
+from hoopbench.models.trajectory import Trajectory
+from hoopbench.reference.exact import ExactSolution, solve_exact
+
+DT = 1e-4
+EVENT_TOLERANCE = 1e-3
+"""s: the contact reading's events against the exact ones on the exact solution sampled at
+DT. Measured: lift-off and impact within 0.03 ms, slip onsets up to 0.43 ms early
+(slip-reversal: the saturation tolerance, |f| >= 0.999 mu n, is reached before |f| = mu n),
+re-sticks within a sample."""
+
+
+@functools.cache
+def _exact(name: str) -> ExactSolution:
+    scene = get_scene(name)
+    return solve_exact(scene.with_(muk=scene.mus))
+
+
+def _close(value: float | None, exact: float | None) -> bool:
+    if value is None or exact is None:
+        return value is None and exact is None
+    return abs(value - exact) <= EVENT_TOLERANCE
+
+
+@pytest.mark.parametrize("name", [n for n in scene_names() if n != "massless"])
+def test_on_the_exact_solution_it_reads_the_exact_events(name):
+    """The catalogue scenes (massless ends at a degenerate point, where slip would start)."""
+    solution = _exact(name)
+    scene, events = solution.scene, solution.events
+    reading = read_contact(
+        solution.sample_uniform(DT), scene.mus, ContactSettings().for_hoop(scene.a, scene.g)
+    )
+    assert reading.phases == events.phase_code
+    assert _close(reading.t_slip, events.t_slip)
+    assert _close(reading.t_restick, events.t_restick)
+    assert _close(reading.t_lift, events.t_lift)
+    assert _close(reading.t_impact, events.t_impact)
+    if events.hop_height is not None:
+        assert reading.hop_height == pytest.approx(events.hop_height, rel=1e-6)
+    assert reading.chatter_count == 0 and reading.creep_time == 0.0
+
+
+# --------------------------------------------------------------------------- made-up records
+SCENE = Scene.from_chi(0.5, lam=0.5, mus=0.5, muk=0.5, t_end=1.0, name="made-up")
+G = SCENE.g
+
+
+def _record(n: np.ndarray, f: np.ndarray, clearance: np.ndarray, slip: np.ndarray) -> Trajectory:
+    """A trajectory with these forces (per unit mass), clearance and slip velocity: the hoop
+    centre moves as the clearance and slip say, spinning at 1 rad/s."""
+    t = np.arange(len(n)) * DT
+    theta = SCENE.theta0 + t
+    x = np.cumsum(slip + SCENE.a) * DT
+    state = kinematics.com_state(
+        SCENE, x, SCENE.a + clearance, theta, slip + SCENE.a, np.gradient(clearance, DT), 1 + 0 * t
+    )
+    return Trajectory.from_state(SCENE, t=t, **state, normal_force=n, friction_force=f)
+
+
+def _rolling(k: int = 3000) -> tuple[np.ndarray, ...]:
+    return G * np.ones(k), 0.1 * G * np.ones(k), np.zeros(k), np.zeros(k)
+
+
+def test_single_steps_without_force_are_chatter_not_flight_nor_slip():
+    """pymunk loses its contact force on single steps while rolling: each is chatter (sized),
+    none is a phase, and the slip velocity spike on it is no slip."""
+    n, f, clear, slip = _rolling()
+    drops = np.arange(100, 3000, 97)
+    n[drops] = f[drops] = 0.0
+    clear[drops] = 2e-6
+    slip[drops] = 5e-3
+    reading = read_contact(_record(n, f, clear, slip), mu=0.5)
+    assert reading.phases == "R"
+    assert reading.t_slip is None and reading.t_lift is None
+    assert reading.chatter_count == len(drops)
+    assert reading.chatter_max_clearance == pytest.approx(2e-6)
+
+
+def test_a_flight_above_the_threshold_is_the_hop_with_its_times():
+    n, f, clear, slip = _rolling()
+    air = slice(1000, 2000)
+    n[air] = f[air] = 0.0
+    clear[air] = 0.05 * np.sin(np.linspace(0, np.pi, 1000))
+    reading = read_contact(_record(n, f, clear, slip), mu=0.5)
+    assert reading.phases == "R F"  # the phases end at the hop's impact, as the exact ones do
+    assert reading.t_lift == pytest.approx(1000 * DT, abs=DT)
+    assert reading.t_impact == pytest.approx(2000 * DT, abs=DT)
+    assert reading.hop_height == pytest.approx(0.05, rel=1e-3)
+    assert reading.chatter_count == 0
+
+
+def test_a_low_flight_is_chatter_and_the_hop_is_the_later_high_one():
+    n, f, clear, slip = _rolling()
+    n[500:700] = f[500:700] = 0.0
+    clear[500:700] = 3e-4  # 20 ms in the air, 0.3 mm: below the 1 mm hop threshold
+    n[1500:2500] = f[1500:2500] = 0.0
+    clear[1500:2500] = 0.02
+    reading = read_contact(_record(n, f, clear, slip), mu=0.5)
+    assert reading.t_lift == pytest.approx(1500 * DT, abs=DT)
+    assert reading.chatter_count == 1 and reading.chatter_max_clearance == pytest.approx(3e-4)
+    assert [fl.t_start for fl in reading.flights] == pytest.approx([0.05, 0.15], abs=DT)
+
+
+def test_saturated_friction_is_a_slip_against_the_friction():
+    n, f, clear, slip = _rolling()
+    f[1200:] = -0.5 * n[1200:]  # friction pushes -x at the cone: the rim slides +x
+    slip[1200:] = 0.1
+    reading = read_contact(_record(n, f, clear, slip), mu=0.5)
+    assert reading.phases == "R S+"
+    assert reading.t_slip == pytest.approx(1200 * DT)
+    assert reading.creep_time == 0.0
+
+
+def test_slip_velocity_inside_the_cone_is_creep_not_slip():
+    """MuJoCo's soft contact creeps from t = 0 with |f|/n far below mu: creep, sized."""
+    n, f, clear, slip = _rolling()
+    slip[:] = np.linspace(0.0, 3.5e-3, len(slip))
+    reading = read_contact(_record(n, f, clear, slip), mu=0.5)
+    assert reading.phases == "R" and reading.t_slip is None
+    assert reading.creep_max_speed == pytest.approx(3.5e-3)
+    creeping = np.count_nonzero(slip > 1e-3)
+    assert reading.creep_time == pytest.approx(creeping * DT, abs=1.5 * DT)
+
+
+def test_a_short_saturation_is_no_slip():
+    n, f, clear, slip = _rolling()
+    f[1000:1020] = -0.5 * n[1000:1020]  # 2 ms at the cone, below the 5 ms sustain
+    reading = read_contact(_record(n, f, clear, slip), mu=0.5)
+    assert reading.phases == "R" and reading.t_slip is None
+
+
+def test_the_thresholds_scale_with_the_hoop():
+    small = ContactSettings().for_hoop(0.01, 9.8)
+    assert small.hop_clearance == pytest.approx(1e-5)
+    assert small.sustain == pytest.approx(5e-4)
+    assert small.slip_threshold == pytest.approx(1e-4)
+    assert small.contact_level == ContactSettings().contact_level
+
+
+def test_a_force_that_drops_out_on_the_floor_is_no_flight():
+    """PyBullet's force vanishes for 5-10 ms at a time while the hoop slips 0.4 mm deep: no
+    flight (it never rises), no phase; chatter sized by its clearance."""
+    n, f, clear, slip = _rolling()
+    f[1200:] = -0.5 * n[1200:]
+    slip[1200:] = 0.1
+    n[1800:1900] = f[1800:1900] = 0.0  # 10 ms without force, 0.4 mm deep
+    clear[:] = -4e-4
+    reading = read_contact(_record(n, f, clear, slip), mu=0.5)
+    assert reading.phases == "R S+"
+    assert reading.t_lift is None
+    assert reading.chatter_count == 1 and reading.chatter_max_clearance == pytest.approx(-4e-4)
+
+
+def test_the_hop_is_the_highest_flight_inside_the_exact_window():
+    """MuJoCo stock at dt 1e-3: a 1.1 mm chatter flight came first and was taken as the hop;
+    the real hop (0.37 m) came later. The hop is the highest one that starts in the window."""
+    n, f, clear, slip = _rolling(6000)
+    for air, height in ((slice(500, 800), 1.1e-3), (slice(1500, 3500), 0.37)):
+        n[air] = f[air] = 0.0
+        clear[air] = height * np.sin(np.linspace(0, np.pi, air.stop - air.start))
+    n[4000:5000] = f[4000:5000] = 0.0
+    clear[4000:5000] = 0.5 * np.sin(np.linspace(0, np.pi, 1000))  # after the window: not it
+    reading = read_contact(_record(n, f, clear, slip), mu=0.5, window_end=0.36)
+    assert reading.t_lift == pytest.approx(0.15, abs=DT)
+    assert reading.hop_height == pytest.approx(0.37, rel=1e-3)
+    assert reading.phases == "R F R F"  # the small flight is a flight too, in its place
+    assert reading.t_last_phase == pytest.approx(0.15, abs=DT)
