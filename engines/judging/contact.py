@@ -144,8 +144,13 @@ def read_contact(
     modes = _modes(t, _labels(touching, saturated, f, _inside(t, hops) & ~touching), cfg.sustain)
     if hop is not None and hop.t_end is not None:
         modes = [m for m in modes if m[1] <= hop.t_end]  # the exact model ends at the impact
+    t_slip, t_restick = _slip_events(modes)
+    creep_time, creep_max_speed = _creep(
+        t, traj.slip_velocity, touching & ~saturated, cfg.slip_threshold
+    )
     return ContactReading(
-        **_slip_events(modes),
+        t_slip=t_slip,
+        t_restick=t_restick,
         t_lift=None if hop is None else hop.t_start,
         t_impact=None if hop is None else hop.t_end,
         hop_height=None if hop is None else hop.max_clearance,
@@ -154,7 +159,8 @@ def read_contact(
         flights=tuple(flights),
         chatter_count=len(chatter),
         chatter_max_clearance=max((fl.max_clearance for fl in chatter), default=None),
-        **_creep(t, traj.slip_velocity, touching & ~saturated, cfg.slip_threshold),
+        creep_time=creep_time,
+        creep_max_speed=creep_max_speed,
     )
 
 
@@ -167,24 +173,22 @@ def _inside(t: NDArray, flights: list[Flight]) -> NDArray:
     return inside
 
 
-def _slip_events(modes: list[Mode]) -> dict[str, float | None]:
+def _slip_events(modes: list[Mode]) -> tuple[float | None, float | None]:
+    """(first slip onset, first re-stick after it), s."""
     slips = [k for k, (kind, _, _) in enumerate(modes) if kind is PhaseKind.SLIP]
     if not slips:
-        return {"t_slip": None, "t_restick": None}
+        return None, None
     restick = [m[1] for m in modes[slips[0] :] if m[0] is PhaseKind.ROLL]
-    return {"t_slip": modes[slips[0]][1], "t_restick": restick[0] if restick else None}
+    return modes[slips[0]][1], restick[0] if restick else None
 
 
 def _creep(
     t: NDArray, slip_velocity: NDArray, unsaturated: NDArray, threshold: float
-) -> dict[str, float | None]:
+) -> tuple[float, float | None]:
+    """(time creeping, s; largest |slip velocity| while creeping, m/s or None)."""
     creeping = unsaturated & (np.abs(slip_velocity) > threshold)
-    return {
-        "creep_time": float(np.sum(np.diff(t, append=t[-1])[creeping])),
-        "creep_max_speed": float(np.max(np.abs(slip_velocity[creeping])))
-        if creeping.any()
-        else None,
-    }
+    time = float(np.sum(np.diff(t, append=t[-1])[creeping]))
+    return time, float(np.max(np.abs(slip_velocity[creeping]))) if creeping.any() else None
 
 
 def _is_hop(flight: Flight, t: NDArray, cfg: ContactSettings) -> bool:
