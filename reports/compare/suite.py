@@ -17,7 +17,7 @@ from typing import Any, Protocol
 
 import pandas as pd
 
-from hoopbench.engines.judging.columns import CONTACT_COLUMNS, Col
+from hoopbench.engines.judging.columns import CONTACT_COLUMNS, EXACT_COLUMNS, Col
 from hoopbench.engines.judging.comparison import exact_solution, judged_columns, scene_exact_columns
 from hoopbench.engines.judging.verdict import (
     Verdict,
@@ -63,16 +63,7 @@ ROW_COLUMNS = (
     Col.WALL_TIME_S,
     Col.N_STEPS,
     Col.US_PER_STEP,
-    Col.EXACT_OUTCOME,
-    Col.EXACT_T_SLIP,
-    Col.EXACT_THETA_SLIP_DEG,
-    Col.EXACT_T_LIFT,
-    Col.EXACT_HOP_HEIGHT,
-    Col.EXACT_T_IMPACT,
-    Col.EXACT_T_PAINLEVE,
-    Col.EXACT_PHASES,
-    Col.EXACT_T_LAST_PHASE,
-    Col.EXACT_MAX_SLIP_SPEED,
+    *EXACT_COLUMNS,
     Col.OUTCOME,
     Col.T_SLIP,
     Col.T_SLIP_THRESHOLD,
