@@ -179,3 +179,15 @@ def test_the_hop_is_the_highest_flight_inside_the_exact_window():
     assert reading.hop_height == pytest.approx(0.37, rel=1e-3)
     assert reading.phases == "R F R F"  # the small flight is a flight too, in its place
     assert reading.t_last_phase == pytest.approx(0.15, abs=DT)
+
+
+def test_friction_that_sags_just_below_the_cone_keeps_slipping():
+    """Drake stock slips with |f| between 0.996 and 0.9999 mu n: one slip, not a roll every
+    other millisecond; friction well inside the cone re-sticks."""
+    n, f, clear, slip = _rolling()
+    wobble = 0.998 + 0.0019 * np.sin(np.arange(3000) * 2 * np.pi * DT / 2e-3)
+    f[1000:2000] = -0.5 * n[1000:2000] * np.where(np.arange(1000) == 0, 1.0, wobble[1000:2000])
+    slip[1000:2000] = 0.02
+    reading = read_contact(_record(n, f, clear, slip), mu=0.5)
+    assert reading.phases == "R S+ R"
+    assert reading.t_slip == pytest.approx(0.1) and reading.t_restick == pytest.approx(0.2)

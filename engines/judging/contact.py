@@ -55,6 +55,11 @@ class ContactSettings:
     """Friction counts as saturated when |f| >= (1 - saturation) mu n (dimensionless): the
     tolerance of the issue's check (|f|/n >= 0.999 mu). The exact |f| / (mu n) crosses 1 at a
     slip onset at about 1-2 per second, so the reading calls it about 0.5 ms early."""
+    saturation_exit: float = 1e-2
+    """Once slipping, friction may sag to (1 - saturation_exit) mu n without a re-stick
+    (dimensionless): Drake's regularised friction (stock stiction tolerance) holds
+    0.996-0.9999 mu n while slipping at 2-50 mm/s, which the entry tolerance alone reads as
+    a roll every other millisecond. An exact re-stick drops far below either level at once."""
     sustain: float = 5e-3
     """s: how long a new contact mode must last to count (the detectors' restick_sustain and
     lift_sustain on the 1 m hoop); it scales with sqrt(a / g)."""
@@ -135,7 +140,7 @@ def read_contact(
     cfg = settings or ContactSettings()
     t, n, f = traj.t, traj.normal_force, traj.friction_force
     touching = n > cfg.contact_level * cfg.g
-    saturated = touching & (np.abs(f) >= (1.0 - cfg.saturation) * mu * n)
+    saturated = _saturated(touching, np.abs(f), mu * n, cfg)
     flights = _flights(t, n, traj.clearance, touching, cfg)
     hops = [fl for fl in flights if _is_hop(fl, t, cfg)]
     chatter = [fl for fl in flights if fl not in hops]
@@ -162,6 +167,23 @@ def read_contact(
         creep_time=creep_time,
         creep_max_speed=creep_max_speed,
     )
+
+
+def _saturated(
+    touching: NDArray, friction: NDArray, cone: NDArray, cfg: ContactSettings
+) -> NDArray:
+    """Samples at the friction cone, with hysteresis: a stretch of contact samples at the
+    loose level (1 - saturation_exit) is saturated from its first sample at the strict level
+    (1 - saturation) on. Samples without contact force neither start nor end a stretch."""
+    idx = np.nonzero(touching)[0]
+    loose = friction[idx] >= (1.0 - cfg.saturation_exit) * cone[idx]
+    strict = friction[idx] >= (1.0 - cfg.saturation) * cone[idx]
+    saturated = np.zeros(len(touching), dtype=bool)
+    for start, stop in _runs(loose):
+        hits = np.nonzero(strict[start:stop])[0]
+        if hits.size:
+            saturated[idx[start + int(hits[0]) : stop]] = True
+    return saturated
 
 
 def _inside(t: NDArray, flights: list[Flight]) -> NDArray:
