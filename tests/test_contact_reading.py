@@ -191,3 +191,19 @@ def test_friction_that_sags_just_below_the_cone_keeps_slipping():
     reading = read_contact(_record(n, f, clear, slip), mu=0.5)
     assert reading.phases == "R S+ R"
     assert reading.t_slip == pytest.approx(0.1) and reading.t_restick == pytest.approx(0.2)
+
+
+def test_friction_just_under_the_cone_while_sliding_is_a_slip():
+    """Drake stock slides at up to 0.8 m/s with |f| at 0.98-0.995 mu n: a slip. The same
+    friction with the rim at rest (rolling) is no slip, and neither is creep far inside
+    the cone."""
+    n, f, clear, slip = _rolling()
+    f[1000:2000] = -0.5 * 0.985 * n[1000:2000]
+    slip[1000:2000] = np.linspace(0.002, 0.4, 1000)
+    reading = read_contact(_record(n, f, clear, slip), mu=0.5)
+    assert reading.phases == "R S+ R" and reading.t_slip == pytest.approx(0.1)
+    still = read_contact(_record(n, f, clear, 0 * slip), mu=0.5)
+    assert still.phases == "R"
+    f[1000:2000] = -0.5 * 0.5 * n[1000:2000]
+    creep = read_contact(_record(n, f, clear, slip), mu=0.5)
+    assert creep.phases == "R" and creep.creep_time > 0.09
