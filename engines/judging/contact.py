@@ -126,7 +126,8 @@ class ContactReading:
     chatter_max_clearance: float | None
     """m: the largest clearance inside chatter (None without chatter)."""
     creep_time: float
-    """s: time in contact, unsaturated, with |slip velocity| above the slip threshold."""
+    """s: time rolling (in a roll mode, in contact, friction inside the cone) with |slip
+    velocity| above the slip threshold."""
     creep_max_speed: float | None
     """m/s: the largest |slip velocity| while creeping (None without creep)."""
 
@@ -158,9 +159,8 @@ def read_contact(
     if hop is not None and hop.t_end is not None:
         modes = [m for m in modes if m[1] <= hop.t_end]  # the exact model ends at the impact
     t_slip, t_restick = _slip_events(modes)
-    creep_time, creep_max_speed = _creep(
-        t, traj.slip_velocity, touching & ~saturated, cfg.slip_threshold
-    )
+    rolling = touching & ~saturated & _in_mode(t, modes, PhaseKind.ROLL)
+    creep_time, creep_max_speed = _creep(t, traj.slip_velocity, rolling, cfg.slip_threshold)
     return ContactReading(
         t_slip=t_slip,
         t_restick=t_restick,
@@ -195,6 +195,16 @@ def _saturated(
         if hits.size:
             saturated[idx[start + int(hits[0]) : stop]] = True
     return saturated
+
+
+def _in_mode(t: NDArray, modes: list[Mode], kind: PhaseKind) -> NDArray:
+    """Samples inside the modes of ``kind`` (a mode lasts until the next one starts)."""
+    inside = np.zeros(len(t), dtype=bool)
+    ends = [m[1] for m in modes[1:]] + [math.inf]
+    for (mode, start, _), end in zip(modes, ends, strict=True):
+        if mode is kind:
+            inside |= (t >= start) & (t < end)
+    return inside
 
 
 def _inside(t: NDArray, flights: list[Flight]) -> NDArray:
