@@ -487,3 +487,11 @@ def test_a_hop_cut_by_the_window_is_not_too_low():
     assert _verdict(cut) == (Verdict.AGREES, True)
     assert _verdict({**cut, "t_impact": 1.05}) == (Verdict.HOP_TOO_LOW, False)
     assert _verdict({**cut, "hop_height": 2.5}) == (Verdict.HOP_TOO_HIGH, False)
+
+
+def test_a_false_hop_is_sized_by_the_reading_the_verdict_uses():
+    row = {**ROLL_ROW, "outcome": "hops", "t_lift": 1.1, "hop_height": 1.34e-3, "phases": "R F"}
+    row |= {"contact_phases": "R F", "contact_t_lift": 1.1, "contact_hop_height": 4e-3}
+    judgement = classify(row)
+    assert judgement.verdict is Verdict.FALSE_HOP
+    assert judgement.reason == "a 4 mm hop the reference does not have (by the contact)"

@@ -414,8 +414,12 @@ def _outcome(row: Mapping[str, Any], engine: _Class, exact: _Class) -> _OutcomeP
     if exact is _Class.PAINLEVE:
         return _painleve_outcome(row, engine)
     if engine is _Class.HOP:
-        height = _mm(row.get(Col.HOP_HEIGHT))
-        return Verdict.FALSE_HOP, f"a {height} hop the reference does not have"
+        reading = engine_reading(row)
+        height = _mm(reading.hop_height)
+        return (
+            Verdict.FALSE_HOP,
+            f"a {height} hop the reference does not have (by the {reading.source})",
+        )
     if engine is _Class.PAINLEVE:
         engine = _Class.SLIP  # only the reference reports it, and it was slipping
     if exact is _Class.SLIP and engine is _Class.ROLL:
