@@ -64,7 +64,8 @@ def _draw_panel(top, bottom, panel: ForcePanel) -> None:
         label="exact",
     )
     peak = float(np.nanmax(exact.normal_force / g))
-    top.set_ylim(-0.1 * peak - 0.1, 1.25 * peak + 0.2)
+    top.set_yscale("symlog", linthresh=2.0)  # the 1 g of rolling and the re-stick's peak
+    top.set_ylim(-0.5, 1.5 * peak + 1.0)
     bottom.set_ylim(*CONE_YLIM)
     bottom.axhline(1.0, color="0.4", lw=0.6)
     top.set_title(f"{panel.name} (mu = {panel.mu:g})")
