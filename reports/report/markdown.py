@@ -435,7 +435,7 @@ def _force_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[Path]]:
         "",
         f"Default settings, dt = {DEFAULT_TIMESTEP:g} s: per engine and profile, the median over "
         "its scenes of each run's contact force against the exact one (docs/report.md, "
-        '"Contact force against the exact solution"). RMS over the exact contact phases up to '
+        '"The contact force against the exact solution"). RMS over the exact contact phases up to '
         "where the engine's phases first depart from the exact ones, 5 ms left out around "
         "each phase boundary; the cone violation is the largest (|f| - mu n)/g (0: inside the "
         "Coulomb cone); the next column the share of slipping samples whose friction does not "
