@@ -15,6 +15,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from hoopbench.engines.judging.columns import FORCE_COLUMNS
 from hoopbench.models.formats import FileFormat, FormatVersionError
 from hoopbench.models.trajectory import FORMAT_VERSION as TRAJECTORY_VERSION
 from hoopbench.models.trajectory import Trajectory
@@ -114,6 +115,17 @@ def test_the_recorded_version_chooses_the_migrations(current, tmp_path):
     one), so an empty profile stays empty."""
     old = older(current, tmp_path, drop=["profile"], version=4)
     assert runs_frame(old)["profile"].isna().all()
+
+
+def test_a_version_5_table_reads_the_force_columns_empty(current, tmp_path):
+    """Runs judged before the contact-force columns (format 6) have them empty; the rest of
+    each row is read as stored."""
+    old = older(current, tmp_path, drop=list(FORCE_COLUMNS), version=5)
+    frame = runs_frame(old)
+    assert frame[list(FORCE_COLUMNS)].isna().all().all()
+    assert runs_frame(current)[list(FORCE_COLUMNS)].notna().all().all()
+    kept = [c for c in results.read_runs(current).columns if c not in {*FORCE_COLUMNS, "seq"}]
+    pd.testing.assert_frame_equal(frame[kept], runs_frame(current)[kept], check_dtype=False)
 
 
 def test_a_newer_table_is_refused_with_both_versions(current, tmp_path):

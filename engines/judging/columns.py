@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from enum import StrEnum
 
-__all__ = ["CONTACT_COLUMNS", "EXACT_COLUMNS", "Col"]
+__all__ = ["CONTACT_COLUMNS", "EXACT_COLUMNS", "FORCE_COLUMNS", "Col"]
 
 
 class Col(StrEnum):
@@ -115,6 +115,15 @@ class Col(StrEnum):
     CREEP_TIME_S = "creep_time_s"
     CREEP_MAX_SPEED = "creep_max_speed"
     """m/s."""
+    # The contact force against the exact one (engines/judging/forces.py); suite rows only.
+    FORCE_RMS_N_G = "force_rms_n_g"
+    FORCE_RMS_F_G = "force_rms_f_g"
+    CONE_VIOLATION = "cone_violation"
+    """(|f| - mu n)/g at its largest over the samples with a contact force; 0 if never above."""
+    DISSIPATION_VIOLATION = "dissipation_violation"
+    """Fraction of the slipping samples whose friction does not oppose the slip."""
+    MAX_PENETRATION_IN_CONTACT_M = "max_penetration_in_contact_m"
+    ENERGY_CHANGE_BEFORE_SLIP = "energy_change_before_slip"
     # The verdict.
     VERDICT = "verdict"
     OUTCOME_AGREES = "outcome_agrees"
@@ -160,3 +169,14 @@ CONTACT_COLUMNS = (
 )
 """The contact reading's columns (:func:`comparison.contact_columns`), in every judged row
 of a suite and a map."""
+
+FORCE_COLUMNS = (
+    Col.FORCE_RMS_N_G,
+    Col.FORCE_RMS_F_G,
+    Col.CONE_VIOLATION,
+    Col.DISSIPATION_VIOLATION,
+    Col.MAX_PENETRATION_IN_CONTACT_M,
+    Col.ENERGY_CHANGE_BEFORE_SLIP,
+)
+"""The contact-force columns against the exact solution (engines/judging/forces.py), in a
+suite's rows (judged with the exact solution); a map's rows have none."""

@@ -18,6 +18,7 @@ import numpy as np
 
 from hoopbench.engines.judging.columns import Col
 from hoopbench.engines.judging.contact import ContactSettings, read_contact
+from hoopbench.engines.judging.forces import force_columns
 from hoopbench.engines.judging.verdict import (
     number_or_none,
     painleve_time,
@@ -188,6 +189,12 @@ def contact_columns(
     }
 
 
+def _row_mu(row: Mapping[str, Any], scene: Scene) -> float:
+    """The pair's mu the run used (the row's), else the scene's."""
+    mu = number_or_none(row.get(Col.MU))
+    return scene.mus if mu is None else mu
+
+
 def judged_columns(
     row: Mapping[str, Any],
     result: RunResult,
@@ -196,17 +203,18 @@ def judged_columns(
 ) -> dict[str, Any]:
     """The columns a judged run adds to its ``row`` (which holds the run's status and
     message, the exact columns and the hoop's a and g): its events and their errors, the RMS
-    position error when ``exact`` is given, and the verdict. A run without events (it failed
-    or diverged) gets the verdict alone."""
+    position error and the contact force against the exact one (engines/judging/forces.py)
+    when ``exact`` is given, and the verdict. A run without events (it failed or diverged)
+    gets the verdict alone."""
     added: dict[str, Any] = {}
     if result.events is not None and result.trajectory is not None:
         added.update(event_columns(result.events, result.trajectory, scene, row))
-        mu = number_or_none(row.get(Col.MU))
-        mu = scene.mus if mu is None else mu
-        added.update(contact_columns(result.trajectory, scene, mu, row))
+        added.update(contact_columns(result.trajectory, scene, _row_mu(row, scene), row))
         # The phase rule reads the events as the verdict does: from the contact reading now.
         added[Col.PHASES_AGREE] = row_phases_agree({**row, **added})
     verdict = verdict_columns({**row, **added})
     if exact is not None and result.events is not None and result.trajectory is not None:
         added[Col.RMS_POSITION_M] = rms_position_error(result.trajectory, exact)
+        phases = added.get(Col.CONTACT_PHASES)
+        added.update(force_columns(result.trajectory, exact, _row_mu(row, scene), phases))
     return {**added, **verdict}

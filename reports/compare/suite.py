@@ -17,7 +17,7 @@ from typing import Any, Protocol
 
 import pandas as pd
 
-from hoopbench.engines.judging.columns import CONTACT_COLUMNS, EXACT_COLUMNS, Col
+from hoopbench.engines.judging.columns import CONTACT_COLUMNS, EXACT_COLUMNS, FORCE_COLUMNS, Col
 from hoopbench.engines.judging.comparison import exact_solution, judged_columns, scene_exact_columns
 from hoopbench.engines.judging.verdict import (
     Verdict,
@@ -93,6 +93,7 @@ ROW_COLUMNS = (
     Col.T_FINAL,
     Col.PHASES_AGREE,
     *CONTACT_COLUMNS,
+    *FORCE_COLUMNS,
     Col.TRAJECTORY_FILE,
 )
 """Every column of a run's row, in order; a failed run leaves most of them empty."""

@@ -19,6 +19,7 @@ from typing import Any
 
 import pandas as pd
 
+from hoopbench.engines.judging.columns import FORCE_COLUMNS
 from hoopbench.engines.options import Profile
 from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
@@ -35,6 +36,7 @@ from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
 from hoopbench.reports.report import seed_reproduction
 from hoopbench.reports.report.figures import events_figure, hoop_figure, paths_figure
 from hoopbench.reports.report.findings import findings_markdown, off_tuned, option_text
+from hoopbench.reports.report.force_figures import ForcePanel, force_figure
 from hoopbench.reports.report.precision import cheapest_runs, precision_figure
 from hoopbench.reports.report.stability import (
     ENERGY_GAIN_LIMIT,
@@ -376,6 +378,86 @@ def _scenes_section(runs: pd.DataFrame) -> str:
     return _section(*parts)
 
 
+FORCE_SCENES = ("seed-mu", "hop-top")
+"""The scenes of the contact-force figure: a slip that re-sticks, and a hop."""
+
+_FORCE_HEADERS = {
+    "force_rms_n_g": "RMS n/g",
+    "force_rms_f_g": "RMS f/g",
+    "cone_violation": "cone violation /g",
+    "dissipation_violation": "friction not opposing",
+    "max_penetration_in_contact_m": "penetration in contact m",
+    "energy_change_before_slip": "energy change before slip",
+}
+
+
+def _force_table(runs: pd.DataFrame) -> pd.DataFrame:
+    """Per engine and profile, the median of each force column over the default-variant runs
+    at the default timestep (scenes whose value is empty left out), and the runs counted."""
+    default = _default(runs)
+    default = default[default["timestep"] == DEFAULT_TIMESTEP]
+    default = default.assign(profile=profile_of(default))
+    rows = []
+    for (engine, profile), group in default.groupby(["engine", "profile"], sort=False):
+        columns = group[list(FORCE_COLUMNS)].apply(pd.to_numeric, errors="coerce")
+        rows.append({"engine": engine, "profile": profile, "runs": len(group), **columns.median()})
+    return pd.DataFrame(rows)
+
+
+def _force_panels(runs: pd.DataFrame) -> list[ForcePanel]:
+    """The figure's scenes that have stored trajectories (and are in the catalogue)."""
+    panels = []
+    for name in FORCE_SCENES:
+        trajectories = _stored_trajectories(runs, name)
+        trajectories.pop(REFERENCE_ENGINE, None)  # the exact curve is drawn anyway
+        rows = runs[runs["scene"] == name]
+        if not trajectories or name not in scene_names() or rows.empty:
+            continue
+        scene = get_scene(name)
+        mu = pd.to_numeric(rows["mu"], errors="coerce").dropna()
+        panels.append(
+            ForcePanel(name, scene, float(mu.iloc[0]) if len(mu) else scene.mus, trajectories)
+        )
+    return panels
+
+
+def _force_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[Path]]:
+    """Contact forces against the exact solution: the force columns' medians per engine and
+    profile, and the figure of n/g and |f|/(mu n) on seed-mu and hop-top. Empty when no run
+    has a force column (an older table, or only map rows)."""
+    table = _force_table(runs)
+    if table.empty or table[list(FORCE_COLUMNS)].isna().all().all():
+        return "", []
+    panels = _force_panels(runs)
+    figure = force_figure(panels, out / "contact_forces.png") if panels else None
+    lines = [
+        "## Contact forces against the exact solution",
+        "",
+        f"Default settings, dt = {DEFAULT_TIMESTEP:g} s: per engine and profile, the median over "
+        "its scenes of each run's contact force against the exact one (docs/report.md, "
+        '"The contact force against the exact solution"). RMS over the exact contact phases up to '
+        "where the engine's phases first depart from the exact ones, 5 ms left out around "
+        "each phase boundary; the cone violation is the largest (|f| - mu n)/g (0: inside the "
+        "Coulomb cone); the next column the share of slipping samples whose friction does not "
+        "oppose the slip; the energy change is relative, from t = 0 to the exact slip onset "
+        "(rolling conserves energy). The reference's row is the floor (0).",
+        "",
+        _table(table, {"engine": "engine", "profile": "profile", "runs": "runs", **_FORCE_HEADERS}),
+    ]
+    if figure is not None:
+        lines += [
+            "",
+            f"![contact forces]({figure.name})",
+            "",
+            "Tuned, default settings: n/g (top) and |f|/(mu n) (bottom) of every engine over "
+            "the exact curves (dashed). Look for where a curve leaves the dashed one: spikes "
+            "and gaps (n = 0 while the exact hoop rolls or slips) are a contact that chatters, "
+            "|f|/(mu n) above 1 is friction outside the cone, and below 1 while the exact "
+            "one is on 1 a slip the engine sticks through.",
+        ]
+    return _section(*lines), [figure] if figure else []
+
+
 def _stability_section(runs: pd.DataFrame) -> str:
     bad = runs[
         (runs["status"] != "ok")
@@ -608,16 +690,18 @@ def write_markdown(
     both: list[_Job] = [
         (_seed_section, (out,)),
         (_stability_matrix_section, (everything[is_stability], out)),
+        (_force_section, (runs, out)),
     ]
     drawn = _drawn([*head, *both, *tail])
-    (seed, _), (stability, _) = drawn[len(head) : len(head) + 2]
+    (seed, _), (stability, _), (forces, _) = drawn[len(head) : len(head) + 3]
     sections = [_header(everything, generated), _findings_section(everything), seed]
     figures = ""
     if not runs.empty:
         run_time, _ = drawn[0]
-        figures = _figures_section([path for paths in drawn[len(head) + 2 :] for path in paths])
+        figures = _figures_section([path for paths in drawn[len(head) + 3 :] for path in paths])
         sections += [
             _scenes_section(runs),
+            forces,
             _settings_section(runs),
             _timestep_section(runs),
             run_time,
