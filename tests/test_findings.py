@@ -224,3 +224,14 @@ def test_a_ranking_both_readings_share_gives_one():
         "+0.1 ms, drake +0.2 ms."
     )
     assert "-0.14" not in text
+
+
+def test_a_tie_is_said_and_does_not_make_an_order():
+    """pybullet and pymunk tie by the contact force (as printed): the closest is named with
+    its tie, and the slip velocity's order between them is no different order."""
+    runs = frame(seed("pybullet", 0.1194, 0.1), seed("pymunk", 0.1193, 0.2), seed("drake", 1, 3))
+    text = findings(runs)[0]
+    assert (
+        "closest is pymunk, +0.119 ms at 10 us/step, tied with pybullet; then drake +1 ms" in text
+    )
+    assert "ranks them the same" in text and "By the slip velocity" not in text

@@ -93,26 +93,52 @@ def _for_profile(rows: pd.DataFrame, profile: str) -> pd.DataFrame:
     return rows[profile_of(rows) == profile]
 
 
-def _ranking(rows: pd.DataFrame, column: str, unit: str, scale: float) -> tuple[list[str], str]:
-    """The engines with the event, closest first, and 'closest is A, err at cost; then B err,
-    C err; no such event from D' over the given rows; ([], '') when none has it."""
+def _ranking(
+    rows: pd.DataFrame, column: str, unit: str, scale: float
+) -> tuple[list[frozenset[str]], str]:
+    """The engines with the event, closest first, in groups of those tied (equal as printed),
+    and 'closest is A, err at cost[, tied with B]; then C err; no such event from D' over
+    the given rows; ([], '') when none has it."""
     values = pd.to_numeric(rows[column], errors="coerce") if column in rows.columns else None
     if values is None or values.isna().all():
         return [], ""
     good = rows.assign(value=values, size=values.abs())
     good = good[good["value"].notna()].sort_values(["size", "engine"], kind="stable")
+    printed = [f"{scale * v:.3g}" for v in good["size"]]
+    groups: list[set[str]] = []
+    for i, engine in enumerate(good["engine"]):
+        if i and printed[i] == printed[i - 1]:
+            groups[-1].add(str(engine))
+        else:
+            groups.append({str(engine)})
     best = good.iloc[0]
+    ties = sorted(groups[0] - {best["engine"]})
     others = ", ".join(
-        f"{r.engine} {scale * r.value:+.3g} {unit}" for _, r in good.iloc[1:].iterrows()
+        f"{r.engine} {scale * r.value:+.3g} {unit}"
+        for _, r in good.iloc[1:].iterrows()
+        if r.engine not in ties
     )
     missing = sorted(set(rows["engine"]) - set(good["engine"]))
     text = (
         f"closest is {best['engine']}, {scale * best['value']:+.3g} {unit} "
         f"at {best['us_per_step']:.3g} us/step"
     )
+    text += f", tied with {', '.join(ties)}" if ties else ""
     text += f"; then {others}" if others else ""
     text += f"; no such event from {', '.join(missing)}" if missing else ""
-    return [str(e) for e in good["engine"]], text
+    return [frozenset(g) for g in groups], text
+
+
+def _same_order(first: list[frozenset[str]], second: list[frozenset[str]]) -> bool:
+    """Whether two rankings (groups of tied engines) have the same engines and no pair the
+    one puts strictly before the other that the other puts strictly after."""
+    rank_1 = {e: i for i, group in enumerate(first) for e in group}
+    rank_2 = {e: i for i, group in enumerate(second) for e in group}
+    if rank_1.keys() != rank_2.keys():
+        return False
+    return all(
+        (rank_1[a] - rank_1[b]) * (rank_2[a] - rank_2[b]) >= 0 for a in rank_1 for b in rank_1
+    )
 
 
 def _closest_sentence(
@@ -129,8 +155,8 @@ def _closest_sentence(
     (name, order, text), *others = ranked
     if not others:
         return f"{what}: {text}."
-    same = [other for other, other_order, _ in others if other_order == order]
-    differ = [(other, t) for other, other_order, t in others if other_order != order]
+    same = [other for other, other_order, _ in others if _same_order(order, other_order)]
+    differ = [(o, t) for o, o_order, t in others if not _same_order(order, o_order)]
     head = f"{what}, by the {name}"
     head += f" (the {' and the '.join(same)} ranks them the same)" if same else ""
     tail = "".join(f" By the {other}, {t}." for other, t in differ)
