@@ -5,7 +5,14 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-from hoopbench.reports.report.findings import README_BEGIN, README_END, findings, update_readme
+from hoopbench.reports.report.findings import (
+    README_BEGIN,
+    README_END,
+    findings,
+    findings_markdown,
+    findings_scoreboard,
+    update_readme,
+)
 
 
 def row(engine, scene="seed-mu", **values):
@@ -46,16 +53,19 @@ def test_the_closest_engine_is_the_one_with_the_smallest_error():
 
 
 def test_agreement_names_every_scene_that_went_wrong():
+    """The phase sequence counts phases_agree (as the scoreboard does), not the verdict: a
+    hop too low has the right phases and a wrong event."""
     runs = frame(
         row("pymunk", err_t_slip_ms=1.0, verdict="wrong-phases", outcome_agrees=True),
         row("pymunk", scene="hop-top", verdict="false-hop", outcome_agrees=False),
-        row("pymunk", scene="hop-low", verdict="wrong-phases", outcome_agrees=True),
-        row("pymunk", scene="hop-bottom", verdict="agrees", outcome_agrees=True),
+        row("pymunk", scene="hop-low", verdict="hop-too-low", phases_agree=True),
+        row("pymunk", scene="hop-bottom", verdict="agrees", phases_agree=True),
     )
     sentence = next(s for s in findings(runs) if s.startswith("pymunk (dt"))
     assert sentence == (
-        "pymunk (dt 0.0001, tuned) gets the outcome right on 3 of 4 scenes and the whole "
-        "phase sequence on 1 (false-hop on hop-top; wrong-phases on seed-mu, hop-low)."
+        "pymunk (dt 0.0001, tuned) gets the outcome right on 3 of 4 scenes, the whole "
+        "phase sequence on 2 and every event on 1 (false-hop on hop-top; hop-too-low on "
+        "hop-low; wrong-phases on seed-mu)."
     )
 
 
@@ -118,3 +128,110 @@ def test_the_stock_knobs_that_break_a_tuned_outcome_are_named():
     assert "cone = pyramidal on hop-top (missed-hop, -99.7 %)" in text
     assert text.endswith("tolerance = 1e-08 keeps every outcome.")
     assert "noslip" not in text
+
+
+# --------------------------------------------------------------------------- scoreboard
+SLIP = {"exact_t_slip": 0.5, "exact_hop_height": None}
+HOP = {"exact_t_slip": 0.3, "exact_hop_height": 0.1, "contact_phases": "R S+ H"}
+
+
+def board_runs(**extra) -> pd.DataFrame:
+    """Two engines, tuned, on a slip scene and two hop scenes, plus rows the scoreboard must
+    not count: a stock run (its own line), a knob variant, another timestep, the reference
+    and an unjudged run."""
+    return frame(
+        row("a", err_contact_t_slip_ms=0.5, err_t_slip_ms=3.0, phases_agree=True, **SLIP),
+        row(
+            "a",
+            "hop-top",
+            contact_hop_height=0.104,
+            err_hop_height_rel=0.2,
+            err_contact_t_lift_ms=-9.0,
+            err_contact_t_slip_ms=-1.5,
+            err_t_slip_ms=0.2,
+            phases_agree=True,
+            **HOP,
+        ),
+        row(
+            "a",
+            "hop-low",
+            contact_hop_height=None,
+            err_hop_height_rel=0.2,
+            err_t_lift_ms=1.0,
+            verdict="missed-hop",
+            outcome_agrees=False,
+            phases_agree=False,
+            **HOP,
+        ),
+        row("b", err_contact_t_slip_ms=2.0, err_t_slip_ms=0.1, phases_agree=False, **SLIP),
+        row("a", profile="stock", err_contact_t_slip_ms=0.1, phases_agree=True, **SLIP),
+        row("a", variant="cone=pyramidal", err_contact_t_slip_ms=0.1, **SLIP),
+        row("a", timestep=1e-3, err_contact_t_slip_ms=0.1, **SLIP),
+        row("reference", err_contact_t_slip_ms=0.0, **SLIP),
+        row("a", "painleve", verdict=None, outcome_agrees=None, **extra),
+    )
+
+
+def test_the_scoreboard_counts_each_share_over_the_runs_that_can_be_right():
+    """Hop height by the contact reading (0.104 against 0.1: +4 %, not the clearance's +20 %);
+    a missed hop (by the contact force) counts in n, not in k; a lift-off by the clearance alone
+    (hop-low's 1 ms) is not the contact reading's."""
+    board = findings_scoreboard(board_runs()).set_index(["engine", "profile"])
+    assert list(board.index) == [("a", "tuned"), ("b", "tuned"), ("a", "stock")]
+    a = board.loc[("a", "tuned")]
+    assert a["outcome"] == "2/3 (67 %)"
+    assert a["phases"] == "2/3 (67 %)"
+    assert a["slip_contact"] == "1/3 (33 %)"
+    assert a["slip_velocity"] == "1/3 (33 %)"
+    assert a["hop_height"] == "1/2 (50 %)"
+    assert a["lift"] == "1/2 (50 %)"
+    b = board.loc[("b", "tuned")]
+    assert b["slip_contact"] == "0/1 (0 %)" and b["slip_velocity"] == "1/1 (100 %)"
+    assert b["hop_height"] == "-"
+    assert "force_rms" not in board.columns
+
+
+def test_the_scoreboard_shows_the_force_rms_only_when_the_table_has_it():
+    """The median of the judged runs (the unjudged painleve run's 50 left out)."""
+    rms = [0.1, 0.3, 0.9, 2, 5, 5, 5, 5, 50]
+    board = findings_scoreboard(board_runs().assign(force_rms_n_g=rms))
+    assert list(board["force_rms"]) == ["0.3", "2", "5"]
+    text = findings_markdown(board_runs())
+    assert text.startswith("| engine | profile | outcome right | phases right |")
+    assert "median normal-force RMS" not in text
+
+
+def seed(engine, contact, velocity, us=10.0):
+    return row(engine, err_contact_t_slip_ms=contact, err_t_slip_ms=velocity, us_per_step=us)
+
+
+def test_a_ranking_the_other_reading_reverses_gives_both():
+    runs = frame(seed("mujoco", 0.02, 2.39), seed("pybullet", 0.1, 0.14), seed("drake", 0.2, 0.035))
+    text = findings(runs)[0]
+    assert text == (
+        "Slip onset on seed-mu (dt 0.0001, tuned), by the contact force: closest is mujoco, "
+        "+0.02 ms at 10 us/step; then pybullet +0.1 ms, drake +0.2 ms. By the slip velocity, "
+        "closest is drake, +0.035 ms at 10 us/step; then pybullet +0.14 ms, mujoco +2.39 ms."
+    )
+
+
+def test_a_ranking_both_readings_share_gives_one():
+    runs = frame(seed("mujoco", 0.02, 0.03), seed("pybullet", 0.1, -0.14), seed("drake", 0.2, 3.0))
+    text = findings(runs)[0]
+    assert text == (
+        "Slip onset on seed-mu (dt 0.0001, tuned), by the contact force (the slip velocity "
+        "ranks them the same): closest is mujoco, +0.02 ms at 10 us/step; then pybullet "
+        "+0.1 ms, drake +0.2 ms."
+    )
+    assert "-0.14" not in text
+
+
+def test_a_tie_is_said_and_does_not_make_an_order():
+    """pybullet and pymunk tie by the contact force (as printed): the closest is named with
+    its tie, and the slip velocity's order between them is no different order."""
+    runs = frame(seed("pybullet", 0.1194, 0.1), seed("pymunk", 0.1193, 0.2), seed("drake", 1, 3))
+    text = findings(runs)[0]
+    assert (
+        "closest is pymunk, +0.119 ms at 10 us/step, tied with pybullet; then drake +1 ms" in text
+    )
+    assert "ranks them the same" in text and "By the slip velocity" not in text

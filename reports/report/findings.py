@@ -9,12 +9,13 @@ from __future__ import annotations
 
 import json
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
+from hoopbench.engines.judging.columns import Col
 from hoopbench.engines.options import Profile
 from hoopbench.engines.registry import engine_class
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
@@ -25,6 +26,7 @@ from hoopbench.reports.compare.selection import (
     profile_of,
 )
 from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
+from hoopbench.reports.report.scoreboard import scoreboard, scoreboard_markdown
 from hoopbench.reports.report.stability import Stability, classify
 
 __all__ = [
@@ -32,6 +34,7 @@ __all__ = [
     "README_END",
     "findings",
     "findings_markdown",
+    "findings_scoreboard",
     "off_tuned",
     "option_text",
     "update_readme",
@@ -90,42 +93,104 @@ def _for_profile(rows: pd.DataFrame, profile: str) -> pd.DataFrame:
     return rows[profile_of(rows) == profile]
 
 
-def _closest_sentence(rows: pd.DataFrame, column: str, what: str, unit: str, scale: float) -> str:
-    """'closest on X: A (err, cost); then B (err), C (err).' over the given rows."""
-    good = rows[rows[column].notna()].assign(size=lambda f: f[column].abs())
-    if good.empty:
-        return ""
-    good = good.sort_values("size")
+def _ranking(
+    rows: pd.DataFrame, column: str, unit: str, scale: float
+) -> tuple[list[frozenset[str]], str]:
+    """The engines with the event, closest first, in groups of those tied (equal as printed),
+    and 'closest is A, err at cost[, tied with B]; then C err; no such event from D' over
+    the given rows; ([], '') when none has it."""
+    values = pd.to_numeric(rows[column], errors="coerce") if column in rows.columns else None
+    if values is None or values.isna().all():
+        return [], ""
+    good = rows.assign(value=values, size=values.abs())
+    good = good[good["value"].notna()].sort_values(["size", "engine"], kind="stable")
+    printed = [f"{scale * v:.3g}" for v in good["size"]]
+    groups: list[set[str]] = []
+    for i, engine in enumerate(good["engine"]):
+        if i and printed[i] == printed[i - 1]:
+            groups[-1].add(str(engine))
+        else:
+            groups.append({str(engine)})
     best = good.iloc[0]
+    ties = sorted(groups[0] - {best["engine"]})
     others = ", ".join(
-        f"{r.engine} {scale * r[column]:+.3g} {unit}" for _, r in good.iloc[1:].iterrows()
+        f"{r.engine} {scale * r.value:+.3g} {unit}"
+        for _, r in good.iloc[1:].iterrows()
+        if r.engine not in ties
     )
     missing = sorted(set(rows["engine"]) - set(good["engine"]))
     text = (
-        f"{what}: closest is {best['engine']}, {scale * best[column]:+.3g} {unit} "
+        f"closest is {best['engine']}, {scale * best['value']:+.3g} {unit} "
         f"at {best['us_per_step']:.3g} us/step"
     )
+    text += f", tied with {', '.join(ties)}" if ties else ""
     text += f"; then {others}" if others else ""
     text += f"; no such event from {', '.join(missing)}" if missing else ""
-    return text + "."
+    return [frozenset(g) for g in groups], text
+
+
+def _same_order(first: list[frozenset[str]], second: list[frozenset[str]]) -> bool:
+    """Whether two rankings (groups of tied engines) have the same engines and no pair the
+    one puts strictly before the other that the other puts strictly after."""
+    rank_1 = {e: i for i, group in enumerate(first) for e in group}
+    rank_2 = {e: i for i, group in enumerate(second) for e in group}
+    if rank_1.keys() != rank_2.keys():
+        return False
+    return all(
+        (rank_1[a] - rank_1[b]) * (rank_2[a] - rank_2[b]) >= 0 for a in rank_1 for b in rank_1
+    )
+
+
+def _closest_sentence(
+    rows: pd.DataFrame, readings: Sequence[tuple[str, str]], what: str, unit: str, scale: float
+) -> str:
+    """'WHAT: closest is A (err, cost); then B (err), C (err).' over the given rows, ranked by
+    the first reading (name, column) that has the event. With a second reading that has it
+    too: said to rank them the same, or, where its order differs, its ranking as a second
+    sentence, so that no ranking stands that the other reading reverses unsaid."""
+    ranked = [(name, *_ranking(rows, column, unit, scale)) for name, column in readings]
+    ranked = [(name, order, text) for name, order, text in ranked if text]
+    if not ranked:
+        return ""
+    (name, order, text), *others = ranked
+    if not others:
+        return f"{what}: {text}."
+    same = [other for other, other_order, _ in others if _same_order(order, other_order)]
+    differ = [(o, t) for o, o_order, t in others if not _same_order(order, o_order)]
+    head = f"{what}, by the {name}"
+    head += f" (the {' and the '.join(same)} ranks them the same)" if same else ""
+    tail = "".join(f" By the {other}, {t}." for other, t in differ)
+    return f"{head}: {text}.{tail}"
+
+
+_SLIP_READINGS = (
+    ("contact force", Col.ERR_CONTACT_T_SLIP_MS),
+    ("slip velocity", Col.ERR_T_SLIP_MS),
+)
+_HOP_READINGS = (("contact force", "contact_hop_rel"), ("clearance", Col.ERR_HOP_HEIGHT_REL))
 
 
 def _agreement_sentence(rows: pd.DataFrame, engine: str, label: str) -> str:
+    """Outcome right, phase sequence right (``phases_agree``, as the scoreboard counts it) and
+    every event right (verdict ``agrees``), with the verdicts that went wrong."""
     mine = rows[rows["engine"] == engine]
     judged = mine[mine["verdict"].notna()]
     if judged.empty:
         return ""
     outcome = int((judged["outcome_agrees"] == True).sum())  # noqa: E712 - NaN is not True
-    phases = int((judged["verdict"] == "agrees").sum())
+    agrees = int((judged["verdict"] == "agrees").sum())
     wrong = judged[judged["verdict"] != "agrees"]
     by_verdict = {
         verdict: ", ".join(group["scene"]) for verdict, group in wrong.groupby("verdict", sort=True)
     }
     detail = "; ".join(f"{verdict} on {scenes}" for verdict, scenes in by_verdict.items())
-    return (
-        f"{engine} ({label}) gets the outcome right on {outcome} of {len(judged)} scenes and "
-        f"the whole phase sequence on {phases}" + (f" ({detail})" if detail else "") + "."
-    )
+    text = f"{engine} ({label}) gets the outcome right on {outcome} of {len(judged)} scenes"
+    if Col.PHASES_AGREE in judged.columns:
+        phases = int((judged[Col.PHASES_AGREE] == True).sum())  # noqa: E712
+        text += f", the whole phase sequence on {phases} and every event on {agrees}"
+    else:
+        text += f" and every event on {agrees}"
+    return text + (f" ({detail})" if detail else "") + "."
 
 
 def _coarsest_sentence(runs: pd.DataFrame, engine: str, profile: str) -> str:
@@ -213,14 +278,13 @@ def findings(runs: pd.DataFrame) -> list[str]:
         label = f"dt {DEFAULT_TIMESTEP:g}, {profile}"
         slip = rows[rows["scene"] == "seed-mu"]
         out.append(
-            _closest_sentence(slip, "err_t_slip_ms", f"Slip onset on seed-mu ({label})", "ms", 1)
+            _closest_sentence(slip, _SLIP_READINGS, f"Slip onset on seed-mu ({label})", "ms", 1)
         )
+        hops = rows.assign(contact_hop_rel=_contact_hop_rel(rows))
         for scene in [s for s in dict.fromkeys(rows["scene"]) if s.startswith("hop")]:
-            hop = rows[rows["scene"] == scene]
+            hop = hops[hops["scene"] == scene]
             out.append(
-                _closest_sentence(
-                    hop, "err_hop_height_rel", f"Hop height on {scene} ({label})", "%", 100
-                )
+                _closest_sentence(hop, _HOP_READINGS, f"Hop height on {scene} ({label})", "%", 100)
             )
         out += [_agreement_sentence(rows, e, label) for e in _engines(rows)]
     out += [_knob_sentence(main, engine) for engine in _engines(main)]
@@ -232,8 +296,38 @@ def findings(runs: pd.DataFrame) -> list[str]:
     return [s for s in out if s]
 
 
+def _contact_hop_rel(rows: pd.DataFrame) -> pd.Series:
+    """The contact reading's relative hop-height error; empty for rows without the reading."""
+    if Col.CONTACT_HOP_HEIGHT not in rows.columns or Col.EXACT_HOP_HEIGHT not in rows.columns:
+        return pd.Series(float("nan"), index=rows.index)
+    height = pd.to_numeric(rows[Col.CONTACT_HOP_HEIGHT], errors="coerce")
+    return height / pd.to_numeric(rows[Col.EXACT_HOP_HEIGHT], errors="coerce") - 1
+
+
+def findings_scoreboard(runs: pd.DataFrame) -> pd.DataFrame:
+    """The scoreboard (reports/report/scoreboard.py) of the findings' rows: the comparison
+    suites' default-variant runs at the default timestep, per engine and profile."""
+    is_stability = runs.get("suite", pd.Series("", index=runs.index)) == "stability"
+    rows = _at_default(runs[~is_stability])
+    return scoreboard(rows, _profiles(rows), _engines(rows))
+
+
+SCOREBOARD_NOTE = (
+    f"Default settings at dt {DEFAULT_TIMESTEP:g}, k/n runs: outcome and phase sequence of the "
+    "judged runs; slip onset, hop height and lift-off of the runs whose exact solution has "
+    "the event (a run without it counts as wrong); the hop height and lift-off by the contact "
+    "force; the slip onset by the contact force (friction reaching the cone) and by the slip "
+    "velocity."
+)
+
+
 def findings_markdown(runs: pd.DataFrame) -> str:
-    return "\n".join(f"- {sentence}" for sentence in findings(runs))
+    """The scoreboard, its note, then the findings as a Markdown list."""
+    board = scoreboard_markdown(findings_scoreboard(runs))
+    sentences = "\n".join(f"- {sentence}" for sentence in findings(runs))
+    if not board:
+        return sentences
+    return "\n".join([board, "", SCOREBOARD_NOTE, *(["", sentences] if sentences else [])])
 
 
 def update_readme(readme: str | Path, text: str) -> Path:
