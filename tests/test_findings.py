@@ -235,3 +235,19 @@ def test_a_tie_is_said_and_does_not_make_an_order():
         "closest is pymunk, +0.119 ms at 10 us/step, tied with pybullet; then drake +1 ms" in text
     )
     assert "ranks them the same" in text and "By the slip velocity" not in text
+
+
+def test_an_event_error_is_read_as_the_verdict_reads_it():
+    """MuJoCo's pyramidal cone on hop-top: -99.7 % by the clearance (a blip), about -10 %
+    by the contact force, which the verdict reads: the sentence gives the verdict's number."""
+    from hoopbench.reports.report.findings import event_error
+
+    row = {"exact_t_lift": 1.17, "exact_hop_height": 0.38, "err_hop_height_rel": -0.997}
+    assert event_error(row) == "-99.7 %"
+    row |= {"contact_phases": "R S+ F", "contact_hop_height": 0.342}
+    assert event_error(row) == "-10 %"
+    slip = {"exact_t_lift": None, "exact_t_slip": 0.987, "err_t_slip_ms": -914.0}
+    assert event_error(slip) == "-914 ms"
+    assert event_error({**slip, "contact_phases": "R S+", "err_contact_t_slip_ms": 1.32}) == (
+        "+1.32 ms"
+    )

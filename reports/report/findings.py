@@ -16,6 +16,7 @@ from typing import Any
 import pandas as pd
 
 from hoopbench.engines.judging.columns import Col
+from hoopbench.engines.judging.verdict import engine_reading, number_or_none
 from hoopbench.engines.options import Profile
 from hoopbench.engines.registry import engine_class
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
@@ -32,6 +33,7 @@ from hoopbench.reports.report.stability import Stability, classify
 __all__ = [
     "README_BEGIN",
     "README_END",
+    "event_error",
     "findings",
     "findings_markdown",
     "findings_scoreboard",
@@ -208,14 +210,34 @@ def _coarsest_sentence(runs: pd.DataFrame, engine: str, profile: str) -> str:
     return f"{engine} ({profile}) outcome right, by timestep (s): {parts}."
 
 
-def _event_text(row: pd.Series) -> str:
-    """A run's verdict with its hop-height error (its scene hops) or slip-onset error."""
+def event_error(row: Mapping[str, Any]) -> str | None:
+    """A run's hop-height error (its scene hops) or slip-onset error, read as its verdict
+    reads it (engines/judging/verdict.engine_reading: the contact force where the row has
+    it, else the stored kinematic errors), as text; None where either side lacks the event."""
     hops = pd.notna(row.get("exact_t_lift"))
-    error = row.get("err_hop_height_rel") if hops else row.get("err_t_slip_ms")
-    if error is None or pd.isna(error):
-        return str(row["verdict"])
-    number = f"{100 * error:+.3g} %" if hops else f"{error:+.3g} ms"
-    return f"{row['verdict']}, {number}"
+    if engine_reading(row).source == "contact":
+        height, exact = row.get("contact_hop_height"), row.get("exact_hop_height")
+        ratio = _ratio(height, exact)
+        error = (
+            (None if ratio is None else ratio - 1.0) if hops else row.get("err_contact_t_slip_ms")
+        )
+    else:
+        error = row.get("err_hop_height_rel") if hops else row.get("err_t_slip_ms")
+    error = number_or_none(error)
+    if error is None:
+        return None
+    return f"{100 * error:+.3g} %" if hops else f"{error:+.3g} ms"
+
+
+def _ratio(value: Any, reference: Any) -> float | None:
+    a, b = number_or_none(value), number_or_none(reference)
+    return None if a is None or not b else a / b
+
+
+def _event_text(row: pd.Series) -> str:
+    """A run's verdict with its hop-height or slip-onset error (:func:`event_error`)."""
+    error = event_error(row)
+    return str(row["verdict"]) if error is None else f"{row['verdict']}, {error}"
 
 
 def _knob_sentence(runs: pd.DataFrame, engine: str) -> str:

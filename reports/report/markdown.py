@@ -20,6 +20,7 @@ from typing import Any
 import pandas as pd
 
 from hoopbench.engines.judging.columns import FORCE_COLUMNS
+from hoopbench.engines.judging.verdict import OUTCOME_FAILURES, Verdict
 from hoopbench.engines.options import Profile
 from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
@@ -35,7 +36,12 @@ from hoopbench.reports.compare.suite import ROW_COLUMNS
 from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
 from hoopbench.reports.report import seed_reproduction
 from hoopbench.reports.report.figures import events_figure, hoop_figure, paths_figure
-from hoopbench.reports.report.findings import findings_markdown, off_tuned, option_text
+from hoopbench.reports.report.findings import (
+    event_error,
+    findings_markdown,
+    off_tuned,
+    option_text,
+)
 from hoopbench.reports.report.force_figures import ForcePanel, force_figure
 from hoopbench.reports.report.precision import cheapest_runs, precision_figure
 from hoopbench.reports.report.stability import (
@@ -205,16 +211,23 @@ def _setting_labels(engine: str, rows: pd.DataFrame) -> list[tuple[str, str, str
 
 
 def _event_cell(row: pd.Series | None) -> str:
-    """A run's hop-height error (its scene hops) or slip-onset error, with its verdict."""
+    """A run's hop-height or slip-onset error (findings.event_error), with its verdict."""
     if row is None:
         return "not run"
-    hops = pd.notna(row["exact_t_lift"])
-    error = row["err_hop_height_rel"] if hops else row["err_t_slip_ms"]
+    error = event_error(row)
     verdict = row["verdict"] if isinstance(row["verdict"], str) else row["status"]
-    if pd.isna(error):
+    if error is None:
         return str(verdict)
-    text = f"{100 * error:+.3g} %" if hops else f"{error:+.3g} ms"
-    return text if verdict in ("agrees", "wrong-phases") else f"{text} ({verdict})"
+    # Where the outcome is right (agrees, or a phase or slip-onset error) the number says it.
+    return error if verdict in _OUTCOME_RIGHT else f"{error} ({verdict})"
+
+
+_OUTCOME_RIGHT = {
+    str(v)
+    for v in Verdict
+    if v not in OUTCOME_FAILURES and v not in (Verdict.DIVERGED, Verdict.FAILED)
+}
+"""The verdicts whose outcome is right: ``outcome_agrees`` is true for them."""
 
 
 def _timestep_section(runs: pd.DataFrame) -> str:
