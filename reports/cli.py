@@ -191,6 +191,8 @@ def _summary(payload: dict[str, Any]) -> str:
         for p in phases:
             sigma = f" sigma={p['sigma']:+d}" if p.get("sigma") else ""
             lines.append(f"  {p['kind']:<7}{p['t_start']:>12.6f} .. {p['t_end']:.6f} s{sigma}")
+    if payload.get("contact"):
+        lines += _contact_lines(payload["contact"])
     return "\n".join(lines)
 
 
@@ -270,11 +272,42 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     csv = _output_file(args.csv, _TRAJECTORY_SUFFIXES, args.force) if args.csv else None
     result = get_engine(args.engine).run(scene, settings)
     payload = {**result.to_dict(), "scene": scene.to_dict()}
+    if result.events is not None and result.trajectory is not None and result.info.mu:
+        payload["contact"] = _contact_reading(result.trajectory, scene, result.info.mu)
     if csv and result.trajectory is not None:
         result.trajectory.write(csv)
         payload["trajectory_file"] = str(csv)
     _emit(args, payload)
     return 0 if result.info.status.value in ("ok", "diverged") else 1
+
+
+def _contact_reading(trajectory: Any, scene: Any, mu: float) -> dict[str, Any]:
+    """The run read through its contact force (engines/judging/contact.py), beside the
+    detectors' reading: the events as the verdict reads them."""
+    from dataclasses import asdict
+
+    from hoopbench.engines.judging.contact import ContactSettings, read_contact
+
+    reading = read_contact(trajectory, mu, ContactSettings().for_hoop(scene.a, scene.g))
+    out = asdict(reading)
+    out["flights"] = len(reading.flights)
+    return out
+
+
+def _contact_lines(contact: dict[str, Any]) -> list[str]:
+    return [
+        "by the contact force (the events as the verdict reads them)",
+        f"  phases       {contact['phases']}",
+        f"  slip onset   t = {_fmt(contact['t_slip'], ' s')}, "
+        f"re-stick t = {_fmt(contact['t_restick'], ' s')}",
+        f"  lift-off     t = {_fmt(contact['t_lift'], ' s')}, "
+        f"impact t = {_fmt(contact['t_impact'], ' s')}, "
+        f"hop height {_fmt(contact['hop_height'], ' m')}",
+        f"  chatter      {contact['chatter_count']} of {contact['flights']} flights "
+        f"(largest clearance {_fmt(contact['chatter_max_clearance'], ' m')}); "
+        f"creep {_fmt(contact['creep_time'], ' s')} "
+        f"(up to {_fmt(contact['creep_max_speed'], ' m/s')})",
+    ]
 
 
 def _cmd_model(args: argparse.Namespace) -> int:
