@@ -44,6 +44,7 @@ from hoopbench.reports.report.findings import (
 )
 from hoopbench.reports.report.force_figures import ForcePanel, force_figure
 from hoopbench.reports.report.precision import cheapest_runs, precision_figure
+from hoopbench.reports.report.readings import READING_RESOLUTION_MS, reading_differences
 from hoopbench.reports.report.stability import (
     ENERGY_GAIN_LIMIT,
     PENETRATION_LIMIT,
@@ -434,6 +435,35 @@ def _force_panels(runs: pd.DataFrame) -> list[ForcePanel]:
     return panels
 
 
+def _readings_section(runs: pd.DataFrame) -> str:
+    """Where the kinematic and the contact reading of a default-settings run differ."""
+    table = reading_differences(runs)
+    title = "## Where the two readings differ"
+    if table.empty:
+        return _section(title, "", "Every default-settings run reads the same by both.")
+    return _section(
+        title,
+        "",
+        f"Default settings, dt = {DEFAULT_TIMESTEP:g} s: each event whose error (engine minus "
+        f"exact) differs by more than {READING_RESOLUTION_MS:g} ms between the reading by the "
+        "clearance and slip velocity and the reading by the contact force, or that one "
+        "reading has and the other not, and each run whose phase codes differ. The verdict "
+        'reads the contact force (docs/report.md, "What the contact force says").',
+        "",
+        _table(
+            table,
+            {
+                "scene": "scene",
+                "engine": "engine",
+                "profile": "profile",
+                "event": "event",
+                "kinematic": "by the clearance",
+                "contact": "by the contact force",
+            },
+        ),
+    )
+
+
 def _force_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[Path]]:
     """Contact forces against the exact solution: the force columns' medians per engine and
     profile, and the figure of n/g and |f|/(mu n) on seed-mu and hop-top. Empty when no run
@@ -714,6 +744,7 @@ def write_markdown(
         figures = _figures_section([path for paths in drawn[len(head) + 3 :] for path in paths])
         sections += [
             _scenes_section(runs),
+            _readings_section(runs),
             forces,
             _settings_section(runs),
             _timestep_section(runs),
