@@ -68,3 +68,13 @@ def test_no_run_within_the_target_says_so():
 
 def test_the_figure_is_drawn(tmp_path):
     assert precision_figure(runs(), tmp_path / "p.png").stat().st_size > 0
+
+
+def test_an_event_only_the_reference_has_draws_an_empty_front(tmp_path):
+    """A suite of one scene with the reference and pymunk at dt 1e-3: pymunk misses the
+    event, the reference alone has its error. The figure is drawn (it raised KeyError)."""
+    frame = runs()
+    only_reference = frame[frame["engine"] == "reference"]
+    empty = pareto_front(pd.DataFrame({"wall_time_s": [], "error": [], "name": []}))
+    assert empty.empty and "wall_time_s" in empty.columns
+    assert precision_figure(only_reference, tmp_path / "p.png").stat().st_size > 0

@@ -75,7 +75,9 @@ def pareto_front(points: pd.DataFrame) -> pd.DataFrame:
     """The runs no cheaper run beats: sorted by wall time, each more accurate than all before."""
     ordered = points.sort_values(["wall_time_s", "error"])
     best = np.minimum.accumulate(ordered["error"].to_numpy())
-    keep = np.r_[True, ordered["error"].to_numpy()[1:] < best[:-1]] if len(ordered) else []
+    if not len(ordered):
+        return ordered  # no engine measured this event: an empty front, its columns kept
+    keep = np.r_[True, ordered["error"].to_numpy()[1:] < best[:-1]]
     return ordered[keep]
 
 
