@@ -56,6 +56,7 @@ __all__ = [
     "SuiteJob",
     "check_grid",
     "check_positive_int",
+    "check_positive_seconds",
     "check_workers",
     "compare",
     "default_jobs",
@@ -114,6 +115,18 @@ def check_positive_int(value: int | str) -> int:
     if value < 1:
         raise ValueError(f"must be >= 1, got {value}")
     return value
+
+
+def check_positive_seconds(value: float | str) -> float:
+    """A finite time step or duration > 0, s (text from the command line, or a number); the
+    message leaves the name out, as check_positive_int's does."""
+    try:
+        seconds = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"must be a number of seconds > 0, got {value!r}") from None
+    if isinstance(value, bool) or not math.isfinite(seconds) or seconds <= 0:
+        raise ValueError(f"must be a number of seconds > 0, got {value!r}")
+    return seconds
 
 
 def check_workers(value: int | str) -> int:

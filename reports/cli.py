@@ -15,6 +15,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
 
+from hoopbench import __version__
 from hoopbench.engines.options import Profile
 from hoopbench.engines.registry import engine_class, engine_classes, get_engine
 from hoopbench.engines.settings import DEFAULT_TIMESTEP, MAX_STEPS, RunSettings, parse_option_value
@@ -106,6 +107,8 @@ def _argument(check_name: str) -> Any:
 
 
 _positive_int = _argument("check_positive_int")
+_seconds = _argument("check_positive_seconds")
+"""A time step, s: finite and > 0 (0 used to fall back on the default without a word)."""
 _workers = _argument("check_workers")
 """1 up to the machine's cores: more processes than cores only slow a sweep down."""
 _grid = _argument("check_grid")
@@ -228,11 +231,11 @@ def _cmd_reference(args: argparse.Namespace) -> int:
         solution = solve_exact(scene, rtol=args.rtol, atol=args.atol)
         events, trajectory = solution.events, None
         if csv:
-            trajectory = solution.sample_uniform(args.dt or 1e-3)
+            trajectory = solution.sample_uniform(1e-3 if args.dt is None else args.dt)
     else:
         from hoopbench.reference.seed_euler import solve_seed_euler
 
-        result = solve_seed_euler(scene, dt=args.dt or 0.002, delta=args.delta)
+        result = solve_seed_euler(scene, dt=0.002 if args.dt is None else args.dt, delta=args.delta)
         events = result.events
         trajectory = result.trajectory() if csv else None
     payload = {"method": args.method, **events.to_dict(), "scene": scene.to_dict()}
@@ -591,7 +594,7 @@ def _add_reference(sub: Any, classes: Mapping[str, Any]) -> None:
     p = sub.add_parser("reference", help="solve a scene with the reference solver")
     _add_scene_options(p)
     p.add_argument("--method", choices=("exact", "seed-euler"), default="exact")
-    p.add_argument("--dt", type=float, help="seed-euler step (default 0.002 s); CSV sampling")
+    p.add_argument("--dt", type=_seconds, help="seed-euler step (default 0.002 s); CSV sampling")
     p.add_argument("--delta", type=float, default=1e-4, help="seed-euler contact tolerance, m")
     p.add_argument("--rtol", type=float, default=DEFAULT_RTOL, help="exact: integrator rtol")
     p.add_argument("--atol", type=float, default=DEFAULT_ATOL, help="exact: integrator atol")
@@ -704,6 +707,7 @@ def _parser() -> _Parser:
         prog="hoopbench",
         description="Cross-validate physics engines on the hopping hoop.",
     )
+    parser.add_argument("--version", action="version", version=f"hoopbench {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     classes = engine_classes()
 

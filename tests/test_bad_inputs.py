@@ -47,6 +47,9 @@ BAD: list[tuple[list[str], str]] = [
     # ----- engine choice and common settings
     (["simulate", "--engine", "nope", *SEED], "'nope'"),
     (sim("pymunk", "--dt", "0"), "timestep must be a number > 0 s, got 0"),
+    # the reference's own step fell back on its default without a word
+    (["reference", "--scene", "seed", "--method", "seed-euler", "--dt", "0"], "got '0'"),
+    (["reference", "--scene", "seed", "--dt", "0", "--csv", "x.csv"], "got '0'"),
     (sim("pymunk", "--dt", "-1"), "got -1"),
     (sim("pymunk", "--dt", "nan"), "got nan"),
     (sim("mujoco", "--dt", "5"), "timestep 5 s is longer than the window t_end = 3 s"),

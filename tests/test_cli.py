@@ -6,6 +6,7 @@ import json
 import math
 import subprocess
 import sys
+from importlib.metadata import version
 
 import pytest
 
@@ -275,3 +276,10 @@ def test_simulate_gives_the_contact_reading_beside_the_detectors(capsys):
     assert out["contact"]["phases"] == "R S+ R S- R"
     assert out["contact"]["chatter_count"] > 50
     assert out["contact"]["t_slip"] == pytest.approx(0.98708, abs=2e-3)
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as stop:
+        main(["--version"])
+    assert stop.value.code == 0
+    assert capsys.readouterr().out.strip() == f"hoopbench {version('hoopbench')}"
