@@ -27,7 +27,11 @@ from hoopbench.reports.compare.selection import (
     profile_of,
 )
 from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
-from hoopbench.reports.report.scoreboard import scoreboard, scoreboard_markdown
+from hoopbench.reports.report.scoreboard import (
+    contact_hop_error,
+    scoreboard,
+    scoreboard_markdown,
+)
 from hoopbench.reports.report.stability import Stability, classify
 
 __all__ = [
@@ -213,25 +217,14 @@ def _coarsest_sentence(runs: pd.DataFrame, engine: str, profile: str) -> str:
 def event_error(row: Mapping[str, Any]) -> str | None:
     """A run's hop-height error (its scene hops) or slip-onset error, read as its verdict
     reads it (engines/judging/verdict.engine_reading: the contact force where the row has
-    it, else the stored kinematic errors), as text; None where either side lacks the event."""
-    hops = pd.notna(row.get("exact_t_lift"))
-    if engine_reading(row).source == "contact":
-        height, exact = row.get("contact_hop_height"), row.get("exact_hop_height")
-        ratio = _ratio(height, exact)
-        error = (
-            (None if ratio is None else ratio - 1.0) if hops else row.get("err_contact_t_slip_ms")
-        )
-    else:
-        error = row.get("err_hop_height_rel") if hops else row.get("err_t_slip_ms")
-    error = number_or_none(error)
-    if error is None:
-        return None
-    return f"{100 * error:+.3g} %" if hops else f"{error:+.3g} ms"
-
-
-def _ratio(value: Any, reference: Any) -> float | None:
-    a, b = number_or_none(value), number_or_none(reference)
-    return None if a is None or not b else a / b
+    it, else the stored kinematic errors), as text; None where either side lacks the event.
+    The hop-height rule is the scoreboard's (:func:`contact_hop_error`)."""
+    if pd.notna(row.get("exact_t_lift")):
+        error = number_or_none(contact_hop_error(pd.DataFrame([dict(row)])).iloc[0])
+        return None if error is None else f"{100 * error:+.3g} %"
+    contact = engine_reading(row).source == "contact"
+    error = number_or_none(row.get("err_contact_t_slip_ms" if contact else "err_t_slip_ms"))
+    return None if error is None else f"{error:+.3g} ms"
 
 
 def _event_text(row: pd.Series) -> str:
