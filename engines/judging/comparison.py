@@ -158,8 +158,7 @@ def event_columns(
         Col.T_LAST_PHASE: events.phases[-1].t_start if events.phases else None,
         Col.T_FINAL: float(traj.t[-1]),
     }
-    hoop: dict[str, float] = {Col.A: scene.a, Col.G: scene.g}
-    return {**columns, Col.PHASES_AGREE: row_phases_agree({**exact, **columns, **hoop})}
+    return columns
 
 
 def contact_columns(
@@ -210,9 +209,12 @@ def judged_columns(
     if result.events is not None and result.trajectory is not None:
         added.update(event_columns(result.events, result.trajectory, scene, row))
         added.update(contact_columns(result.trajectory, scene, _row_mu(row, scene), row))
-        # The phase rule reads the events as the verdict does: from the contact reading now.
-        added[Col.PHASES_AGREE] = row_phases_agree({**row, **added})
-    verdict = verdict_columns({**row, **added})
+    # The phase rule and the verdict read the events as the verdict does (the contact
+    # reading), with their sizes carried to the scene's hoop (a map row has no a or g).
+    judged = {**row, **added, Col.A: scene.a, Col.G: scene.g}
+    if added:
+        added[Col.PHASES_AGREE] = row_phases_agree(judged)
+    verdict = verdict_columns(judged)
     if exact is not None and result.events is not None and result.trajectory is not None:
         added[Col.RMS_POSITION_M] = rms_position_error(result.trajectory, exact)
         phases = added.get(Col.CONTACT_PHASES)
