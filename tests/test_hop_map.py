@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from hoopbench.engines.judging.columns import FORCE_COLUMNS
 from hoopbench.engines.judging.comparison import event_columns
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.settings import RunSettings
@@ -240,6 +241,21 @@ def test_an_engine_row_carries_its_verdict_and_its_points_exact_answer(tiny):
     assert set(runs["stop_reason"].dropna()) <= {"impact", "settled"}
     landed = runs[runs["t_impact"].notna()]
     assert len(landed) >= 1 and (landed["stop_reason"] == "impact").all()
+
+
+def test_an_engine_row_carries_its_contact_force_against_the_exact_one(tiny):
+    """Map rows have the suite's force columns (issue 17's force truth), computed against
+    the point's exact solution: a run whose exact motion starts on the floor has a finite RMS
+    force error; one that lifts off at t = 0 has no contact phase to compare."""
+    frame = map_frame(tiny)
+    runs = frame[(frame["engine"] != REFERENCE) & (frame["status"] == "ok")]
+    for column in (*FORCE_COLUMNS, "rms_position_m"):
+        assert column in frame.columns, column
+    in_contact = runs["exact_phases"].str[0] != "F"
+    assert in_contact.sum() >= 3 and (~in_contact).sum() >= 1
+    assert np.isfinite(runs["force_rms_n_g"][in_contact].astype(float)).all()
+    assert runs["force_rms_n_g"][~in_contact].isna().all()
+    assert runs["rms_position_m"].notna().all()
 
 
 def test_a_scene_without_inertia_gets_a_row_and_no_verdict(tiny):

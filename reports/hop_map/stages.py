@@ -30,8 +30,8 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from hoopbench.engines.base import n_steps_for
-from hoopbench.engines.judging.columns import CONTACT_COLUMNS, Col
-from hoopbench.engines.judging.comparison import exact_columns, judged_columns
+from hoopbench.engines.judging.columns import CONTACT_COLUMNS, FORCE_COLUMNS, Col
+from hoopbench.engines.judging.comparison import exact_columns, exact_solution, judged_columns
 from hoopbench.engines.judging.verdict import counts_as_hop, number_or_none, verdict_columns
 from hoopbench.engines.options import Profile
 from hoopbench.engines.registry import get_engine
@@ -75,9 +75,10 @@ __all__ = [
 
 
 # --------------------------------------------------------------------------- points, tasks
-ROWS_FORMAT_VERSION = 2
+ROWS_FORMAT_VERSION = 3
 """Version of the map's runs table (meta.json; map.toml has its own, FORMAT_VERSION): 2 adds
-the contact reading's columns (CONTACT_COLUMNS) and the verdict's flags and reason."""
+the contact reading's columns (CONTACT_COLUMNS) and the verdict's flags and reason, 3 the
+contact force against the exact one (FORCE_COLUMNS), as a suite's rows have them."""
 
 EXACT_CARRIED = (
     Col.REGIME,
@@ -201,6 +202,8 @@ MAP_COLUMNS = (
     Col.T_FINAL,
     Col.PHASES_AGREE,
     *CONTACT_COLUMNS,
+    Col.RMS_POSITION_M,
+    *FORCE_COLUMNS,
 )
 """Every column of a map row, in order. Reference rows leave the engine's columns empty;
 wall_time_s is the classification's time there. sim_time_s: simulated time, s (the run may
@@ -276,7 +279,10 @@ def _engine_row(task: MapTask) -> dict[str, Any]:
         sim_time_s=None if info.n_steps is None else info.n_steps * settings.timestep,
         stop_reason=info.stop_reason,
     )
-    row.update(judged_columns(row, result, scene))
+    # The exact solution again (about 30 ms, small beside a run): the force columns need its
+    # n(t) and f(t), which a stored reference row does not hold.
+    exact = exact_solution(scene, scene.mus) if result.trajectory is not None else None
+    row.update(judged_columns(row, result, scene, exact))
     row[Col.HOP_HEIGHT_ERROR] = _hop_height_error(row)
     return _ordered(row)
 

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from hoopbench.engines.judging.columns import CONTACT_COLUMNS, Col
+from hoopbench.engines.judging.columns import CONTACT_COLUMNS, FORCE_COLUMNS, Col
 from hoopbench.models.formats import FileFormat
 from hoopbench.reference.regimes import Regime
 from hoopbench.reports.compare.selection import engine_rows
@@ -32,7 +32,14 @@ def _to_2(frame: pd.DataFrame) -> pd.DataFrame:
     return results.with_columns(frame, (*CONTACT_COLUMNS, Col.VERDICT_FLAGS, Col.VERDICT_REASON))
 
 
-MAP_TABLE = FileFormat("hop map runs table", ROWS_FORMAT_VERSION, oldest=1, migrations={1: _to_2})
+def _to_3(frame: pd.DataFrame) -> pd.DataFrame:
+    """Maps run before the force columns have them empty."""
+    return results.with_columns(frame, (Col.RMS_POSITION_M, *FORCE_COLUMNS))
+
+
+MAP_TABLE = FileFormat(
+    "hop map runs table", ROWS_FORMAT_VERSION, oldest=1, migrations={1: _to_2, 2: _to_3}
+)
 """A map folder's runs table (its version in meta.json, as a compare folder's)."""
 
 
