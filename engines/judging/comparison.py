@@ -45,8 +45,10 @@ __all__ = [
 
 
 @functools.cache  # one exact solve per (scene, mu) per worker process, not one per run
+@functools.lru_cache(maxsize=16)
 def exact_solution(scene: Scene, mu: float) -> ExactSolution:
-    """The exact solution of ``scene`` with mus = muk = ``mu``."""
+    """The exact solution of ``scene`` with mus = muk = ``mu``. Kept for the last few scenes:
+    a suite or a map judges several engines and profiles on one scene in turn."""
     return solve_exact(scene.with_(mus=mu, muk=mu))
 
 
