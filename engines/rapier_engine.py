@@ -14,7 +14,7 @@ Translation along z is left free, not locked: in rapier3d 0.36.1 a body with a t
 lock together with a rotation lock about an axis in the plane of motion gets no friction at
 all (a sliding ball keeps its speed; measured for every such pair and plane, and pinned by
 ``test_rapier.py::test_locking_z_with_x_rotation_stops_friction``). Nothing pushes along z:
-the contact normal and the friction lie in the plane, and the body's z stays below 1e-9 m
+the contact normal and the friction lie in the plane, and the body's z stays within 2.4e-7 m, f32 round-off
 (measured; tested).
 
 Contact. A ball of radius ``a`` on a half space gives one contact point, straight below the
@@ -60,7 +60,7 @@ from typing import Any
 import numpy as np
 
 from hoopbench.engines.base import Chunk, Engine
-from hoopbench.engines.options import Option, Variant, choice, flag, integer, number, real_tuple
+from hoopbench.engines.options import Option, Variant, choice, flag, integer, real_tuple
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models import kinematics
@@ -117,10 +117,13 @@ class RapierEngine(Engine):
         ),
         Option(
             "static_contact_softness",
-            (60.0, 10.0),
+            (200.0, 1.0),
             _check_softness,
-            "Rapier's (natural_frequency Hz, damping_ratio) of contacts with a fixed body: the "
-            "position correction only; the relax pass keeps the contact rigid",
+            "(natural_frequency Hz, damping_ratio) of contacts with a fixed body: the position "
+            "correction (the relax pass keeps the contact rigid). Rapier's (60, 10) let the "
+            "hoop sink 1 mm and seed-mu's slip velocity creep (slip -43 ms by it, dt 1e-4); "
+            "(200, 1): -1.5 ms, 0.4 mm; stiffer (1000, 1) made the slip flicker (-282 ms)",
+            stock=(60.0, 10.0),
         ),
         Option(
             "friction_model",
@@ -146,8 +149,8 @@ class RapierEngine(Engine):
         ),
     )
     variants = (
-        Variant("num_solver_iterations=1", options={"num_solver_iterations": 1}),
-        Variant("friction_model=simplified", options={"friction_model": "simplified"}),
+        Variant("num_solver_iterations=8", options={"num_solver_iterations": 8}),
+        Variant("static_contact_softness=60,10", options={"static_contact_softness": (60.0, 10.0)}),
     )
 
     # ----------------------------------------------------------------- model
@@ -160,7 +163,7 @@ class RapierEngine(Engine):
         _set_parameters(rp, world.integration_parameters, settings.timestep, options)
         mu, rule = self.mu_for(scene, settings), rp.CoefficientCombineRule.MAX
         x, y, theta, _, _, thetadot = kinematics.rolling_start(scene)
-        X, Y, _, Xdot, Ydot, _ = scene.initial_state()
+        _, _, _, Xdot, Ydot, _ = scene.initial_state()
         # The scene's mass properties, never the collider's (density 0).
         inertia = scene.inertia_com
         mass = rp.MassProperties(
@@ -204,7 +207,7 @@ class RapierEngine(Engine):
         run = _Run(scene, settings.timestep, world, world.rigid_bodies[body], hoop, floor, axis)
         run.theta_end = scene.theta0
         if record:
-            x, y, theta, xdot, ydot, thetadot = kinematics.rolling_start(scene)
+            x, y, theta, _, _, thetadot = kinematics.rolling_start(scene)
             _, _, _, Xdot, Ydot, _ = scene.initial_state()
             run.first = np.array(
                 [x, y, math.sin(-theta / 2), math.cos(-theta / 2), Xdot, Ydot, -thetadot]
