@@ -113,9 +113,9 @@ def test_friction_is_mu_while_slipping(mu):
 @pytest.mark.parametrize("friction_model", ["coulomb", "simplified"])
 def test_forces_are_each_steps_momentum_change(friction_model):
     """Row i's forces are the impulses of the step from state i: M (v_(i+1) - v_i) / dt less
-    gravity, to the round-off of the f32 velocities (an ulp of 3 m/s over dt is 2.4e-3 g). Coulomb reads the
-    friction from the contact point's tangent impulse (the probed axis), Simplified from this
-    very balance: there the test checks the normal force only."""
+    gravity, to the round-off of the f32 velocities (an ulp of 3 m/s over dt is 2.4e-3 g).
+    Coulomb reads the friction from the contact point's tangent impulse (the probed axis),
+    Simplified from this very balance: there only the normal force is a check."""
     scene = get_scene("seed-mu").with_(t_end=1.2)
     settings = RunSettings(timestep=TIMESTEP, options={"friction_model": friction_model})
     result = get_engine("rapier").run(scene, settings)
