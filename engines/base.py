@@ -212,6 +212,9 @@ class Engine(ABC):
     """Settings a suite runs beside the defaults, to show what one knob does."""
     model_format: ClassVar[str | None] = None
     """What ``hoopbench model`` writes for this engine (None: nothing)."""
+    model_note: ClassVar[str | None] = None
+    """For an engine without a model file: how it builds its model instead, the one line
+    ``hoopbench model`` gives."""
 
     def __init__(
         self,
@@ -295,7 +298,8 @@ class Engine(ABC):
         return None
 
     def _model_text(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
-        raise ValueError(f"engine {self.name} reads no model file")
+        note = f": {self.model_note}" if self.model_note else ""
+        raise ValueError(f"engine {self.name} reads no model file{note}")
 
     # ----------------------------------------------------------------- public
     def version(self) -> str | None:

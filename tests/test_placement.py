@@ -54,7 +54,17 @@ SCENES = {
     "bottom": Scene(lam=0.7, thetadot0=2.0, eps=0.02, mus=0.6, muk=0.6, theta0=2.5, a=0.4, M=2.5),
 }
 
-KNOWN: dict[tuple[str, str], str] = {}
+_RAPIER_SINKS = (
+    "Rapier's position correction is soft (static_contact_softness) and its positions move "
+    "in the biased substep pass: started touching (the contact is rigid in velocity, so there "
+    "is no one-step equilibrium depth to start at), the lowest point sinks in the first 2 ms "
+    "at up to {} g dt (measured, dt 1e-4, defaults), and later rolls 0.1-0.4 mm deep"
+)
+KNOWN: dict[tuple[str, str], str] = {
+    ("rapier", "seed-mu"): _RAPIER_SINKS.format("-2.4 (step 10)"),
+    ("rapier", "tilted"): _RAPIER_SINKS.format("-3.0 (step 5)"),
+    ("rapier", "bottom"): _RAPIER_SINKS.format("-0.91 (step 14)"),
+}
 """(engine, scene) starts that are measured to fail; strict, so a fix shows. pymunk's were
 here until it started START_OVERLAP deep (models/pymunk_space.py): placed exactly touching,
 it had no contact in its first step and its lowest point fell at -0.86 g dt (seed-mu)."""

@@ -1,0 +1,380 @@
+"""Rapier adapter: the hoop as a 3D rigid body moving in the x-y plane, a ball on a half space.
+
+Rapier (the Rust engine, through its Python binding ``rapier3d``, 3D, single precision) reads no
+model file from Python: the world is built by calls, here. Frames: Rapier's (x, y) is
+hoopbench's (x, y), gravity is (0, -g, 0), and the body turns about +z, counter-clockwise, so
+its angle is -theta and its angular velocity -thetadot. The body's origin is the hoop centre;
+``RigidBody.linvel`` is the centre of mass's velocity, as hoopbench's Xdot, Ydot.
+
+The body. Mass M, centre of mass (0, lam a, 0) in the body frame (at the weight's side) and
+principal inertia I_com about it, all from the scene (``RigidBodyBuilder
+.additional_mass_properties``); the ball collider has density 0, so nothing comes from the
+geometry (``test_rapier.py`` reads them back). Rotations about x and y are locked.
+Translation along z is left free, not locked: in rapier3d 0.36.1 a body with a translation
+lock together with a rotation lock about an axis in the plane of motion gets no friction at
+all (a sliding ball keeps its speed; measured for every such pair and plane, and pinned by
+``test_rapier.py::test_locking_z_with_x_rotation_stops_friction``). Nothing pushes along z:
+the contact normal and the friction lie in the plane, and the body's z stays within
+2.4e-7 m, f32 round-off
+(measured; tested).
+
+Contact. A ball of radius ``a`` on a half space gives one contact point, straight below the
+centre, with Rapier's analytic ball-plane distance: the hoop's circle in the plane. (A
+cylinder lying on its side touches along a segment and would give two points.) Friction: each
+collider carries mu, so every combine rule but Multiply gives the pair mu; the rules are set
+to Max on both, explicitly (Rapier's default is Average, and a pair uses the higher-ranked of
+its two colliders' rules). Restitution 0 on both, the same way.
+
+Forces. Rapier's solver records, per contact point, the normal impulse summed over the step's
+substeps (``ContactData.impulse``). With the Coulomb friction model it also records the
+friction impulse, in the contact's tangent basis (``ContactData.tangent_impulse``); the basis
+is fixed by the normal (always the floor's here), and a probe (``_friction_axis``) finds which
+combination of the two components is world x. With Rapier's default Simplified model no
+friction impulse is exposed (only the last substep's warm start, kept internally), so the
+friction column is the step's momentum balance M (vx1 - vx0) / dt instead: the only horizontal
+force on the hoop is the contact's. Row i holds the state at t_i and the impulse of the step
+from it, divided by dt and M (as PyBullet and Drake); one extra step gives the last row its
+force.
+
+Start. Rapier's contact is rigid at the velocity level (the relax pass of each substep) and
+soft only in its position correction (the biased pass, ``static_contact_softness``), which
+is also where positions move: there is no spring with a one-step equilibrium depth to start
+at (tried: a root of one step's centre acceleration changed nothing). The hoop starts exactly
+touching, ``contact_skin`` 0; contacts are made within the prediction distance, so the first
+step has its contact force (the rolling one, exactly). It then sinks at up to 3 g dt over
+the first 2 ms and rolls 0.1-0.4 mm deep: strict expected failures in ``test_placement.py``.
+
+Precision. Positions, velocities and impulses are 32-bit floats: 1.2e-7 relative, so at
+x = 5 m a position is known to 5e-7 m, a velocity of 2 m/s to 2.4e-7 m/s, and one step's
+displacement at dt 1e-4 (1e-4 m) is rounded by up to 2e-3 of itself. The recorded states are
+widened to float64 as read.
+"""
+
+from __future__ import annotations
+
+import math
+from array import array
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+
+from hoopbench.engines.base import Chunk, Engine
+from hoopbench.engines.options import Option, Variant, choice, flag, integer, real_tuple
+from hoopbench.engines.registry import register
+from hoopbench.engines.settings import RunSettings
+from hoopbench.models import kinematics
+from hoopbench.models.scene import Scene
+from hoopbench.models.trajectory import Trajectory
+
+__all__ = ["FRICTION_MODELS", "RapierEngine"]
+
+FRICTION_MODELS: tuple[str, ...] = ("coulomb", "simplified")
+"""Rapier's FrictionModel values (IntegrationParameters.friction_model)."""
+
+_ROW = 9
+"""Recorded per step: x, y, quaternion z, w, vx, vy, omega_z (body), normal and friction
+impulse on the hoop (N s)."""
+
+
+def _check_softness(name: str, value: Any) -> tuple[float, float]:
+    """(natural frequency Hz, damping ratio), both > 0: Rapier's SpringCoefficients."""
+    pair = real_tuple((2,), "a pair (natural_frequency Hz, damping_ratio)")(name, value)
+    if not all(v > 0 for v in pair):
+        raise ValueError(
+            f"{name} must be (natural_frequency Hz, damping_ratio), both > 0; got {value!r}"
+        )
+    return pair
+
+
+@register
+class RapierEngine(Engine):
+    """Rapier (rapier3d, f32): a planar-locked 3D body, substepped soft-contact solver."""
+
+    name = "rapier"
+    distribution = "rapier3d"
+    modules = ("rapier3d",)
+    model_note = "the world is built by calls (RigidBodyBuilder, ColliderBuilder), not read"
+    options = (
+        Option(
+            "num_solver_iterations",
+            4,
+            integer(low=1),
+            "Rapier's 4: the solver's substeps per step, each with its own position update",
+        ),
+        Option(
+            "num_internal_pgs_iterations",
+            1,
+            integer(low=1),
+            "Rapier's 1: Gauss-Seidel sweeps per substep (one contact: one sweep is exact)",
+        ),
+        Option(
+            "num_internal_stabilization_iterations",
+            1,
+            integer(low=0),
+            "Rapier's 1: relax (unbiased) sweeps per substep, which remove the position "
+            "correction's velocity",
+        ),
+        Option(
+            "static_contact_softness",
+            (200.0, 1.0),
+            _check_softness,
+            "(natural_frequency Hz, damping_ratio) of contacts with a fixed body: the position "
+            "correction (the relax pass keeps the contact rigid). Rapier's (60, 10) let the "
+            "hoop sink 1 mm and seed-mu's slip velocity creep (slip -43 ms by it, dt 1e-4); "
+            "(200, 1): -1.5 ms, 0.4 mm; stiffer (1000, 1) made the slip flicker (-282 ms)",
+            stock=(60.0, 10.0),
+        ),
+        Option(
+            "friction_model",
+            "coulomb",
+            choice(*FRICTION_MODELS),
+            "one contact point: both models solve one friction constraint at it, but only "
+            "coulomb exposes the friction impulse (simplified's column is the momentum balance)",
+            stock="simplified",
+        ),
+        Option(
+            "contact_recycling",
+            0,
+            flag(),
+            "Rapier's 1 keeps a pair's contact points while the pose moved less than 0.05 m: a "
+            "rolling hoop's contact point then stays behind on the rim",
+            stock=1,
+        ),
+        Option(
+            "friction_in_bias_pass",
+            0,
+            flag(),
+            "Rapier's 0: friction acts in the relax pass only",
+        ),
+    )
+    variants = (
+        Variant("num_solver_iterations=8", options={"num_solver_iterations": 8}),
+        Variant("static_contact_softness=60,10", options={"static_contact_softness": (60.0, 10.0)}),
+    )
+
+    # ----------------------------------------------------------------- model
+    def _world(
+        self, rp: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
+    ) -> tuple[Any, Any, Any, Any]:
+        """(world, body handle, hoop collider handle, floor collider handle) at the scene's
+        initial state, every parameter set."""
+        world = rp.PhysicsWorld(gravity=(0.0, -scene.g, 0.0))
+        _set_parameters(rp, world.integration_parameters, settings.timestep, options)
+        mu, rule = self.mu_for(scene, settings), rp.CoefficientCombineRule.MAX
+        x, y, theta, _, _, thetadot = kinematics.rolling_start(scene)
+        _, _, _, Xdot, Ydot, _ = scene.initial_state()
+        # The scene's mass properties, never the collider's (density 0).
+        inertia = scene.inertia_com
+        mass = rp.MassProperties(
+            local_com=(0.0, scene.com_offset, 0.0),
+            mass=scene.M,
+            principal_inertia=(inertia, inertia, inertia),
+        )
+        locks = rp.LockedAxes.ROTATION_LOCKED_X | rp.LockedAxes.ROTATION_LOCKED_Y
+        builder = (
+            rp.RigidBody.dynamic()
+            .translation((x, y, 0.0))
+            .rotation((0.0, 0.0, -theta))
+            .linvel((Xdot, Ydot, 0.0))
+            .angvel((0.0, 0.0, -thetadot))
+            .locked_axes(locks)
+            .additional_mass_properties(mass)
+            .can_sleep(False)
+        )
+        ball = _material(rp.Collider.ball(scene.a).density(0.0), mu, settings.restitution, rule)
+        body = world.add_body(builder, [ball])
+        floor = world.add_collider(
+            _material(rp.Collider.halfspace((0.0, 1.0, 0.0)), mu, settings.restitution, rule)
+        )
+        hoop = world.rigid_bodies[body].colliders[0]
+        return world, body, hoop, floor
+
+    # ----------------------------------------------------------------- stepping hooks
+    @contextmanager
+    def _open(
+        self,
+        module: ModuleType,
+        scene: Scene,
+        settings: RunSettings,
+        options: dict[str, Any],
+        *,
+        record: bool,
+    ) -> Iterator[_Run]:
+        world, body, hoop, floor = self._world(module, scene, settings, options)
+        coulomb = options["friction_model"] == "coulomb"
+        axis = _friction_axis(module, options) if coulomb and record else None
+        run = _Run(scene, settings.timestep, world, world.rigid_bodies[body], hoop, floor, axis)
+        run.theta_end = scene.theta0
+        if record:
+            x, y, theta, _, _, thetadot = kinematics.rolling_start(scene)
+            _, _, _, Xdot, Ydot, _ = scene.initial_state()
+            run.first = np.array(
+                [x, y, math.sin(-theta / 2), math.cos(-theta / 2), Xdot, Ydot, -thetadot]
+            )
+        yield run
+
+    def _advance(self, run: _Run, done: int, steps: int, last: bool) -> Chunk:
+        """Step, reading the body and the pair's contact points after each step."""
+        step, body = run.world.step, run.body
+        pair_of, hoop, floor, axis = (
+            run.world.narrow_phase.contact_pair,
+            run.hoop,
+            run.floor,
+            run.axis,
+        )
+        buf = array("d")
+        record = buf.extend
+        for _ in range(steps):
+            step()
+            p, q, v, w = body.translation, body.rotation, body.linvel, body.angvel
+            normal, friction = _impulse(pair_of(hoop, floor), axis)
+            record((p.x, p.y, q.k, q.w, v.x, v.y, w.z, normal, friction))
+        block = np.frombuffer(buf).reshape(-1, _ROW)
+        run.blocks.append(block)
+        state = _com_state(run.scene, block, run.theta_end)
+        run.theta_end = float(state["theta"][-1])
+        return Chunk(state, done + steps)
+
+    def _diverged(self, run: _Run) -> str | None:
+        # Rapier neutralizes a body whose state became non-finite: reset, zeroed, disabled.
+        return None if run.body.is_enabled else "rapier quarantined the body (non-finite state)"
+
+    def _finish(self, run: _Run, ended_early: bool) -> None:
+        """One more step, not recorded as a state, gives the last row its force."""
+        v0 = run.body.linvel.x
+        run.world.step()
+        normal, friction = _impulse(
+            run.world.narrow_phase.contact_pair(run.hoop, run.floor), run.axis
+        )
+        run.last = (normal, friction, run.body.linvel.x - v0)
+
+    def _trajectory(self, run: _Run, done: int, ended_early: bool) -> Trajectory:
+        rows = np.concatenate(run.blocks or [np.empty((0, _ROW))])
+        states = np.vstack([run.first, rows[:, :7]])
+        state = _com_state(run.scene, states, run.scene.theta0)
+        normal = np.append(rows[:, 7], run.last[0])
+        if run.axis is not None:
+            friction = np.append(rows[:, 8], run.last[1])
+        else:
+            # Simplified friction: the momentum balance of each step (module doc).
+            vx = states[:, 4]
+            friction = np.append(np.diff(vx), run.last[2]) * run.scene.M
+        scale = run.scene.M * run.timestep
+        return Trajectory.from_state(
+            run.scene,
+            t=np.arange(len(normal)) * run.timestep,
+            **state,
+            normal_force=normal / scale,
+            friction_force=friction / scale,
+            contact=normal > 0.0,
+            shape=None,  # the hoop's circle
+        )
+
+    def _step_bare(self, run: _Run, steps: int) -> None:
+        step = run.world.step
+        for _ in range(steps):
+            step()
+
+
+@dataclass
+class _Run:
+    """One run's world and handles, and what it recorded."""
+
+    scene: Scene
+    timestep: float
+    world: Any
+    body: Any
+    """The hoop's RigidBody: a live view into the world."""
+    hoop: Any
+    floor: Any
+    axis: tuple[float, float] | None
+    """World x in the contact's tangent basis (Coulomb model); None: Simplified."""
+    first: np.ndarray = field(default_factory=lambda: np.empty(7))
+    """The initial state in the recorded columns (the scene's, in float64)."""
+    blocks: list[np.ndarray] = field(default_factory=list)
+    last: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """Normal and friction impulse, N s, and vx change of the step after the last state."""
+    theta_end: float = 0.0
+    """theta at the last recorded row, rad: the next chunk's angle unwraps from it."""
+
+
+def _com_state(scene: Scene, rows: np.ndarray, theta_before: float) -> dict[str, np.ndarray]:
+    """Centre-of-mass state from recorded rows, the angle unwrapped from ``theta_before``
+    (the previous row's, rad): a quaternion gives the angle modulo 2 pi."""
+    angle = 2.0 * np.arctan2(rows[:, 2], rows[:, 3])  # counter-clockwise, about +z
+    theta = np.unwrap(np.concatenate([[theta_before], -angle]))[1:]
+    X, Y = kinematics.com_position(scene, rows[:, 0], rows[:, 1], theta)
+    return {
+        "X": X,
+        "Y": Y,
+        "theta": theta,
+        "Xdot": rows[:, 4],
+        "Ydot": rows[:, 5],
+        "thetadot": -rows[:, 6],
+    }
+
+
+def _material(builder: Any, mu: float, restitution: float, rule: Any) -> Any:
+    return (
+        builder.friction(mu)
+        .restitution(restitution)
+        .friction_combine_rule(rule)
+        .restitution_combine_rule(rule)
+    )
+
+
+def _set_parameters(rp: ModuleType, params: Any, dt: float, options: dict[str, Any]) -> None:
+    """Set the world's IntegrationParameters (modified in place) from the run's options."""
+    params.dt = dt
+    params.num_solver_iterations = int(options["num_solver_iterations"])
+    params.num_internal_pgs_iterations = int(options["num_internal_pgs_iterations"])
+    params.num_internal_stabilization_iterations = int(
+        options["num_internal_stabilization_iterations"]
+    )
+    frequency, damping = options["static_contact_softness"]
+    params.static_contact_softness = rp.SpringCoefficients(frequency, damping)
+    params.friction_model = getattr(rp.FrictionModel, options["friction_model"].upper())
+    params.contact_recycling = bool(options["contact_recycling"])
+    params.friction_in_bias_pass = bool(options["friction_in_bias_pass"])
+
+
+def _impulse(pair: Any, axis: tuple[float, float] | None) -> tuple[float, float]:
+    """(normal impulse up, friction impulse along +x) on the hoop, N s, summed over the pair's
+    contact points; friction 0 without an axis (Simplified model: not exposed)."""
+    normal = friction = 0.0
+    if pair is None:
+        return normal, friction
+    for manifold in pair.manifolds:
+        for point in manifold.points:
+            normal += point.impulse
+            if axis is not None:
+                t1, t2 = point.tangent_impulse
+                friction += axis[0] * t1 + axis[1] * t2
+    return normal, friction
+
+
+def _friction_axis(rp: ModuleType, options: dict[str, Any]) -> tuple[float, float]:
+    """World +x (the friction on the ball) in the tangent basis of a ball-on-floor contact:
+    Rapier builds the basis from the normal alone. A probe ball slides along +x for one step;
+    the friction on it points along -x, so -tangent_impulse/|tangent_impulse| is the axis."""
+    world = rp.PhysicsWorld(gravity=(0.0, -10.0, 0.0))
+    _set_parameters(
+        rp, world.integration_parameters, 1e-3, {**options, "friction_model": "coulomb"}
+    )
+    rule = rp.CoefficientCombineRule.MAX
+    ball = _material(rp.Collider.ball(1.0), 0.5, 0.0, rule)
+    body = world.add_body(
+        rp.RigidBody.dynamic().translation((0.0, 1.0, 0.0)).linvel((1.0, 0.0, 0.0)), [ball]
+    )
+    floor = world.add_collider(_material(rp.Collider.halfspace((0.0, 1.0, 0.0)), 0.5, 0.0, rule))
+    world.step()
+    pair = world.narrow_phase.contact_pair(world.rigid_bodies[body].colliders[0], floor)
+    t1, t2 = pair.manifolds[0].points[0].tangent_impulse
+    norm = math.hypot(t1, t2)
+    if not norm > 0.0:
+        raise RuntimeError("rapier: the friction probe got no friction impulse")
+    return -t1 / norm, -t2 / norm
