@@ -51,7 +51,10 @@ from hoopbench.models.box2d_world import (
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 
-__all__ = ["Box2DEngine"]
+__all__ = ["Box2DEngine", "free_flight_residual"]
+
+_N_FIELDS = 6
+"""Floats recorded per step: x, y, angle, vx, vy, angular velocity."""
 
 
 @register
@@ -147,28 +150,23 @@ class Box2DEngine(Engine):
             gravity_y=float(world.gravity[1]),
             world=world,
             body=body,
-            rows=[],
+            values=list(_read(body)),
         )
-        run.rows.append(_read(body))
-        run.last_angle = run.rows[0][2]
+        run.last_angle = run.values[2]
         return nullcontext(run)
 
     def _advance(self, run: _Run, done: int, steps: int, last: bool) -> Chunk:
         step, body, dt, n = run.world.step, run.body, run.timestep, run.substeps
-        rows = run.rows
-        append = rows.append
+        extend = run.values.extend
+        # The getters, inline: unpacking a Vec2 iterates it until IndexError (12 us a row,
+        # against 0.8 us for the six getters); a flat list of floats converts to an array
+        # ten times faster than a list of tuples.
         for _ in range(steps):
             step(dt, n)
-            append(
-                (
-                    *body.position,
-                    body.angle,
-                    *body.linear_velocity,
-                    body.angular_velocity,
-                )
-            )
+            p, v = body.position, body.linear_velocity
+            extend((p.x, p.y, body.angle, v.x, v.y, body.angular_velocity))
         # the row before the chunk continues its unwrapped angle
-        raw = np.array(rows[-steps - 1 :], dtype=float)
+        raw = np.array(run.values[-_N_FIELDS * (steps + 1) :]).reshape(-1, _N_FIELDS)
         angle = np.unwrap(raw[:, 2])
         angle += run.last_angle - angle[0]
         run.last_angle = float(angle[-1])
@@ -176,7 +174,7 @@ class Box2DEngine(Engine):
 
     def _trajectory(self, run: _Run, done: int, ended_early: bool) -> Trajectory:
         """Every recorded row, with the momentum-balance force of the module doc."""
-        raw = np.array(run.rows, dtype=float)
+        raw = np.array(run.values).reshape(-1, _N_FIELDS)
         dt = run.timestep
         impulse_x, impulse_y = free_flight_residual(raw[:, 3:5], dt, run.substeps, run.gravity_y)
         f = np.empty(len(raw))
@@ -230,14 +228,16 @@ class _Run:
     """The world's gravity as Box2D stores it (float32), m/s^2."""
     world: Any
     body: Any
-    rows: list[tuple[float, ...]]
-    """Recorded rows (x, y, angle, vx, vy, angular velocity), the initial one first."""
+    values: list[float]
+    """Recorded rows (x, y, angle, vx, vy, angular velocity), flat, the initial one first."""
     last_angle: float = 0.0
     """The last recorded row's angle, unwrapped, rad (counter-clockwise)."""
 
 
 def _read(body: Any) -> tuple[float, ...]:
-    return (*body.position, body.angle, *body.linear_velocity, body.angular_velocity)
+    """(x, y, angle, vx, vy, angular velocity) of the body now."""
+    p, v = body.position, body.linear_velocity
+    return (p.x, p.y, body.angle, v.x, v.y, body.angular_velocity)
 
 
 def _our_state(scene: Scene, raw: np.ndarray, angle: np.ndarray) -> dict[str, np.ndarray]:
