@@ -54,7 +54,25 @@ SCENES = {
     "bottom": Scene(lam=0.7, thetadot0=2.0, eps=0.02, mus=0.6, muk=0.6, theta0=2.5, a=0.4, M=2.5),
 }
 
-KNOWN: dict[tuple[str, str], str] = {}
+_BOX2D_FLOAT32 = (
+    "Box2D is single precision: the hoop's height moves in steps of one float32 ulp of its "
+    "centre of mass ({ulp} m at a height of {height}), {rate} g dt at dt 1e-4, above the "
+    "0.5 allowed; measured worst rate {worst} g dt (step {step}), clearance {end} m at 2 ms, "
+    "at t = 0 {start} m"
+)
+KNOWN: dict[tuple[str, str], str] = {
+    ("box2d", "seed-mu"): _BOX2D_FLOAT32.format(
+        ulp="1.2e-7", height="1.9 m", rate="1.22", worst="-1.22", step=6, end="-6e-8", start="0"
+    ),
+    ("box2d", "tilted"): _BOX2D_FLOAT32.format(
+        ulp="1.2e-7", height="1.3 m", rate="1.22", worst="-1.22", step=3, end="-7e-8",
+        start="-1.2e-8",
+    ),
+    ("box2d", "bottom"): _BOX2D_FLOAT32.format(
+        ulp="6e-8", height="0.5 m", rate="0.61", worst="-0.61", step=18, end="-2.6e-7",
+        start="6e-9",
+    ),
+}
 """(engine, scene) starts that are measured to fail; strict, so a fix shows. pymunk's were
 here until it started START_OVERLAP deep (models/pymunk_space.py): placed exactly touching,
 it had no contact in its first step and its lowest point fell at -0.86 g dt (seed-mu)."""
