@@ -17,9 +17,11 @@ momentum balance, as for pymunk: without a contact Box2D updates a velocity once
 as ``v = h*g + v`` in float32 (``b2IntegrateVelocitiesTask`` with no damping and no force),
 so the free velocity is replayed with the same float32 operations and the contact impulse
 per unit mass is ``v1 - v_free``: exactly zero when no contact acted. Even a manifold would
-not give the step's impulse: its stored impulse is the last substep's. The force of the step
-ending at state i is recorded at row i (the interval [t_i - dt, t_i], pymunk's convention);
-row 0 repeats row 1.
+not give the step's impulse: its stored impulse is the last substep's. Box2D collides at the
+start of a step, so a step's contact is that of the state it starts from: row i gets the
+impulse of the step from state i, [t_i, t_i + dt], divided by dt (PyBullet's and Drake's
+convention; measured against the force law at the engine's own state, the best shift is
+0), and one extra step gives the last row its force.
 
 Placement. Box2D's contact is soft only below zero separation (a speculative point, s > 0,
 is a rigid constraint), so an overlap sinks to where the soft push balances the weight. The
@@ -172,15 +174,19 @@ class Box2DEngine(Engine):
         run.last_angle = float(angle[-1])
         return Chunk(_our_state(run.scene, raw[1:], angle[1:]), done + steps)
 
+    def _finish(self, run: _Run, ended_early: bool) -> None:
+        """One more step: its impulse is the last recorded row's force."""
+        run.world.step(run.timestep, run.substeps)
+        run.values.extend(_read(run.body))
+
     def _trajectory(self, run: _Run, done: int, ended_early: bool) -> Trajectory:
-        """Every recorded row, with the momentum-balance force of the module doc."""
+        """The recorded rows but _finish's, with the momentum-balance force of the module
+        doc: row i gets the impulse of the step from state i."""
         raw = np.array(run.values).reshape(-1, _N_FIELDS)
         dt = run.timestep
         impulse_x, impulse_y = free_flight_residual(raw[:, 3:5], dt, run.substeps, run.gravity_y)
-        f = np.empty(len(raw))
-        n = np.empty(len(raw))
-        f[1:], n[1:] = impulse_x / dt, impulse_y / dt
-        f[0], n[0] = f[1], n[1]
+        f, n = impulse_x / dt, impulse_y / dt
+        raw = raw[:-1]
         return Trajectory.from_state(
             run.scene,
             t=dt * np.arange(len(raw)),
