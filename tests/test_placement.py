@@ -65,11 +65,21 @@ KNOWN: dict[tuple[str, str], str] = {
         ulp="1.2e-7", height="1.9 m", rate="1.22", worst="-1.22", step=6, end="-6e-8", start="0"
     ),
     ("box2d", "tilted"): _BOX2D_FLOAT32.format(
-        ulp="1.2e-7", height="1.3 m", rate="1.22", worst="-1.22", step=3, end="-7e-8",
+        ulp="1.2e-7",
+        height="1.3 m",
+        rate="1.22",
+        worst="-1.22",
+        step=3,
+        end="-7e-8",
         start="-1.2e-8",
     ),
     ("box2d", "bottom"): _BOX2D_FLOAT32.format(
-        ulp="6e-8", height="0.5 m", rate="0.61", worst="-0.61", step=18, end="-2.6e-7",
+        ulp="6e-8",
+        height="0.5 m",
+        rate="0.61",
+        worst="-0.61",
+        step=18,
+        end="-2.6e-7",
         start="6e-9",
     ),
 }
