@@ -302,13 +302,15 @@ def _floor(dart: ModuleType, scene: Scene, mu: float) -> Any:
 
 
 def _set_lcp_solver(dart: ModuleType, solver: Any, options: dict[str, Any]) -> None:
-    """Dantzig (DART's default, with PGS as its fallback) or PGS alone, with the options."""
-    if options["boxed_lcp_solver"] != "pgs":
-        return
-    # dartpy 6.20 binds no PgsBoxedLcpSolver constructor: the world's own fallback is one.
-    pgs = solver.getSecondaryBoxedLcpSolver()
-    if pgs is None or pgs.getType() != "PgsBoxedLcpSolver":
-        raise RuntimeError("dartpy: the constraint solver has no PGS fallback solver to use")
+    """The primary boxed-LCP solver and the fallback for the steps it fails on: DART's default
+    is Dantzig, then PGS; hoopbench's PGS, then Dantzig. Without a fallback DART zeroes a
+    failed step's impulses."""
+    # dartpy 6.20 binds no constructor for either solver: the world's own two are reordered.
+    # DART ignores a primary equal to the secondary, so the secondary is cleared first.
+    dantzig, pgs = solver.getBoxedLcpSolver(), solver.getSecondaryBoxedLcpSolver()
+    types = (dantzig.getType(), None if pgs is None else pgs.getType())
+    if types != ("DantzigBoxedLcpSolver", "PgsBoxedLcpSolver"):
+        raise RuntimeError(f"dartpy: expected Dantzig and PGS as the world's solvers, got {types}")
     pgs.setOption(
         dart.constraint.PgsBoxedLcpSolverOption(
             options["pgs_max_iteration"],
@@ -316,9 +318,12 @@ def _set_lcp_solver(dart: ModuleType, solver: Any, options: dict[str, Any]) -> N
             options["pgs_relative_delta_x_tolerance"],
         )
     )
-    dantzig = solver.getBoxedLcpSolver()
-    solver.setBoxedLcpSolver(pgs)
-    solver.setSecondaryBoxedLcpSolver(dantzig if options["lcp_fallback"] else None)
+    primary, secondary = (pgs, dantzig) if options["boxed_lcp_solver"] == "pgs" else (dantzig, pgs)
+    solver.setSecondaryBoxedLcpSolver(None)
+    solver.setBoxedLcpSolver(primary)
+    solver.setSecondaryBoxedLcpSolver(secondary if options["lcp_fallback"] else None)
+    if solver.getBoxedLcpSolver() is not primary and solver.getBoxedLcpSolver() != primary:
+        raise RuntimeError("dartpy: the boxed-LCP solver was not set")
 
 
 def _contact_force(result: Any) -> tuple[float, float]:
