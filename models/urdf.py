@@ -39,7 +39,9 @@ __all__ = [
     "FLOOR_HALF_SIZE",
     "HOOP_GEOMETRIES",
     "JOINT_NAMES",
+    "PLANAR_JOINT_NAME",
     "floor_urdf",
+    "scene_to_planar_urdf",
     "scene_to_urdf",
 ]
 
@@ -52,6 +54,10 @@ down, and the adapter places it and reads its clearance by that surface)."""
 
 JOINT_NAMES: tuple[str, str, str] = ("x_joint", "z_joint", "theta_joint")
 """The three joints in chain order: hoop-centre x (m), hoop-centre height (m), theta (rad)."""
+
+PLANAR_JOINT_NAME = "planar"
+"""The joint of :func:`scene_to_planar_urdf`: a URDF ``planar`` joint whose axis (+y) is the
+normal of the plane of motion, x-z."""
 
 DUMMY_MASS_FRACTION = 1e-6
 """Mass of each slider link as a fraction of M."""
@@ -210,5 +216,47 @@ def floor_urdf(
         + "    </collision>\n"
         + _contact_xml(lateral_friction, r)
         + "  </link>\n"
+        + "</robot>\n"
+    )
+
+
+def scene_to_planar_urdf(scene: Scene, *, comment: str = "") -> str:
+    """URDF of the hoop of ``scene`` on one ``planar`` joint to the world, as DART's
+    ``DartLoader`` reads it (PyBullet does not take URDF planar joints).
+
+    The joint's axis +y is the normal of the plane: DART makes it a ``PlanarJoint`` with
+    positions (hoop-centre height z, hoop-centre x, theta) and turns the link about +y, so the
+    angle is theta itself (the top moves toward +x). The link frame is the hoop centre; its
+    ``<inertial>`` is the whole hoop, as in :func:`scene_to_urdf`, and a sphere of radius a
+    collides. No contact values: DART's loader reads none, the adapter sets them.
+    ``comment`` goes into an XML comment. ValueError for a scene with I = 0.
+    """
+    scene.require_inertia("a DART hoop")
+    a, inertia = scene.a, scene.inertia_com
+    shape = f'<sphere radius="{_num(a)}"/>'
+    head = '<?xml version="1.0"?>\n'
+    if comment:
+        head += "<!--\n" + comment.replace("--", "- -") + "\n-->\n"
+    return (
+        head
+        + '<robot name="hoop">\n'
+        + '  <link name="world"/>\n'
+        + '  <link name="hoop">\n'
+        + _inertia_xml(scene.M, scene.com_offset, inertia, inertia, inertia)
+        + "    <collision>\n"
+        + '      <origin xyz="0 0 0" rpy="0 0 0"/>\n'
+        + f"      <geometry>{shape}</geometry>\n"
+        + "    </collision>\n"
+        + "    <visual>\n"
+        + f'      <origin xyz="0 0 {_num(a)}" rpy="0 0 0"/>\n'
+        + f'      <geometry><sphere radius="{_num(0.05 * a)}"/></geometry>\n'
+        + "    </visual>\n"
+        + "  </link>\n"
+        + f'  <joint name="{PLANAR_JOINT_NAME}" type="planar">\n'
+        + '    <parent link="world"/>\n'
+        + '    <child link="hoop"/>\n'
+        + '    <origin xyz="0 0 0" rpy="0 0 0"/>\n'
+        + '    <axis xyz="0 1 0"/>\n'
+        + "  </joint>\n"
         + "</robot>\n"
     )

@@ -15,7 +15,7 @@ import pytest
 
 pytest_plugins = ["pytester"]  # tests/test_skips_under_ci.py runs pytest on made-up tests
 
-OPTIONAL_ENGINES = frozenset({"drake", "rapier"})
+OPTIONAL_ENGINES = frozenset({"drake", "rapier", "box2d", "dart"})
 """Engines of an optional extra: a test may skip when one is unavailable, never for another."""
 CI_VARIABLE = "CI"
 """Set, to anything but the empty string, by CI services (GitHub Actions sets CI=true)."""

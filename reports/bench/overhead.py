@@ -21,7 +21,7 @@ from hoopbench.engines.registry import get_engine
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene
 
-ENGINES = ("mujoco", "pybullet", "pymunk", "drake", "rapier", "box2d")
+ENGINES = ("mujoco", "pybullet", "pymunk", "drake", "rapier", "box2d", "dart")
 
 
 def measure(engine_name: str, scene_name: str, timestep: float, repeat: int) -> dict[str, Any]:

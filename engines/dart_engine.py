@@ -1,0 +1,355 @@
+"""DART adapter: the hoop as a skeleton on one PlanarJoint, a boxed-LCP contact on a static floor.
+
+Model. The hoop is the URDF of :func:`hoopbench.models.urdf.scene_to_planar_urdf` (a URDF
+``planar`` joint, axis +y), read by ``dartpy.utils.DartLoader``: it becomes a ``PlanarJoint``
+in the x-z plane whose positions are (hoop-centre height z, hoop-centre x, theta), with the
+link turning about +y, so the angle is theta itself. The link's inertia is the URDF's
+``<inertial>`` (mass M, centre of mass lam*a toward the weight, I = M a^2 k), read back in the
+tests. The floor is a skeleton of its own, built here (a URDF holds one tree): one body welded
+to the world with a box whose top face is z = 0, made immobile (``Skeleton.setMobile(False)``).
+
+Contact shape: a sphere of radius a. Seen in the plane its section is the hoop's circle, and
+sphere-box is a primitive pair for all four of DART's collision detectors (FCL, DART, Bullet,
+ODE): each reports one contact straight below the centre, and on seed-mu with PGS all four
+give the same slip onset to 1e-6 deg. A cylinder (a disc with its axis along y) would need
+FCL's or ODE's cylinder-box pair and adds nothing a sphere lacks in the plane.
+
+Contact values. DART combines the two shapes' friction coefficients as their minimum
+(``DefaultContactSurfaceHandler::createParams`` in 6.20) and their restitution coefficients as
+the product: both shapes get mu, the hoop gets e and the floor 1. A pair friction below 1e-3
+(DART_FRICTION_COEFF_THRESHOLD) switches friction off altogether, so 0 < mu <= 1e-3 is
+refused. Friction is a pyramid of two boxed rows (primary and secondary directions, both at
+mu from ``DynamicsAspect.setFrictionCoeff``); for the floor's +z normal the rows lie along x
+and y, so the friction along x is bounded by exactly mu n (measured: |f|/n = 0.8000 while
+slipping on seed-mu).
+
+What DART does not expose to Python: ``ContactConstraint``'s error reduction parameter (0.01),
+its maximum error reduction velocity (1e-3 m/s), its constraint force mixing (1e-5) and its
+error allowance (0 m) are static C++ values with no binding in dartpy 6.20, so they are no
+options here.
+
+Forces. ``World.step`` detects collisions at the state it starts from, solves the LCP for the
+impulses that step and only then moves the positions (semi-implicit Euler). Each contact of
+``World.getLastCollisionResult()`` then carries ``force`` = impulse / dt in world coordinates,
+the force on ``collisionObject1``, its normal pointing into that object. The hoop gets the
+force that points up (the floor is flat; ``_contact_force``). Row i of the trajectory holds
+the state at t_i and the force of the step from state i, as PyBullet's and Drake's; one extra
+step gives the last row its force.
+
+Placement. DART's contact is rigid (velocity level, no allowed penetration: error allowance
+0), and a sphere touching the box is a contact at depth 0, but on a tilted start the computed
+distance is +1e-16 m and the first step has no contact. The hoop starts START_DEPTH a deep
+(1e-9 a), rolling, and gets the rolling force from its first step.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+
+from hoopbench.engines.base import Chunk, Engine
+from hoopbench.engines.options import Option, Variant, choice, flag, integer, number
+from hoopbench.engines.registry import register
+from hoopbench.engines.settings import RunSettings
+from hoopbench.models import kinematics
+from hoopbench.models.checks import check_real
+from hoopbench.models.scene import Scene
+from hoopbench.models.trajectory import Trajectory
+from hoopbench.models.urdf import FLOOR_HALF_SIZE, PLANAR_JOINT_NAME, scene_to_planar_urdf
+
+__all__ = ["COLLISION_DETECTORS", "LCP_SOLVERS", "MIN_PAIR_FRICTION", "START_DEPTH", "DartEngine"]
+
+LCP_SOLVERS: tuple[str, ...] = ("dantzig", "pgs")
+"""DART's boxed-LCP solvers (``BoxedLcpConstraintSolver.setBoxedLcpSolver``)."""
+
+COLLISION_DETECTORS: tuple[str, ...] = ("fcl", "dart", "bullet", "ode")
+"""DART's collision detectors (``World.setCollisionDetector``); FCL is DART's default."""
+
+MIN_PAIR_FRICTION = 1e-3
+"""DART_FRICTION_COEFF_THRESHOLD: a pair friction at or below this is no friction at all."""
+
+START_DEPTH = 1e-9
+"""Depth, in units of a, the hoop starts below the floor: on a tilted start the sphere placed
+exactly touching is 1e-16 m apart, gets no contact in its first step and falls at -0.83 g dt
+(tests/test_placement.py). DART's rigid contact pushes such a depth out at ERP 0.01 per step,
+1e-7 m/s at dt 1e-4."""
+
+_FLOOR_THICKNESS = 1.0
+"""m; the floor box's top face is the plane z = 0."""
+
+_ROW = 8
+"""Recorded per step: z, x, theta, zdot, xdot, thetadot (the joint), force x and z (N)."""
+
+_DETECTOR_CLASSES = {
+    "fcl": "FCLCollisionDetector",
+    "dart": "DARTCollisionDetector",
+    "bullet": "BulletCollisionDetector",
+    "ode": "OdeCollisionDetector",
+}
+
+
+@register
+class DartEngine(Engine):
+    """DART (dartpy): Featherstone skeletons, contacts as a boxed LCP solved each step."""
+
+    name = "dart"
+    distribution = "dartpy"
+    modules = ("dartpy",)
+    model_format = "URDF (one planar joint; read by dartpy.utils.DartLoader)"
+    options = (
+        Option(
+            "boxed_lcp_solver",
+            "pgs",
+            choice(*LCP_SOLVERS),
+            "PGS: seed-mu slips at the exact onset (1 mm/s crossing 0.9932 s) with |f|/n = "
+            "0.8000. DART's Dantzig (its default, PGS as fallback) lets the rolling hoop slip "
+            "at 32 deg (0.507 s) with friction at 0.26 mu n, at every timestep, with every "
+            "collision detector and with a FreeJoint instead of the planar one",
+            stock="dantzig",
+        ),
+        Option(
+            "collision_detector",
+            "ode",
+            choice(*COLLISION_DETECTORS),
+            "sphere-box is a primitive pair for all four, one contact below the centre; FCL, "
+            "Bullet and ODE give seed-mu's slip to 1e-5 deg, DART's own detector 0.0001 deg "
+            "apart; ODE is the cheapest per step of the three (FCL is DART's default)",
+            stock="fcl",
+        ),
+        Option(
+            "lcp_fallback",
+            1,
+            flag(),
+            "1: a second solver for the steps the first fails on (DART's default: Dantzig, "
+            "then PGS; with PGS first, Dantzig after it). PGS alone fails on single steps "
+            "(no convergence in its iterations) and DART then zeroes the step's impulses",
+        ),
+        Option(
+            "pgs_max_iteration",
+            30,
+            integer(low=1),
+            "PgsBoxedLcpSolverOption.mMaxIteration, DART's 30 (PGS only)",
+        ),
+        Option(
+            "pgs_delta_x_threshold",
+            1e-6,
+            number(low=0.0),
+            "PgsBoxedLcpSolverOption.mDeltaXThreshold, DART's (PGS only)",
+        ),
+        Option(
+            "pgs_relative_delta_x_tolerance",
+            1e-3,
+            number(low=0.0),
+            "PgsBoxedLcpSolverOption.mRelativeDeltaXTolerance, DART's (PGS only)",
+        ),
+    )
+    variants = (
+        Variant("boxed_lcp_solver=dantzig", options={"boxed_lcp_solver": "dantzig"}),
+        Variant("collision_detector=fcl", options={"collision_detector": "fcl"}),
+    )
+
+    # ----------------------------------------------------------------- hooks
+    def _check(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> None:
+        """A mu DART would turn into no friction at all raises ValueError."""
+        mu = check_real("mu", self.mu_for(scene, settings), low=0.0)
+        if 0.0 < mu <= MIN_PAIR_FRICTION:
+            raise ValueError(
+                f"mu must be 0 or above {MIN_PAIR_FRICTION:g} for dart, got {mu:g}: DART "
+                "switches a pair's friction off at or below that (DART_FRICTION_COEFF_THRESHOLD)"
+            )
+
+    def _model_text(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
+        settings_text = ", ".join(f"{k}={v}" for k, v in sorted(options.items()))
+        comment = (
+            "Written by hoopbench (models/urdf.py, scene_to_planar_urdf) for dartpy's DartLoader.\n"
+            f"  scene {scene.name or '(unnamed)'!r}: "
+            + ", ".join(f"{k}={v}" for k, v in scene.to_dict().items() if k != "name")
+            + f"\n  mu={self.mu_for(scene, settings)!r}, restitution={settings.restitution!r}, "
+            f"timestep={settings.timestep!r} s\n"
+            f"  dart options: {settings_text}\n"
+            "Set by the adapter, not in this file: the floor (a static box, top face z = 0),\n"
+            "friction mu on both shapes (DART takes the minimum), restitution (the product:\n"
+            "hoop e, floor 1), gravity (0, 0, -g), the time step, LCP solver and detector."
+        )
+        return scene_to_planar_urdf(scene, comment=comment)
+
+    # ----------------------------------------------------------------- model
+    def _build(
+        self, dart: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
+    ) -> tuple[Any, Any]:
+        """(world, hoop skeleton) at the scene's initial state."""
+        mu = self.mu_for(scene, settings)
+        hoop = dart.utils.DartLoader().parseSkeletonString(
+            self._model_text(scene, settings, options), dart.common.Uri("")
+        )
+        joint = hoop.getJoint(0)
+        if hoop.getNumJoints() != 1 or joint.getName() != PLANAR_JOINT_NAME:
+            raise RuntimeError(f"DartLoader made joint {joint.getName()!r}, not one planar joint")
+        shape = _collision_shape(hoop.getBodyNode(0))
+        shape.getDynamicsAspect().setFrictionCoeff(mu)
+        shape.getDynamicsAspect().setRestitutionCoeff(settings.restitution)
+
+        world = dart.simulation.World()
+        world.setGravity([0.0, 0.0, -scene.g])
+        world.setTimeStep(settings.timestep)
+        world.addSkeleton(_floor(dart, scene, mu))
+        world.addSkeleton(hoop)
+        detector = getattr(dart.collision, _DETECTOR_CLASSES[options["collision_detector"]])
+        world.setCollisionDetector(detector())
+        _set_lcp_solver(dart, world.getConstraintSolver(), options)
+
+        x, y, theta, xdot, ydot, thetadot = kinematics.rolling_start(scene)
+        y -= START_DEPTH * scene.a
+        hoop.setPositions([y, x, theta])
+        hoop.setVelocities([ydot, xdot, thetadot])
+        return world, hoop
+
+    # ----------------------------------------------------------------- stepping hooks
+    @contextmanager
+    def _open(
+        self,
+        module: ModuleType,
+        scene: Scene,
+        settings: RunSettings,
+        options: dict[str, Any],
+        *,
+        record: bool,
+    ) -> Iterator[_Run]:
+        world, hoop = self._build(module, scene, settings, options)
+        run = _Run(world, hoop, scene, settings.timestep)
+        if record:
+            run.blocks.append(np.concatenate([hoop.getPositions(), hoop.getVelocities()])[None])
+        try:
+            yield run
+        finally:
+            world.removeAllSkeletons()
+
+    def _advance(self, run: _Run, done: int, steps: int, last: bool) -> Chunk:
+        """Step, reading the joint state and the step's contact force after each step."""
+        step, positions, velocities = run.world.step, run.hoop.getPositions, run.hoop.getVelocities
+        result = run.world.getLastCollisionResult
+        # dartpy returns a new array per call: kept as they are, stacked once per chunk.
+        q, v, f = [], [], []
+        for _ in range(steps):
+            step()
+            q.append(positions())
+            v.append(velocities())
+            f.append(_contact_force(result()))
+        block = np.hstack([np.array(q), np.array(v), np.array(f)])
+        run.blocks.append(block)
+        return Chunk(_com_state(run.scene, block), done + steps)
+
+    def _finish(self, run: _Run, ended_early: bool) -> None:
+        """One more step, not recorded as a state, gives the last row its force."""
+        run.world.step()
+        run.last_force = _contact_force(run.world.getLastCollisionResult())
+
+    def _trajectory(self, run: _Run, done: int, ended_early: bool) -> Trajectory:
+        first, rows = run.blocks[0], np.concatenate(run.blocks[1:] or [np.empty((0, _ROW))])
+        state = _com_state(run.scene, np.concatenate([first, rows[:, :6]]))
+        force = np.concatenate([rows[:, 6:], [run.last_force]]) / run.scene.M
+        return Trajectory.from_state(
+            run.scene,
+            t=np.arange(len(force)) * run.timestep,
+            **state,
+            normal_force=force[:, 1],
+            friction_force=force[:, 0],
+            contact=force[:, 1] > 0.0,
+            shape=None,  # the hoop's circle
+        )
+
+    def _step_bare(self, run: _Run, steps: int) -> None:
+        step = run.world.step
+        for _ in range(steps):
+            step()
+
+
+@dataclass
+class _Run:
+    """One run's world and hoop, and what it recorded."""
+
+    world: Any
+    hoop: Any
+    scene: Scene
+    timestep: float
+    blocks: list[np.ndarray] = field(default_factory=list)
+    """The initial joint state (6 columns), then a block of _ROW columns per chunk."""
+    last_force: tuple[float, float] = (0.0, 0.0)
+    """Force x and z, N, of the step after the last state (``_finish``)."""
+
+
+def _collision_shape(body: Any) -> Any:
+    """The body's one colliding shape node (the URDF's weight is a visual only)."""
+    nodes = [body.getShapeNode(i) for i in range(body.getNumShapeNodes())]
+    colliding = [node for node in nodes if node.hasCollisionAspect()]
+    if len(colliding) != 1:
+        raise RuntimeError(f"DartLoader made {len(colliding)} colliding shapes, not one")
+    return colliding[0]
+
+
+def _floor(dart: ModuleType, scene: Scene, mu: float) -> Any:
+    """A static skeleton: a box welded to the world, top face z = 0, friction mu (DART takes
+    the pair's minimum) and restitution 1 (DART multiplies)."""
+    floor = dart.dynamics.Skeleton("floor")
+    _, body = floor.createWeldJointAndBodyNodePair()
+    side = 2.0 * max(FLOOR_HALF_SIZE, 10 * scene.a + kinematics.reach(scene))
+    node = body.createShapeNode(dart.dynamics.BoxShape([side, side, _FLOOR_THICKNESS]))
+    node.setRelativeTranslation([0.0, 0.0, -_FLOOR_THICKNESS / 2])
+    node.createCollisionAspect()
+    node.createDynamicsAspect()
+    node.getDynamicsAspect().setFrictionCoeff(mu)
+    node.getDynamicsAspect().setRestitutionCoeff(1.0)
+    floor.setMobile(False)
+    return floor
+
+
+def _set_lcp_solver(dart: ModuleType, solver: Any, options: dict[str, Any]) -> None:
+    """The primary boxed-LCP solver and the fallback for the steps it fails on: DART's default
+    is Dantzig, then PGS; hoopbench's PGS, then Dantzig. Without a fallback DART zeroes a
+    failed step's impulses."""
+    # dartpy 6.20 binds no constructor for either solver: the world's own two are reordered.
+    # DART ignores a primary equal to the secondary, so the secondary is cleared first.
+    dantzig, pgs = solver.getBoxedLcpSolver(), solver.getSecondaryBoxedLcpSolver()
+    types = (dantzig.getType(), None if pgs is None else pgs.getType())
+    if types != ("DantzigBoxedLcpSolver", "PgsBoxedLcpSolver"):
+        raise RuntimeError(f"dartpy: expected Dantzig and PGS as the world's solvers, got {types}")
+    pgs.setOption(
+        dart.constraint.PgsBoxedLcpSolverOption(
+            options["pgs_max_iteration"],
+            options["pgs_delta_x_threshold"],
+            options["pgs_relative_delta_x_tolerance"],
+        )
+    )
+    primary, secondary = (pgs, dantzig) if options["boxed_lcp_solver"] == "pgs" else (dantzig, pgs)
+    solver.setSecondaryBoxedLcpSolver(None)
+    solver.setBoxedLcpSolver(primary)
+    solver.setSecondaryBoxedLcpSolver(secondary if options["lcp_fallback"] else None)
+    if solver.getBoxedLcpSolver() is not primary and solver.getBoxedLcpSolver() != primary:
+        raise RuntimeError("dartpy: the boxed-LCP solver was not set")
+
+
+def _contact_force(result: Any) -> tuple[float, float]:
+    """(x, z) force on the hoop, N, summed over the collision result's contacts. Each
+    contact's ``force`` acts on the object its normal points into: its normal part is
+    lambda * normal with lambda >= 0 and its friction is horizontal, so the force is the hoop's
+    when it points up and the floor's (the hoop's, negated) when it points down. Reading the
+    sign off the force spares reading ``normal``, which costs as much as a step's contact."""
+    fx = fz = 0.0
+    for contact in result.getContacts():
+        x, _, z = contact.force
+        if z < 0.0:
+            x, z = -x, -z
+        fx += x
+        fz += z
+    return fx, fz
+
+
+def _com_state(scene: Scene, data: np.ndarray) -> dict[str, np.ndarray]:
+    """Centre-of-mass state from joint rows (z, x, theta, zdot, xdot, thetadot)."""
+    z, x, theta, zdot, xdot, thetadot = data[:, :6].T
+    return kinematics.com_state(scene, x, z, theta, xdot, zdot, thetadot)
