@@ -27,6 +27,7 @@ from hoopbench.reports.compare.selection import (
     profile_of,
 )
 from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
+from hoopbench.reports.report.escaping import escape_text
 from hoopbench.reports.report.scoreboard import (
     contact_hop_error,
     scoreboard,
@@ -339,7 +340,8 @@ SCOREBOARD_NOTE = (
 def findings_markdown(runs: pd.DataFrame) -> str:
     """The scoreboard, its note, then the findings as a Markdown list."""
     board = scoreboard_markdown(findings_scoreboard(runs))
-    sentences = "\n".join(f"- {sentence}" for sentence in findings(runs))
+    # A sentence names scenes and engines of the results folder: data, escaped.
+    sentences = "\n".join(f"- {escape_text(sentence)}" for sentence in findings(runs))
     if not board:
         return sentences
     return "\n".join([board, "", SCOREBOARD_NOTE, *(["", sentences] if sentences else [])])
