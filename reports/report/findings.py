@@ -34,6 +34,7 @@ from hoopbench.reports.report.scoreboard import (
     scoreboard_markdown,
 )
 from hoopbench.reports.report.stability import Stability, classify
+from hoopbench.reports.sweep.results import atomic_write
 
 __all__ = [
     "README_BEGIN",
@@ -354,5 +355,7 @@ def update_readme(readme: str | Path, text: str) -> Path:
     pattern = re.compile(re.escape(README_BEGIN) + r".*?" + re.escape(README_END), re.DOTALL)
     if not pattern.search(body):
         raise ValueError(f"{path} has no findings markers ({README_BEGIN!r} ... {README_END!r})")
-    path.write_text(pattern.sub(lambda _: f"{README_BEGIN}\n{text}\n{README_END}", body))
+    new = pattern.sub(lambda _: f"{README_BEGIN}\n{text}\n{README_END}", body)
+    # Written whole or not at all: a full disk must not leave half a README.
+    atomic_write(path, lambda tmp: tmp.write_text(new, encoding="utf-8"))
     return path

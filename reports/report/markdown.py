@@ -730,9 +730,8 @@ def write_markdown(
     out = Path(out)
     if frame.empty:  # hop maps alone: no runs table to make sections of
         when = f"Generated {generated} on {platform.platform()}."
-        path = out / "report.md"
-        path.write_text("\n".join([_section("# hoopbench report", "", when), *extra]))
-        return path
+        text = "\n".join([_section("# hoopbench report", "", when), *extra])
+        return results.atomic_write(out / "report.md", lambda tmp: tmp.write_text(text))
     everything = _with_optional_columns(frame)
     # The stability suite's stiff and extreme scenes have a section of their own; the event
     # tables and agreement counts are the comparison suites' alone.
@@ -764,6 +763,6 @@ def write_markdown(
             _stability_section(runs),
         ]
     sections += [stability, figures, *extra, _files_section()]
-    path = out / "report.md"
-    path.write_text("\n".join(section for section in sections if section))
-    return path
+    text = "\n".join(section for section in sections if section)
+    # Whole or not at all: a full disk keeps the report.md before (--force) as it was.
+    return results.atomic_write(out / "report.md", lambda tmp: tmp.write_text(text))
