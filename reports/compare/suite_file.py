@@ -240,8 +240,8 @@ def load_suite(path: str | Path) -> Suite:
         raise SuiteError(f"{path.name}: not a suite: its arrays or tables nest too deep") from None
     try:
         return parse_suite(data)
-    except SuiteError as exc:
-        raise SuiteError(f"{path.name}: {exc}") from None
+    except SuiteError as exc:  # its kind kept: the report refuses a CatalogueNameError
+        raise type(exc)(f"{path.name}: {exc}") from None
 
 
 def shipped_suites() -> tuple[str, ...]:
