@@ -515,3 +515,31 @@ def test_a_full_disk_keeps_the_readme(monkeypatch, nasty_results, tmp_path, caps
     assert main(["findings", "--results", str(nasty_results), "--update", str(readme)]) == 2
     assert "is unchanged" in one_line(capsys)
     assert readme.read_text() == body
+
+
+def test_a_worker_whose_parent_is_gone_ends_quietly():
+    """A worker's reply to a killed parent raised BrokenPipeError, a traceback on stderr."""
+    import multiprocessing
+
+    from hoopbench.reports.sweep.runner import _reply
+
+    mine, theirs = multiprocessing.Pipe()
+    theirs.close()
+    assert _reply(mine, b"row") is False
+
+
+def test_output_into_a_closed_pipe_is_quiet(tmp_path):
+    """`hoopbench scenes | head -0`: the reader is gone before the first write."""
+    import subprocess
+    import sys
+
+    child = subprocess.Popen(
+        [sys.executable, "-m", "hoopbench.reports.cli", "scenes"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    assert child.stdout is not None and child.stderr is not None
+    child.stdout.close()  # long before the child has imported hoopbench and written
+    err = child.stderr.read().decode()
+    assert child.wait(timeout=60) == 141
+    assert err == ""

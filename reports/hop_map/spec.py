@@ -457,5 +457,5 @@ def load_spec(out: str | Path) -> MapSpec:
     path = Path(out) / MAP_FILE
     try:
         return MapSpec.from_toml(path.read_text(encoding="utf-8"))
-    except (ValueError, TypeError, RecursionError) as exc:  # data from a file: name the file
-        raise ValueError(f"{path}: {exc}") from None
+    except (TypeError, RecursionError) as exc:  # a value of the wrong shape: still bad data
+        raise ValueError(f"{MAP_FILE} is not a map's spec: {exc}") from None

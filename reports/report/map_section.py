@@ -296,7 +296,11 @@ def write_map_figures(frame: pd.DataFrame, out: str | Path, *, prefix: str = "ma
 
 
 def _section(results_dir: Path, out: Path, prefix: str, level: int) -> tuple[str, list[Path]]:
-    spec, frame = load_spec(results_dir), map_frame(results_dir)
+    try:
+        spec = load_spec(results_dir)
+    except ValueError as exc:  # a folder from elsewhere: say which file is wrong
+        raise ValueError(f"{results_dir / MAP_FILE}: {exc}") from None
+    frame = map_frame(results_dir)
     h = "#" * level
     # The folder's name and everything read from it are data: escaped, never markup.
     lines = [f"{h} Hop map: {spec.x} x {spec.y} ({escape_text(results_dir.name)})", ""]
