@@ -103,6 +103,11 @@ class WorkBudgetError(RuntimeError):
     """Solving would take more work than the caller allowed (steps, phases or samples)."""
 
 
+class IntegrationError(RuntimeError):
+    """The integrator gave up on a phase (its step fell below the spacing of floats, e.g.
+    for g = 1e308): the solve ends there with ``Outcome.ERROR``."""
+
+
 # Where the solver's absolute settings were tuned (the seed scene): a 1 m hoop, 9.8 m/s^2.
 _TUNED_A = 1.0
 _TUNED_G = 9.8
@@ -384,7 +389,7 @@ def _which_event(sol: _Solved, names: list[EventReason]) -> EventReason:
         fired = [(times[0], k) for k, times in enumerate(sol.t_events) if len(times)]
         return [*names, EventReason.BUDGET][min(fired)[1]]
     if sol.status < 0:
-        raise RuntimeError(f"integration failed: {sol.message}")
+        raise IntegrationError(f"integration failed: {sol.message}")
     return EventReason.END
 
 
@@ -832,7 +837,10 @@ def solve_exact(
         sigma=sigma,
         state=scene.initial_state(),
     )
-    solve.run()
+    # Scales near the floats' end (g = 1e308) overflow on the way to an integrator failure,
+    # which the solution then says (Outcome.ERROR): its warnings would only repeat it.
+    with np.errstate(over="ignore", invalid="ignore"):
+        solve.run()
     return solve.solution()
 
 
@@ -908,7 +916,10 @@ class _Solve:
         if self.mode is Mode.FLIGHT:
             self._fly()
             return False
-        phase = self._roll() if self.mode is Mode.ROLL else self._slip()
+        try:
+            phase = self._roll() if self.mode is Mode.ROLL else self._slip()
+        except IntegrationError as exc:  # an answer it cannot give, said as one
+            return self._stop(Outcome.ERROR, f"{exc} (at t = {self.t:.6g} s)")
         return phase is not None and self._after(*phase)
 
     def _may_go_on(self) -> bool:

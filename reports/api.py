@@ -579,6 +579,10 @@ def report(
                 f"{{option}} {str(folder)!r} holds no results (no runs/ folder): "
                 "run hoopbench compare first",
             )
+    for k, folder in enumerate(folders):  # its runs would be counted twice
+        same = [f for f in folders[:k] if f.resolve() == folder.resolve()]
+        if same:
+            raise OptionError("results", f"{{option}} names the folder {str(same[0])!r} twice")
     target = Path(out) if out is not None else folders[0]
     if target.exists() and not target.is_dir():
         raise OptionError("out", f"{{option}} {str(target)!r} is a file, not a folder")

@@ -134,6 +134,27 @@ def _output_file(path: str, suffixes: Sequence[str], force: bool) -> Path:
     return out
 
 
+def _system_error(exc: OSError) -> bool:
+    """An error the system reported (disk full, read-only, no permission): not a reader gone
+    away (main stops quietly then) nor an errno-less one, as a caller's alarm's TimeoutError."""
+    return exc.errno is not None and not isinstance(exc, BrokenPipeError)
+
+
+def _write_failure(exc: OSError, where: str | Path, kept: str) -> UsageError:
+    """A write that failed (disk full, read-only folder, no permission) as one line: the path
+    (the file's, else ``where``), the reason, and what is kept."""
+    path = exc.filename if exc.filename is not None else where
+    return UsageError(f"cannot write {str(path)!r}: {exc.strerror or exc}; {kept}")
+
+
+def _sweep_kept(out: str, resume: str) -> str:
+    """What a sweep stopped by a write error keeps: every row already stored (the runner
+    writes each part whole, or not at all), and the command that goes on from them."""
+    if (Path(out) / "runs").is_dir():
+        return f"the runs stored before are kept in {out}/runs; resume with: {resume}"
+    return "nothing was run or stored"
+
+
 # --------------------------------------------------------------------------- output
 def _print_json(payload: dict[str, Any]) -> None:
     json.dump(payload, sys.stdout, indent=2, allow_nan=False, default=_json_default)
@@ -369,6 +390,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     from hoopbench.reports.sweep.cluster import executor_from_args
     from hoopbench.reports.sweep.runner import RunnerError
 
+    resume = f"hoopbench compare --suite {args.suite} --out {args.out} --resume"
     job = api.suite_job(  # the whole suite and every option checked before anything runs
         args.suite,
         run_timeout=args.run_timeout,
@@ -393,7 +415,10 @@ def _cmd_compare(args: argparse.Namespace) -> int:
             )
     except RunnerError as exc:
         raise UsageError(str(exc)) from None
-    resume = f"hoopbench compare --suite {args.suite} --out {args.out} --resume"
+    except OSError as exc:
+        if not _system_error(exc):
+            raise
+        raise _write_failure(exc, args.out, _sweep_kept(args.out, resume)) from None
     _say_how_the_sweep_ended(summary, args.out, resume, args.quiet)
     return summary.exit_code
 
@@ -414,7 +439,15 @@ def _say_how_the_sweep_ended(summary: RunSummary, out: str, resume: str, quiet: 
 def _cmd_report(args: argparse.Namespace) -> int:
     import hoopbench.reports.api as api
 
-    print(api.report(args.results, args.out, force=args.force))
+    out = args.out if args.out is not None else args.results[0]
+    try:
+        path = api.report(args.results, args.out, force=args.force)
+    except OSError as exc:
+        if not _system_error(exc):
+            raise
+        kept = "the results folders are only read: their runs are unchanged"
+        raise _write_failure(exc, out, kept) from None
+    print(path)
     return 0
 
 
@@ -427,12 +460,20 @@ def _cmd_findings(args: argparse.Namespace) -> int:
     for folder in args.results:
         if not (Path(folder) / "runs").is_dir():
             raise UsageError(f"--results {folder!r} holds no results (no runs/ folder)")
+    if args.update and not Path(args.update).is_file():
+        what = "is a folder" if Path(args.update).is_dir() else "does not exist"
+        raise UsageError(f"--update {args.update!r} {what}: give a Markdown file with the markers")
     frame = pd.concat([report_frame(Path(f)) for f in args.results], ignore_index=True)
     text = findings_markdown(frame)
-    if args.update:
-        print(update_readme(args.update, text))
-    else:
+    if not args.update:
         print(text)
+        return 0
+    try:
+        print(update_readme(args.update, text))
+    except OSError as exc:
+        if not _system_error(exc):
+            raise
+        raise _write_failure(exc, args.update, f"{args.update!r} is unchanged") from None
     return 0
 
 
@@ -477,6 +518,7 @@ def _cmd_map(args: argparse.Namespace) -> int:
     from hoopbench.reports.sweep.runner import RunnerError
 
     spec = _map_spec(args)  # every value is checked before anything runs
+    resume = f"hoopbench map --out {args.out} --resume"
     try:
         with executor_from_args(args) as executor:
             summary = api.run_hop_map(
@@ -489,9 +531,11 @@ def _cmd_map(args: argparse.Namespace) -> int:
             )
     except RunnerError as exc:
         raise UsageError(str(exc)) from None
-    _say_how_the_sweep_ended(
-        summary, args.out, f"hoopbench map --out {args.out} --resume", args.quiet
-    )
+    except OSError as exc:
+        if not _system_error(exc):
+            raise
+        raise _write_failure(exc, args.out, _sweep_kept(args.out, resume)) from None
+    _say_how_the_sweep_ended(summary, args.out, resume, args.quiet)
     if summary.interrupted is not None:
         return summary.exit_code
     if not args.quiet and summary.unfinished:
@@ -500,7 +544,14 @@ def _cmd_map(args: argparse.Namespace) -> int:
             f"timed out or crashed): hoopbench map --out {args.out} --resume",
             file=sys.stderr,
         )
-    for path in write_map_outputs(args.out):
+    try:
+        paths = write_map_outputs(args.out)
+    except OSError as exc:
+        if not _system_error(exc):
+            raise
+        kept = f"every run is stored in {args.out}/runs; draw the map again with: {resume}"
+        raise _write_failure(exc, args.out, kept) from None
+    for path in paths:
         print(path)
     return summary.exit_code
 
@@ -731,11 +782,21 @@ def _parser() -> _Parser:
 def main(argv: Sequence[str] | None = None) -> int:
     try:
         args = _parser().parse_args(argv)
-        return args.func(args)
+        code = args.func(args)
+        sys.stdout.flush()  # inside the try: a reader gone away fails here, not at exit
+        return code
     except BrokenPipeError:
         # The reader went away (`hoopbench ... | head`): stop quietly, as Unix tools do.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
+    except OSError as exc:
+        if not _system_error(exc):
+            raise
+        # A write or read the system refused (disk full, read-only folder, no permission)
+        # outside the commands that say what they keep: the path and the reason.
+        where = f"{str(exc.filename)!r}: " if exc.filename is not None else ""
+        print(f"hoopbench: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return EXIT_USAGE
     except (UsageError, ValueError) as exc:
         # ValueError: a scene, setting or engine name that failed validation.
         if isinstance(exc, DegenerateSceneError):

@@ -7,9 +7,13 @@ the reason matters, the reason). Nothing may run for long, use much memory, or b
 
 from __future__ import annotations
 
+import errno
 import json
+import os
+import re
 import signal
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
@@ -213,3 +217,329 @@ def test_tiny_pybullet_mass_at_the_limit_is_honest(capsys, deadline):
     assert code == 0 and out["status"] == "ok"
     assert out["outcome"] == "slips"
     assert out["t_slip"] == pytest.approx(0.9872, abs=2e-3)
+
+
+# --------------------------------------------------------------------------- files given as input
+def one_line(capsys) -> str:
+    """The command's single stderr line (nothing on stdout, no traceback)."""
+    captured = capsys.readouterr()
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1, captured.err
+    assert lines[0].startswith("hoopbench: ") and "Traceback" not in captured.err
+    return lines[0]
+
+
+BAD_SUITE_FILES: list[tuple[bytes, str]] = [
+    # tomllib recursed to a RecursionError traceback
+    (b'name = "x"\nscenes = ' + b"[" * 5000 + b"]" * 5000 + b"\n", "nest too deep"),
+    # the codec's error named no file
+    (b'name = "\xff"\n', "is not UTF-8 text"),
+    # a [[scene]] named like a catalogue scene ran, and the report drew the catalogue's path
+    (
+        b'name = "x"\nengines = ["reference"]\ntimesteps = [1e-3]\n'
+        b'[[scene]]\nname = "hop-top"\nlam = 0.9\nchi = 0.5\nmus = 0.8\n',
+        "the catalogue's scene of that name has other parameters (lam 0.9 (catalogue: 0.95)",
+    ),
+]
+
+
+@pytest.mark.parametrize(("content", "names"), BAD_SUITE_FILES, ids=["nested", "utf8", "clash"])
+def test_a_bad_suite_file_is_one_line_naming_it(content, names, tmp_path, capsys, deadline):
+    suite = tmp_path / "bad.toml"
+    suite.write_bytes(content)
+    assert main(["compare", "--suite", str(suite), "--out", str(tmp_path / "out")]) == 2
+    line = one_line(capsys)
+    assert "bad.toml" in line and names in line
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_catalogue_name_over_a_longer_window_is_the_same_scene(tmp_path):
+    """The stability suite's painleve is the catalogue's over 1.5 s: still allowed."""
+    from hoopbench.reports.compare.suite_file import builtin_suite, load_suite
+
+    (painleve,) = [s for s in load_suite(builtin_suite("stability")).scenes if s.name == "painleve"]
+    assert painleve.t_end == 1.5
+
+
+def test_an_integration_failure_is_an_error_status(capsys, deadline):
+    """g = 1e308 overflows; the integrator gave up with a RuntimeError traceback."""
+    code = main(["reference", "--scene", "seed", "--g", "1e308", "--json"])
+    captured = capsys.readouterr()
+    assert code == 1 and captured.err == ""
+    out = json.loads(captured.out)
+    assert out["outcome"] == "error" and "integration failed" in out["message"]
+
+
+# --------------------------------------------------------------------------- results from elsewhere
+NASTY_NAMES = (
+    "x/../../../ESCAPED",
+    "<script>alert(1)</script>",
+    "a|b",
+    "line\nbreak",
+    "hop<img src=x onerror=alert(1)>",
+)
+"""Scene names a results folder from someone else may hold."""
+
+
+@pytest.fixture(scope="module")
+def nasty_results(tmp_path_factory):
+    """A results folder whose scene names are paths and markup: the reference and pymunk at the
+    report's timestep, trajectories kept (so that the report draws a figure per scene)."""
+    from hoopbench.reports.compare.suite import compare
+
+    root = tmp_path_factory.mktemp("nasty")
+    scenes = "".join(
+        f"[[scene]]\nname = {json.dumps(name)}\nlam = 0.9\nchi = {0.1 + 0.1 * k}\n"
+        "mus = 0.8\nt_end = 0.6\n"
+        for k, name in enumerate(NASTY_NAMES)
+    )
+    suite = root / "nasty.toml"
+    suite.write_text(
+        f'name = "nasty"\nengines = ["reference", "pymunk"]\ntimesteps = [1e-4]\n{scenes}'
+    )
+    out = root / "deep" / "a" / "b" / "c" / "results"
+    out.parent.mkdir(parents=True)
+    assert compare(suite, out, jobs=1, quiet=True, trajectories="default").completed
+    return out
+
+
+def unescaped_pipes(line: str) -> int:
+    """The cell separators of a Markdown table row: pipes not escaped by a backslash."""
+    return len(re.findall(r"(?<!\\)(?:\\\\)*\|", line))
+
+
+@pytest.mark.slow  # the report draws a figure per scene: about 10 s
+def test_scene_names_from_a_results_folder_are_neither_paths_nor_markup(nasty_results):
+    root = nasty_results.parents[3]
+    report = nasty_results.parent / "report"
+    (report / "events_x").mkdir(parents=True)  # where the old name led: out of the folder
+    before = {p for p in root.rglob("*") if p.is_file()}
+    assert main(["report", "--results", str(nasty_results), "--out", str(report)]) == 0
+    written = {p for p in root.rglob("*") if p.is_file()} - before
+    assert written and all(p.parent == report for p in written), sorted(written)
+    assert len({p.name for p in report.glob("events_*.png")}) == len(NASTY_NAMES)
+    text = (report / "report.md").read_text()
+    assert "<script" not in text and "<img" not in text and "ESCAPED.png" not in text
+    assert "&lt;script&gt;alert(1)&lt;/script&gt;" in text and "a\\|b" in text
+    table: list[str] = []
+    for line in [*text.splitlines(), ""]:
+        if line.startswith("|"):
+            table.append(line)
+            continue
+        if table:  # every row of a table has as many cells as its header
+            assert {unescaped_pipes(row) for row in table} == {unescaped_pipes(table[0])}, table
+        table = []
+
+
+def test_escaping_turns_markup_into_text():
+    from hoopbench.reports.report.escaping import escape_cell, escape_html, file_stem
+
+    assert escape_cell("a|b\nc") == "a\\|b c"
+    assert escape_cell("<img onerror=x>") == "&lt;img onerror=x&gt;"
+    assert escape_cell("`*_x_*` [l](u) \\|") == "\\`\\*\\_x\\_\\*\\` \\[l\\](u) \\\\\\|"
+    assert escape_cell("collision_bias") == "collision_bias"  # inside a word: no emphasis
+    assert escape_html('<a href="x">') == "&lt;a href=&quot;x&quot;&gt;"
+    assert file_stem("hop-top") == "hop-top"
+    stems = {file_stem(n) for n in ("../x", "..\\x", "/x", "x", "X", "a b", "a-b", "a.b")}
+    assert len(stems) == 8
+    assert all(re.fullmatch(r"[A-Za-z0-9_-]+(\.[0-9a-f]{16})?", s) for s in stems)
+
+
+def copy_of(results, tmp_path):
+    import shutil
+
+    return Path(shutil.copytree(results, tmp_path / "copy"))
+
+
+def _empty_runs(folder):
+    for part in (folder / "runs").glob("part-*"):
+        part.unlink()
+
+
+def _no_run_id(folder):
+    import pandas as pd
+
+    for part in (folder / "runs").glob("*.parquet"):
+        pd.read_parquet(part).drop(columns="run_id").to_parquet(part)
+
+
+def _catalogue_clash(folder):
+    text = (folder / "suite.toml").read_text()
+    (folder / "suite.toml").write_text(text.replace('"a|b"', '"hop-top"'))
+
+
+MALFORMED = [
+    # an empty report, exit 0
+    (_empty_runs, "runs holds no runs"),
+    (_no_run_id, "no run_id"),
+    # the report drew the catalogue's hop-top for a scene of other parameters
+    (_catalogue_clash, "the catalogue's scene of that name has other parameters"),
+]
+
+
+@pytest.mark.parametrize(("spoil", "names"), MALFORMED, ids=[f.__name__ for f, _ in MALFORMED])
+def test_a_malformed_results_folder_is_one_line(spoil, names, nasty_results, tmp_path, capsys):
+    folder = copy_of(nasty_results, tmp_path)
+    spoil(folder)
+    assert main(["report", "--results", str(folder), "--out", str(tmp_path / "r")]) == 2
+    line = one_line(capsys)
+    assert str(folder) in line and names in line
+    assert not (tmp_path / "r" / "report.md").exists()
+
+
+def test_the_same_runs_twice_are_refused(nasty_results, tmp_path, capsys):
+    """--results R R counted every run twice; so did a copy of R beside it."""
+    again = ["report", "--results", str(nasty_results), str(nasty_results) + "/."]
+    assert main([*again, "--out", str(tmp_path / "r")]) == 2
+    assert "names the folder" in one_line(capsys)
+    folder = copy_of(nasty_results, tmp_path)
+    assert main(["report", "--results", str(nasty_results), str(folder), "--out", "r"]) == 2
+    assert "hold 10 of the same runs" in one_line(capsys)
+
+
+@pytest.fixture(scope="module")
+def small_map(tmp_path_factory):
+    out = tmp_path_factory.mktemp("map") / "m"
+    argv = ["map", "--grid", "2x2", "--engines", "pymunk", "--dt", "1e-3", "--t-end", "0.5"]
+    assert main([*argv, "--out", str(out), "--quiet"]) == 0
+    return out
+
+
+def test_a_map_folder_without_its_spec_is_one_line(small_map, tmp_path, capsys):
+    folder = copy_of(small_map, tmp_path)
+    (folder / "map.toml").unlink()  # a KeyError traceback
+    assert main(["report", "--results", str(folder), "--out", str(tmp_path / "r")]) == 2
+    assert f"{folder / 'map.toml'} is missing" in one_line(capsys)
+    (folder / "map.toml").write_text(
+        (small_map / "map.toml").read_text().replace('engines = ["pymunk"]', "engines = 3")
+    )
+    assert main(["report", "--results", str(folder), "--out", str(tmp_path / "r")]) == 2
+    assert "map.toml: engines must be a list, got 3" in one_line(capsys)  # a TypeError
+
+
+# --------------------------------------------------------------------------- write errors
+def full_disk(path) -> OSError:
+    return OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+
+
+def test_a_full_disk_at_the_end_of_a_sweep_keeps_its_rows(monkeypatch, tmp_path, capsys):
+    from hoopbench.reports.sweep import results
+
+    suite = tmp_path / "s.toml"
+    suite.write_text('name = "s"\nengines = ["reference"]\ntimesteps = [1e-3]\nscenes = ["seed"]\n')
+    write_csv = results.write_csv
+    monkeypatch.setattr(
+        results, "write_csv", lambda frame, path: (_ for _ in ()).throw(full_disk(path))
+    )
+    out = tmp_path / "out"
+    assert main(["compare", "--suite", str(suite), "--out", str(out), "--quiet"]) == 2
+    line = one_line(capsys)
+    assert f"cannot write '{out / 'runs.csv'}': No space left on device" in line
+    assert "the runs stored before are kept" in line and "--resume" in line
+    assert len(results.read_runs(out)) == 1  # the row is stored
+    monkeypatch.setattr(results, "write_csv", write_csv)
+    assert main(["compare", "--suite", str(suite), "--out", str(out), "--resume", "--quiet"]) == 0
+
+
+def test_a_read_only_out_is_one_line(monkeypatch, tmp_path, capsys):
+    """Simulated (CI may run as root, where a chmod does not stop a write)."""
+    from pathlib import Path as RealPath
+
+    target = tmp_path / "ro"
+    mkdir = RealPath.mkdir
+
+    def refuse(self, *args, **kwargs):
+        if self == target:
+            raise OSError(errno.EROFS, os.strerror(errno.EROFS), str(self))
+        return mkdir(self, *args, **kwargs)
+
+    monkeypatch.setattr(RealPath, "mkdir", refuse)
+    assert main(["compare", "--suite", "quick", "--out", str(target), "--quiet"]) == 2
+    line = one_line(capsys)
+    assert f"cannot write '{target}': Read-only file system; nothing was run" in line
+
+
+def test_report_into_a_folder_it_cannot_write(monkeypatch, nasty_results, tmp_path, capsys):
+    from pathlib import Path as RealPath
+
+    target = tmp_path / "locked"
+    mkdir = RealPath.mkdir
+
+    def refuse(self, *args, **kwargs):
+        if self == target:
+            raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(self))
+        return mkdir(self, *args, **kwargs)
+
+    monkeypatch.setattr(RealPath, "mkdir", refuse)
+    assert main(["report", "--results", str(nasty_results), "--out", str(target)]) == 2
+    line = one_line(capsys)
+    assert f"cannot write '{target}': Permission denied" in line and "unchanged" in line
+
+
+def test_a_full_disk_when_a_resumed_map_draws(monkeypatch, small_map, tmp_path, capsys):
+    from hoopbench.reports.report import map_section
+
+    folder = copy_of(small_map, tmp_path)
+
+    def full(frame, out, prefix="map"):
+        raise full_disk(Path(out) / f"{prefix}_regimes.png")
+
+    monkeypatch.setattr(map_section, "write_map_figures", full)
+    assert main(["map", "--out", str(folder), "--resume", "--quiet"]) == 2
+    line = one_line(capsys)
+    assert f"cannot write '{folder / 'map_regimes.png'}': No space left on device" in line
+    assert "every run is stored" in line
+
+
+@pytest.mark.parametrize("what", ["missing", "folder"])
+def test_findings_update_needs_a_file(what, nasty_results, tmp_path, capsys):
+    target = tmp_path / "README.md"
+    if what == "folder":
+        target.mkdir()
+    assert main(["findings", "--results", str(nasty_results), "--update", str(target)]) == 2
+    line = one_line(capsys)
+    assert (
+        str(target) in line and ("does not exist" if what == "missing" else "is a folder") in line
+    )
+
+
+def test_a_full_disk_keeps_the_readme(monkeypatch, nasty_results, tmp_path, capsys):
+    from hoopbench.reports.report import findings
+
+    readme = tmp_path / "README.md"
+    body = f"x\n{findings.README_BEGIN}\nold\n{findings.README_END}\n"
+    readme.write_text(body)
+    monkeypatch.setattr(
+        findings, "atomic_write", lambda path, write: (_ for _ in ()).throw(full_disk(path))
+    )
+    assert main(["findings", "--results", str(nasty_results), "--update", str(readme)]) == 2
+    assert "is unchanged" in one_line(capsys)
+    assert readme.read_text() == body
+
+
+def test_a_worker_whose_parent_is_gone_ends_quietly():
+    """A worker's reply to a killed parent raised BrokenPipeError, a traceback on stderr."""
+    import multiprocessing
+
+    from hoopbench.reports.sweep.runner import _reply
+
+    mine, theirs = multiprocessing.Pipe()
+    theirs.close()
+    assert _reply(mine, b"row") is False
+
+
+def test_output_into_a_closed_pipe_is_quiet(tmp_path):
+    """`hoopbench scenes | head -0`: the reader is gone before the first write."""
+    import subprocess
+    import sys
+
+    child = subprocess.Popen(
+        [sys.executable, "-m", "hoopbench.reports.cli", "scenes"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    assert child.stdout is not None and child.stderr is not None
+    child.stdout.close()  # long before the child has imported hoopbench and written
+    err = child.stderr.read().decode()
+    assert child.wait(timeout=60) == 141
+    assert err == ""

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+import shutil
 from collections import Counter
 from pathlib import Path
 
@@ -346,9 +347,10 @@ def test_report_of_a_map_folder(map_dir, tmp_path, capsys):
     assert "## Hop map: lam x chi" in text and "### Findings" in text
     for figure in ("map_regimes.png", "map_verdicts.png", "map_hop_error.png"):
         assert f"]({figure})" in text and (out / figure).stat().st_size > 0
-    # Two map folders in one report: a section each, figures apart.
-    both = tmp_path / "both"
-    assert main(["report", "--results", str(map_dir), str(map_dir), "--out", str(both)]) == 0
+    # Two map folders in one report: a section each, figures apart (one folder named twice
+    # is refused: tests/test_bad_inputs.py).
+    both, other = tmp_path / "both", shutil.copytree(map_dir, tmp_path / "other")
+    assert main(["report", "--results", str(map_dir), str(other), "--out", str(both)]) == 0
     text = (both / "report.md").read_text()
     assert text.count("## Hop map:") == 2
     assert "](map1_regimes.png)" in text and "](map2_regimes.png)" in text

@@ -30,6 +30,7 @@ from hoopbench.models.scene import Scene
 
 __all__ = [
     "SUITES_DIR",
+    "CatalogueNameError",
     "RunTask",
     "Suite",
     "SuiteError",
@@ -74,6 +75,10 @@ class TrajectoryChoice(StrEnum):
 
 class SuiteError(ValueError):
     """A suite file that cannot run: the message names the key and the value."""
+
+
+class CatalogueNameError(SuiteError):
+    """A ``[[scene]]`` named like a catalogue scene but with other parameters."""
 
 
 @dataclass(frozen=True)
@@ -220,17 +225,23 @@ def load_suite(path: str | Path) -> Suite:
     """Read and validate a suite file; SuiteError names the file, the key and the value."""
     path = Path(path)
     try:
-        text = path.read_text()
+        text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise SuiteError(f"cannot read suite file {str(path)!r}: {exc.strerror}") from None
+    except UnicodeDecodeError as exc:  # TOML is UTF-8: say which file and where
+        raise SuiteError(
+            f"suite file {str(path)!r} is not UTF-8 text (byte {exc.start}: {exc.reason})"
+        ) from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SuiteError(f"{path.name}: not valid TOML: {exc}") from None
+    except RecursionError:  # tomllib parses nested arrays recursively
+        raise SuiteError(f"{path.name}: not a suite: its arrays or tables nest too deep") from None
     try:
         return parse_suite(data)
-    except SuiteError as exc:
-        raise SuiteError(f"{path.name}: {exc}") from None
+    except SuiteError as exc:  # its kind kept: the report refuses a CatalogueNameError
+        raise type(exc)(f"{path.name}: {exc}") from None
 
 
 def shipped_suites() -> tuple[str, ...]:
@@ -353,11 +364,45 @@ def _param_scene(table: Any, k: int) -> Scene:
         params["theta0"] = math.radians(table["theta0_deg"])
     params.setdefault("muk", params["mus"])
     try:
-        if "chi" in table:
-            return Scene.from_chi(table["chi"], name=name, **params)
-        return Scene(name=name, **params)
+        scene = (
+            Scene.from_chi(table["chi"], name=name, **params)
+            if "chi" in table
+            else Scene(name=name, **params)
+        )
     except ValueError as exc:
         raise SuiteError(f"{where}: {exc}") from None
+    _check_catalogue_name(scene, where)
+    return scene
+
+
+_OWN_WINDOW = ("name", "t_end")
+"""What a [[scene]] named like a catalogue scene may change: its window."""
+
+
+def _same(mine: Any, theirs: Any) -> bool:
+    if isinstance(mine, float) and isinstance(theirs, float):
+        return math.isclose(mine, theirs, rel_tol=1e-12)
+    return bool(mine == theirs)
+
+
+def _check_catalogue_name(scene: Scene, where: str) -> None:
+    """A [[scene]] may take a catalogue scene's name only with its parameters (another window
+    allowed, as the stability suite's painleve): rows are keyed by scene name, and the report
+    draws a catalogue scene's exact path and forces by that name. Refusing here, rather than
+    reading each row's parameters in the report, keeps one meaning per name in every table."""
+    if scene.name not in scene_names():
+        return
+    mine, theirs = scene.to_dict(), get_scene(scene.name).to_dict()
+    differ = [
+        f"{key} {mine[key]} (catalogue: {theirs[key]})"
+        for key in mine
+        if key not in _OWN_WINDOW and not _same(mine[key], theirs[key])
+    ]
+    if differ:
+        raise CatalogueNameError(
+            f"{where}: the catalogue's scene of that name has other parameters "
+            f"({', '.join(differ)}): give this scene another name"
+        )
 
 
 def _variants(value: Any, engines: Sequence[str], scenes: Sequence[str]) -> tuple[VariantSpec, ...]:

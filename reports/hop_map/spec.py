@@ -347,8 +347,12 @@ class MapSpec:
         if unknown:
             raise ValueError(f"unknown map key(s) {', '.join(unknown)}; known: {', '.join(known)}")
         for key in ("x_range", "y_range", "engines"):
-            if isinstance(data.get(key), list):
+            if key in data and not isinstance(data[key], list):
+                raise ValueError(f"{key} must be a list, got {data[key]!r}")
+            if key in data:
                 data[key] = tuple(data[key])
+        if "fixed" in data and not isinstance(data["fixed"], Mapping):
+            raise ValueError(f"fixed must be a table, got {data['fixed']!r}")
         return cls(**data)
 
     @classmethod
@@ -451,4 +455,7 @@ def _toml_value(value: Any) -> str:
 def load_spec(out: str | Path) -> MapSpec:
     """The spec stored in a map folder (FileNotFoundError without one)."""
     path = Path(out) / MAP_FILE
-    return MapSpec.from_toml(path.read_text(encoding="utf-8"))
+    try:
+        return MapSpec.from_toml(path.read_text(encoding="utf-8"))
+    except (TypeError, RecursionError) as exc:  # a value of the wrong shape: still bad data
+        raise ValueError(f"{MAP_FILE} is not a map's spec: {exc}") from None

@@ -21,7 +21,6 @@ from hoopbench.reports.sweep import results
 __all__ = [
     "ALL_REGIMES",
     "MAP_TABLE",
-    "agreement_markdown",
     "agreement_table",
     "map_frame",
 ]
@@ -101,29 +100,3 @@ def _agreement(part: pd.DataFrame) -> dict[str, Any]:
         "agrees": agrees,
         "agrees_pct": 100.0 * agrees / judged if judged else math.nan,
     }
-
-
-def agreement_markdown(table: pd.DataFrame) -> str:
-    """Two Markdown tables from :func:`agreement_table`: the outcome agreement and the full
-    agreement (outcome and phases), regimes down, engines across, cells 'agree/judged (%)'."""
-    blocks = []
-    for column, title in (
-        ("outcome_agrees", "Outcome agrees (class, hop size and lift-off time)"),
-        ("agrees", "Verdict agrees (the outcome and the phase sequence)"),
-    ):
-        engines = list(dict.fromkeys(table["engine"]))
-        regimes = list(dict.fromkeys(table["regime"]))
-        lines = [f"**{title}**", "", "| regime | " + " | ".join(engines) + " |"]
-        lines.append("|---|" + "---:|" * len(engines))
-        for regime in regimes:
-            cells = []
-            for engine in engines:
-                row = table[(table["engine"] == engine) & (table["regime"] == regime)].iloc[0]
-                cells.append(_cell(row[column], row["judged"], row[f"{column}_pct"]))
-            lines.append(f"| {regime} | " + " | ".join(cells) + " |")
-        blocks.append("\n".join(lines))
-    return "\n\n".join(blocks) + "\n"
-
-
-def _cell(count: int, judged: int, pct: float) -> str:
-    return f"{count}/{judged} ({pct:.0f} %)" if judged else "-"

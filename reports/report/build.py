@@ -14,8 +14,10 @@ from pathlib import Path
 
 import pandas as pd
 
+from hoopbench.engines.judging.columns import Col
 from hoopbench.reports.compare.suite import runs_frame
-from hoopbench.reports.compare.suite_file import load_suite
+from hoopbench.reports.compare.suite_file import CatalogueNameError, load_suite
+from hoopbench.reports.hop_map.spec import MAP_FILE
 from hoopbench.reports.report.map_section import is_map_folder, map_sections
 from hoopbench.reports.report.markdown import write_markdown
 from hoopbench.reports.sweep import results
@@ -39,6 +41,7 @@ def build_report(
     out = Path(out) if out is not None else dirs[0]
     maps = [d for d in dirs if is_map_folder(d)]  # hop maps: a section each, not runs rows
     runs = [report_frame(d) for d in dirs if d not in maps]
+    _refuse_shared_runs([d for d in dirs if d not in maps], runs)
     frame = pd.concat(runs, ignore_index=True) if runs else pd.DataFrame()
     out.mkdir(parents=True, exist_ok=True)
     generated = datetime.now(UTC).isoformat(timespec="seconds")
@@ -50,14 +53,60 @@ def report_frame(results_dir: str | Path) -> pd.DataFrame:
     (they are stored relative to the folder, so that the folder can move)."""
     results_dir = Path(results_dir)
     frame = runs_frame(results_dir)
-    paths = [
-        str(results_dir / p) if isinstance(p, str) and p else None for p in frame["trajectory_file"]
-    ]
+    _check_rows(frame, results_dir)
+    paths = [_trajectory_path(results_dir, p) for p in frame["trajectory_file"]]
     frame = frame.assign(trajectory_file=paths, suite=_suite_name(results_dir))
     # Rows are stored as runs finish; tables read best in the suite's own order.
     order = _suite_order(results_dir / "suite.toml")
     rank = [order.get(run_id, len(order)) for run_id in frame["run_id"]]
     return frame.iloc[sorted(range(len(frame)), key=rank.__getitem__)].reset_index(drop=True)
+
+
+_REQUIRED = (Col.RUN_ID, Col.STATUS, Col.SCENE, Col.ENGINE, Col.VARIANT, Col.TIMESTEP)
+"""Columns every row of a compare folder has, a failed run's too (compare/suite.py)."""
+
+
+def _check_rows(frame: pd.DataFrame, results_dir: Path) -> None:
+    """ValueError naming the runs folder and what is wrong, for a table no sweep writes: an
+    empty one, rows without their run's identity, a timestep that is no number, or a hop
+    map's rows without the map.toml that makes them one."""
+    where = results_dir / results.RUNS_NAME
+    if frame.empty:
+        raise ValueError(f"{where} holds no runs: nothing to report")
+    if "ix" in frame.columns and frame[Col.SCENE].isna().all():
+        raise ValueError(f"{where} holds a hop map's rows but {results_dir / MAP_FILE} is missing")
+    for column in _REQUIRED:
+        missing = int(frame[column].isna().sum())
+        if missing:
+            raise ValueError(f"{where}: {missing} of {len(frame)} row(s) have no {column}")
+    timestep = pd.to_numeric(frame[Col.TIMESTEP], errors="coerce")
+    if (timestep.isna() | (timestep <= 0)).any():
+        bad = frame[Col.TIMESTEP][timestep.isna() | (timestep <= 0)].iloc[0]
+        raise ValueError(f"{where}: timestep must be a number > 0 s, got {bad!r}")
+
+
+def _trajectory_path(results_dir: Path, stored: object) -> str | None:
+    """A row's trajectory file, stored relative to the folder (so that it can move); a path
+    that leads out of the folder is data from elsewhere, not a file of this folder's."""
+    if not isinstance(stored, str) or not stored:
+        return None
+    path = (results_dir / stored).resolve()
+    return str(results_dir / stored) if path.is_relative_to(results_dir.resolve()) else None
+
+
+def _refuse_shared_runs(dirs: Sequence[Path], frames: Sequence[pd.DataFrame]) -> None:
+    """ValueError if two folders hold the same runs (one folder given twice, or a copy):
+    the report would count each of them twice."""
+    seen: dict[str, Path] = {}
+    for folder, frame in zip(dirs, frames, strict=True):
+        shared = set(frame[Col.RUN_ID]) & set(seen)
+        if shared:
+            other = seen[next(iter(sorted(shared)))]
+            raise ValueError(
+                f"--results {str(other)!r} and {str(folder)!r} hold {len(shared)} of the same "
+                "runs: each would be counted twice; give one of them"
+            )
+        seen |= dict.fromkeys(frame[Col.RUN_ID], folder)
 
 
 def _suite_name(results_dir: Path) -> str:
@@ -72,6 +121,8 @@ def _suite_order(suite_file: Path) -> dict[str, int]:
     """run_id -> position in the suite as run (empty if its copy is missing or unreadable)."""
     try:
         tasks = load_suite(suite_file).tasks()
-    except ValueError:
+    except CatalogueNameError as exc:  # its rows would be drawn as the catalogue's scene
+        raise ValueError(f"{suite_file.parent}: {exc}") from None
+    except ValueError:  # e.g. an engine no longer registered: the rows are still readable
         return {}
     return {task.run_id: k for k, task in enumerate(tasks)}

@@ -27,12 +27,14 @@ from hoopbench.reports.compare.selection import (
     profile_of,
 )
 from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
+from hoopbench.reports.report.escaping import escape_text
 from hoopbench.reports.report.scoreboard import (
     contact_hop_error,
     scoreboard,
     scoreboard_markdown,
 )
 from hoopbench.reports.report.stability import Stability, classify
+from hoopbench.reports.sweep.results import atomic_write
 
 __all__ = [
     "README_BEGIN",
@@ -339,7 +341,8 @@ SCOREBOARD_NOTE = (
 def findings_markdown(runs: pd.DataFrame) -> str:
     """The scoreboard, its note, then the findings as a Markdown list."""
     board = scoreboard_markdown(findings_scoreboard(runs))
-    sentences = "\n".join(f"- {sentence}" for sentence in findings(runs))
+    # A sentence names scenes and engines of the results folder: data, escaped.
+    sentences = "\n".join(f"- {escape_text(sentence)}" for sentence in findings(runs))
     if not board:
         return sentences
     return "\n".join([board, "", SCOREBOARD_NOTE, *(["", sentences] if sentences else [])])
@@ -352,5 +355,7 @@ def update_readme(readme: str | Path, text: str) -> Path:
     pattern = re.compile(re.escape(README_BEGIN) + r".*?" + re.escape(README_END), re.DOTALL)
     if not pattern.search(body):
         raise ValueError(f"{path} has no findings markers ({README_BEGIN!r} ... {README_END!r})")
-    path.write_text(pattern.sub(lambda _: f"{README_BEGIN}\n{text}\n{README_END}", body))
+    new = pattern.sub(lambda _: f"{README_BEGIN}\n{text}\n{README_END}", body)
+    # Written whole or not at all: a full disk must not leave half a README.
+    atomic_write(path, lambda tmp: tmp.write_text(new, encoding="utf-8"))
     return path

@@ -22,12 +22,8 @@ from hoopbench.engines.judging.verdict import HOP_HEIGHT_FACTOR, Verdict
 from hoopbench.reference.regimes import Regime
 from hoopbench.reports.compare.selection import engine_rows, reference_rows
 from hoopbench.reports.hop_map.spec import AXES, MAP_FILE, Axis, MapSpec, load_spec
-from hoopbench.reports.hop_map.table import (
-    ALL_REGIMES,
-    agreement_markdown,
-    agreement_table,
-    map_frame,
-)
+from hoopbench.reports.hop_map.table import ALL_REGIMES, agreement_table, map_frame
+from hoopbench.reports.report.escaping import escape_cell, escape_text
 from hoopbench.reports.report.map_figures import (
     engines_of,
     hop_error_figure,
@@ -38,6 +34,7 @@ from hoopbench.reports.sweep import results
 
 __all__ = [
     "MAP_MARKDOWN",
+    "agreement_markdown",
     "is_map_folder",
     "map_findings",
     "map_section",
@@ -251,8 +248,39 @@ def _status_text(frame: pd.DataFrame) -> str:
 def _regime_table(frame: pd.DataFrame) -> str:
     refs = reference_rows(frame)
     lines = ["| exact regime | points | share |", "|---|---:|---:|"]
-    lines += [f"| {r} | {c} | {_pct(c, len(refs))} |" for r, c in _regime_counts(refs).items()]
+    lines += [
+        f"| {escape_cell(r)} | {c} | {_pct(c, len(refs))} |"
+        for r, c in _regime_counts(refs).items()
+    ]
     return "\n".join(lines)
+
+
+def agreement_markdown(table: pd.DataFrame) -> str:
+    """Two Markdown tables from :func:`~hoopbench.reports.hop_map.table.agreement_table`: the
+    outcome agreement and the full agreement (outcome and phases), regimes down, engines
+    across, cells 'agree/judged (%)'; engine and regime names escaped (they are data)."""
+    blocks = []
+    for column, title in (
+        ("outcome_agrees", "Outcome agrees (class, hop size and lift-off time)"),
+        ("agrees", "Verdict agrees (the outcome and the phase sequence)"),
+    ):
+        engines = list(dict.fromkeys(table["engine"]))
+        regimes = list(dict.fromkeys(table["regime"]))
+        header = " | ".join(map(escape_cell, engines))
+        lines = [f"**{title}**", "", f"| regime | {header} |"]
+        lines.append("|---|" + "---:|" * len(engines))
+        for regime in regimes:
+            cells = []
+            for engine in engines:
+                row = table[(table["engine"] == engine) & (table["regime"] == regime)].iloc[0]
+                cells.append(_agreement_cell(row[column], row["judged"], row[f"{column}_pct"]))
+            lines.append(f"| {escape_cell(regime)} | " + " | ".join(cells) + " |")
+        blocks.append("\n".join(lines))
+    return "\n\n".join(blocks) + "\n"
+
+
+def _agreement_cell(count: int, judged: int, pct: float) -> str:
+    return f"{count}/{judged} ({pct:.0f} %)" if judged else "-"
 
 
 def write_map_figures(frame: pd.DataFrame, out: str | Path, *, prefix: str = "map") -> list[Path]:
@@ -268,14 +296,19 @@ def write_map_figures(frame: pd.DataFrame, out: str | Path, *, prefix: str = "ma
 
 
 def _section(results_dir: Path, out: Path, prefix: str, level: int) -> tuple[str, list[Path]]:
-    spec, frame = load_spec(results_dir), map_frame(results_dir)
+    try:
+        spec = load_spec(results_dir)
+    except ValueError as exc:  # a folder from elsewhere: say which file is wrong
+        raise ValueError(f"{results_dir / MAP_FILE}: {exc}") from None
+    frame = map_frame(results_dir)
     h = "#" * level
-    lines = [f"{h} Hop map: {spec.x} x {spec.y} (`{results_dir.name}`)", ""]
-    lines += [_spec_text(spec), "", _status_text(frame) + ".", ""]
+    # The folder's name and everything read from it are data: escaped, never markup.
+    lines = [f"{h} Hop map: {spec.x} x {spec.y} ({escape_text(results_dir.name)})", ""]
+    lines += [escape_text(_spec_text(spec)), "", escape_text(_status_text(frame)) + ".", ""]
     if frame.empty:
         return "\n".join([*lines, "No runs stored yet.", ""]), []
     lines += [f"{h}# Findings", ""]
-    lines += [f"- {s}" for s in map_findings(frame)]
+    lines += [f"- {escape_text(s)}" for s in map_findings(frame)]
     lines += ["", f"{h}# Figures", ""]
     figures = write_map_figures(frame, out, prefix=prefix)
     for path in figures:

@@ -35,6 +35,7 @@ from hoopbench.reports.compare.selection import (
 from hoopbench.reports.compare.suite import ROW_COLUMNS
 from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
 from hoopbench.reports.report import seed_reproduction
+from hoopbench.reports.report.escaping import escape_cell, escape_text, file_stem
 from hoopbench.reports.report.figures import events_figure, hoop_figure, paths_figure
 from hoopbench.reports.report.findings import (
     event_error,
@@ -67,18 +68,20 @@ STABILITY_SUITE = "stability"
 
 
 def _cell(value) -> str:
+    """A table cell: numbers formatted, text escaped (it may come from a results folder)."""
     if value is None or (isinstance(value, float) and math.isnan(value)):
         return "-"
     if isinstance(value, bool):
         return "yes" if value else "**no**"
     if isinstance(value, float):
         return f"{value:.4g}"
-    return str(value)
+    return escape_cell(value)
 
 
 def markdown_table(frame: pd.DataFrame, columns: Sequence[str], headers: Sequence[str]) -> str:
-    """A GitHub-flavoured Markdown table of the given columns."""
-    lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
+    """A GitHub-flavoured Markdown table of the given columns; headers and text cells escaped
+    (a scene name from a results folder can be a header)."""
+    lines = ["| " + " | ".join(map(escape_cell, headers)) + " |", "|" + "---|" * len(headers)]
     for _, row in frame.iterrows():
         lines.append("| " + " | ".join(_cell(row.get(c)) for c in columns) + " |")
     return "\n".join(lines)
@@ -113,8 +116,8 @@ def _versions(frame: pd.DataFrame) -> str:
     parts = []
     for engine, group in frame.groupby("engine", sort=False):
         versions = sorted({v for v in group["engine_version"].dropna()})
-        parts.append(f"{engine} {', '.join(versions) or '(unavailable)'}")
-    return "; ".join(parts)
+        parts.append(f"{engine} {', '.join(map(str, versions)) or '(unavailable)'}")
+    return escape_text("; ".join(parts))
 
 
 # --------------------------------------------------------------------------- sections
@@ -134,7 +137,7 @@ def _header(runs: pd.DataFrame, generated: str) -> str:
         f"{tol['slip']['theta_deg']:g} deg.",
         "",
         f"Runs: {len(runs)}; status counts: "
-        + ", ".join(f"{k} {v}" for k, v in runs["status"].value_counts().items())
+        + escape_text(", ".join(f"{k} {v}" for k, v in runs["status"].value_counts().items()))
         + ".",
     )
 
@@ -158,7 +161,12 @@ def _settings_section(runs: pd.DataFrame) -> str:
     ]
     for engine, rows in variants.groupby("engine", sort=False):
         base = default_rows(at_dt[at_dt["engine"] == engine])
-        parts += ["", f"### {engine}", "", _knob_table(engine, pd.concat([base, rows]))]
+        parts += [
+            "",
+            f"### {escape_text(engine)}",
+            "",
+            _knob_table(engine, pd.concat([base, rows])),
+        ]
     return _section(*parts)
 
 
@@ -336,7 +344,7 @@ def _run_time_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[Path]]:
 
 def _exact_summary(row: pd.Series) -> str:
     """The exact events of a scene in one line."""
-    parts = [f"exact outcome **{row['exact_outcome']}**"]
+    parts = [f"exact outcome **{escape_text(row['exact_outcome'])}**"]
     if pd.notna(row.get("exact_t_slip")):
         parts.append(f"slip at {row['exact_t_slip']:.4f} s ({row['exact_theta_slip_deg']:.2f} deg)")
     if pd.notna(row.get("exact_t_lift")):
@@ -346,7 +354,7 @@ def _exact_summary(row: pd.Series) -> str:
     if pd.notna(row.get("exact_t_impact")):
         parts.append(f"impact at {row['exact_t_impact']:.4f} s")
     if isinstance(row.get("exact_phases"), str) and row["exact_phases"]:
-        parts.append(f"phases {row['exact_phases']}")
+        parts.append(f"phases {escape_text(row['exact_phases'])}")
     return "; ".join(parts)
 
 
@@ -387,7 +395,7 @@ def _scenes_section(runs: pd.DataFrame) -> str:
         "where it does not hop, no impact error where there is no impact.",
     ]
     for scene, rows in default.groupby("scene", sort=False):
-        parts += ["", f"### {scene}", "", _exact_summary(rows.iloc[0]) + ".", ""]
+        parts += ["", f"### {escape_text(scene)}", "", _exact_summary(rows.iloc[0]) + ".", ""]
         parts.append(_scene_table(rows))
     return _section(*parts)
 
@@ -578,10 +586,12 @@ def _stability_matrix_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[
         return "", []
     table = stability_matrix(runs)
     figure = stability_figure(runs, out / "stability.png")
-    header = "| scene | engine | " + " | ".join(f"dt {dt:g}" for dt in table.columns) + " |"
+    header = "| scene | engine | " + " | ".join(_cell(f"dt {dt:g}") for dt in table.columns) + " |"
     rule = "|---|---|" + "---|" * len(table.columns)
     rows = [
-        f"| {scene} | {engine} | " + " | ".join(_cell(v) for v in cells) + " |"
+        f"| {escape_cell(scene)} | {escape_cell(engine)} | "
+        + " | ".join(_cell(v) for v in cells)
+        + " |"
         for (scene, engine), cells in zip(table.index, table.to_numpy(), strict=True)
     ]
     text = _section(
@@ -628,9 +638,11 @@ def _trajectory_figures(runs: pd.DataFrame, scene_name: str, out: Path) -> list[
     if not trajectories:
         return []
     row = runs[runs["scene"] == scene_name].iloc[0]
+    # The name comes from the results folder: a file name from it must stay in ``out``.
+    stem = file_stem(scene_name)
     events = events_figure(
         trajectories,
-        out / f"events_{scene_name}.png",
+        out / f"events_{stem}.png",
         title=f"{scene_name}: clearance and slip velocity around its events, dt = "
         f"{DEFAULT_TIMESTEP:g}",
         t_window=_event_window(row),
@@ -638,12 +650,12 @@ def _trajectory_figures(runs: pd.DataFrame, scene_name: str, out: Path) -> list[
     scene = get_scene(scene_name) if scene_name in scene_names() else None
     if scene is None:
         return [events]
-    return [paths_figure(scene, trajectories, out / f"paths_{scene_name}.png"), events]
+    return [paths_figure(scene, trajectories, out / f"paths_{stem}.png"), events]
 
 
 def _exact_path_figure(scene_name: str, out: Path) -> list[Path]:
     """The exact path of a catalogue scene (hoop_<scene>.png)."""
-    return [hoop_figure(get_scene(scene_name), out / f"hoop_{scene_name}.png")]
+    return [hoop_figure(get_scene(scene_name), out / f"hoop_{file_stem(scene_name)}.png")]
 
 
 def _figure_jobs(runs: pd.DataFrame, out: Path) -> list[tuple[Callable, tuple]]:
@@ -667,7 +679,7 @@ def _figures_section(figures: Sequence[Path]) -> str:
         "",
     ]
     for figure in figures:
-        alt = figure.stem
+        alt = escape_text(figure.stem)
         if alt.startswith("hoop_"):
             alt = f"{alt.removeprefix('hoop_')}: the exact path"
         lines += [f"![{alt}]({figure.name})", ""]
@@ -718,9 +730,8 @@ def write_markdown(
     out = Path(out)
     if frame.empty:  # hop maps alone: no runs table to make sections of
         when = f"Generated {generated} on {platform.platform()}."
-        path = out / "report.md"
-        path.write_text("\n".join([_section("# hoopbench report", "", when), *extra]))
-        return path
+        text = "\n".join([_section("# hoopbench report", "", when), *extra])
+        return results.atomic_write(out / "report.md", lambda tmp: tmp.write_text(text))
     everything = _with_optional_columns(frame)
     # The stability suite's stiff and extreme scenes have a section of their own; the event
     # tables and agreement counts are the comparison suites' alone.
@@ -752,6 +763,6 @@ def write_markdown(
             _stability_section(runs),
         ]
     sections += [stability, figures, *extra, _files_section()]
-    path = out / "report.md"
-    path.write_text("\n".join(section for section in sections if section))
-    return path
+    text = "\n".join(section for section in sections if section)
+    # Whole or not at all: a full disk keeps the report.md before (--force) as it was.
+    return results.atomic_write(out / "report.md", lambda tmp: tmp.write_text(text))

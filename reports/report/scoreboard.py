@@ -25,6 +25,7 @@ import pandas as pd
 
 from hoopbench.engines.judging.columns import Col
 from hoopbench.reports.compare.selection import profile_of
+from hoopbench.reports.report.escaping import escape_cell
 
 __all__ = [
     "FORCE_RMS",
@@ -136,5 +137,5 @@ def scoreboard_markdown(board: pd.DataFrame) -> str:
         return ""
     headers = [_HEADERS[c] for c in board.columns]
     lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
-    lines += ["| " + " | ".join(str(v) for v in line) + " |" for line in board.to_numpy()]
+    lines += ["| " + " | ".join(map(escape_cell, line)) + " |" for line in board.to_numpy()]
     return "\n".join(lines)

@@ -312,6 +312,8 @@ def read_runs(
     wanted = None if columns is None else list(dict.fromkeys(["run_id", *columns, "seq"]))
     if "seq" not in dataset.schema.names:  # no file at all (schema file removed by hand)
         return pd.DataFrame(columns=list(BOOKKEEPING_COLUMNS) if wanted is None else wanted)
+    if "run_id" not in dataset.schema.names:  # no sweep writes it so: the folder is not ours
+        raise ValueError(f"{Path(out_dir) / RUNS_NAME}: the table has no run_id column")
     frame = dataset.to_table(columns=wanted).to_pandas()
     frame = frame.sort_values("seq", kind="stable")
     if latest:

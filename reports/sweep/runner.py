@@ -134,7 +134,8 @@ def _worker_main(
     for name in preload:  # before "ready": import time does not count against a time limit
         with contextlib.suppress(Exception):
             import_module(name)
-    conn.send_bytes(pickle.dumps(os.getpid()))
+    if not _reply(conn, pickle.dumps(os.getpid())):
+        return
     while True:
         try:
             data = conn.recv_bytes()
@@ -153,7 +154,18 @@ def _worker_main(
             what = "result" if reply[0] else f"exception {reply[1]!r}"
             error = RuntimeError(f"the call's {what} cannot be pickled: {exc!r}")
             payload = pickle.dumps((False, error, reply[2]))
+        if not _reply(conn, payload):
+            return
+
+
+def _reply(conn: multiprocessing.connection.Connection, payload: bytes) -> bool:
+    """Send to the parent; False if it is gone (killed: its end of the pipe closed), when the
+    worker ends quietly instead of printing a BrokenPipeError's traceback."""
+    try:
         conn.send_bytes(payload)
+    except OSError:  # BrokenPipeError, ConnectionResetError: no one to tell
+        return False
+    return True
 
 
 @dataclass(eq=False)
