@@ -94,7 +94,7 @@ BAD: list[tuple[list[str], str]] = [
     (sim("reference", "--set", "rtol=5"), "rtol must be a number in (0, 0.001], got 5"),
     (sim("reference", "--set", "cone=round"), "unknown reference setting(s) cone"),
     # ----- model files: the same checks as a run
-    (["model", "--engine", "reference", *SEED], "invalid choice: 'reference'"),
+    (["model", "--engine", "reference", *SEED], "engine reference reads no model file"),
     (["model", "--engine", "mujoco", *SEED, "--set", "cone=round"], "got 'round'"),
     (["model", "--engine", "mujoco", *SEED, "--restitution", "0.3"], "got 0.3"),
     (["model", "--engine", "pybullet", *SEED, "--mu", "11"], "got 11"),
