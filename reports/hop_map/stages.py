@@ -281,8 +281,8 @@ def _engine_row(task: MapTask) -> dict[str, Any]:
     )
     # The exact solution again (about 30 ms, small beside a run): the force columns need its
     # n(t) and f(t), which a stored reference row does not hold.
-    exact = exact_solution(scene, scene.mus) if result.trajectory is not None else None
-    row.update(judged_columns(row, result, scene, exact))
+    solution = exact_solution(scene, scene.mus) if result.trajectory is not None else None
+    row.update(judged_columns(row, result, scene, solution))
     row[Col.HOP_HEIGHT_ERROR] = _hop_height_error(row)
     return _ordered(row)
 
