@@ -114,6 +114,27 @@ BAD: list[tuple[list[str], str]] = [
     (["figure", *SEED, "--out", "hoop.jpg"], "hoop.jpg'"),
 ]
 
+BAD += [
+    # ----- values argparse used to take for options ("expected one argument")
+    (sim("pymunk", "--dt", "-1e-4"), "got -0.0001"),
+    (["map", "--out", "new", "--grid", "-3x4"], "got '-3x4'"),
+    (["map", "--out", "new", "--grid", "\uff12x\uff12"], "got '\uff12x\uff12'"),  # full width
+    # ----- one rule for the start angle, whichever command reads it
+    (["reference", *SEED, "--theta0-deg", "1e6"], "theta0_deg must be a number in [-360, 360]"),
+    (["map", "--out", "new", "--theta0-deg", "1e6"], "theta0_deg must be a number in [-360, 360]"),
+    # ----- an empty path is no path (it used to mean the current folder, or no file)
+    (["compare", "--suite", "quick", "--out", ""], "--out: must name a folder, got ''"),
+    (["map", "--out", " "], "--out: must name a folder, got ' '"),
+    (sim("pymunk", "--csv", ""), "got ''"),
+    (["reference", *SEED, "--csv", ""], "got ''"),
+    # ----- a suite's name is a shipped suite's name; a path (a / or .toml) is read as a file
+    (["compare", "--suite", "../../x", "--out", "new"], "cannot read suite file '../../x'"),
+    (["compare", "--suite", "..", "--out", "new"], "no shipped suite '..'"),
+    # ----- integer engine options within a C int, refused before the engine sees them
+    (sim("pymunk", "--set", "iterations=1e20"), "iterations must be an integer that fits a C"),
+    (sim("mujoco", "--set", "iterations=1e20"), "got 1e+20"),
+]
+
 
 @pytest.fixture
 def deadline() -> Iterator[None]:

@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import os
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -26,7 +27,8 @@ from hoopbench.engines.options import Profile, check_profile
 from hoopbench.engines.registry import engine_class, engine_names
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene, scene_names
-from hoopbench.models.scene import Scene
+from hoopbench.models.checks import check_real
+from hoopbench.models.scene import THETA0_LIMIT_DEG, Scene
 
 __all__ = [
     "SUITES_DIR",
@@ -38,6 +40,7 @@ __all__ = [
     "builtin_suite",
     "load_suite",
     "parse_suite",
+    "suite_path",
 ]
 
 SUITES_DIR = Path(__file__).resolve().parent / "suites"
@@ -239,11 +242,24 @@ def shipped_suites() -> tuple[str, ...]:
 
 
 def builtin_suite(name: str) -> Path:
-    """The path of a shipped suite file by its name (one of :func:`shipped_suites`)."""
-    path = SUITES_DIR / f"{name}.toml"
-    if not path.is_file():
-        raise SuiteError(f"no shipped suite {name!r}; shipped: {', '.join(shipped_suites())}")
-    return path
+    """The path of a shipped suite file by its name (one of :func:`shipped_suites`, and
+    nothing else: a name never reaches outside the suites folder)."""
+    if name not in shipped_suites():
+        raise SuiteError(
+            f"no shipped suite {name!r}; shipped: {', '.join(shipped_suites())} "
+            "(a suite file's path holds a / or ends in .toml)"
+        )
+    return SUITES_DIR / f"{name}.toml"
+
+
+def suite_path(text: str) -> Path:
+    """The suite file that ``--suite TEXT`` means. A path holds a ``/`` or ends in ``.toml``
+    and is read as it is (``./mine`` for a file without the suffix); anything else is the
+    name of a shipped suite. One rule, so that a name is never read as a file nor a path
+    looked up among the shipped suites."""
+    if "/" in text or os.sep in text or text.endswith(".toml"):
+        return Path(text)
+    return builtin_suite(text)
 
 
 def parse_suite(data: Mapping[str, Any]) -> Suite:
@@ -349,10 +365,12 @@ def _param_scene(table: Any, k: int) -> Scene:
     for key, value in table.items():
         if key != "name" and (isinstance(value, bool) or not isinstance(value, int | float)):
             raise SuiteError(f"{where}: {key} must be a number, got {value!r}")
-    if "theta0_deg" in table:
-        params["theta0"] = math.radians(table["theta0_deg"])
     params.setdefault("muk", params["mus"])
     try:
+        if "theta0_deg" in table:
+            limit = THETA0_LIMIT_DEG
+            deg = check_real("theta0_deg", table["theta0_deg"], low=-limit, high=limit, unit="deg")
+            params["theta0"] = math.radians(deg)
         if "chi" in table:
             return Scene.from_chi(table["chi"], name=name, **params)
         return Scene(name=name, **params)
@@ -373,7 +391,10 @@ def _variants(value: Any, engines: Sequence[str], scenes: Sequence[str]) -> tupl
                 f"{where}: engine must be one of the suite's ({', '.join(engines)}), got {engine!r}"
             )
         if not isinstance(name, str) or not name.strip() or name == DEFAULT_VARIANT:
-            raise SuiteError(f"{where}: name must be a non-empty string, not 'default'")
+            raise SuiteError(
+                f"{where}: name must be a non-empty string other than {DEFAULT_VARIANT!r}, "
+                f"got {name!r}"
+            )
         if any(v.engine == engine and v.name == name for v in variants):
             raise SuiteError(f"{where}: {engine} variant {name!r} is given twice")
         where = f"[[variant]] {engine} {name!r}"
