@@ -234,3 +234,33 @@ def test_tiny_pybullet_mass_at_the_limit_is_honest(capsys, deadline):
     assert code == 0 and out["status"] == "ok"
     assert out["outcome"] == "slips"
     assert out["t_slip"] == pytest.approx(0.9872, abs=2e-3)
+
+
+# --------------------------------------------------------------------------- resuming
+TINY = 'name = "tiny"\nengines = ["reference"]\ntimesteps = [1e-3]\nscenes = ["seed"]\n'
+
+
+def test_a_resume_into_another_kind_of_sweep_or_another_suite_is_refused(tmp_path, capsys):
+    """A resume used to append one suite's rows to a map or another suite's folder (and
+    replace its meta.json). Now one line names what the folder holds; nothing changes."""
+    suite = tmp_path / "tiny.toml"
+    suite.write_text(TINY)
+    suite_out, map_out = tmp_path / "suite", tmp_path / "map"
+    assert main(["compare", "--suite", str(suite), "--out", str(suite_out), "--quiet"]) == 0
+    assert main(["map", "--out", str(map_out), "--grid", "1x1", "--engines", "--quiet"]) == 0
+    capsys.readouterr()
+    before = {p: p.stat().st_mtime_ns for d in (suite_out, map_out) for p in d.rglob("*")}
+    refused = [
+        (["compare", "--suite", str(suite), "--out", str(map_out)], "holds a hop map, not suite"),
+        (["compare", "--suite", "quick", "--out", str(suite_out)], "holds suite 'tiny', not suite"),
+        (["map", "--out", str(suite_out)], "holds suite 'tiny', not a hop map"),
+    ]
+    for argv, message in refused:
+        assert main([*argv, "--resume"]) == 2
+        err = capsys.readouterr().err
+        assert len(err.strip().splitlines()) == 1 and message in err, err
+    suite.write_text(TINY.replace('"seed"', '"seed", "seed-mu"'))  # the same name, edited
+    assert main(["compare", "--suite", str(suite), "--out", str(suite_out), "--resume"]) == 2
+    assert "from another suite file (suite_sha256 differ)" in capsys.readouterr().err
+    after = {p: p.stat().st_mtime_ns for d in (suite_out, map_out) for p in d.rglob("*")}
+    assert after == before
