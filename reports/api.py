@@ -38,6 +38,7 @@ from hoopbench.reference.exact import DEFAULT_ATOL, DEFAULT_RTOL, ExactSolution,
 from hoopbench.reports.compare import suite as suite_runs
 from hoopbench.reports.compare.suite_file import (
     DEFAULT_VARIANT,
+    Announce,
     RunTask,
     Suite,
     TrajectoryChoice,
@@ -354,12 +355,14 @@ def suite_job(
     run_timeout: float | None = None,
     engines: Sequence[str] | None = None,
     trajectories: TrajectoryChoice | str = TrajectoryChoice.NONE,
+    announce: Announce | None = None,
 ) -> SuiteJob:
     """Check a suite and its options. ``suite``: a suite file (.toml) or the name of a
-    shipped one (quick, default, ...). SuiteError (a ValueError) names a bad file's key."""
+    shipped one (quick, default, ...). SuiteError (a ValueError) names a bad file's key.
+    ``announce(name, runs)`` is told the run count before the runs are checked."""
     # a Path is a file; text follows the command line's rule (suite_file.suite_path)
     path = suite if isinstance(suite, Path) else suite_path(str(suite))
-    loaded = load_suite(path)  # the whole file is checked before anything runs
+    loaded = load_suite(path, announce)  # the whole file is checked before anything runs
     if engines:
         loaded = loaded.with_engines(list(engines))
     if run_timeout is not None and not (run_timeout > 0):

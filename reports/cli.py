@@ -392,6 +392,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         run_timeout=args.run_timeout,
         engines=args.engines,
         trajectories=args.trajectories,
+        announce=None if args.quiet else _announce_suite,
     )
     if args.scheduler and args.trajectories != "none" and not args.quiet:
         print(
@@ -414,6 +415,16 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     resume = f"hoopbench compare --suite {args.suite} --out {args.out} --resume"
     _say_how_the_sweep_ended(summary, args.out, resume, args.quiet)
     return summary.exit_code
+
+
+LARGE_SUITE_RUNS = 10_000
+"""From this many runs on, checking a suite takes a second or more: say so before."""
+
+
+def _announce_suite(name: str, runs: int) -> None:
+    if runs >= LARGE_SUITE_RUNS:
+        print(f"hoopbench: suite {name}: {runs:,} runs; checking each run's settings first",
+              file=sys.stderr, flush=True)  # fmt: skip
 
 
 def _say_how_the_sweep_ended(summary: RunSummary, out: str, resume: str, quiet: bool) -> None:

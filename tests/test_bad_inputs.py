@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import json
 import signal
+import subprocess
+import sys
 from collections.abc import Iterator
 
 import pytest
@@ -264,3 +266,48 @@ def test_a_resume_into_another_kind_of_sweep_or_another_suite_is_refused(tmp_pat
     assert "from another suite file (suite_sha256 differ)" in capsys.readouterr().err
     after = {p: p.stat().st_mtime_ns for d in (suite_out, map_out) for p in d.rglob("*")}
     assert after == before
+
+
+# --------------------------------------------------------------------------- large suites
+def many_runs_suite(path, scenes: int, timesteps: int) -> str:
+    """A suite of scenes x timesteps runs of the reference engine, written to ``path``."""
+    steps = ", ".join(f"{1e-3 * (1 + i / 1000):.6g}" for i in range(timesteps))
+    text = f'name = "many"\nengines = ["reference"]\ntimesteps = [{steps}]\n'
+    for k in range(scenes):
+        text += f'[[scene]]\nname = "s{k}"\nlam = {0.5 + k / 1e5}\nchi = 0.5\nmus = 0.8\n'
+    path.write_text(text)
+    return str(path)
+
+
+def test_a_suite_over_the_limit_is_refused_with_its_count_before_it_is_expanded(
+    tmp_path, capsys, deadline
+):
+    """A million runs used to be expanded and checked silently for two minutes (1.1 GB)."""
+    suite = many_runs_suite(tmp_path / "many.toml", 1000, 1000)
+    assert main(["compare", "--suite", suite, "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        "hoopbench: error: many.toml: the suite makes 1,000,000 runs, more than 100,000: "
+        "split it into several suites (each its own results folder)"
+    ]
+    assert not (tmp_path / "out").exists()
+
+
+def test_ctrl_c_while_a_large_suite_is_checked_is_one_line(tmp_path):
+    """The run count first, then Ctrl-C in the checks: one line and exit 130 (a traceback)."""
+    suite = many_runs_suite(tmp_path / "many.toml", 100, 1000)  # 100,000 runs: seconds of checks
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "hoopbench.reports.cli", "compare", "--suite", suite,
+         "--out", str(tmp_path / "out")],
+        stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        first = proc.stderr.readline()
+        assert first == "hoopbench: suite many: 100,000 runs; checking each run's settings first\n"
+        proc.send_signal(signal.SIGINT)
+        _, rest = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130, rest
+    assert rest.strip().splitlines() == ["hoopbench: interrupted (Ctrl-C) before anything ran"]
+    assert not (tmp_path / "out").exists()

@@ -15,7 +15,7 @@ import json
 import math
 import os
 import tomllib
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from enum import StrEnum
 from pathlib import Path
@@ -31,6 +31,7 @@ from hoopbench.models.checks import check_real
 from hoopbench.models.scene import THETA0_LIMIT_DEG, Scene
 
 __all__ = [
+    "MAX_SUITE_RUNS",
     "SUITES_DIR",
     "RunTask",
     "Suite",
@@ -47,6 +48,15 @@ SUITES_DIR = Path(__file__).resolve().parent / "suites"
 """The suite files hoopbench ships (quick, default, full, ...)."""
 
 DEFAULT_VARIANT = "default"
+
+MAX_SUITE_RUNS = 100_000
+"""Most runs one suite may make. Checking a run's settings costs about 0.1 ms and a run's
+task and row some kB, so this is ten seconds of checks and some hundred MB held before the
+first run (a million runs took two minutes and 1.1 GB, silently); the full shipped suite has
+about a thousand runs, and a sweep of more is several sweeps, each resumable on its own."""
+
+Announce = Callable[[str, int], None]
+"""Told a suite's name and run count before its runs are checked."""
 
 _TOP_KEYS = ("name", "engines", "timesteps", "profiles", "scenes", "scene", "variant")
 _SCENE_KEYS = (
@@ -146,21 +156,36 @@ class Suite:
     profiles: tuple[Profile, ...] = (Profile.TUNED,)
     """Each engine's defaults run once per profile (variant ``default``)."""
 
+    def _variants_of(self, scene: Scene, engine: str) -> list[VariantSpec]:
+        """The variants one engine runs on one scene: its defaults (one per distinct
+        profile), then the suite's own."""
+        defaults = [
+            VariantSpec(engine, DEFAULT_VARIANT, profile=p)
+            for p in _distinct_profiles(engine, self.profiles)
+        ]
+        mine = [
+            v
+            for v in self.variants
+            if v.engine == engine and (v.scenes is None or scene.name in v.scenes)
+        ]
+        return [*defaults, *mine]
+
+    @property
+    def run_count(self) -> int:
+        """How many runs :meth:`tasks` makes, counted without making them."""
+        return sum(
+            len(variant.timesteps or self.timesteps)
+            for scene in self.scenes
+            for engine in self.engines
+            for variant in self._variants_of(scene, engine)
+        )
+
     def tasks(self, trajectory_dir: str | None = None) -> list[RunTask]:
         """Every run, in a stable order: scene, engine, variant (default first), timestep."""
         tasks = []
         for scene in self.scenes:
             for engine in self.engines:
-                defaults = [
-                    VariantSpec(engine, DEFAULT_VARIANT, profile=p)
-                    for p in _distinct_profiles(engine, self.profiles)
-                ]
-                mine = [
-                    v
-                    for v in self.variants
-                    if v.engine == engine and (v.scenes is None or scene.name in v.scenes)
-                ]
-                for variant in (*defaults, *mine):
+                for variant in self._variants_of(scene, engine):
                     for dt in variant.timesteps or self.timesteps:
                         tasks.append(_task(scene, variant, dt, trajectory_dir))
         return tasks
@@ -219,8 +244,9 @@ def _task(scene: Scene, variant: VariantSpec, dt: float, trajectory_dir: str | N
 
 
 # --------------------------------------------------------------------------- parsing
-def load_suite(path: str | Path) -> Suite:
-    """Read and validate a suite file; SuiteError names the file, the key and the value."""
+def load_suite(path: str | Path, announce: Announce | None = None) -> Suite:
+    """Read and validate a suite file; SuiteError names the file, the key and the value.
+    ``announce(name, runs)`` is called before the runs are checked (parse_suite)."""
     path = Path(path)
     try:
         text = path.read_text()
@@ -231,7 +257,7 @@ def load_suite(path: str | Path) -> Suite:
     except tomllib.TOMLDecodeError as exc:
         raise SuiteError(f"{path.name}: not valid TOML: {exc}") from None
     try:
-        return parse_suite(data)
+        return parse_suite(data, announce)
     except SuiteError as exc:
         raise SuiteError(f"{path.name}: {exc}") from None
 
@@ -262,8 +288,9 @@ def suite_path(text: str) -> Path:
     return builtin_suite(text)
 
 
-def parse_suite(data: Mapping[str, Any]) -> Suite:
-    """A Suite from the parsed TOML; every run's settings are checked by its engine."""
+def parse_suite(data: Mapping[str, Any], announce: Announce | None = None) -> Suite:
+    """A Suite from the parsed TOML; every run's settings are checked by its engine, after
+    ``announce(name, runs)`` (a large suite takes seconds to check)."""
     _no_unknown_keys(data, _TOP_KEYS, "suite")
     name = data.get("name")
     if not isinstance(name, str) or not name.strip():
@@ -280,6 +307,14 @@ def parse_suite(data: Mapping[str, Any]) -> Suite:
     variants = _variants(data.get("variant", []), engines, names)
     profiles = _profiles(data.get("profiles", ["tuned"]), "profiles")
     suite = Suite(name, engines, timesteps, tuple(scenes), variants, profiles)
+    count = suite.run_count
+    if count > MAX_SUITE_RUNS:
+        raise SuiteError(
+            f"the suite makes {count:,} runs, more than {MAX_SUITE_RUNS:,}: split it into "
+            "several suites (each its own results folder)"
+        )
+    if announce is not None:
+        announce(suite.name, count)
     _check_runs(suite)
     return suite
 
