@@ -661,3 +661,22 @@ def test_two_sweeps_at_once_in_a_new_folder_one_is_refused_and_nothing_is_left(t
         thread.join()
     assert sorted(p.name for p in out.iterdir()) == [LOCK_NAME]
     assert run(sweep_tasks()[:2], out).completed  # then free, and empty but for the lock
+
+
+def test_a_sweep_started_from_a_script_on_stdin_runs(tmp_path):
+    """``python - <<EOF``: multiprocessing had every worker run '<cwd>/<stdin>' as the main
+    script, a FileNotFoundError traceback per worker and every row crashed."""
+    script = SWEEP_SCRIPT.format(tests=str(TESTS)).replace(
+        'if __name__ == "__main__":\n    sys.exit(main())', "main()"
+    )
+    done = subprocess.run(
+        [sys.executable, "-", str(tmp_path / "out")],
+        input=script,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=tmp_path,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "Traceback" not in done.stderr, done.stderr
+    assert set(read_runs(tmp_path / "out")["status"]) == {"ok", "diverged"}

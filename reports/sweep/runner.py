@@ -184,6 +184,30 @@ def _default_context() -> BaseContext:
     return multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
 
 
+_main_guard = threading.Lock()
+
+
+@contextlib.contextmanager
+def _main_without_a_missing_file() -> Iterator[None]:
+    """While a worker (or the fork server) starts: hide ``__main__.__file__`` if it names no
+    file. A script read from stdin (``python - <<EOF``) or given with ``-c`` has '<stdin>' or
+    no file, and multiprocessing would have every new process run '<cwd>/<stdin>' as the main
+    script: a FileNotFoundError traceback per worker and every run crashed. Without it the
+    workers start as from an interactive session (the worker function must then be
+    importable, as hoopbench's are)."""
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    if main is None or path is None or os.path.isfile(path):
+        yield
+        return
+    with _main_guard:
+        del main.__file__
+        try:
+            yield
+        finally:
+            main.__file__ = path
+
+
 def refuse_in_a_starting_worker() -> None:
     """RuntimeError if this process is a worker still importing its parent's main script.
 
@@ -351,7 +375,8 @@ class WorkerPool(Executor):
             name="hoopbench-worker",
             daemon=True,
         )
-        process.start()
+        with _main_without_a_missing_file():
+            process.start()
         child_conn.close()
         self._workers.append(_Worker(process=process, conn=conn))
 
