@@ -17,6 +17,7 @@ from typing import Any
 from hoopbench.models.checks import check_choice, check_flag, check_integer, check_real
 
 __all__ = [
+    "C_INT_MAX",
     "SAME",
     "Check",
     "Option",
@@ -115,11 +116,21 @@ def number(
     return check
 
 
+C_INT_MAX = 2**31 - 1
+"""Largest integer option: the engines hand them to C code (MuJoCo's XML parser, Chipmunk,
+Bullet) as a C int, which a larger value overflows inside the engine instead of here."""
+
+
 def integer(*, low: int | None = None, high: int | None = None) -> Check:
-    """A whole number within the bounds."""
+    """A whole number within the bounds, and within a C int (C_INT_MAX)."""
 
     def check(name: str, value: Any) -> int:
-        return check_integer(name, value, low=low, high=high)
+        out = check_integer(name, value, low=low, high=high)
+        if not -C_INT_MAX - 1 <= out <= C_INT_MAX:
+            raise ValueError(
+                f"{name} must be an integer that fits a C int (at most {C_INT_MAX}), got {value!r}"
+            )
+        return out
 
     return check
 

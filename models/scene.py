@@ -20,7 +20,12 @@ from typing import TypedDict, Unpack
 
 from hoopbench.models.checks import check_finite
 
-__all__ = ["DegenerateSceneError", "Scene"]
+__all__ = ["THETA0_LIMIT_DEG", "DegenerateSceneError", "Scene"]
+
+THETA0_LIMIT_DEG = 360.0
+"""Largest start angle either way, deg: one turn (beyond it is the same start again, so a
+larger value is a mistake, most often radians given as degrees). The one bound for every
+way in: the command line, the API, suite files and the map's axis."""
 
 
 class DegenerateSceneError(ValueError):
@@ -95,6 +100,8 @@ class Scene:
             object.__setattr__(self, name, check_finite(name, getattr(self, name)))
         if self.xdot0 is not None:
             object.__setattr__(self, "xdot0", check_finite("xdot0", self.xdot0))
+        limit = math.radians(THETA0_LIMIT_DEG)
+        _check_range("theta0", self.theta0, -limit, limit, "within one turn, [-2 pi, 2 pi] rad")
         self._check_dimensions()
         self._check_coefficients()
 

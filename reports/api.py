@@ -31,18 +31,20 @@ from hoopbench.engines.registry import engine_class, engine_names
 from hoopbench.engines.run import RunResult, RunStatus
 from hoopbench.engines.settings import DEFAULT_TIMESTEP, RunSettings
 from hoopbench.models.catalogue import get_scene, scene_names
+from hoopbench.models.checks import check_real
 from hoopbench.models.events import Events
-from hoopbench.models.scene import Scene
+from hoopbench.models.scene import THETA0_LIMIT_DEG, Scene
 from hoopbench.reference.exact import DEFAULT_ATOL, DEFAULT_RTOL, ExactSolution, solve_exact
 from hoopbench.reports.compare import suite as suite_runs
 from hoopbench.reports.compare.suite_file import (
     DEFAULT_VARIANT,
+    Announce,
     RunTask,
     Suite,
     TrajectoryChoice,
     VariantSpec,
-    builtin_suite,
     load_suite,
+    suite_path,
 )
 from hoopbench.reports.hop_map.spec import MAP_FILE, Axis, MapSpec, check_grid, load_spec
 from hoopbench.reports.hop_map.stages import run_map
@@ -186,7 +188,10 @@ def scene(
     given = dict(lam=lam, eps=eps, mus=mus, muk=muk, g=g, a=a, M=M, t_end=t_end, xdot0=xdot0)
     changes: dict[str, Any] = {key: value for key, value in given.items() if value is not None}
     if theta0_deg is not None:
-        changes["theta0"] = math.radians(theta0_deg)
+        # checked in degrees, as given, by the bound the Scene and the map use
+        limit = THETA0_LIMIT_DEG
+        checked = check_real("theta0_deg", theta0_deg, low=-limit, high=limit, unit="deg")
+        changes["theta0"] = math.radians(checked)
     if name is not None:
         return _catalogue_scene(get_scene(name), changes, chi, thetadot0)
     missing = [key for key in ("lam", "mus") if key not in changes]
@@ -350,13 +355,14 @@ def suite_job(
     run_timeout: float | None = None,
     engines: Sequence[str] | None = None,
     trajectories: TrajectoryChoice | str = TrajectoryChoice.NONE,
+    announce: Announce | None = None,
 ) -> SuiteJob:
     """Check a suite and its options. ``suite``: a suite file (.toml) or the name of a
-    shipped one (quick, default, ...). SuiteError (a ValueError) names a bad file's key."""
-    path = Path(suite)
-    if not path.suffix and not path.exists():
-        path = builtin_suite(str(suite))  # a shipped suite by name
-    loaded = load_suite(path)  # the whole file is checked before anything runs
+    shipped one (quick, default, ...). SuiteError (a ValueError) names a bad file's key.
+    ``announce(name, runs)`` is told the run count before the runs are checked."""
+    # a Path is a file; text follows the command line's rule (suite_file.suite_path)
+    path = suite if isinstance(suite, Path) else suite_path(str(suite))
+    loaded = load_suite(path, announce)  # the whole file is checked before anything runs
     if engines:
         loaded = loaded.with_engines(list(engines))
     if run_timeout is not None and not (run_timeout > 0):

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -30,6 +31,8 @@ if TYPE_CHECKING:  # the runner is imported only by the commands that run sweeps
 __all__ = ["main"]
 
 EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130
+"""128 + SIGINT, as a shell reports a command stopped by Ctrl-C."""
 
 
 class UsageError(Exception):
@@ -37,6 +40,14 @@ class UsageError(Exception):
 
 
 class _Parser(argparse.ArgumentParser):
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        # argparse reads '-1e-4' or '-3x4' after an option as an unknown option ("expected
+        # one argument"): its pattern for a negative number knows neither exponents nor
+        # NxM. Here anything starting with '-' and a digit (or '-.' and a digit) is a value,
+        # which the option's own check then refuses by name; no option here starts so.
+        self._negative_number_matcher = re.compile(r"^-\.?\d")
+
     def error(self, message: str) -> NoReturn:
         raise UsageError(message)
 
@@ -113,6 +124,13 @@ _workers = _argument("check_workers")
 """1 up to the machine's cores: more processes than cores only slow a sweep down."""
 _grid = _argument("check_grid")
 """'40x40' -> (40, 40)."""
+
+
+def _folder(text: str) -> str:
+    """A folder to write into: '' would be the current folder, which no one means."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError(f"must name a folder, got {text!r}")
+    return text
 
 
 def _output_file(path: str, suffixes: Sequence[str], force: bool) -> Path:
@@ -245,7 +263,7 @@ def _cmd_scenes(args: argparse.Namespace) -> int:
 
 def _cmd_reference(args: argparse.Namespace) -> int:
     scene = _scene_from_args(args)
-    csv = _output_file(args.csv, _TRAJECTORY_SUFFIXES, args.force) if args.csv else None
+    csv = None if args.csv is None else _output_file(args.csv, _TRAJECTORY_SUFFIXES, args.force)
     if args.method == "exact":
         from hoopbench.reference.exact import solve_exact
 
@@ -293,7 +311,7 @@ def _settings_from_args(args: argparse.Namespace, engine: str) -> RunSettings:
 def _cmd_simulate(args: argparse.Namespace) -> int:
     scene = _scene_from_args(args)
     settings = _settings_from_args(args, args.engine)
-    csv = _output_file(args.csv, _TRAJECTORY_SUFFIXES, args.force) if args.csv else None
+    csv = None if args.csv is None else _output_file(args.csv, _TRAJECTORY_SUFFIXES, args.force)
     result = get_engine(args.engine).run(scene, settings)
     payload = {**result.to_dict(), "scene": scene.to_dict()}
     if result.events is not None and result.trajectory is not None and result.info.mu:
@@ -396,6 +414,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         run_timeout=args.run_timeout,
         engines=args.engines,
         trajectories=args.trajectories,
+        announce=None if args.quiet else _announce_suite,
     )
     if args.scheduler and args.trajectories != "none" and not args.quiet:
         print(
@@ -421,6 +440,16 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         raise _write_failure(exc, args.out, _sweep_kept(args.out, resume)) from None
     _say_how_the_sweep_ended(summary, args.out, resume, args.quiet)
     return summary.exit_code
+
+
+LARGE_SUITE_RUNS = 10_000
+"""From this many runs on, checking a suite takes a second or more: say so before."""
+
+
+def _announce_suite(name: str, runs: int) -> None:
+    if runs >= LARGE_SUITE_RUNS:
+        print(f"hoopbench: suite {name}: {runs:,} runs; checking each run's settings first",
+              file=sys.stderr, flush=True)  # fmt: skip
 
 
 def _say_how_the_sweep_ended(summary: RunSummary, out: str, resume: str, quiet: bool) -> None:
@@ -625,7 +654,9 @@ def _add_map_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--profile", choices=[str(x) for x in Profile], help="engine option values (default tuned)"
     )
-    p.add_argument("--out", required=True, help="map folder (new or empty, or --resume)")
+    p.add_argument(
+        "--out", required=True, type=_folder, help="map folder (new or empty, or --resume)"
+    )
     p.add_argument("--jobs", type=_workers, help="worker processes (default 2, at most the cores)")
     p.add_argument(
         "--resume",
@@ -690,7 +721,9 @@ def _add_compare(sub: Any, classes: Mapping[str, Any]) -> None:
         required=True,
         help=f"suite file (.toml), or a shipped one: {', '.join(shipped_suites())}",
     )
-    p.add_argument("--out", required=True, help="results folder (new or empty, or --resume)")
+    p.add_argument(
+        "--out", required=True, type=_folder, help="results folder (new or empty, or --resume)"
+    )
     p.add_argument("--jobs", type=_workers, help="worker processes (default 2, at most the cores)")
     p.add_argument("--resume", action="store_true", help="skip runs already stored")
     p.add_argument(
@@ -731,7 +764,7 @@ def _add_report(sub: Any, classes: Mapping[str, Any]) -> None:
         metavar="DIR",
         help="results folders of hoopbench compare (e.g. the default and stability suites)",
     )
-    p.add_argument("--out", help="report folder (default: the first results folder)")
+    p.add_argument("--out", type=_folder, help="report folder (default: the first results folder)")
     p.add_argument("--force", action="store_true", help="replace an existing report.md")
     p.set_defaults(func=_cmd_report)
 
@@ -785,6 +818,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         code = args.func(args)
         sys.stdout.flush()  # inside the try: a reader gone away fails here, not at exit
         return code
+    except KeyboardInterrupt:
+        # Ctrl-C outside a sweep's own handling (checking a suite, reaching a scheduler):
+        # nothing has run yet, so there is nothing to resume either.
+        print("hoopbench: interrupted (Ctrl-C) before anything ran", file=sys.stderr)
+        return EXIT_INTERRUPTED
     except BrokenPipeError:
         # The reader went away (`hoopbench ... | head`): stop quietly, as Unix tools do.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

@@ -12,6 +12,8 @@ import json
 import os
 import re
 import signal
+import subprocess
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -116,6 +118,27 @@ BAD: list[tuple[list[str], str]] = [
     (["compare", "--suite", "quick", "--out", "new", "--run-timeout", "0"], "got 0"),
     (["report", "--results", "nowhere"], "--results 'nowhere' holds no results"),
     (["figure", *SEED, "--out", "hoop.jpg"], "hoop.jpg'"),
+]
+
+BAD += [
+    # ----- values argparse used to take for options ("expected one argument")
+    (sim("pymunk", "--dt", "-1e-4"), "got -0.0001"),
+    (["map", "--out", "new", "--grid", "-3x4"], "got '-3x4'"),
+    (["map", "--out", "new", "--grid", "\uff12x\uff12"], "got '\uff12x\uff12'"),  # full width
+    # ----- one rule for the start angle, whichever command reads it
+    (["reference", *SEED, "--theta0-deg", "1e6"], "theta0_deg must be a number in [-360, 360]"),
+    (["map", "--out", "new", "--theta0-deg", "1e6"], "theta0_deg must be a number in [-360, 360]"),
+    # ----- an empty path is no path (it used to mean the current folder, or no file)
+    (["compare", "--suite", "quick", "--out", ""], "--out: must name a folder, got ''"),
+    (["map", "--out", " "], "--out: must name a folder, got ' '"),
+    (sim("pymunk", "--csv", ""), "got ''"),
+    (["reference", *SEED, "--csv", ""], "got ''"),
+    # ----- a suite's name is a shipped suite's name; a path (a / or .toml) is read as a file
+    (["compare", "--suite", "../../x", "--out", "new"], "cannot read suite file '../../x'"),
+    (["compare", "--suite", "..", "--out", "new"], "no shipped suite '..'"),
+    # ----- integer engine options within a C int, refused before the engine sees them
+    (sim("pymunk", "--set", "iterations=1e20"), "iterations must be an integer that fits a C"),
+    (sim("mujoco", "--set", "iterations=1e20"), "got 1e+20"),
 ]
 
 
@@ -543,3 +566,78 @@ def test_output_into_a_closed_pipe_is_quiet(tmp_path):
     err = child.stderr.read().decode()
     assert child.wait(timeout=60) == 141
     assert err == ""
+
+
+# --------------------------------------------------------------------------- resuming
+TINY = 'name = "tiny"\nengines = ["reference"]\ntimesteps = [1e-3]\nscenes = ["seed"]\n'
+
+
+def test_a_resume_into_another_kind_of_sweep_or_another_suite_is_refused(tmp_path, capsys):
+    """A resume used to append one suite's rows to a map or another suite's folder (and
+    replace its meta.json). Now one line names what the folder holds; nothing changes."""
+    suite = tmp_path / "tiny.toml"
+    suite.write_text(TINY)
+    suite_out, map_out = tmp_path / "suite", tmp_path / "map"
+    assert main(["compare", "--suite", str(suite), "--out", str(suite_out), "--quiet"]) == 0
+    assert main(["map", "--out", str(map_out), "--grid", "1x1", "--engines", "--quiet"]) == 0
+    capsys.readouterr()
+    before = {p: p.stat().st_mtime_ns for d in (suite_out, map_out) for p in d.rglob("*")}
+    refused = [
+        (["compare", "--suite", str(suite), "--out", str(map_out)], "holds a hop map, not suite"),
+        (["compare", "--suite", "quick", "--out", str(suite_out)], "holds suite 'tiny', not suite"),
+        (["map", "--out", str(suite_out)], "holds suite 'tiny', not a hop map"),
+    ]
+    for argv, message in refused:
+        assert main([*argv, "--resume"]) == 2
+        err = capsys.readouterr().err
+        assert len(err.strip().splitlines()) == 1 and message in err, err
+    suite.write_text(TINY.replace('"seed"', '"seed", "seed-mu"'))  # the same name, edited
+    assert main(["compare", "--suite", str(suite), "--out", str(suite_out), "--resume"]) == 2
+    assert "from another suite file (suite_sha256 differ)" in capsys.readouterr().err
+    after = {p: p.stat().st_mtime_ns for d in (suite_out, map_out) for p in d.rglob("*")}
+    assert after == before
+
+
+# --------------------------------------------------------------------------- large suites
+def many_runs_suite(path, scenes: int, timesteps: int) -> str:
+    """A suite of scenes x timesteps runs of the reference engine, written to ``path``."""
+    steps = ", ".join(f"{1e-3 * (1 + i / 1000):.6g}" for i in range(timesteps))
+    text = f'name = "many"\nengines = ["reference"]\ntimesteps = [{steps}]\n'
+    for k in range(scenes):
+        text += f'[[scene]]\nname = "s{k}"\nlam = {0.5 + k / 1e5}\nchi = 0.5\nmus = 0.8\n'
+    path.write_text(text)
+    return str(path)
+
+
+def test_a_suite_over_the_limit_is_refused_with_its_count_before_it_is_expanded(
+    tmp_path, capsys, deadline
+):
+    """A million runs used to be expanded and checked silently for two minutes (1.1 GB)."""
+    suite = many_runs_suite(tmp_path / "many.toml", 1000, 1000)
+    assert main(["compare", "--suite", suite, "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        "hoopbench: error: many.toml: the suite makes 1,000,000 runs, more than 100,000: "
+        "split it into several suites (each its own results folder)"
+    ]
+    assert not (tmp_path / "out").exists()
+
+
+def test_ctrl_c_while_a_large_suite_is_checked_is_one_line(tmp_path):
+    """The run count first, then Ctrl-C in the checks: one line and exit 130 (a traceback)."""
+    suite = many_runs_suite(tmp_path / "many.toml", 100, 1000)  # 100,000 runs: seconds of checks
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "hoopbench.reports.cli", "compare", "--suite", suite,
+         "--out", str(tmp_path / "out")],
+        stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        first = proc.stderr.readline()
+        assert first == "hoopbench: suite many: 100,000 runs; checking each run's settings first\n"
+        proc.send_signal(signal.SIGINT)
+        _, rest = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130, rest
+    assert rest.strip().splitlines() == ["hoopbench: interrupted (Ctrl-C) before anything ran"]
+    assert not (tmp_path / "out").exists()

@@ -10,14 +10,18 @@ Dask's fourth, so that the runner's own retry is what is tested, and quickly.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import re
 import shutil
 import signal
+import socket
 import subprocess
 import sys
+import threading
 import time
+from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
 
@@ -342,14 +346,98 @@ def test_a_tls_cluster_takes_our_certificates_and_nothing_less(tmp_path):
         with cluster_executor(running.address, tls, timeout=10) as executor:
             assert executor.submit(pow, 2, 10).result(timeout=30) == 1024
         plain = running.address.replace("tls://", "tcp://")
-        refused = "cannot connect to the Dask scheduler"
+        refused = "sends nothing .*; a TLS one needs tls:// and the --tls-\\* options"
         with pytest.raises(ClusterError, match=refused), cluster_executor(plain, timeout=3):
             pass
         (tmp_path / "other").mkdir()
         stranger = replace(make_certificates(tmp_path / "other"), ca_file=tls.ca_file)
         stranger_executor = cluster_executor(running.address, stranger, timeout=3)
-        with pytest.raises(ClusterError, match=refused), stranger_executor:
+        stranger_refused = r"TLS with tls://\S+ failed: \S"
+        with pytest.raises(ClusterError, match=stranger_refused), stranger_executor:
             pass
+
+
+def test_tls_to_a_plain_scheduler_is_refused_with_a_reason(tmp_path, cluster):
+    """It used to be refused with an empty reason."""
+    tls = make_certificates(tmp_path)
+    address = cluster.address.replace("tcp://", "tls://")
+    wrong = "TLS with tls://\\S+ failed: WRONG_VERSION_NUMBER \\(a plain scheduler needs tcp://\\)"
+    with pytest.raises(ClusterError, match=wrong), cluster_executor(address, tls, timeout=3):
+        pass
+
+
+def test_a_garbage_certificate_is_named_as_such(tmp_path):
+    """It was reported as 'Connection refused'."""
+    for name in ("ca.pem", "node.pem"):
+        (tmp_path / name).write_text("not a certificate\n")
+    tls = TlsFiles(tmp_path / "ca.pem", tmp_path / "node.pem")
+    garbage = "not a usable PEM certificate and key"
+    with pytest.raises(ClusterError, match=garbage), cluster_executor("tls://127.0.0.1:1", tls):
+        pass
+
+
+@contextlib.contextmanager
+def a_server(answer: bytes | None) -> Iterator[int]:
+    """A local server thread that accepts connections and says nothing (answer None) or, once
+    it has read something, answers it (an HTTP server): not a Dask scheduler."""
+    server = socket.create_server(("127.0.0.1", 0))
+    stop = threading.Event()
+
+    def serve() -> None:
+        kept = []
+        server.settimeout(0.1)
+        while not stop.is_set():
+            try:
+                conn, _ = server.accept()
+            except TimeoutError:
+                continue
+            kept.append(conn)
+            if answer is not None:
+                conn.settimeout(5)
+                with contextlib.suppress(OSError):
+                    conn.recv(1000)
+                    conn.sendall(answer)
+        for conn in kept:
+            conn.close()
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    try:
+        yield server.getsockname()[1]
+    finally:
+        stop.set()
+        thread.join()
+        server.close()
+
+
+HTTP_400 = b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n"
+
+
+@pytest.mark.parametrize("answer", [None, HTTP_400], ids=["silent", "http"])
+def test_a_port_that_is_not_a_scheduler_ends_within_the_timeout(answer, tmp_path):
+    """It used not to end after 150 s despite --scheduler-timeout 3 (silent), or to read an
+    HTTP answer as a frame length of 3 EiB and print a traceback (http)."""
+    with a_server(answer) as port:
+        address = f"tcp://127.0.0.1:{port}"
+        with (
+            pytest.raises(
+                ClusterError, match=f"no Dask scheduler answered at {address} within 1 s"
+            ),
+            cluster_executor(address, timeout=1.0),
+        ):
+            pass
+        done = subprocess.run(
+            [*CLI, "compare", "--suite", "quick", "--out", str(tmp_path / "out"),
+             "--scheduler", address, "--scheduler-timeout", "1"],
+            capture_output=True, text=True, timeout=LIMIT, env=environment(),
+        )  # fmt: skip
+    assert done.returncode == 2
+    assert done.stderr.strip().splitlines() == [
+        f"hoopbench: error: no Dask scheduler answered at {address} within 1 s: something "
+        "accepts connections there but sends nothing (a Dask scheduler speaks first; a TLS "
+        "one needs tls:// and the --tls-* options)"
+    ]
+    assert not (tmp_path / "out").exists()
 
 
 @pytest.mark.parametrize("timeout", [0.0, -1.0, math.nan, math.inf])

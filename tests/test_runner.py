@@ -29,13 +29,16 @@ from hoopbench.engines.run import RunStatus
 from hoopbench.reports.sweep import results
 from hoopbench.reports.sweep.results import TIMING_COLUMNS, read_runs
 from hoopbench.reports.sweep.runner import (
+    LOCK_NAME,
     ExecutorBrokenError,
+    FolderInUseError,
     OutputDirNotEmptyError,
     RemoteTracebackError,
     RunSummary,
     WorkerCrashedError,
     WorkerKilledError,
     WorkerPool,
+    claim_folder,
     run_tasks,
 )
 
@@ -360,13 +363,14 @@ def test_resuming_a_complete_sweep_does_nothing_and_says_so(tmp_path, scratch):
     out = tmp_path / "out"
     tasks = [Job(f"ok-{i}", scratch=str(scratch)) for i in range(3)]
     run(tasks, out)
-    before = {p: p.stat().st_mtime_ns for p in out.rglob("*")}
+    stored = [p for p in out.rglob("*") if p.name != LOCK_NAME]  # every sweep takes the lock
+    before = {p: p.stat().st_mtime_ns for p in stored}
     (scratch / "calls.log").unlink()
     stream = io.StringIO()
     summary = run(tasks, out, resume=True, quiet=False, stream=stream)
     assert summary.total == 0 and summary.skipped == 3 and summary.completed
     assert calls(scratch) == []
-    assert {p: p.stat().st_mtime_ns for p in out.rglob("*")} == before
+    assert {p: p.stat().st_mtime_ns for p in out.rglob("*") if p.name != LOCK_NAME} == before
     assert "nothing to run" in stream.getvalue()
     assert len(stream.getvalue().splitlines()) == 1
 
@@ -600,3 +604,79 @@ def test_worker_pool_is_an_executor_that_kills_one_call_and_replaces_dead_worker
         assert pool.submit(pow, 3, 2).result(timeout=30) == 9  # a new worker took over
         pids = pool.pids
     assert pids and not any(alive(p) for p in pids)
+
+
+# ------------------------------------------------------------------ one sweep per folder
+def test_a_second_sweep_on_a_locked_folder_is_refused_and_a_killed_sweeps_lock_taken_over(
+    tmp_path, scratch
+):
+    """Two processes on one folder: the second (fresh or resumed) is refused naming the first's
+    pid, and runs nothing; once the first is SIGKILLed, its lock is taken over."""
+    out = tmp_path / "out"
+    proc, marker = start_sweep(tmp_path, str(out), "--hang", str(scratch))
+    try:
+        assert wait_until(lambda: "hangs" in calls(scratch) and len(calls(scratch)) >= 3)
+        before = len(calls(scratch))
+        for resume in (True, False):
+            with pytest.raises(
+                FolderInUseError, match=f"in use by another sweep \\(pid {proc.pid} "
+            ):
+                run(sweep_tasks(str(scratch)), out, resume=resume)
+        proc.kill()
+        proc.communicate(timeout=30)
+        assert wait_until(lambda: not processes_with(marker), timeout=5)
+        assert len(calls(scratch)) >= before  # (the refused sweeps added no call of their own)
+    finally:
+        for pid in processes_with(marker):
+            os.kill(pid, signal.SIGKILL)
+    said = io.StringIO()
+    summary = run(sweep_tasks(), out, resume=True, quiet=False, stream=said)
+    assert summary.completed
+    assert f"taking over the lock of a sweep that ended without releasing it (pid {proc.pid} " in (
+        said.getvalue()
+    )
+    assert (out / LOCK_NAME).read_text() == ""  # released: the next one takes it silently
+
+
+def test_two_sweeps_at_once_in_a_new_folder_one_is_refused_and_nothing_is_left(tmp_path):
+    """The second sweep into a new folder while the first holds it (here a thread of this
+    process, which flock tells apart as another open file): one line, no traceback, no
+    temporary dataset folder left behind (it was an ENOTEMPTY race in RunsWriter)."""
+    out = tmp_path / "new"
+    holding, release = threading.Event(), threading.Event()
+
+    def first() -> None:
+        with claim_folder(out, resume=False):
+            holding.set()
+            release.wait(30)
+
+    thread = threading.Thread(target=first)
+    thread.start()
+    try:
+        assert holding.wait(30)
+        with pytest.raises(FolderInUseError, match=f"pid {os.getpid()} "):
+            run(sweep_tasks()[:2], out)
+    finally:
+        release.set()
+        thread.join()
+    assert sorted(p.name for p in out.iterdir()) == [LOCK_NAME]
+    assert run(sweep_tasks()[:2], out).completed  # then free, and empty but for the lock
+
+
+def test_a_sweep_started_from_a_script_on_stdin_runs(tmp_path):
+    """``python - <<EOF``: multiprocessing had every worker run '<cwd>/<stdin>' as the main
+    script, a FileNotFoundError traceback per worker and every row crashed."""
+    script = SWEEP_SCRIPT.format(tests=str(TESTS)).replace(
+        'if __name__ == "__main__":\n    sys.exit(main())', "main()"
+    )
+    done = subprocess.run(
+        [sys.executable, "-", str(tmp_path / "out")],
+        input=script,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=tmp_path,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "Traceback" not in done.stderr, done.stderr
+    assert set(read_runs(tmp_path / "out")["status"]) == {"ok", "diverged"}

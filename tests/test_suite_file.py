@@ -113,7 +113,12 @@ BAD = [
     (H + S + 'lam = "heavy"\nchi = 0.1\nmus = 0.8\n', "lam must be a number, got 'heavy'"),
     (H + "[[scene]]\nlam = 0.9\nchi = 0.1\nmus = 0.8\n", "name must be a non-empty string"),
     (HS + 'engines = ["pymunk"]\n' + V, "engine must be one of the suite's (pymunk)"),
-    (HS + '[[variant]]\nengine = "mujoco"\nname = "default"\n', "not 'default'"),
+    (HS + '[[variant]]\nengine = "mujoco"\nname = "default"\n', "got 'default'"),
+    (HS + '[[variant]]\nengine = "mujoco"\nname = ["v"]\n', "got ['v']"),
+    (
+        H + S + "lam = 0.9\nchi = 0.1\nmus = 0.8\ntheta0_deg = 1e6\n",
+        "[-360, 360] deg, got 1000000.0",
+    ),
     (HS + V + 'options = { cone = "round" }\n', "cone must be one of pyramidal, elliptic"),
     (HS + V + 'options = { cnoe = "pyramidal" }\n', "unknown mujoco setting(s) cnoe"),
     (HS + V + 'geometry = "hull"\n', "geometry 'hull' is not available for mujoco"),

@@ -8,8 +8,10 @@ the exact events for the same scene and mu, and the errors (engine minus exact).
 
 from __future__ import annotations
 
+import hashlib
 import json
 import shutil
+import sys
 from concurrent.futures import Executor
 from dataclasses import replace
 from pathlib import Path
@@ -33,7 +35,7 @@ from hoopbench.reports.compare.suite_file import (
     load_suite,
 )
 from hoopbench.reports.sweep import results
-from hoopbench.reports.sweep.runner import RunSummary, row_or_failure, run_tasks
+from hoopbench.reports.sweep.runner import RunSummary, claim_folder, row_or_failure, run_tasks
 
 __all__ = [
     "FORMAT_VERSION",
@@ -233,22 +235,34 @@ def compare(
         "units": {"times": "s", "angles": "deg", "lengths": "m", "*_ms": "ms"},
         "engine_versions": _engine_versions(suite.engines),
     }
-    summary = run_tasks(
-        tasks,
-        run_task,
-        out,
-        failure_row=failure_row,
-        timeout=timeout,
-        jobs=jobs,
-        executor=executor,
-        resume=resume,
-        meta=meta,
-        quiet=quiet,
-    )
-    copy = out / "suite.toml"
-    if Path(suite_file).is_file() and not copy.exists():
-        results.atomic_write(copy, lambda tmp: shutil.copyfile(suite_file, tmp))
+    say = None if quiet else (lambda text: print(text, file=sys.stderr, flush=True))
+    with claim_folder(out, resume, suite_identity(suite, suite_file), say):
+        summary = run_tasks(
+            tasks,
+            run_task,
+            out,
+            failure_row=failure_row,
+            timeout=timeout,
+            jobs=jobs,
+            executor=executor,
+            resume=resume,
+            meta=meta,
+            quiet=quiet,
+        )
+        copy = out / "suite.toml"
+        if Path(suite_file).is_file() and not copy.exists():
+            results.atomic_write(copy, lambda tmp: shutil.copyfile(suite_file, tmp))
     return summary
+
+
+def suite_identity(suite: Suite, suite_file: str | Path) -> dict[str, Any]:
+    """What a results folder of this suite records (runner.IDENTITY_NAME): a resume with
+    another suite, or another version of its file, would mix two suites' rows."""
+    try:
+        digest: str | None = hashlib.sha256(Path(suite_file).read_bytes()).hexdigest()
+    except OSError:
+        digest = None
+    return {"kind": "suite", "suite": suite.name, "suite_sha256": digest}
 
 
 def _without_trajectory(task: RunTask) -> RunTask:

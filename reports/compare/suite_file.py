@@ -13,8 +13,9 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import os
 import tomllib
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from enum import StrEnum
 from pathlib import Path
@@ -26,9 +27,11 @@ from hoopbench.engines.options import Profile, check_profile
 from hoopbench.engines.registry import engine_class, engine_names
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene, scene_names
-from hoopbench.models.scene import Scene
+from hoopbench.models.checks import check_real
+from hoopbench.models.scene import THETA0_LIMIT_DEG, Scene
 
 __all__ = [
+    "MAX_SUITE_RUNS",
     "SUITES_DIR",
     "CatalogueNameError",
     "RunTask",
@@ -39,12 +42,22 @@ __all__ = [
     "builtin_suite",
     "load_suite",
     "parse_suite",
+    "suite_path",
 ]
 
 SUITES_DIR = Path(__file__).resolve().parent / "suites"
 """The suite files hoopbench ships (quick, default, full, ...)."""
 
 DEFAULT_VARIANT = "default"
+
+MAX_SUITE_RUNS = 100_000
+"""Most runs one suite may make. Checking a run's settings costs about 0.1 ms and a run's
+task and row some kB, so this is ten seconds of checks and some hundred MB held before the
+first run (a million runs took two minutes and 1.1 GB, silently); the full shipped suite has
+about a thousand runs, and a sweep of more is several sweeps, each resumable on its own."""
+
+Announce = Callable[[str, int], None]
+"""Told a suite's name and run count before its runs are checked."""
 
 _TOP_KEYS = ("name", "engines", "timesteps", "profiles", "scenes", "scene", "variant")
 _SCENE_KEYS = (
@@ -148,21 +161,36 @@ class Suite:
     profiles: tuple[Profile, ...] = (Profile.TUNED,)
     """Each engine's defaults run once per profile (variant ``default``)."""
 
+    def _variants_of(self, scene: Scene, engine: str) -> list[VariantSpec]:
+        """The variants one engine runs on one scene: its defaults (one per distinct
+        profile), then the suite's own."""
+        defaults = [
+            VariantSpec(engine, DEFAULT_VARIANT, profile=p)
+            for p in _distinct_profiles(engine, self.profiles)
+        ]
+        mine = [
+            v
+            for v in self.variants
+            if v.engine == engine and (v.scenes is None or scene.name in v.scenes)
+        ]
+        return [*defaults, *mine]
+
+    @property
+    def run_count(self) -> int:
+        """How many runs :meth:`tasks` makes, counted without making them."""
+        return sum(
+            len(variant.timesteps or self.timesteps)
+            for scene in self.scenes
+            for engine in self.engines
+            for variant in self._variants_of(scene, engine)
+        )
+
     def tasks(self, trajectory_dir: str | None = None) -> list[RunTask]:
         """Every run, in a stable order: scene, engine, variant (default first), timestep."""
         tasks = []
         for scene in self.scenes:
             for engine in self.engines:
-                defaults = [
-                    VariantSpec(engine, DEFAULT_VARIANT, profile=p)
-                    for p in _distinct_profiles(engine, self.profiles)
-                ]
-                mine = [
-                    v
-                    for v in self.variants
-                    if v.engine == engine and (v.scenes is None or scene.name in v.scenes)
-                ]
-                for variant in (*defaults, *mine):
+                for variant in self._variants_of(scene, engine):
                     for dt in variant.timesteps or self.timesteps:
                         tasks.append(_task(scene, variant, dt, trajectory_dir))
         return tasks
@@ -221,8 +249,9 @@ def _task(scene: Scene, variant: VariantSpec, dt: float, trajectory_dir: str | N
 
 
 # --------------------------------------------------------------------------- parsing
-def load_suite(path: str | Path) -> Suite:
-    """Read and validate a suite file; SuiteError names the file, the key and the value."""
+def load_suite(path: str | Path, announce: Announce | None = None) -> Suite:
+    """Read and validate a suite file; SuiteError names the file, the key and the value.
+    ``announce(name, runs)`` is called before the runs are checked (parse_suite)."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
@@ -239,7 +268,7 @@ def load_suite(path: str | Path) -> Suite:
     except RecursionError:  # tomllib parses nested arrays recursively
         raise SuiteError(f"{path.name}: not a suite: its arrays or tables nest too deep") from None
     try:
-        return parse_suite(data)
+        return parse_suite(data, announce)
     except SuiteError as exc:  # its kind kept: the report refuses a CatalogueNameError
         raise type(exc)(f"{path.name}: {exc}") from None
 
@@ -250,15 +279,29 @@ def shipped_suites() -> tuple[str, ...]:
 
 
 def builtin_suite(name: str) -> Path:
-    """The path of a shipped suite file by its name (one of :func:`shipped_suites`)."""
-    path = SUITES_DIR / f"{name}.toml"
-    if not path.is_file():
-        raise SuiteError(f"no shipped suite {name!r}; shipped: {', '.join(shipped_suites())}")
-    return path
+    """The path of a shipped suite file by its name (one of :func:`shipped_suites`, and
+    nothing else: a name never reaches outside the suites folder)."""
+    if name not in shipped_suites():
+        raise SuiteError(
+            f"no shipped suite {name!r}; shipped: {', '.join(shipped_suites())} "
+            "(a suite file's path holds a / or ends in .toml)"
+        )
+    return SUITES_DIR / f"{name}.toml"
 
 
-def parse_suite(data: Mapping[str, Any]) -> Suite:
-    """A Suite from the parsed TOML; every run's settings are checked by its engine."""
+def suite_path(text: str) -> Path:
+    """The suite file that ``--suite TEXT`` means. A path holds a ``/`` or ends in ``.toml``
+    and is read as it is (``./mine`` for a file without the suffix); anything else is the
+    name of a shipped suite. One rule, so that a name is never read as a file nor a path
+    looked up among the shipped suites."""
+    if "/" in text or os.sep in text or text.endswith(".toml"):
+        return Path(text)
+    return builtin_suite(text)
+
+
+def parse_suite(data: Mapping[str, Any], announce: Announce | None = None) -> Suite:
+    """A Suite from the parsed TOML; every run's settings are checked by its engine, after
+    ``announce(name, runs)`` (a large suite takes seconds to check)."""
     _no_unknown_keys(data, _TOP_KEYS, "suite")
     name = data.get("name")
     if not isinstance(name, str) or not name.strip():
@@ -275,6 +318,14 @@ def parse_suite(data: Mapping[str, Any]) -> Suite:
     variants = _variants(data.get("variant", []), engines, names)
     profiles = _profiles(data.get("profiles", ["tuned"]), "profiles")
     suite = Suite(name, engines, timesteps, tuple(scenes), variants, profiles)
+    count = suite.run_count
+    if count > MAX_SUITE_RUNS:
+        raise SuiteError(
+            f"the suite makes {count:,} runs, more than {MAX_SUITE_RUNS:,}: split it into "
+            "several suites (each its own results folder)"
+        )
+    if announce is not None:
+        announce(suite.name, count)
     _check_runs(suite)
     return suite
 
@@ -360,10 +411,12 @@ def _param_scene(table: Any, k: int) -> Scene:
     for key, value in table.items():
         if key != "name" and (isinstance(value, bool) or not isinstance(value, int | float)):
             raise SuiteError(f"{where}: {key} must be a number, got {value!r}")
-    if "theta0_deg" in table:
-        params["theta0"] = math.radians(table["theta0_deg"])
     params.setdefault("muk", params["mus"])
     try:
+        if "theta0_deg" in table:
+            limit = THETA0_LIMIT_DEG
+            deg = check_real("theta0_deg", table["theta0_deg"], low=-limit, high=limit, unit="deg")
+            params["theta0"] = math.radians(deg)
         scene = (
             Scene.from_chi(table["chi"], name=name, **params)
             if "chi" in table
@@ -418,7 +471,10 @@ def _variants(value: Any, engines: Sequence[str], scenes: Sequence[str]) -> tupl
                 f"{where}: engine must be one of the suite's ({', '.join(engines)}), got {engine!r}"
             )
         if not isinstance(name, str) or not name.strip() or name == DEFAULT_VARIANT:
-            raise SuiteError(f"{where}: name must be a non-empty string, not 'default'")
+            raise SuiteError(
+                f"{where}: name must be a non-empty string other than {DEFAULT_VARIANT!r}, "
+                f"got {name!r}"
+            )
         if any(v.engine == engine and v.name == name for v in variants):
             raise SuiteError(f"{where}: {engine} variant {name!r} is given twice")
         where = f"[[variant]] {engine} {name!r}"

@@ -27,7 +27,7 @@ from hoopbench.engines.registry import engine_class, engine_names
 from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.engines.settings import DEFAULT_TIMESTEP, RunSettings
 from hoopbench.models.checks import check_integer, check_real
-from hoopbench.models.scene import Scene
+from hoopbench.models.scene import THETA0_LIMIT_DEG, Scene
 from hoopbench.reports.sweep.runner import (
     RunnerError,
 )
@@ -138,8 +138,8 @@ AXES: Mapping[Axis, AxisInfo] = MappingProxyType(
             "closed forms.",
         ),
         Axis.THETA0_DEG: AxisInfo(
-            -360.0,
-            360.0,
+            -THETA0_LIMIT_DEG,
+            THETA0_LIMIT_DEG,
             (0.0, 360.0),
             0.0,
             "deg",
@@ -427,10 +427,9 @@ def check_grid(value: str | Sequence[int]) -> tuple[int, int]:
     """Points along x and y: ``'40x40'`` or ``(40, 40)`` -> (40, 40), whole numbers >= 1."""
     if isinstance(value, str):
         nx, sep, ny = value.lower().partition("x")
-        try:
-            grid = (int(nx), int(ny)) if sep else None
-        except ValueError:
-            grid = None
+        # ASCII digits only: int() also reads '２' (full width) and ' 3', not what one types
+        digits = all(part.isascii() and part.isdigit() for part in (nx, ny))
+        grid = (int(nx), int(ny)) if sep and digits else None
     else:
         pair = tuple(value) if isinstance(value, Sequence) else ()
         whole = [n for n in pair if isinstance(n, numbers.Integral) and not isinstance(n, bool)]

@@ -55,6 +55,9 @@ from hoopbench.reports.sweep import results
 from hoopbench.reports.sweep.runner import (
     RunnerError,
     RunSummary,
+    check_identity,
+    claim_folder,
+    holds_files,
     is_final_status,
     prepare_dir,
     refuse_in_a_starting_worker,
@@ -327,6 +330,10 @@ def _timeout(task: MapTask) -> float:
 
 
 # --------------------------------------------------------------------------- running
+MAP_IDENTITY = {"kind": "map"}
+"""A map folder's sweep.json (runner.IDENTITY_NAME); which map it is, map.toml says."""
+
+
 def _prepare(out: Path, spec: MapSpec, resume: bool) -> None:
     """Check the folder (and a stored spec on resume); write map.toml if it is not there."""
     path = out / MAP_FILE
@@ -339,8 +346,6 @@ def _prepare(out: Path, spec: MapSpec, resume: bool) -> None:
                 "or choose a new folder"
             )
         return
-    if resume and out.is_dir() and any(out.iterdir()):
-        raise RunnerError(f"{out} holds no {MAP_FILE}: it is not a hop map folder to resume")
     prepare_dir(out, resume=False)  # the runner's checks: not a file, empty
     results.atomic_write(path, lambda tmp: tmp.write_text(spec.to_toml(), encoding="utf-8"))
 
@@ -390,6 +395,27 @@ def run_map(
     """
     refuse_in_a_starting_worker()
     out = Path(out)
+    if resume and out.is_dir():  # before the lock file is made
+        check_identity(out, MAP_IDENTITY)
+    if resume and holds_files(out) and not (out / MAP_FILE).is_file():
+        raise RunnerError(f"{out} holds no {MAP_FILE}: it is not a hop map folder to resume")
+    say = None if quiet else (lambda text: _say(text, quiet, stream))
+    with claim_folder(out, resume, MAP_IDENTITY, say):
+        return _run_map(
+            spec, out, jobs=jobs, executor=executor, resume=resume, quiet=quiet, stream=stream
+        )
+
+
+def _run_map(
+    spec: MapSpec,
+    out: Path,
+    *,
+    jobs: int,
+    executor: Executor | None,
+    resume: bool,
+    quiet: bool,
+    stream: TextIO | None,
+) -> RunSummary:
     _prepare(out, spec, resume)
     started_at = datetime.now(UTC)
     meta = {"map": spec.to_dict(), results.FORMAT_KEY: ROWS_FORMAT_VERSION}

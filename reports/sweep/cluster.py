@@ -37,6 +37,8 @@ import math
 import os
 import signal
 import socket
+import ssl
+import struct
 import subprocess
 import sys
 import tempfile
@@ -330,7 +332,9 @@ def cluster_executor(
     address = f"{scheme}://[{host}]:{port}" if ":" in host else f"{scheme}://{host}:{port}"
     distributed = _import_distributed()
     dask_security = _security(distributed, scheme, security, address)
+    context = _client_tls_context(dask_security)  # a bad file first: the network may be fine
     _check_reachable(host, port, timeout, address)
+    _check_greeting(host, port, timeout, address, context)
     try:
         client = distributed.Client(
             address, security=dask_security, timeout=timeout, set_as_default=False
@@ -408,6 +412,76 @@ def _check_reachable(host: str, port: int, timeout: float, address: str) -> None
     except OSError as exc:
         reason = exc.strerror or type(exc).__name__
         raise ClusterError(f"cannot reach a Dask scheduler at {address}: {reason}") from None
+
+
+MAX_GREETING_BYTES = 1 << 20
+"""A Dask scheduler's first message (its handshake: a few versions and flags) is far smaller;
+a larger length is another protocol's first bytes read as Dask's 8-byte length."""
+
+
+def _client_tls_context(security: Any) -> ssl.SSLContext | None:
+    """The SSL context Dask's client would use, built from the TLS files now: a file that is
+    not a certificate or key is named as such (it was 'Connection refused')."""
+    if security is None:
+        return None
+    try:
+        context = security.get_connection_args("client")["ssl_context"]
+    except (ssl.SSLError, OSError, ValueError) as exc:
+        reason = " ".join(str(exc).split()) or type(exc).__name__
+        raise ClusterError(
+            f"--tls-cert {security.tls_client_cert!r} (key {security.tls_client_key!r}, CA "
+            f"{security.tls_ca_file!r}): not a usable PEM certificate and key: {reason}"
+        ) from None
+    return context if isinstance(context, ssl.SSLContext) else None
+
+
+def _check_greeting(
+    host: str, port: int, timeout: float, address: str, context: ssl.SSLContext | None
+) -> None:
+    """Read the scheduler's greeting (a Dask server writes its handshake first) within the
+    timeout: a port that accepts and says nothing, an HTTP server, or a plain scheduler
+    asked for TLS would otherwise hold Dask's client past any timeout, or make it read
+    another protocol's bytes as a frame length."""
+    deadline = time.monotonic() + timeout
+    try:
+        with socket.create_connection((host, port), timeout=timeout) as raw:
+            if context is None:
+                header = _read_exactly(raw, 8, deadline)
+            else:
+                with context.wrap_socket(raw, server_hostname=host) as tls:
+                    header = _read_exactly(tls, 8, deadline)
+    except TimeoutError:
+        raise ClusterError(
+            f"no Dask scheduler answered at {address} within {timeout:g} s: something "
+            "accepts connections there but sends nothing (a Dask scheduler speaks first"
+            + ("; a TLS one needs tls:// and the --tls-* options)" if context is None else ")")
+        ) from None
+    except ssl.SSLError as exc:
+        reason = exc.reason or " ".join(str(exc).split()) or type(exc).__name__
+        hint = " (a plain scheduler needs tcp://)" if "VERSION" in str(reason).upper() else ""
+        raise ClusterError(f"TLS with {address} failed: {reason}{hint}") from None
+    except OSError as exc:
+        reason = exc.strerror or " ".join(str(exc).split()) or type(exc).__name__
+        raise ClusterError(
+            f"{address} closed the connection before any Dask greeting: {reason}"
+        ) from None
+    (length,) = struct.unpack("<Q", header)
+    if length > MAX_GREETING_BYTES:
+        raise ClusterError(f"{address} is not a Dask scheduler: its first bytes are {header!r}")
+
+
+def _read_exactly(sock: socket.socket, n: int, deadline: float) -> bytes:
+    data = b""
+    while len(data) < n:
+        left = deadline - time.monotonic()
+        if left <= 0:
+            raise TimeoutError
+        sock.settimeout(left)
+        chunk = sock.recv(n - len(data))
+        if not chunk:
+            raise ConnectionResetError(0, "it closed the connection")
+        data += chunk
+    return data
 
 
 def _check_workers(client: Any, address: str, timeout: float) -> None:

@@ -34,11 +34,14 @@ catches its own exceptions and sets ``status`` (a :class:`RunStatus` value) in i
 from __future__ import annotations
 
 import contextlib
+import fcntl
+import json
 import multiprocessing
 import multiprocessing.connection
 import os
 import pickle
 import signal
+import socket
 import sys
 import threading
 import time
@@ -62,7 +65,11 @@ from hoopbench.engines.run import RunStatus
 from hoopbench.reports.sweep import results
 
 __all__ = [
+    "IDENTITY_NAME",
+    "LOCK_NAME",
     "ExecutorBrokenError",
+    "FolderInUseError",
+    "OtherSweepError",
     "OutputDirNotEmptyError",
     "PoolFuture",
     "RunSummary",
@@ -71,11 +78,16 @@ __all__ = [
     "WorkerCrashedError",
     "WorkerKilledError",
     "WorkerPool",
+    "check_dir",
+    "check_identity",
+    "claim_folder",
+    "holds_files",
     "is_final_status",
     "prepare_dir",
     "refuse_in_a_starting_worker",
     "row_or_failure",
     "run_tasks",
+    "sweep_lock",
 ]
 
 
@@ -182,6 +194,30 @@ class _Worker:
 def _default_context() -> BaseContext:
     methods = multiprocessing.get_all_start_methods()
     return multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
+
+
+_main_guard = threading.Lock()
+
+
+@contextlib.contextmanager
+def _main_without_a_missing_file() -> Iterator[None]:
+    """While a worker (or the fork server) starts: hide ``__main__.__file__`` if it names no
+    file. A script read from stdin (``python - <<EOF``) or given with ``-c`` has '<stdin>' or
+    no file, and multiprocessing would have every new process run '<cwd>/<stdin>' as the main
+    script: a FileNotFoundError traceback per worker and every run crashed. Without it the
+    workers start as from an interactive session (the worker function must then be
+    importable, as hoopbench's are)."""
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    if main is None or path is None or os.path.isfile(path):
+        yield
+        return
+    with _main_guard:
+        del main.__file__
+        try:
+            yield
+        finally:
+            main.__file__ = path
 
 
 def refuse_in_a_starting_worker() -> None:
@@ -351,7 +387,8 @@ class WorkerPool(Executor):
             name="hoopbench-worker",
             daemon=True,
         )
-        process.start()
+        with _main_without_a_missing_file():
+            process.start()
         child_conn.close()
         self._workers.append(_Worker(process=process, conn=conn))
 
@@ -785,16 +822,202 @@ def is_final_status(status: str | None) -> bool:
         return False
 
 
-def prepare_dir(out: Path, resume: bool) -> None:
-    """Make the results folder; RunnerError if it is a file, or holds files without
-    ``resume``."""
+LOCK_NAME = ".sweep.lock"
+"""The lock file of a results folder. The sweep that holds it (fcntl.flock, for the whole
+sweep) writes its pid and host into it and empties it when done, so a lock file that is
+free but not empty was left by a sweep that was killed: the next one takes it over. The file
+stays (removing it would let a third sweep lock a new file while a second holds the old)."""
+IDENTITY_NAME = "sweep.json"
+"""What a results folder holds (its kind: a suite or a map; for a suite its name and the
+sha256 of its file), written when its first sweep starts: a resume checks it."""
+_BOOKKEEPING = (LOCK_NAME, IDENTITY_NAME)
+
+
+class FolderInUseError(RunnerError):
+    """Another sweep (another process, or another thread here) holds the folder's lock."""
+
+
+class OtherSweepError(RunnerError):
+    """A resume into a folder that holds another kind of sweep, or another suite."""
+
+
+def holds_files(out: Path, ignore: Sequence[str] = ()) -> bool:
+    """Whether the folder holds anything besides the runner's bookkeeping and ``ignore``."""
+    skip = {*_BOOKKEEPING, *ignore}
+    return out.is_dir() and any(p.name not in skip for p in out.iterdir())
+
+
+def check_dir(out: Path, resume: bool) -> None:
+    """RunnerError if the results folder is a file, or holds files without ``resume``;
+    nothing is written."""
     if out.exists() and not out.is_dir():
         raise RunnerError(f"{out} exists and is not a directory")
-    if not resume and out.is_dir() and any(out.iterdir()):
+    if not resume and holds_files(out):
         raise OutputDirNotEmptyError(
             f"{out} is not empty: resume the sweep stored there, or choose a new directory"
         )
+
+
+def prepare_dir(out: Path, resume: bool) -> None:
+    """Make the results folder; RunnerError if it is a file, or holds files without
+    ``resume``."""
+    check_dir(out, resume)
     out.mkdir(parents=True, exist_ok=True)
+
+
+_held: dict[tuple[Path, int], int] = {}
+"""(folder, thread) -> depth of the locks this process holds: a map's two stages, or a suite
+around run_tasks, take the lock they already hold."""
+_held_guard = threading.Lock()
+
+
+def _holder(fd: int) -> str:
+    text = os.pread(fd, 200, 0).decode("utf-8", "replace").strip()
+    return " ".join(text.split()) or "pid unknown"
+
+
+@contextlib.contextmanager
+def sweep_lock(out: Path, say: Callable[[str], None] | None = None) -> Iterator[None]:
+    """Hold the folder's lock (LOCK_NAME) for a sweep; FolderInUseError naming the holder's
+    pid if another sweep holds it. Makes the folder. Re-entrant in one thread.
+
+    The OS's own lock (flock) rather than a library's: the kernel releases it when its
+    process dies, even by SIGKILL, so a stale lock needs no guessing from pids or ages, and
+    it costs no dependency (filelock opens its file with O_TRUNC, which would wipe the
+    holder's pid before telling us it is held). It works on local disks and on NFS (Linux
+    emulates flock with NFS byte-range locks).
+    """
+    key = (out.resolve(), threading.get_ident())
+    with _held_guard:
+        nested = key in _held
+        _held[key] = _held.get(key, 0) + 1
+    try:
+        if nested:
+            yield
+            return
+        with _locked_file(out, say):
+            yield
+    finally:
+        with _held_guard:
+            _held[key] -= 1
+            if not _held[key]:
+                del _held[key]
+
+
+@contextlib.contextmanager
+def _locked_file(out: Path, say: Callable[[str], None] | None) -> Iterator[None]:
+    out.mkdir(parents=True, exist_ok=True)
+    fd = os.open(out / LOCK_NAME, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise FolderInUseError(_in_use(out, fd)) from None
+        left = os.pread(fd, 1, 0)
+        if left and say is not None:
+            say(
+                f"{out}: taking over the lock of a sweep that ended without releasing it "
+                f"({_holder(fd)})"
+            )
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"pid {os.getpid()} on {socket.gethostname()}\n".encode(), 0)
+        try:
+            yield
+        finally:
+            os.ftruncate(fd, 0)
+    finally:
+        os.close(fd)  # releases the lock
+
+
+def _refuse_if_locked(out: Path) -> None:
+    """FolderInUseError if a sweep holds the folder's lock; nothing is written."""
+    try:
+        fd = os.open(out / LOCK_NAME, os.O_RDWR)
+    except OSError:
+        return
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        raise FolderInUseError(_in_use(out, fd)) from None
+    finally:
+        os.close(fd)
+
+
+def _in_use(out: Path, fd: int) -> str:
+    return (
+        f"{out} is in use by another sweep ({_holder(fd)}): wait for it to end, "
+        "or choose another folder"
+    )
+
+
+def _stored_identity(out: Path) -> dict[str, Any] | None:
+    """The folder's sweep.json; else what an older folder's meta.json tells (kind, suite);
+    None when neither says."""
+    for name in (IDENTITY_NAME, results.META_NAME):
+        try:
+            stored = json.loads((out / name).read_text())
+        except (OSError, ValueError):
+            continue
+        if not isinstance(stored, dict):
+            continue
+        if name == IDENTITY_NAME:
+            return stored
+        kind = "map" if "map" in stored else "suite"
+        return {"kind": kind, "suite": stored.get("suite")} if kind == "suite" else {"kind": kind}
+    return None
+
+
+def _describe(identity: Mapping[str, Any]) -> str:
+    if identity.get("kind") != "suite":
+        return "a hop map" if identity.get("kind") == "map" else f"a {identity.get('kind')}"
+    return f"suite {identity.get('suite')!r}"
+
+
+def check_identity(out: Path, identity: Mapping[str, Any]) -> None:
+    """OtherSweepError if ``out`` holds another kind of sweep or another suite than
+    ``identity`` says (the keys both record are compared)."""
+    stored = _stored_identity(out)
+    if stored is None:
+        return
+    differ = [k for k in identity if k in stored and stored[k] != identity[k]]
+    if not differ:
+        return
+    if "kind" in differ or "suite" in differ:
+        what = f"holds {_describe(stored)}, not {_describe(identity)}"
+    else:
+        what = f"holds {_describe(stored)} from another suite file ({', '.join(differ)} differ)"
+    raise OtherSweepError(
+        f"{out} {what}: resume it with its own command and file, or choose a new folder"
+    )
+
+
+@contextlib.contextmanager
+def claim_folder(
+    out: Path,
+    resume: bool,
+    identity: Mapping[str, Any] | None = None,
+    say: Callable[[str], None] | None = None,
+) -> Iterator[None]:
+    """The folder, for one whole sweep: checked, locked (sweep_lock), checked again under the
+    lock (a sweep started at the same instant may have filled it), and its identity written
+    (a new sweep) or compared (a resume). Nothing is written for a refused folder that did
+    not exist or held files."""
+    try:
+        check_dir(out, resume)
+    except OutputDirNotEmptyError:
+        _refuse_if_locked(out)  # "in use" says more than "not empty"
+        raise
+    if resume and identity is not None and out.is_dir():
+        check_identity(out, identity)
+    with sweep_lock(out, say):
+        check_dir(out, resume)
+        if identity is not None:
+            if resume:
+                check_identity(out, identity)
+            if not (out / IDENTITY_NAME).exists() and not holds_files(out):
+                text = json.dumps(dict(identity), indent=2) + "\n"
+                results.atomic_write(out / IDENTITY_NAME, lambda tmp: tmp.write_text(text))
+        yield
 
 
 def _finalize(
@@ -1026,45 +1249,49 @@ def run_tasks(
     tasks = list(tasks)
     _check_run_ids(tasks)
     out = Path(out_dir)
-    prepare_dir(out, resume)
     text_stream = sys.stderr if stream is None else stream
-    notes: list[str] = []
+    say = None if quiet else (lambda text: print(text, file=text_stream, flush=True))
+    # The whole sweep holds the folder: a second one, or a resume, waits for none of it.
+    with claim_folder(out, resume, None, say):
+        notes: list[str] = []
 
-    def note(text: str) -> None:
-        notes.append(text)
-        if not quiet:
-            print(text, file=text_stream, flush=True)
+        def note(text: str) -> None:
+            notes.append(text)
+            if not quiet:
+                print(text, file=text_stream, flush=True)
 
-    stored = _resumed_statuses(out, note) if resume else {}
-    todo = [t for t in tasks if not is_final_status(stored.get(t.run_id))]
-    skipped = len(tasks) - len(todo)
-    session = {"ran": len(todo), "skipped": skipped}
-    task_order = [t.run_id for t in tasks]
-    if resume and not todo and tasks:
-        note(f"resume: nothing to run, all {len(tasks)} runs are stored with a final status")
-        missing = [n for n in (results.CSV_NAME, results.META_NAME) if not (out / n).exists()]
-        if missing:
-            _finalize(out, task_order, meta, started_at, wall_start, True, session)
-            note(f"resume: wrote the missing {' and '.join(missing)}")
-        return RunSummary(out, {}, time.monotonic() - wall_start, None, skipped, 0, tuple(notes))
+        stored = _resumed_statuses(out, note) if resume else {}
+        todo = [t for t in tasks if not is_final_status(stored.get(t.run_id))]
+        skipped = len(tasks) - len(todo)
+        session = {"ran": len(todo), "skipped": skipped}
+        task_order = [t.run_id for t in tasks]
+        if resume and not todo and tasks:
+            note(f"resume: nothing to run, all {len(tasks)} runs are stored with a final status")
+            missing = [n for n in (results.CSV_NAME, results.META_NAME) if not (out / n).exists()]
+            if missing:
+                _finalize(out, task_order, meta, started_at, wall_start, True, session)
+                note(f"resume: wrote the missing {' and '.join(missing)}")
+            return RunSummary(
+                out, {}, time.monotonic() - wall_start, None, skipped, 0, tuple(notes)
+            )
 
-    writer = results.RunsWriter(out / results.RUNS_NAME)
-    pool, in_flight_limit = _pool_for(worker, executor, jobs, max_in_flight)
-    progress = _Progress(len(todo), text_stream, quiet)
-    sweep = _Sweep(worker, writer, progress, failure_row, timeout, flush_interval, flush_rows)
-    calls = _Calls(sweep, pool, executor is None, todo, in_flight_limit)
-    stopped_by = _drive(calls, handle_signals, tick=0.1 if timeout is not None else 0.25)
-    if stopped_by is None:
-        _finalize(out, task_order, meta, started_at, wall_start, resume, session)
-    return RunSummary(
-        out_dir=out,
-        counts=dict(sweep.counts),
-        wall_time_s=time.monotonic() - wall_start,
-        interrupted=stopped_by,
-        skipped=skipped,
-        unfinished=calls.unfinished,
-        notes=tuple(notes),
-    )
+        writer = results.RunsWriter(out / results.RUNS_NAME)
+        pool, in_flight_limit = _pool_for(worker, executor, jobs, max_in_flight)
+        progress = _Progress(len(todo), text_stream, quiet)
+        sweep = _Sweep(worker, writer, progress, failure_row, timeout, flush_interval, flush_rows)
+        calls = _Calls(sweep, pool, executor is None, todo, in_flight_limit)
+        stopped_by = _drive(calls, handle_signals, tick=0.1 if timeout is not None else 0.25)
+        if stopped_by is None:
+            _finalize(out, task_order, meta, started_at, wall_start, resume, session)
+        return RunSummary(
+            out_dir=out,
+            counts=dict(sweep.counts),
+            wall_time_s=time.monotonic() - wall_start,
+            interrupted=stopped_by,
+            skipped=skipped,
+            unfinished=calls.unfinished,
+            notes=tuple(notes),
+        )
 
 
 def _drive(calls: _Calls, handle_signals: bool, tick: float) -> signal.Signals | None:
