@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from hoopbench.models.catalogue import get_scene
 from hoopbench.models.trajectory import COLUMNS, Trajectory
 from hoopbench.reports.compare.suite import compare
 from hoopbench.reports.compare.suite_file import builtin_suite
@@ -24,8 +25,10 @@ from hoopbench.reports.hop_map.display import DISPLAY_SAMPLES, read_display, thi
 from hoopbench.reports.hop_map.spec import MapSpec
 from hoopbench.reports.hop_map.stages import run_map
 from hoopbench.reports.hop_map.table import map_frame
-from hoopbench.reports.report.build import build_report
+from hoopbench.reports.report.build import build_report, report_frame
+from hoopbench.reports.report.hoop_gif import GIF_FRAMES, hoop_gif
 from hoopbench.reports.report.page import PAGE_NAME
+from hoopbench.reports.report.page_animation import hoop_motions
 from hoopbench.reports.report.page_html import script_json
 
 CHROMIUM = Path("/usr/bin/chromium")
@@ -46,7 +49,9 @@ def page(tmp_path_factory) -> Path:
     """report.html of the quick suite, a stability suite of one script-named scene, a map."""
     root = tmp_path_factory.mktemp("page")
     quick = root / "quick"
-    assert compare(builtin_suite("quick"), quick, jobs=2, quiet=True, trajectories="default").completed
+    assert compare(
+        builtin_suite("quick"), quick, jobs=2, quiet=True, trajectories="default"
+    ).completed
     stiff = root / "stability.toml"
     stiff.write_text(
         'name = "stability"\nengines = ["reference", "pymunk"]\ntimesteps = [1e-3, 1e-4]\n'
@@ -274,3 +279,20 @@ def test_the_tables_sort_and_filter(browser, page):
     Select(bar.find_element("tag name", "select")).select_by_value("pymunk")
     assert set(_column(browser, table, engine)) == {"pymunk"}
     _shot(browser, page, "table")
+
+
+def test_the_readme_animation_is_a_small_gif(page, tmp_path):
+    from PIL import Image
+
+    runs = report_frame(page.parent.parent / "quick")
+    scene = "hop-bottom"  # the quick suite's hop: the README's hop-top is drawn the same way
+    trajectories = {
+        row["engine"]: Trajectory.read(row["trajectory_file"])
+        for _, row in runs[runs["scene"] == scene].iterrows()
+    }
+    motions = hoop_motions(get_scene(scene), trajectories, runs[runs["scene"] == scene])
+    assert motions[0].name == "exact" and len(motions) == len(trajectories)
+    path = hoop_gif(get_scene(scene), motions, tmp_path / "hop.gif")
+    with Image.open(path) as image:
+        assert image.format == "GIF" and image.n_frames == GIF_FRAMES
+    assert path.stat().st_size < 2e6

@@ -19,9 +19,12 @@ import pandas as pd
 from markdown_it import MarkdownIt
 from plotly.offline import get_plotlyjs
 
+from hoopbench.engines.options import Profile
+from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
 from hoopbench.models.catalogue import get_scene, scene_names
 from hoopbench.reports.compare.selection import default_rows, profile_of
+from hoopbench.reports.report.hoop_gif import GIF_SCENE, hoop_gif
 from hoopbench.reports.report.markdown import (
     STABILITY_SUITE,
     _force_panels,
@@ -38,7 +41,7 @@ from hoopbench.reports.report.page_html import figure_fragment, script_json, tex
 from hoopbench.reports.report.page_map import map_fragment
 from hoopbench.reports.report.page_script import FILTER_COLUMNS, PAGE_SCRIPT, PAGE_STYLE
 
-__all__ = ["PAGE_NAME", "page_fragments", "write_page"]
+__all__ = ["PAGE_NAME", "page_fragments", "render_page", "write_gif", "write_page"]
 
 PAGE_NAME = "report.html"
 
@@ -58,7 +61,7 @@ def _scene_rows(runs: pd.DataFrame, scene: str) -> pd.DataFrame:
     """The rows whose trajectories the report draws (markdown._stored_trajectories')."""
     rows = default_rows(runs)
     rows = rows[(rows["scene"] == scene) & (rows["timestep"] == DEFAULT_TIMESTEP)]
-    return rows[profile_of(rows) == "tuned"]
+    return rows[profile_of(rows) == str(Profile.TUNED)]
 
 
 def _animation(runs: pd.DataFrame, scene: str, figure_id: str) -> Callable[[], str]:
@@ -73,14 +76,23 @@ def _animation(runs: pd.DataFrame, scene: str, figure_id: str) -> Callable[[], s
     return fragment
 
 
-def page_fragments(frame: pd.DataFrame, maps: Sequence[Path], map_prefixes: Sequence[str]) -> Fragments:
+def _split(frame: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The comparison suites' rows and the stability suite's, as report.md splits them."""
+    everything = _with_optional_columns(frame)
+    stability = everything["suite"] == STABILITY_SUITE
+    return everything[~stability], everything[stability]
+
+
+def page_fragments(
+    frame: pd.DataFrame, maps: Sequence[Path], map_prefixes: Sequence[str]
+) -> Fragments:
     """What the page shows in place of report.md's figures (module doc), by figure file name."""
-    everything = _with_optional_columns(frame) if not frame.empty else frame
     fragments: Fragments = {}
     if not frame.empty:
-        stability = everything["suite"] == STABILITY_SUITE
-        runs, stiff = everything[~stability], everything[stability]
-        fragments["error_vs_time.png"] = _figure("error-vs-time", lambda: precision_page_figure(runs))
+        runs, stiff = _split(frame)
+        fragments["error_vs_time.png"] = _figure(
+            "error-vs-time", lambda: precision_page_figure(runs)
+        )
         fragments["stability.png"] = _figure("stability", lambda: stability_page_figure(stiff))
         fragments["contact_forces.png"] = _figure(
             "contact-forces", lambda: force_page_figure(_force_panels(runs))
@@ -89,8 +101,12 @@ def page_fragments(frame: pd.DataFrame, maps: Sequence[Path], map_prefixes: Sequ
             if scene in scene_names():
                 fragments[f"paths_{scene}.png"] = _animation(runs, scene, f"motion-{k}")
     for k, (folder, prefix) in enumerate(zip(maps, map_prefixes, strict=True)):
-        fragments[f"{prefix}_regimes.png"] = lambda f=folder, i=k: map_fragment(f, f"map-{i}")
+        fragments[f"{prefix}_regimes.png"] = _map(folder, f"map-{k}")
     return fragments
+
+
+def _map(folder: Path, figure_id: str) -> Callable[[], str]:
+    return lambda: map_fragment(folder, figure_id)
 
 
 # --------------------------------------------------------------------------- rendering
@@ -113,7 +129,10 @@ def _renderer(out: Path, fragments: Fragments) -> MarkdownIt:
 
     def image(self, tokens, idx, options, env) -> str:  # markdown-it's render-rule signature
         token = tokens[idx]
-        src, alt = str(token.attrGet("src") or ""), self.renderInlineAsText(token.children, options, env)
+        src, alt = (
+            str(token.attrGet("src") or ""),
+            self.renderInlineAsText(token.children, options, env),
+        )
         parts = [] if src in fragments and not _KEEP_PNG.fullmatch(src) else [_image(out, src, alt)]
         if src in fragments:
             parts.append(fragments[src]())
@@ -131,8 +150,9 @@ def _renderer(out: Path, fragments: Fragments) -> MarkdownIt:
     return md
 
 
-def _nav(md: MarkdownIt, tokens: list) -> str:
-    links = []
+def _nav(tokens: list) -> str:
+    """Links to the report's sections (its h2 headings)."""
+    links: list[str] = []
     for k, token in enumerate(tokens):
         if token.type == "heading_open" and token.tag == "h2":
             title = tokens[k + 1].content
@@ -154,7 +174,7 @@ def render_page(markdown_text: str, out: Path, fragments: Fragments) -> str:
             f"<title>{text(title or 'hoopbench report')}</title>",
             f"<style>{PAGE_STYLE}</style>",
             f"<script>{get_plotlyjs()}</script>",
-            f"</head><body>{_nav(md, tokens)}",
+            f"</head><body>{_nav(tokens)}",
             body,
             f"<script>{script}</script>",
             "</body></html>",
@@ -162,13 +182,29 @@ def render_page(markdown_text: str, out: Path, fragments: Fragments) -> str:
     )
 
 
+def write_gif(frame: pd.DataFrame, out: Path) -> Path | None:
+    """out/hop-top.gif (hoop_gif.py), when the report has hop-top's exact and engine
+    trajectories; `make findings` copies it to reports/img/ for the README."""
+    if frame.empty or GIF_SCENE not in scene_names():
+        return None
+    runs, _ = _split(frame)
+    trajectories = _stored_trajectories(runs, GIF_SCENE)
+    if REFERENCE_ENGINE not in trajectories or len(trajectories) < 2:
+        return None
+    scene = get_scene(GIF_SCENE)
+    motions = hoop_motions(scene, trajectories, _scene_rows(runs, GIF_SCENE))
+    return hoop_gif(scene, motions, out / f"{GIF_SCENE}.gif")
+
+
 def write_page(
     frame: pd.DataFrame, out: Path, *, maps: Sequence[Path] = (), map_prefixes: Sequence[str] = ()
 ) -> Path:
-    """Write out/report.html from out/report.md (written first) and the rows it was made of."""
+    """Write out/report.html from out/report.md (written first) and the rows it was made of,
+    and the README's animation (:func:`write_gif`)."""
     out = Path(out)
     markdown_text = (out / "report.md").read_text(encoding="utf-8")
     page = render_page(markdown_text, out, page_fragments(frame, maps, map_prefixes))
     path = out / PAGE_NAME
     path.write_text(page, encoding="utf-8")
+    write_gif(frame, out)
     return path

@@ -23,7 +23,7 @@ from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.models import kinematics
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
-from hoopbench.reports.report.page_html import rounded, text
+from hoopbench.reports.report.page_html import PALETTE, rounded, text
 
 __all__ = ["EVENTS", "HoopMotion", "animation_figure", "hoop_motions"]
 
@@ -66,7 +66,7 @@ class HoopMotion:
 
     def at(self, t: float) -> int:
         """The sample shown at time t (the last one after the run's end)."""
-        return int(min(np.searchsorted(self.t, t, side="right"), len(self.t)) - 1)
+        return min(int(np.searchsorted(self.t, t, side="right")), len(self.t)) - 1
 
 
 def _event_times(row: pd.Series | None, exact: bool) -> tuple[tuple[str, float, str], ...]:
@@ -151,20 +151,21 @@ def _static(motions: list[HoopMotion], bounds: dict[str, float], n_rows: int) ->
              "hoverinfo": "skip", "showlegend": False, **_axes(k)}
         )  # fmt: skip
     strip = _axes(n_rows - 1)
-    for motion in motions:
+    for k, motion in enumerate(motions):
         step = max(1, len(motion.t) // 1500)
         traces.append(
             {"type": "scatter", "mode": "lines", "name": text(motion.name),
              "x": rounded(motion.t[::step], _DIGITS), "showlegend": True,
              "y": rounded(motion.clearance[::step] * 1e3, _DIGITS), **strip,
-             "line": {"dash": "dash", "color": "black"} if motion is exact else {}}
+             "line": {"dash": "dash", "color": "black"} if motion is exact
+             else {"color": PALETTE[(k - 1) % len(PALETTE)]}}
         )  # fmt: skip
     return traces
 
 
 def _moving_templates(n_panels: int, n_rows: int) -> list[dict]:
     """Trace styles of the moving traces, in _dynamic's order, then the time cursor."""
-    styles = [
+    styles: list[dict[str, Any]] = [
         {"mode": "lines", "line": {"color": "#1f4e99", "width": 2}},
         {"mode": "markers", "marker": {"color": "#d62728", "size": 12}},
         {"mode": "lines", "line": {"color": "#2ca02c", "width": 1.5}},
@@ -185,7 +186,8 @@ def _cursor(t: float, low: float, high: float) -> dict:
 
 
 def _label_place(trace: dict, bounds: dict[str, float]) -> dict:
-    return {**trace, "x": [bounds["x0"]], "y": [bounds["y1"] - 0.15 * bounds["span"]]}
+    """A panel's label: above the hoop's highest point, from the panel's left edge."""
+    return {**trace, "x": [bounds["x0"]], "y": [bounds["top"] - 0.12 * bounds["y1"]]}
 
 
 def animation_figure(scene: Scene, motions: list[HoopMotion]) -> dict[str, Any]:
@@ -198,7 +200,7 @@ def animation_figure(scene: Scene, motions: list[HoopMotion]) -> dict[str, Any]:
         "x1": max(float(m.x.max()) for m in motions) + 1.15 * a,
         "y1": max(float(m.y.max()) for m in motions) + 1.25 * a,
     }
-    bounds["span"] = bounds["y1"]
+    bounds["top"] = bounds["y1"] * 1.25  # room for the label
     n_rows = len(motions) + 1
     static = _static(motions, bounds, n_rows)
     clear = np.concatenate([m.clearance for m in motions]) * 1e3
@@ -214,7 +216,9 @@ def animation_figure(scene: Scene, motions: list[HoopMotion]) -> dict[str, Any]:
         data.append(_cursor(float(t), low, high))
         frames.append({"name": f"{t:.3f}", "data": data, "traces": moving})
     templates = _moving_templates(len(motions), n_rows)
-    first = [{**template, **datum} for template, datum in zip(templates, frames[0]["data"], strict=True)]
+    first = [
+        {**template, **datum} for template, datum in zip(templates, frames[0]["data"], strict=True)
+    ]
     return {
         "data": [*static, *first],
         "layout": _layout(motions, bounds, n_rows, times),
@@ -228,16 +232,32 @@ def _layout(motions: list[HoopMotion], bounds: dict[str, float], n_rows: int, ti
         "grid": {"rows": n_rows, "columns": 1, "pattern": "independent", "ygap": 0.08},
         "margin": {"t": 30, "b": 10},
         "shapes": [],
-        "legend": {"orientation": "h", "y": -0.02, "yanchor": "top"},
+        "legend": {"x": 1.01, "y": 0, "yanchor": "bottom", "title": {"text": "clearance"}},
     }
     for k in range(len(motions)):
         x, y = _axes(k)["xaxis"], _axes(k)["yaxis"]
-        layout[f"xaxis{k + 1 if k else ''}"] = {"range": [bounds["x0"], bounds["x1"]],
-                                               "showticklabels": k == len(motions) - 1}
-        layout[f"yaxis{k + 1 if k else ''}"] = {"range": [-0.05 * bounds["y1"], bounds["y1"]],
-                                               "scaleanchor": x, "showticklabels": False}
-        layout["shapes"].append({"type": "line", "xref": f"{x} domain", "yref": y, "x0": 0,
-                                 "x1": 1, "y0": 0, "y1": 0, "line": {"color": "#444"}})
+        layout[f"xaxis{k + 1 if k else ''}"] = {
+            "range": [bounds["x0"], bounds["x1"]],
+            "showticklabels": k == len(motions) - 1,
+            "constrain": "domain",
+        }
+        layout[f"yaxis{k + 1 if k else ''}"] = {
+            "range": [-0.05 * bounds["y1"], bounds["top"]],
+            "scaleanchor": x,
+            "showticklabels": False,
+        }
+        layout["shapes"].append(
+            {
+                "type": "line",
+                "xref": f"{x} domain",
+                "yref": y,
+                "x0": 0,
+                "x1": 1,
+                "y0": 0,
+                "y1": 0,
+                "line": {"color": "#444"},
+            }
+        )
     layout[f"xaxis{n_rows}"] = {"title": {"text": "t (s)"}}
     layout[f"yaxis{n_rows}"] = {"title": {"text": "clearance (mm)"}}
     layout["updatemenus"] = [_play_buttons()]
@@ -247,7 +267,11 @@ def _layout(motions: list[HoopMotion], bounds: dict[str, float], n_rows: int, ti
 
 def _play_buttons() -> dict:
     still = {"mode": "immediate", "frame": {"duration": 0, "redraw": False}}
-    play = {"frame": {"duration": 40, "redraw": False}, "fromcurrent": True, "transition": {"duration": 0}}
+    play = {
+        "frame": {"duration": 40, "redraw": False},
+        "fromcurrent": True,
+        "transition": {"duration": 0},
+    }
     return {
         "type": "buttons", "direction": "left", "x": 0, "y": 0, "xanchor": "left",
         "yanchor": "top", "pad": {"t": 30},
@@ -259,9 +283,13 @@ def _play_buttons() -> dict:
 
 
 def _slider(times: np.ndarray) -> dict:
-    still = {"mode": "immediate", "frame": {"duration": 0, "redraw": False},
-             "transition": {"duration": 0}}
-    steps = [{"label": f"{t:.2f}", "method": "animate", "args": [[f"{t:.3f}"], still]}
-             for t in times]
+    still = {
+        "mode": "immediate",
+        "frame": {"duration": 0, "redraw": False},
+        "transition": {"duration": 0},
+    }
+    steps = [
+        {"label": f"{t:.2f}", "method": "animate", "args": [[f"{t:.3f}"], still]} for t in times
+    ]
     return {"active": 0, "steps": steps, "x": 0.12, "len": 0.88, "y": 0, "yanchor": "top",
             "currentvalue": {"prefix": "t = ", "suffix": " s"}, "pad": {"t": 30}}  # fmt: skip

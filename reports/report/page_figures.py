@@ -12,6 +12,7 @@ report has no such figure.
 
 from __future__ import annotations
 
+import itertools
 from typing import Any
 
 import numpy as np
@@ -20,7 +21,7 @@ import pandas as pd
 from hoopbench.reference.exact import solve_exact
 from hoopbench.reports.compare.selection import default_rows, engine_rows, reference_rows
 from hoopbench.reports.report.force_figures import CONE_YLIM, ForcePanel
-from hoopbench.reports.report.page_html import rounded, text
+from hoopbench.reports.report.page_html import PALETTE, rounded, text
 from hoopbench.reports.report.precision import (
     FLOOR,
     figure_panels,
@@ -61,12 +62,15 @@ def _point_data(group: pd.DataFrame, unit: str) -> list[list[str]]:
     ]
 
 
-def _family_traces(points: pd.DataFrame, unit: str, k: int, seen: set[str]) -> list[dict]:
-    """One line per settings family of one panel, grouped in the legend by engine."""
+def _family_traces(points: pd.DataFrame, unit: str, k: int, colours: dict[str, str]) -> list:
+    """One line per settings family of one panel, grouped in the legend by engine; a family
+    keeps its colour (and its legend entry, the first panel's) in every panel."""
     traces = []
     for family, group in engine_rows(points).groupby("family", sort=True):
         group = group.sort_values("wall_time_s")
         engine = str(group["engine"].iloc[0])
+        first = str(family) not in colours
+        colour = _colour(colours, str(family))
         traces.append(
             {
                 "type": "scatter",
@@ -78,14 +82,20 @@ def _family_traces(points: pd.DataFrame, unit: str, k: int, seen: set[str]) -> l
                 "name": text(family),
                 "legendgroup": text(engine),
                 "legendgrouptitle": {"text": text(engine)},
-                "showlegend": family not in seen,
+                "showlegend": first,
+                "line": {"color": colour},
+                "marker": {"color": colour},
                 "meta": text(group["profile"].iloc[0]),
                 "xaxis": _axis_name("x", k),
                 "yaxis": _axis_name("y", k),
             }
         )
-        seen.add(str(family))
     return traces
+
+
+def _colour(colours: dict[str, str], family: str) -> str:
+    """The family's colour, a new one from the palette for a family not seen yet."""
+    return colours.setdefault(family, PALETTE[len(colours) % len(PALETTE)])
 
 
 def _panel_extras(runs: pd.DataFrame, points: pd.DataFrame, scene: str, k: int) -> list[dict]:
@@ -131,7 +141,9 @@ def _profile_buttons(traces: list[dict]) -> list[dict]:
     buttons = [{"label": "every profile", "method": "restyle", "args": ["visible", True]}]
     for profile in profiles:
         visible = [t.get("meta", profile) == profile for t in traces]
-        buttons.append({"label": f"{profile} only", "method": "restyle", "args": ["visible", visible]})
+        buttons.append(
+            {"label": f"{profile} only", "method": "restyle", "args": ["visible", visible]}
+        )
     return buttons
 
 
@@ -151,10 +163,10 @@ def precision_page_figure(runs: pd.DataFrame) -> Figure | None:
         "annotations": [],
         "shapes": [],
     }
-    seen: set[str] = set()
+    colours: dict[str, str] = {}
     for k, (metric, scene) in enumerate(panels):
         points = metric_runs(runs, metric, scene)
-        traces += _family_traces(points, metric.unit, k, seen)
+        traces += _family_traces(points, metric.unit, k, colours)
         traces += _panel_extras(runs, points, scene, k)
         x, y = _axis_name("xaxis", k), _axis_name("yaxis", k)
         layout[x] = {"type": "log", "title": {"text": "wall time of the run (s)"}}
@@ -263,7 +275,7 @@ def envelope(values: np.ndarray, samples: int = _FORCE_SAMPLES) -> np.ndarray:
     edges = np.linspace(0, n, samples // 2 + 1).astype(int)
     keep = [0, n - 1]
     clean = np.where(np.isfinite(values), values, 0.0)
-    for lo, hi in zip(edges[:-1], edges[1:], strict=True):
+    for lo, hi in itertools.pairwise(edges):
         if hi > lo:
             keep += [lo + int(np.argmin(clean[lo:hi])), lo + int(np.argmax(clean[lo:hi]))]
     return np.unique(keep)
@@ -284,23 +296,27 @@ def _force_traces(panel: ForcePanel, column: int, columns: int, colours: dict[st
     exact = solution.sample(np.linspace(0.0, solution.t_final, 2001))
     curves = [(name, traj, False) for name, traj in panel.runs.items()] + [("exact", exact, True)]
     top = {"xaxis": _axis_name("x", column), "yaxis": _axis_name("y", column)}
-    bottom = {"xaxis": _axis_name("x", column + columns), "yaxis": _axis_name("y", column + columns)}
+    bottom = {
+        "xaxis": _axis_name("x", column + columns),
+        "yaxis": _axis_name("y", column + columns),
+    }
     traces = []
     for name, traj, is_exact in curves:
         keep = traj.t <= solution.t_final
         t, n, f = traj.t[keep], traj.normal_force[keep], traj.friction_force[keep]
         index = envelope(n)
         line = {"dash": "dash", "color": "black"} if is_exact else {"color": colours[name]}
-        common = {"type": "scatter", "mode": "lines", "line": line, "name": text(name)}
+        common: dict[str, Any] = {
+            "type": "scatter",
+            "mode": "lines",
+            "line": line,
+            "name": text(name),
+        }
         common |= {"legendgroup": text(name), "x": rounded(t[index])}
         traces.append({**common, **top, "y": rounded(n[index] / g), "showlegend": column == 0})
         share = _cone(n[index], f[index], panel.mu)
         traces.append({**common, **bottom, "y": rounded(share), "showlegend": False})
     return traces
-
-
-_PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#17becf"]
-"""Engine colours (plotly's defaults, fixed so that an engine keeps its colour in every panel)."""
 
 
 N_YLIM = (-0.5, 4.0)
@@ -315,7 +331,7 @@ def force_page_figure(panels: list[ForcePanel]) -> Figure | None:
     if not panels:
         return None
     names = list(dict.fromkeys(name for panel in panels for name in panel.runs))
-    colours = {name: _PALETTE[k % len(_PALETTE)] for k, name in enumerate(names)}
+    colours = {name: PALETTE[k % len(PALETTE)] for k, name in enumerate(names)}
     columns = len(panels)
     traces = [t for k, p in enumerate(panels) for t in _force_traces(p, k, columns, colours)]
     layout: dict[str, Any] = {

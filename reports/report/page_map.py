@@ -78,7 +78,7 @@ def _hover(point: pd.DataFrame) -> str:
 
 def _runs(out: Path, point: pd.DataFrame, title: str, g: float) -> dict[str, Any]:
     """A point's runs for the click: each stored thinned trajectory, the exact one last."""
-    runs = []
+    runs: list[dict[str, Any]] = []
     for _, row in point.iterrows():
         trajectory = read_display(out, str(row["run_id"]))
         if trajectory is None:
@@ -94,7 +94,7 @@ def _runs(out: Path, point: pd.DataFrame, title: str, g: float) -> dict[str, Any
                 "n": rounded(trajectory.normal_force / g),
             }
         )
-    runs.sort(key=lambda run: run["exact"])
+    runs.sort(key=lambda run: bool(run["exact"]))
     return {"title": title, "runs": runs}
 
 
@@ -132,8 +132,10 @@ def _cells(frame: pd.DataFrame, grid: MapGrid, out: Path) -> tuple[list, list, d
         key = map_cell_key(int(ix), int(iy))
         hover[int(iy)][int(ix)] = _hover(point)
         keys[int(iy)][int(ix)] = key
-        title = f"{grid.x_axis} = {point.iloc[0]['x']:.4g}, {grid.y_axis} = {point.iloc[0]['y']:.4g}"
-        runs[key] = _runs(out, point, title, gravity.get((int(ix), int(iy)), 9.8))
+        title = (
+            f"{grid.x_axis} = {point.iloc[0]['x']:.4g}, {grid.y_axis} = {point.iloc[0]['y']:.4g}"
+        )
+        runs[key] = _runs(out, point, title, gravity[(int(ix), int(iy))])
     return hover, keys, runs
 
 
@@ -174,4 +176,6 @@ def map_fragment(results_dir: str | Path, figure_id: str) -> str:
         f'<script type="application/json" id="{text(figure_id)}-cells">{script_json(runs)}'
         "</script>"
     )
-    return figure_fragment(figure_id, {"data": [heatmap], "layout": layout}, kind="map", extra=extra)
+    return figure_fragment(
+        figure_id, {"data": [heatmap], "layout": layout}, kind="map", extra=extra
+    )
