@@ -4,14 +4,13 @@ The page's text and tables are report.md's own, rendered (markdown-it, raw HTML 
 as text): the same sections and the same numbers, by construction. Where report.md shows a
 figure that has an interactive version, the page shows that instead (error against run time,
 the stability matrix, the contact forces, each hop map, and each catalogue scene's hoop in
-motion beside its paths figure); every other figure is embedded as its PNG. One file: plotly.js,
-the script and the style are inside it, so it opens from disk with no network.
+motion in place of its paths figure); every other figure is embedded as its PNG. One file:
+plotly.js, the script and the style are inside it, so it opens from disk with no network.
 """
 
 from __future__ import annotations
 
 import base64
-import re
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -110,10 +109,6 @@ def _map(folder: Path, figure_id: str) -> Callable[[], str]:
 
 
 # --------------------------------------------------------------------------- rendering
-_KEEP_PNG = re.compile(r"paths_.*\.png")
-"""Figures shown as well as their interactive version: the paths beside their animation."""
-
-
 def _image(out: Path, src: str, alt: str) -> str:
     """A PNG of the report folder embedded as data, or its alt text if it is not there."""
     path = out / src
@@ -133,10 +128,7 @@ def _renderer(out: Path, fragments: Fragments) -> MarkdownIt:
             str(token.attrGet("src") or ""),
             self.renderInlineAsText(token.children, options, env),
         )
-        parts = [] if src in fragments and not _KEEP_PNG.fullmatch(src) else [_image(out, src, alt)]
-        if src in fragments:
-            parts.append(fragments[src]())
-        return "".join(parts)
+        return fragments[src]() if src in fragments else _image(out, src, alt)
 
     def heading(self, tokens, idx, options, env) -> str:
         token = tokens[idx]

@@ -35,10 +35,13 @@ EVENTS = (
 """(event, an engine row's columns in order of preference, the exact column, marker)."""
 
 EXACT_LABEL = "exact"
-FRAMES = 100
-"""Frames of an animation: 20 ms apart over a 2 s window."""
-_CIRCLE = np.linspace(0.0, 2.0 * np.pi, 29)
-"""The hoop drawn as a 28-gon."""
+FRAMES = 80
+"""Frames of an animation: 38 ms apart over a 3 s window (the page's size grows with them)."""
+_CIRCLE = np.linspace(0.0, 2.0 * np.pi, 21)
+"""The hoop drawn as a 20-gon (the page's size: a frame repeats it for every run)."""
+_STRIP_SAMPLES = 600
+"""Samples of each run's clearance in the strip below the panels (5 ms apart over 3 s), and
+of the exact path drawn in every panel."""
 _DIGITS = 4
 """Significant digits of the drawn positions: 0.1 mm on a 1 m hoop."""
 
@@ -115,44 +118,45 @@ def _axes(k: int) -> dict[str, str]:
     return {"xaxis": "x" if k == 0 else f"x{k + 1}", "yaxis": "y" if k == 0 else f"y{k + 1}"}
 
 
-def _dynamic(motion: HoopMotion, t: float, k: int, a: float, frame_times: np.ndarray) -> list:
-    """A panel's moving traces at time t: hoop and spoke, weight, path so far, events, label."""
+def _dynamic(motion: HoopMotion, t: float, a: float, frame_times: np.ndarray) -> list:
+    """A panel's moving traces at time t: hoop and spoke, weight, path so far, events, label.
+    Their axes are the first frame's (a frame repeats only what moves)."""
     i = motion.at(t)
     x, y = motion.x[i], motion.y[i]
     hoop_x = [*(x + a * np.cos(_CIRCLE)), None, x, motion.wx[i]]
     hoop_y = [*(y + a * np.sin(_CIRCLE)), None, y, motion.wy[i]]
-    past = [motion.at(s) for s in frame_times[frame_times <= t]]
+    # the path so far through every other frame: half the numbers, still smooth
+    past = [motion.at(s) for s in [*frame_times[frame_times < t][::2], t]]
     happened = [e for e in motion.events if e[1] <= t]
     marks = [motion.at(e[1]) for e in happened]
     label = " · ".join(f"{name} {when:.3f} s" for name, when, _ in happened)
-    axes = _axes(k)
     return [
-        {"x": rounded(hoop_x, _DIGITS), "y": rounded(hoop_y, _DIGITS), **axes},
-        {"x": rounded([motion.wx[i]], _DIGITS), "y": rounded([motion.wy[i]], _DIGITS), **axes},
-        {"x": rounded(motion.X[past], _DIGITS), "y": rounded(motion.Y[past], _DIGITS), **axes},
+        {"x": rounded(hoop_x, _DIGITS), "y": rounded(hoop_y, _DIGITS)},
+        {"x": rounded([motion.wx[i]], _DIGITS), "y": rounded([motion.wy[i]], _DIGITS)},
+        {"x": rounded(motion.X[past], _DIGITS), "y": rounded(motion.Y[past], _DIGITS)},
         {
             "x": rounded(motion.X[marks], _DIGITS),
             "y": rounded(motion.Y[marks], _DIGITS),
             "marker": {"symbol": [m for _, _, m in happened], "size": 11, "color": "#d62728"},
-            **axes,
         },
-        {"text": [f"<b>{text(motion.name)}</b>  t = {t:.3f} s  {label}"], **axes},
+        {"text": [f"<b>{text(motion.name)}</b>  t = {t:.3f} s  {label}"]},
     ]
 
 
 def _static(motions: list[HoopMotion], bounds: dict[str, float], n_rows: int) -> list[dict]:
     """The traces that do not move: the exact path in every panel, the clearance curves."""
     exact = motions[0]
+    path_step = max(1, len(exact.t) // _STRIP_SAMPLES)
     traces: list[dict] = []
     for k in range(len(motions)):
         traces.append(
-            {"type": "scatter", "mode": "lines", "x": rounded(exact.X[::10], _DIGITS),
-             "y": rounded(exact.Y[::10], _DIGITS), "line": {"color": "#bbb", "width": 3},
+            {"type": "scatter", "mode": "lines", "x": rounded(exact.X[::path_step], _DIGITS),
+             "y": rounded(exact.Y[::path_step], _DIGITS), "line": {"color": "#bbb", "width": 3},
              "hoverinfo": "skip", "showlegend": False, **_axes(k)}
         )  # fmt: skip
     strip = _axes(n_rows - 1)
     for k, motion in enumerate(motions):
-        step = max(1, len(motion.t) // 1500)
+        step = max(1, len(motion.t) // _STRIP_SAMPLES)
         traces.append(
             {"type": "scatter", "mode": "lines", "name": text(motion.name),
              "x": rounded(motion.t[::step], _DIGITS), "showlegend": True,
@@ -173,8 +177,8 @@ def _moving_templates(n_panels: int, n_rows: int) -> list[dict]:
         {"mode": "text", "textposition": "middle right", "x": [0], "y": [0]},
     ]
     traces = [
-        {"type": "scatter", "showlegend": False, "hoverinfo": "skip", **style}
-        for _ in range(n_panels)
+        {"type": "scatter", "showlegend": False, "hoverinfo": "skip", **style, **_axes(k)}
+        for k in range(n_panels)
         for style in styles
     ]
     cursor = {"type": "scatter", "mode": "lines", "line": {"color": "#d62728"}}
@@ -209,8 +213,8 @@ def animation_figure(scene: Scene, motions: list[HoopMotion]) -> dict[str, Any]:
     frames = []
     for t in times:
         data = []
-        for k, motion in enumerate(motions):
-            dynamic = _dynamic(motion, float(t), k, a, times)
+        for motion in motions:
+            dynamic = _dynamic(motion, float(t), a, times)
             dynamic[4] = _label_place(dynamic[4], bounds)
             data += dynamic
         data.append(_cursor(float(t), low, high))
