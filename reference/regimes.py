@@ -21,7 +21,14 @@ from hoopbench.models.events import Events, Outcome, PhaseKind
 from hoopbench.models.scene import Scene
 from hoopbench.reference.exact import ExactSolution, solve_exact
 
-__all__ = ["Regime", "RegimePoint", "classify", "max_slip_speed", "settled_time"]
+__all__ = [
+    "Regime",
+    "RegimePoint",
+    "classify",
+    "classify_solved",
+    "max_slip_speed",
+    "settled_time",
+]
 
 
 class Regime(StrEnum):
@@ -183,12 +190,20 @@ def classify(scene: Scene, *, stop_when_settled: bool = True) -> RegimePoint:
     same as without, see :func:`~hoopbench.reference.exact.solve_exact`): a point needs no
     more than its regime and events.
     """
+    return classify_solved(scene, stop_when_settled=stop_when_settled)[0]
+
+
+def classify_solved(
+    scene: Scene, *, stop_when_settled: bool = True
+) -> tuple[RegimePoint, ExactSolution]:
+    """:func:`classify`, and the exact solution it classified (a hop map keeps a sampled
+    copy of it for the report's page)."""
     start = time.perf_counter()
     solution = solve_exact(scene, stop_when_settled=stop_when_settled)
     events = solution.events
     regime = regime_of(events)
     hops = regime in (Regime.HOPS, Regime.LIFTS_AT_START)
-    return RegimePoint(
+    point = RegimePoint(
         regime=regime,
         events=events,
         n_slips=_n_slips(events),
@@ -197,3 +212,4 @@ def classify(scene: Scene, *, stop_when_settled: bool = True) -> RegimePoint:
         solve_time_s=time.perf_counter() - start,
         max_slip_speed=max_slip_speed(solution),
     )
+    return point, solution

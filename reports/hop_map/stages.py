@@ -40,8 +40,9 @@ from hoopbench.engines.settings import RunSettings
 from hoopbench.engines.stopping import StopRule
 from hoopbench.models.events import Outcome
 from hoopbench.models.scene import DegenerateSceneError
-from hoopbench.reference.regimes import classify
+from hoopbench.reference.regimes import classify_solved
 from hoopbench.reports.compare.suite import run_timeout
+from hoopbench.reports.hop_map.display import write_display, write_exact_display
 from hoopbench.reports.hop_map.spec import (
     MAP_FILE,
     REFERENCE,
@@ -115,6 +116,9 @@ class MapTask:
     """Engines only."""
     exact: tuple[tuple[str, Any], ...] = ()
     """The reference row's EXACT_CARRIED columns (engines only; empty if it failed)."""
+    display_dir: str | None = None
+    """The map folder, where the run's thinned trajectory goes (hop_map/display.py); None:
+    none is kept."""
 
     @property
     def label(self) -> str:
@@ -128,14 +132,25 @@ class MapTask:
         return 0 if self.timestep is None else n_steps_for(self.point.scene(), self.timestep)
 
 
-def reference_tasks(spec: MapSpec) -> list[MapTask]:
+def reference_tasks(spec: MapSpec, display_dir: str | None = None) -> list[MapTask]:
     """Stage 1: one classification per point."""
-    return [MapTask(f"{p.name}-{REFERENCE}", p, REFERENCE) for p in spec.points()]
+    return [
+        MapTask(f"{p.name}-{REFERENCE}", p, REFERENCE, display_dir=display_dir)
+        for p in spec.points()
+    ]
 
 
-def _engine_task(spec: MapSpec, point: MapPoint, engine: str, exact: Mapping[str, Any]) -> MapTask:
+def _engine_task(
+    spec: MapSpec,
+    point: MapPoint,
+    engine: str,
+    exact: Mapping[str, Any],
+    display_dir: str | None,
+) -> MapTask:
     carried = tuple((c, exact[c]) for c in EXACT_CARRIED if c in exact)
-    return MapTask(f"{point.name}-{engine}", point, engine, spec.timestep, spec.profile, carried)
+    return MapTask(
+        f"{point.name}-{engine}", point, engine, spec.timestep, spec.profile, carried, display_dir
+    )
 
 
 def _stored_exact(row: Mapping[str, Any]) -> dict[str, Any]:
@@ -232,7 +247,9 @@ def _ordered(row: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def _reference_row(task: MapTask) -> dict[str, Any]:
-    point = classify(task.point.scene())
+    point, solution = classify_solved(task.point.scene())
+    if task.display_dir is not None:
+        write_exact_display(solution, task.display_dir, task.run_id)
     return _ordered(
         {
             **_task_columns(task),
@@ -287,6 +304,8 @@ def _engine_row(task: MapTask) -> dict[str, Any]:
     solution = exact_solution(scene, scene.mus) if result.trajectory is not None else None
     row.update(judged_columns(row, result, scene, solution))
     row[Col.HOP_HEIGHT_ERROR] = _hop_height_error(row)
+    if task.display_dir is not None and result.trajectory is not None:
+        write_display(result.trajectory, task.display_dir, task.run_id)
     return _ordered(row)
 
 
@@ -360,14 +379,14 @@ def _stage_two_tasks(spec: MapSpec, out: Path) -> tuple[list[MapTask], int]:
     }
     tasks: list[MapTask] = []
     n_refs = 0
-    for ref in reference_tasks(spec):
+    for ref in reference_tasks(spec, str(out)):
         row = refs.get(ref.run_id)
         if row is None or not is_final_status(row[Col.STATUS]):
             continue  # timed out or crashed: a resumed map tries it again, then its engines
         tasks.append(ref)
         n_refs += 1
         exact = _stored_exact(row) if row[Col.STATUS] == RunStatus.OK else {}
-        tasks += [_engine_task(spec, ref.point, engine, exact) for engine in spec.engines]
+        tasks += [_engine_task(spec, ref.point, engine, exact, str(out)) for engine in spec.engines]
     return tasks, n_refs
 
 
@@ -429,7 +448,7 @@ def _run_map(
         quiet=quiet,
         stream=stream,
     )
-    refs = reference_tasks(spec)
+    refs = reference_tasks(spec, str(out))
     first = _stage_one(refs, out, common, quiet, stream)
     if first.interrupted is not None:
         return _summary(spec, out, [first], 0)

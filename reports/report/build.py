@@ -18,8 +18,9 @@ from hoopbench.engines.judging.columns import Col
 from hoopbench.reports.compare.suite import runs_frame
 from hoopbench.reports.compare.suite_file import CatalogueNameError, load_suite
 from hoopbench.reports.hop_map.spec import MAP_FILE
-from hoopbench.reports.report.map_section import is_map_folder, map_sections
+from hoopbench.reports.report.map_section import is_map_folder, map_prefixes, map_sections
 from hoopbench.reports.report.markdown import write_markdown
+from hoopbench.reports.report.page import write_page
 from hoopbench.reports.sweep import results
 
 __all__ = ["build_report", "report_frame"]
@@ -29,7 +30,7 @@ def build_report(
     results_dirs: str | os.PathLike[str] | Sequence[str | os.PathLike[str]],
     out: str | Path | None = None,
 ) -> Path:
-    """report.md and its figures from stored results alone (no simulation).
+    """report.md and its figures, and report.html, from stored results alone (no simulation).
 
     Several results folders (e.g. the default suite and the stability suite) make one report;
     each row keeps the name of its suite in the column ``suite``. A hop map folder (it holds
@@ -45,7 +46,9 @@ def build_report(
     frame = pd.concat(runs, ignore_index=True) if runs else pd.DataFrame()
     out.mkdir(parents=True, exist_ok=True)
     generated = datetime.now(UTC).isoformat(timespec="seconds")
-    return write_markdown(frame, out, generated=generated, extra=map_sections(maps, out))
+    report = write_markdown(frame, out, generated=generated, extra=map_sections(maps, out))
+    write_page(frame, out, maps=maps, map_prefixes=map_prefixes(len(maps)))  # report.html
+    return report
 
 
 def report_frame(results_dir: str | Path) -> pd.DataFrame:

@@ -37,6 +37,7 @@ __all__ = [
     "agreement_markdown",
     "is_map_folder",
     "map_findings",
+    "map_prefixes",
     "map_section",
     "map_sections",
     "write_map_figures",
@@ -339,9 +340,13 @@ def map_section(
 def map_sections(results_dirs: Sequence[str | Path], out: str | Path) -> list[str]:
     """The sections of several map folders in one report, figures written to ``out`` with a
     prefix per folder (map, or map1, map2, ... when there are several)."""
-    if len(results_dirs) == 1:
-        return [map_section(results_dirs[0], out)]
-    return [map_section(d, out, prefix=f"map{k + 1}") for k, d in enumerate(results_dirs)]
+    prefixes = map_prefixes(len(results_dirs))
+    return [map_section(d, out, prefix=p) for d, p in zip(results_dirs, prefixes, strict=True)]
+
+
+def map_prefixes(n: int) -> list[str]:
+    """The figure-name prefixes of n map folders in one report: map, or map1, map2, ..."""
+    return ["map"] if n == 1 else [f"map{k + 1}" for k in range(n)]
 
 
 def write_map_outputs(results_dir: str | Path) -> list[Path]:

@@ -24,7 +24,16 @@ from hoopbench.reports.compare.selection import (
 )
 from hoopbench.reports.report.plotting import pyplot
 
-__all__ = ["METRICS", "Metric", "cheapest_runs", "pareto_front", "precision_figure"]
+__all__ = [
+    "FLOOR",
+    "METRICS",
+    "Metric",
+    "cheapest_runs",
+    "figure_panels",
+    "metric_runs",
+    "pareto_front",
+    "precision_figure",
+]
 
 
 @dataclass(frozen=True)
@@ -55,7 +64,7 @@ the hoop radius on the catalogue's 1 m hoops."""
 FIGURE_SCENES = ("seed-mu", "hop-top", "hop-bottom")
 """Scenes the figure prefers, in order, for each metric."""
 
-_FLOOR = 1e-6
+FLOOR = 1e-6
 """Where an error of exactly zero (the reference against itself) is drawn on log axes."""
 
 
@@ -113,19 +122,31 @@ def cheapest_runs(runs: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
-    """One panel per (metric, scene): error against wall time, families and the front."""
-    plt = pyplot()
-    from matplotlib.ticker import NullFormatter
-
-    # One scene per metric keeps the figure readable (the table covers every scene): the
-    # cross-engine slip scene for slips, the first hop scene for hops.
-    runs = default_rows(runs)
+def figure_panels(runs: pd.DataFrame) -> list[tuple[Metric, str]]:
+    """The figure's panels, (metric, scene), of the default-settings ``runs``. One scene per
+    metric keeps the figure readable (the table covers every scene): the cross-engine slip
+    scene for slips, the first hop scene for hops."""
     panels = []
     for metric in METRICS:
         scenes = [s for s in _scenes(runs, metric) if len(_metric_runs(runs, metric, s))]
         preferred = [s for s in FIGURE_SCENES if s in scenes] or scenes
         panels += [(metric, preferred[0])] if preferred else []
+    return panels
+
+
+def metric_runs(runs: pd.DataFrame, metric: Metric, scene: str) -> pd.DataFrame:
+    """The runs of one panel: those of ``scene`` with a measured error and a wall time, with
+    |error| in ``error`` and the settings family (engine, profile, variant) in ``family``."""
+    return _metric_runs(runs, metric, scene)
+
+
+def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
+    """One panel per (metric, scene): error against wall time, families and the front."""
+    plt = pyplot()
+    from matplotlib.ticker import NullFormatter
+
+    runs = default_rows(runs)
+    panels = figure_panels(runs)
     if not panels:
         return None
     cols = 3
@@ -140,7 +161,7 @@ def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
             group = group.sort_values("wall_time_s")
             ax.plot(
                 group["wall_time_s"],
-                group["error"].clip(lower=_FLOOR),
+                group["error"].clip(lower=FLOOR),
                 "o-",
                 ms=3,
                 lw=1,
@@ -148,11 +169,11 @@ def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
             )
         reference = reference_rows(runs[runs["scene"] == scene])
         if len(reference):
-            ax.plot(reference["wall_time_s"].min(), _FLOOR, "k*", ms=10, label="exact reference")
+            ax.plot(reference["wall_time_s"].min(), FLOOR, "k*", ms=10, label="exact reference")
         front = pareto_front(engines)
         ax.step(
             front["wall_time_s"],
-            front["error"].clip(lower=_FLOOR),
+            front["error"].clip(lower=FLOOR),
             "k--",
             where="post",
             lw=1.2,

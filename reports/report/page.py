@@ -1,0 +1,202 @@
+"""report.html: the report as one page to explore, written beside report.md from the same rows.
+
+The page's text and tables are report.md's own, rendered (markdown-it, raw HTML in it shown
+as text): the same sections and the same numbers, by construction. Where report.md shows a
+figure that has an interactive version, the page shows that instead (error against run time,
+the stability matrix, the contact forces, each hop map, and each catalogue scene's hoop in
+motion in place of its paths figure); every other figure is embedded as its PNG. One file:
+plotly.js, the script and the style are inside it, so it opens from disk with no network.
+"""
+
+from __future__ import annotations
+
+import base64
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import pandas as pd
+from markdown_it import MarkdownIt
+from plotly.offline import get_plotlyjs
+
+from hoopbench.engines.options import Profile
+from hoopbench.engines.run import REFERENCE_ENGINE
+from hoopbench.engines.settings import DEFAULT_TIMESTEP
+from hoopbench.models.catalogue import get_scene, scene_names
+from hoopbench.reports.compare.selection import default_rows, profile_of
+from hoopbench.reports.report.hoop_gif import GIF_SCENE, hoop_gif
+from hoopbench.reports.report.markdown import (
+    STABILITY_SUITE,
+    _force_panels,
+    _stored_trajectories,
+    _with_optional_columns,
+)
+from hoopbench.reports.report.page_animation import animation_figure, hoop_motions
+from hoopbench.reports.report.page_figures import (
+    force_page_figure,
+    precision_page_figure,
+    stability_page_figure,
+)
+from hoopbench.reports.report.page_html import figure_fragment, script_json, text
+from hoopbench.reports.report.page_map import map_fragment
+from hoopbench.reports.report.page_script import FILTER_COLUMNS, PAGE_SCRIPT, PAGE_STYLE
+
+__all__ = ["PAGE_NAME", "page_fragments", "render_page", "write_gif", "write_page"]
+
+PAGE_NAME = "report.html"
+
+Fragments = dict[str, Callable[[], str]]
+"""A figure file's name in report.md -> what the page shows in its place (made when needed)."""
+
+
+def _figure(figure_id: str, make: Callable[[], dict | None]) -> Callable[[], str]:
+    def fragment() -> str:
+        figure = make()
+        return "" if figure is None else figure_fragment(figure_id, figure)
+
+    return fragment
+
+
+def _scene_rows(runs: pd.DataFrame, scene: str) -> pd.DataFrame:
+    """The rows whose trajectories the report draws (markdown._stored_trajectories')."""
+    rows = default_rows(runs)
+    rows = rows[(rows["scene"] == scene) & (rows["timestep"] == DEFAULT_TIMESTEP)]
+    return rows[profile_of(rows) == str(Profile.TUNED)]
+
+
+def _animation(runs: pd.DataFrame, scene: str, figure_id: str) -> Callable[[], str]:
+    def fragment() -> str:
+        trajectories = _stored_trajectories(runs, scene)
+        if not trajectories:
+            return ""
+        motions = hoop_motions(get_scene(scene), trajectories, _scene_rows(runs, scene))
+        animation = figure_fragment(figure_id, animation_figure(get_scene(scene), motions))
+        return f"<p>{text(scene)} in motion (tuned, dt = {DEFAULT_TIMESTEP:g} s):</p>{animation}"
+
+    return fragment
+
+
+def _split(frame: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The comparison suites' rows and the stability suite's, as report.md splits them."""
+    everything = _with_optional_columns(frame)
+    stability = everything["suite"] == STABILITY_SUITE
+    return everything[~stability], everything[stability]
+
+
+def page_fragments(
+    frame: pd.DataFrame, maps: Sequence[Path], map_prefixes: Sequence[str]
+) -> Fragments:
+    """What the page shows in place of report.md's figures (module doc), by figure file name."""
+    fragments: Fragments = {}
+    if not frame.empty:
+        runs, stiff = _split(frame)
+        fragments["error_vs_time.png"] = _figure(
+            "error-vs-time", lambda: precision_page_figure(runs)
+        )
+        fragments["stability.png"] = _figure("stability", lambda: stability_page_figure(stiff))
+        fragments["contact_forces.png"] = _figure(
+            "contact-forces", lambda: force_page_figure(_force_panels(runs))
+        )
+        for k, scene in enumerate(dict.fromkeys(runs["scene"])):
+            if scene in scene_names():
+                fragments[f"paths_{scene}.png"] = _animation(runs, scene, f"motion-{k}")
+    for k, (folder, prefix) in enumerate(zip(maps, map_prefixes, strict=True)):
+        fragments[f"{prefix}_regimes.png"] = _map(folder, f"map-{k}")
+    return fragments
+
+
+def _map(folder: Path, figure_id: str) -> Callable[[], str]:
+    return lambda: map_fragment(folder, figure_id)
+
+
+# --------------------------------------------------------------------------- rendering
+def _image(out: Path, src: str, alt: str) -> str:
+    """A PNG of the report folder embedded as data, or its alt text if it is not there."""
+    path = out / src
+    if "/" in src or "\\" in src or not path.is_file() or path.suffix != ".png":
+        return f"<p><em>{text(alt)}</em></p>"
+    data = base64.b64encode(path.read_bytes()).decode("ascii")
+    return f'<img alt="{text(alt)}" src="data:image/png;base64,{data}">'
+
+
+def _renderer(out: Path, fragments: Fragments) -> MarkdownIt:
+    md = MarkdownIt("commonmark", {"html": False}).enable("table")
+    headings: list[int] = []
+
+    def image(self, tokens, idx, options, env) -> str:  # markdown-it's render-rule signature
+        token = tokens[idx]
+        src, alt = (
+            str(token.attrGet("src") or ""),
+            self.renderInlineAsText(token.children, options, env),
+        )
+        return fragments[src]() if src in fragments else _image(out, src, alt)
+
+    def heading(self, tokens, idx, options, env) -> str:
+        token = tokens[idx]
+        if token.tag == "h2":
+            headings.append(idx)
+            token.attrSet("id", f"section-{len(headings)}")
+        return self.renderToken(tokens, idx, options, env)
+
+    md.add_render_rule("image", image)
+    md.add_render_rule("heading_open", heading)
+    return md
+
+
+def _nav(tokens: list) -> str:
+    """Links to the report's sections (its h2 headings)."""
+    links: list[str] = []
+    for k, token in enumerate(tokens):
+        if token.type == "heading_open" and token.tag == "h2":
+            title = tokens[k + 1].content
+            links.append(f'<a href="#section-{len(links) + 1}">{text(title)}</a>')
+    return f"<nav>{''.join(links)}</nav>"
+
+
+def render_page(markdown_text: str, out: Path, fragments: Fragments) -> str:
+    """The whole page: report.md's text with the fragments in place of their figures."""
+    md = _renderer(out, fragments)
+    tokens = md.parse(markdown_text)
+    body = md.renderer.render(tokens, md.options, {})
+    title = next((t.content for k, t in enumerate(tokens) if k and tokens[k - 1].tag == "h1"), "")
+    script = PAGE_SCRIPT.replace("__FILTERS__", script_json(list(FILTER_COLUMNS)))
+    return "\n".join(
+        [
+            "<!DOCTYPE html>",
+            '<html lang="en"><head><meta charset="utf-8">',
+            f"<title>{text(title or 'hoopbench report')}</title>",
+            f"<style>{PAGE_STYLE}</style>",
+            f"<script>{get_plotlyjs()}</script>",
+            f"</head><body>{_nav(tokens)}",
+            body,
+            f"<script>{script}</script>",
+            "</body></html>",
+        ]
+    )
+
+
+def write_gif(frame: pd.DataFrame, out: Path) -> Path | None:
+    """out/hop-top.gif (hoop_gif.py), when the report has hop-top's exact and engine
+    trajectories; `make findings` copies it to reports/img/ for the README."""
+    if frame.empty or GIF_SCENE not in scene_names():
+        return None
+    runs, _ = _split(frame)
+    trajectories = _stored_trajectories(runs, GIF_SCENE)
+    if REFERENCE_ENGINE not in trajectories or len(trajectories) < 2:
+        return None
+    scene = get_scene(GIF_SCENE)
+    motions = hoop_motions(scene, trajectories, _scene_rows(runs, GIF_SCENE))
+    return hoop_gif(scene, motions, out / f"{GIF_SCENE}.gif")
+
+
+def write_page(
+    frame: pd.DataFrame, out: Path, *, maps: Sequence[Path] = (), map_prefixes: Sequence[str] = ()
+) -> Path:
+    """Write out/report.html from out/report.md (written first) and the rows it was made of,
+    and the README's animation (:func:`write_gif`)."""
+    out = Path(out)
+    markdown_text = (out / "report.md").read_text(encoding="utf-8")
+    page = render_page(markdown_text, out, page_fragments(frame, maps, map_prefixes))
+    path = out / PAGE_NAME
+    path.write_text(page, encoding="utf-8")
+    write_gif(frame, out)
+    return path

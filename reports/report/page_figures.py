@@ -1,0 +1,354 @@
+"""The page's interactive versions of three of the report's figures, from the same rows and
+the same selections as the PNGs (:mod:`precision`, :mod:`stability`, :mod:`force_figures`):
+
+- error against run time: a point's hover names its run; the legend toggles an engine (its
+  group title) or one profile and settings of it, the buttons a profile;
+- the stability matrix: each cell's class and the figure behind it on hover;
+- the contact-force panels: n/g and |f|/(mu n) of every engine over the exact curves.
+
+Each function returns a plotly figure as a plain dict ({data, layout}), or None when the
+report has no such figure.
+"""
+
+from __future__ import annotations
+
+import itertools
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from hoopbench.reference.exact import solve_exact
+from hoopbench.reports.compare.selection import default_rows, engine_rows, reference_rows
+from hoopbench.reports.report.force_figures import CONE_YLIM, ForcePanel
+from hoopbench.reports.report.page_html import PALETTE, rounded, text
+from hoopbench.reports.report.precision import (
+    FLOOR,
+    figure_panels,
+    metric_runs,
+    pareto_front,
+)
+from hoopbench.reports.report.stability import _COLOURS, Stability, stability_matrix
+
+__all__ = ["force_page_figure", "precision_page_figure", "stability_page_figure"]
+
+Figure = dict[str, Any]
+
+_COLUMNS = 3
+"""Panels per row, as in the PNG."""
+
+_HOVER = (
+    "<b>%{customdata[0]}</b> %{customdata[1]}, %{customdata[2]}<br>"
+    "dt %{customdata[3]} s<br>|error| %{y:.4g} %{customdata[4]}<br>"
+    "wall time %{x:.4g} s, %{customdata[5]} us/step<extra></extra>"
+)
+
+
+def _axis_name(kind: str, k: int) -> str:
+    return kind if k == 0 else f"{kind}{k + 1}"
+
+
+def _point_data(group: pd.DataFrame, unit: str) -> list[list[str]]:
+    return [
+        [
+            text(row["engine"]),
+            text(row["profile"]),
+            text(row["variant"]),
+            f"{row['timestep']:g}",
+            text(unit),
+            f"{row['us_per_step']:.3g}" if pd.notna(row["us_per_step"]) else "-",
+        ]
+        for _, row in group.iterrows()
+    ]
+
+
+def _family_traces(points: pd.DataFrame, unit: str, k: int, colours: dict[str, str]) -> list:
+    """One line per settings family of one panel, grouped in the legend by engine; a family
+    keeps its colour (and its legend entry, the first panel's) in every panel."""
+    traces = []
+    for family, group in engine_rows(points).groupby("family", sort=True):
+        group = group.sort_values("wall_time_s")
+        engine = str(group["engine"].iloc[0])
+        first = str(family) not in colours
+        colour = _colour(colours, str(family))
+        traces.append(
+            {
+                "type": "scatter",
+                "mode": "lines+markers",
+                "x": rounded(group["wall_time_s"]),
+                "y": rounded(group["error"].clip(lower=FLOOR)),
+                "customdata": _point_data(group, unit),
+                "hovertemplate": _HOVER,
+                "name": text(family),
+                "legendgroup": text(engine),
+                "legendgrouptitle": {"text": text(engine)},
+                "showlegend": first,
+                "line": {"color": colour},
+                "marker": {"color": colour},
+                "meta": text(group["profile"].iloc[0]),
+                "xaxis": _axis_name("x", k),
+                "yaxis": _axis_name("y", k),
+            }
+        )
+    return traces
+
+
+def _colour(colours: dict[str, str], family: str) -> str:
+    """The family's colour, a new one from the palette for a family not seen yet."""
+    return colours.setdefault(family, PALETTE[len(colours) % len(PALETTE)])
+
+
+def _panel_extras(runs: pd.DataFrame, points: pd.DataFrame, scene: str, k: int) -> list[dict]:
+    """The Pareto front and the exact reference's star of one panel."""
+    front = pareto_front(engine_rows(points))
+    axes = {"xaxis": _axis_name("x", k), "yaxis": _axis_name("y", k)}
+    traces = [
+        {
+            "type": "scatter",
+            "mode": "lines",
+            "line": {"shape": "hv", "dash": "dash", "color": "black"},
+            "x": rounded(front["wall_time_s"]),
+            "y": rounded(front["error"].clip(lower=FLOOR)),
+            "name": "Pareto front",
+            "legendgroup": "front",
+            "showlegend": k == 0,
+            "hoverinfo": "skip",
+            **axes,
+        }
+    ]
+    reference = reference_rows(runs[runs["scene"] == scene])
+    if len(reference):
+        traces.append(
+            {
+                "type": "scatter",
+                "mode": "markers",
+                "marker": {"symbol": "star", "size": 12, "color": "black"},
+                "x": [float(reference["wall_time_s"].min())],
+                "y": [FLOOR],
+                "name": "exact reference",
+                "legendgroup": "reference",
+                "showlegend": k == 0,
+                "hovertemplate": "exact reference: solve %{x:.3g} s<extra></extra>",
+                **axes,
+            }
+        )
+    return traces
+
+
+def _profile_buttons(traces: list[dict]) -> list[dict]:
+    """Buttons that show every profile or one (the front and the reference always)."""
+    profiles = sorted({t["meta"] for t in traces if "meta" in t})
+    buttons = [{"label": "every profile", "method": "restyle", "args": ["visible", True]}]
+    for profile in profiles:
+        visible = [t.get("meta", profile) == profile for t in traces]
+        buttons.append(
+            {"label": f"{profile} only", "method": "restyle", "args": ["visible", visible]}
+        )
+    return buttons
+
+
+def precision_page_figure(runs: pd.DataFrame) -> Figure | None:
+    """Error against run time (the report's error_vs_time.png), one panel per (event, scene)."""
+    runs = default_rows(runs)
+    panels = figure_panels(runs)
+    if not panels:
+        return None
+    rows = -(-len(panels) // _COLUMNS)
+    traces: list[dict] = []
+    layout: dict[str, Any] = {
+        "height": 330 * rows + 80,
+        "grid": {"rows": rows, "columns": _COLUMNS, "pattern": "independent"},
+        "legend": {"groupclick": "toggleitem", "font": {"size": 10}},
+        "margin": {"t": 60},
+        "annotations": [],
+        "shapes": [],
+    }
+    colours: dict[str, str] = {}
+    for k, (metric, scene) in enumerate(panels):
+        points = metric_runs(runs, metric, scene)
+        traces += _family_traces(points, metric.unit, k, colours)
+        traces += _panel_extras(runs, points, scene, k)
+        x, y = _axis_name("xaxis", k), _axis_name("yaxis", k)
+        layout[x] = {"type": "log", "title": {"text": "wall time of the run (s)"}}
+        layout[y] = {"type": "log", "title": {"text": f"|error| ({metric.unit})"}}
+        layout["annotations"].append(_panel_title(f"{scene}: {metric.label}", k))
+        layout["shapes"].append(_target_line(metric.target, k))
+    layout["updatemenus"] = [
+        {"type": "buttons", "direction": "right", "x": 0, "y": 1.08, "yanchor": "bottom",
+         "xanchor": "left", "buttons": _profile_buttons(traces)}
+    ]  # fmt: skip
+    for trace in traces:
+        trace.pop("meta", None)
+    return {"data": traces, "layout": layout}
+
+
+def _panel_title(title: str, k: int) -> dict:
+    return {
+        "text": text(title),
+        "xref": f"{_axis_name('x', k)} domain",
+        "yref": f"{_axis_name('y', k)} domain",
+        "x": 0.5,
+        "y": 1.0,
+        "yanchor": "bottom",
+        "showarrow": False,
+        "font": {"size": 12},
+    }
+
+
+def _target_line(target: float, k: int) -> dict:
+    """The metric's target, dotted across the panel."""
+    return {
+        "type": "line",
+        "xref": f"{_axis_name('x', k)} domain",
+        "yref": _axis_name("y", k),
+        "x0": 0,
+        "x1": 1,
+        "y0": target,
+        "y1": target,
+        "line": {"dash": "dot", "color": "grey", "width": 1},
+    }
+
+
+# --------------------------------------------------------------------------- stability
+def stability_page_figure(runs: pd.DataFrame) -> Figure | None:
+    """The stability matrix (stability.png): a cell per (scene, engine) and timestep, coloured
+    by its class, with its text (class: figure) on hover."""
+    table = stability_matrix(runs)
+    if table.empty:
+        return None
+    kinds = list(Stability)
+    cells = table.astype(object).where(table.notna(), "")
+    codes = cells.map(lambda c: kinds.index(Stability(str(c).split(":")[0])) if c else None)
+    n = len(kinds)
+    scale = []
+    for k, kind in enumerate(kinds):  # a step per class: code k fills [k, k + 1) / n
+        scale += [[k / n, _COLOURS[kind]], [(k + 1) / n, _COLOURS[kind]]]
+    labels = [f"{text(scene)} | {text(engine)}" for scene, engine in table.index]
+    hover = [[text(c) or "not run" for c in row] for row in cells.to_numpy()]
+    heatmap = {
+        "type": "heatmap",
+        "z": codes.to_numpy().tolist(),
+        "x": [f"{dt:g}" for dt in table.columns],
+        "y": labels,
+        "text": hover,
+        "hovertemplate": "%{y}<br>dt %{x} s<br><b>%{text}</b><extra></extra>",
+        "colorscale": scale,
+        "zmin": 0,
+        "zmax": n,
+        "showscale": False,
+        "xgap": 1,
+        "ygap": 1,
+    }
+    present = sorted({int(c) for c in codes.to_numpy().ravel() if c is not None})
+    legend = [  # a legend of the classes present: invisible points, one per class
+        {
+            "type": "scatter",
+            "x": [None],
+            "y": [None],
+            "mode": "markers",
+            "marker": {"symbol": "square", "size": 12, "color": _COLOURS[kinds[c]]},
+            "name": kinds[c].value,
+        }
+        for c in present
+    ]
+    layout = {
+        "height": 120 + 22 * len(table),
+        "xaxis": {"type": "category", "title": {"text": "timestep (s)"}},
+        "yaxis": {"autorange": "reversed", "automargin": True, "type": "category"},
+        "margin": {"t": 30},
+    }
+    return {"data": [heatmap, *legend], "layout": layout}
+
+
+# --------------------------------------------------------------------------- contact forces
+_FORCE_SAMPLES = 1500
+"""Samples per engine curve on the page: each bucket keeps its lowest and highest n, so a
+one-sample spike of the contact force (chatter, a re-stick impulse) stays in the figure."""
+
+
+def envelope(values: np.ndarray, samples: int = _FORCE_SAMPLES) -> np.ndarray:
+    """Indices that keep ``values``' extremes: the first and last, and each of
+    ``samples // 2`` buckets' lowest and highest sample, in order."""
+    n = len(values)
+    if n <= samples:
+        return np.arange(n)
+    edges = np.linspace(0, n, samples // 2 + 1).astype(int)
+    keep = [0, n - 1]
+    clean = np.where(np.isfinite(values), values, 0.0)
+    for lo, hi in itertools.pairwise(edges):
+        if hi > lo:
+            keep += [lo + int(np.argmin(clean[lo:hi])), lo + int(np.argmax(clean[lo:hi]))]
+    return np.unique(keep)
+
+
+def _cone(n: np.ndarray, f: np.ndarray, mu: float) -> np.ndarray:
+    share = np.full(len(n), np.nan)
+    touching = n > 0
+    share[touching] = np.abs(f[touching]) / (mu * n[touching])
+    return share
+
+
+def _force_traces(panel: ForcePanel, column: int, columns: int, colours: dict[str, str]) -> list:
+    """One scene's curves: n/g in the top row's panel ``column``, |f|/(mu n) below it (the
+    grid numbers its axes row by row)."""
+    solution = solve_exact(panel.scene.with_(mus=panel.mu, muk=panel.mu))
+    g = panel.scene.g
+    exact = solution.sample(np.linspace(0.0, solution.t_final, 2001))
+    curves = [(name, traj, False) for name, traj in panel.runs.items()] + [("exact", exact, True)]
+    top = {"xaxis": _axis_name("x", column), "yaxis": _axis_name("y", column)}
+    bottom = {
+        "xaxis": _axis_name("x", column + columns),
+        "yaxis": _axis_name("y", column + columns),
+    }
+    traces = []
+    for name, traj, is_exact in curves:
+        keep = traj.t <= solution.t_final
+        t, n, f = traj.t[keep], traj.normal_force[keep], traj.friction_force[keep]
+        index = envelope(n)
+        line = {"dash": "dash", "color": "black"} if is_exact else {"color": colours[name]}
+        common: dict[str, Any] = {
+            "type": "scatter",
+            "mode": "lines",
+            "line": line,
+            "name": text(name),
+        }
+        common |= {"legendgroup": text(name), "x": rounded(t[index])}
+        traces.append({**common, **top, "y": rounded(n[index] / g), "showlegend": column == 0})
+        share = _cone(n[index], f[index], panel.mu)
+        traces.append({**common, **bottom, "y": rounded(share), "showlegend": False})
+    return traces
+
+
+N_YLIM = (-0.5, 4.0)
+"""n/g shown at first from -0.5 to 4: rolling's 1 g and its chatter; the re-stick's exact peak
+(34 g on seed-mu, 43 g on hop-top) is off the top until the axis is zoomed out (a linear axis:
+plotly has no symmetric-log one)."""
+
+
+def force_page_figure(panels: list[ForcePanel]) -> Figure | None:
+    """The contact-force panels (contact_forces.png): a column per scene, n/g over
+    |f|/(mu n), each engine over the exact curves (dashed)."""
+    if not panels:
+        return None
+    names = list(dict.fromkeys(name for panel in panels for name in panel.runs))
+    colours = {name: PALETTE[k % len(PALETTE)] for k, name in enumerate(names)}
+    columns = len(panels)
+    traces = [t for k, p in enumerate(panels) for t in _force_traces(p, k, columns, colours)]
+    layout: dict[str, Any] = {
+        "height": 640,
+        "grid": {"rows": 2, "columns": len(panels), "pattern": "independent"},
+        "annotations": [],
+        "margin": {"t": 50},
+    }
+    for k, panel in enumerate(panels):
+        layout[_axis_name("yaxis", k)] = {"title": {"text": "n / g"}, "range": list(N_YLIM)}
+        layout[_axis_name("yaxis", k + columns)] = {
+            "title": {"text": "|f| / (mu n)"},
+            "range": list(CONE_YLIM),
+        }
+        layout[_axis_name("xaxis", k + columns)] = {
+            "title": {"text": "t (s)"},
+            "matches": _axis_name("x", k),
+        }
+        layout["annotations"].append(_panel_title(f"{panel.name} (mu = {panel.mu:g})", k))
+    return {"data": traces, "layout": layout}

@@ -1,0 +1,64 @@
+"""The pieces every part of report.html is made of: escaped text, inert embedded data, and a
+plotly figure as a page fragment.
+
+Strings from a results folder (scene names, messages, verdict reasons) come from anyone, so
+nothing reaches the page unescaped: text through :func:`text` (HTML entities; plotly shows
+them as the characters), data for the page's scripts through :func:`script_json`, which
+writes every ``<``, ``>`` and ``&`` as a JSON ``\\u`` escape, so that no ``</script>`` nor
+``<!--`` can end or bend the ``<script>`` element that holds it.
+"""
+
+from __future__ import annotations
+
+import html
+from typing import Any
+
+import numpy as np
+from plotly.io.json import to_json_plotly
+
+__all__ = ["FIGURE_CLASS", "PALETTE", "figure_fragment", "rounded", "script_json", "text"]
+
+FIGURE_CLASS = "hoop-figure"
+"""Class of a figure's <div>; the page's script draws each one as it scrolls into view."""
+
+PALETTE = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#17becf")
+"""Line colours, in order (plotly's own), given by hand so that a run keeps its colour across
+the panels of a figure."""
+
+SIGNIFICANT = 5
+"""Significant digits of the numbers a figure draws: finer than any axis shows, and it keeps
+the page small (the tables keep the stored numbers)."""
+
+
+def text(value: object) -> str:
+    """A value as HTML text (also for plotly's labels, which read entities)."""
+    return html.escape(str(value))
+
+
+def rounded(values: Any, digits: int = SIGNIFICANT) -> list[float | None]:
+    """Numbers to ``digits`` significant digits, as a JSON-ready list (NaN as None: a gap)."""
+    array = np.asarray(values, dtype=float)
+    out: list[float | None] = []
+    for v in array.ravel():
+        out.append(None if not np.isfinite(v) else float(f"{v:.{digits}g}"))
+    return out
+
+
+def script_json(data: Any) -> str:
+    """JSON that is inert inside a <script> element whatever its strings hold (plotly's
+    encoder: numpy arrays as lists, NaN as null)."""
+    encoded = to_json_plotly(data)
+    return encoded.replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026")
+
+
+def figure_fragment(
+    figure_id: str, figure: dict[str, Any], *, kind: str = "", extra: str = ""
+) -> str:
+    """A figure's <div> and its data (``figure``: plotly's {data, layout, frames}), drawn by
+    the page's script. ``kind`` names a behaviour of the script (the map's click); ``extra``:
+    more markup after the figure."""
+    return (
+        f'<div class="{FIGURE_CLASS}" id="{text(figure_id)}" data-kind="{text(kind)}"></div>'
+        f'<script type="application/json" id="{text(figure_id)}-data">'
+        f"{script_json(figure)}</script>{extra}"
+    )
