@@ -218,7 +218,7 @@ def test_the_contact_settings_table_names_each_knob_its_values_and_what_it_moves
     """Synthetic rows: each line names the knob off its tuned value (from the run's full
     option values, whatever the profile it started from), marks a stock value, and shows the
     slip-onset error on the slip scene and the hop-height error on the hop scene."""
-    from hoopbench.reports.report.markdown import _settings_section, _with_optional_columns
+    from hoopbench.reports.report.markdown import _settings_section, with_optional_columns
 
     rows = [
         _knob_row("mujoco", "tuned", "default", "{}", "seed-mu", slip=2.4),
@@ -247,7 +247,7 @@ def test_the_contact_settings_table_names_each_knob_its_values_and_what_it_moves
             slip=3.9,
         ),
     ]
-    text = _settings_section(_with_optional_columns(pd.DataFrame(rows)))
+    text = _settings_section(with_optional_columns(pd.DataFrame(rows)))
     mujoco = text.split("### mujoco")[1].split("###")[0]
     assert "| knob | tuned value | this run | seed-mu slip onset | hop-top hop height |" in mujoco
     assert "| (all tuned) |  |  | +2.4 ms | -1.1 % |" in mujoco
@@ -259,14 +259,14 @@ def test_the_contact_settings_table_names_each_knob_its_values_and_what_it_moves
 
 
 def test_the_timestep_table_keeps_stock_and_tuned_apart():
-    from hoopbench.reports.report.markdown import _timestep_section, _with_optional_columns
+    from hoopbench.reports.report.markdown import _timestep_section, with_optional_columns
 
     rows = [
         {**_knob_row("pymunk", p, "default", "{}", "seed-mu", slip=s), "outcome_agrees": a}
         | {"wall_time_s": w}
         for p, s, a, w in (("tuned", 3.9, True, 0.2), ("stock", 4.9, False, 0.1))
     ]
-    text = _timestep_section(_with_optional_columns(pd.DataFrame(rows)))
+    text = _timestep_section(with_optional_columns(pd.DataFrame(rows)))
     assert "| pymunk | tuned | 0.0001 | 0.2 | 3.9 | 1/1 |" in text
     assert "| pymunk | stock | 0.0001 | 0.1 | 4.9 | 0/1 |" in text
 

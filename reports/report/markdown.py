@@ -1,7 +1,7 @@
 """Writes the Markdown report and its figures from the runs table.
 
 One function per report section: each takes the runs table (with every optional column present,
-see :func:`_with_optional_columns`) and returns the section's Markdown, ending in a blank line;
+see :func:`with_optional_columns`) and returns the section's Markdown, ending in a blank line;
 the two sections with figures also take the output folder and return the figures' paths.
 :func:`write_markdown` joins them. Nothing here changes the caller's frame.
 """
@@ -98,7 +98,7 @@ def _section(*lines: str) -> str:
 
 
 # --------------------------------------------------------------------------- selections
-def _with_optional_columns(frame: pd.DataFrame) -> pd.DataFrame:
+def with_optional_columns(frame: pd.DataFrame) -> pd.DataFrame:
     """A new frame: ``frame`` plus every report column it lacks (a hand-made frame), empty."""
     return results.with_columns(frame, _REPORT_COLUMNS)
 
@@ -426,11 +426,11 @@ def _force_table(runs: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _force_panels(runs: pd.DataFrame) -> list[ForcePanel]:
+def force_panels(runs: pd.DataFrame) -> list[ForcePanel]:
     """The figure's scenes that have stored trajectories (and are in the catalogue)."""
     panels = []
     for name in FORCE_SCENES:
-        trajectories = _stored_trajectories(runs, name)
+        trajectories = stored_trajectories(runs, name)
         trajectories.pop(REFERENCE_ENGINE, None)  # the exact curve is drawn anyway
         rows = runs[runs["scene"] == name]
         if not trajectories or name not in scene_names() or rows.empty:
@@ -479,7 +479,7 @@ def _force_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[Path]]:
     table = _force_table(runs)
     if table.empty or table[list(FORCE_COLUMNS)].isna().all().all():
         return "", []
-    panels = _force_panels(runs)
+    panels = force_panels(runs)
     figure = force_figure(panels, out / "contact_forces.png") if panels else None
     lines = [
         "## Contact forces against the exact solution",
@@ -609,7 +609,7 @@ def _stability_matrix_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[
     return text, [figure] if figure else []
 
 
-def _stored_trajectories(runs: pd.DataFrame, scene_name: str) -> dict[str, Trajectory]:
+def stored_trajectories(runs: pd.DataFrame, scene_name: str) -> dict[str, Trajectory]:
     """The recorded default-timestep, tuned default-settings trajectories of one scene."""
     rows = _default(runs)
     rows = rows[(rows["scene"] == scene_name) & (rows["timestep"] == DEFAULT_TIMESTEP)]
@@ -634,7 +634,7 @@ def _event_window(row: pd.Series) -> tuple[float, float] | None:
 
 def _trajectory_figures(runs: pd.DataFrame, scene_name: str, out: Path) -> list[Path]:
     """The paths figure and the events figure of one scene, if its trajectories were kept."""
-    trajectories = _stored_trajectories(runs, scene_name)
+    trajectories = stored_trajectories(runs, scene_name)
     if not trajectories:
         return []
     row = runs[runs["scene"] == scene_name].iloc[0]
@@ -732,7 +732,7 @@ def write_markdown(
         when = f"Generated {generated} on {platform.platform()}."
         text = "\n".join([_section("# hoopbench report", "", when), *extra])
         return results.atomic_write(out / "report.md", lambda tmp: tmp.write_text(text))
-    everything = _with_optional_columns(frame)
+    everything = with_optional_columns(frame)
     # The stability suite's stiff and extreme scenes have a section of their own; the event
     # tables and agreement counts are the comparison suites' alone.
     is_stability = everything["suite"] == STABILITY_SUITE

@@ -26,9 +26,9 @@ from hoopbench.reports.compare.selection import default_rows, profile_of
 from hoopbench.reports.report.hoop_gif import GIF_SCENE, hoop_gif
 from hoopbench.reports.report.markdown import (
     STABILITY_SUITE,
-    _force_panels,
-    _stored_trajectories,
-    _with_optional_columns,
+    force_panels,
+    stored_trajectories,
+    with_optional_columns,
 )
 from hoopbench.reports.report.page_animation import animation_figure, hoop_motions
 from hoopbench.reports.report.page_figures import (
@@ -57,7 +57,7 @@ def _figure(figure_id: str, make: Callable[[], dict | None]) -> Callable[[], str
 
 
 def _scene_rows(runs: pd.DataFrame, scene: str) -> pd.DataFrame:
-    """The rows whose trajectories the report draws (markdown._stored_trajectories')."""
+    """The rows whose trajectories the report draws (markdown.stored_trajectories')."""
     rows = default_rows(runs)
     rows = rows[(rows["scene"] == scene) & (rows["timestep"] == DEFAULT_TIMESTEP)]
     return rows[profile_of(rows) == str(Profile.TUNED)]
@@ -65,7 +65,7 @@ def _scene_rows(runs: pd.DataFrame, scene: str) -> pd.DataFrame:
 
 def _animation(runs: pd.DataFrame, scene: str, figure_id: str) -> Callable[[], str]:
     def fragment() -> str:
-        trajectories = _stored_trajectories(runs, scene)
+        trajectories = stored_trajectories(runs, scene)
         if not trajectories:
             return ""
         motions = hoop_motions(get_scene(scene), trajectories, _scene_rows(runs, scene))
@@ -77,7 +77,7 @@ def _animation(runs: pd.DataFrame, scene: str, figure_id: str) -> Callable[[], s
 
 def _split(frame: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
     """The comparison suites' rows and the stability suite's, as report.md splits them."""
-    everything = _with_optional_columns(frame)
+    everything = with_optional_columns(frame)
     stability = everything["suite"] == STABILITY_SUITE
     return everything[~stability], everything[stability]
 
@@ -94,7 +94,7 @@ def page_fragments(
         )
         fragments["stability.png"] = _figure("stability", lambda: stability_page_figure(stiff))
         fragments["contact_forces.png"] = _figure(
-            "contact-forces", lambda: force_page_figure(_force_panels(runs))
+            "contact-forces", lambda: force_page_figure(force_panels(runs))
         )
         for k, scene in enumerate(dict.fromkeys(runs["scene"])):
             if scene in scene_names():
@@ -180,7 +180,7 @@ def write_gif(frame: pd.DataFrame, out: Path) -> Path | None:
     if frame.empty or GIF_SCENE not in scene_names():
         return None
     runs, _ = _split(frame)
-    trajectories = _stored_trajectories(runs, GIF_SCENE)
+    trajectories = stored_trajectories(runs, GIF_SCENE)
     if REFERENCE_ENGINE not in trajectories or len(trajectories) < 2:
         return None
     scene = get_scene(GIF_SCENE)
