@@ -133,6 +133,16 @@ def test_thinning_keeps_the_ends():
     assert len(kept) == 50 and kept.t[0] == 0.0 and kept.t[-1] == 1.0
 
 
+def test_a_large_map_embeds_fewer_samples_per_run():
+    """A 40x40 map of three engines (6,400 runs) would embed 400 samples of every run, about
+    75 MB; the page's budget keeps the total bounded and never below a readable curve."""
+    from hoopbench.reports.report.page_map import MIN_RUN_SAMPLES, PAGE_SAMPLES, run_samples
+
+    assert run_samples(6 * 6 * 4) == DISPLAY_SAMPLES  # a small map keeps every stored sample
+    assert run_samples(40 * 40 * 4) * 40 * 40 * 4 <= PAGE_SAMPLES
+    assert run_samples(10**7) == MIN_RUN_SAMPLES
+
+
 def test_the_page_shows_the_script_named_scene_as_text(page):
     html = page.read_text(encoding="utf-8")
     assert SCRIPT_NAME not in html

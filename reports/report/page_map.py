@@ -19,7 +19,7 @@ import pandas as pd
 from hoopbench.engines.judging.verdict import Verdict
 from hoopbench.reference.regimes import Regime
 from hoopbench.reports.compare.selection import reference_rows
-from hoopbench.reports.hop_map.display import read_display
+from hoopbench.reports.hop_map.display import DISPLAY_SAMPLES, read_display, thinned
 from hoopbench.reports.hop_map.spec import load_spec
 from hoopbench.reports.hop_map.table import map_frame
 from hoopbench.reports.report.map_figures import (
@@ -33,10 +33,23 @@ from hoopbench.reports.report.map_figures import (
 )
 from hoopbench.reports.report.page_html import figure_fragment, rounded, script_json, text
 
-__all__ = ["map_cell_key", "map_fragment"]
+__all__ = ["map_cell_key", "map_fragment", "run_samples"]
 
 _PARAMETERS = ("lam", "chi", "mu", "eps", "theta0_deg")
 """The scene parameters a cell's hover lists (the map's columns)."""
+
+PAGE_SAMPLES = 400_000
+"""Samples of all the map's runs together that the page embeds for the clicks (each sample
+four numbers, about 30 bytes): a 10x10 map of three engines keeps every stored sample, and a
+40x40 one about 60 per run, so that the page stays near 12 MB (plotly.js is 4.8 of it)."""
+MIN_RUN_SAMPLES = 40
+"""A clicked run never shows fewer samples than this, whatever the map's size."""
+
+
+def run_samples(n_runs: int) -> int:
+    """Samples per run the page embeds for a map of ``n_runs`` stored runs."""
+    share = PAGE_SAMPLES // max(n_runs, 1)
+    return max(MIN_RUN_SAMPLES, min(DISPLAY_SAMPLES, share))
 
 
 def map_cell_key(ix: int, iy: int) -> str:
@@ -76,13 +89,15 @@ def _hover(point: pd.DataFrame) -> str:
     return "<br>".join(lines)
 
 
-def _runs(out: Path, point: pd.DataFrame, title: str, g: float) -> dict[str, Any]:
-    """A point's runs for the click: each stored thinned trajectory, the exact one last."""
+def _runs(out: Path, point: pd.DataFrame, title: str, g: float, samples: int) -> dict[str, Any]:
+    """A point's runs for the click: each stored thinned trajectory (thinned again to
+    ``samples``), the exact one last."""
     runs: list[dict[str, Any]] = []
     for _, row in point.iterrows():
-        trajectory = read_display(out, str(row["run_id"]))
-        if trajectory is None:
+        stored = read_display(out, str(row["run_id"]))
+        if stored is None:
             continue
+        trajectory = thinned(stored, samples)
         exact = row["engine"] not in engines_of(point)
         runs.append(
             {
@@ -128,6 +143,7 @@ def _cells(frame: pd.DataFrame, grid: MapGrid, out: Path) -> tuple[list, list, d
     hover = [["" for _ in range(nx)] for _ in range(ny)]
     keys = [["" for _ in range(nx)] for _ in range(ny)]
     runs: dict[str, Any] = {}
+    samples = run_samples(len(frame))
     for (ix, iy), point in frame.groupby(["ix", "iy"], sort=True):
         key = map_cell_key(int(ix), int(iy))
         hover[int(iy)][int(ix)] = _hover(point)
@@ -135,7 +151,7 @@ def _cells(frame: pd.DataFrame, grid: MapGrid, out: Path) -> tuple[list, list, d
         title = (
             f"{grid.x_axis} = {point.iloc[0]['x']:.4g}, {grid.y_axis} = {point.iloc[0]['y']:.4g}"
         )
-        runs[key] = _runs(out, point, title, gravity[(int(ix), int(iy))])
+        runs[key] = _runs(out, point, title, gravity[(int(ix), int(iy))], samples)
     return hover, keys, runs
 
 
