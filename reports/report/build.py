@@ -21,6 +21,7 @@ from hoopbench.reports.hop_map.spec import MAP_FILE
 from hoopbench.reports.report.map_section import is_map_folder, map_prefixes, map_sections
 from hoopbench.reports.report.markdown import write_markdown
 from hoopbench.reports.report.page import write_page
+from hoopbench.reports.report.plotting import plain_text
 from hoopbench.reports.sweep import results
 
 __all__ = ["build_report", "report_frame"]
@@ -46,8 +47,9 @@ def build_report(
     frame = pd.concat(runs, ignore_index=True) if runs else pd.DataFrame()
     out.mkdir(parents=True, exist_ok=True)
     generated = datetime.now(UTC).isoformat(timespec="seconds")
-    report = write_markdown(frame, out, generated=generated, extra=map_sections(maps, out))
-    write_page(frame, out, maps=maps, map_prefixes=map_prefixes(len(maps)))  # report.html
+    with plain_text():  # names from the results are drawn as written
+        report = write_markdown(frame, out, generated=generated, extra=map_sections(maps, out))
+        write_page(frame, out, maps=maps, map_prefixes=map_prefixes(len(maps)))  # report.html
     return report
 
 

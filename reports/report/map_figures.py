@@ -290,8 +290,8 @@ def _set_axes(ax: Axes, grid: MapGrid) -> None:
         ax.set_xticks(grid.x)
     if len(grid.y) == 1:
         ax.set_yticks(grid.y)
-    ax.set_xlabel(_label(grid.x_axis))
-    ax.set_ylabel(_label(grid.y_axis))
+    ax.set_xlabel(_label(grid.x_axis), parse_math=True)
+    ax.set_ylabel(_label(grid.y_axis), parse_math=True)
     ax.label_outer()
 
 

@@ -44,6 +44,7 @@ from hoopbench.reports.report.findings import (
     option_text,
 )
 from hoopbench.reports.report.force_figures import ForcePanel, force_figure
+from hoopbench.reports.report.plotting import plain_text
 from hoopbench.reports.report.precision import cheapest_runs, precision_figure
 from hoopbench.reports.report.readings import READING_RESOLUTION_MS, reading_differences
 from hoopbench.reports.report.stability import (
@@ -698,11 +699,18 @@ def _drawn(jobs: Sequence[_Job]) -> list[Any]:
     gain from it. Measured on a 3-engine default report: 20.0 s drawn here, 12.8 s so."""
     workers = min(FIGURE_WORKERS, os.cpu_count() or 1, len(jobs))
     if workers < 2:
-        return [function(*args) for function, args in jobs]
+        return [_draw_plain(function, *args) for function, args in jobs]
     context = multiprocessing.get_context("forkserver")
     with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-        futures = [pool.submit(function, *args) for function, args in jobs]
+        futures = [pool.submit(_draw_plain, function, *args) for function, args in jobs]
         return [future.result() for future in futures]
+
+
+def _draw_plain(function: Callable[..., Any], *args: Any) -> Any:
+    """One drawing call with its text drawn as written (plotting.plain_text): a worker
+    process does not inherit the caller's matplotlib settings."""
+    with plain_text():
+        return function(*args)
 
 
 FIGURE_WORKERS = 2
