@@ -848,7 +848,8 @@ def _message(exc: Exception) -> str:
     """The error's line; an API option's name spelled as this command's option."""
     api = sys.modules.get("hoopbench.reports.api")  # not loaded: the error is not the API's
     if api is None or not isinstance(exc, api.OptionError):
-        return str(exc)
+        # One line, whatever the library put in the message (a parser's caret diagram).
+        return " ".join(line.strip() for line in str(exc).splitlines() if line.strip())
     return exc.spelled(_OPTION_TEXT.get(exc.option, "--" + exc.option.replace("_", "-")))
 
 

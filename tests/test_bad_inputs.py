@@ -642,3 +642,17 @@ def test_ctrl_c_while_a_large_suite_is_checked_is_one_line(tmp_path):
     assert proc.returncode == 130, rest
     assert rest.strip().splitlines() == ["hoopbench: interrupted (Ctrl-C) before anything ran"]
     assert not (tmp_path / "out").exists()
+
+
+def test_a_library_error_of_several_lines_is_one_line(monkeypatch, capsys):
+    """A library's ValueError may start with a newline and draw a caret diagram (matplotlib's
+    mathtext did): the command still prints one line holding the message."""
+    from hoopbench.reports import cli
+
+    def broken(args):
+        raise ValueError("\n\\frac\n     ^\nParseSyntaxException: Expected \\frac{num}{den}")
+
+    monkeypatch.setattr(cli, "_cmd_settings", broken)
+    assert main(["settings"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "ParseSyntaxException" in err[0], err
