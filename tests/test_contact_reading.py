@@ -143,6 +143,37 @@ def test_a_short_saturation_is_no_slip():
     assert reading.phases == "R" and reading.t_slip is None
 
 
+def test_lone_saturated_steps_in_a_chattering_contact_are_no_slip():
+    """Rapier and Box2D before hop-top's slip: the force drops out every few steps and
+    friction touches the cone on a lone step every few ms, then the real slip saturates every
+    contact step. The slip starts there, not at the first lone step (it was read 21 ms early,
+    its friction at the cone on 8 % of the contact samples after it)."""
+    n, f, clear, slip = _rolling()
+    chatter = np.arange(800, 1500)
+    n[chatter[chatter % 3 == 0]] = 0.0  # a third of the steps without force
+    lone = np.arange(800, 1500, 30)
+    f[lone] = -0.5 * n[lone]  # a lone step at the cone every 3 ms (a quarter with no force)
+    f[1500:] = -0.5 * n[1500:]
+    slip[1500:] = 0.05
+    reading = read_contact(_record(n, f, clear, slip), mu=0.5)
+    # A lone step may still start it when the slip fills half of the 5 ms after it.
+    assert 1500 * DT - 5e-3 <= reading.t_slip <= 1500 * DT + DT
+    assert reading.phases == "R S+"
+
+
+def test_a_sparse_contact_keeps_its_mode():
+    """Box2D on high-spin: the contact force acts on one step in fifty while the hoop rolls;
+    its roll is still the first mode, and the slip starts where friction saturates."""
+    n, f, clear, slip = _rolling()
+    sparse = np.ones(len(n), dtype=bool)
+    sparse[::50] = False  # 4 ms of steps with force before the slip, under the 5 ms sustain
+    n[sparse] = f[sparse] = 0.0
+    f[2000:] = -0.5 * n[2000:]
+    reading = read_contact(_record(n, f, clear, slip), mu=0.5)
+    assert reading.phases == "R S+"
+    assert reading.t_slip == pytest.approx(2000 * DT, abs=DT)
+
+
 def test_the_thresholds_scale_with_the_hoop():
     small = ContactSettings().for_hoop(0.01, 9.8)
     assert small.hop_clearance == pytest.approx(1e-5)

@@ -70,6 +70,13 @@ class ContactSettings:
     sustain: float = 5e-3
     """s: how long a new contact mode must last to count (the detectors' restick_sustain and
     lift_sustain on the 1 m hoop); it scales with sqrt(a / g)."""
+    takeover_share: float = 0.5
+    """A new mode must also hold at least this share of the contact samples from its first
+    one on (dimensionless). Soft contacts (Rapier, Box2D) chatter before a slip, with the force
+    dropping out every few steps and a lone saturated sample every few ms: counting the
+    samples without force as the mode they interrupt summed those lone samples into a slip
+    20 ms early, whose friction was at the cone on 8-30 % of the contact samples after it.
+    MuJoCo's slip onset, at the cone on all but a step here and there, is read as before."""
     hop_clearance: float = DetectorSettings().hop_clearance
     """m: the hop threshold (the detectors' one home, DetectorSettings.hop_clearance)."""
     slip_threshold: float = DetectorSettings().slip_threshold
@@ -155,7 +162,9 @@ def read_contact(
     chatter = [fl for fl in flights if fl not in hops]
     end = math.inf if window_end is None else window_end
     hop = max((h for h in hops if h.t_start <= end), key=lambda h: h.max_clearance, default=None)
-    modes = _modes(t, _labels(touching, saturated, f, _inside(t, hops) & ~touching), cfg.sustain)
+    in_hop = _inside(t, hops) & ~touching
+    labels = _labels(touching, saturated, f, in_hop)
+    modes = _modes(t, labels, touching | in_hop, cfg)
     if hop is not None and hop.t_end is not None:
         modes = [m for m in modes if m[1] <= hop.t_end]  # the exact model ends at the impact
     t_slip, t_restick = _slip_events(modes)
@@ -314,47 +323,66 @@ _KINDS = {
 }
 
 
-Run = tuple[int, float, float]
-"""(label, start time, end time in s; the last run ends at infinity)."""
+Run = tuple[int, float, float, float]
+"""(label, start time, end time in s (the last run ends at infinity), and the time of its
+samples that have a label of their own, s: a sample without contact force only borrows one)."""
 
 
-def _label_runs(t: NDArray, labels: NDArray) -> list[Run]:
+def _label_runs(t: NDArray, labels: NDArray, own: NDArray) -> list[Run]:
     edges = np.nonzero(np.diff(labels))[0] + 1
     starts = np.concatenate(([0], edges))
     stops = np.concatenate((edges, [len(t)]))
+    step = np.diff(t, append=t[-1] + (t[-1] - t[-2] if len(t) > 1 else 0.0))
+    held = np.concatenate(([0.0], np.cumsum(np.where(own, step, 0.0))))
     return [
-        (int(labels[i]), float(t[i]), float(t[j]) if j < len(t) else math.inf)
+        (
+            int(labels[i]),
+            float(t[i]),
+            float(t[j]) if j < len(t) else math.inf,
+            float(held[j] - held[i]),
+        )
         for i, j in zip(starts, stops, strict=True)
     ]
 
 
-def _takes_over(runs: list[Run], k: int, sustain: float) -> bool:
-    """Whether run k's label becomes the mode: it gathers ``sustain`` of time (its own runs,
-    interrupted or not) before any run of another label lasts ``sustain`` on its own. So a
-    slip whose friction leaves the cone for a step here and there (MuJoCo's contact bounces
-    at a slip onset) starts at its first saturated sample, and a single saturated step
-    inside a roll is no slip."""
-    label, held = runs[k][0], 0.0
-    for other, start, end in runs[k:]:
-        if other == label:
+def _takes_over(runs: list[Run], k: int, cfg: ContactSettings) -> bool:
+    """Whether run k's label becomes the mode: it holds at least ``takeover_share`` of the
+    first ``sustain`` of labelled time from its start (samples without force borrow a label
+    and do not count), and it gathers ``sustain`` of time (its own runs, interrupted or not)
+    before any run of another label lasts ``sustain`` on its own. So a slip whose friction
+    leaves the cone for a step here and there (MuJoCo's contact bounces at a slip onset)
+    starts at its first saturated sample, while a single saturated step inside a roll, or
+    lone ones in a chattering contact, is no slip; a contact whose force acts on one step in
+    twenty (Box2D's on high-spin) keeps its mode."""
+    label, held, mine, seen, checked = runs[k][0], 0.0, 0.0, 0.0, False
+    for other, start, end, own in runs[k:]:
+        ours = other == label
+        if ours:
             held += end - start
-            if held >= sustain:
-                return True
-        elif end - start >= sustain:
-            return False
+        if not checked and seen + own >= cfg.sustain:  # the first sustain of labelled time
+            window = mine + (cfg.sustain - seen if ours else 0.0)
+            if window < cfg.takeover_share * cfg.sustain:
+                return False  # too sparse to be the mode from here
+            checked = True
+        seen += own
+        mine += own if ours else 0.0
+        if held >= cfg.sustain and (checked or mine >= cfg.takeover_share * seen):
+            return True
+        if not ours and end - start >= cfg.sustain:
+            return False  # another mode holds first
     return held > 0.0  # the record ends first: a mode at the window's end counts
 
 
-def _modes(t: NDArray, labels: NDArray, sustain: float) -> list[Mode]:
-    """The contact modes from the per-sample labels (:func:`_labels`): the mode changes at
-    the first run of a label that takes over (:func:`_takes_over`); the first mode starts at
-    t[0]."""
-    runs = _label_runs(t, labels)
+def _modes(t: NDArray, labels: NDArray, own: NDArray, cfg: ContactSettings) -> list[Mode]:
+    """The contact modes from the per-sample labels (:func:`_labels`; ``own``: the samples
+    whose label is their own, not borrowed): the mode changes at the first run of a label
+    that takes over (:func:`_takes_over`); the first mode starts at t[0]."""
+    runs = _label_runs(t, labels, own)
     modes: list[tuple[int, float]] = []
-    for k, (label, start, _) in enumerate(runs):
+    for k, (label, start, _, _) in enumerate(runs):
         if modes and modes[-1][0] == label:
             continue
-        if _takes_over(runs, k, sustain):
+        if _takes_over(runs, k, cfg):
             modes.append((label, start if modes else float(t[0])))
     return [(_KINDS[label][0], start, _KINDS[label][1]) for label, start in modes]
 
