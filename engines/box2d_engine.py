@@ -66,6 +66,10 @@ class Box2DEngine(Engine):
     name = "box2d"
     distribution = "pyb2d3"
     modules = ("pyb2d3",)
+    model_note = (
+        "the world is built by calls (models/box2d_world.py: a body with mass data and a "
+        "circle), not read"
+    )
     options = (
         Option(
             "subStepCount",

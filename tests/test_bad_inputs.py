@@ -97,6 +97,8 @@ BAD: list[tuple[list[str], str]] = [
     (sim("reference", "--set", "cone=round"), "unknown reference setting(s) cone"),
     # ----- model files: the same checks as a run
     (["model", "--engine", "reference", *SEED], "engine reference reads no model file"),
+    (["model", "--engine", "box2d", *SEED], "box2d reads no model file: the world is built"),
+    (["model", "--engine", "rapier", *SEED], "rapier reads no model file: the world is built"),
     (["model", "--engine", "mujoco", *SEED, "--set", "cone=round"], "got 'round'"),
     (["model", "--engine", "mujoco", *SEED, "--restitution", "0.3"], "got 0.3"),
     (["model", "--engine", "pybullet", *SEED, "--mu", "11"], "got 11"),
