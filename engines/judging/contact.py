@@ -71,12 +71,13 @@ class ContactSettings:
     """s: how long a new contact mode must last to count (the detectors' restick_sustain and
     lift_sustain on the 1 m hoop); it scales with sqrt(a / g)."""
     takeover_share: float = 0.5
-    """A new mode must also hold at least this share of the contact samples from its first
-    one on (dimensionless). Soft contacts (Rapier, Box2D) chatter before a slip, with the force
-    dropping out every few steps and a lone saturated sample every few ms: counting the
-    samples without force as the mode they interrupt summed those lone samples into a slip
-    20 ms early, whose friction was at the cone on 8-30 % of the contact samples after it.
-    MuJoCo's slip onset, at the cone on all but a step here and there, is read as before."""
+    """A new mode must also hold at least this share of the samples with a contact force in
+    the ``sustain`` after its first sample (dimensionless). Soft contacts (Rapier, Box2D)
+    chatter before a slip: the force drops out every few steps and friction touches the cone
+    on a lone step every few ms. Summed across the steps without force, those lone steps
+    read as a slip 10-21 ms early, with friction at the cone on 8-48 % of the contact samples
+    after it. MuJoCo's slip onset, at the cone on all but a step here and there, reads as
+    before."""
     hop_clearance: float = DetectorSettings().hop_clearance
     """m: the hop threshold (the detectors' one home, DetectorSettings.hop_clearance)."""
     slip_threshold: float = DetectorSettings().slip_threshold
@@ -323,67 +324,59 @@ _KINDS = {
 }
 
 
-Run = tuple[int, float, float, float]
-"""(label, start time, end time in s (the last run ends at infinity), and the time of its
-samples that have a label of their own, s: a sample without contact force only borrows one)."""
+Run = tuple[int, float, float]
+"""(label, start time, end time in s; the last run ends at infinity)."""
 
 
-def _label_runs(t: NDArray, labels: NDArray, own: NDArray) -> list[Run]:
+def _label_runs(t: NDArray, labels: NDArray) -> list[tuple[int, int, int]]:
+    """(label, first sample, sample after the last) of each run of equal labels."""
     edges = np.nonzero(np.diff(labels))[0] + 1
     starts = np.concatenate(([0], edges))
     stops = np.concatenate((edges, [len(t)]))
-    step = np.diff(t, append=t[-1] + (t[-1] - t[-2] if len(t) > 1 else 0.0))
-    held = np.concatenate(([0.0], np.cumsum(np.where(own, step, 0.0))))
-    return [
-        (
-            int(labels[i]),
-            float(t[i]),
-            float(t[j]) if j < len(t) else math.inf,
-            float(held[j] - held[i]),
-        )
-        for i, j in zip(starts, stops, strict=True)
-    ]
+    return [(int(labels[i]), int(i), int(j)) for i, j in zip(starts, stops, strict=True)]
 
 
-def _takes_over(runs: list[Run], k: int, cfg: ContactSettings) -> bool:
-    """Whether run k's label becomes the mode: it holds at least ``takeover_share`` of the
-    first ``sustain`` of labelled time from its start (samples without force borrow a label
-    and do not count), and it gathers ``sustain`` of time (its own runs, interrupted or not)
-    before any run of another label lasts ``sustain`` on its own. So a slip whose friction
-    leaves the cone for a step here and there (MuJoCo's contact bounces at a slip onset)
-    starts at its first saturated sample, while a single saturated step inside a roll, or
-    lone ones in a chattering contact, is no slip; a contact whose force acts on one step in
-    twenty (Box2D's on high-spin) keeps its mode."""
-    label, held, mine, seen, checked = runs[k][0], 0.0, 0.0, 0.0, False
-    for other, start, end, own in runs[k:]:
-        ours = other == label
-        if ours:
+def _holds_from(t: NDArray, labels: NDArray, own: NDArray, i: int, cfg: ContactSettings) -> bool:
+    """Whether the label of sample i holds at least ``takeover_share`` of the samples with a
+    label of their own (``own``: not borrowed by a sample without force) in the ``sustain``
+    after it; with none there (a contact whose force acts on one step in fifty), it does."""
+    stop = int(np.searchsorted(t, t[i] + cfg.sustain))
+    window = own[i:stop]
+    if not window.any():
+        return True
+    return bool(np.mean(labels[i:stop][window] == labels[i]) >= cfg.takeover_share)
+
+
+def _takes_over(runs: list[Run], k: int, sustain: float) -> bool:
+    """Whether run k's label becomes the mode: it gathers ``sustain`` of time (its own runs,
+    interrupted or not) before any run of another label lasts ``sustain`` on its own. So a
+    slip whose friction leaves the cone for a step here and there (MuJoCo's contact bounces
+    at a slip onset) starts at its first saturated sample, and a single saturated step
+    inside a roll is no slip."""
+    label, held = runs[k][0], 0.0
+    for other, start, end in runs[k:]:
+        if other == label:
             held += end - start
-        if not checked and seen + own >= cfg.sustain:  # the first sustain of labelled time
-            window = mine + (cfg.sustain - seen if ours else 0.0)
-            if window < cfg.takeover_share * cfg.sustain:
-                return False  # too sparse to be the mode from here
-            checked = True
-        seen += own
-        mine += own if ours else 0.0
-        if held >= cfg.sustain and (checked or mine >= cfg.takeover_share * seen):
-            return True
-        if not ours and end - start >= cfg.sustain:
-            return False  # another mode holds first
+            if held >= sustain:
+                return True
+        elif end - start >= sustain:
+            return False
     return held > 0.0  # the record ends first: a mode at the window's end counts
 
 
 def _modes(t: NDArray, labels: NDArray, own: NDArray, cfg: ContactSettings) -> list[Mode]:
-    """The contact modes from the per-sample labels (:func:`_labels`; ``own``: the samples
-    whose label is their own, not borrowed): the mode changes at the first run of a label
-    that takes over (:func:`_takes_over`); the first mode starts at t[0]."""
-    runs = _label_runs(t, labels, own)
+    """The contact modes from the per-sample labels (:func:`_labels`): the mode changes at
+    the first run of a label that holds the samples after it (:func:`_holds_from`: lone
+    saturated steps in a chattering contact are no slip) and takes over
+    (:func:`_takes_over`); the first mode starts at t[0]."""
+    bounds = _label_runs(t, labels)
+    runs = [(label, float(t[i]), float(t[j]) if j < len(t) else math.inf) for label, i, j in bounds]
     modes: list[tuple[int, float]] = []
-    for k, (label, start, _, _) in enumerate(runs):
+    for k, (label, first, _) in enumerate(bounds):
         if modes and modes[-1][0] == label:
             continue
-        if _takes_over(runs, k, cfg):
-            modes.append((label, start if modes else float(t[0])))
+        if _holds_from(t, labels, own, first, cfg) and _takes_over(runs, k, cfg.sustain):
+            modes.append((label, runs[k][1] if modes else float(t[0])))
     return [(_KINDS[label][0], start, _KINDS[label][1]) for label, start in modes]
 
 
