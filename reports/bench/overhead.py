@@ -5,7 +5,7 @@ Run with ``make bench`` or
 Prints, per engine, the best-of-N wall time of a run's stepping loop (recording every step,
 reading contact forces, checking divergence), of a bare loop of the same number of steps
 (``Engine.bare_loop_time``: the same model stepped with nothing read, measured alike for
-every engine; both with the garbage collector off), their ratio (target: at most 1.3) and
+every engine; both with the garbage collector off), their ratio (target: at most 1.2) and
 the cost per step.
 This is a measurement, not a test: nothing here asserts a time.
 """
