@@ -125,6 +125,21 @@ def test_the_map_keeps_a_thinned_copy_of_each_run(page):
     assert stored.t[-1] == pytest.approx(engine["sim_time_s"], abs=2 * MAP.timestep)
 
 
+def test_a_display_file_keeps_only_what_the_page_draws(page):
+    """A 40x40 map's display/ took 267 MB when each file held the whole thinned trajectory
+    in double precision; it keeps the four drawn curves in single precision now."""
+    import pyarrow.parquet as pq
+
+    from hoopbench.reports.hop_map.display import DISPLAY_COLUMNS, display_path
+
+    folder = page.parent.parent / "map"
+    run_id = map_frame(folder).query("engine == 'pymunk'").iloc[0]["run_id"]
+    schema = pq.read_schema(display_path(folder, run_id))
+    assert schema.names == list(DISPLAY_COLUMNS)
+    assert all(str(schema.field(name).type) == "float" for name in DISPLAY_COLUMNS)
+    assert display_path(folder, run_id).stat().st_size < 12_000
+
+
 def test_thinning_keeps_the_ends():
     n = 1001
     columns = {c: np.linspace(0.0, 1.0, n) for c in COLUMNS}

@@ -19,7 +19,7 @@ import pandas as pd
 from hoopbench.engines.judging.verdict import Verdict
 from hoopbench.reference.regimes import Regime
 from hoopbench.reports.compare.selection import reference_rows
-from hoopbench.reports.hop_map.display import DISPLAY_SAMPLES, read_display, thinned
+from hoopbench.reports.hop_map.display import DISPLAY_SAMPLES, read_display
 from hoopbench.reports.hop_map.spec import load_spec
 from hoopbench.reports.hop_map.table import map_frame
 from hoopbench.reports.report.map_figures import (
@@ -97,7 +97,7 @@ def _runs(out: Path, point: pd.DataFrame, title: str, g: float, samples: int) ->
         stored = read_display(out, str(row["run_id"]))
         if stored is None:
             continue
-        trajectory = thinned(stored, samples)
+        trajectory = stored.thinned(samples)
         exact = row["engine"] not in engines_of(point)
         runs.append(
             {
