@@ -22,7 +22,7 @@ import sys
 import time
 import traceback
 from abc import ABC
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import AbstractContextManager, contextmanager
 from dataclasses import dataclass
 from functools import partial
@@ -57,6 +57,7 @@ __all__ = [
     "equilibrium_depth",
     "import_engine",
     "n_steps_for",
+    "states_and_step_forces",
     "steps_in",
 ]
 
@@ -474,6 +475,25 @@ def equilibrium_depth(
     from scipy.optimize import brentq
 
     return float(brentq(vertical_acceleration, lo, hi, xtol=xtol, rtol=1e-12, maxiter=maxiter))
+
+
+def states_and_step_forces(
+    first: np.ndarray, blocks: Sequence[np.ndarray], last: Sequence[float]
+) -> tuple[np.ndarray, np.ndarray]:
+    """A run's recorded states, and beside each the force of the step taken from it: the
+    row convention of every adapter that reads its force after each step.
+
+    ``first``: the initial state (one row, or a row's values); ``blocks``: the rows recorded
+    after each step, the state the step reached and then that step's force (or impulse);
+    ``last``: the force of the step ``_finish`` took from the last state. Row i of the
+    forces is the force that took the state from row i to row i + 1.
+    """
+    first = np.atleast_2d(first)
+    width = first.shape[1] + len(last)
+    rows = np.concatenate(blocks) if len(blocks) else np.empty((0, width))
+    states = np.concatenate([first, rows[:, : first.shape[1]]])
+    forces = np.concatenate([rows[:, first.shape[1] :], np.atleast_2d(last)])
+    return states, forces
 
 
 def n_steps_for(scene: Scene, timestep: float) -> int:

@@ -52,7 +52,7 @@ from typing import Any
 
 import numpy as np
 
-from hoopbench.engines.base import Chunk, Engine
+from hoopbench.engines.base import Chunk, Engine, states_and_step_forces
 from hoopbench.engines.options import Option, Variant, choice, flag, integer, number
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
@@ -81,9 +81,6 @@ exactly touching is 1e-16 m apart, gets no contact in its first step and falls a
 
 _FLOOR_THICKNESS = 1.0
 """m; the floor box's top face is the plane z = 0."""
-
-_ROW = 8
-"""Recorded per step: z, x, theta, zdot, xdot, thetadot (the joint), force x and z (N)."""
 
 _DETECTOR_CLASSES = {
     "fcl": "FCLCollisionDetector",
@@ -250,9 +247,9 @@ class DartEngine(Engine):
         run.last_force = _contact_force(run.world.getLastCollisionResult())
 
     def _trajectory(self, run: _Run, done: int, ended_early: bool) -> Trajectory:
-        first, rows = run.blocks[0], np.concatenate(run.blocks[1:] or [np.empty((0, _ROW))])
-        state = _com_state(run.scene, np.concatenate([first, rows[:, :6]]))
-        force = np.concatenate([rows[:, 6:], [run.last_force]]) / run.scene.M
+        states, forces = states_and_step_forces(run.blocks[0], run.blocks[1:], run.last_force)
+        state = _com_state(run.scene, states)
+        force = forces / run.scene.M
         return Trajectory.from_state(
             run.scene,
             t=np.arange(len(force)) * run.timestep,
@@ -278,7 +275,8 @@ class _Run:
     scene: Scene
     timestep: float
     blocks: list[np.ndarray] = field(default_factory=list)
-    """The initial joint state (6 columns), then a block of _ROW columns per chunk."""
+    """The initial joint state (6 columns), then a block per chunk whose rows are, per step:
+    z, x, theta, zdot, xdot, thetadot (the joint), force x and z (N)."""
     last_force: tuple[float, float] = (0.0, 0.0)
     """Force x and z, N, of the step after the last state (``_finish``)."""
 

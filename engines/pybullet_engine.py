@@ -51,7 +51,7 @@ from typing import Any
 
 import numpy as np
 
-from hoopbench.engines.base import Chunk, Engine
+from hoopbench.engines.base import Chunk, Engine, states_and_step_forces
 from hoopbench.engines.options import Option, Variant, flag, integer, number, optional
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
@@ -304,9 +304,9 @@ class PybulletEngine(Engine):
         run.last_force = _contact_force(points)
 
     def _trajectory(self, run: _Run, done: int, ended_early: bool) -> Trajectory:
-        first, rows = run.blocks[0], np.concatenate(run.blocks[1:] or [np.empty((0, _ROW))])
-        state = _com_state(run.scene, np.concatenate([first, rows[:, :6]]))
-        force = np.concatenate([rows[:, 6:], [run.last_force]]) / run.scene.M
+        states, forces = states_and_step_forces(run.blocks[0], run.blocks[1:], run.last_force)
+        state = _com_state(run.scene, states)
+        force = forces / run.scene.M
         return Trajectory.from_state(
             run.scene,
             t=np.arange(len(force)) * run.timestep,

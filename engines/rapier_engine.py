@@ -62,7 +62,7 @@ from typing import Any
 
 import numpy as np
 
-from hoopbench.engines.base import Chunk, Engine
+from hoopbench.engines.base import Chunk, Engine, states_and_step_forces
 from hoopbench.engines.options import Option, Variant, choice, flag, integer, real_tuple
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
@@ -253,12 +253,11 @@ class RapierEngine(Engine):
         run.last = (normal, friction, run.body.linvel.x - v0)
 
     def _trajectory(self, run: _Run, done: int, ended_early: bool) -> Trajectory:
-        rows = np.concatenate(run.blocks or [np.empty((0, _ROW))])
-        states = np.vstack([run.first, rows[:, :7]])
+        states, impulses = states_and_step_forces(run.first, run.blocks, run.last[:2])
         state = _com_state(run.scene, states, run.scene.theta0)
-        normal = np.append(rows[:, 7], run.last[0])
+        normal = impulses[:, 0]
         if run.axis is not None:
-            friction = np.append(rows[:, 8], run.last[1])
+            friction = impulses[:, 1]
         else:
             # Simplified friction: the momentum balance of each step (module doc).
             vx = states[:, 4]
