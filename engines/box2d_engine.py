@@ -257,13 +257,4 @@ def _our_state(scene: Scene, raw: np.ndarray, angle: np.ndarray) -> dict[str, np
     """Box2D rows (hoop-centre position, ccw angle, COM velocity) -> our COM state, with
     ``angle`` the rows' angle unwrapped: Box2D keeps a rotation, in (-pi, pi], not a turn
     count."""
-    theta = -angle
-    X, Y = kinematics.com_position(scene, raw[:, 0], raw[:, 1], theta)
-    return {
-        "X": X,
-        "Y": Y,
-        "theta": theta,
-        "Xdot": raw[:, 3],
-        "Ydot": raw[:, 4],
-        "thetadot": -raw[:, 5],
-    }
+    return kinematics.com_state_ccw(scene, raw[:, 0], raw[:, 1], angle, *raw[:, 3:6].T)

@@ -233,13 +233,4 @@ def _our_state(scene: Scene, raw: np.ndarray) -> dict[str, np.ndarray]:
     pymunk's velocity is already the centre of gravity's; its angle is counter-clockwise, so
     theta = -angle.
     """
-    theta = -raw[:, 2]
-    X, Y = kinematics.com_position(scene, raw[:, 0], raw[:, 1], theta)
-    return {
-        "X": X,
-        "Y": Y,
-        "theta": theta,
-        "Xdot": raw[:, 3],
-        "Ydot": raw[:, 4],
-        "thetadot": -raw[:, 5],
-    }
+    return kinematics.com_state_ccw(scene, *raw[:, :6].T)

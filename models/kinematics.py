@@ -35,6 +35,7 @@ __all__ = [
     "clearance",
     "com_position",
     "com_state",
+    "com_state_ccw",
     "contact_depth",
     "contact_offset",
     "energy_per_mass",
@@ -183,6 +184,30 @@ def com_state(
         "Xdot": np.asarray(xdot) + r * c * thetadot,
         "Ydot": np.asarray(ydot) - r * s * thetadot,
         "thetadot": thetadot,
+    }
+
+
+def com_state_ccw(
+    scene: Scene,
+    x: ArrayLike,
+    y: ArrayLike,
+    angle: ArrayLike,
+    com_xdot: ArrayLike,
+    com_ydot: ArrayLike,
+    omega: ArrayLike,
+) -> dict[str, NDArray]:
+    """Centre-of-mass state, as :func:`com_state`'s keys, from a 2D engine's body: the hoop
+    centre (x, y), m, its counter-clockwise angle, rad (theta = -angle), the centre of
+    mass's velocity, m/s, and the counter-clockwise angular velocity, rad/s (pymunk, Box2D)."""
+    theta = -np.asarray(angle, dtype=float)
+    X, Y = com_position(scene, x, y, theta)
+    return {
+        "X": X,
+        "Y": Y,
+        "theta": theta,
+        "Xdot": np.asarray(com_xdot),
+        "Ydot": np.asarray(com_ydot),
+        "thetadot": -np.asarray(omega),
     }
 
 
