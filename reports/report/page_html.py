@@ -10,11 +10,14 @@ writes every ``<``, ``>`` and ``&`` as a JSON ``\\u`` escape, so that no ``</scr
 
 from __future__ import annotations
 
-import html
 from typing import Any
 
 import numpy as np
 from plotly.io.json import to_json_plotly
+
+# A value as HTML text, also for plotly's labels, which read entities: the one escape of
+# every string from a results folder (reports/report/escaping.py).
+from hoopbench.reports.report.escaping import escape_html as text
 
 __all__ = ["FIGURE_CLASS", "PALETTE", "figure_fragment", "rounded", "script_json", "text"]
 
@@ -28,11 +31,6 @@ the panels of a figure."""
 SIGNIFICANT = 5
 """Significant digits of the numbers a figure draws: finer than any axis shows, and it keeps
 the page small (the tables keep the stored numbers)."""
-
-
-def text(value: object) -> str:
-    """A value as HTML text (also for plotly's labels, which read entities)."""
-    return html.escape(str(value))
 
 
 def rounded(values: Any, digits: int = SIGNIFICANT) -> list[float | None]:
