@@ -44,9 +44,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hoopbench.engines.judging.detectors import DetectorSettings, hoop_scale
+from hoopbench.models.events import Events, Outcome, Phase, PhaseKind
 from hoopbench.models.trajectory import Trajectory
 
-__all__ = ["CHATTER_CODE", "ContactReading", "ContactSettings", "Flight", "read_contact"]
+__all__ = [
+    "CHATTER_CODE",
+    "ContactReading",
+    "ContactSettings",
+    "Flight",
+    "canonical_events",
+    "read_contact",
+]
 
 CHATTER_CODE = "C"
 """The phase code of a chattering contact (friction at the cone on alternate steps, inside
@@ -162,6 +170,9 @@ class ContactReading:
     cone tolerance) and no sliding above the slip threshold: a Coulomb violation."""
     chattering_time: float = 0.0
     """s: time in chattering modes (code C)."""
+    modes: tuple[Phase, ...] = ()
+    """The modes as phases (each ends where the next starts; the last at the hop's impact
+    or the record's end)."""
 
 
 @dataclass(frozen=True)
@@ -233,6 +244,53 @@ def read_contact(
         else None,
         cone_stick_time=max((float(np.sum(step[i:j])) for i, j in _runs(sticking)), default=0.0),
         chattering_time=_mode_time(t, modes, _CHATTER),
+        modes=_phases(modes, float(t[-1]) if hop is None or hop.t_end is None else hop.t_end),
+    )
+
+
+def canonical_events(
+    traj: Trajectory, reading: ContactReading, *, painleve: bool = False
+) -> Events:
+    """The run's events as the canonical reading gives them (``hb.run(...).events``, the
+    unprefixed columns): the outcome is ``hops`` with a hop, else ``slips`` with a slip,
+    else ``rolls`` (``painleve`` where the run is the reference of a Painlevé scene)."""
+    if painleve:
+        outcome = Outcome.PAINLEVE
+    elif reading.t_lift is not None:
+        outcome = Outcome.HOPS
+    else:
+        outcome = Outcome.SLIPS if reading.t_slip is not None else Outcome.ROLLS
+    theta = thetadot = None
+    if reading.t_slip is not None:
+        theta = float(np.interp(reading.t_slip, traj.t, traj.theta))
+        thetadot = float(np.interp(reading.t_slip, traj.t, traj.thetadot))
+    return Events(
+        outcome=outcome,
+        t_slip=reading.t_slip,
+        theta_slip=theta,
+        thetadot_slip=thetadot,
+        t_restick=reading.t_restick,
+        t_lift=reading.t_lift,
+        hop_height=reading.hop_height,
+        t_impact=reading.t_impact,
+        phases=reading.modes,
+    )
+
+
+_KINDS = {
+    "F": (PhaseKind.FLIGHT, None),
+    "R": (PhaseKind.ROLL, None),
+    "S+": (PhaseKind.SLIP, 1),
+    "S-": (PhaseKind.SLIP, -1),
+    CHATTER_CODE: (PhaseKind.CHATTER, None),
+}
+
+
+def _phases(modes: list[Mode], t_end: float) -> tuple[Phase, ...]:
+    ends = [start for _, start in modes[1:]] + [t_end]
+    return tuple(
+        Phase(_KINDS[code][0], start, max(end, start), _KINDS[code][1])
+        for (code, start), end in zip(modes, ends, strict=True)
     )
 
 

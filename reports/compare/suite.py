@@ -19,7 +19,14 @@ from typing import Any, Protocol
 
 import pandas as pd
 
-from hoopbench.engines.judging.columns import CONTACT_COLUMNS, EXACT_COLUMNS, FORCE_COLUMNS, Col
+from hoopbench.engines.judging.columns import (
+    EVENT_COLUMNS,
+    EXACT_COLUMNS,
+    FLOOR_COLUMNS,
+    FORCE_COLUMNS,
+    KIN_COLUMNS,
+    Col,
+)
 from hoopbench.engines.judging.comparison import exact_solution, judged_columns, scene_exact_columns
 from hoopbench.engines.judging.verdict import (
     Verdict,
@@ -66,36 +73,20 @@ ROW_COLUMNS = (
     Col.N_STEPS,
     Col.US_PER_STEP,
     *EXACT_COLUMNS,
-    Col.OUTCOME,
-    Col.T_SLIP,
-    Col.T_SLIP_THRESHOLD,
-    Col.THETA_SLIP_DEG,
-    Col.T_RESTICK,
-    Col.T_LIFT,
-    Col.HOP_HEIGHT,
-    Col.T_IMPACT,
-    Col.ERR_T_SLIP_MS,
-    Col.ERR_THETA_SLIP_DEG,
-    Col.ERR_T_LIFT_MS,
-    Col.ERR_T_IMPACT_MS,
-    Col.ERR_HOP_HEIGHT_REL,
+    *EVENT_COLUMNS,
     Col.ENERGY_RISE_BEFORE_SLIP,
     Col.ENERGY_CHANGE_END,
     Col.MAX_PENETRATION_M,
     Col.RMS_POSITION_M,
     Col.MAX_CLEARANCE,
-    Col.CONSISTENT,
-    Col.EVENT_FLAGS,
+    Col.T_FINAL,
     Col.VERDICT,
     Col.OUTCOME_AGREES,
     Col.VERDICT_FLAGS,
     Col.VERDICT_REASON,
-    Col.PHASES,
-    Col.T_LAST_PHASE,
-    Col.T_FINAL,
-    Col.PHASES_AGREE,
-    *CONTACT_COLUMNS,
+    *FLOOR_COLUMNS,
     *FORCE_COLUMNS,
+    *KIN_COLUMNS,
     Col.TRAJECTORY_FILE,
 )
 """Every column of a run's row, in order; a failed run leaves most of them empty."""
