@@ -213,15 +213,30 @@ def kin_columns(events: Events, exact: Mapping[str, Any]) -> dict[str, Any]:
     }
 
 
+def _sampled(solution: ExactSolution, timestep: float) -> Trajectory | None:
+    """The exact solution on a run's time grid, as the reference engine samples it: every
+    ``timestep`` up to the scene's window end (or the solution's end, if earlier), plus the
+    solution's last instant (the impact, for a hop). None where that is too many samples."""
+    end = min(solution.scene.t_end, solution.t_final)
+    n = math.floor(end / timestep * (1.0 + 1e-12))
+    if n > 10_000_000:
+        return None
+    t = np.unique(
+        np.minimum(np.append(np.arange(n + 1) * timestep, solution.t_final), solution.t_final)
+    )
+    sampled = solution.sample(t)
+    finite = np.isfinite(sampled.normal_force) & np.isfinite(sampled.friction_force)
+    if not finite.all():  # a Painlevé point's last instant has no finite force
+        sampled = solution.sample(t[finite])
+    return sampled if len(sampled.t) >= 2 else None
+
+
 @functools.lru_cache(maxsize=64)
 def _floor(scene: Scene, mu: float, timestep: float) -> dict[str, Any]:
     solution = exact_solution(scene, mu)
     exact = exact_columns(solution.events)
-    try:
-        sampled = solution.sample_uniform(timestep)
-    except ValueError:  # too many samples, or none: no floor to read
-        return {}
-    if len(sampled.t) < 2:
+    sampled = _sampled(solution, timestep)
+    if sampled is None:
         return {}
     window_end = number_or_none(exact.get(Col.EXACT_T_IMPACT))
     reading = read_contact(sampled, mu, _settings(solution.scene), window_end=window_end)
