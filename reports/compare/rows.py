@@ -7,6 +7,8 @@ A compare results folder records its version in meta.json (``runs_format_version
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import pandas as pd
 
 from hoopbench.engines.judging.columns import (
@@ -24,7 +26,13 @@ from hoopbench.models.events import Outcome
 from hoopbench.models.formats import FileFormat
 from hoopbench.reports.sweep import results
 
-__all__ = ["FORMAT_VERSION", "RUNS_TABLE", "one_reading"]
+__all__ = [
+    "FORMAT_VERSION",
+    "ONE_READING_VERSION",
+    "RUNS_TABLE",
+    "before_one_reading",
+    "one_reading",
+]
 
 FORMAT_VERSION = 7
 """Version of the runs table layout (1: runs.parquet and runs.json, before the runs/ dataset;
@@ -38,6 +46,10 @@ one, FORCE_COLUMNS; 7, issue 24: one reading, the unprefixed event columns are t
 verdict has one meaning: :func:`one_reading`). Columns also arrived between bumps
 (profile and a late in 2, rms_position_m with 3, g late in 3, exact_max_slip_speed early in
 4): a table may lack one its version lists, and reads it empty."""
+
+ONE_READING_VERSION = 7
+"""The first format with one reading (issue 24): a folder stored before it is read migrated
+but cannot be resumed, since its old rows and new ones would name their columns apart."""
 
 _ADDED_IN = {
     3: (
@@ -89,6 +101,12 @@ def _outcome(row: pd.Series) -> str | None:
     return str(Outcome.SLIPS if slips else Outcome.ROLLS)
 
 
+def before_one_reading(columns: Iterable[str]) -> bool:
+    """Whether a table with these columns was stored before one reading (format 7): it has
+    no kin_* columns (an older migration may have added empty contact_* ones)."""
+    return Col.KIN_PHASES not in set(columns)
+
+
 def one_reading(frame: pd.DataFrame) -> pd.DataFrame:
     """Issue 24's migration of a runs table (a suite's, version 6, or a map's, version 3) to
     one reading: its unprefixed event columns (the clearance reading) become ``kin_*``, its
@@ -98,13 +116,20 @@ def one_reading(frame: pd.DataFrame) -> pd.DataFrame:
     chattering times, the slip angle by the contact force) read empty; and the verdict is
     judged again by today's rules, tolerances and tiers. Rows stored without a contact
     reading (before version 5) keep empty event columns and their stored verdict."""
+    if not before_one_reading(frame.columns):
+        # A folder without meta.json counts as version 2, yet its rows may be this
+        # hoopbench's (a sweep still running, or interrupted): they need no renaming.
+        frame = frame.drop(columns=[c for c in RENAMED_FROM_CONTACT if c in frame.columns])
+        return results.with_columns(frame, (*EVENT_COLUMNS, *KIN_COLUMNS, *FLOOR_COLUMNS))
     frame = frame.rename(columns={**RENAMED_TO_KIN, **RENAMED_FROM_CONTACT})
-    frame = results.with_columns(frame, (*EVENT_COLUMNS, *KIN_COLUMNS, *FLOOR_COLUMNS))
+    needed = (*EVENT_COLUMNS, *KIN_COLUMNS, *FLOOR_COLUMNS, Col.EXACT_HOP_HEIGHT)
+    frame = results.with_columns(frame, needed)
     if frame.empty:
         return frame
     hop = pd.to_numeric(frame[Col.HOP_HEIGHT], errors="coerce")
     exact_hop = pd.to_numeric(frame[Col.EXACT_HOP_HEIGHT], errors="coerce")
-    frame[Col.ERR_HOP_HEIGHT_REL] = (hop / exact_hop.where(exact_hop > 0)) - 1.0
+    error = (hop / exact_hop.where(exact_hop > 0)) - 1.0
+    frame[Col.ERR_HOP_HEIGHT_REL] = error.astype(object).where(error.notna(), None)
     frame[Col.OUTCOME] = frame.apply(_outcome, axis=1)
     read = frame[Col.PHASES].map(lambda v: isinstance(v, str))
     for index in frame.index[read]:

@@ -33,7 +33,12 @@ from hoopbench.engines.judging.verdict import (
 )
 from hoopbench.engines.registry import engine_class, get_engine
 from hoopbench.engines.run import RunResult, RunStatus
-from hoopbench.reports.compare.rows import FORMAT_VERSION, RUNS_TABLE
+from hoopbench.reports.compare.rows import (
+    FORMAT_VERSION,
+    ONE_READING_VERSION,
+    RUNS_TABLE,
+    before_one_reading,
+)
 from hoopbench.reports.compare.suite_file import (
     DEFAULT_VARIANT,
     RunTask,
@@ -42,7 +47,13 @@ from hoopbench.reports.compare.suite_file import (
     load_suite,
 )
 from hoopbench.reports.sweep import results
-from hoopbench.reports.sweep.runner import RunSummary, claim_folder, row_or_failure, run_tasks
+from hoopbench.reports.sweep.runner import (
+    RunnerError,
+    RunSummary,
+    claim_folder,
+    row_or_failure,
+    run_tasks,
+)
 
 __all__ = [
     "FORMAT_VERSION",
@@ -179,6 +190,15 @@ class StepCounted(Protocol):
     def n_steps(self) -> int: ...
 
 
+def _stored_before_one_reading(out: Path) -> bool:
+    """Whether the runs stored in ``out`` name their columns as before format 7."""
+    try:
+        stored = results.read_runs(out)
+    except (OSError, ValueError):
+        return False
+    return len(stored) > 0 and before_one_reading(stored.columns)
+
+
 def run_timeout(task: StepCounted) -> float:
     """Seconds a run may take before it becomes a timeout row: generous, from its size.
 
@@ -219,6 +239,12 @@ def compare(
     timeout = run_timeout if run_timeout_s is None else run_timeout_s
     # A resumed folder keeps an older version (its old rows are still there); a newer one stops.
     version = results.resumed_format_version(out, RUNS_TABLE) if resume else FORMAT_VERSION
+    if resume and version < ONE_READING_VERSION and _stored_before_one_reading(out):
+        raise RunnerError(
+            f"{out} holds runs table format {version}, from before one reading (format "
+            f"{ONE_READING_VERSION}): its rows and this hoopbench's cannot share a table; "
+            "run the suite into a new folder (the old one reads as before)"
+        )
     meta = {
         "suite": suite.name,
         "suite_file": Path(suite_file).name,

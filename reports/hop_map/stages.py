@@ -406,6 +406,13 @@ def run_map(
         check_identity(out, MAP_IDENTITY)
     if resume and holds_files(out) and not (out / MAP_FILE).is_file():
         raise RunnerError(f"{out} holds no {MAP_FILE}: it is not a hop map folder to resume")
+    stored = results.recorded_format_version(out) if resume and out.is_dir() else None
+    if isinstance(stored, int) and stored < ROWS_FORMAT_VERSION:
+        raise RunnerError(
+            f"{out} holds map table format {stored}, from before one reading (format "
+            f"{ROWS_FORMAT_VERSION}): its rows and this hoopbench's cannot share a table; "
+            "run the map into a new folder (the old one reads as before)"
+        )
     say = None if quiet else (lambda text: _say(text, quiet, stream))
     with claim_folder(out, resume, MAP_IDENTITY, say):
         return _run_map(

@@ -44,6 +44,7 @@ def _to_4(frame: pd.DataFrame) -> pd.DataFrame:
     frame = one_reading(frame)
     if frame.empty:
         return frame
+    frame = results.with_columns(frame, (Col.VERDICT, Col.HOP_HEIGHT, Col.EXACT_HOP_HEIGHT))
     both = frame[Col.VERDICT].notna() & frame[Col.HOP_HEIGHT].notna()
     error = pd.to_numeric(frame[Col.HOP_HEIGHT], errors="coerce") - pd.to_numeric(
         frame[Col.EXACT_HOP_HEIGHT], errors="coerce"

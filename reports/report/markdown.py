@@ -132,7 +132,7 @@ def _header(runs: pd.DataFrame, generated: str) -> str:
         "",
         "Every engine event is read off its trajectory and contact force by one reading, "
         "the canonical one (`engines/judging/contact.py`, docs/report.md); every section "
-        "but \"Where the two readings differ\" shows it. The exact events come from the "
+        'but "Where the two readings differ" shows it. The exact events come from the '
         "event-driven reference solver for the same scene with mus = muk = the run's mu. "
         "Errors are engine minus exact. Times in s (errors in ms), angles in degrees, "
         "lengths in m. The verdict's tolerances (`engines/judging/tolerances.toml`, shared "
