@@ -224,8 +224,9 @@ TINY_VERDICTS = {
 contact forces by hand. The hop at lam 0.5, chi 2 lifts off 0.92 s into the 1 s window and
 is cut there (3 mm high) while the exact hop, 0.17 m, lands at 1.53 s: its lift-off, 3.9 ms
 late, is within the loose tolerance (close, not tight) and its height cannot be told (it was
-'missed-hop' when a cut flight was judged as a finished one). At lam 0.5, chi 0.05 pymunk's slip velocity spikes again and again, each
-spike on a step without contact force: no slip by the contact (it was 'false-slip')."""
+'missed-hop' when a cut flight was judged as a finished one). At lam 0.5, chi 0.05 pymunk's
+slip velocity spikes again and again, each spike on a step without contact force: no slip by
+the contact (it was 'false-slip')."""
 
 
 def test_an_engine_row_carries_its_verdict_and_its_points_exact_answer(tiny):
