@@ -325,9 +325,13 @@ def _step_labels(
     touching: NDArray, n: NDArray, f: NDArray, mu: float, cfg: ContactSettings
 ) -> NDArray:
     """Each sample's own label from its own friction (no window): slip + or - at the cone
-    within ``cone_tolerance``, roll inside it by more than ``cone_hold``, else none (-1)."""
-    ratio = np.abs(f) >= (1.0 - cfg.cone_tolerance) * mu * n
-    inside = np.abs(f) < (1.0 - cfg.cone_hold) * mu * n
+    within ``cone_tolerance`` either side (outside it is no slip), roll inside it by more
+    than ``cone_hold``, else none (-1)."""
+    cone = mu * n
+    ratio = (np.abs(f) >= (1.0 - cfg.cone_tolerance) * cone) & (
+        np.abs(f) <= (1.0 + cfg.cone_tolerance) * cone
+    )
+    inside = np.abs(f) < (1.0 - cfg.cone_hold) * cone
     labels = np.where(touching & inside, _ROLL, -1)
     labels = np.where(touching & ratio & (f < 0), _SLIP_PLUS, labels)
     return np.where(touching & ratio & (f > 0), _SLIP_MINUS, labels)
@@ -510,7 +514,7 @@ def _refined_start(
     forward over those whose own label is not yet ``label`` (the centred mean sees a sharp
     change up to W/2 before it happens). Never at or before the previous mode's start."""
     previous, start = modes[-1]
-    if label not in _STEP_LABELS or previous not in _STEP_LABELS:
+    if label not in _STEP_LABELS or previous == _FLIGHT:
         return first  # flights start and end where the force does; chattering has no step
     lowest = max(start + 1, int(np.searchsorted(t, t[first] - reach - 1e-12)))
     i = first
