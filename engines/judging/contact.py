@@ -204,7 +204,8 @@ def read_contact(
     touching = n > cfg.contact_level * cfg.g
     means = _means(t, n, f, traj.slip_velocity, touching, mu, cfg)
     steps = _step_labels(touching, n, f, mu, cfg)
-    slipping = _slipping(means, steps, mu, cfg) & touching
+    reaches = touching & (np.abs(f) >= (1.0 - cfg.cone_tolerance) * mu * n)
+    slipping = _slipping(means, reaches, mu, cfg) & touching
     flights = _flights(t, n, traj.clearance, touching, cfg)
     hops = [fl for fl in flights if _is_hop(fl, t, cfg)]
     chatter = [fl for fl in flights if fl not in hops]
@@ -337,16 +338,17 @@ def _step_labels(
     return np.where(touching & ratio & (f > 0), _SLIP_MINUS, labels)
 
 
-def _slipping(means: _Means, steps: NDArray, mu: float, cfg: ContactSettings) -> NDArray:
+def _slipping(means: _Means, reaches: NDArray, mu: float, cfg: ContactSettings) -> NDArray:
     """Samples in a slip: a stretch where the mean friction is at the cone within
     ``cone_hold`` and the contact point slides against it, entered at a sample whose own
-    friction is at the cone within ``cone_tolerance`` (``steps``: per-step labels), and
-    sliding faster than the slip threshold somewhere after that."""
+    friction reaches the cone within ``cone_tolerance`` (``reaches``; beyond it too: the
+    contact slides, so it is a slip, outside the cone or not), and sliding faster than the
+    slip threshold somewhere after that."""
     friction = np.abs(means.friction)
     cone = mu * means.normal
     against = (means.slip * means.friction < 0.0) & (np.abs(means.slip) > cfg.slip_floor)
     hold = against & (friction >= (1.0 - cfg.cone_hold) * cone) & (cone > 0.0)
-    enter = hold & ((steps == _SLIP_PLUS) | (steps == _SLIP_MINUS))
+    enter = hold & reaches
     fast = np.abs(means.slip) > cfg.slip_threshold
     out = np.zeros(len(friction), dtype=bool)
     for start, stop in _runs(hold):
