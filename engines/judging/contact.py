@@ -15,8 +15,10 @@ whose time lies within W/2 of a sample's (a sample without contact force counts 
   |mean f| > (1 + ``cone_tolerance``) mu mean n;
 - **sliding against friction**: mean slip velocity s and mean f of opposite signs, |mean s|
   above ``slip_floor`` (the contact point moves, beyond round-off);
-- **slip**: a stretch of samples at the cone and sliding against friction in which |mean s|
-  exceeds ``slip_threshold`` somewhere; its direction is opposite the friction;
+- **slip**: a stretch of samples at the cone (within ``cone_hold``) and sliding against
+  friction, entered where a sample's own friction reaches the cone (within
+  ``cone_tolerance``), in which |mean s| exceeds ``slip_threshold`` somewhere; its direction
+  is opposite the friction;
 - **creep**: |mean s| above the slip threshold against friction, not at the cone: never a
   slip (``creep_time``, ``creep_max_speed``);
 - **stick outside the cone**: outside the cone and not sliding above the slip threshold: a
@@ -29,7 +31,8 @@ whose time lies within W/2 of a sample's (a sample without contact force counts 
 A mode (roll, slip +/-, chattering, flight inside a hop) starts at its first sample once it
 gathers ``sustain`` of time before a stretch of another mode lasts ``sustain`` on its own; a
 shorter stretch belongs to the mode around it. A sample without contact force outside a hop
-takes the mode it interrupts.
+takes the mode it interrupts. A roll or slip mode's start is refined, by at most W/2, to
+where the samples' own friction changes (the centred mean sees a sharp change early).
 
 On the exact solution sampled at any timestep this gives the exact events within the
 detection floor measured in tests/test_contact_reading.py; shorter phases are absorbed.
