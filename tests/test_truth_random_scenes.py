@@ -135,6 +135,11 @@ def _hop_lies(e: Exact) -> dict[str, tuple[dict, dict, Kind]]:
         "missed slip": (dict(verdict="missed-slip"), {}, Kind.SLIP_VERDICT),
         "agrees, slip 50 ms off": ({}, dict(t_slip=e.t_slip - 0.05), Kind.TOLERANCE),
         "agrees, lift-off 100 ms off": ({}, dict(t_lift=e.t_lift + 0.1), Kind.TOLERANCE),
+        "flags without the late slip": (
+            dict(verdict="hop-too-low", flags=frozenset({"hop-too-low"})),
+            dict(t_slip=e.t_slip - 0.05),
+            Kind.MISSING_FLAG,
+        ),
         "diverged": (dict(verdict="diverged"), {}, Kind.DIVERGED),
         "a reference failing": (dict(verdict="wrong-phases"), {}, Kind.REFERENCE),
         "an unfounded cone flag": (dict(flags=frozenset({"cone-violation"})), {}, Kind.CONE_FLAG),

@@ -161,6 +161,9 @@ class Kind(StrEnum):
     """false-slip, missed-slip, early-slip or late-slip the averaged friction denies."""
     TOLERANCE = "agrees-beyond-tolerance"
     """agrees or close with an event clearly beyond the loose tolerance."""
+    MISSING_FLAG = "flags-miss-a-failed-check"
+    """A failing row whose flags name no failure of an event clearly beyond the loose
+    tolerance."""
     CONE_FLAG = "cone-violation-flag"
     """A sustained stick outside the cone without the flag, or the flag without one."""
 
@@ -492,8 +495,7 @@ def contradictions(
         return out
     out += _hop_verdict(run, labels, exact, hop)
     out += _slip_verdict(run, windows, labels, exact)
-    if labels.verdict in AGREEING:
-        out += _within_loose(run, windows, labels, exact, hop, loose)
+    out += _beyond_loose(run, windows, labels, exact, hop, loose)
     return out
 
 
@@ -721,7 +723,19 @@ def _slip_verdict(run: Run, windows: Windows, labels: Labels, exact: Exact) -> l
     return out
 
 
-def _within_loose(
+FLAGS_OF: Mapping[str, frozenset[str]] = {
+    "hop": frozenset({"missed-hop", "false-hop"}),
+    "lift-off": frozenset({"early-lift-off", "late-lift-off"}),
+    "impact": frozenset({"early-impact", "late-impact"}),
+    "height": frozenset({"hop-too-low", "hop-too-high"}),
+    "slip": frozenset({"missed-slip", "false-slip", "early-slip", "late-slip"}),
+}
+"""The failure labels of each event: a row with an event clearly beyond the loose tolerance
+lists one of them (verdict_flags lists every failed check)."""
+_HOP_DETAILS = ("lift-off", "impact", "height")
+
+
+def _beyond_loose(
     run: Run,
     windows: Windows,
     labels: Labels,
@@ -729,35 +743,53 @@ def _within_loose(
     hop: Flight | None,
     loose: LooseTolerances,
 ) -> list[Contradiction]:
-    """agrees/close: every event clearly within the loose tolerances."""
-    texts = _hop_beyond(run, exact, hop, loose) + _slip_beyond(run, windows, exact, loose)
-    return [Contradiction(Kind.TOLERANCE, f"{labels.verdict}, but {text}") for text in texts]
+    """Events clearly beyond the loose tolerances: no row with one is `agrees` or `close`,
+    and a failing row lists a failure of that event among its flags. (Where the row fails
+    the hop's outcome, its lift-off, impact and height are not compared.)"""
+    found = _hop_beyond(run, exact, hop, loose) + _slip_beyond(run, windows, exact, loose)
+    said = labels.flags | {labels.verdict or ""}
+    no_hop_compare = bool(said & FLAGS_OF["hop"])
+    out = []
+    for event, text in found:
+        if labels.verdict in AGREEING:
+            out.append(Contradiction(Kind.TOLERANCE, f"{labels.verdict}, but {text}"))
+        elif not said & FLAGS_OF[event] and not (no_hop_compare and event in _HOP_DETAILS):
+            flags = " ".join(sorted(labels.flags)) or "none"
+            out.append(Contradiction(Kind.MISSING_FLAG, f"flags {flags}, but {text}"))
+    return out
 
 
-def _hop_beyond(run: Run, exact: Exact, hop: Flight | None, loose: LooseTolerances) -> list[str]:
+Finding = tuple[str, str]
+"""(the event, a FLAGS_OF key; what is beyond the tolerance)."""
+
+
+def _hop_beyond(
+    run: Run, exact: Exact, hop: Flight | None, loose: LooseTolerances
+) -> list[Finding]:
     """How the run's hop is clearly beyond the loose tolerances of the exact one."""
     if exact.t_lift is None or exact.hop_height is None:
         clear = _clear_hops(run, exact)
-        return [f"a {_flight_text(clear[0])} where the exact run stays down"] if clear else []
+        text = f"a {_flight_text(clear[0])} where the exact run stays down" if clear else ""
+        return [("hop", text)] if clear else []
     if hop is None:
-        return [f"no flight in the window is a hop (exact {_exact_hop(exact)})"]
+        return [("hop", f"no flight in the window is a hop (exact {_exact_hop(exact)})")]
     out = []
     d = run.hoop.duration
     if abs(hop.t_start - exact.t_lift) > loose.lift_s * d + run.slack:
-        out.append(f"lift-off at {hop.t_start:.4g} s (exact {exact.t_lift:.4g} s)")
+        out.append(("lift-off", f"lift-off at {hop.t_start:.4g} s (exact {exact.t_lift:.4g} s)"))
     impact = exact.t_impact
     tol = loose.impact_s * d + run.slack
     if hop.t_end is not None and impact is not None and abs(hop.t_end - impact) > tol:
-        out.append(f"impact at {hop.t_end:.4g} s (exact {impact:.4g} s)")
+        out.append(("impact", f"impact at {hop.t_end:.4g} s (exact {impact:.4g} s)"))
     factor = loose.height_factor * HOP_HEIGHT_SLACK
     ratio = hop.peak / exact.hop_height
     low = hop.landed and ratio < 1 / factor  # a record ending in the air: no low
     if low or ratio > factor:
-        out.append(f"hop peak {_mm(hop.peak)} against {_mm(exact.hop_height)}")
+        out.append(("height", f"hop peak {_mm(hop.peak)} against {_mm(exact.hop_height)}"))
     return out
 
 
-def _slip_beyond(run: Run, windows: Windows, exact: Exact, loose: LooseTolerances) -> list[str]:
+def _slip_beyond(run: Run, windows: Windows, exact: Exact, loose: LooseTolerances) -> list[Finding]:
     """How the run's first slip onset is clearly beyond the loose tolerance of the exact
     one: its bounds (see _slip_verdict) lie outside it."""
     w = WINDOW * run.hoop.duration
@@ -766,15 +798,16 @@ def _slip_beyond(run: Run, windows: Windows, exact: Exact, loose: LooseTolerance
     t0 = exact.t_slip
     if t0 is None:
         if not exact.slips and t_clear is not None:
-            return [f"it clearly slips from {t_clear:.4g} s where the exact run never slips"]
+            return [
+                ("slip", f"it clearly slips from {t_clear:.4g} s where the exact run never slips")
+            ]
         return []
     tol = loose.slip_s * run.hoop.duration + run.slack
     if t_loose is None:
-        return [f"the run never slips (exact slip onset {t0:.4g} s)"]
+        return [("slip", f"the run never slips (exact slip onset {t0:.4g} s)")]
     if t_loose - w > t0 + tol:
-        return [
-            f"its averaged friction reaches the cone only from {t_loose:.4g} s (exact {t0:.4g} s)"
-        ]
+        late = f"only from {t_loose:.4g} s (exact {t0:.4g} s)"
+        return [("slip", f"its averaged friction reaches the cone {late}")]
     if t_clear is not None and t_clear + w < t0 - tol:
-        return [f"it clearly slips from {t_clear:.4g} s (exact {t0:.4g} s)"]
+        return [("slip", f"it clearly slips from {t_clear:.4g} s (exact {t0:.4g} s)")]
     return []
