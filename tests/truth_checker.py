@@ -669,12 +669,15 @@ def _slip_labels(run: Run, windows: Windows, labels: Labels) -> list[Contradicti
 
 def _not_a_slip(run: Run, windows: Windows, k: int, t_slip: float) -> Contradiction:
     """Which kind of no-slip the windows at a read onset show."""
+    text = f"slip read at {t_slip:.4g} s: {windows.describe(k)}"
+    if not np.isfinite(windows.ratio[k]):
+        return Contradiction(Kind.NO_SLIP_AS_SLIP, f"{text} (almost no normal force)")
     chatter = windows.steps_at_cone[k] >= CHATTER_SHARE
     if not windows.slides_soon(run.hoop)[k]:
         kind = Kind.STICK_AS_SLIP if windows.ratio[k] >= 1.0 else Kind.NO_SLIP_AS_SLIP
     else:
         kind = Kind.CHATTER_AS_SLIP if chatter else Kind.CREEP_AS_SLIP
-    return Contradiction(kind, f"slip read at {t_slip:.4g} s: {windows.describe(k)}")
+    return Contradiction(kind, text)
 
 
 def _cone_flag(run: Run, windows: Windows, labels: Labels) -> list[Contradiction]:
