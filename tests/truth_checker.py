@@ -75,11 +75,13 @@ CONE_CLEAR = 1e-3
 """Averaged friction within this fraction of the cone is clearly at it (the rigid reading's
 own tolerance: a real slip holds |f| = mu n exactly)."""
 CONE_INSIDE = 2.5e-2
-"""Averaged friction more than this fraction inside the cone is clearly inside it: ten
-times the rigid reading's own tolerance (CONE_CLEAR), and the level at which today's
-contact reading ends a slip. Friction inside the cone rises slowly before a slip (0.3 % of
-the cone per 2 ms on a drawn scene), so this margin is also time: a larger one (3 %) let a
-creep read as a slip 30 ms before the cone pass as 'near' it."""
+"""Averaged friction more than this fraction inside the cone is clearly inside it. Between
+the two cases the issue and the docs settle: Drake's regularised friction slides at
+0.98-0.995 mu n (1.1-1.7 % inside on a drawn scene), a slip by every reading; the creep
+the issue calls no slip holds 0.950-0.956 mu n (4.4-5 % inside). Friction rises slowly
+toward the cone before a slip (0.3 % of the cone per 2 ms on a drawn scene), so the margin
+is also time: at 1 % Drake's slip read as creep, at 4 % MuJoCo stock's creep read 30 ms
+before the cone passed as near it."""
 CONE_OUTSIDE = 0.1
 """Averaged friction more than this fraction above the cone is clearly outside it (DART
 sticks at 1.23-2.0 mu n in the issue)."""
@@ -105,14 +107,29 @@ SAMPLE_SLACK = 2
 the step convention: row i holds the force of the step taken from it)."""
 
 
+@dataclass(frozen=True)
 class Hoop:
-    """Scales the 1 m hoop's definitions to a hoop of radius ``a`` (m) under ``g``."""
+    """Carries the 1 m hoop's definitions to a hoop of radius ``a`` under ``g``."""
 
-    def __init__(self, a: float = 1.0, g: float = 9.8) -> None:
-        self.a, self.g = a, g
-        self.length = a
-        self.duration = math.sqrt((a / g) / (1.0 / 9.8))
-        self.speed = math.sqrt((g * a) / 9.8)
+    a: float = 1.0
+    """m."""
+    g: float = 9.8
+    """m/s^2."""
+
+    @property
+    def length(self) -> float:
+        """Lengths scale with a (the definitions' hoop is 1 m)."""
+        return self.a
+
+    @property
+    def duration(self) -> float:
+        """Times scale with sqrt(a / g)."""
+        return math.sqrt(self.a / self.g * 9.8)
+
+    @property
+    def speed(self) -> float:
+        """Speeds scale with sqrt(g a)."""
+        return math.sqrt(self.g * self.a / 9.8)
 
 
 @dataclass(frozen=True)
@@ -253,31 +270,51 @@ class Exact:
     t_impact: float | None
     hop_height: float | None
 
+    hop_unresolved: bool = False
+    """The exact solution hops, but not clearly inside the record's window (scene.t_end; the
+    exact window runs on to the impact): the hop's checks are left out."""
+
     @classmethod
     def from_solution(cls, solution: ExactSolution, hoop: Hoop) -> Exact:
-        """A first slip shorter than two windows, or slower than CLEAR slip thresholds, is
-        not resolvable (a reading averaging over a window may absorb it on both sides):
-        its onset is not checked."""
-        events = solution.events
-        slips = [p for p in events.phases if p.kind is PhaseKind.SLIP]
+        """Events a reading cannot resolve inside the record (the scene's window, which a
+        run samples) are left out, as the exact solution sampled like a run would absorb
+        them: a first slip shorter than two windows or slower than CLEAR slip thresholds
+        (its onset is not checked), a hop whose flight up to the record's end is not a
+        clear hop (none of its checks)."""
+        events, record_end = solution.events, solution.scene.t_end
+        slips = [p for p in events.phases if p.kind is PhaseKind.SLIP and p.t_start < record_end]
         t_slip = None
         if slips:
             first = slips[0]
-            end = min(first.t_end, solution.t_final)
+            end = min(first.t_end, solution.t_final, record_end)
             sampled = solution.sample(np.linspace(first.t_start, end, 201))
             speed = float(np.max(np.abs(sampled.slip_velocity)))
             long_enough = end - first.t_start >= 2 * WINDOW * hoop.duration
             if long_enough and speed >= CLEAR * SLIP_THRESHOLD * hoop.speed:
                 t_slip = first.t_start
         hops = events.outcome is Outcome.HOPS and events.t_lift is not None
+        unresolved = hops and not _clear_in_record(solution, hoop)
+        keep = hops and not unresolved
         return cls(
             window_end=solution.t_final,
             slips=bool(slips),
             t_slip=t_slip,
-            t_lift=events.t_lift if hops else None,
-            t_impact=events.t_impact if hops else None,
-            hop_height=events.hop_height if hops else None,
+            t_lift=events.t_lift if keep else None,
+            t_impact=events.t_impact if keep else None,
+            hop_height=events.hop_height if keep else None,
+            hop_unresolved=unresolved,
         )
+
+
+def _clear_in_record(solution: ExactSolution, hoop: Hoop) -> bool:
+    """Whether the exact hop's flight, cut at the record's end, is a clear hop."""
+    t_lift = solution.events.t_lift
+    assert t_lift is not None
+    end = min(solution.t_final, solution.scene.t_end)
+    if end - t_lift < CLEAR * HOP_DURATION * hoop.duration:
+        return False
+    peak = float(np.max(solution.sample(np.linspace(t_lift, end, 401)).clearance))
+    return peak >= CLEAR * HOP_CLEARANCE * hoop.length
 
 
 # ----------------------------------------------------------------------------- readings
@@ -476,7 +513,7 @@ def contradictions(
     """Every label of ``labels`` that the run's trajectory ``frame`` (a Trajectory's frame:
     t, clearance, slip_velocity, normal_force, friction_force, ...) clearly contradicts,
     for the pair's friction coefficient ``mu`` and the exact events ``exact``."""
-    hoop = hoop or Hoop()
+    hoop = hoop if hoop is not None else Hoop()
     out: list[Contradiction] = []
     if labels.engine == "reference" and labels.verdict != "agrees":
         out.append(Contradiction(Kind.REFERENCE, f"the reference's row is {labels.verdict}"))
@@ -770,6 +807,8 @@ def _hop_beyond(
     run: Run, exact: Exact, hop: Flight | None, loose: LooseTolerances
 ) -> list[Finding]:
     """How the run's hop is clearly beyond the loose tolerances of the exact one."""
+    if exact.hop_unresolved:
+        return []
     if exact.t_lift is None or exact.hop_height is None:
         clear = _clear_hops(run, exact)
         text = f"a {_flight_text(clear[0])} where the exact run stays down" if clear else ""
