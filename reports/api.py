@@ -27,7 +27,8 @@ from typing import Any, TypeVar
 import pandas as pd
 
 from hoopbench.engines.judging.columns import Col
-from hoopbench.engines.judging.contact import ContactSettings, canonical_events, read_contact
+from hoopbench.engines.judging.contact import canonical_events, read_run
+from hoopbench.engines.judging.verdict import number_or_none
 from hoopbench.engines.options import Profile, check_profile
 from hoopbench.engines.registry import engine_class, engine_names
 from hoopbench.engines.run import RunResult, RunStatus
@@ -278,11 +279,11 @@ class EngineRun:
         if result.events is None or result.trajectory is None:
             return None
         scene, mu = self.task.scene, self.row.get(Col.MU)
-        reading = read_contact(
+        reading = read_run(
             result.trajectory,
+            scene,
             scene.mus if mu is None else float(mu),
-            ContactSettings().for_hoop(scene.a, scene.g),
-            window_end=self.row.get(Col.EXACT_T_IMPACT),
+            window_end=number_or_none(self.row.get(Col.EXACT_T_IMPACT)),
         )
         painleve = result.events.outcome is Outcome.PAINLEVE
         return canonical_events(result.trajectory, reading, painleve=painleve)

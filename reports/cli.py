@@ -330,10 +330,15 @@ def _canonical(result: Any, scene: Any, mu: float) -> dict[str, Any]:
     place it is shown, to compare."""
     from dataclasses import asdict
 
-    from hoopbench.engines.judging.contact import ContactSettings, canonical_events, read_contact
+    from hoopbench.engines.judging.columns import Col
+    from hoopbench.engines.judging.comparison import scene_exact_columns
+    from hoopbench.engines.judging.contact import canonical_events, read_run
+    from hoopbench.engines.judging.verdict import number_or_none
 
     trajectory, kin = result.trajectory, result.events
-    reading = read_contact(trajectory, mu, ContactSettings().for_hoop(scene.a, scene.g))
+    # The exact window's end, as the row (hb.run, the suites) reads the same run with.
+    window_end = number_or_none(scene_exact_columns(scene, mu).get(Col.EXACT_T_IMPACT))
+    reading = read_run(trajectory, scene, mu, window_end=window_end)
     events = canonical_events(trajectory, reading, painleve=kin.outcome is Outcome.PAINLEVE)
     payload = {k: v for k, v in result.to_dict().items() if k not in kin.to_dict()}
     extras = asdict(reading)

@@ -188,6 +188,18 @@ CASES: list[tuple[str, dict[str, Any], Verdict, bool]] = [
         Verdict.CONE_VIOLATION,
         True,
     ),
+    (
+        "creeps: slides 5 cm with friction inside the cone where the reference rolls",
+        {**ROLL_ROW, "creep_distance_m": 0.05, "creep_max_speed": 0.5},
+        Verdict.CREEPS,
+        True,
+    ),
+    (
+        "close: creeps 3 mm",
+        {**ROLL_ROW, "creep_distance_m": 3e-3, "creep_max_speed": 0.02},
+        Verdict.CLOSE,
+        True,
+    ),
     ("early-slip: 20 ms", {**SLIP_ROW, "t_slip": 0.38}, Verdict.EARLY_SLIP, True),
     ("late-slip: 20 ms", {**SLIP_ROW, "t_slip": 0.42}, Verdict.LATE_SLIP, True),
     ("diverged", {**HOP_ROW, "status": "diverged"}, Verdict.DIVERGED, False),
@@ -203,6 +215,18 @@ CASES: list[tuple[str, dict[str, Any], Verdict, bool]] = [
 )
 def test_every_verdict(row, verdict, agrees):
     assert _verdict(row) == (verdict, agrees)
+
+
+def test_a_hop_the_reading_cannot_see_at_the_window_end_is_no_hop_to_miss():
+    """The exact solution lifts off just before the window ends and its samples there stay
+    below the hop threshold (floor phases without F): neither a missed hop nor a false one."""
+    unseen = {**HOP_ROW, "floor_phases": "R S+ R", "floor_t_last_phase": 0.5}
+    rolls = {**unseen, "outcome": "slips", "t_lift": None, "hop_height": None}
+    assert classify({**rolls, "phases": "R S+ R"}).verdict is Verdict.AGREES
+    assert (
+        classify({**HOP_ROW, **{k: v for k, v in rolls.items() if k != "floor_phases"}}).verdict
+        is Verdict.MISSED_HOP
+    )
 
 
 def test_the_cases_cover_every_verdict():

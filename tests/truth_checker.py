@@ -15,12 +15,16 @@ sqrt(a / g), speeds with sqrt(g a), as the project's thresholds do):
 - **in contact** while n > 1e-6 g (forces per unit mass, as trajectories store them);
 - **flight**: a stretch without contact; a **hop** is a flight lasting >= 5 ms whose peak
   clearance is above 1 mm; lift-off is its start, impact its end, hop height its peak;
-- **slip**: over a window of WINDOW (5 ms), the friction impulse is at the cone,
-  |mean f| >= (1 - eps) mu mean n, *and* the rim slides against it (mean slip velocity above
-  the slip threshold, 1 mm/s, and opposite to the mean friction);
-- **creep** (sliding, averaged friction inside the cone), **chattering** (friction at the
-  cone on some steps, inside it on average) and **stick outside the cone** (|mean f| above
-  the cone without sliding: the flag ``cone-violation``) are never slips.
+- **slip**: over a window of WINDOW (5 ms), the rim slides against the friction (mean slip
+  velocity above the slip threshold, 1 mm/s, and opposite to the mean friction) *and* the
+  friction follows the slip law, not the rolling constraint: the friction impulse is at the
+  cone, |mean f| >= (1 - eps) mu mean n, or the friction the rolling constraint would need
+  at the run's own state (theta, thetadot: the rigid model's rolling forces F_roll, N_roll)
+  is at or beyond the cone, or |mean f| lies nearer the cone than that demand;
+- **creep** (sliding while friction follows the rolling demand inside the cone),
+  **chattering** (friction at the cone on some steps, at the rolling demand on average) and
+  **stick outside the cone** (|mean f| above the cone without sliding: the flag
+  ``cone-violation``) are never slips.
 """
 
 from __future__ import annotations
@@ -39,6 +43,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from hoopbench.models.events import Outcome, PhaseKind
+from hoopbench.reference.dynamics import rolling_forces
 from hoopbench.reference.exact import ExactSolution
 
 __all__ = [
@@ -99,6 +104,10 @@ and its slip velocity grows from 0 (as t^2): at a slow onset the window that sta
 still below the threshold (the exact solution of a drawn scene: 0.41 mm/s 3 ms after its
 onset, 1.2 mm/s after 6 ms). A rim that has not slid at half the threshold within two
 windows (10 ms) of the windows near a read onset is still."""
+DEMAND_MARGIN = 2.5e-2
+"""Fraction of the cone: the rolling demand (or the friction's place between the demand and
+the cone) is clearly on one side only beyond this margin, as CONE_INSIDE is for the
+friction itself."""
 CHATTER_SHARE = 0.2
 """A window with this share of its contact steps at the cone, and its average inside it, is
 a chattering contact (only names the kind of a contradiction; decides none)."""
@@ -118,6 +127,9 @@ class Hoop:
     """m."""
     g: float = 9.8
     """m/s^2."""
+    scene: Any = None
+    """The run's scene (a hoopbench Scene), for the rolling demand at the run's own state;
+    None: the slip law is read from the cone alone."""
 
     @property
     def length(self) -> float:
@@ -402,6 +414,8 @@ class Run:
     flights: tuple[Flight, ...]
     hoop: Hoop
     mu: float
+    demand: tuple[NDArray, NDArray] | None = None
+    """(F_roll, N_roll) per sample, m/s^2: what rolling would need at the run's own state."""
 
     @classmethod
     def from_frame(cls, frame: pd.DataFrame, mu: float, hoop: Hoop) -> Run:
@@ -426,6 +440,11 @@ class Run:
             flights=tuple(flights),
             hoop=hoop,
             mu=mu,
+            demand=None
+            if hoop.scene is None
+            else rolling_forces(
+                hoop.scene, frame["theta"].to_numpy(float), frame["thetadot"].to_numpy(float)
+            ),
         )
 
     @property
@@ -452,6 +471,8 @@ class Windows:
     """The window ends before the region's end (see :func:`_region_end`)."""
     length: int
     """m, samples per window."""
+    demand: NDArray | None = None
+    """|mean F_roll| / (mu mean N_roll) (inf where rolling needs a pull); None without it."""
 
     @classmethod
     def of(cls, run: Run, region_end: float) -> Windows:
@@ -469,6 +490,11 @@ class Windows:
             at_cone = run.touching & (np.abs(run.f) >= (1 - CONE_CLEAR) * run.mu * run.n)
             share = mean(at_cone.astype(float)) / mean(run.touching.astype(float))
         ends = run.t[m - 1 :]
+        demand = None
+        if run.demand is not None:
+            cone = run.mu * mean(run.demand[1])
+            with np.errstate(divide="ignore", invalid="ignore"):
+                demand = np.where(cone > 0, np.abs(mean(run.demand[0])) / cone, np.inf)
         return cls(
             start=run.t[: len(ratio)],
             ratio=ratio,
@@ -478,7 +504,21 @@ class Windows:
             steps_at_cone=np.nan_to_num(share),
             in_region=ends <= region_end,
             length=m,
+            demand=demand,
         )
+
+    def slip_law(self, *, clearly: bool) -> NDArray:
+        """Windows whose friction follows the slip law, not the rolling constraint (clearly,
+        or not clearly not): at the cone, or rolling would need the cone or more, or the
+        friction lies nearer the cone than the rolling demand."""
+        margin = -DEMAND_MARGIN if not clearly else DEMAND_MARGIN
+        cone = 1 - (CONE_CLEAR if clearly else CONE_INSIDE)
+        with np.errstate(invalid="ignore"):
+            law = self.ratio >= cone
+            if self.demand is not None:
+                law |= self.demand >= 1 + margin
+                law |= self.ratio >= 0.5 * (1 + self.demand) + margin
+        return law
 
     def sliding(self, hoop: Hoop) -> NDArray:
         """The rim is not clearly still: it slides at half the slip threshold against the
@@ -497,7 +537,7 @@ class Windows:
         not clearly still (:meth:`sliding`, or with ``soon`` :meth:`slides_soon`)."""
         slides = self.slides_soon(hoop) if soon else self.sliding(hoop)
         with np.errstate(invalid="ignore"):
-            return self.in_region & (self.ratio >= 1 - CONE_INSIDE) & slides
+            return self.in_region & self.slip_law(clearly=False) & slides
 
     def clear_slip(self, hoop: Hoop) -> NDArray:
         """Clearly a slip, sustained: WINDOW of consecutive windows each in contact
@@ -508,7 +548,7 @@ class Windows:
         besides, which the cone-violation flag is for only where the rim does not slide."""
         sliding = (np.abs(self.mean_s) >= CLEAR * SLIP_THRESHOLD * hoop.speed) & self.opposes
         with np.errstate(invalid="ignore"):
-            each = self.in_region & self.all_touching & (self.ratio >= 1 - CONE_CLEAR) & sliding
+            each = self.in_region & self.all_touching & self.slip_law(clearly=True) & sliding
         return _sustained(each, self.length)
 
     def stick_outside(self, hoop: Hoop) -> NDArray:

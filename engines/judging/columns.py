@@ -105,6 +105,8 @@ class Col(StrEnum):
     CREEP_TIME_S = "creep_time_s"
     CREEP_MAX_SPEED = "creep_max_speed"
     """m/s."""
+    CREEP_DISTANCE_M = "creep_distance_m"
+    """m: how far the rim slides while creeping (verdict creeps)."""
     CONE_STICK_TIME_S = "cone_stick_time_s"
     """s: the longest stick outside the Coulomb cone (verdict cone-violation)."""
     CHATTERING_TIME_S = "chattering_time_s"
@@ -201,6 +203,7 @@ EVENT_COLUMNS = (
     Col.CHATTER_MAX_CLEARANCE,
     Col.CREEP_TIME_S,
     Col.CREEP_MAX_SPEED,
+    Col.CREEP_DISTANCE_M,
     Col.CONE_STICK_TIME_S,
     Col.CHATTERING_TIME_S,
 )

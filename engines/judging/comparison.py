@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from hoopbench.engines.judging.columns import Col
-from hoopbench.engines.judging.contact import ContactSettings, canonical_events, read_contact
+from hoopbench.engines.judging.contact import canonical_events, read_run
 from hoopbench.engines.judging.forces import force_columns
 from hoopbench.engines.judging.verdict import (
     number_or_none,
@@ -137,10 +137,6 @@ def _errors(events: Events, exact: Mapping[str, Any]) -> dict[str, float | None]
     }
 
 
-def _settings(scene: Scene) -> ContactSettings:
-    return ContactSettings().for_hoop(scene.a, scene.g)
-
-
 def event_columns(
     traj: Trajectory,
     scene: Scene,
@@ -153,7 +149,7 @@ def event_columns(
     pair's ``mu``, and their errors against ``exact`` (the row's exact columns); with
     ``painleve``, the outcome is the reference's ``painleve``."""
     window_end = number_or_none(exact.get(Col.EXACT_T_IMPACT))
-    reading = read_contact(traj, mu, _settings(scene), window_end=window_end)
+    reading = read_run(traj, scene, mu, window_end=window_end)
     events = canonical_events(traj, reading, painleve=painleve)
     errors = _errors(events, exact)
     return {
@@ -176,6 +172,7 @@ def event_columns(
         Col.CHATTER_MAX_CLEARANCE: reading.chatter_max_clearance,
         Col.CREEP_TIME_S: reading.creep_time,
         Col.CREEP_MAX_SPEED: reading.creep_max_speed,
+        Col.CREEP_DISTANCE_M: reading.creep_distance,
         Col.CONE_STICK_TIME_S: reading.cone_stick_time,
         Col.CHATTERING_TIME_S: reading.chattering_time,
         **_energy_columns(events.t_slip, traj),
@@ -239,7 +236,7 @@ def _floor(scene: Scene, mu: float, timestep: float) -> dict[str, Any]:
     if sampled is None:
         return {}
     window_end = number_or_none(exact.get(Col.EXACT_T_IMPACT))
-    reading = read_contact(sampled, mu, _settings(solution.scene), window_end=window_end)
+    reading = read_run(sampled, solution.scene, mu, window_end=window_end)
     errors = _errors(canonical_events(sampled, reading), exact)
     return {
         Col.FLOOR_PHASES: reading.phases,

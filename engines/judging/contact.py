@@ -15,12 +15,18 @@ whose time lies within W/2 of a sample's (a sample without contact force counts 
   |mean f| > (1 + ``cone_tolerance``) mu mean n;
 - **sliding against friction**: mean slip velocity s and mean f of opposite signs, |mean s|
   above ``slip_floor`` (the contact point moves, beyond round-off);
-- **slip**: a stretch of samples at the cone (within ``cone_hold``) and sliding against
-  friction, entered where a sample's own friction reaches the cone (within
-  ``cone_tolerance``), in which |mean s| exceeds ``slip_threshold`` somewhere; its direction
-  is opposite the friction;
-- **creep**: |mean s| above the slip threshold against friction, not at the cone: never a
-  slip (``creep_time``, ``creep_max_speed``);
+- **the slip law**: friction follows the slip law rather than the rolling constraint where
+  |mean f| is at the cone (within ``cone_hold``), or where rolling cannot go on: the friction
+  the rigid model's rolling constraint needs at the run's own state (theta, thetadot),
+  mean F_roll, reaches the cone mu mean N_roll, or |mean f| lies nearer the cone than that
+  demand (a regularised friction sliding at 0.98 mu n obeys the slip law; a soft contact
+  creeping at the rolling demand, 0.95 mu n, obeys the rolling one);
+- **slip**: a stretch of samples sliding against friction under the slip law, entered where
+  a sample's own friction reaches the cone (within ``cone_tolerance``) or the rolling demand
+  reaches it, in which |mean s| exceeds ``slip_threshold`` somewhere; its direction is
+  opposite the friction;
+- **creep**: |mean s| above the slip threshold against friction, not under the slip law:
+  never a slip (``creep_time``, ``creep_max_speed``);
 - **stick outside the cone**: outside the cone and not sliding above the slip threshold: a
   Coulomb violation, never a slip (``cone_stick_time``: its longest stretch);
 - **chattering**: not a slip, averaged friction inside the cone, but at least
@@ -48,7 +54,9 @@ from numpy.typing import NDArray
 
 from hoopbench.engines.judging.detectors import DetectorSettings, hoop_scale
 from hoopbench.models.events import Events, Outcome, Phase, PhaseKind
+from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
+from hoopbench.reference.dynamics import rolling_forces
 
 __all__ = [
     "CHATTER_CODE",
@@ -57,6 +65,7 @@ __all__ = [
     "Flight",
     "canonical_events",
     "read_contact",
+    "read_run",
 ]
 
 CHATTER_CODE = "C"
@@ -168,6 +177,8 @@ class ContactReading:
     threshold."""
     creep_max_speed: float | None
     """m/s: the largest |mean slip velocity| while creeping (None without creep)."""
+    creep_distance: float = 0.0
+    """m: how far the contact point slides while creeping (the integral of |slip velocity|)."""
     cone_stick_time: float = 0.0
     """s: the longest stretch in contact with |mean f| outside the cone (by more than the
     cone tolerance) and no sliding above the slip threshold: a Coulomb violation."""
@@ -187,6 +198,9 @@ class _Means:
     slip: NDArray
     cone_share: NDArray
     """Share of the window's samples with a force whose own friction is at the cone."""
+    demand: NDArray | None = None
+    """|mean F_roll| / (mu mean N_roll): the rolling demand as a share of its cone (inf where
+    rolling needs a pull); None without the rolling demand."""
 
 
 def read_contact(
@@ -195,8 +209,13 @@ def read_contact(
     settings: ContactSettings | None = None,
     *,
     window_end: float | None = None,
+    rolling_demand: tuple[NDArray, NDArray] | None = None,
 ) -> ContactReading:
     """The canonical reading of ``traj`` with the pair's friction coefficient ``mu``.
+
+    ``rolling_demand``: (F_roll, N_roll) per sample, m/s^2, the friction and normal force the
+    rolling constraint needs at the run's own state (:func:`read_run` computes them from the
+    scene); without it, only friction at the cone follows the slip law.
 
     ``window_end`` (s): where the exact solution's window ends (its impact, for a hop). The
     hop is the highest hop-sized flight that starts before it, and the phases end with the
@@ -205,9 +224,14 @@ def read_contact(
     cfg = settings or ContactSettings()
     t, n, f = traj.t, traj.normal_force, traj.friction_force
     touching = n > cfg.contact_level * cfg.g
-    means = _means(t, n, f, traj.slip_velocity, touching, mu, cfg)
+    means = _means(t, n, f, traj.slip_velocity, touching, mu, cfg, rolling_demand)
     steps = _step_labels(touching, n, f, mu, cfg)
     reaches = touching & (np.abs(f) >= (1.0 - cfg.cone_tolerance) * mu * n)
+    if rolling_demand is not None:
+        # A sample's own friction and state, under the slip law's rolling-demand rules.
+        share = np.divide(np.abs(f), mu * n, out=np.zeros(len(n)), where=touching & (n > 0))
+        demand = _demand_share(*rolling_demand, mu)
+        reaches |= touching & ((demand >= 1.0) | (share >= 0.5 * (1.0 + demand)))
     slipping = _slipping(means, reaches, mu, cfg) & touching
     flights = _flights(t, n, traj.clearance, touching, cfg)
     hops = [fl for fl in flights if _is_hop(fl, t, cfg)]
@@ -246,10 +270,22 @@ def read_contact(
         creep_max_speed=float(np.max(np.abs(traj.slip_velocity[creeping])))
         if creeping.any()
         else None,
+        creep_distance=float(np.sum((step * np.abs(traj.slip_velocity))[creeping])),
         cone_stick_time=max((float(np.sum(step[i:j])) for i, j in _runs(sticking)), default=0.0),
         chattering_time=_mode_time(t, modes, _CHATTER),
         modes=_phases(modes, float(t[-1]) if hop is None or hop.t_end is None else hop.t_end),
     )
+
+
+def read_run(
+    traj: Trajectory, scene: Scene, mu: float, *, window_end: float | None = None
+) -> ContactReading:
+    """The canonical reading of a run of ``scene`` with the pair's ``mu``: the thresholds
+    carried to the scene's hoop and the rolling demand at the run's own states. Every
+    reader of a run (the row, ``hb.run(...).events``, ``simulate``) reads it through this."""
+    demand = rolling_forces(scene, traj.theta, traj.thetadot)
+    settings = ContactSettings().for_hoop(scene.a, scene.g)
+    return read_contact(traj, mu, settings, window_end=window_end, rolling_demand=demand)
 
 
 def canonical_events(
@@ -306,6 +342,7 @@ def _means(
     touching: NDArray,
     mu: float,
     cfg: ContactSettings,
+    rolling_demand: tuple[NDArray, NDArray] | None = None,
 ) -> _Means:
     """Centred window means (the samples within W/2 of each sample's time)."""
     half = 0.5 * cfg.window
@@ -322,7 +359,16 @@ def _means(
     at_cone = touching & (np.abs(f) >= (1.0 - cfg.cone_tolerance) * mu * n)
     forced = mean(touching.astype(float))
     share = np.divide(mean(at_cone.astype(float)), forced, out=np.zeros(len(t)), where=forced > 0)
-    return _Means(mean(f_on), mean(n_on), mean(slip), share)
+    demand = None
+    if rolling_demand is not None:
+        demand = _demand_share(mean(rolling_demand[0]), mean(rolling_demand[1]), mu)
+    return _Means(mean(f_on), mean(n_on), mean(slip), share, demand)
+
+
+def _demand_share(f_roll: NDArray, n_roll: NDArray, mu: float) -> NDArray:
+    """|F_roll| / (mu N_roll), inf where rolling needs a pull (N_roll <= 0)."""
+    cone = mu * n_roll
+    return np.divide(np.abs(f_roll), cone, out=np.full(len(cone), np.inf), where=cone > 0.0)
 
 
 def _step_labels(
@@ -350,7 +396,7 @@ def _slipping(means: _Means, reaches: NDArray, mu: float, cfg: ContactSettings) 
     friction = np.abs(means.friction)
     cone = mu * means.normal
     against = (means.slip * means.friction < 0.0) & (np.abs(means.slip) > cfg.slip_floor)
-    hold = against & (friction >= (1.0 - cfg.cone_hold) * cone) & (cone > 0.0)
+    hold = against & _slip_law(friction, cone, means.demand, cfg) & (cone > 0.0)
     enter = hold & reaches
     fast = np.abs(means.slip) > cfg.slip_threshold
     out = np.zeros(len(friction), dtype=bool)
@@ -359,6 +405,19 @@ def _slipping(means: _Means, reaches: NDArray, mu: float, cfg: ContactSettings) 
         if hits.size and fast[start + int(hits[0]) : stop].any():
             out[start + int(hits[0]) : stop] = True
     return out
+
+
+def _slip_law(
+    friction: NDArray, cone: NDArray, demand: NDArray | None, cfg: ContactSettings
+) -> NDArray:
+    """Windows whose friction follows the slip law rather than the rolling constraint: at
+    the cone within ``cone_hold``, or (with the rolling demand) where rolling cannot go on
+    (the demand at or beyond the cone) or the friction lies nearer the cone than the demand."""
+    at_cone = friction >= (1.0 - cfg.cone_hold) * cone
+    if demand is None:
+        return at_cone
+    share = np.divide(friction, cone, out=np.zeros(len(cone)), where=cone > 0.0)
+    return at_cone | (demand >= 1.0) | (share >= 0.5 * (1.0 + demand))
 
 
 Mode = tuple[str, float]

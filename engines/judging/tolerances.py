@@ -41,11 +41,17 @@ class EventTolerances:
     """s."""
     hop_height_rel: float
     """Dimensionless: |hop height / exact - 1|."""
+    creep_distance: float = 0.0
+    """m: how far the rim may slide while the reading has it rolling (creep), where the
+    exact solution slides not at all."""
 
 
-def event_tolerances(tier: Tier, duration: float = 1.0, timestep: float = 0.0) -> EventTolerances:
+def event_tolerances(
+    tier: Tier, duration: float = 1.0, timestep: float = 0.0, length: float = 1.0
+) -> EventTolerances:
     """``tier``'s tolerances for a hoop whose times scale by ``duration`` (sqrt(a / g) over
-    the 1 m hoop's) at ``timestep`` (s; 0 where unknown)."""
+    the 1 m hoop's) and lengths by ``length`` (a over 1 m) at ``timestep`` (s; 0 where
+    unknown)."""
     table = tolerances()[str(tier)]
     extra = table["steps"] * timestep
     return EventTolerances(
@@ -53,4 +59,5 @@ def event_tolerances(tier: Tier, duration: float = 1.0, timestep: float = 0.0) -
         t_lift=table["t_lift_s"] * duration + extra,
         t_impact=table["t_impact_s"] * duration + extra,
         hop_height_rel=table["hop_height_rel"],
+        creep_distance=table["creep_distance_m"] * length,
     )

@@ -135,6 +135,9 @@ class Verdict(StrEnum):
     LATE_SLIP = "late-slip"
     WRONG_PHASES = "wrong-phases"
     """The phase sequence differs from the exact one read at the run's timestep."""
+    CREEPS = "creeps"
+    """The rim slides, with its friction inside the cone at what rolling needs (creep),
+    farther than the loose tolerance, where the exact solution rolls without sliding."""
     CONE_VIOLATION = "cone-violation"
     """The contact sticks with friction outside the Coulomb cone (|mean f| above mu mean n)
     for at least the table's ``[cone] stick_s``."""
@@ -173,6 +176,7 @@ class _Class(StrEnum):
     HOP = "hop"
     PAINLEVE = "painleve"
     UNSEEN_SLIP = "slip too short to read"
+    UNSEEN_HOP = "hop the window cuts too short to read"
     """The exact solution slips, but not long enough for the reading at the run's step."""
 
 
@@ -235,8 +239,8 @@ def hoop_thresholds(a: Any = None, g: Any = None, timestep: Any = None) -> HoopT
         slip_threshold=speed * base.slip_threshold,
         phase_end=duration * PHASE_END_TOLERANCE,
         cone_stick=duration * float(tolerances()["cone"]["stick_s"]),
-        tight=event_tolerances(Tier.TIGHT, duration, step),
-        loose=event_tolerances(Tier.LOOSE, duration, step),
+        tight=event_tolerances(Tier.TIGHT, duration, step, length),
+        loose=event_tolerances(Tier.LOOSE, duration, step, length),
     )
 
 
@@ -316,9 +320,18 @@ def _exact_slip_seen(row: Mapping[str, Any]) -> bool:
     return phases is None or any(code.startswith("S") for code in phases.split())
 
 
+def _exact_hop_seen(row: Mapping[str, Any]) -> bool:
+    """Whether the reading sees the exact hop in the exact solution sampled at the run's
+    timestep up to the window's end (true where the row has no floor reading): a hop that
+    lifts off just before the window ends may not yet reach the hop threshold there."""
+    phases, _ = _exact_phases(row)
+    return not phases or "F" in phases.split()
+
+
 def _exact_class(row: Mapping[str, Any], outcome: str) -> _Class:
     if outcome in _HOP_OUTCOMES:
-        return _Class.HOP
+        # A hop the reading cannot see at the run's timestep is no hop to miss.
+        return _Class.HOP if _exact_hop_seen(row) else _Class.UNSEEN_HOP
     if outcome == str(Outcome.PAINLEVE):
         return _Class.PAINLEVE
     if outcome != str(Outcome.SLIPS):
@@ -404,6 +417,8 @@ class _Checks:
 
 def _outcome(row: Mapping[str, Any], engine: _Class, exact: _Class) -> Failure | None:
     """The outcome class: a failure, or None if it agrees."""
+    if exact is _Class.UNSEEN_HOP or (exact is _Class.UNSEEN_SLIP and engine is not _Class.HOP):
+        return None  # either outcome is what the reading sees of it
     if exact is _Class.HOP:
         if engine is _Class.HOP:
             return None
@@ -417,8 +432,6 @@ def _outcome(row: Mapping[str, Any], engine: _Class, exact: _Class) -> Failure |
         return Verdict.FALSE_HOP, f"a {height} hop the reference does not have"
     if engine is _Class.PAINLEVE:
         engine = _Class.SLIP  # only the reference reports it, and it was slipping
-    if exact is _Class.UNSEEN_SLIP:
-        return None  # rolling and slipping are both what the reading sees of it
     if exact is _Class.SLIP and engine is _Class.ROLL:
         return Verdict.MISSED_SLIP, "never slips where the reference slips"
     if exact is _Class.ROLL and engine is _Class.SLIP:
@@ -612,8 +625,22 @@ def classify(row: Mapping[str, Any]) -> Judgement:
     return _judged(row, engine, exact)
 
 
+def _creep_checks(row: Mapping[str, Any], checks: _Checks) -> None:
+    distance = number_or_none(row.get(Col.CREEP_DISTANCE_M))
+    if distance is None:
+        return
+    limits = _row_thresholds(row)
+    speed = _mm(row.get(Col.CREEP_MAX_SPEED))
+    text = f"creeps {_mm(distance)} with friction inside the cone (up to {speed}/s)"
+    if distance > limits.loose.creep_distance:
+        checks.failures.append((Verdict.CREEPS, text))
+    elif distance > limits.tight.creep_distance:
+        checks.close.append(text)
+
+
 _EVENT_CHECKS: tuple[Callable[[Mapping[str, Any], _Checks], None], ...] = (
     _phase_checks,
+    _creep_checks,
     _cone_checks,
 )
 
