@@ -354,3 +354,30 @@ def test_report_of_a_map_folder(map_dir, tmp_path, capsys):
     text = (both / "report.md").read_text()
     assert text.count("## Hop map:") == 2
     assert "](map1_regimes.png)" in text and "](map2_regimes.png)" in text
+
+
+def _agreement(*lines: tuple[str, int, int, int]) -> pd.DataFrame:
+    """An agreement table's overall rows: (engine, judged, outcome agreements, agreements)."""
+    from hoopbench.reports.hop_map.table import ALL_REGIMES
+
+    return pd.DataFrame(
+        [
+            {"engine": e, "regime": ALL_REGIMES, "judged": n, "outcome_agrees": o,
+             "agrees": a, "outcome_agrees_pct": 100 * o / n, "agrees_pct": 100 * a / n}
+            for e, n, o, a in lines
+        ]
+    )  # fmt: skip
+
+
+def test_engines_that_agree_alike_are_a_tie_not_a_ranking():
+    """All at 100 %: no 'agrees most' beside 'least' with the same numbers."""
+    from hoopbench.reports.report.map_section import _ranking_sentence
+
+    text = _ranking_sentence(_agreement(("mujoco", 4, 4, 4), ("pymunk", 4, 4, 4)))
+    assert text.startswith("mujoco and pymunk agree with the reference alike: each the outcome")
+    assert "most" not in text and "least" not in text
+    text = _ranking_sentence(
+        _agreement(("mujoco", 4, 4, 4), ("drake", 4, 4, 4), ("pymunk", 4, 2, 1))
+    )
+    assert text.startswith("mujoco and drake agree most with the reference")
+    assert "; pymunk least: the outcome on 2/4" in text

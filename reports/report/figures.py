@@ -14,7 +14,8 @@ from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.reference.exact import solve_exact
 from hoopbench.reference.seed_euler import solve_seed_euler
-from hoopbench.reports.report.plotting import pyplot
+from hoopbench.reports.report.palette import REFERENCE_DASH, engine_colours
+from hoopbench.reports.report.plotting import pyplot, save
 
 __all__ = ["events_figure", "hoop_figure", "paths_figure"]
 
@@ -78,11 +79,8 @@ def hoop_figure(
     ax3.plot(traj.t, traj.slip_velocity, color="tab:orange", lw=1.0, label="slip velocity")
     ax3.set_ylabel("slip velocity (m/s)", color="tab:orange")
     ax2.set_title("phases: white roll, orange slip, cyan flight", fontsize=9)
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    Path(out).parent.mkdir(parents=True, exist_ok=True)
+    return save(fig, out, dpi=110)
 
 
 def events_figure(
@@ -96,12 +94,16 @@ def events_figure(
     around its events (``t_window``, s)."""
     plt = pyplot()
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 5.6), sharex=True, constrained_layout=True)
+    colours = engine_colours(runs)
     for label, traj in runs.items():
         mask: slice | np.ndarray = slice(None)
         if t_window is not None:
             mask = (traj.t >= t_window[0]) & (traj.t <= t_window[1])
-        top.plot(traj.t[mask], traj.clearance[mask] * 1e3, label=label, lw=1.2)
-        bottom.plot(traj.t[mask], traj.slip_velocity[mask], label=label, lw=1.0)
+        # The reference dashed and on top, so that an engine on it shows under the dashes.
+        style = {"ls": REFERENCE_DASH, "zorder": 3} if label == REFERENCE_ENGINE else {}
+        colour = colours[label]
+        top.plot(traj.t[mask], traj.clearance[mask] * 1e3, label=label, lw=1.2, c=colour, **style)
+        bottom.plot(traj.t[mask], traj.slip_velocity[mask], label=label, lw=1.0, c=colour, **style)
     top.axhline(0.0, color="0.3", lw=0.8)
     bottom.axhline(0.0, color="0.3", lw=0.8)
     top.set_ylabel("clearance y - a (mm)")
@@ -109,10 +111,7 @@ def events_figure(
     bottom.set_xlabel("t (s)")
     top.set_title(title)
     top.legend(fontsize=8)
-    out = Path(out)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return save(fig, out, dpi=110)
 
 
 def paths_figure(
@@ -137,7 +136,8 @@ def paths_figure(
             ax.plot([x[i], wx], [y[i], wy], color="0.6", lw=0.5)
             ax.plot(wx, wy, "o", color="tab:red", ms=3)
             ax.plot(x[i], y[i], "o", color="k", ms=1.5)
-        ax.plot(traj.X, traj.Y, color="tab:green", lw=1.2, label=f"{name}: centre of mass")
+        colour = engine_colours([name])[name]
+        ax.plot(traj.X, traj.Y, color=colour, lw=1.2, label=f"{name}: centre of mass")
         ax.axhline(0.0, color="0.3", lw=0.8)
         ax.set_aspect("equal")
         ax.set_ylabel("y (m)")
@@ -146,7 +146,4 @@ def paths_figure(
     axes[0, 0].set_title(
         f"{scene.name}: paths at equal time steps (red: weight, black: hoop centre)", fontsize=9
     )
-    out = Path(out)
-    fig.savefig(out, dpi=100)
-    plt.close(fig)
-    return out
+    return save(fig, out, dpi=100)

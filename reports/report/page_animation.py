@@ -23,7 +23,8 @@ from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.models import kinematics
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
-from hoopbench.reports.report.page_html import PALETTE, rounded, text
+from hoopbench.reports.report.page_html import rounded, text
+from hoopbench.reports.report.palette import REFERENCE_COLOUR, engine_colours
 
 __all__ = ["EVENTS", "HoopMotion", "animation_figure", "hoop_motions"]
 
@@ -114,6 +115,12 @@ def hoop_motions(
     return motions
 
 
+def _colour(motion: HoopMotion) -> str:
+    """The run's colour in every figure (palette.py); the exact run's is the reference's."""
+    name = REFERENCE_ENGINE if motion.name == EXACT_LABEL else motion.name
+    return engine_colours([name])[name]
+
+
 def _axes(k: int) -> dict[str, str]:
     return {"xaxis": "x" if k == 0 else f"x{k + 1}", "yaxis": "y" if k == 0 else f"y{k + 1}"}
 
@@ -155,14 +162,14 @@ def _static(motions: list[HoopMotion], bounds: dict[str, float], n_rows: int) ->
              "hoverinfo": "skip", "showlegend": False, **_axes(k)}
         )  # fmt: skip
     strip = _axes(n_rows - 1)
-    for k, motion in enumerate(motions):
+    for motion in motions:
         step = max(1, len(motion.t) // _STRIP_SAMPLES)
         traces.append(
             {"type": "scatter", "mode": "lines", "name": text(motion.name),
              "x": rounded(motion.t[::step], _DIGITS), "showlegend": True,
              "y": rounded(motion.clearance[::step] * 1e3, _DIGITS), **strip,
-             "line": {"dash": "dash", "color": "black"} if motion is exact
-             else {"color": PALETTE[(k - 1) % len(PALETTE)]}}
+             "line": {"dash": "dash", "color": REFERENCE_COLOUR} if motion is exact
+             else {"color": _colour(motion)}}
         )  # fmt: skip
     return traces
 

@@ -22,7 +22,8 @@ from hoopbench.reports.compare.selection import (
     profile_of,
     reference_rows,
 )
-from hoopbench.reports.report.plotting import pyplot
+from hoopbench.reports.report.palette import REFERENCE_COLOUR, engine_colours, profile_style
+from hoopbench.reports.report.plotting import pyplot, save
 
 __all__ = [
     "FLOOR",
@@ -157,19 +158,30 @@ def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
     for ax, (metric, scene) in zip(axes.ravel(), panels, strict=False):
         points = _metric_runs(runs, metric, scene)
         engines = engine_rows(points)
+        colours = engine_colours(engines["engine"])
         for family, group in engines.groupby("family", sort=True):
             group = group.sort_values("wall_time_s")
+            style = profile_style(str(group["profile"].iloc[0]))
             ax.plot(
                 group["wall_time_s"],
                 group["error"].clip(lower=FLOOR),
-                "o-",
+                color=colours[str(group["engine"].iloc[0])],
+                ls=style.matplotlib_dash,
+                marker=style.marker,
                 ms=3,
                 lw=1,
                 label=family,
             )
         reference = reference_rows(runs[runs["scene"] == scene])
         if len(reference):
-            ax.plot(reference["wall_time_s"].min(), FLOOR, "k*", ms=10, label="exact reference")
+            ax.plot(
+                reference["wall_time_s"].min(),
+                FLOOR,
+                "*",
+                color=REFERENCE_COLOUR,
+                ms=10,
+                label="exact reference",
+            )
         front = pareto_front(engines)
         ax.step(
             front["wall_time_s"],
@@ -190,7 +202,4 @@ def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
         ax.legend(fontsize=5, loc="best")
     for ax in axes.ravel()[len(panels) :]:
         ax.set_visible(False)
-    out = Path(out)
-    fig.savefig(out, dpi=100)
-    plt.close(fig)
-    return out
+    return save(fig, out, dpi=100)
