@@ -265,9 +265,10 @@ def _limit_sentence(limit: TimestepLimit) -> str:
     )
 
 
-def answer_markdown(result: Answer) -> str:
-    """The answer as the report's first section (Markdown, ending in a blank line); empty
-    text when no engine run was judged."""
+def answer_markdown(result: Answer, *, heading: bool = True) -> str:
+    """The answer as the report's first section (Markdown, ending in a blank line), its
+    heading left out without ``heading`` (the README has its own); empty text when no engine
+    run was judged."""
     if not result.engines:
         return ""
     headers = ["engine"]
@@ -284,9 +285,9 @@ def answer_markdown(result: Answer) -> str:
         f"**{t.name}**: {t.meaning} (verdict {' or '.join(sorted(t.verdicts))})"
         for t in ACCURACY_TIERS
     )
+    title = ["## The answer: which engine, which settings, at what cost", ""] if heading else []
     parts = [
-        "## The answer: which engine, which settings, at what cost",
-        "",
+        *title,
         "Per engine: the cheapest setting tried (profile, settings, timestep) whose runs meet "
         f"each accuracy tier on all {len(result.scenes)} catalogue scenes "
         f"({escape_text(', '.join(result.scenes))}), or on as many as any setting does; its "

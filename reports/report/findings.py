@@ -27,6 +27,7 @@ from hoopbench.reports.compare.selection import (
     profile_of,
 )
 from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
+from hoopbench.reports.report.answer import answer, answer_markdown
 from hoopbench.reports.report.escaping import escape_text
 from hoopbench.reports.report.scoreboard import (
     contact_hop_error,
@@ -39,7 +40,10 @@ from hoopbench.reports.sweep.results import atomic_write
 __all__ = [
     "README_BEGIN",
     "README_END",
+    "KEY_FINDINGS",
+    "MORE_FINDINGS",
     "all_findings_markdown",
+    "readme_markdown",
     "event_error",
     "findings",
     "findings_markdown",
@@ -419,6 +423,18 @@ def findings_markdown(runs: pd.DataFrame, *, key_only: bool = True) -> str:
     if not board:
         return "\n".join(lines)
     return "\n".join([board, "", SCOREBOARD_NOTE, *(["", *lines] if lines else [])])
+
+
+def readme_markdown(runs: pd.DataFrame) -> str:
+    """The README's block (``hoopbench findings``): the answer (reports/report/answer.py)
+    without its heading, then the scoreboard and the key findings, pointing to the report
+    for the rest."""
+    is_stability = runs.get("suite", pd.Series("", index=runs.index)) == "stability"
+    head = answer_markdown(answer(runs[~is_stability]), heading=False).rstrip()
+    text = findings_markdown(runs).replace(
+        f'section "{MORE_FINDINGS}" below', f'section "{MORE_FINDINGS}" of the report'
+    )
+    return "\n\n".join(part for part in (head, text) if part)
 
 
 def all_findings_markdown(runs: pd.DataFrame) -> str:
