@@ -38,18 +38,18 @@ from hoopbench.reports.report.stability import Stability, classify
 from hoopbench.reports.sweep.results import atomic_write
 
 __all__ = [
-    "README_BEGIN",
-    "README_END",
     "KEY_FINDINGS",
     "MORE_FINDINGS",
+    "README_BEGIN",
+    "README_END",
     "all_findings_markdown",
-    "readme_markdown",
     "event_error",
     "findings",
     "findings_markdown",
     "findings_scoreboard",
     "off_tuned",
     "option_text",
+    "readme_markdown",
     "update_readme",
 ]
 
