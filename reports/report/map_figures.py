@@ -86,9 +86,11 @@ VERDICT_COLOURS: dict[Verdict, str] = {
 Okabe-Ito, with browns for the hop's size and time and greens for the slip onset; ``agrees``
 faint grey."""
 
-_NOT_JUDGED = "#FFFFFF"
+NOT_JUDGED = "#FFFFFF"
 """Cells with no verdict: the reference has no answer (degenerate, error), or the engine
 could not run the scene (I = 0)."""
+NO_VERDICT = "no verdict"
+"""The legend's name for a cell without a verdict (NOT_JUDGED)."""
 _NO_HOP = "#F0F0F0"
 """Cells of the hop-height panel where the reference does not hop."""
 _NOT_COMPARED = "#8C8C8C"
@@ -385,14 +387,14 @@ def verdict_figure(frame: pd.DataFrame, path: str | Path) -> Path:
     for ax, engine in zip(axes, engines, strict=True):
         cells = verdict_cells(frame, engine, grid)
         ran = _judged_cells(frame, engine, grid)
-        _fill(ax, grid, np.isfinite(ran), _NOT_JUDGED)  # under the verdicts
+        _fill(ax, grid, np.isfinite(ran), NOT_JUDGED)  # under the verdicts
         _categorical(ax, grid, cells, list(VERDICT_COLOURS.values()))
         present |= {v for k, v in enumerate(Verdict) if np.any(cells == k)}
         ax.set_title(_agreement_title(engine, cells), fontsize=10)
         _set_axes(ax, grid)
     handles = [Patch(color=VERDICT_COLOURS[v], label=str(v)) for v in Verdict if v in present]
     no_verdict = "no verdict (no exact answer, too small to see, or not run)"
-    handles.append(Patch(facecolor=_NOT_JUDGED, edgecolor="0.6", label=no_verdict))
+    handles.append(Patch(facecolor=NOT_JUDGED, edgecolor="0.6", label=no_verdict))
     fig.legend(handles=handles, loc="outside lower center", ncols=min(len(handles), 5), fontsize=8)
     return _save(fig, path)
 

@@ -23,11 +23,14 @@ from hoopbench.engines.options import Profile
 from hoopbench.engines.run import REFERENCE_ENGINE
 
 __all__ = [
+    "ENDED_COLOUR",
     "ENGINE_COLOURS",
+    "HOOP_COLOUR",
     "PROFILE_STYLES",
     "REFERENCE_COLOUR",
     "REFERENCE_DASH",
     "SPARE_COLOURS",
+    "WEIGHT_COLOUR",
     "LineStyle",
     "engine_colours",
     "profile_style",
@@ -38,6 +41,13 @@ REFERENCE_COLOUR = "#000000"
 
 REFERENCE_DASH = (0, (5, 2))
 """The exact reference's line: dashed (matplotlib's dash pattern; the page's is 'dash')."""
+
+HOOP_COLOUR = "#555555"
+"""A hoop and its spoke in the animations: a neutral grey, so that the only colour of a panel
+is its engine's (its path and event marks)."""
+WEIGHT_COLOUR = "#000000"
+ENDED_COLOUR = "#c8c8c8"
+"""A hoop whose run has ended (the exact one at its impact): drawn where it stopped, faded."""
 
 ENGINE_COLOURS: Mapping[str, str] = MappingProxyType(
     {
