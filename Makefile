@@ -47,11 +47,12 @@ report: $(REPORT_STAMP)
 	$(BIN)/hoopbench compare --suite stability --out $(OUT)/stability
 	$(BIN)/hoopbench report --results $(OUT)/default $(OUT)/finer $(OUT)/stability --out $(OUT)
 
-# The README's findings and figures from the newest report folder (or RESULTS=...).
+# The README's answer, findings and animation from the newest report folder (or RESULTS=...).
 RESULTS ?= $(lastword $(sort $(wildcard reports/output/*/default)))
 findings: $(REPORT_STAMP)
 	@test -n "$(RESULTS)" || { echo "no report yet: run make report first"; exit 2; }
-	$(BIN)/hoopbench findings --results $(RESULTS) $(dir $(RESULTS))stability --update README.md
+	$(BIN)/hoopbench findings --results $(RESULTS) $(wildcard $(dir $(RESULTS))finer) \
+		$(dir $(RESULTS))stability --update README.md
 	cp $(dir $(RESULTS))error_vs_time.png $(dir $(RESULTS))stability.png reports/img/
 	test ! -f $(dir $(RESULTS))hop-top.gif || cp $(dir $(RESULTS))hop-top.gif reports/img/
 

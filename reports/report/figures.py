@@ -14,7 +14,12 @@ from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.reference.exact import solve_exact
 from hoopbench.reference.seed_euler import solve_seed_euler
-from hoopbench.reports.report.palette import REFERENCE_DASH, engine_colours
+from hoopbench.reports.report.palette import (
+    REFERENCE_COLOUR,
+    REFERENCE_DASH,
+    WEIGHT_COLOUR,
+    engine_colours,
+)
 from hoopbench.reports.report.plotting import pyplot, save
 
 __all__ = ["events_figure", "hoop_figure", "paths_figure"]
@@ -127,15 +132,16 @@ def paths_figure(
     )
     for ax, name in zip(axes[:, 0], engines, strict=True):
         traj = runs[name]
-        if reference is not None:
-            ax.plot(reference.X, reference.Y, color="0.7", lw=2.5, label="reference")
+        if reference is not None:  # on top, dashed: an engine on it shows under the dashes
+            ax.plot(reference.X, reference.Y, color=REFERENCE_COLOUR, ls=REFERENCE_DASH, lw=1.0,
+                    label="reference", zorder=3)  # fmt: skip
         x, y = kinematics.centre_position(scene, traj.X, traj.Y, traj.theta)
         for i in np.linspace(0, len(traj) - 1, n_frames + 1).astype(int):
             wx = x[i] + scene.a * np.sin(traj.theta[i])
             wy = y[i] + scene.a * np.cos(traj.theta[i])
             ax.plot([x[i], wx], [y[i], wy], color="0.6", lw=0.5)
-            ax.plot(wx, wy, "o", color="tab:red", ms=3)
-            ax.plot(x[i], y[i], "o", color="k", ms=1.5)
+            ax.plot(wx, wy, "o", mfc="none", mec=WEIGHT_COLOUR, ms=3.5, mew=0.8)
+            ax.plot(x[i], y[i], "o", color=WEIGHT_COLOUR, ms=1.5)
         colour = engine_colours([name])[name]
         ax.plot(traj.X, traj.Y, color=colour, lw=1.2, label=f"{name}: centre of mass")
         ax.axhline(0.0, color="0.3", lw=0.8)
@@ -144,6 +150,6 @@ def paths_figure(
         ax.legend(loc="upper right", fontsize=7)
     axes[-1, 0].set_xlabel("x (m)")
     axes[0, 0].set_title(
-        f"{scene.name}: paths at equal time steps (red: weight, black: hoop centre)", fontsize=9
+        f"{scene.name}: paths at equal time steps (circle: weight, dot: hoop centre)", fontsize=9
     )
     return save(fig, out, dpi=100)

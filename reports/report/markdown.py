@@ -323,7 +323,9 @@ def _run_time_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[Path]]:
             "",
             f"![event errors against run time]({figure.name})" if figure else "",
             "",
-            "The cheapest run within each target:",
+            "Per event and scene, the cheapest single run within the target (dotted in the "
+            "figure). That run alone: it may get other events or scenes wrong, and it may be a "
+            "variant; the answer at the top holds a setting to every scene.",
             "",
             _table(
                 cheapest,
