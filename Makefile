@@ -53,7 +53,6 @@ findings: $(REPORT_STAMP)
 	@test -n "$(RESULTS)" || { echo "no report yet: run make report first"; exit 2; }
 	$(BIN)/hoopbench findings --results $(RESULTS) $(wildcard $(dir $(RESULTS))finer) \
 		$(dir $(RESULTS))stability --update README.md
-	cp $(dir $(RESULTS))error_vs_time.png $(dir $(RESULTS))stability.png reports/img/
 	test ! -f $(dir $(RESULTS))hop-top.gif || cp $(dir $(RESULTS))hop-top.gif reports/img/
 
 bench: $(REPORT_STAMP)

@@ -28,8 +28,8 @@ GIF_SCENE = "hop-top"
 GIF_FRAMES = 60
 """Frames, 80 ms apart: the whole window in about 5 s, and the file well under 1 MB."""
 _FRAME_MS = 80
-GIF_COLUMNS = 4
-"""Panels per row: eight runs in two rows, a picture wider than tall, as a README shows it."""
+GIF_COLUMNS = 2
+"""Panels per row: eight runs in four rows, wide enough to read at a README's width."""
 _EVENT_MARKERS = {"x": "x", "triangle-up": "^", "square": "s"}
 """The page's marker names as matplotlib's."""
 
@@ -89,7 +89,7 @@ def hoop_gif(scene: Scene, motions: list[HoopMotion], out: str | Path) -> Path:
     a = scene.a
     x0 = min(float(m.x.min()) for m in motions) - 1.1 * a
     x1 = max(float(m.x.max()) for m in motions) + 1.1 * a
-    y1 = max(float(m.y.max()) for m in motions) + 1.6 * a
+    y1 = max(float(m.y.max()) for m in motions) + 2.0 * a
     limits = ((x0, x1), (-0.05 * a, y1))
     columns = min(GIF_COLUMNS, len(motions))
     rows = -(-len(motions) // columns)
