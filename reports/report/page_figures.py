@@ -168,8 +168,10 @@ def precision_page_figure(runs: pd.DataFrame) -> Figure | None:
         traces += _family_traces(points, metric.unit, k, shown)
         traces += _panel_extras(runs, points, scene, k)
         x, y = _axis_name("xaxis", k), _axis_name("yaxis", k)
-        layout[x] = {"type": "log", "title": {"text": "wall time of the run (s)"}}
-        layout[y] = {"type": "log", "title": {"text": f"|error| ({metric.unit})"}}
+        # powers of ten, as the PNG's axes (plotly's default writes 1µ for 1e-6)
+        log = {"type": "log", "exponentformat": "power"}
+        layout[x] = {**log, "title": {"text": "wall time of the run (s)"}}
+        layout[y] = {**log, "title": {"text": f"|error| ({metric.unit})"}}
         layout["annotations"].append(_panel_title(f"{scene}: {metric.label}", k))
         layout["shapes"].append(_target_line(metric.target, k))
     layout["updatemenus"] = [
