@@ -15,8 +15,10 @@ from hoopbench.models.trajectory import Trajectory
 from hoopbench.reference.exact import solve_exact
 from hoopbench.reference.seed_euler import solve_seed_euler
 from hoopbench.reports.report.palette import (
+    HOOP_COLOUR,
     REFERENCE_COLOUR,
     REFERENCE_DASH,
+    SPARE_COLOURS,
     WEIGHT_COLOUR,
     engine_colours,
 )
@@ -54,13 +56,15 @@ def hoop_figure(
         wx = x[i] + scene.a * np.sin(traj.theta[i])
         wy = y[i] + scene.a * np.cos(traj.theta[i])
         ax.plot([x[i], wx], [y[i], wy], color="0.6", lw=0.6)
-        ax.plot(wx, wy, "o", color="tab:red", ms=4)
-        ax.plot(x[i], y[i], "o", color="k", ms=2)
+        ax.plot(wx, wy, "o", mfc="none", mec=WEIGHT_COLOUR, ms=4.5, mew=0.8)
+        ax.plot(x[i], y[i], "o", color=WEIGHT_COLOUR, ms=2)
     for i in frames[:: max(1, n_frames // 4)]:
-        ax.add_patch(plt.Circle((x[i], y[i]), scene.a, fill=False, color="tab:blue", lw=0.6))
-    ax.plot(traj.X, traj.Y, color="tab:green", lw=1.5, label="centre of mass")
-    ax.plot([], [], "o", color="tab:red", ms=4, label="weight")
-    ax.plot([], [], "o", color="k", ms=2, label="hoop centre")
+        ax.add_patch(plt.Circle((x[i], y[i]), scene.a, fill=False, color=HOOP_COLOUR, lw=0.6))
+    # The exact solution is the reference: its colour in every figure (palette.py).
+    path = REFERENCE_COLOUR if method == "exact" else SPARE_COLOURS[0]
+    ax.plot(traj.X, traj.Y, color=path, lw=1.5, label="centre of mass")
+    ax.plot([], [], "o", mfc="none", mec=WEIGHT_COLOUR, ms=4.5, label="weight")
+    ax.plot([], [], "o", color=WEIGHT_COLOUR, ms=2, label="hoop centre")
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
