@@ -134,6 +134,9 @@ class TimestepLimit:
 
 @dataclass(frozen=True)
 class Answer:
+    """The report's answer: the scenes it holds settings to, a line per engine, and the
+    scenes the timestep limits."""
+
     scenes: tuple[str, ...]
     """The scenes a setting must meet: the judged catalogue scenes of the runs but those the
     timestep limits (``limits``)."""
@@ -173,7 +176,10 @@ def _cheapest(rows: pd.DataFrame, scenes: Sequence[str], tier: Tier) -> Choice |
     )
 
 
-def _always_wrong(rows: pd.DataFrame, scenes: Sequence[str]) -> tuple:
+def _always_wrong(
+    rows: pd.DataFrame, scenes: Sequence[str]
+) -> tuple[tuple[str, tuple[str, ...]], ...]:
+    """(scene, its runs' verdicts) where no run of ``rows`` meets the loose tier."""
     loose = ACCURACY_TIERS[-1].verdicts
     wrong = []
     for scene in scenes:
