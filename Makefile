@@ -1,9 +1,10 @@
 # Two entry points: `make report` and `make test` (lint: ruff and mypy; then pytest). Both
-# build .venv on first use.
+# build .venv on first use: `make test` with the test extra, `make report` with the engines'.
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
+REPORT_STAMP := $(VENV)/.installed-engines
 FILES := $(VENV)/.files
 # A new folder for every report: evaluated once, so both steps below use the same one.
 ifndef OUT
@@ -27,23 +28,34 @@ $(STAMP): pyproject.toml $(FILES)
 	$(BIN)/python -m pip install --quiet -e ".[test]" --config-settings editable_mode=strict
 	touch $(STAMP)
 
+# `make report` needs the engines, not the test tools: the `engines` extra (a venv with the
+# test extra has them already, and keeps its tools).
+$(REPORT_STAMP): pyproject.toml $(FILES)
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e ".[engines]" --config-settings editable_mode=strict
+	touch $(REPORT_STAMP)
+
 test: lint
 	$(BIN)/python -m pytest
 
-report: $(STAMP)
+# The default suite, the scenes its timesteps cannot resolve at a finer one (finer.toml),
+# and the stiff and extreme scenes; then one report of all three.
+report: $(REPORT_STAMP)
 	$(BIN)/hoopbench compare --suite default --out $(OUT)/default --trajectories default
+	$(BIN)/hoopbench compare --suite finer --out $(OUT)/finer
 	$(BIN)/hoopbench compare --suite stability --out $(OUT)/stability
-	$(BIN)/hoopbench report --results $(OUT)/default $(OUT)/stability --out $(OUT)
+	$(BIN)/hoopbench report --results $(OUT)/default $(OUT)/finer $(OUT)/stability --out $(OUT)
 
-# The README's findings and figures from the newest report folder (or RESULTS=...).
+# The README's answer, findings and animation from the newest report folder (or RESULTS=...).
 RESULTS ?= $(lastword $(sort $(wildcard reports/output/*/default)))
-findings: $(STAMP)
+findings: $(REPORT_STAMP)
 	@test -n "$(RESULTS)" || { echo "no report yet: run make report first"; exit 2; }
-	$(BIN)/hoopbench findings --results $(RESULTS) $(dir $(RESULTS))stability --update README.md
-	cp $(dir $(RESULTS))error_vs_time.png $(dir $(RESULTS))stability.png reports/img/
+	$(BIN)/hoopbench findings --results $(RESULTS) $(wildcard $(dir $(RESULTS))finer) \
+		$(dir $(RESULTS))stability --update README.md
 	test ! -f $(dir $(RESULTS))hop-top.gif || cp $(dir $(RESULTS))hop-top.gif reports/img/
 
-bench: $(STAMP)
+bench: $(REPORT_STAMP)
 	$(BIN)/python -m hoopbench.reports.bench.overhead
 
 # mypy checks the package as installed, `hoopbench.*`: from the editable install's tree of

@@ -503,7 +503,7 @@ def _cmd_findings(args: argparse.Namespace) -> int:
     import pandas as pd
 
     from hoopbench.reports.report.build import report_frame
-    from hoopbench.reports.report.findings import findings_markdown, update_readme
+    from hoopbench.reports.report.findings import readme_markdown, update_readme
 
     for folder in args.results:
         if not (Path(folder) / "runs").is_dir():
@@ -512,7 +512,7 @@ def _cmd_findings(args: argparse.Namespace) -> int:
         what = "is a folder" if Path(args.update).is_dir() else "does not exist"
         raise UsageError(f"--update {args.update!r} {what}: give a Markdown file with the markers")
     frame = pd.concat([report_frame(Path(f)) for f in args.results], ignore_index=True)
-    text = findings_markdown(frame)
+    text = readme_markdown(frame)
     if not args.update:
         print(text)
         return 0
@@ -789,7 +789,9 @@ def _add_report(sub: Any, classes: Mapping[str, Any]) -> None:
 
 
 def _add_findings(sub: Any, classes: Mapping[str, Any]) -> None:
-    p = sub.add_parser("findings", help="the report's findings, as Markdown sentences")
+    p = sub.add_parser(
+        "findings", help="the answer, the scoreboard and the key findings, as Markdown"
+    )
     p.add_argument("--results", required=True, nargs="+", metavar="DIR", help="results folders")
     p.add_argument(
         "--update", metavar="README", help="replace the findings block of this Markdown file"

@@ -212,11 +212,11 @@ def seed(engine, canonical, kinematic, us=10.0):
 def test_the_findings_read_the_canonical_reading_alone():
     """Before issue 24 a ranking by the slip velocity stood beside the contact force's; the
     Findings now quote one reading (the comparison is the report's own section)."""
-    runs = frame(seed("mujoco", 0.02, 2.39), seed("pybullet", 0.1, 0.14), seed("drake", 0.2, 0.035))
+    runs = frame(seed("mujoco", 0.02, 2.39), seed("pybullet", 0.3, 0.14), seed("drake", 0.6, 0.035))
     text = findings(runs)[0]
     assert text == (
         "Slip onset on seed-mu (dt 0.0001, tuned): closest is mujoco, +0.02 ms at 10 us/step; "
-        "then pybullet +0.1 ms, drake +0.2 ms."
+        "then pybullet +0.3 ms, drake +0.6 ms."
     )
 
 
@@ -227,6 +227,23 @@ def test_a_tie_is_said_and_does_not_make_an_order():
     assert (
         "closest is pymunk, +0.119 ms at 10 us/step, tied with pybullet; then drake +1 ms" in text
     )
+
+
+def test_errors_closer_than_one_timestep_tie():
+    """+0.0194 ms against +0.119 ms at dt 0.1 ms is one step: a tie, not a ranking; a hop
+    height ties within the height one step of lift-off makes (sqrt(2 g h) dt / h)."""
+    runs = frame(seed("mujoco", 0.0194, 0.1), seed("dart", 0.119, 0.2), seed("drake", 0.219, 3))
+    text = findings(runs)[0]
+    assert "closest is mujoco, +0.0194 ms at 10 us/step, tied with dart; then drake" in text
+    hop = {"scene": "hop-bottom", "exact_t_lift": 1.0, "exact_hop_height": 0.1, "g": 9.8}
+    # one step of lift-off at 1.4 m/s: 0.14 mm of 0.1 m, 0.14 %
+    runs = frame(
+        row("mujoco", **hop, err_hop_height_rel=0.00038),
+        row("pymunk", **hop, err_hop_height_rel=-0.0015),
+        row("rapier", **hop, err_hop_height_rel=0.0087),
+    )
+    text = next(s for s in findings(runs) if s.startswith("Hop height on hop-bottom"))
+    assert "closest is mujoco, +0.038 % at 10 us/step, tied with pymunk; then rapier" in text
 
 
 def test_an_event_error_is_read_as_the_verdict_reads_it():

@@ -40,10 +40,14 @@ from hoopbench.reports.hop_map.table import agreement_table, map_frame
 from hoopbench.reports.sweep import results
 from hoopbench.reports.sweep.runner import OutputDirNotEmptyError, RunnerError
 
-TINY = MapSpec(nx=3, ny=2, engines=("pymunk",), timestep=1e-3, t_end=1.0)
+TINY = MapSpec(nx=3, ny=2, engines=("pymunk",), timestep=1e-3, t_end=1.0, x_range=(0.5, 1.0))
 """lam 0.5, 0.75, 1 x chi 0.05, 2: rolls at chi 0.05, a hop (lam 0.5, chi 2), lifts-at-start
-(lam chi > 1), and lam = 1 with eps = 0, where I = 0 and no engine can build the body."""
-TINY_ARGS = ["--grid", "3x2", "--engines", "pymunk", "--dt", "1e-3", "--t-end", "1"]
+(lam chi > 1), and lam = 1 with eps = 0, where I = 0 and no engine can build the body (the
+default lam range stops below 1: given here)."""
+TINY_ARGS = [
+    *("--grid", "3x2", "--engines", "pymunk", "--dt", "1e-3", "--t-end", "1"),
+    *("--x-range", "0.5", "1"),
+]
 TIMING = [*results.TIMING_COLUMNS, "wall_time_s"]
 
 
@@ -86,6 +90,14 @@ def tiny(tmp_path_factory) -> Path:
 
 
 # ------------------------------------------------------------------ the spec
+def test_the_default_lam_range_stops_below_the_massless_ring():
+    """lam = 1 (eps = 0) has I = 0, which no engine can build: a default map would fill a
+    column with errors."""
+    low, high = AXES[Axis.LAM].default_range
+    assert low < high < 1.0
+    assert max(MapSpec(nx=10).axis_values(Axis.LAM)) < 1.0
+
+
 def test_defaults_come_from_the_axes_table():
     spec = MapSpec()
     assert (spec.x, spec.y) == (Axis.LAM, Axis.CHI)

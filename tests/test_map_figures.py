@@ -286,10 +286,20 @@ def test_map_findings_carry_the_frames_numbers(map_dir):
     key = {e: (c["outcome"] / c["judged"], c["agrees"] / c["judged"]) for e, c in counts.items()}
     best = max(ENGINES, key=key.__getitem__)
     worst = min(reversed(ENGINES), key=key.__getitem__)
-    ranking = _sentence(findings, f"{best} agrees most")
-    assert f"; {worst} least" in ranking
+    top = [e for e in ENGINES if key[e] == key[best]]  # ties are said as ties
+    bottom = [e for e in ENGINES if key[e] == key[worst]]
+    names = {1: "{}", 2: "{} and {}", 3: "{}, {} and {}"}
+    if len(top) == len(ENGINES):
+        ranking = _sentence(findings, names[len(top)].format(*top) + " agree with the reference")
+        assert "alike" in ranking and "least" not in ranking
+        tied = (best,)
+    else:
+        verb = "agrees" if len(top) == 1 else "agree"
+        ranking = _sentence(findings, f"{names[len(top)].format(*top)} {verb} most")
+        assert f"; {names[len(bottom)].format(*bottom)} least" in ranking
+        tied = (best, worst)
     expected = []
-    for engine in (best, worst):
+    for engine in tied:
         c = counts[engine]
         expected += [(c["outcome"], c["judged"]), (c["agrees"], c["judged"])]
     assert _fractions(ranking) == expected
@@ -357,3 +367,30 @@ def test_report_of_a_map_folder(map_dir, tmp_path, capsys):
     text = (both / "report.md").read_text()
     assert text.count("## Hop map:") == 2
     assert "](map1_regimes.png)" in text and "](map2_regimes.png)" in text
+
+
+def _agreement(*lines: tuple[str, int, int, int]) -> pd.DataFrame:
+    """An agreement table's overall rows: (engine, judged, outcome agreements, agreements)."""
+    from hoopbench.reports.hop_map.table import ALL_REGIMES
+
+    return pd.DataFrame(
+        [
+            {"engine": e, "regime": ALL_REGIMES, "judged": n, "outcome_agrees": o,
+             "agrees": a, "outcome_agrees_pct": 100 * o / n, "agrees_pct": 100 * a / n}
+            for e, n, o, a in lines
+        ]
+    )  # fmt: skip
+
+
+def test_engines_that_agree_alike_are_a_tie_not_a_ranking():
+    """All at 100 %: no 'agrees most' beside 'least' with the same numbers."""
+    from hoopbench.reports.report.map_section import _ranking_sentence
+
+    text = _ranking_sentence(_agreement(("mujoco", 4, 4, 4), ("pymunk", 4, 4, 4)))
+    assert text.startswith("mujoco and pymunk agree with the reference alike: each the outcome")
+    assert "most" not in text and "least" not in text
+    text = _ranking_sentence(
+        _agreement(("mujoco", 4, 4, 4), ("drake", 4, 4, 4), ("pymunk", 4, 2, 1))
+    )
+    assert text.startswith("mujoco and drake agree most with the reference")
+    assert "; pymunk least: the outcome on 2/4" in text

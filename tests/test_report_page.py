@@ -11,6 +11,7 @@ Screenshots go to the fixture's temporary folder.
 from __future__ import annotations
 
 import json
+import re
 import time
 from pathlib import Path
 
@@ -28,7 +29,7 @@ from hoopbench.reports.hop_map.table import map_frame
 from hoopbench.reports.report.build import build_report, report_frame
 from hoopbench.reports.report.hoop_gif import GIF_FRAMES, hoop_gif
 from hoopbench.reports.report.page import PAGE_NAME
-from hoopbench.reports.report.page_animation import hoop_motions
+from hoopbench.reports.report.page_animation import animation_figure, hoop_motions
 from hoopbench.reports.report.page_html import script_json
 
 CHROMIUM = Path("/usr/bin/chromium")
@@ -321,3 +322,46 @@ def test_the_readme_animation_is_a_small_gif(page, tmp_path):
     with Image.open(path) as image:
         assert image.format == "GIF" and image.n_frames == GIF_FRAMES
     assert path.stat().st_size < 2e6
+
+
+def _figure_data(fragment: str, figure_id: str) -> dict:
+    found = re.search(
+        rf'<script type="application/json" id="{figure_id}-data">(.*?)</script>', fragment, re.S
+    )
+    assert found
+    return json.loads(found[1])
+
+
+def test_the_map_has_a_key_for_every_colour_it_draws(page):
+    """The cells carry no colour scale: the legend names each regime and verdict present."""
+    from hoopbench.reports.report.page_map import map_fragment
+
+    folder = page.parent.parent / "map"
+    frame = map_frame(folder)
+    figure = _figure_data(map_fragment(folder, "m"), "m")
+    names = {trace.get("name") for trace in figure["data"][1:]}
+    regimes = set(frame[frame["engine"] == "reference"]["regime"].dropna())
+    verdicts = set(frame[frame["engine"] != "reference"]["verdict"].dropna())
+    assert regimes and verdicts
+    assert regimes | verdicts | {"no verdict"} == names
+    assert figure["data"][0]["showscale"] is False
+
+
+def test_the_animation_is_a_grid_with_its_controls_on_top_and_says_when_a_run_ended(page):
+    from hoopbench.reports.report.page_animation import GRID_COLUMNS
+
+    runs = report_frame(page.parent.parent / "quick")
+    rows = runs[runs["scene"] == "hop-bottom"]
+    trajectories = {r["engine"]: Trajectory.read(r["trajectory_file"]) for _, r in rows.iterrows()}
+    motions = hoop_motions(get_scene("hop-bottom"), trajectories, rows)
+    figure = animation_figure(get_scene("hop-bottom"), motions)
+    layout = figure["layout"]
+    assert layout["sliders"][0]["y"] >= 1 and layout["updatemenus"][0]["y"] >= 1
+    columns = {tuple(layout[f"xaxis{k + 1 if k else ''}"]["domain"]) for k in range(len(motions))}
+    assert len(columns) == min(GRID_COLUMNS, len(motions)) > 1
+    exact_end = float(motions[0].t[-1])
+    labels = [frame["data"][4]["text"][0] for frame in figure["frames"]]  # the exact panel's
+    times = [float(frame["name"]) for frame in figure["frames"]]
+    ended = [t > exact_end + 1e-3 for t in times]  # frame names are rounded to 1 ms
+    assert ["ended" in label for label in labels] == ended
+    assert any("ended" in label for label in labels)  # the engines run past the exact impact

@@ -576,6 +576,19 @@ def test_a_foreign_process_pool_crash_counts_raise_as_crash_and_broken_pool_stop
         run([Job("dies", "crash")], tmp_path / "b", executor=pool)
 
 
+def test_progress_counts_a_diverged_run_as_a_result_not_a_failure(tmp_path):
+    """A diverged run is judged like any other (its verdict is diverged): the progress line
+    says so apart from the runs that gave no result."""
+    tasks = [Job("diverges", "diverged"), Job("raises", "raise"), Job("ok-1")]
+    log = io.StringIO()
+    run(tasks, tmp_path / "out", quiet=False, stream=log)
+    last = log.getvalue().splitlines()[-1]
+    assert "1 failed (error 1); 1 diverged" in last, last
+    log = io.StringIO()
+    run([Job("diverges", "diverged"), Job("ok-1")], tmp_path / "other", quiet=False, stream=log)
+    assert "no failures; 1 diverged" in log.getvalue().splitlines()[-1]
+
+
 def test_a_foreign_thread_pool_times_out_by_abandoning_the_call(tmp_path):
     with ThreadPoolExecutor(max_workers=2) as pool:
         tasks = [Job("slow", "sleep", 2.0), *[Job(f"ok-{i}") for i in range(3)]]

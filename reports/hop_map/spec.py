@@ -99,12 +99,14 @@ AXES: Mapping[Axis, AxisInfo] = MappingProxyType(
         Axis.LAM: AxisInfo(
             0.0,
             1.0,
-            (0.5, 1.0),
+            (0.5, 0.95),
             0.8,
             "",
             "Range: a start lifts off when lam chi > 1 (physics.md), so below lam = 0.5 no "
-            "chi of the default range hops at once and the hoop mostly rolls or slips; 1 is the "
-            "massless ring (at eps = 0, I = 0: the degenerate column). Fixed: 0.8, heavy enough "
+            "chi of the default range hops at once and the hoop mostly rolls or slips; it stops "
+            "at 0.95, below the massless ring lam = 1 (at eps = 0, I = 0: no engine can build "
+            "the body, so every engine run there would be an error; --x-range 0.5 1 maps it "
+            "anyway). Fixed: 0.8, heavy enough "
             "to hop, and Painleve needs muk > sqrt(1 - lam^2)/lam = 0.75, inside the mu range.",
         ),
         Axis.CHI: AxisInfo(

@@ -14,7 +14,15 @@ from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.reference.exact import solve_exact
 from hoopbench.reference.seed_euler import solve_seed_euler
-from hoopbench.reports.report.plotting import pyplot
+from hoopbench.reports.report.palette import (
+    HOOP_COLOUR,
+    REFERENCE_COLOUR,
+    REFERENCE_DASH,
+    SPARE_COLOURS,
+    WEIGHT_COLOUR,
+    engine_colours,
+)
+from hoopbench.reports.report.plotting import pyplot, save
 
 __all__ = ["events_figure", "hoop_figure", "paths_figure"]
 
@@ -48,13 +56,15 @@ def hoop_figure(
         wx = x[i] + scene.a * np.sin(traj.theta[i])
         wy = y[i] + scene.a * np.cos(traj.theta[i])
         ax.plot([x[i], wx], [y[i], wy], color="0.6", lw=0.6)
-        ax.plot(wx, wy, "o", color="tab:red", ms=4)
-        ax.plot(x[i], y[i], "o", color="k", ms=2)
+        ax.plot(wx, wy, "o", mfc="none", mec=WEIGHT_COLOUR, ms=4.5, mew=0.8)
+        ax.plot(x[i], y[i], "o", color=WEIGHT_COLOUR, ms=2)
     for i in frames[:: max(1, n_frames // 4)]:
-        ax.add_patch(plt.Circle((x[i], y[i]), scene.a, fill=False, color="tab:blue", lw=0.6))
-    ax.plot(traj.X, traj.Y, color="tab:green", lw=1.5, label="centre of mass")
-    ax.plot([], [], "o", color="tab:red", ms=4, label="weight")
-    ax.plot([], [], "o", color="k", ms=2, label="hoop centre")
+        ax.add_patch(plt.Circle((x[i], y[i]), scene.a, fill=False, color=HOOP_COLOUR, lw=0.6))
+    # The exact solution is the reference: its colour in every figure (palette.py).
+    path = REFERENCE_COLOUR if method == "exact" else SPARE_COLOURS[0]
+    ax.plot(traj.X, traj.Y, color=path, lw=1.5, label="centre of mass")
+    ax.plot([], [], "o", mfc="none", mec=WEIGHT_COLOUR, ms=4.5, label="weight")
+    ax.plot([], [], "o", color=WEIGHT_COLOUR, ms=2, label="hoop centre")
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
@@ -78,11 +88,8 @@ def hoop_figure(
     ax3.plot(traj.t, traj.slip_velocity, color="tab:orange", lw=1.0, label="slip velocity")
     ax3.set_ylabel("slip velocity (m/s)", color="tab:orange")
     ax2.set_title("phases: white roll, orange slip, cyan flight", fontsize=9)
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    Path(out).parent.mkdir(parents=True, exist_ok=True)
+    return save(fig, out, dpi=110)
 
 
 def events_figure(
@@ -96,12 +103,16 @@ def events_figure(
     around its events (``t_window``, s)."""
     plt = pyplot()
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 5.6), sharex=True, constrained_layout=True)
+    colours = engine_colours(runs)
     for label, traj in runs.items():
         mask: slice | np.ndarray = slice(None)
         if t_window is not None:
             mask = (traj.t >= t_window[0]) & (traj.t <= t_window[1])
-        top.plot(traj.t[mask], traj.clearance[mask] * 1e3, label=label, lw=1.2)
-        bottom.plot(traj.t[mask], traj.slip_velocity[mask], label=label, lw=1.0)
+        # The reference dashed and on top, so that an engine on it shows under the dashes.
+        style = {"ls": REFERENCE_DASH, "zorder": 3} if label == REFERENCE_ENGINE else {}
+        colour = colours[label]
+        top.plot(traj.t[mask], traj.clearance[mask] * 1e3, label=label, lw=1.2, c=colour, **style)
+        bottom.plot(traj.t[mask], traj.slip_velocity[mask], label=label, lw=1.0, c=colour, **style)
     top.axhline(0.0, color="0.3", lw=0.8)
     bottom.axhline(0.0, color="0.3", lw=0.8)
     top.set_ylabel("clearance y - a (mm)")
@@ -109,10 +120,7 @@ def events_figure(
     bottom.set_xlabel("t (s)")
     top.set_title(title)
     top.legend(fontsize=8)
-    out = Path(out)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return save(fig, out, dpi=110)
 
 
 def paths_figure(
@@ -128,25 +136,24 @@ def paths_figure(
     )
     for ax, name in zip(axes[:, 0], engines, strict=True):
         traj = runs[name]
-        if reference is not None:
-            ax.plot(reference.X, reference.Y, color="0.7", lw=2.5, label="reference")
+        if reference is not None:  # on top, dashed: an engine on it shows under the dashes
+            ax.plot(reference.X, reference.Y, color=REFERENCE_COLOUR, ls=REFERENCE_DASH, lw=1.0,
+                    label="reference", zorder=3)  # fmt: skip
         x, y = kinematics.centre_position(scene, traj.X, traj.Y, traj.theta)
         for i in np.linspace(0, len(traj) - 1, n_frames + 1).astype(int):
             wx = x[i] + scene.a * np.sin(traj.theta[i])
             wy = y[i] + scene.a * np.cos(traj.theta[i])
             ax.plot([x[i], wx], [y[i], wy], color="0.6", lw=0.5)
-            ax.plot(wx, wy, "o", color="tab:red", ms=3)
-            ax.plot(x[i], y[i], "o", color="k", ms=1.5)
-        ax.plot(traj.X, traj.Y, color="tab:green", lw=1.2, label=f"{name}: centre of mass")
+            ax.plot(wx, wy, "o", mfc="none", mec=WEIGHT_COLOUR, ms=3.5, mew=0.8)
+            ax.plot(x[i], y[i], "o", color=WEIGHT_COLOUR, ms=1.5)
+        colour = engine_colours([name])[name]
+        ax.plot(traj.X, traj.Y, color=colour, lw=1.2, label=f"{name}: centre of mass")
         ax.axhline(0.0, color="0.3", lw=0.8)
         ax.set_aspect("equal")
         ax.set_ylabel("y (m)")
         ax.legend(loc="upper right", fontsize=7)
     axes[-1, 0].set_xlabel("x (m)")
     axes[0, 0].set_title(
-        f"{scene.name}: paths at equal time steps (red: weight, black: hoop centre)", fontsize=9
+        f"{scene.name}: paths at equal time steps (circle: weight, dot: hoop centre)", fontsize=9
     )
-    out = Path(out)
-    fig.savefig(out, dpi=100)
-    plt.close(fig)
-    return out
+    return save(fig, out, dpi=100)

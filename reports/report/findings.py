@@ -27,20 +27,25 @@ from hoopbench.reports.compare.selection import (
     profile_of,
 )
 from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
+from hoopbench.reports.report.answer import answer, answer_markdown
 from hoopbench.reports.report.escaping import escape_text
 from hoopbench.reports.report.scoreboard import scoreboard, scoreboard_markdown
 from hoopbench.reports.report.stability import Stability, classify
 from hoopbench.reports.sweep.results import atomic_write
 
 __all__ = [
+    "KEY_FINDINGS",
+    "MORE_FINDINGS",
     "README_BEGIN",
     "README_END",
+    "all_findings_markdown",
     "event_error",
     "findings",
     "findings_markdown",
     "findings_scoreboard",
     "off_tuned",
     "option_text",
+    "readme_markdown",
     "update_readme",
 ]
 
@@ -98,11 +103,12 @@ def _for_profile(rows: pd.DataFrame, profile: str) -> pd.DataFrame:
 
 
 def _ranking(
-    rows: pd.DataFrame, column: str, unit: str, scale: float
+    rows: pd.DataFrame, column: str, unit: str, scale: float, resolution: float = 0.0
 ) -> tuple[list[frozenset[str]], str]:
-    """The engines with the event, closest first, in groups of those tied (equal as printed),
-    and 'closest is A, err at cost[, tied with B]; then C err; no such event from D' over
-    the given rows; ([], '') when none has it."""
+    """The engines with the event, closest first, in groups of those tied, and 'closest is
+    A, err at cost[, tied with B]; then C err; no such event from D' over the given rows;
+    ([], '') when none has it. Two errors tie when they print the same or differ by less than
+    ``resolution`` (the column's unit): a group holds the engines within it of its closest."""
     values = pd.to_numeric(rows[column], errors="coerce") if column in rows.columns else None
     if values is None or values.isna().all():
         return [], ""
@@ -110,11 +116,14 @@ def _ranking(
     good = good[good["value"].notna()].sort_values(["size", "engine"], kind="stable")
     printed = [f"{scale * v:.3g}" for v in good["size"]]
     groups: list[set[str]] = []
+    start = 0
     for i, engine in enumerate(good["engine"]):
-        if i and printed[i] == printed[i - 1]:
+        same = i and printed[i] == printed[i - 1]
+        if same or (i and good["size"].iloc[i] - good["size"].iloc[start] < resolution):
             groups[-1].add(str(engine))
         else:
             groups.append({str(engine)})
+            start = i
     best = good.iloc[0]
     ties = sorted(groups[0] - {best["engine"]})
     others = ", ".join(
@@ -146,13 +155,19 @@ def _same_order(first: list[frozenset[str]], second: list[frozenset[str]]) -> bo
 
 
 def _closest_sentence(
-    rows: pd.DataFrame, readings: Sequence[tuple[str, str]], what: str, unit: str, scale: float
+    rows: pd.DataFrame,
+    readings: Sequence[tuple[str, str]],
+    what: str,
+    unit: str,
+    scale: float,
+    resolution: float = 0.0,
 ) -> str:
     """'WHAT: closest is A (err, cost); then B (err), C (err).' over the given rows, ranked by
-    the first reading (name, column) that has the event. With a second reading that has it
-    too: said to rank them the same, or, where its order differs, its ranking as a second
-    sentence, so that no ranking stands that the other reading reverses unsaid."""
-    ranked = [(name, *_ranking(rows, column, unit, scale)) for name, column in readings]
+    the first reading (name, column) that has the event, errors closer than ``resolution``
+    tied. With a second reading that has it too: said to rank them the same, or, where its
+    order differs, its ranking as a second sentence, so that no ranking stands that the other
+    reading reverses unsaid."""
+    ranked = [(name, *_ranking(rows, column, unit, scale, resolution)) for name, column in readings]
     ranked = [(name, order, text) for name, order, text in ranked if text]
     if not ranked:
         return ""
@@ -165,6 +180,32 @@ def _closest_sentence(
     head += f" (the {' and the '.join(same)} ranks them the same)" if same else ""
     tail = "".join(f" By the {other}, {t}." for other, t in differ)
     return f"{head}: {text}.{tail}"
+
+
+def _time_resolution(rows: pd.DataFrame) -> float:
+    """The resolution of an event time, in s: one timestep (the coarsest of the rows'); an
+    engine's event is known to no better than the step it falls in."""
+    return float(pd.to_numeric(rows[Col.TIMESTEP], errors="coerce").max())
+
+
+def _height_resolution(rows: pd.DataFrame) -> float:
+    """The resolution of a relative hop height: a hop whose lift-off is off by one timestep
+    leaves at a height off by the lift-off speed times the step, sqrt(2 g h) dt, relative to
+    the exact hop height h. 0 where the rows hold no exact hop."""
+    if Col.EXACT_HOP_HEIGHT not in rows.columns:
+        return 0.0
+    height = pd.to_numeric(rows[Col.EXACT_HOP_HEIGHT], errors="coerce").dropna()
+    if height.empty or float(height.iloc[0]) <= 0:
+        return 0.0
+    h = float(height.iloc[0])
+    g = rows[Col.G] if Col.G in rows.columns else pd.Series(dtype=float)
+    g = pd.to_numeric(g, errors="coerce").dropna()
+    g_value = float(g.iloc[0]) if len(g) else STANDARD_G
+    return (2.0 * g_value * h) ** 0.5 * _time_resolution(rows) / h
+
+
+STANDARD_G = 9.8
+"""m/s^2: the catalogue's g, for a row that does not store its own."""
 
 
 _SLIP_READINGS = (("canonical reading", Col.ERR_T_SLIP_MS),)
@@ -256,12 +297,15 @@ def _knob_sentence(runs: pd.DataFrame, engine: str) -> str:
     text = f"{engine}: its stock knob values, each alone on the tuned settings"
     text += f" (dt {DEFAULT_TIMESTEP:g})"
     if broke:
-        text += ", get outcomes wrong that the tuned run gets right: " + "; ".join(broke)
+        text += f", {_BREAKS}: " + "; ".join(broke)
     if kept:
         text += (
             ". " if broke else ": "
         ) + f"{', '.join(kept)} keep{'s' if len(kept) == 1 else ''} every outcome"
     return text + "."
+
+
+_BREAKS = "get outcomes wrong that the tuned run gets right"
 
 
 def _stability_sentence(runs: pd.DataFrame, engine: str) -> str:
@@ -278,27 +322,42 @@ def _stability_sentence(runs: pd.DataFrame, engine: str) -> str:
 
 
 def findings(runs: pd.DataFrame) -> list[str]:
-    """The findings, as sentences: closest engine per event and profile, agreement, where
-    each engine breaks. ``runs`` holds the comparison suites' rows and, optionally, the
-    stability suite's (column ``suite`` == 'stability')."""
+    """The findings, as sentences, the most telling first: closest engine per event and
+    profile, the stock knobs that break an outcome, agreement, where each engine breaks.
+    ``runs`` holds the comparison suites' rows and, optionally, the stability suite's
+    (column ``suite`` == 'stability')."""
     is_stability = runs.get("suite", pd.Series("", index=runs.index)) == "stability"
     main, stability = runs[~is_stability], runs[is_stability]
-    out: list[str] = []
+    closest: list[str] = []
+    agreement: list[str] = []
     at_default = _at_default(main)
     for profile in _profiles(at_default):
         rows = _for_profile(at_default, profile)
         label = f"dt {DEFAULT_TIMESTEP:g}, {profile}"
         slip = rows[rows["scene"] == "seed-mu"]
-        out.append(
-            _closest_sentence(slip, _SLIP_READINGS, f"Slip onset on seed-mu ({label})", "ms", 1)
-        )
+        if len(slip):
+            closest.append(
+                _closest_sentence(
+                    slip,
+                    _SLIP_READINGS,
+                    f"Slip onset on seed-mu ({label})",
+                    "ms",
+                    1,
+                    1e3 * _time_resolution(slip),
+                )
+            )
         for scene in [s for s in dict.fromkeys(rows["scene"]) if s.startswith("hop")]:
             hop = rows[rows["scene"] == scene]
-            out.append(
-                _closest_sentence(hop, _HOP_READINGS, f"Hop height on {scene} ({label})", "%", 100)
+            what = f"Hop height on {scene} ({label})"
+            closest.append(
+                _closest_sentence(hop, _HOP_READINGS, what, "%", 100, _height_resolution(hop))
             )
-        out += [_agreement_sentence(rows, e, label) for e in _engines(rows)]
-    out += [_knob_sentence(main, engine) for engine in _engines(main)]
+        agreement += [_agreement_sentence(rows, e, label) for e in _engines(rows)]
+    knobs = [_knob_sentence(main, engine) for engine in _engines(main)]
+    # The order of importance (KEY_FINDINGS come first): the closest engine per event, then
+    # the stock knobs that break an outcome, then the rest.
+    out = [*closest, *[k for k in knobs if _BREAKS in k], *agreement]
+    out += [k for k in knobs if _BREAKS not in k]
     for engine in _engines(main):
         for profile in _profiles(main):
             out.append(_coarsest_sentence(main, engine, profile))
@@ -324,14 +383,48 @@ SCOREBOARD_NOTE = (
 )
 
 
-def findings_markdown(runs: pd.DataFrame) -> str:
-    """The scoreboard, its note, then the findings as a Markdown list."""
-    board = scoreboard_markdown(findings_scoreboard(runs))
+KEY_FINDINGS = 12
+"""Findings shown in full: the first dozen of :func:`findings`; the rest are folded (the
+report's "All findings" section, a <details> on the page)."""
+
+MORE_FINDINGS = "All findings"
+"""The title of the report's section that holds every finding."""
+
+
+def _bullets(sentences: Sequence[str]) -> str:
     # A sentence names scenes and engines of the results folder: data, escaped.
-    sentences = "\n".join(f"- {escape_text(sentence)}" for sentence in findings(runs))
+    return "\n".join(f"- {escape_text(sentence)}" for sentence in sentences)
+
+
+def findings_markdown(runs: pd.DataFrame, *, key_only: bool = True) -> str:
+    """The scoreboard, its note, then the findings as a Markdown list: the first
+    KEY_FINDINGS and a pointer to the section with the rest (``key_only``), or all of them."""
+    board = scoreboard_markdown(findings_scoreboard(runs))
+    every = findings(runs)
+    shown = every[:KEY_FINDINGS] if key_only else every
+    lines = [_bullets(shown)] if shown else []
+    if len(shown) < len(every):
+        lines.append(f'\n{len(every) - len(shown)} more findings: section "{MORE_FINDINGS}" below.')
     if not board:
-        return sentences
-    return "\n".join([board, "", SCOREBOARD_NOTE, *(["", sentences] if sentences else [])])
+        return "\n".join(lines)
+    return "\n".join([board, "", SCOREBOARD_NOTE, *(["", *lines] if lines else [])])
+
+
+def readme_markdown(runs: pd.DataFrame) -> str:
+    """The README's block (``hoopbench findings``): the answer (reports/report/answer.py)
+    without its heading, then the scoreboard and the key findings, pointing to the report
+    for the rest."""
+    is_stability = runs.get("suite", pd.Series("", index=runs.index)) == "stability"
+    head = answer_markdown(answer(runs[~is_stability]), heading=False).rstrip()
+    text = findings_markdown(runs).replace(
+        f'section "{MORE_FINDINGS}" below', f'section "{MORE_FINDINGS}" of the report'
+    )
+    return "\n\n".join(part for part in (head, text) if part)
+
+
+def all_findings_markdown(runs: pd.DataFrame) -> str:
+    """Every finding as a Markdown list (empty text when there are none)."""
+    return _bullets(findings(runs))
 
 
 def update_readme(readme: str | Path, text: str) -> Path:

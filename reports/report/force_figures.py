@@ -18,7 +18,8 @@ from numpy.typing import NDArray
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.reference.exact import solve_exact
-from hoopbench.reports.report.plotting import pyplot
+from hoopbench.reports.report.palette import REFERENCE_COLOUR, REFERENCE_DASH, engine_colours
+from hoopbench.reports.report.plotting import pyplot, save
 
 __all__ = ["ForcePanel", "force_figure"]
 
@@ -49,17 +50,19 @@ def _draw_panel(top, bottom, panel: ForcePanel) -> None:
     g = panel.scene.g
     exact = solution.sample(np.linspace(0.0, solution.t_final, 4001))
     t_end = solution.t_final
+    colours = engine_colours(panel.runs)
     for label, traj in panel.runs.items():
         keep = traj.t <= t_end
         t, n, f = traj.t[keep], traj.normal_force[keep], traj.friction_force[keep]
-        top.plot(t, n / g, label=label, lw=0.8, alpha=0.8)
-        bottom.plot(t, _cone_share(n, f, panel.mu), label=label, lw=0.8, alpha=0.8)
-    top.plot(exact.t, exact.normal_force / g, color="k", ls="--", lw=1.2, label="exact")
+        top.plot(t, n / g, label=label, lw=0.8, alpha=0.8, color=colours[label])
+        share = _cone_share(n, f, panel.mu)
+        bottom.plot(t, share, label=label, lw=0.8, alpha=0.8, color=colours[label])
+    exact_style = {"color": REFERENCE_COLOUR, "ls": REFERENCE_DASH}
+    top.plot(exact.t, exact.normal_force / g, **exact_style, lw=1.2, label="exact")
     bottom.plot(
         exact.t,
         _cone_share(exact.normal_force, exact.friction_force, panel.mu),
-        color="k",
-        ls="--",
+        **exact_style,
         lw=1.2,
         label="exact",
     )
@@ -88,7 +91,4 @@ def force_figure(panels: list[ForcePanel], out: str | Path) -> Path:
     )
     for column, panel in enumerate(panels):
         _draw_panel(axes[0, column], axes[1, column], panel)
-    out = Path(out)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return save(fig, out, dpi=110)

@@ -10,8 +10,15 @@ from pathlib import Path
 
 import numpy as np
 
+from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.models.scene import Scene
-from hoopbench.reports.report.page_animation import HoopMotion
+from hoopbench.reports.report.page_animation import EXACT_LABEL, HoopMotion
+from hoopbench.reports.report.palette import (
+    ENDED_COLOUR,
+    HOOP_COLOUR,
+    WEIGHT_COLOUR,
+    engine_colours,
+)
 from hoopbench.reports.report.plotting import pyplot
 
 __all__ = ["GIF_FRAMES", "GIF_SCENE", "hoop_gif"]
@@ -21,6 +28,8 @@ GIF_SCENE = "hop-top"
 GIF_FRAMES = 60
 """Frames, 80 ms apart: the whole window in about 5 s, and the file well under 1 MB."""
 _FRAME_MS = 80
+GIF_COLUMNS = 2
+"""Panels per row: eight runs in four rows, wide enough to read at a README's width."""
 _EVENT_MARKERS = {"x": "x", "triangle-up": "^", "square": "s"}
 """The page's marker names as matplotlib's."""
 
@@ -33,12 +42,15 @@ def _panel(ax, motion: HoopMotion, exact: HoopMotion, scene: Scene, limits: tupl
     ax.set_ylim(*limits[1])
     ax.set_aspect("equal")
     ax.set_axis_off()
-    hoop = ax.add_patch(pyplot().Circle((0, 0), scene.a, fill=False, color="#1f4e99", lw=1.5))
+    hoop = ax.add_patch(pyplot().Circle((0, 0), scene.a, fill=False, color=HOOP_COLOUR, lw=1.5))
+    name = REFERENCE_ENGINE if motion.name == EXACT_LABEL else motion.name
+    colour = engine_colours([name])[name]
     return {
         "hoop": hoop,
-        "spoke": ax.plot([], [], color="#1f4e99", lw=1)[0],
-        "weight": ax.plot([], [], "o", color="#d62728", ms=6)[0],
-        "path": ax.plot([], [], color="#2ca02c", lw=1.2)[0],
+        "spoke": ax.plot([], [], color=HOOP_COLOUR, lw=1)[0],
+        "weight": ax.plot([], [], "o", color=WEIGHT_COLOUR, ms=6)[0],
+        "path": ax.plot([], [], color=colour, lw=1.4)[0],
+        "colour": colour,
         "label": ax.text(limits[0][0], limits[1][1], "", fontsize=8, va="top"),
         "marks": [],
         "ax": ax,
@@ -57,10 +69,16 @@ def _update(artists: dict, motion: HoopMotion, t: float, times: np.ndarray) -> N
         j = motion.at(when)
         symbol = _EVENT_MARKERS[marker]
         artists["marks"].append(
-            artists["ax"].plot(motion.X[j], motion.Y[j], symbol, color="#d62728", ms=7)[0]
+            artists["ax"].plot(motion.X[j], motion.Y[j], symbol, color=artists["colour"], ms=7)[0]
         )
     events = "  ".join(f"{name} {when:.2f} s" for name, when, _ in happened)
-    artists["label"].set_text(f"{motion.name}   t = {t:.2f} s   {events}")
+    end = float(motion.t[-1])
+    ended = t > end + 1e-9  # drawn where it stopped, faded, and said
+    artists["hoop"].set_edgecolor(ENDED_COLOUR if ended else HOOP_COLOUR)
+    artists["spoke"].set_color(ENDED_COLOUR if ended else HOOP_COLOUR)
+    if ended:
+        events += f"\nended at {end:.2f} s" + (" (impact)" if motion.name == EXACT_LABEL else "")
+    artists["label"].set_text(f"{motion.name}   t = {t:.2f} s\n{events}")
 
 
 def hoop_gif(scene: Scene, motions: list[HoopMotion], out: str | Path) -> Path:
@@ -71,15 +89,20 @@ def hoop_gif(scene: Scene, motions: list[HoopMotion], out: str | Path) -> Path:
     a = scene.a
     x0 = min(float(m.x.min()) for m in motions) - 1.1 * a
     x1 = max(float(m.x.max()) for m in motions) + 1.1 * a
-    y1 = max(float(m.y.max()) for m in motions) + 1.6 * a
+    y1 = max(float(m.y.max()) for m in motions) + 2.0 * a
     limits = ((x0, x1), (-0.05 * a, y1))
-    height = len(motions) * 4.8 * (y1 + 0.05 * a) / (x1 - x0)
-    fig, axes = plt.subplots(len(motions), 1, figsize=(4.8, height), squeeze=False)
-    fig.subplots_adjust(left=0.01, right=0.99, top=0.99, bottom=0.01, hspace=0.02)
+    columns = min(GIF_COLUMNS, len(motions))
+    rows = -(-len(motions) // columns)
+    width = 3.6 * columns
+    height = rows * 3.6 * (y1 + 0.05 * a) / (x1 - x0)
+    fig, axes = plt.subplots(rows, columns, figsize=(width, height), squeeze=False)
+    fig.subplots_adjust(left=0.01, right=0.99, top=0.99, bottom=0.01, hspace=0.04, wspace=0.02)
     panels = [
         _panel(ax, motion, motions[0], scene, limits)
-        for ax, motion in zip(axes[:, 0], motions, strict=True)
+        for ax, motion in zip(axes.ravel(), motions, strict=False)
     ]
+    for ax in axes.ravel()[len(motions) :]:
+        ax.set_axis_off()
     times = np.linspace(0.0, max(float(m.t[-1]) for m in motions), GIF_FRAMES)
 
     def frame(k: int) -> list:

@@ -27,7 +27,7 @@ from hoopbench.engines.judging.tolerances import Tier, event_tolerances
 from hoopbench.engines.judging.verdict import Verdict
 from hoopbench.reference.regimes import Regime
 from hoopbench.reports.compare.selection import engine_names_of, reference_rows
-from hoopbench.reports.report.plotting import pyplot
+from hoopbench.reports.report.plotting import pyplot, save
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -91,9 +91,11 @@ VERDICT_COLOURS: dict[Verdict, str] = {
 Okabe-Ito, with browns for the hop's size and times and greens for the slip onset; ``agrees``
 faint grey, ``close`` a darker one."""
 
-_NOT_JUDGED = "#FFFFFF"
+NOT_JUDGED = "#FFFFFF"
 """Cells with no verdict: the reference has no answer (degenerate, error), or the engine
 could not run the scene (I = 0)."""
+NO_VERDICT = "no verdict"
+"""The legend's name for a cell without a verdict (NOT_JUDGED)."""
 _NO_HOP = "#F0F0F0"
 """Cells of the hop-height panel where the reference does not hop."""
 _NOT_COMPARED = "#8C8C8C"
@@ -326,9 +328,7 @@ def _categorical(ax: Axes, grid: MapGrid, cells: np.ndarray, colours: list[str])
 def _save(fig: Figure, path: str | Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=DPI)
-    pyplot().close(fig)
-    return path
+    return save(fig, path, dpi=DPI)
 
 
 def _message(ax: Axes, text: str) -> None:
@@ -392,14 +392,14 @@ def verdict_figure(frame: pd.DataFrame, path: str | Path) -> Path:
     for ax, engine in zip(axes, engines, strict=True):
         cells = verdict_cells(frame, engine, grid)
         ran = _judged_cells(frame, engine, grid)
-        _fill(ax, grid, np.isfinite(ran), _NOT_JUDGED)  # under the verdicts
+        _fill(ax, grid, np.isfinite(ran), NOT_JUDGED)  # under the verdicts
         _categorical(ax, grid, cells, list(VERDICT_COLOURS.values()))
         present |= {v for k, v in enumerate(Verdict) if np.any(cells == k)}
         ax.set_title(_agreement_title(engine, cells), fontsize=10)
         _set_axes(ax, grid)
     handles = [Patch(color=VERDICT_COLOURS[v], label=str(v)) for v in Verdict if v in present]
     no_verdict = "no verdict (no exact answer, too small to see, or not run)"
-    handles.append(Patch(facecolor=_NOT_JUDGED, edgecolor="0.6", label=no_verdict))
+    handles.append(Patch(facecolor=NOT_JUDGED, edgecolor="0.6", label=no_verdict))
     fig.legend(handles=handles, loc="outside lower center", ncols=min(len(handles), 5), fontsize=8)
     return _save(fig, path)
 

@@ -112,10 +112,21 @@ def _ranking_sentence(table: pd.DataFrame) -> str:
     best, worst = ranked.iloc[0], ranked.iloc[-1]
     if len(ranked) == 1:
         return f"{best['engine']} agrees with the reference on {numbers(best)}."
+    key = ["outcome_agrees_pct", "agrees_pct"]
+    top = ranked[(ranked[key] == best[key]).all(axis=1)]["engine"].astype(str).tolist()
+    bottom = ranked[(ranked[key] == worst[key]).all(axis=1)]["engine"].astype(str).tolist()
+    if len(top) == len(ranked):  # all alike: a tie, no order
+        return f"{_names(top)} agree with the reference alike: each {numbers(best)}."
+    verb = "agrees" if len(top) == 1 else "agree"
     return (
-        f"{best['engine']} agrees most with the reference: {numbers(best)}; "
-        f"{worst['engine']} least: {numbers(worst)}."
+        f"{_names(top)} {verb} most with the reference: {numbers(best)}; "
+        f"{_names(bottom)} least: {numbers(worst)}."
     )
+
+
+def _names(engines: list[str]) -> str:
+    """'a', 'a and b', 'a, b and c'."""
+    return engines[0] if len(engines) == 1 else f"{', '.join(engines[:-1])} and {engines[-1]}"
 
 
 def _worst_regime_sentence(frame: pd.DataFrame, table: pd.DataFrame, engine: str) -> str:

@@ -36,10 +36,15 @@ from hoopbench.reports.compare.selection import (
 from hoopbench.reports.compare.suite import ROW_COLUMNS
 from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
 from hoopbench.reports.report import seed_reproduction
+from hoopbench.reports.report.answer import answer, answer_markdown
 from hoopbench.reports.report.escaping import escape_cell, escape_text, file_stem
 from hoopbench.reports.report.figures import events_figure, hoop_figure, paths_figure
 from hoopbench.reports.report.findings import (
+    KEY_FINDINGS,
+    MORE_FINDINGS,
+    all_findings_markdown,
     event_error,
+    findings,
     findings_markdown,
     off_tuned,
     option_text,
@@ -122,10 +127,22 @@ def _versions(frame: pd.DataFrame) -> str:
 
 
 # --------------------------------------------------------------------------- sections
-def _header(runs: pd.DataFrame, generated: str) -> str:
-    tol = tolerances()
+def _header() -> str:
+    """The title and what the report answers, in two sentences."""
     return _section(
         "# hoopbench report",
+        "",
+        "Which physics engine, with which settings, gets the hopping hoop's contact events "
+        "(slip, lift-off, hop height, impact) right, and at what cost: each engine's runs "
+        "against the exact solution of the same scene. Errors are engine minus exact.",
+    )
+
+
+def _platform_section(runs: pd.DataFrame, generated: str) -> str:
+    """Where and when the report was made, with what, and how its runs ended."""
+    tol = tolerances()
+    return _section(
+        "## Platform and runs",
         "",
         f"Generated {generated} on {platform.platform()} ({platform.python_version()}). "
         f"Engines: {_versions(runs)}.",
@@ -320,7 +337,9 @@ def _run_time_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[Path]]:
             "",
             f"![event errors against run time]({figure.name})" if figure else "",
             "",
-            "The cheapest run within each target:",
+            "Per event and scene, the cheapest single run within the target (dotted in the "
+            "figure). That run alone: it may get other events or scenes wrong, and it may be a "
+            "variant; the answer at the top holds a setting to every scene.",
             "",
             _table(
                 cheapest,
@@ -559,9 +578,21 @@ def _stability_section(runs: pd.DataFrame) -> str:
 
 
 def _findings_section(runs: pd.DataFrame) -> str:
-    """Plain sentences generated from the numbers below (reports/report/findings.py)."""
+    """The scoreboard and the key findings, plain sentences generated from the numbers below
+    (reports/report/findings.py); the rest in :func:`_all_findings_section`."""
     text = findings_markdown(runs)
-    return _section("## Findings", "", text) if text else ""
+    return _section("## Scoreboard and findings", "", text) if text else ""
+
+
+def _all_findings_section(runs: pd.DataFrame) -> str:
+    """Every finding (the page folds this section)."""
+    text = all_findings_markdown(runs)
+    return _section(f"## {MORE_FINDINGS}", "", text) if len(findings(runs)) > KEY_FINDINGS else ""
+
+
+def _answer_section(runs: pd.DataFrame) -> str:
+    """The answer (reports/report/answer.py) of the comparison suites' rows."""
+    return answer_markdown(answer(runs))
 
 
 def _seed_section(out: Path) -> tuple[str, list[Path]]:
@@ -772,7 +803,7 @@ def write_markdown(
     ]
     drawn = _drawn([*head, *both, *tail])
     (seed, _), (stability, _), (forces, _) = drawn[len(head) : len(head) + 3]
-    sections = [_header(everything, generated), _findings_section(everything), seed]
+    sections = [_header(), _answer_section(runs), _findings_section(everything), seed]
     figures = ""
     if not runs.empty:
         run_time, _ = drawn[0]
@@ -786,7 +817,14 @@ def write_markdown(
             run_time,
             _stability_section(runs),
         ]
-    sections += [stability, figures, *extra, _files_section()]
+    sections += [
+        stability,
+        figures,
+        *extra,
+        _all_findings_section(everything),
+        _platform_section(everything, generated),
+        _files_section(),
+    ]
     text = "\n".join(section for section in sections if section)
     # Whole or not at all: a full disk keeps the report.md before (--force) as it was.
     return results.atomic_write(out / "report.md", lambda tmp: tmp.write_text(text))

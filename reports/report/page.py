@@ -11,6 +11,7 @@ plotly.js, the script and the style are inside it, so it opens from disk with no
 from __future__ import annotations
 
 import base64
+import re
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -23,6 +24,7 @@ from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
 from hoopbench.models.catalogue import get_scene, scene_names
 from hoopbench.reports.compare.selection import default_rows, profile_of
+from hoopbench.reports.report.findings import MORE_FINDINGS
 from hoopbench.reports.report.hoop_gif import GIF_SCENE, hoop_gif
 from hoopbench.reports.report.markdown import (
     STABILITY_SUITE,
@@ -152,11 +154,25 @@ def _nav(tokens: list) -> str:
     return f"<nav>{''.join(links)}</nav>"
 
 
+_FOLDED = re.compile(
+    rf'(<h2 id="section-\d+">{re.escape(MORE_FINDINGS)}</h2>\n)(.*?)(?=<h2 |\Z)', re.DOTALL
+)
+
+
+def _fold_findings(body: str) -> str:
+    """The "All findings" section's body in a <details>, closed: the page shows the key
+    findings above and folds the rest (the heading stays, so that its link works)."""
+    return _FOLDED.sub(
+        lambda m: f"{m[1]}<details><summary>show every finding</summary>\n{m[2]}</details>\n",
+        body,
+    )
+
+
 def render_page(markdown_text: str, out: Path, fragments: Fragments) -> str:
     """The whole page: report.md's text with the fragments in place of their figures."""
     md = _renderer(out, fragments)
     tokens = md.parse(markdown_text)
-    body = md.renderer.render(tokens, md.options, {})
+    body = _fold_findings(md.renderer.render(tokens, md.options, {}))
     title = next((t.content for k, t in enumerate(tokens) if k and tokens[k - 1].tag == "h1"), "")
     script = PAGE_SCRIPT.replace("__FILTERS__", script_json(list(FILTER_COLUMNS)))
     return "\n".join(

@@ -23,7 +23,14 @@ from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.models import kinematics
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
-from hoopbench.reports.report.page_html import PALETTE, rounded, text
+from hoopbench.reports.report.page_html import rounded, text
+from hoopbench.reports.report.palette import (
+    ENDED_COLOUR,
+    HOOP_COLOUR,
+    REFERENCE_COLOUR,
+    WEIGHT_COLOUR,
+    engine_colours,
+)
 
 __all__ = ["EVENTS", "HoopMotion", "animation_figure", "hoop_motions"]
 
@@ -114,6 +121,12 @@ def hoop_motions(
     return motions
 
 
+def _colour(motion: HoopMotion) -> str:
+    """The run's colour in every figure (palette.py); the exact run's is the reference's."""
+    name = REFERENCE_ENGINE if motion.name == EXACT_LABEL else motion.name
+    return engine_colours([name])[name]
+
+
 def _axes(k: int) -> dict[str, str]:
     return {"xaxis": "x" if k == 0 else f"x{k + 1}", "yaxis": "y" if k == 0 else f"y{k + 1}"}
 
@@ -130,16 +143,29 @@ def _dynamic(motion: HoopMotion, t: float, a: float, frame_times: np.ndarray) ->
     happened = [e for e in motion.events if e[1] <= t]
     marks = [motion.at(e[1]) for e in happened]
     label = " · ".join(f"{name} {when:.3f} s" for name, when, _ in happened)
+    end = float(motion.t[-1])
+    ended = t > end + 1e-9
+    if ended:  # shown where it stopped, faded, and said: not a hoop resting there
+        impact = " (its impact)" if motion.name == EXACT_LABEL else ""
+        label += f"<br><b>ended</b> at {end:.3f} s{impact}"
     return [
-        {"x": rounded(hoop_x, _DIGITS), "y": rounded(hoop_y, _DIGITS)},
+        {
+            "x": rounded(hoop_x, _DIGITS),
+            "y": rounded(hoop_y, _DIGITS),
+            "line": {"color": ENDED_COLOUR if ended else HOOP_COLOUR, "width": 2},
+        },
         {"x": rounded([motion.wx[i]], _DIGITS), "y": rounded([motion.wy[i]], _DIGITS)},
         {"x": rounded(motion.X[past], _DIGITS), "y": rounded(motion.Y[past], _DIGITS)},
         {
             "x": rounded(motion.X[marks], _DIGITS),
             "y": rounded(motion.Y[marks], _DIGITS),
-            "marker": {"symbol": [m for _, _, m in happened], "size": 11, "color": "#d62728"},
+            "marker": {"symbol": [m for _, _, m in happened], "size": 11, "color": _colour(motion)},
         },
-        {"text": [f"<b>{text(motion.name)}</b>  t = {t:.3f} s  {label}"]},
+        {
+            "text": [
+                f"<b>{text(motion.name)}</b>  t = {t:.3f} s" + (f"<br>{label}" if label else "")
+            ]
+        },
     ]
 
 
@@ -155,33 +181,43 @@ def _static(motions: list[HoopMotion], bounds: dict[str, float], n_rows: int) ->
              "hoverinfo": "skip", "showlegend": False, **_axes(k)}
         )  # fmt: skip
     strip = _axes(n_rows - 1)
-    for k, motion in enumerate(motions):
+    for motion in motions:
         step = max(1, len(motion.t) // _STRIP_SAMPLES)
         traces.append(
             {"type": "scatter", "mode": "lines", "name": text(motion.name),
              "x": rounded(motion.t[::step], _DIGITS), "showlegend": True,
              "y": rounded(motion.clearance[::step] * 1e3, _DIGITS), **strip,
-             "line": {"dash": "dash", "color": "black"} if motion is exact
-             else {"color": PALETTE[(k - 1) % len(PALETTE)]}}
+             "line": {"dash": "dash", "color": REFERENCE_COLOUR} if motion is exact
+             else {"color": _colour(motion)}}
         )  # fmt: skip
     return traces
 
 
-def _moving_templates(n_panels: int, n_rows: int) -> list[dict]:
-    """Trace styles of the moving traces, in _dynamic's order, then the time cursor."""
+def _moving_templates(motions: list[HoopMotion], n_rows: int) -> list[dict]:
+    """Trace styles of the moving traces, in _dynamic's order, then the time cursor: the
+    path so far in the run's colour (palette.py), the hoop and its weight neutral."""
     styles: list[dict[str, Any]] = [
-        {"mode": "lines", "line": {"color": "#1f4e99", "width": 2}},
-        {"mode": "markers", "marker": {"color": "#d62728", "size": 12}},
-        {"mode": "lines", "line": {"color": "#2ca02c", "width": 1.5}},
+        {"mode": "lines", "line": {"color": HOOP_COLOUR, "width": 2}},
+        {"mode": "markers", "marker": {"color": WEIGHT_COLOUR, "size": 12}},
+        {"mode": "lines", "line": {"width": 1.5}},
         {"mode": "markers"},
-        {"mode": "text", "textposition": "middle right", "x": [0], "y": [0]},
+        {
+            "mode": "text",
+            "textposition": "bottom right",
+            "textfont": {"size": 10},
+            "x": [0],
+            "y": [0],
+        },
     ]
-    traces = [
-        {"type": "scatter", "showlegend": False, "hoverinfo": "skip", **style, **_axes(k)}
-        for k in range(n_panels)
-        for style in styles
-    ]
-    cursor = {"type": "scatter", "mode": "lines", "line": {"color": "#d62728"}}
+    traces = []
+    for k, motion in enumerate(motions):
+        for n, style in enumerate(styles):
+            if n == 2:  # the path so far
+                style = {**style, "line": {**style["line"], "color": _colour(motion)}}
+            traces.append(
+                {"type": "scatter", "showlegend": False, "hoverinfo": "skip", **style, **_axes(k)}
+            )
+    cursor = {"type": "scatter", "mode": "lines", "line": {"color": "#888888", "dash": "dot"}}
     return [*traces, {**cursor, "showlegend": False, "hoverinfo": "skip", **_axes(n_rows - 1)}]
 
 
@@ -190,8 +226,8 @@ def _cursor(t: float, low: float, high: float) -> dict:
 
 
 def _label_place(trace: dict, bounds: dict[str, float]) -> dict:
-    """A panel's label: above the hoop's highest point, from the panel's left edge."""
-    return {**trace, "x": [bounds["x0"]], "y": [bounds["top"] - 0.12 * bounds["y1"]]}
+    """A panel's label: hanging from the panel's top left corner, above the hoop."""
+    return {**trace, "x": [bounds["x0"]], "y": [bounds["top"]]}
 
 
 def animation_figure(scene: Scene, motions: list[HoopMotion]) -> dict[str, Any]:
@@ -219,7 +255,7 @@ def animation_figure(scene: Scene, motions: list[HoopMotion]) -> dict[str, Any]:
             data += dynamic
         data.append(_cursor(float(t), low, high))
         frames.append({"name": f"{t:.3f}", "data": data, "traces": moving})
-    templates = _moving_templates(len(motions), n_rows)
+    templates = _moving_templates(motions, n_rows)
     first = [
         {**template, **datum} for template, datum in zip(templates, frames[0]["data"], strict=True)
     ]
@@ -230,43 +266,65 @@ def animation_figure(scene: Scene, motions: list[HoopMotion]) -> dict[str, Any]:
     }
 
 
+GRID_COLUMNS = 4
+"""Panels per row of the animation's grid (eight runs: two rows, so the page shows them all
+with the clearance strip below, and the controls above)."""
+_FIGURE_PX = 1100
+"""About the width the page gives a figure: a panel's height follows its width and the
+drawing's aspect (the axes keep metres square)."""
+_STRIP_PX = 230
+_CONTROLS_PX = 90
+
+
 def _layout(motions: list[HoopMotion], bounds: dict[str, float], n_rows: int, times) -> dict:
+    """The panels in a grid of GRID_COLUMNS, the clearance strip across the bottom, the play
+    buttons and the time slider on top. ``n_rows``: the panels and the strip (axes)."""
+    columns = min(GRID_COLUMNS, len(motions))
+    grid_rows = -(-len(motions) // columns)
+    aspect = (bounds["top"] + 0.05 * bounds["y1"]) / (bounds["x1"] - bounds["x0"])
+    panel_px = min(320, max(120, _FIGURE_PX / columns * aspect + 10))
+    height = round(grid_rows * panel_px + _STRIP_PX + _CONTROLS_PX)
+    strip_top = _STRIP_PX / height - 0.02
+    panels_top = 1.0 - _CONTROLS_PX / height
+    row_height = (panels_top - strip_top - 0.06) / grid_rows
     layout: dict[str, Any] = {
-        "height": 210 * (n_rows - 1) + 260,
-        "grid": {"rows": n_rows, "columns": 1, "pattern": "independent", "ygap": 0.08},
-        "margin": {"t": 30, "b": 10},
+        "height": height,
+        "margin": {"t": _CONTROLS_PX, "b": 40},
         "shapes": [],
         "legend": {"x": 1.01, "y": 0, "yanchor": "bottom", "title": {"text": "clearance"}},
     }
     for k in range(len(motions)):
         x, y = _axes(k)["xaxis"], _axes(k)["yaxis"]
+        row, column = divmod(k, columns)
+        top = panels_top - row * row_height
         layout[f"xaxis{k + 1 if k else ''}"] = {
+            "domain": [column / columns + 0.005, (column + 1) / columns - 0.005],
             "range": [bounds["x0"], bounds["x1"]],
-            "showticklabels": k == len(motions) - 1,
+            "showticklabels": False,
             "constrain": "domain",
+            "anchor": y,
         }
         layout[f"yaxis{k + 1 if k else ''}"] = {
+            "domain": [top - row_height + 0.01, top],
             "range": [-0.05 * bounds["y1"], bounds["top"]],
             "scaleanchor": x,
             "showticklabels": False,
+            "anchor": x,
         }
         layout["shapes"].append(
-            {
-                "type": "line",
-                "xref": f"{x} domain",
-                "yref": y,
-                "x0": 0,
-                "x1": 1,
-                "y0": 0,
-                "y1": 0,
-                "line": {"color": "#444"},
-            }
-        )
-    layout[f"xaxis{n_rows}"] = {"title": {"text": "t (s)"}}
-    layout[f"yaxis{n_rows}"] = {"title": {"text": "clearance (mm)"}}
+            {"type": "line", "xref": f"{x} domain", "yref": y, "x0": 0, "x1": 1, "y0": 0,
+             "y1": 0, "line": {"color": "#444"}}
+        )  # fmt: skip
+    strip_x, strip_y = _axes(n_rows - 1)["xaxis"], _axes(n_rows - 1)["yaxis"]
+    layout[f"xaxis{n_rows}"] = {"title": {"text": "t (s)"}, "domain": [0, 1], "anchor": strip_y}
+    layout[f"yaxis{n_rows}"] = {
+        "title": {"text": "clearance (mm)"},
+        "domain": [0, strip_top],
+        "anchor": strip_x,
+    }
     layout["updatemenus"] = [_play_buttons()]
     layout["sliders"] = [_slider(times)]
-    return layout  # fmt: skip
+    return layout
 
 
 def _play_buttons() -> dict:
@@ -277,8 +335,8 @@ def _play_buttons() -> dict:
         "transition": {"duration": 0},
     }
     return {
-        "type": "buttons", "direction": "left", "x": 0, "y": 0, "xanchor": "left",
-        "yanchor": "top", "pad": {"t": 30},
+        "type": "buttons", "direction": "left", "x": 0, "y": 1, "xanchor": "left",
+        "yanchor": "bottom", "pad": {"b": 50},
         "buttons": [
             {"label": "play", "method": "animate", "args": [None, play]},
             {"label": "pause", "method": "animate", "args": [[None], still]},
@@ -295,5 +353,5 @@ def _slider(times: np.ndarray) -> dict:
     steps = [
         {"label": f"{t:.2f}", "method": "animate", "args": [[f"{t:.3f}"], still]} for t in times
     ]
-    return {"active": 0, "steps": steps, "x": 0.12, "len": 0.88, "y": 0, "yanchor": "top",
-            "currentvalue": {"prefix": "t = ", "suffix": " s"}, "pad": {"t": 30}}  # fmt: skip
+    return {"active": 0, "steps": steps, "x": 0.12, "len": 0.88, "y": 1, "yanchor": "bottom",
+            "currentvalue": {"prefix": "t = ", "suffix": " s"}, "pad": {"b": 10}}  # fmt: skip

@@ -21,7 +21,8 @@ import pandas as pd
 from hoopbench.reference.exact import solve_exact
 from hoopbench.reports.compare.selection import default_rows, engine_rows, reference_rows
 from hoopbench.reports.report.force_figures import CONE_YLIM, ForcePanel
-from hoopbench.reports.report.page_html import PALETTE, rounded, text
+from hoopbench.reports.report.page_html import rounded, text
+from hoopbench.reports.report.palette import REFERENCE_COLOUR, engine_colours, profile_style
 from hoopbench.reports.report.precision import (
     FLOOR,
     figure_panels,
@@ -62,15 +63,18 @@ def _point_data(group: pd.DataFrame, unit: str) -> list[list[str]]:
     ]
 
 
-def _family_traces(points: pd.DataFrame, unit: str, k: int, colours: dict[str, str]) -> list:
-    """One line per settings family of one panel, grouped in the legend by engine; a family
-    keeps its colour (and its legend entry, the first panel's) in every panel."""
+def _family_traces(points: pd.DataFrame, unit: str, k: int, shown: set[str]) -> list:
+    """One line per settings family of one panel, grouped in the legend by engine: the
+    engine's colour (palette.py), the profile's dash and symbol; a family's legend entry is
+    the first panel's (``shown``: the families with one)."""
     traces = []
     for family, group in engine_rows(points).groupby("family", sort=True):
         group = group.sort_values("wall_time_s")
         engine = str(group["engine"].iloc[0])
-        first = str(family) not in colours
-        colour = _colour(colours, str(family))
+        first = str(family) not in shown
+        shown.add(str(family))
+        colour = engine_colours([engine])[engine]
+        style = profile_style(str(group["profile"].iloc[0]))
         traces.append(
             {
                 "type": "scatter",
@@ -83,19 +87,14 @@ def _family_traces(points: pd.DataFrame, unit: str, k: int, colours: dict[str, s
                 "legendgroup": text(engine),
                 "legendgrouptitle": {"text": text(engine)},
                 "showlegend": first,
-                "line": {"color": colour},
-                "marker": {"color": colour},
+                "line": {"color": colour, "dash": style.plotly_dash},
+                "marker": {"color": colour, "symbol": style.plotly_symbol},
                 "meta": text(group["profile"].iloc[0]),
                 "xaxis": _axis_name("x", k),
                 "yaxis": _axis_name("y", k),
             }
         )
     return traces
-
-
-def _colour(colours: dict[str, str], family: str) -> str:
-    """The family's colour, a new one from the palette for a family not seen yet."""
-    return colours.setdefault(family, PALETTE[len(colours) % len(PALETTE)])
 
 
 def _panel_extras(runs: pd.DataFrame, points: pd.DataFrame, scene: str, k: int) -> list[dict]:
@@ -122,7 +121,7 @@ def _panel_extras(runs: pd.DataFrame, points: pd.DataFrame, scene: str, k: int) 
             {
                 "type": "scatter",
                 "mode": "markers",
-                "marker": {"symbol": "star", "size": 12, "color": "black"},
+                "marker": {"symbol": "star", "size": 12, "color": REFERENCE_COLOUR},
                 "x": [float(reference["wall_time_s"].min())],
                 "y": [FLOOR],
                 "name": "exact reference",
@@ -163,14 +162,16 @@ def precision_page_figure(runs: pd.DataFrame) -> Figure | None:
         "annotations": [],
         "shapes": [],
     }
-    colours: dict[str, str] = {}
+    shown: set[str] = set()
     for k, (metric, scene) in enumerate(panels):
         points = metric_runs(runs, metric, scene)
-        traces += _family_traces(points, metric.unit, k, colours)
+        traces += _family_traces(points, metric.unit, k, shown)
         traces += _panel_extras(runs, points, scene, k)
         x, y = _axis_name("xaxis", k), _axis_name("yaxis", k)
-        layout[x] = {"type": "log", "title": {"text": "wall time of the run (s)"}}
-        layout[y] = {"type": "log", "title": {"text": f"|error| ({metric.unit})"}}
+        # powers of ten, as the PNG's axes (plotly's default writes 1µ for 1e-6)
+        log = {"type": "log", "exponentformat": "power"}
+        layout[x] = {**log, "title": {"text": "wall time of the run (s)"}}
+        layout[y] = {**log, "title": {"text": f"|error| ({metric.unit})"}}
         layout["annotations"].append(_panel_title(f"{scene}: {metric.label}", k))
         layout["shapes"].append(_target_line(metric.target, k))
     layout["updatemenus"] = [
@@ -305,7 +306,7 @@ def _force_traces(panel: ForcePanel, column: int, columns: int, colours: dict[st
         keep = traj.t <= solution.t_final
         t, n, f = traj.t[keep], traj.normal_force[keep], traj.friction_force[keep]
         index = envelope(n)
-        line = {"dash": "dash", "color": "black"} if is_exact else {"color": colours[name]}
+        line = {"dash": "dash", "color": REFERENCE_COLOUR} if is_exact else {"color": colours[name]}
         common: dict[str, Any] = {
             "type": "scatter",
             "mode": "lines",
@@ -331,7 +332,7 @@ def force_page_figure(panels: list[ForcePanel]) -> Figure | None:
     if not panels:
         return None
     names = list(dict.fromkeys(name for panel in panels for name in panel.runs))
-    colours = {name: PALETTE[k % len(PALETTE)] for k, name in enumerate(names)}
+    colours = engine_colours(names)
     columns = len(panels)
     traces = [t for k, p in enumerate(panels) for t in _force_traces(p, k, columns, colours)]
     layout: dict[str, Any] = {

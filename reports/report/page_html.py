@@ -19,14 +19,10 @@ from plotly.io.json import to_json_plotly
 # every string from a results folder (reports/report/escaping.py).
 from hoopbench.reports.report.escaping import escape_html as text
 
-__all__ = ["FIGURE_CLASS", "PALETTE", "figure_fragment", "rounded", "script_json", "text"]
+__all__ = ["FIGURE_CLASS", "figure_fragment", "rounded", "script_json", "text"]
 
 FIGURE_CLASS = "hoop-figure"
 """Class of a figure's <div>; the page's script draws each one as it scrolls into view."""
-
-PALETTE = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#17becf")
-"""Line colours, in order (plotly's own), given by hand so that a run keeps its colour across
-the panels of a figure."""
 
 SIGNIFICANT = 5
 """Significant digits of the numbers a figure draws: finer than any axis shows, and it keeps

@@ -23,6 +23,8 @@ from hoopbench.reports.hop_map.display import DISPLAY_SAMPLES, read_display
 from hoopbench.reports.hop_map.spec import load_spec
 from hoopbench.reports.hop_map.table import map_frame
 from hoopbench.reports.report.map_figures import (
+    NO_VERDICT,
+    NOT_JUDGED,
     REGIME_COLOURS,
     VERDICT_COLOURS,
     MapGrid,
@@ -32,6 +34,7 @@ from hoopbench.reports.report.map_figures import (
     verdict_cells,
 )
 from hoopbench.reports.report.page_html import figure_fragment, rounded, script_json, text
+from hoopbench.reports.report.palette import REFERENCE_COLOUR, engine_colours
 
 __all__ = ["map_cell_key", "map_fragment", "run_samples"]
 
@@ -93,6 +96,7 @@ def _runs(out: Path, point: pd.DataFrame, title: str, g: float, samples: int) ->
     """A point's runs for the click: each stored thinned trajectory (thinned again to
     ``samples``), the exact one last."""
     runs: list[dict[str, Any]] = []
+    colours = engine_colours(point["engine"])  # the palette of every figure
     for _, row in point.iterrows():
         stored = read_display(out, str(row["run_id"]))
         if stored is None:
@@ -103,6 +107,7 @@ def _runs(out: Path, point: pd.DataFrame, title: str, g: float, samples: int) ->
             {
                 "name": "exact" if exact else text(row["engine"]),
                 "exact": exact,
+                "colour": REFERENCE_COLOUR if exact else colours[str(row["engine"])],
                 "t": rounded(trajectory.t),
                 "c": rounded(trajectory.clearance * 1e3),
                 "v": rounded(trajectory.slip_velocity),
@@ -128,6 +133,41 @@ def _buttons(frame: pd.DataFrame, grid: MapGrid) -> list[dict[str, Any]]:
         cells = verdict_cells(frame, engine, grid)
         buttons.append(_colouring(f"{engine} verdict", cells, verdicts))
     return buttons
+
+
+def _key_entry(name: str, colour: str, group: str, title: str) -> dict[str, Any]:
+    """A legend entry and nothing drawn: an invisible point with the category's colour."""
+    return {
+        "type": "scatter",
+        "x": [None],
+        "y": [None],
+        "mode": "markers",
+        "marker": {"symbol": "square", "size": 13, "color": colour,
+                   "line": {"color": "#999", "width": 1}},
+        "name": text(name),
+        "legendgroup": group,
+        "legendgrouptitle": {"text": title},
+        "hoverinfo": "skip",
+    }  # fmt: skip
+
+
+def _colour_key(frame: pd.DataFrame) -> list[dict[str, Any]]:
+    """The key of every colour the cells can take: the exact regimes present (the first
+    colouring) and the verdicts present (the engines' colourings), and the empty cell."""
+    regimes = set(reference_rows(frame)["regime"].dropna())
+    verdicts = set(frame[frame["engine"].isin(engines_of(frame))]["verdict"].dropna())
+    key = [
+        _key_entry(str(r), REGIME_COLOURS[r], "regime", "exact regime")
+        for r in Regime
+        if str(r) in regimes
+    ]
+    key += [
+        _key_entry(str(v), VERDICT_COLOURS[v], "verdict", "engine verdict")
+        for v in Verdict
+        if str(v) in verdicts
+    ]
+    key.append(_key_entry(NO_VERDICT, NOT_JUDGED, "verdict", "engine verdict"))
+    return key
 
 
 def _colouring(label: str, cells: np.ndarray, colours: list[str]) -> dict[str, Any]:
@@ -192,6 +232,6 @@ def map_fragment(results_dir: str | Path, figure_id: str) -> str:
         f'<script type="application/json" id="{text(figure_id)}-cells">{script_json(runs)}'
         "</script>"
     )
-    return figure_fragment(
-        figure_id, {"data": [heatmap], "layout": layout}, kind="map", extra=extra
-    )
+    layout["legend"] = {"groupclick": "togglegroup", "itemclick": False, "itemdoubleclick": False}
+    data = [heatmap, *_colour_key(frame)]
+    return figure_fragment(figure_id, {"data": data, "layout": layout}, kind="map", extra=extra)

@@ -35,8 +35,6 @@ PAGE_SCRIPT = """
   "use strict";
   var FILTERS = __FILTERS__;
   var drawn = {};
-  var COLOURS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
-    "#17becf"];
   function json(id) { return JSON.parse(document.getElementById(id).textContent); }
 
   function draw(div) {
@@ -57,8 +55,8 @@ PAGE_SCRIPT = """
       div.id + "-runs"), title = document.getElementById(div.id + "-runs-title");
     if (!cell) { return; }
     var traces = [];
-    cell.runs.forEach(function (run, k) {
-      var line = { dash: run.exact ? "dash" : "solid", color: run.exact ? "#000" : COLOURS[k % 8] };
+    cell.runs.forEach(function (run) {
+      var line = { dash: run.exact ? "dash" : "solid", color: run.colour };
       [["c", "y"], ["v", "y2"], ["n", "y3"]].forEach(function (s, j) {
         traces.push({ x: run.t, y: run[s[0]], yaxis: s[1], name: run.name, legendgroup: run.name,
           showlegend: j === 0, mode: "lines", line: line, type: "scatter" });

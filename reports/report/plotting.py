@@ -10,18 +10,23 @@ else Agg (files only, no display assumed: the command line, the tests, the sweep
 
 :func:`plain_text` draws text as written, never as math: scene and engine names come from
 results folders anyone may write, and a name such as ``x$\\frac$`` would otherwise stop a
-figure with a mathtext error. A label that means math passes ``parse_math=True`` itself.
+figure with a mathtext error. A label that means math passes ``parse_math=True`` itself. So
+that the tick labels of log axes, which matplotlib writes as math, still read as numbers, every
+figure is written by :func:`save`, which turns them into plain text (``10⁻⁶``).
 """
 
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Iterator
 from contextlib import contextmanager
 from functools import cache
+from pathlib import Path
 from types import ModuleType
+from typing import Any
 
-__all__ = ["plain_text", "pyplot"]
+__all__ = ["plain_text", "plain_tick_label", "pyplot", "save"]
 
 
 @cache
@@ -44,3 +49,47 @@ def plain_text() -> Iterator[None]:
     pyplot()
     with matplotlib.rc_context({"text.parse_math": False}):
         yield
+
+
+_SUPERSCRIPT = str.maketrans("0123456789-−.", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻⁻·")
+_MATH_LABEL = re.compile(r"\$\\mathdefault\{(?P<body>.*)\}\$")
+_POWER = re.compile(r"\^\{(?P<exponent>[^}]*)\}")
+
+
+def plain_tick_label(label: str) -> str:
+    """A tick label matplotlib writes as math (``$\\mathdefault{2\\times10^{-6}}$``) as plain
+    text (``2×10⁻⁶``), which :func:`plain_text` draws as written; any other label unchanged."""
+    match = _MATH_LABEL.fullmatch(label)
+    if match is None:
+        return label
+    body = match["body"].replace("\\times", "×").replace("\\cdot", "·")
+    return _POWER.sub(lambda m: m["exponent"].translate(_SUPERSCRIPT), body)
+
+
+def _plain_formatter(formatter: Any) -> Any:
+    """``formatter``, its tick labels passed through :func:`plain_tick_label` (matplotlib
+    draws tick labels from ``format_ticks``; wrapped once, on the instance)."""
+    if getattr(formatter, "_hoopbench_plain", False):
+        return formatter
+    ticks = formatter.format_ticks
+
+    def format_ticks(values: Any) -> list[str]:
+        return [plain_tick_label(label) for label in ticks(values)]
+
+    setattr(formatter, "format_ticks", format_ticks)  # noqa: B010 - an instance's method
+    setattr(formatter, "_hoopbench_plain", True)  # noqa: B010
+    return formatter
+
+
+def save(fig: Any, out: str | os.PathLike[str], *, dpi: int) -> Path:
+    """Write ``fig`` to ``out`` and close it. Every tick label drawn as math (a log or symlog
+    axis's, a log colour bar's) is written as plain text first: under :func:`plain_text`
+    matplotlib would show ``$\\mathdefault{10^{2}}$`` as written."""
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            axis.set_major_formatter(_plain_formatter(axis.get_major_formatter()))
+            axis.set_minor_formatter(_plain_formatter(axis.get_minor_formatter()))
+    path = Path(out)
+    fig.savefig(path, dpi=dpi)
+    pyplot().close(fig)
+    return path

@@ -23,7 +23,8 @@ from hoopbench.reports.compare.selection import (
     profile_of,
     reference_rows,
 )
-from hoopbench.reports.report.plotting import pyplot
+from hoopbench.reports.report.palette import REFERENCE_COLOUR, engine_colours, profile_style
+from hoopbench.reports.report.plotting import pyplot, save
 
 __all__ = [
     "FLOOR",
@@ -158,22 +159,35 @@ def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
     fig, axes = plt.subplots(
         nrows, cols, figsize=(5.0 * cols, 3.8 * nrows), squeeze=False, constrained_layout=True
     )
+    colours = engine_colours(engine_rows(runs)["engine"])  # one colour an engine, every panel
+    profiles: set[str] = set()
     for ax, (metric, scene) in zip(axes.ravel(), panels, strict=False):
         points = _metric_runs(runs, metric, scene)
         engines = engine_rows(points)
+        profiles |= set(engines["profile"].astype(str))
         for family, group in engines.groupby("family", sort=True):
             group = group.sort_values("wall_time_s")
+            style = profile_style(str(group["profile"].iloc[0]))
             ax.plot(
                 group["wall_time_s"],
                 group["error"].clip(lower=FLOOR),
-                "o-",
+                color=colours[str(group["engine"].iloc[0])],
+                ls=style.matplotlib_dash,
+                marker=style.marker,
                 ms=3,
                 lw=1,
                 label=family,
             )
         reference = reference_rows(runs[runs["scene"] == scene])
         if len(reference):
-            ax.plot(reference["wall_time_s"].min(), FLOOR, "k*", ms=10, label="exact reference")
+            ax.plot(
+                reference["wall_time_s"].min(),
+                FLOOR,
+                "*",
+                color=REFERENCE_COLOUR,
+                ms=10,
+                label="exact reference",
+            )
         front = pareto_front(engines)
         ax.step(
             front["wall_time_s"],
@@ -191,10 +205,32 @@ def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
         ax.set_xlabel("wall time of the run (s)")
         ax.set_ylabel(f"|error| ({metric.unit})")
         ax.set_title(f"{scene}: {metric.label}", fontsize=9)
-        ax.legend(fontsize=5, loc="best")
     for ax in axes.ravel()[len(panels) :]:
         ax.set_visible(False)
-    out = Path(out)
-    fig.savefig(out, dpi=100)
-    plt.close(fig)
-    return out
+    fig.legend(
+        handles=_legend_handles(colours, sorted(profiles)),
+        loc="outside lower center",
+        ncol=6,
+        fontsize=8,
+    )
+    return save(fig, out, dpi=100)
+
+
+def _legend_handles(colours: dict[str, str], profiles: list[str]) -> list:
+    """One legend for the figure: an entry per engine (its colour), per profile (its line
+    style and marker), the reference, the front and the target."""
+    from matplotlib.lines import Line2D
+
+    handles = [Line2D([], [], color=colour, lw=2, label=name) for name, colour in colours.items()]
+    for profile in profiles:
+        style = profile_style(profile)
+        handles.append(
+            Line2D([], [], color="0.35", ls=style.matplotlib_dash, marker=style.marker, ms=4,
+                   label=profile)
+        )  # fmt: skip
+    handles += [
+        Line2D([], [], color=REFERENCE_COLOUR, marker="*", ls="", ms=9, label="exact reference"),
+        Line2D([], [], color="k", ls="--", label="Pareto front (no cheaper run as accurate)"),
+        Line2D([], [], color="grey", ls=":", lw=0.8, label="target of the cheapest-run table"),
+    ]
+    return handles

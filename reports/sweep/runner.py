@@ -629,10 +629,15 @@ class _Progress:
             print(text, file=self.stream, flush=True)
 
     def _failures_text(self) -> str:
-        if not self.failures:
-            return "no failures"
-        parts = ", ".join(f"{s.value} {n}" for s, n in sorted(self.failures.items()))
-        return f"{sum(self.failures.values())} failed ({parts})"
+        """'no failures', '2 failed (error 1, timeout 1)'; diverged runs apart: a run that
+        diverged is a result about the engine (it is judged), not a run that failed."""
+        failed = {s: n for s, n in self.failures.items() if s is not RunStatus.DIVERGED}
+        diverged = self.failures[RunStatus.DIVERGED]
+        text = "no failures"
+        if failed:
+            parts = ", ".join(f"{s.value} {n}" for s, n in sorted(failed.items()))
+            text = f"{sum(failed.values())} failed ({parts})"
+        return text + (f"; {diverged} diverged" if diverged else "")
 
     def update(self, label: str, status: RunStatus) -> None:
         self.done += 1

@@ -1,0 +1,118 @@
+"""The report's answer (reports/report/answer.py): per engine, the cheapest setting meeting
+each accuracy tier on every scene, its cost, what it always gets wrong, and the scenes the
+timestep limits. Rows made by hand, so that each number is known."""
+
+from __future__ import annotations
+
+import pandas as pd
+import pytest
+
+from hoopbench.reports.report.answer import (
+    ACCURACY_TIERS,
+    answer,
+    answer_markdown,
+    timestep_limits,
+)
+
+SCENES = ("seed-mu", "hop-top", "low-friction")
+
+
+def run(engine, scene, verdict, *, dt=1e-4, profile="tuned", variant="default", us=10.0):
+    return {
+        "run_id": f"{engine}-{scene}-{dt}-{profile}-{variant}",
+        "engine": engine,
+        "scene": scene,
+        "profile": profile,
+        "variant": variant,
+        "timestep": dt,
+        "status": "diverged" if verdict == "diverged" else "ok",
+        "verdict": verdict,
+        "us_per_step": us,
+    }
+
+
+def setting(engine, verdicts, **kwargs) -> list[dict]:
+    return [run(engine, s, v, **kwargs) for s, v in zip(SCENES, verdicts, strict=True)]
+
+
+def test_the_tiers_are_tight_agrees_and_loose_agrees_or_close():
+    tiers = {tier.name: tier.verdicts for tier in ACCURACY_TIERS}
+    assert tiers == {"tight": {"agrees"}, "loose": {"agrees", "close"}}
+
+
+def test_the_cheapest_setting_meeting_a_tier_on_every_scene_and_its_cost():
+    rows = pd.DataFrame(
+        [
+            *setting("mujoco", ["agrees"] * 3, dt=1e-4, us=10.0),  # 0.1 s per simulated s
+            *setting("mujoco", ["agrees"] * 3, dt=1e-3, us=20.0),  # 0.02: the cheapest
+            *setting("mujoco", ["agrees", "close", "agrees"], dt=2e-3, us=20.0),  # loose, 0.01
+            *setting("mujoco", ["agrees", "early-slip", "agrees"], dt=5e-3, us=5.0),
+            run("reference", "seed-mu", "agrees"),
+        ]
+    )
+    (line,) = answer(rows).engines
+    tight, loose = line.cheapest
+    assert (tight.setting.timestep, tight.us_per_step, tight.scenes_met) == (1e-3, 20.0, 3)
+    assert tight.wall_per_sim_s == pytest.approx(0.02)
+    assert (loose.setting.timestep, loose.wall_per_sim_s) == (2e-3, pytest.approx(0.01))
+    assert line.always_wrong == ()
+    text = answer_markdown(answer(rows))
+    assert "| mujoco | tuned, default, dt 0.001 | 20 | 0.02 | tuned, default, dt 0.002 |" in text
+
+
+def test_an_engine_meeting_no_tier_everywhere_shows_its_best_and_what_it_always_misses():
+    rows = pd.DataFrame(
+        [
+            *setting("pymunk", ["agrees", "missed-hop", "agrees"], dt=1e-4, us=2.0),
+            *setting("pymunk", ["agrees", "diverged", "early-slip"], dt=1e-3, us=2.0),
+            *setting("pymunk", ["agrees", "agrees", "agrees"], profile="stock", variant="x")[:1],
+            *setting("mujoco", ["agrees"] * 3),
+        ]
+    )
+    result = answer(rows)
+    pymunk = next(line for line in result.engines if line.engine == "pymunk")
+    tight, _ = pymunk.cheapest
+    assert (tight.setting.timestep, tight.scenes_met) == (1e-4, 2)  # 2 of 3 beats 1 of 3
+    assert pymunk.always_wrong == (("hop-top", ("diverged", "missed-hop")),)
+    assert pymunk.settings_tried == 3
+    assert "tuned, default, dt 0.0001 (only 2/3 scenes)" in answer_markdown(result)
+    assert "hop-top (diverged, missed-hop)" in answer_markdown(result)
+
+
+def test_a_scene_every_engine_fails_until_a_finer_timestep_is_the_timesteps_limit():
+    rows = pd.DataFrame(
+        [
+            *setting("mujoco", ["agrees", "agrees", "wrong-phases"]),
+            *setting("pybullet", ["agrees", "agrees", "wrong-phases"], dt=1e-3),
+            *setting("pybullet", ["agrees", "agrees", "wrong-phases"]),
+            run("pybullet", "low-friction", "agrees", dt=2.5e-5),
+            run("pymunk", "low-friction", "close", dt=2.5e-5),
+            run("pymunk", "low-friction", "agrees", dt=1e-5),
+        ]
+    )
+    (limit,) = timestep_limits(rows)
+    assert (limit.scene, limit.agreeing_timestep, limit.finest) == ("low-friction", 2.5e-5, 1e-5)
+    assert limit.agreeing == ("pybullet (tuned)", "pymunk (tuned)")
+    result = answer(rows)
+    assert result.scenes == ("seed-mu", "hop-top")  # the limited scene is left out
+    mujoco = next(line for line in result.engines if line.engine == "mujoco")
+    assert mujoco.cheapest[0].scenes_met == 2 and mujoco.always_wrong == ()
+    text = answer_markdown(result)
+    assert "low-friction: no engine meets the loose tier at dt 0.0001 s or coarser" in text
+    assert "at 2.5e-05 s pybullet (tuned), pymunk (tuned) do" in text
+    # one engine meeting it at the default timestep: no limit, the scene is an engine's
+    rows.loc[len(rows)] = run("drake", "low-friction", "agrees")
+    assert timestep_limits(rows) == ()
+
+
+def test_unavailable_and_unjudged_runs_say_nothing_about_a_setting():
+    rows = pd.DataFrame(
+        [
+            *setting("mujoco", ["agrees"] * 3),
+            {**run("dart", "seed-mu", None), "status": "unavailable"},
+            run("mujoco", "not-a-catalogue-scene", "false-hop"),
+        ]
+    )
+    result = answer(rows)
+    assert [line.engine for line in result.engines] == ["mujoco"]
+    assert result.scenes == SCENES
