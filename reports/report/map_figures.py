@@ -83,6 +83,7 @@ VERDICT_COLOURS: dict[Verdict, str] = {
     Verdict.EARLY_SLIP: "#009E73",  # the slip-onset pair: greens
     Verdict.LATE_SLIP: "#66C2A4",
     Verdict.WRONG_PHASES: "#F0E442",
+    Verdict.CREEPS: "#1B7837",  # a dark green: sliding, as the slip family
     Verdict.CONE_VIOLATION: "#762A83",
     Verdict.DIVERGED: "#000000",
     Verdict.FAILED: "#CC79A7",
