@@ -228,6 +228,35 @@ def test_the_verdict_figure_draws_the_verdict_cells(tmp_path, monkeypatch):
         np.testing.assert_array_equal(cells, verdict_cells(frame, engine, grid))
 
 
+def test_every_verdict_and_regime_has_its_own_colour():
+    """Read from the enums, so that a new verdict or regime cannot be left without a colour
+    (issue 24 added close, early-impact, late-impact, cone-violation and creeps; creeps
+    first came without one)."""
+    assert set(map_figures.VERDICT_COLOURS) == set(Verdict)
+    assert len(set(map_figures.VERDICT_COLOURS.values())) == len(Verdict)
+    assert set(map_figures.REGIME_COLOURS) == set(Regime)
+    assert len(set(map_figures.REGIME_COLOURS.values())) == len(Regime)
+
+
+def test_each_verdict_cell_is_drawn_in_its_verdicts_colour(tmp_path, monkeypatch):
+    """The cells hold indices into Verdict: the colour list drawn must follow Verdict's
+    order, whatever the order of VERDICT_COLOURS."""
+    frame = synthetic_frame(4, 3)
+    lists = []
+    real = map_figures._categorical
+    monkeypatch.setattr(
+        map_figures,
+        "_categorical",
+        lambda ax, grid, cells, colours: lists.append(colours) or real(ax, grid, cells, colours),
+    )
+    shuffled = dict(reversed(map_figures.VERDICT_COLOURS.items()))
+    monkeypatch.setattr(map_figures, "VERDICT_COLOURS", shuffled)
+    verdict_figure(frame, tmp_path / "v.png")
+    assert lists
+    for colours in lists:
+        assert colours == [shuffled[v] for v in Verdict]
+
+
 def test_a_frame_without_engines_has_no_verdict_figure(tmp_path):
     frame = synthetic_frame(2, 2, engines=())
     assert regime_figure(frame, tmp_path / "r.png").stat().st_size > 0

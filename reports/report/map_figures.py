@@ -88,8 +88,8 @@ VERDICT_COLOURS: dict[Verdict, str] = {
     Verdict.DIVERGED: "#000000",
     Verdict.FAILED: "#CC79A7",
 }
-"""One colour per verdict, in the order of Verdict (the categorical map indexes it so):
-Okabe-Ito, with browns for the hop's size and times and greens for the slip onset; ``agrees``
+"""One colour per verdict (every member of Verdict; the categorical map reads them in
+Verdict's order, whatever the order here): Okabe-Ito, with browns for the hop's size and times and greens for the slip onset; ``agrees``
 faint grey, ``close`` a darker one."""
 
 NOT_JUDGED = "#FFFFFF"
@@ -346,7 +346,7 @@ def regime_figure(frame: pd.DataFrame, path: str | Path) -> Path:
     grid = map_grid(frame)
     fig, (left, right) = _panels(2, legend=True)
     regimes = regime_cells(frame, grid)
-    _categorical(left, grid, regimes, list(REGIME_COLOURS.values()))
+    _categorical(left, grid, regimes, [REGIME_COLOURS[r] for r in Regime])
     present = [r for k, r in enumerate(Regime) if np.any(regimes == k)]
     left.set_title("exact reference: regime", fontsize=10)
     heights = exact_hop_cells(frame, grid)
@@ -394,7 +394,7 @@ def verdict_figure(frame: pd.DataFrame, path: str | Path) -> Path:
         cells = verdict_cells(frame, engine, grid)
         ran = _judged_cells(frame, engine, grid)
         _fill(ax, grid, np.isfinite(ran), NOT_JUDGED)  # under the verdicts
-        _categorical(ax, grid, cells, list(VERDICT_COLOURS.values()))
+        _categorical(ax, grid, cells, [VERDICT_COLOURS[v] for v in Verdict])
         present |= {v for k, v in enumerate(Verdict) if np.any(cells == k)}
         ax.set_title(_agreement_title(engine, cells), fontsize=10)
         _set_axes(ax, grid)
