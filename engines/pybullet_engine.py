@@ -29,7 +29,7 @@ velocity, read at the lowest point (models.kinematics), and its rolling start ve
 Rows: row i holds the state at t_i and the contact force that the solver applies from that
 state over the step [t_i, t_i + dt] (the force that changes the velocity from row i to i+1).
 
-Known limit (measured, see reports/report/tolerances.toml [hop.pybullet.xfail]): the contact
+Known limit (measured, see engines/judging/tolerances.toml [hop.pybullet.xfail]): the contact
 solver is projected Gauss-Seidel, normal row then friction row. While the hoop slips, one
 sweep multiplies
 the normal impulse by phi = -sigma mu lam sin(th) (1 + lam cos(th)) / (k + lam^2 sin^2(th)); for

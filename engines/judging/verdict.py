@@ -76,6 +76,7 @@ __all__ = [
     "LOOSE_TIER",
     "OUTCOME_FAILURES",
     "PHASE_END_TOLERANCE",
+    "TIER_VERDICTS",
     "TIGHT_TIER",
     "Event",
     "HoopThresholds",
@@ -168,6 +169,9 @@ TIGHT_TIER = frozenset({Verdict.AGREES})
 """The verdicts of the tight accuracy tier (summaries count these as right)."""
 LOOSE_TIER = frozenset({Verdict.AGREES, Verdict.CLOSE})
 """The verdicts of the loose accuracy tier."""
+TIER_VERDICTS: Mapping[Tier, frozenset[Verdict]] = {Tier.TIGHT: TIGHT_TIER, Tier.LOOSE: LOOSE_TIER}
+"""The accuracy tiers of every summary (the answer, the findings, the scoreboard), in the
+order of the tolerance table's tiers: the verdicts that meet each."""
 
 
 class _Class(StrEnum):

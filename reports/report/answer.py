@@ -27,7 +27,8 @@ from dataclasses import dataclass
 import pandas as pd
 
 from hoopbench.engines.judging.columns import Col
-from hoopbench.engines.judging.verdict import Verdict
+from hoopbench.engines.judging.tolerances import Tier
+from hoopbench.engines.judging.verdict import TIER_VERDICTS
 from hoopbench.engines.run import RunStatus
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
 from hoopbench.models.catalogue import scene_names
@@ -37,24 +38,20 @@ from hoopbench.reports.report.escaping import escape_cell, escape_text
 
 __all__ = [
     "ACCURACY_TIERS",
+    "AccuracyTier",
     "Answer",
     "Choice",
     "EngineAnswer",
     "Setting",
-    "Tier",
     "TimestepLimit",
     "answer",
     "answer_markdown",
     "timestep_limits",
 ]
 
-_CLOSE = "close"
-"""The verdict of a run whose events are all within the loose tolerances, not all within the
-tight ones (issue 24's Verdict.CLOSE: this line becomes ``Verdict.CLOSE`` when it exists)."""
-
 
 @dataclass(frozen=True)
-class Tier:
+class AccuracyTier:
     """An accuracy a user may ask for: the verdicts that meet it."""
 
     name: str
@@ -63,16 +60,18 @@ class Tier:
     """What a run of the tier gets right, for the reader."""
 
 
-ACCURACY_TIERS: tuple[Tier, ...] = (
-    Tier("tight", frozenset({str(Verdict.AGREES)}), "every event within the tight tolerances"),
-    Tier(
-        "loose",
-        frozenset({str(Verdict.AGREES), _CLOSE}),
-        "every event within the loose tolerances",
-    ),
+ACCURACY_TIERS: tuple[AccuracyTier, ...] = tuple(
+    AccuracyTier(
+        str(tier),
+        frozenset(str(v) for v in TIER_VERDICTS[tier]),
+        f"every event within the {tier} tolerances",
+    )
+    for tier in Tier
 )
-"""The accuracy tiers of every summary (the answer, the findings): tight = {agrees}, loose =
-{agrees, close}. The tolerances behind them are the verdict's (engines/judging/)."""
+"""The accuracy tiers of every summary as the answer words them, tight then loose: tight =
+{agrees}, loose = {agrees, close}. The verdicts are the judging layer's
+(engines/judging/verdict.TIER_VERDICTS), the tolerances behind them its table
+(engines/judging/tolerances.toml)."""
 
 
 @dataclass(frozen=True)
@@ -157,14 +156,14 @@ def _judged(runs: pd.DataFrame) -> pd.DataFrame:
 _KEYS = [Col.ENGINE, Col.PROFILE, Col.VARIANT, Col.TIMESTEP]
 
 
-def _choice(key: tuple, group: pd.DataFrame, scenes: Sequence[str], tier: Tier) -> Choice:
+def _choice(key: tuple, group: pd.DataFrame, scenes: Sequence[str], tier: AccuracyTier) -> Choice:
     setting = Setting(str(key[0]), str(key[1]), str(key[2]), float(key[3]))
     met = group[group[Col.VERDICT].isin(tier.verdicts)][Col.SCENE]
     us = float(pd.to_numeric(group[Col.US_PER_STEP], errors="coerce").median())
     return Choice(setting, len(set(met) & set(scenes)), us, us * 1e-6 / setting.timestep)
 
 
-def _cheapest(rows: pd.DataFrame, scenes: Sequence[str], tier: Tier) -> Choice | None:
+def _cheapest(rows: pd.DataFrame, scenes: Sequence[str], tier: AccuracyTier) -> Choice | None:
     """Of the settings whose runs meet the tier on the most scenes, the cheapest (a setting
     whose cost was not measured comes last)."""
     choices = [_choice(key, group, scenes, tier) for key, group in rows.groupby(_KEYS)]
