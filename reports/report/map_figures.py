@@ -89,8 +89,8 @@ VERDICT_COLOURS: dict[Verdict, str] = {
     Verdict.FAILED: "#CC79A7",
 }
 """One colour per verdict (every member of Verdict; the categorical map reads them in
-Verdict's order, whatever the order here): Okabe-Ito, with browns for the hop's size and times and greens for the slip onset; ``agrees``
-faint grey, ``close`` a darker one."""
+Verdict's order, whatever the order here): Okabe-Ito, with browns for the hop's size and
+times and greens for the slip onset; ``agrees`` faint grey, ``close`` a darker one."""
 
 NOT_JUDGED = "#FFFFFF"
 """Cells with no verdict: the reference has no answer (degenerate, error), or the engine
