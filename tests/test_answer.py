@@ -116,3 +116,9 @@ def test_unavailable_and_unjudged_runs_say_nothing_about_a_setting():
     result = answer(rows)
     assert [line.engine for line in result.engines] == ["mujoco"]
     assert result.scenes == SCENES
+
+
+def test_one_scene_is_said_as_one():
+    rows = pd.DataFrame([run("mujoco", "seed-mu", "agrees"), run("pybullet", "seed-mu", "close")])
+    text = answer_markdown(answer(rows))
+    assert "on the 1 catalogue scene (seed-mu)" in text and "all 1" not in text

@@ -270,6 +270,11 @@ def _limit_sentence(limit: TimestepLimit) -> str:
     )
 
 
+def _scene_count(n: int) -> str:
+    """'all 7 catalogue scenes', 'the 1 catalogue scene'."""
+    return "the 1 catalogue scene" if n == 1 else f"all {n} catalogue scenes"
+
+
 def answer_markdown(result: Answer, *, heading: bool = True) -> str:
     """The answer as the report's first section (Markdown, ending in a blank line), its
     heading left out without ``heading`` (the README has its own); empty text when no engine
@@ -294,7 +299,7 @@ def answer_markdown(result: Answer, *, heading: bool = True) -> str:
     parts = [
         *title,
         "Per engine: the cheapest setting tried (profile, settings, timestep) whose runs meet "
-        f"each accuracy tier on all {len(result.scenes)} catalogue scenes "
+        f"each accuracy tier on {_scene_count(len(result.scenes))} "
         f"({escape_text(', '.join(result.scenes))}), or on as many as any setting does; its "
         "cost (stepping time per step, and wall seconds per simulated second: below 1 is "
         "faster than real time); the scenes it gets wrong at every setting tried, with those "
