@@ -36,7 +36,7 @@ from hoopbench.engines.judging.judge import judge
 from hoopbench.engines.options import Option, Profile, Variant
 from hoopbench.engines.run import BatchCost, Run, RunInfo, RunResult, RunStatus
 from hoopbench.engines.settings import BYTES_PER_STEP, MAX_STEPS, RunSettings
-from hoopbench.engines.stopping import StopMonitor, StopReason
+from hoopbench.engines.stopping import StopMonitor, StopReason, StopRule
 from hoopbench.models import kinematics
 from hoopbench.models.events import Events
 from hoopbench.models.scene import Scene
@@ -436,32 +436,50 @@ class Engine(ABC):
         return self._finished_run(scene, settings, sim)
 
     def simulate_batch(
-        self, scenes: Sequence[Scene], settings: RunSettings | None = None
+        self,
+        scenes: Sequence[Scene],
+        settings: RunSettings | None = None,
+        *,
+        stops: Sequence[StopRule | None] | None = None,
     ) -> list[Run]:
         """Step many scenes (worlds) with one settings: one Run per scene, in order, as
-        :meth:`simulate` gives it. An engine that declares ``batches`` steps them together
-        (class docstring, Batches); any other runs them one by one. Bad settings, or a scene
-        a run could not take, raise ValueError before anything is stepped."""
+        :meth:`simulate` gives it. ``stops``: each world's own stop rule in place of
+        ``settings.stop`` (a hop map's runs stop after their own settling time). An engine
+        that declares ``batches`` steps the worlds together (class docstring, Batches); any
+        other runs them one by one. Bad settings, or a scene a run could not take, raise
+        ValueError before anything is stepped."""
         settings = settings or RunSettings()
         scenes = list(scenes)
-        options = [self.check(scene, settings) for scene in scenes]
+        if stops is not None and len(stops) != len(scenes):
+            raise ValueError(f"{len(stops)} stop rules for {len(scenes)} scenes")
+        each = [
+            settings if stops is None else settings.with_(stop=stop)
+            for stop in stops or [None] * len(scenes)
+        ]
+        options = [self.check(scene, s) for scene, s in zip(scenes, each, strict=True)]
         if not self.batches:
-            return [self.simulate(scene, settings) for scene in scenes]
+            return [self.simulate(scene, s) for scene, s in zip(scenes, each, strict=True)]
         if not scenes:
             return []
         try:
             module = self._import()
         except EngineUnavailableError as exc:
-            status = RunStatus.UNAVAILABLE
-            return [self._failed_run(s, settings, status, str(exc), None) for s in scenes]
+            status, text = RunStatus.UNAVAILABLE, str(exc)
+            return [
+                self._failed_run(scene, s, status, text, None)
+                for scene, s in zip(scenes, each, strict=True)
+            ]
         try:
-            sims, cost = self._simulate_batch(module, scenes, settings, options[0])
+            sims, cost = self._simulate_batch(module, scenes, each, options[0])
         except Exception as exc:  # an engine failure is a result, not a crash
-            text, found = _last_line(exc), self.version()
-            return [self._failed_run(s, settings, RunStatus.ERROR, text, found) for s in scenes]
+            status, text, found = RunStatus.ERROR, _last_line(exc), self.version()
+            return [
+                self._failed_run(scene, s, status, text, found)
+                for scene, s in zip(scenes, each, strict=True)
+            ]
         return [
-            self._finished_run(scene, settings, sim, cost)
-            for scene, sim in zip(scenes, sims, strict=True)
+            self._finished_run(scene, s, sim, cost)
+            for scene, s, sim in zip(scenes, each, sims, strict=True)
         ]
 
     def _run_info(self, scene: Scene, settings: RunSettings, **fields: Any) -> RunInfo:
@@ -519,11 +537,15 @@ class Engine(ABC):
         return judge(self.simulate(scene, settings), self.detectors, scene)
 
     def run_batch(
-        self, scenes: Sequence[Scene], settings: RunSettings | None = None
+        self,
+        scenes: Sequence[Scene],
+        settings: RunSettings | None = None,
+        *,
+        stops: Sequence[StopRule | None] | None = None,
     ) -> list[RunResult]:
         """Simulate a batch (:meth:`simulate_batch`), then judge each run."""
         scenes = list(scenes)
-        runs = self.simulate_batch(scenes, settings)
+        runs = self.simulate_batch(scenes, settings, stops=stops)
         return [judge(run, self.detectors, scene) for run, scene in zip(runs, scenes, strict=True)]
 
     def bare_loop_time(self, scene: Scene, settings: RunSettings | None = None) -> float:
@@ -594,12 +616,13 @@ class Engine(ABC):
         self,
         module: ModuleType,
         scenes: Sequence[Scene],
-        settings: RunSettings,
+        settings: Sequence[RunSettings],
         options: dict[str, Any],
     ) -> tuple[list[Simulation], BatchCost]:
         """Step every world of the batch from t = 0 until it reaches its window's end,
-        diverges or is stopped: the loop of the class docstring (Batches)."""
-        with self._open_batch(module, scenes, settings, options) as batch:
+        diverges or is stopped: the loop of the class docstring (Batches). ``settings``:
+        each world's, the same but for their stop rules."""
+        with self._open_batch(module, scenes, settings[0], options) as batch:
             worlds = _Worlds(scenes, settings, self._batch_shapes(batch), self.detectors)
             with _collector_paused():
                 start = time.perf_counter()
@@ -623,16 +646,16 @@ class _Worlds:
     def __init__(
         self,
         scenes: Sequence[Scene],
-        settings: RunSettings,
+        settings: Sequence[RunSettings],
         shapes: Sequence[kinematics.Polygon | None] | None,
         detectors: DetectorSettings,
     ) -> None:
-        self.scenes, self.timestep = list(scenes), settings.timestep
+        self.scenes, self.timestep = list(scenes), settings[0].timestep
         self.shapes = list(shapes) if shapes is not None else [None] * len(self.scenes)
-        self.n_steps = np.array([n_steps_for(s, settings.timestep) for s in self.scenes])
+        self.n_steps = np.array([n_steps_for(s, self.timestep) for s in self.scenes])
         self.monitors = [
-            StopMonitor.for_run(s, settings.stop, settings.timestep, detectors=detectors, shape=p)
-            for s, p in zip(self.scenes, self.shapes, strict=True)
+            StopMonitor.for_run(s, rule.stop, self.timestep, detectors=detectors, shape=p)
+            for s, rule, p in zip(self.scenes, settings, self.shapes, strict=True)
         ]
         self.active = np.ones(len(self.scenes), dtype=bool)
         self.done = 0

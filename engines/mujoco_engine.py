@@ -76,6 +76,7 @@ from hoopbench.engines.options import (
 from hoopbench.engines.registry import register
 from hoopbench.engines.run import Run
 from hoopbench.engines.settings import RunSettings
+from hoopbench.engines.stopping import StopRule
 from hoopbench.models import kinematics
 from hoopbench.models.kinematics import Polygon
 from hoopbench.models.mjcf import (
@@ -349,15 +350,20 @@ class MujocoEngine(Engine):
 
     # ----------------------------------------------------------------- batch hooks
     def simulate_batch(
-        self, scenes: Sequence[Scene], settings: RunSettings | None = None
+        self,
+        scenes: Sequence[Scene],
+        settings: RunSettings | None = None,
+        *,
+        stops: Sequence[StopRule | None] | None = None,
     ) -> list[Run]:
         """As the base class's; a world the batch halted on a warning is run again alone,
         so that its row is the single run's (module constant HALTED)."""
-        scenes = list(scenes)
-        runs = super().simulate_batch(scenes, settings)
+        scenes, settings = list(scenes), settings or RunSettings()
+        runs = super().simulate_batch(scenes, settings, stops=stops)
+        rules = [settings.stop] * len(scenes) if stops is None else list(stops)
         return [
-            self.simulate(scene, settings) if run.info.message == HALTED else run
-            for scene, run in zip(scenes, runs, strict=True)
+            self.simulate(scene, settings.with_(stop=rule)) if run.info.message == HALTED else run
+            for scene, rule, run in zip(scenes, rules, runs, strict=True)
         ]
 
     @contextmanager

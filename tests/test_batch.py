@@ -237,3 +237,21 @@ def test_mujoco_batch_stops_worlds_on_their_own():
     reasons = [run.info.stop_reason for run in runs]
     assert reasons[:3] == [None, None, None] and reasons[3] == "impact"
     assert runs[3].info.n_steps < round(scenes[3].t_end / DT)
+
+
+def test_each_world_may_have_its_own_stop_rule():
+    """A hop map's runs stop after their own settling times: per-world rules, each run as
+    its single run with that rule."""
+    engine = get_engine("mujoco")
+    scenes = _mujoco_scenes()
+    stops = [None, StopRule(at_first_impact=False), None, StopRule()]
+    runs = engine.simulate_batch(scenes, RunSettings(timestep=DT), stops=stops)
+    singles = [
+        engine.simulate(scene, RunSettings(timestep=DT, stop=stop))
+        for scene, stop in zip(scenes, stops, strict=True)
+    ]
+    assert_same_runs(singles, runs)
+    assert [run.info.stop_reason for run in runs] == [None, None, None, "impact"]
+    assert runs[3].info.settings["stop"] == StopRule().to_dict()
+    with pytest.raises(ValueError, match="2 stop rules for 4 scenes"):
+        engine.simulate_batch(scenes, RunSettings(timestep=DT), stops=stops[:2])
