@@ -72,7 +72,6 @@ from hoopbench.engines.run import RunStatus
 from hoopbench.reports.sweep import results
 
 __all__ = [
-    "DEFAULT_BATCH_SIZE",
     "IDENTITY_NAME",
     "LOCK_NAME",
     "Batching",
@@ -570,11 +569,6 @@ Worker = Callable[[Any], Mapping[str, Any]]
 FailureRow = Callable[[Any, RunStatus, str], Mapping[str, Any]]
 BatchWorker = Callable[[list[Any]], Sequence[Mapping[str, Any]]]
 
-DEFAULT_BATCH_SIZE = 64
-"""Tasks per batch unless told: enough that a batched simulator's per-call cost is spread
-thin (MuJoCo's batch: reports/bench/batch.py), few enough that a batch's recorded
-trajectories (about 2 MB per 3 s world at 1e-4 s) stay small beside a worker's memory."""
-
 
 @dataclass(frozen=True)
 class Batching:
@@ -585,7 +579,7 @@ class Batching:
     for one task; it catches its own exceptions)."""
     key: Callable[[Any], Hashable | None]
     """Tasks with equal keys may share a batch; None: the task runs alone. Called here."""
-    size: int = DEFAULT_BATCH_SIZE
+    size: int
     """Tasks per batch at most (>= 1)."""
 
     def __post_init__(self) -> None:
@@ -1256,11 +1250,7 @@ class _Calls:
             attempt.limit = self.sweep.limit(attempt.task)
             attempt.submitted_at = time.monotonic()
             try:
-                if isinstance(attempt.task, TaskBatch) and self.batch_worker is not None:
-                    batch = list(attempt.task.tasks)
-                    future = self.pool.submit(self.batch_worker, batch)
-                else:
-                    future = self.pool.submit(self.sweep.worker, attempt.task)
+                future = self._submit_one(attempt.task)
             except BrokenExecutor as exc:
                 self.queue.appendleft(attempt)
                 raise ExecutorBrokenError(
@@ -1268,6 +1258,12 @@ class _Calls:
                     "resume the sweep with a new one"
                 ) from exc
             self.in_flight[future] = attempt
+
+    def _submit_one(self, unit: Any) -> Future:
+        """Submit a task to the worker, or a batch to the batch worker."""
+        if isinstance(unit, TaskBatch) and self.batch_worker is not None:
+            return self.pool.submit(self.batch_worker, list(unit.tasks))
+        return self.pool.submit(self.sweep.worker, unit)
 
     def _stop_overdue(self) -> None:
         """Calls past their time limit: stopped, and a timeout row for each."""
