@@ -11,7 +11,14 @@ from __future__ import annotations
 
 from enum import StrEnum
 
-__all__ = ["BATCH_COLUMNS", "CONTACT_COLUMNS", "EXACT_COLUMNS", "FORCE_COLUMNS", "Col"]
+__all__ = [
+    "BATCH_COLUMNS",
+    "CLOCK_COLUMNS",
+    "CONTACT_COLUMNS",
+    "EXACT_COLUMNS",
+    "FORCE_COLUMNS",
+    "Col",
+]
 
 
 class Col(StrEnum):
@@ -192,3 +199,7 @@ suite's rows (judged with the exact solution); a map's rows have none."""
 BATCH_COLUMNS = (Col.BATCH_SIZE, Col.US_PER_WORLD_STEP, Col.WORLD_STEPS_PER_S)
 """A run's batch cost (:func:`comparison.cost_columns`), in every row of a suite and a map
 beside the run's own cost (wall_time_s, us_per_step)."""
+
+CLOCK_COLUMNS = (Col.WALL_TIME_S, Col.US_PER_STEP, Col.US_PER_WORLD_STEP, Col.WORLD_STEPS_PER_S)
+"""The columns a clock measures: they differ between two runs of the same task (and between
+a run stepped alone and in a batch), everything else is the same."""
