@@ -46,12 +46,14 @@ __all__ = [
     "BYTES_PER_STEP",
     "CHUNK_STEPS",
     "MAX_STEPS",
+    "RUN_ALONE",
     "STATE_KEYS",
     "Chunk",
     "DivergenceLimits",
     "Engine",
     "EngineUnavailableError",
     "Simulation",
+    "call_repeatedly",
     "check_divergence",
     "check_steps",
     "equilibrium_depth",
@@ -63,6 +65,11 @@ __all__ = [
 
 CHUNK_STEPS = 1000
 """Steps the loop has an adapter take between divergence checks (and per recording chunk)."""
+
+RUN_ALONE = "the batch cannot step this world as its single run would"
+"""What ``_batch_diverged`` says of a world that must run alone (MuJoCo's batch halts a world
+on a warning where a single run steps on): the world leaves the batch and runs again by
+itself, so that its row is its single run's."""
 
 STATE_KEYS = ("X", "Y", "theta", "Xdot", "Ydot", "thetadot")
 """The centre-of-mass state's components, in the order of a batch hook's last axis (m, m,
@@ -232,7 +239,9 @@ class Engine(ABC):
         per step; an engine that can take many steps in one call (MuJoCo's rollout)
         overrides it. Rows of inactive worlds are ignored.
     ``_batch_diverged(batch, active) -> [str | None] * W``, optional
-        The engine's own divergence reasons after a chunk (as ``_diverged``). Default None.
+        The engine's own divergence reasons after a chunk (as ``_diverged``), or
+        ``RUN_ALONE`` for a world the batch cannot step as its single run would: it leaves
+        the batch and runs again alone. Default None.
     ``_batch_shapes(batch) -> [Polygon | None] * W``, optional
         Each world's contact shape (as ``_contact_shape``). Default None: circles.
 
@@ -478,7 +487,9 @@ class Engine(ABC):
                 for scene, s in zip(scenes, each, strict=True)
             ]
         return [
-            self._finished_run(scene, s, sim, cost)
+            self.simulate(scene, s)
+            if sim.diverged == RUN_ALONE
+            else self._finished_run(scene, s, sim, cost)
             for scene, s, sim in zip(scenes, each, sims, strict=True)
         ]
 
@@ -746,10 +757,10 @@ class _Worlds:
         forces = np.concatenate(self.forces[i]) / scene.M
         n = len(forces)  # an early end has no force for its last state: dropped
         columns = {key: np.ascontiguousarray(states[:n, k]) for k, key in enumerate(STATE_KEYS)}
-        return Trajectory.from_state(
+        return Trajectory.from_steps(
             scene,
-            t=np.arange(n) * self.timestep,
-            **columns,
+            self.timestep,
+            columns,
             normal_force=np.ascontiguousarray(forces[:, 0]),
             friction_force=np.ascontiguousarray(forces[:, 1]),
             shape=self.shapes[i],
@@ -818,6 +829,13 @@ def states_and_step_forces(
     states = np.concatenate([first, rows[:, : first.shape[1]]])
     forces = np.concatenate([rows[:, first.shape[1] :], np.atleast_2d(last)])
     return states, forces
+
+
+def call_repeatedly(step: Callable[..., object], times: int, *args: object) -> None:
+    """``step(*args)``, ``times`` times: the bare loop (``_step_bare``) of an engine stepped
+    one call per step from Python."""
+    for _ in range(times):
+        step(*args)
 
 
 def n_steps_for(scene: Scene, timestep: float) -> int:

@@ -59,6 +59,7 @@ from typing import Any
 import numpy as np
 
 from hoopbench.engines.base import (
+    RUN_ALONE,
     STATE_KEYS,
     Chunk,
     Engine,
@@ -74,9 +75,7 @@ from hoopbench.engines.options import (
     real_tuple,
 )
 from hoopbench.engines.registry import register
-from hoopbench.engines.run import Run
 from hoopbench.engines.settings import RunSettings
-from hoopbench.engines.stopping import StopRule
 from hoopbench.models import kinematics
 from hoopbench.models.kinematics import Polygon
 from hoopbench.models.mjcf import (
@@ -97,10 +96,6 @@ _BAD_STATE_WARNINGS = ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")
 BATCH_THREADS = 1
 """Threads of a ``mujoco.batch.Batch``: one, since the runner's worker processes already
 share the machine's cores among them (``--workers``)."""
-
-HALTED = "mujoco.batch halted the world on a MuJoCo warning"
-"""The batch's divergence reason for a world it stopped stepping, where a single run steps
-on (MuJoCo resets its state): such a world is run again alone."""
 
 
 def _check_solref(name: str, value: Any) -> tuple[float, float]:
@@ -334,10 +329,10 @@ class MujocoEngine(Engine):
         # Sensor layout: found, then the force (x, y, z) on the hoop in the world frame.
         fx = run.sensors[0, :n, 1] / run.scene.M
         fz = run.sensors[0, :n, 3] / run.scene.M
-        return Trajectory.from_state(
+        return Trajectory.from_steps(
             run.scene,
-            t=np.arange(n) * run.timestep,
-            **{key: val[:n] for key, val in run.com.items()},
+            run.timestep,
+            {key: val[:n] for key, val in run.com.items()},
             normal_force=fz,
             friction_force=fx,
             # The ring is a polygon: clearance and slip are read at its lowest point.
@@ -349,23 +344,6 @@ class MujocoEngine(Engine):
         run.mujoco.mj_step(run.model, run.data, nstep=steps)
 
     # ----------------------------------------------------------------- batch hooks
-    def simulate_batch(
-        self,
-        scenes: Sequence[Scene],
-        settings: RunSettings | None = None,
-        *,
-        stops: Sequence[StopRule | None] | None = None,
-    ) -> list[Run]:
-        """As the base class's; a world the batch halted on a warning is run again alone,
-        so that its row is the single run's (module constant HALTED)."""
-        scenes, settings = list(scenes), settings or RunSettings()
-        runs = super().simulate_batch(scenes, settings, stops=stops)
-        rules = [settings.stop] * len(scenes) if stops is None else list(stops)
-        return [
-            self.simulate(scene, settings.with_(stop=rule)) if run.info.message == HALTED else run
-            for scene, rule, run in zip(scenes, rules, runs, strict=True)
-        ]
-
     @contextmanager
     def _open_batch(
         self,
@@ -421,7 +399,9 @@ class MujocoEngine(Engine):
         return states, forces
 
     def _batch_diverged(self, batch: _Batch, active: np.ndarray) -> list[str | None]:
-        return [HALTED if halted else None for halted in batch.halted]
+        # mujoco.batch stops stepping a world whose warning counters rise; a single run steps
+        # on (MuJoCo resets its state), so the world runs again alone.
+        return [RUN_ALONE if halted else None for halted in batch.halted]
 
 
 @dataclass

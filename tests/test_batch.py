@@ -12,7 +12,7 @@ from types import ModuleType
 import numpy as np
 import pytest
 
-from hoopbench.engines.base import CHUNK_STEPS, STATE_KEYS, Chunk, Engine
+from hoopbench.engines.base import CHUNK_STEPS, RUN_ALONE, STATE_KEYS, Chunk, Engine
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.run import Run, RunStatus
 from hoopbench.engines.settings import RunSettings
@@ -170,6 +170,25 @@ def test_a_world_that_ends_is_no_longer_stepped():
     assert np.count_nonzero(counts == 2) == 500  # 2000..2500
     # The finishing steps at 300, 2500 and 3000, each of its world alone; 2500..3000.
     assert np.count_nonzero(counts == 1) == 3 + 500
+
+
+def test_a_world_the_batch_cannot_step_runs_alone(monkeypatch):
+    """A world the engine says RUN_ALONE of (MuJoCo's batch halts a world on a warning) leaves
+    the batch and runs again by itself: its run is its single run, without the batch's cost."""
+
+    def alone(self, batch, active):
+        return [RUN_ALONE if s.name == BAD else None for s in batch.scenes]
+
+    monkeypatch.setattr(FakeBatchEngine, "_batch_diverged", alone)
+    engine, settings, scenes = FakeBatchEngine(), RunSettings(timestep=DT), _scenes()
+    runs = engine.simulate_batch(scenes, settings)
+    single = engine.simulate(scenes[1], settings)
+    assert runs[1].info.batch is None and runs[1].info.message == single.info.message
+    assert runs[1].info.n_steps == single.info.n_steps == 1999
+    assert all(run.info.batch is not None for k, run in enumerate(runs) if k != 1)
+    # Left at its first chunk end: three worlds up to step 1000 (and one finishing step at
+    # 300), two after it.
+    assert engine.active_counts[CHUNK_STEPS] == 3 and engine.active_counts[CHUNK_STEPS + 1] == 2
 
 
 def test_an_engine_without_batches_loops_over_single_runs():
