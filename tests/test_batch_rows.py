@@ -67,8 +67,9 @@ def test_a_map_batches_mujoco_and_writes_the_same_rows(tmp_path):
         x_range=(0.05, 0.3),
         y_range=(0.5, 0.9),
     )
-    with ThreadPoolExecutor(2) as pool:
+    with ThreadPoolExecutor(1) as pool:  # one call at a time: all six points in one batch
         run_map(spec, tmp_path / "batched", executor=pool, quiet=True, batch_size=6)
+    with ThreadPoolExecutor(2) as pool:
         run_map(spec, tmp_path / "alone", executor=pool, quiet=True, batch_size=1)
     batched, alone = map_frame(tmp_path / "batched"), map_frame(tmp_path / "alone")
     _same_but_cost(batched, alone)
