@@ -14,7 +14,9 @@ nothing here asserts a time.
   building excluded) and world-steps per second; best of ``--repeat``.
 * **The hop map.** The map of MuJoCo alone, on ``--grid`` with ``--jobs`` worker processes,
   run twice: every run alone (``batch_size`` 1) and in batches (the default). Its wall time
-  (both stages), the engine stage's (from the first to the last MuJoCo row finished), the
+  (both stages), the CPU time of this process and its workers (``bench.map.CpuMeter``;
+  other users of the machine do not inflate it, as they do the wall times), the engine
+  stage's (from the last reference row to the last MuJoCo row finished), the
   sum of the MuJoCo runs' own stepping times, and whether both wrote the same rows (cost
   columns aside). A smaller grid than 40x40 is extrapolated to 40x40 by the number of
   points, and says so.
@@ -36,6 +38,7 @@ from hoopbench.engines.judging.columns import CLOCK_COLUMNS, Col
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.settings import DEFAULT_BATCH_SIZE, RunSettings
 from hoopbench.models.scene import Scene
+from hoopbench.reports.bench.map import CpuMeter
 from hoopbench.reports.hop_map.spec import MapSpec, check_grid
 from hoopbench.reports.hop_map.stages import run_map
 from hoopbench.reports.hop_map.table import map_frame
@@ -85,9 +88,11 @@ def step_cost(size: int, steps: int, repeat: int, alone: bool) -> dict[str, Any]
 def map_cost(grid: tuple[int, int], jobs: int, batch_size: int, out: Path) -> dict[str, Any]:
     """The MuJoCo hop map on ``grid``: wall times and the runs' own stepping time."""
     spec = MapSpec(nx=grid[0], ny=grid[1], engines=("mujoco",))
-    start = time.perf_counter()
-    summary = run_map(spec, out, jobs=jobs, quiet=True, batch_size=batch_size)
-    wall = time.perf_counter() - start
+    with CpuMeter() as meter:
+        start = time.perf_counter()
+        summary = run_map(spec, out, jobs=jobs, quiet=True, batch_size=batch_size)
+        wall = time.perf_counter() - start
+    cpu = meter.seconds
     frame = map_frame(out)
     engine = frame[frame[Col.ENGINE] == "mujoco"]
     finished = pd.to_datetime(engine["finished_at"])
@@ -95,6 +100,7 @@ def map_cost(grid: tuple[int, int], jobs: int, batch_size: int, out: Path) -> di
     return {
         "batch_size": batch_size,
         "wall_s": wall,
+        "cpu_s": cpu,
         "engine_stage_s": (finished.max() - reference_done.max()).total_seconds(),
         "stepping_s": float(engine[Col.WALL_TIME_S].sum()),
         "runs": len(engine),
@@ -126,23 +132,29 @@ def print_step_costs(sizes: list[int], steps: int, repeat: int, alone_up_to: int
 def print_map_costs(grid: tuple[int, int], jobs: int) -> None:
     points = grid[0] * grid[1]
     print(f"\nhop map of MuJoCo alone, {grid[0]}x{grid[1]}, {jobs} jobs, dt {DT:g} s (defaults)")
-    print(f"{'batch size':>11}{'wall s':>9}{'engine stage s':>16}{'stepping s':>12}{'runs':>6}")
+    print(
+        f"{'batch size':>11}{'wall s':>9}{'CPU s':>9}{'engine stage s':>16}{'stepping s':>12}"
+        f"{'runs':>6}"
+    )
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for size in (1, DEFAULT_BATCH_SIZE):
             row = map_cost(grid, jobs, size, Path(tmp) / f"map-{size}")
             rows.append(row)
             print(
-                f"{size:>11}{row['wall_s']:>9.1f}{row['engine_stage_s']:>16.1f}"
-                f"{row['stepping_s']:>12.1f}{row['runs']:>6}",
+                f"{size:>11}{row['wall_s']:>9.1f}{row['cpu_s']:>9.1f}"
+                f"{row['engine_stage_s']:>16.1f}{row['stepping_s']:>12.1f}{row['runs']:>6}",
                 flush=True,
             )
     print(f"same rows (cost columns aside): {_same_rows(rows[0]['frame'], rows[1]['frame'])}")
     if points != FULL_MAP:
         scale = FULL_MAP / points
-        print(f"extrapolated to 40x40 ({scale:g} times the points), engine stage:")
+        print(f"extrapolated to 40x40 ({scale:g} times the points): wall, CPU, engine stage")
         for row in rows:
-            print(f"{row['batch_size']:>11}{scale * row['engine_stage_s']:>25.0f} s")
+            print(
+                f"{row['batch_size']:>11}{scale * row['wall_s']:>9.0f}{scale * row['cpu_s']:>9.0f}"
+                f"{scale * row['engine_stage_s']:>16.0f} s"
+            )
 
 
 def main(argv: list[str] | None = None) -> int:
