@@ -36,6 +36,7 @@ import pandas as pd
 
 from hoopbench.engines.judging.columns import CLOCK_COLUMNS, Col
 from hoopbench.engines.registry import get_engine
+from hoopbench.engines.run import Run
 from hoopbench.engines.settings import DEFAULT_BATCH_SIZE, RunSettings
 from hoopbench.models.scene import Scene
 from hoopbench.reports.bench.map import CpuMeter
@@ -60,22 +61,19 @@ def world_scenes(size: int, steps: int) -> list[Scene]:
     return [s.with_(t_end=steps * DT) for s in scenes[:size]]
 
 
-def step_cost(size: int, steps: int, repeat: int, alone: bool) -> dict[str, Any]:
+def step_cost(engine_name: str, size: int, steps: int, repeat: int, alone: bool) -> dict[str, Any]:
     """us per world-step of the batch path, of single runs (if ``alone``) and of the bare
     loop, for ``size`` worlds of ``steps`` steps; best of ``repeat``."""
-    engine, settings = get_engine("mujoco"), RunSettings(timestep=DT)
+    engine, settings = get_engine(engine_name), RunSettings(timestep=DT)
     scenes = world_scenes(size, steps)
     batch, single = [], []
     for _ in range(repeat):
         runs = engine.simulate_batch(scenes, settings)
-        cost = runs[0].info.batch
-        if cost is None or any(run.info.status != "ok" for run in runs):
+        if any(run.info.status != "ok" for run in runs):
             raise RuntimeError(f"a batch of {size} did not run: {runs[0].info.message}")
-        batch.append(cost.wall_time_s / cost.world_steps)
+        batch.append(_per_step(runs))  # an engine without batches: its runs one by one
         if alone:
-            lone = [engine.simulate(scene, settings) for scene in scenes]
-            wall = sum(run.info.wall_time_s or 0.0 for run in lone)
-            single.append(wall / sum(run.info.n_steps or 0 for run in lone))
+            single.append(_per_step([engine.simulate(scene, settings) for scene in scenes]))
     bare = min(engine.bare_loop_time(scenes[0], settings) for _ in range(repeat)) / steps
     return {
         "size": size,
@@ -83,6 +81,15 @@ def step_cost(size: int, steps: int, repeat: int, alone: bool) -> dict[str, Any]
         "single_us": 1e6 * min(single) if single else None,
         "bare_us": 1e6 * bare,
     }
+
+
+def _per_step(runs: list[Run]) -> float:
+    """s per world-step of runs: their stepping wall time (a batch's, once) over their steps."""
+    cost = runs[0].info.batch
+    if cost is not None:
+        return cost.wall_time_s / cost.world_steps
+    wall = sum(run.info.wall_time_s or 0.0 for run in runs)
+    return wall / sum(run.info.n_steps or 0 for run in runs)
 
 
 def map_cost(grid: tuple[int, int], jobs: int, batch_size: int, out: Path) -> dict[str, Any]:
@@ -116,11 +123,13 @@ def _same_rows(one: pd.DataFrame, other: pd.DataFrame) -> bool:
     return bool(a.equals(b))
 
 
-def print_step_costs(sizes: list[int], steps: int, repeat: int, alone_up_to: int) -> None:
-    print(f"MuJoCo C, us per world-step, {steps} steps per world at dt {DT:g} s, best of {repeat}")
+def print_step_costs(
+    engine: str, sizes: list[int], steps: int, repeat: int, alone_up_to: int
+) -> None:
+    print(f"{engine}, us per world-step, {steps} steps per world at dt {DT:g} s, best of {repeat}")
     print(f"{'worlds':>7}{'batch':>9}{'alone':>9}{'bare':>9}{'batch world-steps/s':>22}")
     for size in sizes:
-        row = step_cost(size, steps, repeat, alone=size <= alone_up_to)
+        row = step_cost(engine, size, steps, repeat, alone=size <= alone_up_to)
         single = "-" if row["single_us"] is None else f"{row['single_us']:.2f}"
         print(
             f"{size:>7}{row['batch_us']:>9.2f}{single:>9}{row['bare_us']:>9.2f}"
@@ -159,6 +168,7 @@ def print_map_costs(grid: tuple[int, int], jobs: int) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--engine", default="mujoco", help="the engine of the first part")
     parser.add_argument("--sizes", type=int, nargs="*", default=[1, 64, 1024])
     parser.add_argument("--steps", type=int, default=1000, help="steps per world")
     parser.add_argument("--repeat", type=int, default=3)
@@ -168,7 +178,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--grid", default="10x10", help="the hop map's grid; 0x0: no map")
     parser.add_argument("--jobs", type=int, default=2)
     args = parser.parse_args(argv)
-    print_step_costs(args.sizes, args.steps, args.repeat, args.alone_up_to)
+    print_step_costs(args.engine, args.sizes, args.steps, args.repeat, args.alone_up_to)
     if args.grid not in ("0x0", "0"):
         print_map_costs(check_grid(args.grid), args.jobs)
     return 0
