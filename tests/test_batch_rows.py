@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hoopbench.engines.judging.columns import CLOCK_COLUMNS, Col
+from hoopbench.engines.judging.columns import COST_COLUMNS, Col
 from hoopbench.reports.compare.rows import with_batch_columns
 from hoopbench.reports.compare.suite import compare, runs_frame
 from hoopbench.reports.hop_map.spec import MapSpec
@@ -24,7 +24,7 @@ engines = ["mujoco", "pymunk"]
 timesteps = [1e-3]
 scenes = ["seed-mu", "hop-top", "hop-bottom"]
 """
-COST = {*TIMING_COLUMNS, *CLOCK_COLUMNS, Col.BATCH_SIZE}
+COST = {*TIMING_COLUMNS, *COST_COLUMNS}
 """Columns that differ between a batched and a lone run of the same task."""
 
 

@@ -34,7 +34,7 @@ from typing import Any
 
 import pandas as pd
 
-from hoopbench.engines.judging.columns import CLOCK_COLUMNS, Col
+from hoopbench.engines.judging.columns import COST_COLUMNS, Col
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.run import Run
 from hoopbench.engines.settings import DEFAULT_BATCH_SIZE, RunSettings
@@ -46,7 +46,7 @@ from hoopbench.reports.hop_map.table import map_frame
 from hoopbench.reports.sweep.results import TIMING_COLUMNS
 
 DT = 1e-4
-COST = {*TIMING_COLUMNS, *CLOCK_COLUMNS, Col.BATCH_SIZE}
+COST = {*TIMING_COLUMNS, *COST_COLUMNS}
 """Columns that differ between a batched and a lone run."""
 FULL_MAP = 40 * 40
 
