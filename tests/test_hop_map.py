@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hoopbench.engines.judging.columns import FORCE_COLUMNS
+from hoopbench.engines.judging.columns import COST_COLUMNS, FORCE_COLUMNS
 from hoopbench.engines.judging.comparison import event_columns, floor_columns, kin_columns
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.settings import RunSettings
@@ -48,7 +48,7 @@ TINY_ARGS = [
     *("--grid", "3x2", "--engines", "pymunk", "--dt", "1e-3", "--t-end", "1"),
     *("--x-range", "0.5", "1"),
 ]
-TIMING = [*results.TIMING_COLUMNS, "wall_time_s"]
+TIMING = [*results.TIMING_COLUMNS, *COST_COLUMNS]
 
 
 def comparable(frame: pd.DataFrame) -> pd.DataFrame:

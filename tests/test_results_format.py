@@ -16,6 +16,7 @@ import pandas as pd
 import pytest
 
 from hoopbench.engines.judging.columns import (
+    BATCH_COLUMNS,
     FLOOR_COLUMNS,
     FORCE_COLUMNS,
     RENAMED_FROM_CONTACT,
@@ -26,7 +27,10 @@ from hoopbench.models.formats import FileFormat, FormatVersionError
 from hoopbench.models.trajectory import FORMAT_VERSION as TRAJECTORY_VERSION
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.reports.cli import main
+from hoopbench.reports.compare.rows import ONE_READING_VERSION
 from hoopbench.reports.compare.suite import FORMAT_VERSION, ROW_COLUMNS, compare, runs_frame
+from hoopbench.reports.hop_map.spec import MapSpec
+from hoopbench.reports.hop_map.stages import ONE_READING_MAP_VERSION, run_map
 from hoopbench.reports.hop_map.stages import ROWS_FORMAT_VERSION as MAP_VERSION
 from hoopbench.reports.hop_map.table import map_frame
 from hoopbench.reports.sweep import results
@@ -51,6 +55,9 @@ NEW_IN_7 = [
     Col.ERR_THETA_SLIP_DEG,
 ]
 """The columns issue 24 (format 7) added; a table stored before reads them empty."""
+BATCHES_VERSION = 8
+"""Issue 27: the batch cost columns (BATCH_COLUMNS); a table stored before reads each run as a
+batch of one."""
 
 
 def before_7(rows: pd.DataFrame) -> pd.DataFrame:
@@ -88,17 +95,20 @@ def older(
     drop: list[str],
     version: int | None,
     timed_out: str | None = None,
-    layout_before_7: bool | None = None,
+    layout: int | None = None,
 ) -> Path:
     """The rows of ``current`` stored again without the columns ``drop``, meta.json saying
     ``version`` (None: no meta.json, as before the sweep ended); the run of engine
-    ``timed_out``, if given, stored as a timeout (a resume runs it again); in the layout
-    before format 7 (``before_7``) where ``layout_before_7`` (default: an older version)."""
+    ``timed_out``, if given, stored as a timeout (a resume runs it again); in the layout of
+    format ``layout`` (default: ``version``, or 2 without one): before format 7 as
+    ``before_7`` makes it, before 8 without the batch columns."""
     rows = results.read_runs(current)
-    if layout_before_7 is None:
-        layout_before_7 = version is None or version < FORMAT_VERSION
-    if layout_before_7:
+    if layout is None:
+        layout = 2 if version is None else version
+    if layout < ONE_READING_VERSION:
         rows = before_7(rows)
+    if layout < BATCHES_VERSION:
+        rows = rows.drop(columns=list(BATCH_COLUMNS))
     rows = rows.drop(columns=[*drop, "seq"])
     if timed_out is not None:
         rows.loc[rows["engine"] == timed_out, "status"] = "timeout"
@@ -179,6 +189,35 @@ def test_a_version_6_table_is_read_with_one_reading(current, tmp_path):
     pd.testing.assert_frame_equal(frame[kept], runs_frame(current)[kept], check_dtype=False)
 
 
+def test_a_version_7_table_reads_each_run_as_a_batch_of_one(current, tmp_path):
+    """Format 8 (issue 27): a version-7 table's runs were stepped alone, each a batch of one at
+    its own cost; the same rows read as the current table reads them (its runs, of engines
+    that do not batch, were batches of one too)."""
+    old = older(current, tmp_path, drop=[], version=7)
+    assert not set(BATCH_COLUMNS) & set(results.read_runs(old).columns)
+    frame = runs_frame(old)
+    assert list(frame[Col.BATCH_SIZE]) == [1, 1]
+    assert frame[Col.US_PER_WORLD_STEP].tolist() == pytest.approx(frame[Col.US_PER_STEP].tolist())
+    kept = [c for c in results.read_runs(current).columns if c != "seq"]
+    pd.testing.assert_frame_equal(frame[kept], runs_frame(current)[kept], check_dtype=False)
+
+
+def test_a_row_with_its_batch_cost_keeps_it_in_an_older_table(current, tmp_path):
+    """A version-7 folder resumed by this hoopbench keeps its version and holds rows of both
+    layouts: a batched run's new row keeps its own cost, the old row reads as a batch of one."""
+    old = older(current, tmp_path, drop=[], version=7)
+    rows = results.read_runs(current).drop(columns=["seq"])
+    batched = rows[rows["engine"] == "pymunk"].assign(
+        **{Col.BATCH_SIZE: 4, Col.US_PER_WORLD_STEP: 12.5, Col.WORLD_STEPS_PER_S: 8e4}
+    )
+    writer = results.RunsWriter(old / results.RUNS_NAME)
+    writer.add(batched.to_dict("records")[0])
+    writer.flush()
+    frame = runs_frame(old).set_index("engine")
+    assert frame.loc["pymunk", [*BATCH_COLUMNS]].tolist() == [4, 12.5, 8e4]
+    assert frame.loc["reference", Col.BATCH_SIZE] == 1
+
+
 def test_a_newer_table_is_refused_with_both_versions(current, tmp_path):
     new = older(current, tmp_path / "new", drop=[], version=FORMAT_VERSION + 1)
     message = newer_message(new, "runs table", FORMAT_VERSION)
@@ -228,7 +267,7 @@ def test_a_table_without_a_version_in_todays_layout_is_read_as_it_is(current, tm
 
 
 def test_resuming_a_table_without_a_version_records_the_oldest(current, tmp_path):
-    out = older(current, tmp_path / "out", drop=[], version=None, layout_before_7=False)
+    out = older(current, tmp_path / "out", drop=[], version=None, layout=FORMAT_VERSION)
     run_suite(out, resume=True)  # nothing to run: it writes the missing runs.csv and meta.json
     assert json.loads((out / results.META_NAME).read_text())[results.FORMAT_KEY] == 2
 
@@ -244,9 +283,13 @@ def test_resuming_a_newer_table_is_refused_before_any_run(current, tmp_path):
 
 # --------------------------------------------------------------------------- hop maps
 def map_folder(folder: Path, version: int | None) -> Path:
+    """Two rows as a map stores them before the batch columns: the reference's classification
+    (no steps) and a pymunk run of 2000 steps in 0.5 s."""
     writer = results.RunsWriter(folder / results.RUNS_NAME)
     for k, engine in enumerate(("reference", "pymunk")):
-        writer.add({"run_id": f"r000-00{k}-{engine}", "status": "ok", "ix": 0, "iy": k})
+        ran = {"n_steps": 2000} if engine != "reference" else {}
+        row = {"run_id": f"r000-00{k}-{engine}", "status": "ok", "ix": 0, "iy": k}
+        writer.add({**row, "engine": engine, "wall_time_s": 0.5, **ran})
     writer.flush()
     if version is not None:
         results.write_meta({results.FORMAT_KEY: version}, folder / results.META_NAME)
@@ -257,6 +300,74 @@ def map_folder(folder: Path, version: int | None) -> Path:
 def test_a_map_table_is_read_at_its_version_or_without_one(tmp_path, version):
     frame = map_frame(map_folder(tmp_path, version))
     assert list(frame["run_id"]) == ["r000-000-reference", "r000-001-pymunk"]
+
+
+@pytest.mark.parametrize("version", [MAP_VERSION - 1, ONE_READING_MAP_VERSION - 1, None])
+def test_a_map_table_from_before_batches_reads_each_run_as_a_batch_of_one(tmp_path, version):
+    """Map format 5 (issue 27), after one reading (4) or with it (3, or no meta.json)."""
+    frame = map_frame(map_folder(tmp_path, version)).set_index("engine")
+    assert frame.loc["pymunk", [*BATCH_COLUMNS]].tolist() == [1, 250.0, 4000.0]
+    assert frame.loc["reference", [*BATCH_COLUMNS]].isna().all()  # no steps: no batch
+
+
+def test_a_current_map_table_is_not_patched(tmp_path):
+    frame = map_frame(map_folder(tmp_path, MAP_VERSION))
+    assert frame[list(BATCH_COLUMNS)].isna().all().all()
+
+
+BATCH_MAP = MapSpec(
+    nx=3, ny=1, engines=("mujoco",), timestep=1e-3, t_end=0.5, x_range=(0.1, 0.3), y_range=(0.5, 1)
+)
+"""Three MuJoCo runs, which batch."""
+
+
+@pytest.fixture(scope="module")
+def batch_map(tmp_path_factory) -> Path:
+    """A map folder as this hoopbench writes it, its runs stepped alone."""
+    out = tmp_path_factory.mktemp("map") / "map"
+    with ThreadPoolExecutor(2) as pool:
+        run_map(BATCH_MAP, out, executor=pool, quiet=True, batch_size=1)
+    return out
+
+
+def older_map(current: Path, folder: Path, version: int) -> Path:
+    """``current`` as a map of table format ``version`` interrupted in stage 2 stored it: its
+    MuJoCo runs but the first timed out, the batch columns absent."""
+    shutil.copytree(current, folder, ignore=shutil.ignore_patterns(results.RUNS_NAME))
+    rows = results.read_runs(current).drop(columns=["seq", *BATCH_COLUMNS])
+    later = (rows["engine"] == "mujoco") & (rows["ix"] > 0)
+    rows.loc[later, "status"] = "timeout"
+    writer = results.RunsWriter(folder / results.RUNS_NAME)
+    for row in rows.to_dict("records"):
+        writer.add(row)
+    writer.flush()
+    meta = json.loads((current / results.META_NAME).read_text())
+    results.write_meta({**meta, results.FORMAT_KEY: version}, folder / results.META_NAME)
+    return folder
+
+
+def test_resuming_a_map_from_before_batches_keeps_its_version(batch_map, tmp_path):
+    """A version-4 map resumed: its two timed-out runs go in one batch of two; the folder keeps
+    version 4, so its old run reads as a batch of one and the new rows keep their batch's cost."""
+    out = older_map(batch_map, tmp_path / "old", ONE_READING_MAP_VERSION)
+    with ThreadPoolExecutor(1) as pool:  # one call at a time: the two runs in one batch
+        run_map(BATCH_MAP, out, executor=pool, quiet=True, resume=True, batch_size=2)
+    assert json.loads((out / results.META_NAME).read_text())[results.FORMAT_KEY] == 4
+    frame = map_frame(out)
+    mujoco = frame[frame["engine"] == "mujoco"].set_index("ix")
+    assert mujoco[Col.BATCH_SIZE].tolist() == [1, 2, 2]
+    first = mujoco.loc[0]
+    assert first[Col.US_PER_WORLD_STEP] == pytest.approx(
+        1e6 * first["wall_time_s"] / first["n_steps"]
+    )
+
+
+def test_resuming_a_map_from_before_one_reading_is_refused(batch_map, tmp_path):
+    out = older_map(batch_map, tmp_path / "old", ONE_READING_MAP_VERSION - 1)
+    with pytest.raises(RunnerError, match="map table format 3, from before one reading"):
+        run_map(BATCH_MAP, out, quiet=True, resume=True)
+    stored = results.read_runs(out)
+    assert (stored["status"] == "timeout").sum() == 2
 
 
 def test_a_newer_map_table_is_refused_with_both_versions(tmp_path):

@@ -12,6 +12,7 @@ from collections.abc import Iterable
 import pandas as pd
 
 from hoopbench.engines.judging.columns import (
+    BATCH_COLUMNS,
     EVENT_COLUMNS,
     FLOOR_COLUMNS,
     FORCE_COLUMNS,
@@ -32,9 +33,10 @@ __all__ = [
     "RUNS_TABLE",
     "before_one_reading",
     "one_reading",
+    "with_batch_columns",
 ]
 
-FORMAT_VERSION = 7
+FORMAT_VERSION = 8
 """Version of the runs table layout (1: runs.parquet and runs.json, before the runs/ dataset;
 2: run_id and the runner's bookkeeping columns; 3: the verdict, max_clearance, consistent,
 event_flags and exact_t_painleve columns; 4: g, and the last phases' start times and the run's
@@ -43,7 +45,8 @@ the window's end, and exact_max_slip_speed; 5: the contact reading's columns,
 CONTACT_COLUMNS, and the verdict's flags and reason; 6: the contact force against the exact
 one, FORCE_COLUMNS; 7, issue 24: one reading, the unprefixed event columns are the canonical
 (contact) reading, the clearance reading is kin_*, the detection floor floor_*, and the
-verdict has one meaning: :func:`one_reading`). Columns also arrived between bumps
+verdict has one meaning: :func:`one_reading`; 8, issue 27: the batch's cost, BATCH_COLUMNS,
+:func:`with_batch_columns`). Columns also arrived between bumps
 (profile and a late in 2, rms_position_m with 3, g late in 3, exact_max_slip_speed early in
 4): a table may lack one its version lists, and reads it empty."""
 
@@ -63,6 +66,7 @@ _ADDED_IN = {
     4: ("g", "exact_t_last_phase", "t_last_phase", "t_final", "exact_max_slip_speed"),
     5: (*RENAMED_FROM_CONTACT, Col.VERDICT_FLAGS, Col.VERDICT_REASON),
     6: FORCE_COLUMNS,
+    8: BATCH_COLUMNS,  # filled for older runs: each was a batch of one
 }
 """The columns each version added (or, for g and exact_max_slip_speed, came with it): an
 older table's rows have them empty."""
@@ -145,11 +149,29 @@ def _to_7(frame: pd.DataFrame) -> pd.DataFrame:
     return one_reading(frame)
 
 
+def with_batch_columns(frame: pd.DataFrame) -> pd.DataFrame:
+    """Issue 27's migration of a runs table (a suite's, version 7, or a map's, version 4):
+    BATCH_COLUMNS, its runs stepped alone, each a batch of one at its own cost (empty for a
+    run that did not step). A row that has them (stored by this hoopbench into a resumed
+    folder, or into one without meta.json) keeps its own."""
+    frame = results.with_columns(frame, (*BATCH_COLUMNS, Col.N_STEPS, Col.WALL_TIME_S))
+    steps = pd.to_numeric(frame[Col.N_STEPS], errors="coerce")
+    wall = pd.to_numeric(frame[Col.WALL_TIME_S], errors="coerce")
+    ran = (steps > 0) & (wall > 0) & frame[Col.BATCH_SIZE].isna()
+    return frame.assign(
+        **{
+            Col.BATCH_SIZE: frame[Col.BATCH_SIZE].where(~ran, 1),
+            Col.US_PER_WORLD_STEP: frame[Col.US_PER_WORLD_STEP].where(~ran, 1e6 * wall / steps),
+            Col.WORLD_STEPS_PER_S: frame[Col.WORLD_STEPS_PER_S].where(~ran, steps / wall),
+        }
+    )
+
+
 RUNS_TABLE = FileFormat(
     "runs table",
     FORMAT_VERSION,
     oldest=2,
-    migrations={2: _to_3, 3: _to_4, 4: _to_5, 5: _to_6, 6: _to_7},
+    migrations={2: _to_3, 3: _to_4, 4: _to_5, 5: _to_6, 6: _to_7, 7: with_batch_columns},
 )
 """A compare folder's runs table; a folder that records no version counts as 2, the first
 runs/ dataset (version 1 folders have no runs/ and are not read)."""
