@@ -246,14 +246,18 @@ def read_contact(
     if hop is not None and hop.t_end is not None:
         modes = [m for m in modes if m[1] <= hop.t_end]  # the exact model ends at the impact
     t_slip, t_restick = _slip_events(modes)
+    # Creep and sticks are read where the phases are: up to the exact window's end and the
+    # hop's impact (the exact model ends there; after it an engine's hoop rolls on unjudged).
+    judged = t <= min(end, math.inf if hop is None or hop.t_end is None else hop.t_end)
     creeping = (
-        touching
+        judged
+        & touching
         & ~slipping
         & (np.abs(f) < (1.0 - cfg.cone_hold) * mu * n)
         & (np.abs(traj.slip_velocity) > cfg.slip_threshold)
     )
     outside = np.abs(means.friction) > (1.0 + cfg.cone_tolerance) * mu * means.normal
-    sticking = touching & outside & (np.abs(means.slip) <= cfg.slip_threshold)
+    sticking = judged & touching & outside & (np.abs(means.slip) <= cfg.slip_threshold)
     step = np.diff(t, append=t[-1])
     return ContactReading(
         t_slip=t_slip,
