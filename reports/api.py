@@ -478,7 +478,13 @@ def map_spec(
         given["nx"], given["ny"] = _checked("grid", check_grid, grid)
     fixed = dict(fixed or {})
     stored_file = Path(out) / MAP_FILE
-    if not (resume and stored_file.is_file()):
+    if resume and not (stored_file.exists() or stored_file.is_symlink()):
+        # a new default map, silently, is not what a resume asks for
+        what = "does not exist" if not Path(out).exists() else f"holds no {MAP_FILE}"
+        raise OptionError(
+            "resume", f"{{option}}: {str(out)!r} {what}: there is no hop map to resume"
+        )
+    if not resume:
         return MapSpec(**given, fixed=fixed)
     try:
         base = load_spec(out).to_dict()

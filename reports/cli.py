@@ -833,15 +833,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         # A write or read the system refused (disk full, read-only folder, no permission)
         # outside the commands that say what they keep: the path and the reason.
         where = f"{str(exc.filename)!r}: " if exc.filename is not None else ""
-        print(f"hoopbench: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        _error(f"error: {where}{exc.strerror or exc}")
         return EXIT_USAGE
     except (UsageError, ValueError) as exc:
         # ValueError: a scene, setting or engine name that failed validation.
         if isinstance(exc, DegenerateSceneError):
-            print(f"hoopbench: degenerate scene: {exc}", file=sys.stderr)
+            _error(f"degenerate scene: {_message(exc)}")
         else:
-            print(f"hoopbench: error: {_message(exc)}", file=sys.stderr)
+            _error(f"error: {_message(exc)}")
         return EXIT_USAGE
+
+
+def _error(text: str) -> None:
+    """One line on stderr; whatever it quotes from files or names shown, never obeyed."""
+    from hoopbench.reports.sweep.control_chars import terminal_text
+
+    print(f"hoopbench: {terminal_text(text)}", file=sys.stderr)
 
 
 def _message(exc: Exception) -> str:

@@ -22,6 +22,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
+from hoopbench.reports.sweep.folder_files import FolderFileError, read_input_file
 from hoopbench.engines.base import n_steps_for
 from hoopbench.engines.options import Profile, check_profile
 from hoopbench.engines.registry import engine_class, engine_names
@@ -254,9 +255,11 @@ def load_suite(path: str | Path, announce: Announce | None = None) -> Suite:
     ``announce(name, runs)`` is called before the runs are checked (parse_suite)."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = read_input_file(path).decode("utf-8")
     except OSError as exc:
         raise SuiteError(f"cannot read suite file {str(path)!r}: {exc.strerror}") from None
+    except FolderFileError as exc:  # a FIFO, a device, a folder, a file past the cap
+        raise SuiteError(f"cannot read suite file {exc}") from None
     except UnicodeDecodeError as exc:  # TOML is UTF-8: say which file and where
         raise SuiteError(
             f"suite file {str(path)!r} is not UTF-8 text (byte {exc.start}: {exc.reason})"

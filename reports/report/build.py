@@ -23,6 +23,12 @@ from hoopbench.reports.report.markdown import write_markdown
 from hoopbench.reports.report.page import write_page
 from hoopbench.reports.report.plotting import plain_text
 from hoopbench.reports.sweep import results
+from hoopbench.reports.sweep.folder_files import (
+    MAX_DATA_BYTES,
+    FolderFileError,
+    folder_file,
+    read_folder_text,
+)
 
 __all__ = ["build_report", "report_frame"]
 
@@ -95,8 +101,11 @@ def _trajectory_path(results_dir: Path, stored: object) -> str | None:
     that leads out of the folder is data from elsewhere, not a file of this folder's."""
     if not isinstance(stored, str) or not stored:
         return None
-    path = (results_dir / stored).resolve()
-    return str(results_dir / stored) if path.is_relative_to(results_dir.resolve()) else None
+    try:
+        path = folder_file(results_dir, stored, MAX_DATA_BYTES)
+    except FolderFileError:
+        return None
+    return None if path is None else str(path)
 
 
 def _refuse_shared_runs(dirs: Sequence[Path], frames: Sequence[pd.DataFrame]) -> None:
@@ -116,14 +125,17 @@ def _refuse_shared_runs(dirs: Sequence[Path], frames: Sequence[pd.DataFrame]) ->
 
 def _suite_name(results_dir: Path) -> str:
     """The suite a results folder holds (from meta.json; the folder name if it is missing)."""
+    text = read_folder_text(results_dir, results.META_NAME)  # FolderFileError: not a file
     try:
-        return str(json.loads((results_dir / results.META_NAME).read_text())["suite"])
-    except (OSError, ValueError, KeyError):
+        return str(json.loads(text)["suite"]) if text is not None else results_dir.name
+    except (ValueError, KeyError, TypeError):
         return results_dir.name
 
 
 def _suite_order(suite_file: Path) -> dict[str, int]:
     """run_id -> position in the suite as run (empty if its copy is missing or unreadable)."""
+    if folder_file(suite_file.parent, suite_file.name) is None:  # FolderFileError: no file
+        return {}
     try:
         tasks = load_suite(suite_file).tasks()
     except CatalogueNameError as exc:  # its rows would be drawn as the catalogue's scene
