@@ -46,7 +46,7 @@ class _Parser(argparse.ArgumentParser):
         # one argument"): its pattern for a negative number knows neither exponents nor
         # NxM. Here anything starting with '-' and a digit (or '-.' and a digit) is a value,
         # which the option's own check then refuses by name; no option here starts so.
-        self._negative_number_matcher = re.compile(r"^-\.?\d")
+        self._negative_number_matcher = re.compile(r"^-(\.?\d|(nan|inf|infinity)$)", re.I)
 
     def error(self, message: str) -> NoReturn:
         raise UsageError(message)
@@ -78,19 +78,19 @@ def _add_scene_options(parser: argparse.ArgumentParser) -> None:
         "scene", "a catalogue scene (--scene) and/or explicit parameters overriding it"
     )
     group.add_argument("--scene", help=f"catalogue scene: {', '.join(scene_names())}")
-    group.add_argument("--lam", type=float, help="weight's mass fraction, in [0, 1]")
-    group.add_argument("--eps", type=float, help="weight's own inertia parameter, >= 0")
+    group.add_argument("--lam", type=_number, help="weight's mass fraction, in [0, 1]")
+    group.add_argument("--eps", type=_number, help="weight's own inertia parameter, >= 0")
     spin = group.add_mutually_exclusive_group()
-    spin.add_argument("--chi", type=float, help="spin parameter a*thetadot0^2/g")
-    spin.add_argument("--thetadot0", type=float, help="initial spin, rad/s")
-    group.add_argument("--theta0-deg", type=float, help="initial angle of the weight, deg")
-    group.add_argument("--mus", type=float, help="static friction coefficient")
-    group.add_argument("--muk", type=float, help="kinetic friction coefficient (<= mus)")
-    group.add_argument("--g", type=float, help="gravity, m/s^2 (default 9.8)")
-    group.add_argument("--a", type=float, help="hoop radius, m (default 1)")
-    group.add_argument("--M", type=float, help="total mass, kg (default 1)")
-    group.add_argument("--t-end", type=float, help="end of the window, s (default 3)")
-    group.add_argument("--xdot0", type=float, help="initial hoop-centre velocity, m/s")
+    spin.add_argument("--chi", type=_number, help="spin parameter a*thetadot0^2/g")
+    spin.add_argument("--thetadot0", type=_number, help="initial spin, rad/s")
+    group.add_argument("--theta0-deg", type=_number, help="initial angle of the weight, deg")
+    group.add_argument("--mus", type=_number, help="static friction coefficient")
+    group.add_argument("--muk", type=_number, help="kinetic friction coefficient (<= mus)")
+    group.add_argument("--g", type=_number, help="gravity, m/s^2 (default 9.8)")
+    group.add_argument("--a", type=_number, help="hoop radius, m (default 1)")
+    group.add_argument("--M", type=_number, help="total mass, kg (default 1)")
+    group.add_argument("--t-end", type=_number, help="end of the window, s (default 3)")
+    group.add_argument("--xdot0", type=_number, help="initial hoop-centre velocity, m/s")
 
 
 def _scene_from_args(args: argparse.Namespace) -> Scene:
@@ -126,6 +126,24 @@ _grid = _argument("check_grid")
 """'40x40' -> (40, 40)."""
 
 
+def _number(text: str) -> float:
+    """A float option as float() reads it (nan and inf too: the option's own check names
+    them), but never a number that underflows to 0: '1e-400' is not '0.0'."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    mantissa = re.split(r"[eE]", text.strip())[0]
+    if value == 0 and re.search(r"[1-9]", mantissa):
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is too small for a float (it would be read as 0)"
+        )
+    return value
+
+
+_number.__name__ = "number"  # argparse's fallback message
+
+
 def _folder(text: str) -> str:
     """A folder to write into: '' would be the current folder, which no one means."""
     if not text.strip():
@@ -145,10 +163,12 @@ def _output_file(path: str, suffixes: Sequence[str], force: bool) -> Path:
         raise UsageError(f"folder {str(out.parent)!r} of output file {path!r} does not exist")
     if not os.access(out.parent, os.W_OK):
         raise UsageError(f"folder {str(out.parent)!r} of output file {path!r} is not writable")
+    if out.is_dir():
+        raise UsageError(f"output file {path!r} is a folder: give a file name")
+    if out.exists() and not out.is_file():  # a FIFO or a device: writing it never ends
+        raise UsageError(f"output file {path!r} exists and is not a regular file")
     if out.exists() and not force:
         raise UsageError(f"output file {path!r} exists; pass --force to overwrite it")
-    if out.is_dir():
-        raise UsageError(f"output file {path!r} is a folder")
     return out
 
 
@@ -592,9 +612,9 @@ _TRAJECTORY_SUFFIXES = (".csv", ".parquet")
 def _engine_options(p: argparse.ArgumentParser, engines: Sequence[str]) -> None:
     geometries = sorted({g for cls in engine_classes().values() for g in cls.geometries})
     p.add_argument("--engine", required=True, choices=engines)
-    p.add_argument("--dt", type=float, help=f"engine timestep, s (default {DEFAULT_TIMESTEP:g})")
-    p.add_argument("--mu", type=float, help="pair friction coefficient (default: mus)")
-    p.add_argument("--restitution", type=float, default=0.0)
+    p.add_argument("--dt", type=_number, help=f"engine timestep, s (default {DEFAULT_TIMESTEP:g})")
+    p.add_argument("--mu", type=_number, help="pair friction coefficient (default: mus)")
+    p.add_argument("--restitution", type=_number, default=0.0)
     p.add_argument(
         "--geometry", default="sphere", help=f"contact geometry: {', '.join(geometries)}"
     )
@@ -630,19 +650,19 @@ def _add_map_options(p: argparse.ArgumentParser) -> None:
         metavar="NXxNY",
         help=f"points along x and y (default {DEFAULT_GRID[0]}x{DEFAULT_GRID[1]})",
     )
-    p.add_argument("--x-range", nargs=2, type=float, metavar=("LO", "HI"), help="x's range")
-    p.add_argument("--y-range", nargs=2, type=float, metavar=("LO", "HI"), help="y's range")
+    p.add_argument("--x-range", nargs=2, type=_number, metavar=("LO", "HI"), help="x's range")
+    p.add_argument("--y-range", nargs=2, type=_number, metavar=("LO", "HI"), help="y's range")
     group = p.add_argument_group("fixed values", "the parameters that are not axes")
     for axis, info in AXES.items():
         unit = f" {info.unit}" if info.unit else ""
         group.add_argument(
             f"--{str(axis).replace('_', '-')}",
             dest=str(axis),
-            type=float,
+            type=_number,
             help=f"(default {info.fixed:g}{unit}; as an axis {info.default_range[0]:g} to "
             f"{info.default_range[1]:g})" + (": mus = muk" if axis is Axis.MU else ""),
         )
-    p.add_argument("--t-end", type=float, help="end of each scene's window, s (default 3)")
+    p.add_argument("--t-end", type=_number, help="end of each scene's window, s (default 3)")
     p.add_argument(
         "--engines",
         nargs="*",
@@ -650,7 +670,7 @@ def _add_map_options(p: argparse.ArgumentParser) -> None:
         help=f"engines to run at every point (default {' '.join(DEFAULT_ENGINES)}; "
         "none: the exact regimes alone)",
     )
-    p.add_argument("--dt", type=float, help=f"engine timestep, s (default {DEFAULT_TIMESTEP:g})")
+    p.add_argument("--dt", type=_number, help=f"engine timestep, s (default {DEFAULT_TIMESTEP:g})")
     p.add_argument(
         "--profile", choices=[str(x) for x in Profile], help="engine option values (default tuned)"
     )
@@ -677,9 +697,9 @@ def _add_reference(sub: Any, classes: Mapping[str, Any]) -> None:
     _add_scene_options(p)
     p.add_argument("--method", choices=("exact", "seed-euler"), default="exact")
     p.add_argument("--dt", type=_seconds, help="seed-euler step (default 0.002 s); CSV sampling")
-    p.add_argument("--delta", type=float, default=1e-4, help="seed-euler contact tolerance, m")
-    p.add_argument("--rtol", type=float, default=DEFAULT_RTOL, help="exact: integrator rtol")
-    p.add_argument("--atol", type=float, default=DEFAULT_ATOL, help="exact: integrator atol")
+    p.add_argument("--delta", type=_number, default=1e-4, help="seed-euler contact tolerance, m")
+    p.add_argument("--rtol", type=_number, default=DEFAULT_RTOL, help="exact: integrator rtol")
+    p.add_argument("--atol", type=_number, default=DEFAULT_ATOL, help="exact: integrator atol")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--csv", help="write the trajectory (.csv or .parquet)")
     p.add_argument("--force", action="store_true", help="overwrite an existing --csv file")
@@ -728,7 +748,7 @@ def _add_compare(sub: Any, classes: Mapping[str, Any]) -> None:
     p.add_argument("--resume", action="store_true", help="skip runs already stored")
     p.add_argument(
         "--run-timeout",
-        type=float,
+        type=_number,
         metavar="SECONDS",
         help="time limit per run (default: 60 s + 0.5 ms per step)",
     )
