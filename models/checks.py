@@ -67,7 +67,8 @@ def check_real(
     try:
         out = float(value)
     except (TypeError, ValueError, OverflowError):
-        raise ValueError(f"{name} must be a number {allowed}{suffix}, got {_shown(value)}") from None
+        shown = _shown(value)
+        raise ValueError(f"{name} must be a number {allowed}{suffix}, got {shown}") from None
     too_low = low is not None and (out <= low if low_open else out < low)
     too_high = high is not None and (out >= high if high_open else out > high)
     if not math.isfinite(out) or too_low or too_high:

@@ -487,10 +487,19 @@ def _say_how_the_sweep_ended(summary: RunSummary, out: str, resume: str, quiet: 
 
 def _cmd_report(args: argparse.Namespace) -> int:
     import hoopbench.reports.api as api
+    from hoopbench.reports.sweep.runner import RunnerError
 
     out = args.out if args.out is not None else args.results[0]
     try:
         path = api.report(args.results, args.out, force=args.force)
+    except RunnerError as exc:  # another report (or a sweep) is writing into the folder
+        raise UsageError(str(exc)) from None
+    except KeyboardInterrupt:
+        _error(
+            f"interrupted (Ctrl-C) while the report was written into {out}: the files "
+            "written so far are whole but the report is not; the results are unchanged"
+        )
+        return EXIT_INTERRUPTED
     except OSError as exc:
         if not _system_error(exc):
             raise

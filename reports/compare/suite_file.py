@@ -22,7 +22,6 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
-from hoopbench.reports.sweep.folder_files import FolderFileError, read_input_file
 from hoopbench.engines.base import n_steps_for
 from hoopbench.engines.options import Profile, check_profile
 from hoopbench.engines.registry import engine_class, engine_names
@@ -30,6 +29,7 @@ from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene, scene_names
 from hoopbench.models.checks import check_real
 from hoopbench.models.scene import THETA0_LIMIT_DEG, Scene
+from hoopbench.reports.sweep.folder_files import FolderFileError, read_input_file
 
 __all__ = [
     "MAX_SUITE_RUNS",
@@ -41,6 +41,7 @@ __all__ = [
     "TrajectoryChoice",
     "VariantSpec",
     "builtin_suite",
+    "check_catalogue_name",
     "load_suite",
     "parse_suite",
     "suite_path",
@@ -427,7 +428,7 @@ def _param_scene(table: Any, k: int) -> Scene:
         )
     except ValueError as exc:
         raise SuiteError(f"{where}: {exc}") from None
-    _check_catalogue_name(scene, where)
+    check_catalogue_name(scene, where)
     return scene
 
 
@@ -441,7 +442,7 @@ def _same(mine: Any, theirs: Any) -> bool:
     return bool(mine == theirs)
 
 
-def _check_catalogue_name(scene: Scene, where: str) -> None:
+def check_catalogue_name(scene: Scene, where: str) -> None:
     """A [[scene]] may take a catalogue scene's name only with its parameters (another window
     allowed, as the stability suite's painleve): rows are keyed by scene name, and the report
     draws a catalogue scene's exact path and forces by that name. Refusing here, rather than

@@ -425,7 +425,8 @@ def run_map(
     out = Path(out)
     if resume and out.is_dir():  # before the lock file is made
         check_identity(out, MAP_IDENTITY)
-    if resume and holds_files(out) and not ((out / MAP_FILE).exists() or (out/MAP_FILE).is_symlink()):
+    spec_file = out / MAP_FILE
+    if resume and holds_files(out) and not (spec_file.exists() or spec_file.is_symlink()):
         raise RunnerError(f"{out} holds no {MAP_FILE}: it is not a hop map folder to resume")
     say = None if quiet else (lambda text: _say(text, quiet, stream))
     with claim_folder(out, resume, MAP_IDENTITY, say):

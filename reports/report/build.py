@@ -12,6 +12,7 @@ from collections.abc import Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from hoopbench.engines.judging.columns import Col
@@ -29,13 +30,52 @@ from hoopbench.reports.sweep.folder_files import (
     folder_file,
     read_folder_text,
 )
+from hoopbench.reports.sweep.runner import sweep_lock
 
-__all__ = ["build_report", "report_frame"]
+__all__ = ["ReportFilesExistError", "build_report", "files_to_replace", "report_frame"]
+
+
+class ReportFilesExistError(ValueError):
+    """The report's folder holds files the report would write: nothing is replaced."""
+
+
+REPORT_FILES = ("report.md", "report.html")
+FIGURE_SUFFIXES = (".png", ".gif")
+"""What a report writes: these two and its figures (their names depend on the results)."""
+
+
+def files_to_replace(out: Path, dirs: Sequence[Path]) -> list[Path]:
+    """The files of ``out`` a report would write over: report.md, report.html and (unless
+    ``out`` is one of the results folders, whose own figures a map redraws) any figure."""
+    if not out.is_dir():
+        return []
+    own = any(out.resolve() == d.resolve() for d in dirs)
+    return sorted(
+        (
+            p
+            for p in out.iterdir()
+            if p.name in REPORT_FILES or (not own and p.suffix in FIGURE_SUFFIXES)
+        ),
+        key=lambda p: (p.name not in REPORT_FILES, p.name),
+    )
+
+
+def _check_out(out: Path, dirs: Sequence[Path], force: bool) -> None:
+    """ReportFilesExistError if ``out`` holds files the report would write (the user's files
+    are never replaced without ``force``)."""
+    held = [] if force else files_to_replace(out, dirs)
+    if held:
+        raise ReportFilesExistError(
+            f"{str(held[0])!r} exists; pass --force (force=True) to replace it"
+            + (f" (and {len(held) - 1} more file(s) the report writes)" if len(held) > 1 else "")
+        )
 
 
 def build_report(
     results_dirs: str | os.PathLike[str] | Sequence[str | os.PathLike[str]],
     out: str | Path | None = None,
+    *,
+    force: bool = False,
 ) -> Path:
     """report.md and its figures, and report.html, from stored results alone (no simulation).
 
@@ -51,9 +91,11 @@ def build_report(
     runs = [report_frame(d) for d in dirs if d not in maps]
     _refuse_shared_runs([d for d in dirs if d not in maps], runs)
     frame = pd.concat(runs, ignore_index=True) if runs else pd.DataFrame()
-    out.mkdir(parents=True, exist_ok=True)
+    _check_out(out, dirs, force)
     generated = datetime.now(UTC).isoformat(timespec="seconds")
-    with plain_text():  # names from the results are drawn as written
+    # Two reports into one folder would mix their figures: the sweeps' lock serves.
+    with sweep_lock(out), plain_text():  # names from the results are drawn as written
+        _check_out(out, dirs, force)  # again, under the lock: one may have just finished
         report = write_markdown(frame, out, generated=generated, extra=map_sections(maps, out))
         write_page(frame, out, maps=maps, map_prefixes=map_prefixes(len(maps)))  # report.html
     return report
@@ -91,9 +133,10 @@ def _check_rows(frame: pd.DataFrame, results_dir: Path) -> None:
         if missing:
             raise ValueError(f"{where}: {missing} of {len(frame)} row(s) have no {column}")
     timestep = pd.to_numeric(frame[Col.TIMESTEP], errors="coerce")
-    if (timestep.isna() | (timestep <= 0)).any():
-        bad = frame[Col.TIMESTEP][timestep.isna() | (timestep <= 0)].iloc[0]
-        raise ValueError(f"{where}: timestep must be a number > 0 s, got {bad!r}")
+    wrong = ~np.isfinite(timestep.to_numpy(dtype=float)) | (timestep <= 0).to_numpy()
+    if wrong.any():  # "at inf" in a table is no timestep a run had
+        bad = frame[Col.TIMESTEP][wrong].iloc[0]
+        raise ValueError(f"{where}: timestep must be a finite number > 0 s, got {bad!r}")
 
 
 def _trajectory_path(results_dir: Path, stored: object) -> str | None:

@@ -14,7 +14,7 @@ from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.reference.exact import solve_exact
 from hoopbench.reference.seed_euler import solve_seed_euler
-from hoopbench.reports.report.plotting import pyplot
+from hoopbench.reports.report.plotting import pyplot, save_figure
 
 __all__ = ["events_figure", "hoop_figure", "paths_figure"]
 
@@ -80,7 +80,7 @@ def hoop_figure(
     ax2.set_title("phases: white roll, orange slip, cyan flight", fontsize=9)
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
+    save_figure(fig, out, dpi=110)
     plt.close(fig)
     return out
 
@@ -110,7 +110,7 @@ def events_figure(
     top.set_title(title)
     top.legend(fontsize=8)
     out = Path(out)
-    fig.savefig(out, dpi=110)
+    save_figure(fig, out, dpi=110)
     plt.close(fig)
     return out
 
@@ -147,6 +147,6 @@ def paths_figure(
         f"{scene.name}: paths at equal time steps (red: weight, black: hoop centre)", fontsize=9
     )
     out = Path(out)
-    fig.savefig(out, dpi=100)
+    save_figure(fig, out, dpi=100)
     plt.close(fig)
     return out

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.reference.exact import solve_exact
-from hoopbench.reports.report.plotting import pyplot
+from hoopbench.reports.report.plotting import pyplot, save_figure
 
 __all__ = ["ForcePanel", "force_figure"]
 
@@ -89,6 +89,6 @@ def force_figure(panels: list[ForcePanel], out: str | Path) -> Path:
     for column, panel in enumerate(panels):
         _draw_panel(axes[0, column], axes[1, column], panel)
     out = Path(out)
-    fig.savefig(out, dpi=110)
+    save_figure(fig, out, dpi=110)
     plt.close(fig)
     return out

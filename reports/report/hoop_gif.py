@@ -12,7 +12,7 @@ import numpy as np
 
 from hoopbench.models.scene import Scene
 from hoopbench.reports.report.page_animation import HoopMotion
-from hoopbench.reports.report.plotting import pyplot
+from hoopbench.reports.report.plotting import pyplot, written_whole
 
 __all__ = ["GIF_FRAMES", "GIF_SCENE", "hoop_gif"]
 
@@ -89,6 +89,7 @@ def hoop_gif(scene: Scene, motions: list[HoopMotion], out: str | Path) -> Path:
 
     animation = FuncAnimation(fig, frame, frames=len(times), interval=_FRAME_MS, blit=False)
     out = Path(out)
-    animation.save(out, writer=PillowWriter(fps=1000 // _FRAME_MS), dpi=80)
+    writer = PillowWriter(fps=1000 // _FRAME_MS)
+    written_whole(out, lambda tmp: animation.save(tmp, writer=writer, dpi=80))
     plt.close(fig)
     return out

@@ -26,7 +26,7 @@ import pandas as pd
 from hoopbench.engines.judging.verdict import HOP_HEIGHT_FACTOR, Verdict
 from hoopbench.reference.regimes import Regime
 from hoopbench.reports.compare.selection import engine_names_of, reference_rows
-from hoopbench.reports.report.plotting import pyplot
+from hoopbench.reports.report.plotting import pyplot, save_figure
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -321,7 +321,7 @@ def _categorical(ax: Axes, grid: MapGrid, cells: np.ndarray, colours: list[str])
 def _save(fig: Figure, path: str | Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path, dpi=DPI)
     pyplot().close(fig)
     return path
 

@@ -15,13 +15,16 @@ figure with a mathtext error. A label that means math passes ``parse_math=True``
 
 from __future__ import annotations
 
+import contextlib
 import os
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from functools import cache
+from pathlib import Path
 from types import ModuleType
+from typing import Any
 
-__all__ = ["plain_text", "pyplot"]
+__all__ = ["plain_text", "pyplot", "save_figure", "written_whole"]
 
 
 @cache
@@ -44,3 +47,24 @@ def plain_text() -> Iterator[None]:
     pyplot()
     with matplotlib.rc_context({"text.parse_math": False}):
         yield
+
+
+def written_whole(path: str | os.PathLike[str], write: Callable[[Path], object]) -> Path:
+    """``write(tmp)`` into a hidden temporary file of the same suffix (matplotlib and Pillow
+    take the format from it), then renamed to ``path``: a report killed mid-figure leaves
+    the old file or none, never half a PNG under its final name."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+    return path
+
+
+def save_figure(fig: Any, path: str | os.PathLike[str], **savefig: Any) -> Path:
+    """``fig.savefig(path, **savefig)``, written whole (:func:`written_whole`)."""
+    return written_whole(path, lambda tmp: fig.savefig(tmp, **savefig))

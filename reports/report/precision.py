@@ -22,7 +22,7 @@ from hoopbench.reports.compare.selection import (
     profile_of,
     reference_rows,
 )
-from hoopbench.reports.report.plotting import pyplot
+from hoopbench.reports.report.plotting import pyplot, save_figure
 
 __all__ = [
     "FLOOR",
@@ -191,6 +191,6 @@ def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
     for ax in axes.ravel()[len(panels) :]:
         ax.set_visible(False)
     out = Path(out)
-    fig.savefig(out, dpi=100)
+    save_figure(fig, out, dpi=100)
     plt.close(fig)
     return out

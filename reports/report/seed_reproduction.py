@@ -22,7 +22,7 @@ from hoopbench.reference.seed_published import (
     SEED_PARAMETERS,
     SEED_T_SLIP,
 )
-from hoopbench.reports.report.plotting import pyplot
+from hoopbench.reports.report.plotting import pyplot, save_figure
 
 __all__ = ["delta_figure", "delta_table", "onset_table", "seed_scene", "timestep_table"]
 
@@ -106,6 +106,6 @@ def delta_figure(out: str | Path) -> Path:
     ax.set_title("The seed's hop is set by delta; the exact solver finds none", fontsize=9)
     ax.legend(fontsize=7)
     out = Path(out)
-    fig.savefig(out, dpi=110)
+    save_figure(fig, out, dpi=110)
     plt.close(fig)
     return out

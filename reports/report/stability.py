@@ -14,7 +14,7 @@ import pandas as pd
 from hoopbench.engines.judging.verdict import number_or_none
 from hoopbench.engines.options import Profile
 from hoopbench.reports.compare.selection import default_rows, profile_of
-from hoopbench.reports.report.plotting import pyplot
+from hoopbench.reports.report.plotting import pyplot, save_figure
 
 __all__ = [
     "ENERGY_GAIN_LIMIT",
@@ -150,6 +150,6 @@ def stability_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
     ax.set_title("Stability on stiff and extreme scenes (default settings)", fontsize=9)
     fig.tight_layout()
     out = Path(out)
-    fig.savefig(out, dpi=110)
+    save_figure(fig, out, dpi=110)
     plt.close(fig)
     return out
