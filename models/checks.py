@@ -20,6 +20,7 @@ __all__ = [
     "check_integer",
     "check_real",
     "interval_text",
+    "shown_value",
 ]
 
 
@@ -41,9 +42,9 @@ def check_finite(name: str, value: Any) -> float:
     try:
         out = float(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a real number, got {_shown(value)}") from None
+        raise ValueError(f"{name} must be a real number, got {shown_value(value)}") from None
     except OverflowError:  # an integer of hundreds of digits
-        raise ValueError(f"{name} must be finite, got {_shown(value)}") from None
+        raise ValueError(f"{name} must be finite, got {shown_value(value)}") from None
     if not math.isfinite(out):
         raise ValueError(f"{name} must be finite, got {out}")
     return out
@@ -67,7 +68,7 @@ def check_real(
     try:
         out = float(value)
     except (TypeError, ValueError, OverflowError):
-        shown = _shown(value)
+        shown = shown_value(value)
         raise ValueError(f"{name} must be a number {allowed}{suffix}, got {shown}") from None
     too_low = low is not None and (out <= low if low_open else out < low)
     too_high = high is not None and (out >= high if high_open else out > high)
@@ -86,7 +87,7 @@ def check_integer(name: str, value: Any, *, low: int | None = None, high: int | 
         out = int(value)
         ok = (low is None or out >= low) and (high is None or out <= high)
     if not ok:
-        raise ValueError(f"{name} must be an integer {allowed}, got {_shown(value)}")
+        raise ValueError(f"{name} must be an integer {allowed}, got {shown_value(value)}")
     return out
 
 
@@ -94,7 +95,7 @@ _SHOWN_DIGITS = 40
 """An integer of more digits is shown by its length: the line stays one line."""
 
 
-def _shown(value: Any) -> str:
+def shown_value(value: Any) -> str:
     """``value!r``, an integer of hundreds of digits as its first digits and its length."""
     text = repr(value)
     if isinstance(value, int) and len(text) > _SHOWN_DIGITS:

@@ -158,8 +158,9 @@ class Scene:
         t_end = check_finite("t_end", kwargs.get("t_end", 3.0))
         if t_end > 0 and not _turns(thetadot0, t_end) <= MAX_TURNS:
             raise ValueError(
-                f"chi = {chi:g} spins the hoop {_turns(thetadot0, t_end):.3g} times in the window "
-                f"t_end = {t_end:g} s, more than {MAX_TURNS:.0e}: no run can follow it"
+                f"chi = {chi:g} (with a = {a:g} m, g = {g:g} m/s^2) spins the hoop "
+                f"{_turns(thetadot0, t_end):.3g} times in the window t_end = {t_end:g} s, more "
+                f"than {MAX_TURNS:.0e}: no run can follow it"
             )
         return cls(thetadot0=thetadot0, **kwargs)
 

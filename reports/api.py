@@ -395,8 +395,12 @@ def suite_job(
     # a Path is a file; text follows the command line's rule (suite_file.suite_path)
     path = suite if isinstance(suite, Path) else suite_path(str(suite))
     names = _check_names("engines", engines)
-    if run_timeout is not None:
-        run_timeout = _checked("run_timeout", check_positive_seconds, run_timeout)
+    if run_timeout is not None and (
+        isinstance(run_timeout, bool)
+        or not isinstance(run_timeout, numbers.Real)
+        or not run_timeout > 0
+    ):
+        raise OptionError("run_timeout", f"{{option}} must be > 0 s, got {run_timeout!r}")
     loaded = load_suite(path, announce)  # the whole file is checked before anything runs
     if names:
         loaded = loaded.with_engines(names)
@@ -514,13 +518,15 @@ def map_spec(
         given["nx"], given["ny"] = _checked("grid", check_grid, grid)
     fixed = dict(fixed or {})
     stored_file = Path(out) / MAP_FILE
-    if resume and not (stored_file.exists() or stored_file.is_symlink()):
-        # a new default map, silently, is not what a resume asks for
-        what = "does not exist" if not Path(out).exists() else f"holds no {MAP_FILE}"
+    stored = stored_file.exists() or stored_file.is_symlink()
+    if resume and not stored and not (out.is_dir() and any(out.iterdir())):
+        # a new default map, silently, is not what a resume asks for (a folder holding other
+        # files is refused by the run, which says what it holds)
+        what = "does not exist" if not out.exists() else "is empty"
         raise OptionError(
             "resume", f"{{option}}: {str(out)!r} {what}: there is no hop map to resume"
         )
-    if not resume:
+    if not (resume and stored):
         return MapSpec(**given, fixed=fixed)
     try:
         base = load_spec(out).to_dict()

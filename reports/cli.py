@@ -193,6 +193,19 @@ def _sweep_kept(out: str, resume: str) -> str:
     return "nothing was run or stored"
 
 
+def _write_trajectory(trajectory: Any, path: Path) -> None:
+    """Write a run's samples; a full disk or a refused write named with its path (the
+    file is written whole or not at all: models/trajectory.py)."""
+    try:
+        trajectory.write(path)
+    except OSError as exc:
+        if not _system_error(exc):
+            raise
+        exc.filename = str(path)  # the temporary file's name means nothing to the user
+        kept = "an existing file there is unchanged" if path.exists() else "nothing was written"
+        raise _write_failure(exc, path, kept) from None
+
+
 # --------------------------------------------------------------------------- output
 def _print_json(payload: dict[str, Any]) -> None:
     json.dump(payload, sys.stdout, indent=2, allow_nan=False, default=_json_default)
@@ -299,7 +312,7 @@ def _cmd_reference(args: argparse.Namespace) -> int:
         trajectory = result.trajectory() if csv else None
     payload = {"method": args.method, **events.to_dict(), "scene": scene.to_dict()}
     if trajectory is not None and csv is not None:
-        trajectory.write(csv)
+        _write_trajectory(trajectory, csv)
         payload["trajectory_file"] = str(csv)
     _emit(args, payload)
     # An answer the solver could not give (its work budget ran out) is not a success.
@@ -337,7 +350,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     if result.events is not None and result.trajectory is not None and result.info.mu:
         payload["contact"] = _contact_reading(result.trajectory, scene, result.info.mu)
     if csv and result.trajectory is not None:
-        result.trajectory.write(csv)
+        _write_trajectory(result.trajectory, csv)
         payload["trajectory_file"] = str(csv)
     _emit(args, payload)
     return 0 if result.info.status.value in ("ok", "diverged") else 1

@@ -490,7 +490,14 @@ def _variants(value: Any, engines: Sequence[str], scenes: Sequence[str]) -> tupl
         timesteps = table.get("timesteps")
         if timesteps is not None:
             timesteps = _timesteps(timesteps, f"{where}: timesteps")
-        (profile,) = _profiles(table.get("profile", "tuned"), f"{where}: profile")
+        profile_value = table.get("profile", "tuned")
+        if not isinstance(profile_value, str):  # one variant is one profile
+            allowed = ", ".join(p.value for p in Profile)
+            raise SuiteError(
+                f"{where}: profile must be one of {allowed} (a variant has one; the suite's "
+                f"profiles key lists several), got {profile_value!r}"
+            )
+        (profile,) = _profiles(profile_value, f"{where}: profile")
         only = _variant_scenes(table.get("scenes"), scenes, where)
         try:
             settings = RunSettings(geometry=geometry, options=options, profile=profile)

@@ -452,9 +452,9 @@ def check_stored_points(spec: MapSpec, rows: Any, where: str) -> None:
         bad = ~np.isfinite(indices) | (indices != np.round(indices))
         bad |= (indices < 0) | (indices >= count)
         if bad.any():
-            shown = rows[index].iloc[int(np.argmax(bad))]
+            shown = indices[int(np.argmax(bad))]
             raise ValueError(
-                f"{where}: a row has {index} = {shown!r}, not a point of the map's grid "
+                f"{where}: a row has {index} = {shown:g}, not a point of the map's grid "
                 f"(0 to {count - 1}: {MAP_FILE} says n{value} = {count})"
             )
         expected = spec.axis_values(axis)[indices.astype(np.int64)]

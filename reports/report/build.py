@@ -56,7 +56,7 @@ def files_to_replace(out: Path, dirs: Sequence[Path]) -> list[Path]:
             for p in out.iterdir()
             if p.name in REPORT_FILES or (not own and p.suffix in FIGURE_SUFFIXES)
         ),
-        key=lambda p: (p.name not in REPORT_FILES, p.name),
+        key=lambda p: (REPORT_FILES.index(p.name) if p.name in REPORT_FILES else 2, p.name),
     )
 
 
@@ -136,6 +136,7 @@ def _check_rows(frame: pd.DataFrame, results_dir: Path) -> None:
     wrong = ~np.isfinite(timestep.to_numpy(dtype=float)) | (timestep <= 0).to_numpy()
     if wrong.any():  # "at inf" in a table is no timestep a run had
         bad = frame[Col.TIMESTEP][wrong].iloc[0]
+        bad = bad.item() if hasattr(bad, "item") else bad  # 'inf', not 'np.float64(inf)'
         raise ValueError(f"{where}: timestep must be a finite number > 0 s, got {bad!r}")
 
 

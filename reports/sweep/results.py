@@ -316,7 +316,10 @@ def read_runs(
         return pd.DataFrame(columns=list(BOOKKEEPING_COLUMNS) if wanted is None else wanted)
     if "run_id" not in dataset.schema.names:  # no sweep writes it so: the folder is not ours
         raise ValueError(f"{Path(out_dir) / RUNS_NAME}: the table has no run_id column")
-    frame = dataset.to_table(columns=wanted).to_pandas()
+    try:
+        frame = dataset.to_table(columns=wanted).to_pandas()
+    except pa.ArrowException as exc:  # a part no sweep wrote: name the folder it is in
+        raise ValueError(f"{Path(out_dir) / RUNS_NAME}: {exc}") from None
     frame = frame.sort_values("seq", kind="stable")
     if latest:
         frame = frame.drop_duplicates("run_id", keep="last")
