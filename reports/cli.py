@@ -5,17 +5,31 @@ Sub-commands: ``scenes``, ``reference``, ``simulate``, ``model``, ``settings``, 
 Bad arguments give a one-line error on stderr and exit status 2. JSON goes to stdout only.
 """
 
+# ruff: noqa: E402  (the signal handler below is set before the heavy imports)
 from __future__ import annotations
 
 import argparse
 import json
 import os
 import re
+import signal
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
 
+
+def _stopped_while_starting(signum: int, frame: object) -> None:
+    """Ctrl-C while the command's modules load (a second or more): one line, not the
+    import machinery's traceback; nothing has run."""
+    os.write(2, b"hoopbench: interrupted (Ctrl-C) while starting; nothing ran\n")
+    os._exit(128 + signum)
+
+
+if __name__ == "__main__" or Path(sys.argv[0]).name == "hoopbench":  # the command, not an import
+    signal.signal(signal.SIGINT, _stopped_while_starting)
+
+# isort: split
 from hoopbench import __version__
 from hoopbench.engines.options import Profile
 from hoopbench.engines.registry import engine_class, engine_classes, get_engine
@@ -204,6 +218,12 @@ def _write_trajectory(trajectory: Any, path: Path) -> None:
         exc.filename = str(path)  # the temporary file's name means nothing to the user
         kept = "an existing file there is unchanged" if path.exists() else "nothing was written"
         raise _write_failure(exc, path, kept) from None
+
+
+def _interrupted_sweep(out: str, resume: str) -> int:
+    """Ctrl-C outside the runner's handling: one line saying what the folder keeps."""
+    _error(f"interrupted (Ctrl-C); {_sweep_kept(out, resume)}")
+    return EXIT_INTERRUPTED
 
 
 # --------------------------------------------------------------------------- output
@@ -467,6 +487,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
             )
     except RunnerError as exc:
         raise UsageError(str(exc)) from None
+    except KeyboardInterrupt:  # outside the runner's own handling (between a map's stages)
+        return _interrupted_sweep(args.out, resume)
     except OSError as exc:
         if not _system_error(exc):
             raise
@@ -602,6 +624,8 @@ def _cmd_map(args: argparse.Namespace) -> int:
             )
     except RunnerError as exc:
         raise UsageError(str(exc)) from None
+    except KeyboardInterrupt:  # outside the runner's own handling (between a map's stages)
+        return _interrupted_sweep(args.out, resume)
     except OSError as exc:
         if not _system_error(exc):
             raise
@@ -855,6 +879,8 @@ def _parser() -> _Parser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    if signal.getsignal(signal.SIGINT) is _stopped_while_starting:
+        signal.signal(signal.SIGINT, signal.default_int_handler)  # loaded: main says it
     try:
         args = _parser().parse_args(argv)
         code = args.func(args)

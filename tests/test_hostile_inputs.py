@@ -424,3 +424,37 @@ def test_first_use_from_several_threads_finds_every_engine():
     for _ in range(3):
         done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
         assert done.stdout.strip() == "[]", done.stdout + done.stderr
+
+
+def test_ctrl_c_while_the_command_starts_is_one_line():
+    """Ctrl-C in the first second of compare printed the import machinery's traceback (the
+    command's modules take a second or more to load). The handler is set before them."""
+    code = (
+        "import os, signal, sys, time\n"
+        "sys.argv[0] = '/bin/hoopbench'\n"
+        "import hoopbench.reports.cli\n"
+        "os.kill(os.getpid(), signal.SIGINT)\n"
+        "time.sleep(30)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 130
+    assert done.stderr == "hoopbench: interrupted (Ctrl-C) while starting; nothing ran\n"
+
+
+def test_ctrl_c_between_a_maps_stages_says_what_is_kept(tmp_path, monkeypatch, capsys):
+    """It said 'before anything ran' after 16 rows were stored."""
+    from hoopbench.reports import api
+
+    out = tmp_path / "m"
+
+    def stage_one_then_ctrl_c(spec, folder, **kwargs):
+        (Path(folder) / "runs").mkdir(parents=True)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(api, "run_hop_map", stage_one_then_ctrl_c)
+    assert main(["map", "--grid", "1x1", "--engines", "--out", str(out)]) == 130
+    line = capsys.readouterr().err.strip()
+    assert line == (
+        f"hoopbench: interrupted (Ctrl-C); the runs stored before are kept in {out}/runs; "
+        f"resume with: hoopbench map --out {out} --resume"
+    )
