@@ -174,6 +174,25 @@ def _check_names(option: str, value: Any) -> list[str] | None:
     return list(value)
 
 
+def _check_folders(option: str, value: Any) -> list[Path]:
+    """A folder, or a list of them."""
+    items = [value] if isinstance(value, str | os.PathLike) else value
+    if not isinstance(items, Sequence) or not all(
+        isinstance(item, str | os.PathLike) for item in items
+    ):
+        raise OptionError(option, f"{{option}} must be a folder or a list of them, got {value!r}")
+    return [Path(item) for item in items]
+
+
+def _check_pair(option: str, value: Any) -> tuple[Any, ...] | None:
+    """None, or two values (low, high); what they must be, the map's spec says."""
+    if value is None:
+        return None
+    if isinstance(value, str) or not isinstance(value, Sequence) or len(value) != 2:
+        raise OptionError(option, f"{{option}} must be a pair (low, high), got {value!r}")
+    return tuple(value)
+
+
 _E = TypeVar("_E", bound=Enum)
 
 
@@ -503,8 +522,8 @@ def map_spec(
         for key, value in (
             ("x", x),
             ("y", y),
-            ("x_range", None if x_range is None else tuple(x_range)),
-            ("y_range", None if y_range is None else tuple(y_range)),
+            ("x_range", _check_pair("x_range", x_range)),
+            ("y_range", _check_pair("y_range", y_range)),
             ("t_end", t_end),
             ("engines", None if engines is None or isinstance(engines, str) else tuple(engines)),
             ("timestep", timestep),
@@ -516,6 +535,8 @@ def map_spec(
         given["engines"] = engines  # MapSpec names it: a list of names, not one string
     if grid is not None:
         given["nx"], given["ny"] = _checked("grid", check_grid, grid)
+    if fixed is not None and not isinstance(fixed, Mapping):
+        raise OptionError("fixed", f"{{option}} must be a mapping of parameters, got {fixed!r}")
     fixed = dict(fixed or {})
     stored_file = Path(out) / MAP_FILE
     stored = stored_file.exists() or stored_file.is_symlink()
@@ -625,7 +646,7 @@ def report(
 
     An existing report.md is replaced only with ``force=True``.
     """
-    folders = [Path(results)] if isinstance(results, str | Path) else [Path(f) for f in results]
+    folders = _check_folders("results", results)
     if not folders:
         raise OptionError("results", "{option} must name at least one results folder")
     for folder in folders:

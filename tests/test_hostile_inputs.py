@@ -300,6 +300,10 @@ API_REFUSALS = [
         "the catalogue's scene of that name has other parameters (lam 0.5",
     ),
     (lambda r, t: hb.scene(lam=0.9, mus=0.8, thetadot0=1e200), "thetadot0 = 1e+200 rad/s"),
+    # TypeErrors that named no option
+    (lambda r, t: hb.report(3), "results must be a folder or a list of them, got 3"),
+    (lambda r, t: hb.map(t / "m", x_range=3), "x_range must be a pair (low, high), got 3"),
+    (lambda r, t: hb.map(t / "m", fixed=3), "fixed must be a mapping of parameters, got 3"),
 ]
 
 
