@@ -20,14 +20,17 @@ from typing import TYPE_CHECKING, Any, NoReturn
 
 
 def _stopped_while_starting(signum: int, frame: object) -> None:
-    """Ctrl-C while the command's modules load (a second or more): one line, not the
-    import machinery's traceback; nothing has run."""
-    os.write(2, b"hoopbench: interrupted (Ctrl-C) while starting; nothing ran\n")
+    """Ctrl-C or SIGTERM while the command's modules load (a second or more): one line, not
+    the import machinery's traceback; nothing has run."""
+    what = "Ctrl-C" if signum == signal.SIGINT else signal.Signals(signum).name
+    os.write(2, f"hoopbench: interrupted ({what}) while starting; nothing ran\n".encode())
     os._exit(128 + signum)
 
 
+_STARTING_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 if __name__ == "__main__" or Path(sys.argv[0]).name == "hoopbench":  # the command, not an import
-    signal.signal(signal.SIGINT, _stopped_while_starting)
+    for _signal in _STARTING_SIGNALS:
+        signal.signal(_signal, _stopped_while_starting)
 
 # isort: split
 from hoopbench import __version__
@@ -879,8 +882,9 @@ def _parser() -> _Parser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    if signal.getsignal(signal.SIGINT) is _stopped_while_starting:
-        signal.signal(signal.SIGINT, signal.default_int_handler)  # loaded: main says it
+    if signal.getsignal(signal.SIGINT) is _stopped_while_starting:  # loaded: main says it
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
     try:
         args = _parser().parse_args(argv)
         code = args.func(args)

@@ -19,6 +19,7 @@ import fcntl
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -430,19 +431,20 @@ def test_first_use_from_several_threads_finds_every_engine():
         assert done.stdout.strip() == "[]", done.stdout + done.stderr
 
 
-def test_ctrl_c_while_the_command_starts_is_one_line():
+@pytest.mark.parametrize(("sig", "shown"), [("SIGINT", "Ctrl-C"), ("SIGTERM", "SIGTERM")])
+def test_a_signal_while_the_command_starts_is_one_line(sig, shown):
     """Ctrl-C in the first second of compare printed the import machinery's traceback (the
     command's modules take a second or more to load). The handler is set before them."""
     code = (
         "import os, signal, sys, time\n"
         "sys.argv[0] = '/bin/hoopbench'\n"
         "import hoopbench.reports.cli\n"
-        "os.kill(os.getpid(), signal.SIGINT)\n"
+        f"os.kill(os.getpid(), signal.{sig})\n"
         "time.sleep(30)\n"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
-    assert done.returncode == 130
-    assert done.stderr == "hoopbench: interrupted (Ctrl-C) while starting; nothing ran\n"
+    assert done.returncode == 128 + getattr(signal, sig)
+    assert done.stderr == f"hoopbench: interrupted ({shown}) while starting; nothing ran\n"
 
 
 def test_ctrl_c_between_a_maps_stages_says_what_is_kept(tmp_path, monkeypatch, capsys):
