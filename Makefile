@@ -10,7 +10,7 @@ ifndef OUT
 OUT := reports/output/$(shell date +%Y%m%d-%H%M%S)
 endif
 PACKAGE_FILES := $(sort $(wildcard about/*.py models/*.py reference/*.py engines/*.py \
-	engines/*/*.py reports/*.py reports/*/*.py reports/*/*.toml reports/compare/suites/*.toml))
+	engines/*/*.py engines/*/*.toml reports/*.py reports/*/*.py reports/compare/suites/*.toml))
 
 .PHONY: test report findings lint format clean bench FORCE
 

@@ -34,6 +34,10 @@ class PhaseKind(StrEnum):
     ROLL = "roll"
     SLIP = "slip"
     FLIGHT = "flight"
+    CHATTER = "chatter"
+    """Friction at the Coulomb cone on alternate steps and inside it on average: an engine's
+    chattering contact (engines/judging/contact.py), neither a roll nor a slip. The exact
+    solution never has it."""
 
 
 @dataclass(frozen=True)
@@ -50,8 +54,13 @@ class Phase:
 
     @property
     def code(self) -> str:
-        """Short label: R (roll), S+ / S- (slip with its sigma), F (flight)."""
-        letter = {PhaseKind.ROLL: "R", PhaseKind.SLIP: "S", PhaseKind.FLIGHT: "F"}[self.kind]
+        """Short label: R (roll), S+ / S- (slip with its sigma), F (flight), C (chatter)."""
+        letter = {
+            PhaseKind.ROLL: "R",
+            PhaseKind.SLIP: "S",
+            PhaseKind.FLIGHT: "F",
+            PhaseKind.CHATTER: "C",
+        }[self.kind]
         return letter + {1: "+", -1: "-"}.get(self.sigma or 0, "")
 
     def to_dict(self) -> dict[str, Any]:

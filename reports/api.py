@@ -28,13 +28,16 @@ from typing import Any, TypeVar
 import numpy as np
 import pandas as pd
 
+from hoopbench.engines.judging.columns import Col
+from hoopbench.engines.judging.contact import canonical_events, read_run
+from hoopbench.engines.judging.verdict import number_or_none
 from hoopbench.engines.options import Profile, check_profile
 from hoopbench.engines.registry import engine_class, engine_names
 from hoopbench.engines.run import RunResult, RunStatus
 from hoopbench.engines.settings import DEFAULT_TIMESTEP, RunSettings
 from hoopbench.models.catalogue import get_scene, scene_names
 from hoopbench.models.checks import check_real
-from hoopbench.models.events import Events
+from hoopbench.models.events import Events, Outcome
 from hoopbench.models.scene import THETA0_LIMIT_DEG, Scene
 from hoopbench.reference.exact import DEFAULT_ATOL, DEFAULT_RTOL, ExactSolution, solve_exact
 from hoopbench.reports.compare import suite as suite_runs
@@ -317,7 +320,26 @@ class EngineRun:
 
     @property
     def events(self) -> Events | None:
-        """The events the shared detectors found (None when the run failed first)."""
+        """The run's events by the canonical reading (engines/judging/contact.py), as the
+        verdict and every table read them: the row's unprefixed columns (None when the run
+        failed first)."""
+        result = self.result
+        if result.events is None or result.trajectory is None:
+            return None
+        scene, mu = self.task.scene, self.row.get(Col.MU)
+        reading = read_run(
+            result.trajectory,
+            scene,
+            scene.mus if mu is None else float(mu),
+            window_end=number_or_none(self.row.get(Col.EXACT_T_IMPACT)),
+        )
+        painleve = result.events.outcome is Outcome.PAINLEVE
+        return canonical_events(result.trajectory, reading, painleve=painleve)
+
+    @property
+    def kin_events(self) -> Events | None:
+        """The events the shared detectors read off the clearance and slip velocity (the
+        kinematic reading, the row's kin_* columns), to compare; None when the run failed."""
         return self.result.events
 
     @property

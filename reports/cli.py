@@ -289,8 +289,8 @@ def _summary(payload: dict[str, Any]) -> str:
         for p in phases:
             sigma = f" sigma={p['sigma']:+d}" if p.get("sigma") else ""
             lines.append(f"  {p['kind']:<7}{p['t_start']:>12.6f} .. {p['t_end']:.6f} s{sigma}")
-    if payload.get("contact"):
-        lines += _contact_lines(payload["contact"])
+    if payload.get("reading"):
+        lines += _reading_lines(payload["reading"], payload.get("kin") or {})
     return "\n".join(lines)
 
 
@@ -371,7 +371,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     result = get_engine(args.engine).run(scene, settings)
     payload = {**result.to_dict(), "scene": scene.to_dict()}
     if result.events is not None and result.trajectory is not None and result.info.mu:
-        payload["contact"] = _contact_reading(result.trajectory, scene, result.info.mu)
+        payload = {**_canonical(result, scene, result.info.mu), "scene": scene.to_dict()}
     if csv and result.trajectory is not None:
         _write_trajectory(result.trajectory, csv)
         payload["trajectory_file"] = str(csv)
@@ -379,32 +379,51 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     return 0 if result.info.status.value in ("ok", "diverged") else 1
 
 
-def _contact_reading(trajectory: Any, scene: Any, mu: float) -> dict[str, Any]:
-    """The run read through its contact force (engines/judging/contact.py), beside the
-    detectors' reading: the events as the verdict reads them."""
+def _canonical(result: Any, scene: Any, mu: float) -> dict[str, Any]:
+    """The run's payload with its events by the canonical reading (engines/judging/
+    contact.py) at the top level, as the verdict reads them; the reading's own numbers under
+    ``reading``; the kinematic reading (clearance and slip velocity) under ``kin``, the one
+    place it is shown, to compare."""
     from dataclasses import asdict
 
-    from hoopbench.engines.judging.contact import ContactSettings, read_contact
+    from hoopbench.engines.judging.columns import Col
+    from hoopbench.engines.judging.comparison import scene_exact_columns
+    from hoopbench.engines.judging.contact import canonical_events, read_run
+    from hoopbench.engines.judging.verdict import number_or_none
 
-    reading = read_contact(trajectory, mu, ContactSettings().for_hoop(scene.a, scene.g))
-    out = asdict(reading)
-    out["flights"] = len(reading.flights)
-    return out
+    trajectory, kin = result.trajectory, result.events
+    # The exact window's end, as the row (hb.run, the suites) reads the same run with.
+    window_end = number_or_none(scene_exact_columns(scene, mu).get(Col.EXACT_T_IMPACT))
+    reading = read_run(trajectory, scene, mu, window_end=window_end)
+    events = canonical_events(trajectory, reading, painleve=kin.outcome is Outcome.PAINLEVE)
+    payload = {k: v for k, v in result.to_dict().items() if k not in kin.to_dict()}
+    extras = asdict(reading)
+    extras = {k: extras[k] for k in _READING_EXTRAS}
+    extras["flights"] = len(reading.flights)
+    return {**events.to_dict(), **payload, "reading": extras, "kin": kin.to_dict()}
 
 
-def _contact_lines(contact: dict[str, Any]) -> list[str]:
+_READING_EXTRAS = (
+    "chatter_count",
+    "chatter_max_clearance",
+    "creep_time",
+    "creep_max_speed",
+    "cone_stick_time",
+    "chattering_time",
+)
+
+
+def _reading_lines(reading: dict[str, Any], kin: dict[str, Any]) -> list[str]:
     return [
-        "by the contact force (the events as the verdict reads them)",
-        f"  phases       {contact['phases']}",
-        f"  slip onset   t = {_fmt(contact['t_slip'], ' s')}, "
-        f"re-stick t = {_fmt(contact['t_restick'], ' s')}",
-        f"  lift-off     t = {_fmt(contact['t_lift'], ' s')}, "
-        f"impact t = {_fmt(contact['t_impact'], ' s')}, "
-        f"hop height {_fmt(contact['hop_height'], ' m')}",
-        f"  chatter      {contact['chatter_count']} of {contact['flights']} flights "
-        f"(largest clearance {_fmt(contact['chatter_max_clearance'], ' m')}); "
-        f"creep {_fmt(contact['creep_time'], ' s')} "
-        f"(up to {_fmt(contact['creep_max_speed'], ' m/s')})",
+        f"contact        {reading['chatter_count']} of {reading['flights']} flights are "
+        f"chatter (largest clearance {_fmt(reading['chatter_max_clearance'], ' m')}); "
+        f"creep {_fmt(reading['creep_time'], ' s')} "
+        f"(up to {_fmt(reading['creep_max_speed'], ' m/s')}); stick outside the cone "
+        f"{_fmt(reading['cone_stick_time'], ' s')}; "
+        f"chattering {_fmt(reading['chattering_time'], ' s')}",
+        "to compare, the kinematic reading (clearance and slip velocity; the kin_ columns): "
+        f"slip t = {_fmt(kin.get('t_slip'), ' s')}, lift-off t = {_fmt(kin.get('t_lift'), ' s')}, "
+        f"hop height {_fmt(kin.get('hop_height'), ' m')}",
     ]
 
 

@@ -163,12 +163,14 @@ def test_lone_saturated_steps_in_a_chattering_contact_are_no_slip():
 
 def test_a_sparse_contact_keeps_its_mode():
     """Box2D on high-spin: the contact force acts on one step in fifty while the hoop rolls;
-    its roll is still the first mode, and the slip starts where friction saturates."""
+    its roll is still the first mode, and the slip starts where friction saturates and the
+    rim slides."""
     n, f, clear, slip = _rolling()
     sparse = np.ones(len(n), dtype=bool)
     sparse[::50] = False  # 4 ms of steps with force before the slip, under the 5 ms sustain
     n[sparse] = f[sparse] = 0.0
     f[2000:] = -0.5 * n[2000:]
+    slip[2000:] = 0.05
     reading = read_contact(_record(n, f, clear, slip), mu=0.5)
     assert reading.phases == "R S+"
     assert reading.t_slip == pytest.approx(2000 * DT, abs=DT)
@@ -221,16 +223,25 @@ def test_friction_that_sags_just_below_the_cone_keeps_slipping():
     slip[1000:2000] = 0.02
     reading = read_contact(_record(n, f, clear, slip), mu=0.5)
     assert reading.phases == "R S+ R"
-    assert reading.t_slip == pytest.approx(0.1) and reading.t_restick == pytest.approx(0.2)
+    # The onset is the first sample at the cone whose window mean holds it: here the
+    # friction sags under 0.999 mu n at once, so within half a window of the first one.
+    half = ContactSettings().window / 2
+    assert 0.1 <= reading.t_slip <= 0.1 + half + 2 * DT
+    assert reading.t_restick == pytest.approx(0.2)
 
 
-def test_friction_just_under_the_cone_while_sliding_is_a_slip():
-    """Drake stock slides at up to 0.8 m/s with |f| at 0.98-0.995 mu n: a slip. The same
-    friction with the rim at rest (rolling) is no slip, and neither is creep far inside
-    the cone."""
+def test_sliding_with_friction_that_never_reaches_the_cone_is_creep():
+    """Sliding with friction inside the cone (0.985 mu n, never at it) is creep, not a slip
+    (the canonical reading; before issue 24 a 5 % "sliding saturation" rule read it as a
+    slip, and read a MuJoCo/Box2D/Rapier creep at 0.95 mu n as a false slip). Once the
+    friction reaches the cone, the same sliding at 0.985 mu n continues the slip."""
     n, f, clear, slip = _rolling()
     f[1000:2000] = -0.5 * 0.985 * n[1000:2000]
     slip[1000:2000] = np.linspace(0.002, 0.4, 1000)
+    reading = read_contact(_record(n, f, clear, slip), mu=0.5)
+    assert reading.phases == "R" and reading.t_slip is None
+    assert reading.creep_time == pytest.approx(0.1, abs=2 * DT)
+    f[1000:1100] = -0.5 * n[1000:1100]  # 10 ms at the cone first
     reading = read_contact(_record(n, f, clear, slip), mu=0.5)
     assert reading.phases == "R S+ R" and reading.t_slip == pytest.approx(0.1)
     still = read_contact(_record(n, f, clear, 0 * slip), mu=0.5)
@@ -238,3 +249,96 @@ def test_friction_just_under_the_cone_while_sliding_is_a_slip():
     f[1000:2000] = -0.5 * 0.5 * n[1000:2000]
     creep = read_contact(_record(n, f, clear, slip), mu=0.5)
     assert creep.phases == "R" and creep.creep_time > 0.09
+
+
+# --------------------------------------------------------------------------- issue 24
+FLOOR_STEPS = (1e-4, 5e-4, 1e-3, 1e-2)
+
+
+@pytest.mark.parametrize("dt", FLOOR_STEPS)
+def test_the_detection_floor_is_half_a_millisecond_plus_a_step(dt):
+    """The tolerance table's comment (engines/judging/tolerances.toml) quotes this floor: the
+    exact solution sampled at dt, read by the canonical reading, gives every catalogue
+    scene's phases and its events within 0.5 ms plus one step (hop height within 1e-3)."""
+    floor = 5e-4 + dt
+    for name in (n for n in scene_names() if n != "massless"):
+        solution = _exact(name)
+        scene, events = solution.scene, solution.events
+        reading = read_contact(
+            solution.sample_uniform(dt),
+            scene.mus,
+            ContactSettings().for_hoop(scene.a, scene.g),
+            window_end=events.t_impact,
+        )
+        assert reading.phases == events.phase_code, (name, dt)
+        for got, want in ((reading.t_slip, events.t_slip), (reading.t_lift, events.t_lift)):
+            assert (got is None) is (want is None), (name, dt)
+            assert got is None or abs(got - want) <= floor, (name, dt, got, want)
+        if events.hop_height is not None:
+            assert reading.hop_height == pytest.approx(events.hop_height, rel=1e-3)
+
+
+def test_every_reference_run_of_the_suites_agrees():
+    """The reference's own rows are never anything but agrees: every reference task of the
+    default and stability suites (dt 1e-2 to 1e-5, the 1 cm hoop and lam 0.999 among them),
+    judged as a suite judges it. Before issue 24 hoop-1cm at dt 0.01 was late-slip and the
+    lam-0.999 rows wrong-phases."""
+    from hoopbench.reports.compare.suite import run_and_row
+    from hoopbench.reports.compare.suite_file import load_suite, suite_path
+
+    verdicts = {}
+    for suite in ("default", "stability"):
+        for task in load_suite(suite_path(suite)).tasks():
+            if task.engine == "reference":
+                _, row = run_and_row(task)
+                verdicts[(task.scene.name, task.timestep)] = row["verdict"]
+    assert len(verdicts) >= 60
+    assert {v for v in verdicts.values() if v is not None} == {"agrees"}, verdicts
+
+
+def _window(k: int = 3000) -> tuple[np.ndarray, ...]:
+    n, f, clear, slip = _rolling(k)
+    return n, f, clear, slip
+
+
+def test_creep_with_friction_at_the_rolling_demand_is_no_slip():
+    """Failure kind 1 of issue 24: engines creeping at 1-24 mm/s with friction at
+    0.950-0.956 mu n (the exact rolling demand) were read as a slip (the 5 % 'sliding
+    saturation' rule): false-slip. Creep, never a slip."""
+    n, f, clear, slip = _window()
+    f[:] = -0.5 * 0.953 * n
+    slip[:] = np.linspace(1e-3, 24e-3, len(slip))
+    reading = read_contact(_record(n, f, clear, slip), mu=0.5)
+    assert reading.phases == "R" and reading.t_slip is None
+    assert reading.creep_time > 0.25
+
+
+def test_friction_at_the_cone_on_alternate_steps_is_chattering_not_an_early_slip():
+    """Failure kind 2: friction at the cone on every other step, its mean the exact rolling
+    friction (0.486 against 0.439 mu n), was read as a slip 16-95 ms early. The real slip
+    starts where the mean friction reaches the cone and the rim slides."""
+    n, f, clear, slip = _window()
+    f[:] = -0.5 * 0.2 * n
+    f[500:2000:2] = -0.5 * n[500:2000:2]  # at the cone on alternate steps
+    slip[500:2000] = 2e-3  # the rim creeps meanwhile
+    f[2000:] = -0.5 * n[2000:]
+    slip[2000:] = np.linspace(2e-3, 0.2, 1000)
+    reading = read_contact(_record(n, f, clear, slip), mu=0.5)
+    assert reading.phases == "R C S+"
+    assert reading.t_slip == pytest.approx(0.2, abs=DT)
+    assert reading.chattering_time == pytest.approx(0.15, abs=5e-3)
+
+
+def test_a_stick_outside_the_cone_is_a_violation_not_a_slip():
+    """Failure kind 3: DART stock sticks (|s| < 2e-7 m/s) with |f| at 1.23-2.0 mu n; with no
+    upper bound on |f| / (mu n) it read as 'slip onset on time'. A stick outside the cone,
+    sized; the slip starts where the rim slides, 53 ms later."""
+    n, f, clear, slip = _window()
+    f[1000:] = -0.5 * 1.5 * n[1000:]
+    slip[1000:1530] = 1e-7
+    f[1530:] = -0.5 * n[1530:]
+    slip[1530:] = np.linspace(2e-3, 0.1, len(slip) - 1530)
+    reading = read_contact(_record(n, f, clear, slip), mu=0.5)
+    assert reading.phases == "R S+"
+    assert reading.t_slip == pytest.approx(0.153, abs=2.5e-3)
+    assert reading.cone_stick_time == pytest.approx(0.053, abs=3e-3)

@@ -1,4 +1,8 @@
-"""Every engine against the exact reference, with the tolerances of reports/report/tolerances.toml.
+"""Every engine against the exact reference, with the one tolerance table
+(engines/judging/tolerances.toml): engines within [loose], the reference within [tight].
+
+These regression tests read the detectors' events (the kinematic reading, hb's kin_events),
+as their expected failures were measured; the verdict reads the canonical reading.
 
 One run per (engine, scene) is cached for the whole module: the engines are the slow part.
 """
@@ -13,13 +17,13 @@ import pytest
 from conftest import engine_unavailable
 
 from hoopbench.engines.base import DivergenceLimits, EngineUnavailableError
+from hoopbench.engines.judging.tolerances import Tier, event_tolerances, tolerances
 from hoopbench.engines.registry import engine_names, get_engine
 from hoopbench.engines.run import RunResult, RunStatus
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene, scene_names
 from hoopbench.models.scene import Scene
 from hoopbench.reference.exact import solve_exact
-from hoopbench.reports.report.tolerances import tolerances
 
 TOL = tolerances()
 ENGINES = [name for name in engine_names() if name != "reference"]
@@ -64,11 +68,13 @@ def test_seed_runs_clean(engine):
 
 @pytest.mark.parametrize("engine", ENGINES)
 def test_seed_slip_onset(engine):
-    """Refined slip onset within [slip] t_s and theta_deg of the exact onset for the same mu."""
+    """Refined slip onset within [loose] t_slip_s and [slip] theta_deg of the exact onset for
+    the same mu."""
     events = run(engine, "seed").events
     ref = exact("seed")
     assert events.t_slip is not None, "no slip detected"
-    assert abs(events.t_slip - ref.t_slip) <= TOL["slip"]["t_s"], (events.t_slip, ref.t_slip)
+    limit = event_tolerances(Tier.LOOSE).t_slip
+    assert abs(events.t_slip - ref.t_slip) <= limit, (events.t_slip, ref.t_slip)
     dtheta = math.degrees(abs(events.theta_slip - ref.theta_slip))
     assert dtheta <= TOL["slip"]["theta_deg"], f"slip angle off by {dtheta:.3f} deg"
 
@@ -145,21 +151,19 @@ def _hop_cases():
 
 @pytest.mark.parametrize(("engine", "scene_name"), list(_hop_cases()))
 def test_hop(engine, scene_name):
-    """Lift-off, hop height and impact against the exact solver, [hop.<engine>] tolerances."""
+    """Lift-off, hop height and impact against the exact solver: [loose] (the reference:
+    [tight]), with the known failures of [hop.<engine>.xfail]."""
     result = run(engine, scene_name)
     assert result.info.status is RunStatus.OK, result.info.message
     ref = exact(scene_name)
     assert ref.t_lift is not None
-    tol = TOL["hop"][engine]
+    tol = event_tolerances(Tier.TIGHT if engine == "reference" else Tier.LOOSE)
     events = result.events
     assert events.t_lift is not None, "no lift-off detected"
     assert events.t_impact is not None, "no impact detected"
-    assert abs(events.t_lift - ref.t_lift) <= tol["t_lift_s"], (events.t_lift, ref.t_lift)
-    assert abs(events.t_impact - ref.t_impact) <= tol["t_impact_s"], (
-        events.t_impact,
-        ref.t_impact,
-    )
-    assert events.hop_height == pytest.approx(ref.hop_height, rel=tol["hop_height_rel"])
+    assert abs(events.t_lift - ref.t_lift) <= tol.t_lift, (events.t_lift, ref.t_lift)
+    assert abs(events.t_impact - ref.t_impact) <= tol.t_impact, (events.t_impact, ref.t_impact)
+    assert events.hop_height == pytest.approx(ref.hop_height, rel=tol.hop_height_rel)
 
 
 @pytest.mark.parametrize("engine", ["reference", *ENGINES])

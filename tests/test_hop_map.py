@@ -20,7 +20,7 @@ import pandas as pd
 import pytest
 
 from hoopbench.engines.judging.columns import FORCE_COLUMNS
-from hoopbench.engines.judging.comparison import event_columns
+from hoopbench.engines.judging.comparison import event_columns, floor_columns, kin_columns
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.scene import Scene
@@ -216,16 +216,17 @@ def test_the_reference_row_is_the_classification(tiny):
 
 TINY_VERDICTS = {
     "r000-000-pymunk": ("agrees", True),  # rolls, as the exact solution does
-    "r000-001-pymunk": ("agrees", True),  # see below
+    "r000-001-pymunk": ("close", True),  # see below
     "r001-000-pymunk": ("agrees", True),  # rolls by its contact force: see below
     "r001-001-pymunk": ("agrees", True),  # leaves the floor at once, as the exact does
 }
 """(verdict, outcome_agrees) of the tiny map's judged rows, read off their events and
 contact forces by hand. The hop at lam 0.5, chi 2 lifts off 0.92 s into the 1 s window and
-is cut there (3 mm high) while the exact hop, 0.17 m, lands at 1.53 s: its lift-off is right
-and its height cannot be told (it was 'missed-hop' when a cut flight was judged as a
-finished one). At lam 0.5, chi 0.05 pymunk's slip velocity spikes again and again, each
-spike on a step without contact force: no slip by the contact (it was 'false-slip')."""
+is cut there (3 mm high) while the exact hop, 0.17 m, lands at 1.53 s: its lift-off, 3.9 ms
+late, is within the loose tolerance (close, not tight) and its height cannot be told (it was
+'missed-hop' when a cut flight was judged as a finished one). At lam 0.5, chi 0.05 pymunk's
+slip velocity spikes again and again, each spike on a step without contact force: no slip by
+the contact (it was 'false-slip')."""
 
 
 def test_an_engine_row_carries_its_verdict_and_its_points_exact_answer(tiny):
@@ -233,7 +234,8 @@ def test_an_engine_row_carries_its_verdict_and_its_points_exact_answer(tiny):
     runs = frame[(frame["engine"] != REFERENCE) & (frame["lam"] < 1)]
     assert (runs["status"] == "ok").all()
     stored = {row["run_id"]: (row["verdict"], row["outcome_agrees"]) for _, row in runs.iterrows()}
-    assert stored == TINY_VERDICTS
+    reasons = {row["run_id"]: row["verdict_reason"] for _, row in runs.iterrows()}
+    assert stored == TINY_VERDICTS, reasons
     for row in runs.to_dict("records"):
         point = next(p for p in TINY.points() if (p.ix, p.iy) == (row["ix"], row["iy"]))
         exact = classify(point.scene()).events
@@ -301,7 +303,8 @@ def test_every_event_column_of_compare_is_a_map_column():
     scene = Scene.from_chi(2.0, lam=0.5, mus=0.8, muk=0.8, t_end=1.0)
     result = get_engine("pymunk").run(scene, RunSettings(timestep=1e-3))
     exact = dict.fromkeys(c for c in MAP_COLUMNS if c.startswith("exact_"))
-    columns = event_columns(result.events, result.trajectory, scene, exact)
+    columns = event_columns(result.trajectory, scene, scene.mus, exact)
+    columns |= kin_columns(result.events, exact) | floor_columns(scene, scene.mus, 1e-3)
     assert set(columns) <= set(MAP_COLUMNS), set(columns) - set(MAP_COLUMNS)
 
 

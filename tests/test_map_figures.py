@@ -297,10 +297,13 @@ def test_map_findings_carry_the_frames_numbers(map_dir):
         mine = frame[frame["engine"] == engine]
         both = mine[mine["hop_height_error"].notna()]
         ratio = both["hop_height"] / both["exact_hop_height"]
-        within = int(((ratio >= 0.5) & (ratio <= 2.0)).sum())
-        hops = _sentence(findings, f"Where both hop, {engine}'s")
-        assert _fractions(hops) == [(within, len(both))]
-        assert f"median ratio {ratio.median():.3g}" in hops
+        within = int(((ratio - 1.0).abs() <= 0.05).sum())  # the loose tolerance, 5 %
+        if both.empty:
+            assert not any(s.startswith(f"Where both hop, {engine}'s") for s in findings)
+        else:
+            hops = _sentence(findings, f"Where both hop, {engine}'s")
+            assert _fractions(hops) == [(within, len(both))]
+            assert f"median ratio {ratio.median():.3g}" in hops
         # The regime with the largest share of verdicts other than agrees.
         judged = mine[mine["verdict"].notna()]
         shares = {

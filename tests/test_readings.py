@@ -12,15 +12,16 @@ BASE = {
     "variant": "default",
     "timestep": 1e-4,
     "status": "ok",
+    "kin_phases": "R S+ R S- R",
     "phases": "R S+ R S- R",
-    "contact_phases": "R S+ R S- R",
-    "err_t_slip_ms": 0.1,
-    "err_contact_t_slip_ms": 0.05,
+    "kin_err_t_slip_ms": 0.1,
+    "err_t_slip_ms": 0.05,
+    "kin_err_t_lift_ms": None,
     "err_t_lift_ms": None,
-    "err_contact_t_lift_ms": None,
+    "kin_err_t_impact_ms": None,
     "err_t_impact_ms": None,
-    "err_contact_t_impact_ms": None,
 }
+"""A row with both readings: the kinematic one in kin_*, the canonical one unprefixed."""
 
 
 def _frame(*rows: dict) -> pd.DataFrame:
@@ -30,11 +31,11 @@ def _frame(*rows: dict) -> pd.DataFrame:
 def test_only_the_differences_beyond_the_resolution_are_listed():
     frame = _frame(
         {},  # the same within 1 ms: not listed
-        {"err_t_slip_ms": -914.0, "err_contact_t_slip_ms": 1.32, "phases": "R S- R S+ S- S+"},
-        {"err_t_lift_ms": 53.4, "err_contact_t_lift_ms": None},  # one reading has it
-        {"engine": "reference", "err_t_slip_ms": -914.0},  # the reference is no engine
-        {"variant": "iterations=10", "err_t_slip_ms": -914.0},  # not the default settings
-        {"timestep": 1e-3, "err_t_slip_ms": -914.0},  # not the default timestep
+        {"kin_err_t_slip_ms": -914.0, "err_t_slip_ms": 1.32, "kin_phases": "R S- R S+ S- S+"},
+        {"kin_err_t_lift_ms": 53.4, "err_t_lift_ms": None},  # one reading has it
+        {"engine": "reference", "kin_err_t_slip_ms": -914.0},  # the reference is no engine
+        {"variant": "iterations=10", "kin_err_t_slip_ms": -914.0},  # not the default settings
+        {"timestep": 1e-3, "kin_err_t_slip_ms": -914.0},  # not the default timestep
     )
     table = reading_differences(frame)
     assert list(zip(table["scene"], table["event"], strict=True)) == [
@@ -46,6 +47,6 @@ def test_only_the_differences_beyond_the_resolution_are_listed():
     assert list(table.iloc[2][["kinematic", "contact"]]) == ["+53.4 ms", "none"]
 
 
-def test_rows_stored_before_the_contact_reading_are_left_out():
-    frame = _frame({"contact_phases": None, "err_t_slip_ms": -914.0})
+def test_rows_without_both_readings_are_left_out():
+    frame = _frame({"phases": None, "kin_err_t_slip_ms": -914.0})
     assert reading_differences(frame).empty

@@ -15,7 +15,13 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from hoopbench.engines.judging.columns import FORCE_COLUMNS
+from hoopbench.engines.judging.columns import (
+    FLOOR_COLUMNS,
+    FORCE_COLUMNS,
+    RENAMED_FROM_CONTACT,
+    RENAMED_TO_KIN,
+    Col,
+)
 from hoopbench.models.formats import FileFormat, FormatVersionError
 from hoopbench.models.trajectory import FORMAT_VERSION as TRAJECTORY_VERSION
 from hoopbench.models.trajectory import Trajectory
@@ -24,6 +30,7 @@ from hoopbench.reports.compare.suite import FORMAT_VERSION, ROW_COLUMNS, compare
 from hoopbench.reports.hop_map.stages import ROWS_FORMAT_VERSION as MAP_VERSION
 from hoopbench.reports.hop_map.table import map_frame
 from hoopbench.reports.sweep import results
+from hoopbench.reports.sweep.runner import RunnerError
 
 SUITE = """
 name = "formats"
@@ -36,6 +43,24 @@ NEW_IN_3 = ["exact_t_painleve", "rms_position_m", "max_clearance", "consistent",
 NEW_IN_4 = ["g", "exact_t_last_phase", "t_last_phase", "t_final", "exact_max_slip_speed"]
 VERSION_2 = [*NEW_IN_3, "verdict", *NEW_IN_4, "profile"]
 """The columns an early version-2 table lacks (profile came late in 2)."""
+NEW_IN_7 = [
+    *FLOOR_COLUMNS,
+    Col.CONE_STICK_TIME_S,
+    Col.CHATTERING_TIME_S,
+    Col.THETA_SLIP_DEG,
+    Col.ERR_THETA_SLIP_DEG,
+]
+"""The columns issue 24 (format 7) added; a table stored before reads them empty."""
+
+
+def before_7(rows: pd.DataFrame) -> pd.DataFrame:
+    """Current rows in the layout before format 7: the kinematic reading unprefixed, the
+    contact reading in contact_* columns, the columns 7 added absent."""
+    canonical = [c for c in (*RENAMED_TO_KIN, *NEW_IN_7) if c in rows.columns]
+    rows = rows.drop(columns=[c for c in canonical if c not in RENAMED_FROM_CONTACT.values()])
+    back = {new: old for old, new in RENAMED_FROM_CONTACT.items()}
+    back |= {new: old for old, new in RENAMED_TO_KIN.items()}
+    return rows.rename(columns=back)
 
 
 def run_suite(out: Path, *, resume: bool = False) -> None:
@@ -63,11 +88,18 @@ def older(
     drop: list[str],
     version: int | None,
     timed_out: str | None = None,
+    layout_before_7: bool | None = None,
 ) -> Path:
     """The rows of ``current`` stored again without the columns ``drop``, meta.json saying
     ``version`` (None: no meta.json, as before the sweep ended); the run of engine
-    ``timed_out``, if given, stored as a timeout (a resume runs it again)."""
-    rows = results.read_runs(current).drop(columns=[*drop, "seq"])
+    ``timed_out``, if given, stored as a timeout (a resume runs it again); in the layout
+    before format 7 (``before_7``) where ``layout_before_7`` (default: an older version)."""
+    rows = results.read_runs(current)
+    if layout_before_7 is None:
+        layout_before_7 = version is None or version < FORMAT_VERSION
+    if layout_before_7:
+        rows = before_7(rows)
+    rows = rows.drop(columns=[*drop, "seq"])
     if timed_out is not None:
         rows.loc[rows["engine"] == timed_out, "status"] = "timeout"
     writer = results.RunsWriter(folder / results.RUNS_NAME)
@@ -100,12 +132,17 @@ def test_a_new_table_records_the_current_version_and_reads_unchanged(current):
 
 @pytest.mark.parametrize("version", [2, None], ids=["version-2", "no-version"])
 def test_an_early_version_2_table_is_read_migrated(current, tmp_path, version):
-    old = older(current, tmp_path, drop=VERSION_2, version=version)
+    # Version 2 had no contact reading (5) either: its canonical columns read empty.
+    old = older(current, tmp_path, drop=[*VERSION_2, *RENAMED_FROM_CONTACT], version=version)
     frame = runs_frame(old)
     assert list(frame["profile"]) == ["tuned", "tuned"]  # the profile every run had then
     assert frame[[*NEW_IN_3, "verdict", *NEW_IN_4]].isna().all().all()
     assert set(ROW_COLUMNS) <= set(frame.columns)
-    kept = [c for c in results.read_runs(current).columns if c not in {*VERSION_2, "seq"}]
+    assert frame[[*NEW_IN_7, *RENAMED_FROM_CONTACT.values()]].isna().all().all()
+    skip = {*VERSION_2, *NEW_IN_7, *RENAMED_FROM_CONTACT.values(), "seq", "kin_t_last_phase"}
+    skip |= {Col.VERDICT_FLAGS, Col.VERDICT_REASON, Col.OUTCOME, Col.ERR_HOP_HEIGHT_REL}
+    skip |= {Col.PHASES_AGREE}
+    kept = [c for c in results.read_runs(current).columns if c not in skip]
     expected = runs_frame(current)[kept]
     pd.testing.assert_frame_equal(frame[kept], expected, check_dtype=False)
 
@@ -124,7 +161,21 @@ def test_a_version_5_table_reads_the_force_columns_empty(current, tmp_path):
     frame = runs_frame(old)
     assert frame[list(FORCE_COLUMNS)].isna().all().all()
     assert runs_frame(current)[list(FORCE_COLUMNS)].notna().all().all()
-    kept = [c for c in results.read_runs(current).columns if c not in {*FORCE_COLUMNS, "seq"}]
+    skip = {*FORCE_COLUMNS, *NEW_IN_7, "seq"}
+    kept = [c for c in results.read_runs(current).columns if c not in skip]
+    pd.testing.assert_frame_equal(frame[kept], runs_frame(current)[kept], check_dtype=False)
+
+
+def test_a_version_6_table_is_read_with_one_reading(current, tmp_path):
+    """Format 7 (issue 24): a version-6 table's unprefixed events (the clearance reading)
+    become kin_*, its contact_* columns the unprefixed ones, and the verdict is judged again
+    by today's rules; the same rows read as the current table reads them."""
+    old = older(current, tmp_path, drop=[], version=6)
+    assert "contact_phases" in results.read_runs(old).columns
+    frame = runs_frame(old)
+    assert not any(c.startswith("contact_") for c in frame.columns)
+    skip = {*NEW_IN_7, "seq"}
+    kept = [c for c in results.read_runs(current).columns if c not in skip]
     pd.testing.assert_frame_equal(frame[kept], runs_frame(current)[kept], check_dtype=False)
 
 
@@ -153,20 +204,31 @@ def test_a_meta_json_that_is_not_a_json_object_is_one_line(current, tmp_path, te
         runs_frame(old)
 
 
-def test_resuming_an_older_table_keeps_its_version(current, tmp_path):
-    """A version-3 folder whose pymunk run timed out, resumed: the new row joins the old one,
-    and meta.json still says 3, so that the old row is migrated on reading."""
+def test_resuming_a_table_from_before_one_reading_is_refused(current, tmp_path):
+    """A version-3 folder whose pymunk run timed out: before issue 24 it was resumed and kept
+    its version; its rows name their columns apart from this hoopbench's (format 7), so the
+    resume stops in one line before any run, and the folder reads as before."""
     out = older(current, tmp_path / "out", drop=NEW_IN_4, version=3, timed_out="pymunk")
-    run_suite(out, resume=True)
-    assert json.loads((out / results.META_NAME).read_text())[results.FORMAT_KEY] == 3
-    frame = runs_frame(out).set_index("engine")
-    assert frame.loc["pymunk", "status"] == "ok"
-    assert pd.notna(frame.loc["pymunk", "t_final"])  # the new row, whole
-    assert pd.isna(frame.loc["reference", "t_final"])  # the old row, as stored
+    with pytest.raises(RunnerError, match="from before one reading"):
+        run_suite(out, resume=True)
+    assert runs_frame(out).set_index("engine").loc["pymunk", "status"] == "timeout"
+
+
+def test_a_table_without_a_version_in_todays_layout_is_read_as_it_is(current, tmp_path):
+    """A sweep still running (no meta.json yet) counts as version 2, yet its rows are this
+    hoopbench's: one reading leaves them as they are."""
+    stored = results.read_runs(current).drop(columns=["seq"])
+    writer = results.RunsWriter(tmp_path / results.RUNS_NAME)
+    for row in stored.to_dict("records"):
+        writer.add(row)
+    writer.flush()
+    frame = runs_frame(tmp_path)
+    kept = [c for c in stored.columns if c != "profile"]
+    pd.testing.assert_frame_equal(frame[kept], runs_frame(current)[kept], check_dtype=False)
 
 
 def test_resuming_a_table_without_a_version_records_the_oldest(current, tmp_path):
-    out = older(current, tmp_path / "out", drop=[], version=None)
+    out = older(current, tmp_path / "out", drop=[], version=None, layout_before_7=False)
     run_suite(out, resume=True)  # nothing to run: it writes the missing runs.csv and meta.json
     assert json.loads((out / results.META_NAME).read_text())[results.FORMAT_KEY] == 2
 

@@ -11,7 +11,16 @@ from __future__ import annotations
 
 from enum import StrEnum
 
-__all__ = ["CONTACT_COLUMNS", "EXACT_COLUMNS", "FORCE_COLUMNS", "Col"]
+__all__ = [
+    "EVENT_COLUMNS",
+    "EXACT_COLUMNS",
+    "FLOOR_COLUMNS",
+    "FORCE_COLUMNS",
+    "KIN_COLUMNS",
+    "RENAMED_FROM_CONTACT",
+    "RENAMED_TO_KIN",
+    "Col",
+]
 
 
 class Col(StrEnum):
@@ -71,10 +80,10 @@ class Col(StrEnum):
     EXACT_T_LAST_PHASE = "exact_t_last_phase"
     EXACT_MAX_SLIP_SPEED = "exact_max_slip_speed"
     EXACT_T_SETTLED = "exact_t_settled"
-    # The engine's events and their errors against the exact ones.
+    # The engine's events by the canonical reading (engines/judging/contact.py), and their
+    # errors against the exact ones.
     OUTCOME = "outcome"
     T_SLIP = "t_slip"
-    T_SLIP_THRESHOLD = "t_slip_threshold"
     THETA_SLIP_DEG = "theta_slip_deg"
     T_RESTICK = "t_restick"
     T_LIFT = "t_lift"
@@ -85,28 +94,9 @@ class Col(StrEnum):
     ERR_T_LIFT_MS = "err_t_lift_ms"
     ERR_T_IMPACT_MS = "err_t_impact_ms"
     ERR_HOP_HEIGHT_REL = "err_hop_height_rel"
-    ENERGY_RISE_BEFORE_SLIP = "energy_rise_before_slip"
-    ENERGY_CHANGE_END = "energy_change_end"
-    MAX_PENETRATION_M = "max_penetration_m"
-    RMS_POSITION_M = "rms_position_m"
-    MAX_CLEARANCE = "max_clearance"
-    CONSISTENT = "consistent"
-    EVENT_FLAGS = "event_flags"
     PHASES = "phases"
     T_LAST_PHASE = "t_last_phase"
-    T_FINAL = "t_final"
     PHASES_AGREE = "phases_agree"
-    # The same run read through its contact force (engines/judging/contact.py).
-    CONTACT_PHASES = "contact_phases"
-    CONTACT_T_SLIP = "contact_t_slip"
-    CONTACT_T_RESTICK = "contact_t_restick"
-    CONTACT_T_LIFT = "contact_t_lift"
-    CONTACT_T_IMPACT = "contact_t_impact"
-    CONTACT_HOP_HEIGHT = "contact_hop_height"
-    CONTACT_T_LAST_PHASE = "contact_t_last_phase"
-    ERR_CONTACT_T_SLIP_MS = "err_contact_t_slip_ms"
-    ERR_CONTACT_T_LIFT_MS = "err_contact_t_lift_ms"
-    ERR_CONTACT_T_IMPACT_MS = "err_contact_t_impact_ms"
     N_FLIGHTS = "n_flights"
     """Stretches without contact force, hops and chatter together."""
     CHATTER_COUNT = "chatter_count"
@@ -115,6 +105,48 @@ class Col(StrEnum):
     CREEP_TIME_S = "creep_time_s"
     CREEP_MAX_SPEED = "creep_max_speed"
     """m/s."""
+    CREEP_DISTANCE_M = "creep_distance_m"
+    """m: how far the rim slides while creeping (verdict creeps)."""
+    CONE_STICK_TIME_S = "cone_stick_time_s"
+    """s: the longest stick outside the Coulomb cone (verdict cone-violation)."""
+    CHATTERING_TIME_S = "chattering_time_s"
+    """s: time in chattering modes (phase code C)."""
+    # The whole run, whatever the reading.
+    ENERGY_RISE_BEFORE_SLIP = "energy_rise_before_slip"
+    ENERGY_CHANGE_END = "energy_change_end"
+    MAX_PENETRATION_M = "max_penetration_m"
+    RMS_POSITION_M = "rms_position_m"
+    MAX_CLEARANCE = "max_clearance"
+    T_FINAL = "t_final"
+    # The same run read by its clearance and slip velocity (engines/judging/detectors.py):
+    # the kinematic reading, shown only where the two readings are compared.
+    KIN_OUTCOME = "kin_outcome"
+    KIN_T_SLIP = "kin_t_slip"
+    KIN_T_SLIP_THRESHOLD = "kin_t_slip_threshold"
+    KIN_THETA_SLIP_DEG = "kin_theta_slip_deg"
+    KIN_T_RESTICK = "kin_t_restick"
+    KIN_T_LIFT = "kin_t_lift"
+    KIN_HOP_HEIGHT = "kin_hop_height"
+    KIN_T_IMPACT = "kin_t_impact"
+    KIN_ERR_T_SLIP_MS = "kin_err_t_slip_ms"
+    KIN_ERR_THETA_SLIP_DEG = "kin_err_theta_slip_deg"
+    KIN_ERR_T_LIFT_MS = "kin_err_t_lift_ms"
+    KIN_ERR_T_IMPACT_MS = "kin_err_t_impact_ms"
+    KIN_ERR_HOP_HEIGHT_REL = "kin_err_hop_height_rel"
+    KIN_PHASES = "kin_phases"
+    KIN_T_LAST_PHASE = "kin_t_last_phase"
+    CONSISTENT = "consistent"
+    """The kinematic events passed the self-consistency checks (event_checks.py)."""
+    EVENT_FLAGS = "event_flags"
+    # The exact solution read by the canonical reading at the run's timestep: the detection
+    # floor, what the reading can see at that step.
+    FLOOR_PHASES = "floor_phases"
+    """The exact phases as read at the run's timestep (shorter ones absorbed)."""
+    FLOOR_T_LAST_PHASE = "floor_t_last_phase"
+    FLOOR_ERR_T_SLIP_MS = "floor_err_t_slip_ms"
+    FLOOR_ERR_T_LIFT_MS = "floor_err_t_lift_ms"
+    FLOOR_ERR_T_IMPACT_MS = "floor_err_t_impact_ms"
+    FLOOR_ERR_HOP_HEIGHT_REL = "floor_err_hop_height_rel"
     # The contact force against the exact one (engines/judging/forces.py); suite rows only.
     FORCE_RMS_N_G = "force_rms_n_g"
     FORCE_RMS_F_G = "force_rms_f_g"
@@ -150,25 +182,100 @@ EXACT_COLUMNS = (
 )
 """The exact columns every judged row carries (:func:`comparison.exact_columns`)."""
 
-CONTACT_COLUMNS = (
-    Col.CONTACT_PHASES,
-    Col.CONTACT_T_SLIP,
-    Col.CONTACT_T_RESTICK,
-    Col.CONTACT_T_LIFT,
-    Col.CONTACT_T_IMPACT,
-    Col.CONTACT_HOP_HEIGHT,
-    Col.CONTACT_T_LAST_PHASE,
-    Col.ERR_CONTACT_T_SLIP_MS,
-    Col.ERR_CONTACT_T_LIFT_MS,
-    Col.ERR_CONTACT_T_IMPACT_MS,
+EVENT_COLUMNS = (
+    Col.OUTCOME,
+    Col.T_SLIP,
+    Col.THETA_SLIP_DEG,
+    Col.T_RESTICK,
+    Col.T_LIFT,
+    Col.HOP_HEIGHT,
+    Col.T_IMPACT,
+    Col.ERR_T_SLIP_MS,
+    Col.ERR_THETA_SLIP_DEG,
+    Col.ERR_T_LIFT_MS,
+    Col.ERR_T_IMPACT_MS,
+    Col.ERR_HOP_HEIGHT_REL,
+    Col.PHASES,
+    Col.T_LAST_PHASE,
+    Col.PHASES_AGREE,
     Col.N_FLIGHTS,
     Col.CHATTER_COUNT,
     Col.CHATTER_MAX_CLEARANCE,
     Col.CREEP_TIME_S,
     Col.CREEP_MAX_SPEED,
+    Col.CREEP_DISTANCE_M,
+    Col.CONE_STICK_TIME_S,
+    Col.CHATTERING_TIME_S,
 )
-"""The contact reading's columns (:func:`comparison.contact_columns`), in every judged row
+"""The canonical reading's columns (:func:`comparison.event_columns`), in every judged row
 of a suite and a map."""
+
+KIN_COLUMNS = (
+    Col.KIN_OUTCOME,
+    Col.KIN_T_SLIP,
+    Col.KIN_T_SLIP_THRESHOLD,
+    Col.KIN_THETA_SLIP_DEG,
+    Col.KIN_T_RESTICK,
+    Col.KIN_T_LIFT,
+    Col.KIN_HOP_HEIGHT,
+    Col.KIN_T_IMPACT,
+    Col.KIN_ERR_T_SLIP_MS,
+    Col.KIN_ERR_THETA_SLIP_DEG,
+    Col.KIN_ERR_T_LIFT_MS,
+    Col.KIN_ERR_T_IMPACT_MS,
+    Col.KIN_ERR_HOP_HEIGHT_REL,
+    Col.KIN_PHASES,
+    Col.KIN_T_LAST_PHASE,
+    Col.CONSISTENT,
+    Col.EVENT_FLAGS,
+)
+"""The kinematic reading's columns (:func:`comparison.kin_columns`): only the section that
+compares the two readings shows them."""
+
+FLOOR_COLUMNS = (
+    Col.FLOOR_PHASES,
+    Col.FLOOR_T_LAST_PHASE,
+    Col.FLOOR_ERR_T_SLIP_MS,
+    Col.FLOOR_ERR_T_LIFT_MS,
+    Col.FLOOR_ERR_T_IMPACT_MS,
+    Col.FLOOR_ERR_HOP_HEIGHT_REL,
+)
+"""The exact solution read at the run's timestep (:func:`comparison.floor_columns`): what
+the verdict absorbs."""
+
+RENAMED_TO_KIN = {
+    "outcome": Col.KIN_OUTCOME,
+    "t_slip": Col.KIN_T_SLIP,
+    "t_slip_threshold": Col.KIN_T_SLIP_THRESHOLD,
+    "theta_slip_deg": Col.KIN_THETA_SLIP_DEG,
+    "t_restick": Col.KIN_T_RESTICK,
+    "t_lift": Col.KIN_T_LIFT,
+    "hop_height": Col.KIN_HOP_HEIGHT,
+    "t_impact": Col.KIN_T_IMPACT,
+    "err_t_slip_ms": Col.KIN_ERR_T_SLIP_MS,
+    "err_theta_slip_deg": Col.KIN_ERR_THETA_SLIP_DEG,
+    "err_t_lift_ms": Col.KIN_ERR_T_LIFT_MS,
+    "err_t_impact_ms": Col.KIN_ERR_T_IMPACT_MS,
+    "err_hop_height_rel": Col.KIN_ERR_HOP_HEIGHT_REL,
+    "phases": Col.KIN_PHASES,
+    "t_last_phase": Col.KIN_T_LAST_PHASE,
+}
+"""Issue 24's migration, step 1: the unprefixed event columns of a table stored before it
+held the kinematic reading."""
+
+RENAMED_FROM_CONTACT = {
+    "contact_phases": Col.PHASES,
+    "contact_t_slip": Col.T_SLIP,
+    "contact_t_restick": Col.T_RESTICK,
+    "contact_t_lift": Col.T_LIFT,
+    "contact_t_impact": Col.T_IMPACT,
+    "contact_hop_height": Col.HOP_HEIGHT,
+    "contact_t_last_phase": Col.T_LAST_PHASE,
+    "err_contact_t_slip_ms": Col.ERR_T_SLIP_MS,
+    "err_contact_t_lift_ms": Col.ERR_T_LIFT_MS,
+    "err_contact_t_impact_ms": Col.ERR_T_IMPACT_MS,
+}
+"""Step 2: its ``contact_*`` columns held the contact reading, now the unprefixed ones."""
 
 FORCE_COLUMNS = (
     Col.FORCE_RMS_N_G,

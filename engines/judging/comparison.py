@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from hoopbench.engines.judging.columns import Col
-from hoopbench.engines.judging.contact import ContactSettings, read_contact
+from hoopbench.engines.judging.contact import canonical_events, read_run
 from hoopbench.engines.judging.forces import force_columns
 from hoopbench.engines.judging.verdict import (
     number_or_none,
@@ -27,18 +27,19 @@ from hoopbench.engines.judging.verdict import (
 )
 from hoopbench.engines.run import RunResult
 from hoopbench.models import kinematics
-from hoopbench.models.events import Events
+from hoopbench.models.events import Events, Outcome
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.reference.exact import ExactSolution, solve_exact
 from hoopbench.reference.regimes import max_slip_speed
 
 __all__ = [
-    "contact_columns",
     "event_columns",
     "exact_columns",
     "exact_solution",
+    "floor_columns",
     "judged_columns",
+    "kin_columns",
     "rms_position_error",
     "scene_exact_columns",
 ]
@@ -110,8 +111,8 @@ def _ms(seconds: float | None) -> float | None:
     return None if seconds is None else 1e3 * seconds
 
 
-def _energy_columns(events: Events, traj: Trajectory) -> dict[str, Any]:
-    before = traj.t < (events.t_slip if events.t_slip is not None else traj.t[-1])
+def _energy_columns(t_slip: float | None, traj: Trajectory) -> dict[str, Any]:
+    before = traj.t < (t_slip if t_slip is not None else traj.t[-1])
     e0 = traj.energy[0]
     return {
         Col.ENERGY_RISE_BEFORE_SLIP: float((traj.energy[before].max() - e0) / e0)
@@ -121,73 +122,139 @@ def _energy_columns(events: Events, traj: Trajectory) -> dict[str, Any]:
     }
 
 
-def _error_columns(events: Events, theta_deg: float | None, exact: Mapping[str, Any]) -> dict:
-    exact_hop = exact[Col.EXACT_HOP_HEIGHT]
+def _errors(events: Events, exact: Mapping[str, Any]) -> dict[str, float | None]:
+    """Engine minus exact: times in ms, the angle in degrees, the height relative."""
+    exact_hop = number_or_none(exact.get(Col.EXACT_HOP_HEIGHT))
+    theta = None if events.theta_slip is None else math.degrees(events.theta_slip)
     return {
-        Col.ERR_T_SLIP_MS: _ms(_error(events.t_slip, exact[Col.EXACT_T_SLIP])),
-        Col.ERR_THETA_SLIP_DEG: _error(theta_deg, exact[Col.EXACT_THETA_SLIP_DEG]),
-        Col.ERR_T_LIFT_MS: _ms(_error(events.t_lift, exact[Col.EXACT_T_LIFT])),
-        Col.ERR_T_IMPACT_MS: _ms(_error(events.t_impact, exact[Col.EXACT_T_IMPACT])),
-        Col.ERR_HOP_HEIGHT_REL: None
+        "t_slip": _ms(_error(events.t_slip, number_or_none(exact.get(Col.EXACT_T_SLIP)))),
+        "theta": _error(theta, number_or_none(exact.get(Col.EXACT_THETA_SLIP_DEG))),
+        "t_lift": _ms(_error(events.t_lift, number_or_none(exact.get(Col.EXACT_T_LIFT)))),
+        "t_impact": _ms(_error(events.t_impact, number_or_none(exact.get(Col.EXACT_T_IMPACT)))),
+        "hop": None
         if events.hop_height is None or not exact_hop
         else events.hop_height / exact_hop - 1.0,
     }
 
 
 def event_columns(
-    events: Events, traj: Trajectory, scene: Scene, exact: Mapping[str, Any]
+    traj: Trajectory,
+    scene: Scene,
+    mu: float,
+    exact: Mapping[str, Any],
+    *,
+    painleve: bool = False,
 ) -> dict[str, Any]:
-    """A judged run's event columns and their errors against ``exact`` (the row's
-    ``exact_*`` columns, :func:`exact_columns`, with None for a missing value). The events
-    are the judge's, checked against the scene (engines/judging/event_checks.py)."""
-    theta_deg = None if events.theta_slip is None else math.degrees(events.theta_slip)
-    columns = {
+    """The run's events by the canonical reading (engines/judging/contact.py) with the
+    pair's ``mu``, and their errors against ``exact`` (the row's exact columns); with
+    ``painleve``, the outcome is the reference's ``painleve``."""
+    window_end = number_or_none(exact.get(Col.EXACT_T_IMPACT))
+    reading = read_run(traj, scene, mu, window_end=window_end)
+    events = canonical_events(traj, reading, painleve=painleve)
+    errors = _errors(events, exact)
+    return {
         Col.OUTCOME: str(events.outcome),
         Col.T_SLIP: events.t_slip,
-        Col.T_SLIP_THRESHOLD: events.extra.get("t_slip_threshold"),
-        Col.THETA_SLIP_DEG: theta_deg,
+        Col.THETA_SLIP_DEG: None if events.theta_slip is None else math.degrees(events.theta_slip),
         Col.T_RESTICK: events.t_restick,
         Col.T_LIFT: events.t_lift,
         Col.HOP_HEIGHT: events.hop_height,
         Col.T_IMPACT: events.t_impact,
-        **_error_columns(events, theta_deg, exact),
-        **_energy_columns(events, traj),
-        Col.MAX_PENETRATION_M: float(max(0.0, -traj.clearance.min())),
-        Col.MAX_CLEARANCE: float(traj.clearance.max()),
-        Col.CONSISTENT: not events.flags,
-        Col.EVENT_FLAGS: " ".join(events.flags),
-        Col.PHASES: events.phase_code,
-        Col.T_LAST_PHASE: events.phases[-1].t_start if events.phases else None,
-        Col.T_FINAL: float(traj.t[-1]),
-    }
-    return columns
-
-
-def contact_columns(
-    traj: Trajectory, scene: Scene, mu: float, exact: Mapping[str, Any]
-) -> dict[str, Any]:
-    """The run read through its contact force (engines/judging/contact.py) with the pair's
-    ``mu``, and its event errors against ``exact`` (the row's exact columns)."""
-    settings = ContactSettings().for_hoop(scene.a, scene.g)
-    window_end = number_or_none(exact[Col.EXACT_T_IMPACT])
-    reading = read_contact(traj, mu, settings, window_end=window_end)
-    return {
-        Col.CONTACT_PHASES: reading.phases,
-        Col.CONTACT_T_SLIP: reading.t_slip,
-        Col.CONTACT_T_RESTICK: reading.t_restick,
-        Col.CONTACT_T_LIFT: reading.t_lift,
-        Col.CONTACT_T_IMPACT: reading.t_impact,
-        Col.CONTACT_HOP_HEIGHT: reading.hop_height,
-        Col.CONTACT_T_LAST_PHASE: reading.t_last_phase,
-        Col.ERR_CONTACT_T_SLIP_MS: _ms(_error(reading.t_slip, exact[Col.EXACT_T_SLIP])),
-        Col.ERR_CONTACT_T_LIFT_MS: _ms(_error(reading.t_lift, exact[Col.EXACT_T_LIFT])),
-        Col.ERR_CONTACT_T_IMPACT_MS: _ms(_error(reading.t_impact, exact[Col.EXACT_T_IMPACT])),
+        Col.ERR_T_SLIP_MS: errors["t_slip"],
+        Col.ERR_THETA_SLIP_DEG: errors["theta"],
+        Col.ERR_T_LIFT_MS: errors["t_lift"],
+        Col.ERR_T_IMPACT_MS: errors["t_impact"],
+        Col.ERR_HOP_HEIGHT_REL: errors["hop"],
+        Col.PHASES: reading.phases,
+        Col.T_LAST_PHASE: reading.t_last_phase,
         Col.N_FLIGHTS: len(reading.flights),
         Col.CHATTER_COUNT: reading.chatter_count,
         Col.CHATTER_MAX_CLEARANCE: reading.chatter_max_clearance,
         Col.CREEP_TIME_S: reading.creep_time,
         Col.CREEP_MAX_SPEED: reading.creep_max_speed,
+        Col.CREEP_DISTANCE_M: reading.creep_distance,
+        Col.CONE_STICK_TIME_S: reading.cone_stick_time,
+        Col.CHATTERING_TIME_S: reading.chattering_time,
+        **_energy_columns(events.t_slip, traj),
+        Col.MAX_PENETRATION_M: float(max(0.0, -traj.clearance.min())),
+        Col.MAX_CLEARANCE: float(traj.clearance.max()),
+        Col.T_FINAL: float(traj.t[-1]),
     }
+
+
+def kin_columns(events: Events, exact: Mapping[str, Any]) -> dict[str, Any]:
+    """The kinematic reading's columns (the shared detectors' events, checked against the
+    scene: engines/judging/event_checks.py) and their errors against ``exact``: shown only
+    where the two readings are compared."""
+    errors = _errors(events, exact)
+    return {
+        Col.KIN_OUTCOME: str(events.outcome),
+        Col.KIN_T_SLIP: events.t_slip,
+        Col.KIN_T_SLIP_THRESHOLD: events.extra.get("t_slip_threshold"),
+        Col.KIN_THETA_SLIP_DEG: None
+        if events.theta_slip is None
+        else math.degrees(events.theta_slip),
+        Col.KIN_T_RESTICK: events.t_restick,
+        Col.KIN_T_LIFT: events.t_lift,
+        Col.KIN_HOP_HEIGHT: events.hop_height,
+        Col.KIN_T_IMPACT: events.t_impact,
+        Col.KIN_ERR_T_SLIP_MS: errors["t_slip"],
+        Col.KIN_ERR_THETA_SLIP_DEG: errors["theta"],
+        Col.KIN_ERR_T_LIFT_MS: errors["t_lift"],
+        Col.KIN_ERR_T_IMPACT_MS: errors["t_impact"],
+        Col.KIN_ERR_HOP_HEIGHT_REL: errors["hop"],
+        Col.KIN_PHASES: events.phase_code,
+        Col.KIN_T_LAST_PHASE: events.phases[-1].t_start if events.phases else None,
+        Col.CONSISTENT: not events.flags,
+        Col.EVENT_FLAGS: " ".join(events.flags),
+    }
+
+
+def _sampled(solution: ExactSolution, timestep: float) -> Trajectory | None:
+    """The exact solution on a run's time grid, as the reference engine samples it: every
+    ``timestep`` up to the scene's window end (or the solution's end, if earlier), plus the
+    solution's last instant (the impact, for a hop). None where that is too many samples."""
+    end = min(solution.scene.t_end, solution.t_final)
+    n = math.floor(end / timestep * (1.0 + 1e-12))
+    if n > 10_000_000:
+        return None
+    t = np.unique(
+        np.minimum(np.append(np.arange(n + 1) * timestep, solution.t_final), solution.t_final)
+    )
+    sampled = solution.sample(t)
+    finite = np.isfinite(sampled.normal_force) & np.isfinite(sampled.friction_force)
+    if not finite.all():  # a Painlevé point's last instant has no finite force
+        sampled = solution.sample(t[finite])
+    return sampled if len(sampled.t) >= 2 else None
+
+
+@functools.lru_cache(maxsize=64)
+def _floor(scene: Scene, mu: float, timestep: float) -> dict[str, Any]:
+    solution = exact_solution(scene, mu)
+    exact = exact_columns(solution.events)
+    sampled = _sampled(solution, timestep)
+    if sampled is None:
+        return {}
+    window_end = number_or_none(exact.get(Col.EXACT_T_IMPACT))
+    reading = read_run(sampled, solution.scene, mu, window_end=window_end)
+    errors = _errors(canonical_events(sampled, reading), exact)
+    return {
+        Col.FLOOR_PHASES: reading.phases,
+        Col.FLOOR_T_LAST_PHASE: reading.t_last_phase,
+        Col.FLOOR_ERR_T_SLIP_MS: errors["t_slip"],
+        Col.FLOOR_ERR_T_LIFT_MS: errors["t_lift"],
+        Col.FLOOR_ERR_T_IMPACT_MS: errors["t_impact"],
+        Col.FLOOR_ERR_HOP_HEIGHT_REL: errors["hop"],
+    }
+
+
+def floor_columns(scene: Scene, mu: float, timestep: float | None) -> dict[str, Any]:
+    """The detection floor of a run (docs/report.md): the exact solution of ``scene`` with
+    ``mu``, sampled at the run's ``timestep`` and read by the canonical reading, its phases
+    and its errors against the exact events. Empty without a timestep."""
+    if timestep is None or not timestep > 0:
+        return {}
+    return dict(_floor(scene, mu, float(timestep)))
 
 
 def _row_mu(row: Mapping[str, Any], scene: Scene) -> float:
@@ -203,22 +270,26 @@ def judged_columns(
     exact: ExactSolution | None = None,
 ) -> dict[str, Any]:
     """The columns a judged run adds to its ``row`` (which holds the run's status and
-    message, the exact columns and the hoop's a and g): its events and their errors, the RMS
-    position error and the contact force against the exact one (engines/judging/forces.py)
-    when ``exact`` is given, and the verdict. A run without events (it failed or diverged)
-    gets the verdict alone."""
+    message, the exact columns, its timestep and the hoop's a and g): its events by the
+    canonical reading and their errors, the kinematic reading, the detection floor at its
+    timestep, the RMS position error and the contact force against the exact one
+    (engines/judging/forces.py) when ``exact`` is given, and the verdict. A run without
+    events (it failed or diverged) gets the verdict alone."""
     added: dict[str, Any] = {}
+    mu = _row_mu(row, scene)
     if result.events is not None and result.trajectory is not None:
-        added.update(event_columns(result.events, result.trajectory, scene, row))
-        added.update(contact_columns(result.trajectory, scene, _row_mu(row, scene), row))
-    # The phase rule and the verdict read the events as the verdict does (the contact
-    # reading), with their sizes carried to the scene's hoop (a map row has no a or g).
+        painleve = result.events.outcome is Outcome.PAINLEVE  # the reference's own verdict
+        added.update(event_columns(result.trajectory, scene, mu, row, painleve=painleve))
+        added.update(kin_columns(result.events, row))
+        if row.get(Col.EXACT_OUTCOME) is not None:
+            added.update(floor_columns(scene, mu, number_or_none(row.get(Col.TIMESTEP))))
+    # The phase rule and the verdict read the canonical events, with their sizes carried to
+    # the scene's hoop (a map row has no a or g).
     judged = {**row, **added, Col.A: scene.a, Col.G: scene.g}
     if added:
         added[Col.PHASES_AGREE] = row_phases_agree(judged)
     verdict = verdict_columns(judged)
     if exact is not None and result.events is not None and result.trajectory is not None:
         added[Col.RMS_POSITION_M] = rms_position_error(result.trajectory, exact)
-        phases = added.get(Col.CONTACT_PHASES)
-        added.update(force_columns(result.trajectory, exact, _row_mu(row, scene), phases))
+        added.update(force_columns(result.trajectory, exact, mu, added.get(Col.PHASES)))
     return {**added, **verdict}

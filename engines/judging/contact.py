@@ -1,25 +1,47 @@
-"""The events read from the contact force: the second reading of every run.
+"""The canonical reading of a run: its events read from the contact force, as the rigid
+model's laws define them. Every verdict, table, figure and finding reads these events; the
+kinematic reading (engines/judging/detectors.py, the ``kin_`` columns) is kept only to be
+set beside it. docs/report.md ("The canonical reading") states the same definitions.
 
-The kinematic detectors (:mod:`hoopbench.engines.judging.detectors`) read a run through its
-clearance and slip velocity. That reading is blind to what the engine's contact does: a hoop
-resting 9 mm deep has a clearance that crosses zero long after its contact force ends, a
-single-sample slip spike with no normal force is no slip, and a soft contact's creep (slip
-velocity while friction is far below the cone) is no Coulomb slip. This module reads the same
-run through its contact force, as the rigid model defines the events:
+With W the averaging window (4 ms on the 1 m hoop) and every mean taken over the samples
+whose time lies within W/2 of a sample's (a sample without contact force counts with n = f = 0):
 
-- **in contact** while the normal force n exceeds ``contact_level`` g;
-- **flight**: every stretch without contact is recorded with its duration and the largest
-  clearance inside it. A flight that lasts ``sustain`` and rises above the hop threshold is a
-  **hop**; the others are **chatter**, counted and sized;
-- **lift-off** is the start of the first hop, **impact** its end (the contact returns);
-- **slip**: friction saturated, |f| >= (1 - ``saturation``) mu n, while in contact; the slip
-  direction is opposite the friction force. **Roll**: in contact with friction inside the cone.
-  A change of mode counts once it lasts ``sustain``; a stretch shorter than that belongs to
-  the phase around it (pymunk loses its contact force on single steps while rolling);
-- **creep**: in contact, friction inside the cone, and the slip velocity above the
-  detectors' slip threshold: a soft contact's creep, sized, never a slip.
+- **in contact** while the normal force n > ``contact_level`` g;
+- **flight**: a stretch without contact. A flight that lasts ``sustain`` and rises above
+  ``hop_clearance`` is a **hop**; the others are chatter, counted and sized. The hop of the
+  run is the highest one that starts inside the exact window; lift-off is its start, impact
+  its end (the contact returns), hop height its largest clearance;
+- **at the cone**: |mean f| >= (1 - ``cone_tolerance``) mu mean n; **outside the cone**:
+  |mean f| > (1 + ``cone_tolerance``) mu mean n;
+- **sliding against friction**: mean slip velocity s and mean f of opposite signs, |mean s|
+  above ``slip_floor`` (the contact point moves, beyond round-off);
+- **the slip law**: friction follows the slip law rather than the rolling constraint where
+  |mean f| is at the cone (within ``cone_hold``), or where rolling cannot go on: the friction
+  the rigid model's rolling constraint needs at the run's own state (theta, thetadot),
+  mean F_roll, reaches the cone mu mean N_roll, or |mean f| lies nearer the cone than that
+  demand (a regularised friction sliding at 0.98 mu n obeys the slip law; a soft contact
+  creeping at the rolling demand, 0.95 mu n, obeys the rolling one);
+- **slip**: a stretch of samples sliding against friction under the slip law, entered where
+  a sample's own friction reaches the cone (within ``cone_tolerance``) or the rolling demand
+  reaches it, in which |mean s| exceeds ``slip_threshold`` somewhere; its direction is
+  opposite the friction;
+- **creep**: |mean s| above the slip threshold against friction, not under the slip law:
+  never a slip (``creep_time``, ``creep_max_speed``);
+- **stick outside the cone**: outside the cone and not sliding above the slip threshold: a
+  Coulomb violation, never a slip (``cone_stick_time``: its longest stretch);
+- **chattering**: not a slip, averaged friction inside the cone, but at least
+  ``chatter_share`` of the window's samples with a force have their own friction at the cone
+  (friction touches the cone on alternate steps): its own mode, code ``C``;
+- **roll**: in contact otherwise.
 
-On the exact solution both readings give the exact events (tests/test_contact_reading.py).
+A mode (roll, slip +/-, chattering, flight inside a hop) starts at its first sample once it
+gathers ``sustain`` of time before a stretch of another mode lasts ``sustain`` on its own; a
+shorter stretch belongs to the mode around it. A sample without contact force outside a hop
+takes the mode it interrupts. A roll or slip mode's start is refined, by at most W/2, to
+where the samples' own friction changes (the centred mean sees a sharp change early).
+
+On the exact solution sampled at any timestep this gives the exact events within the
+detection floor measured in tests/test_contact_reading.py; shorter phases are absorbed.
 """
 
 from __future__ import annotations
@@ -31,57 +53,71 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hoopbench.engines.judging.detectors import DetectorSettings, hoop_scale
-from hoopbench.models.events import PhaseKind
+from hoopbench.models.events import Events, Outcome, Phase, PhaseKind
+from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
+from hoopbench.reference.dynamics import rolling_forces
 
-__all__ = ["ContactReading", "ContactSettings", "Flight", "read_contact"]
+__all__ = [
+    "CHATTER_CODE",
+    "ContactReading",
+    "ContactSettings",
+    "Flight",
+    "canonical_events",
+    "read_contact",
+    "read_run",
+]
+
+CHATTER_CODE = "C"
+"""The phase code of a chattering contact (friction at the cone on alternate steps, inside
+it on average): neither a roll nor a slip."""
 
 
 @dataclass(frozen=True)
 class ContactSettings:
-    """Thresholds of the contact reading for a hoop of radius ``a`` under ``g``; stated for
-    the 1 m hoop, carried to any other as the detectors' are (:func:`hoop_scale`)."""
+    """Thresholds of the canonical reading for a hoop of radius ``a`` under ``g``; stated for
+    the 1 m hoop, carried to any other with :func:`hoop_scale` (lengths with a, speeds with
+    sqrt(g a), times with sqrt(a / g))."""
 
     a: float = 1.0
     """Hoop radius, m, these thresholds are stated for."""
     g: float = 9.8
     """Gravity, m/s^2, these thresholds are stated for."""
     contact_level: float = 1e-6
-    """In contact while n > contact_level g (dimensionless): any force at all, above round-off.
-    The exact n falls to zero at a lift-off as the square of the time left, so a higher level
-    leaves early: 1e-3 g read hop-top's lift-off 3.7 ms early, 1e-6 g reads it within a
-    sample at dt 1e-4. Every engine's force is exactly 0 without contact."""
-    saturation: float = 1e-3
-    """Friction counts as saturated when |f| >= (1 - saturation) mu n (dimensionless): the
-    tolerance of the issue's check (|f|/n >= 0.999 mu). The exact |f| / (mu n) crosses 1 at a
-    slip onset at about 1-2 per second, so the reading calls it about 0.5 ms early."""
-    saturation_exit: float = 1e-2
-    """Once slipping, friction may sag to (1 - saturation_exit) mu n without a re-stick
-    (dimensionless): Drake's regularised friction (stock stiction tolerance) holds
-    0.996-0.9999 mu n while slipping at 2-50 mm/s, which the entry tolerance alone reads as
-    a roll every other millisecond. An exact re-stick drops far below either level at once."""
-    sliding_saturation: float = 5e-2
-    """While the rim slides against its friction (|slip velocity| above the slip threshold,
-    friction opposing it), friction within this fraction of the cone counts as saturated too
-    (dimensionless). Drake's stock friction slides at up to 0.8 m/s with |f| at 0.98-0.995 mu
-    n: a slip by every reading a person would make, which the cone's tolerance alone misses
-    (measured on unseen scenes). Rolling (no slip velocity) never meets it, so the exact
-    onsets are read as before."""
+    """In contact while n > contact_level g (dimensionless): any force above round-off. The
+    exact n falls to zero at a lift-off as the square of the time left, so a higher level
+    leaves early (1e-3 g read hop-top's lift-off 3.7 ms early). Every engine's force is
+    exactly 0 without contact."""
+    window: float = 4e-3
+    """s: the averaging window W (centred). Long enough to hold several steps at dt 1e-3, so
+    that friction at the cone on alternate steps averages to what the contact transmits;
+    short beside the phases the exact solutions have (the shortest catalogue phase that
+    counts lasts 5 ms)."""
+    cone_tolerance: float = 1e-3
+    """A slip starts where |mean f| >= (1 - cone_tolerance) mu mean n (dimensionless). The
+    exact |f| / (mu n) rises to 1 at a slip onset at 1-2 per second, so a looser level reads
+    a creeping engine's onset early by this over that rate (1e-2: 5-10 ms)."""
+    cone_hold: float = 1e-2
+    """Once slipping, the slip lasts while |mean f| >= (1 - cone_hold) mu mean n and the
+    contact point slides against the friction (dimensionless). An exact re-stick drops far
+    below it at once (to the rolling demand); a regularised friction (Drake stock) that
+    sags to 0.996-0.9999 mu n while sliding stays one slip."""
+    slip_floor: float = 1e-5
+    """m/s: |mean slip velocity| above which the contact point moves at all (the exact
+    rolling solution has |s| ~ 1e-12; DART's sticks outside the cone stay below 2e-7)."""
+    chatter_share: float = 0.25
+    """A contact chatters where friction is inside the cone on average but at least this
+    share of the window's samples with a force have their own friction at the cone
+    (dimensionless): at the cone on alternate steps is a half; a lone saturated step among
+    the 40 samples of a window at dt 1e-4 is not chattering."""
     sustain: float = 5e-3
     """s: how long a new contact mode must last to count (the detectors' restick_sustain and
-    lift_sustain on the 1 m hoop); it scales with sqrt(a / g)."""
-    takeover_share: float = 0.5
-    """A new mode must also hold at least this share of the samples with a contact force in
-    the ``sustain`` after its first sample (dimensionless). Soft contacts (Rapier, Box2D)
-    chatter before a slip: the force drops out every few steps and friction touches the cone
-    on a lone step every few ms. Summed across the steps without force, those lone steps
-    read as a slip 10-21 ms early, with friction at the cone on 8-48 % of the contact samples
-    after it. MuJoCo's slip onset, at the cone on all but a step here and there, reads as
-    before."""
+    lift_sustain on the 1 m hoop)."""
     hop_clearance: float = DetectorSettings().hop_clearance
-    """m: the hop threshold (the detectors' one home, DetectorSettings.hop_clearance)."""
+    """m: the hop threshold (its one home, DetectorSettings.hop_clearance)."""
     slip_threshold: float = DetectorSettings().slip_threshold
-    """m/s: the slip speed above which a roll with unsaturated friction is creep."""
+    """m/s: a slip must slide faster than this somewhere; sliding this fast inside the cone
+    is creep."""
 
     def for_hoop(self, a: float, g: float) -> ContactSettings:
         """These thresholds carried to a hoop of radius ``a`` (m) under ``g`` (m/s^2)."""
@@ -90,9 +126,11 @@ class ContactSettings:
             self,
             a=a,
             g=g,
+            window=self.window * duration,
             sustain=self.sustain * duration,
             hop_clearance=self.hop_clearance * length,
             slip_threshold=self.slip_threshold * speed,
+            slip_floor=self.slip_floor * speed,
         )
 
 
@@ -110,34 +148,59 @@ class Flight:
 
 @dataclass(frozen=True)
 class ContactReading:
-    """A run read through its contact force. Times in s, lengths in m, speeds in m/s; None:
+    """A run read by the canonical reading. Times in s, lengths in m, speeds in m/s; None:
     did not happen."""
 
     t_slip: float | None
-    """First slip onset: friction saturates, sustained."""
+    """First slip onset."""
     t_restick: float | None
     """First return to rolling after the first slip."""
     t_lift: float | None
-    """Start of the first hop (a flight lasting ``sustain`` above the hop threshold)."""
+    """Start of the hop (the highest flight lasting ``sustain`` above the hop threshold
+    inside the exact window)."""
     t_impact: float | None
     """End of that hop: the contact returns."""
     hop_height: float | None
-    """Largest clearance inside the first hop."""
+    """Largest clearance inside the hop."""
     phases: str
-    """The contact modes as codes, e.g. 'R S+ R S- R' or 'R S+ F'."""
+    """The modes as codes, e.g. 'R S+ R S- R', 'R S+ F' or 'R C R' (C: chattering)."""
     t_last_phase: float | None
-    """Start of the last contact mode (the phase comparison's window-end rule reads it)."""
+    """Start of the last mode (the phase comparison's window-end rule reads it)."""
     flights: tuple[Flight, ...]
     """Every stretch without contact, chatter included."""
     chatter_count: int
     """Flights that are not hops (too short or too low)."""
     chatter_max_clearance: float | None
-    """m: the largest clearance inside chatter (None without chatter)."""
+    """m: the largest clearance inside those flights (None without)."""
     creep_time: float
-    """s: time rolling (in a roll mode, in contact, friction inside the cone) with |slip
-    velocity| above the slip threshold."""
+    """s: time in contact, not slipping, with |mean slip velocity| above the slip
+    threshold."""
     creep_max_speed: float | None
-    """m/s: the largest |slip velocity| while creeping (None without creep)."""
+    """m/s: the largest |mean slip velocity| while creeping (None without creep)."""
+    creep_distance: float = 0.0
+    """m: how far the contact point slides while creeping (the integral of |slip velocity|)."""
+    cone_stick_time: float = 0.0
+    """s: the longest stretch in contact with |mean f| outside the cone (by more than the
+    cone tolerance) and no sliding above the slip threshold: a Coulomb violation."""
+    chattering_time: float = 0.0
+    """s: time in chattering modes (code C)."""
+    modes: tuple[Phase, ...] = ()
+    """The modes as phases (each ends where the next starts; the last at the hop's impact
+    or the record's end)."""
+
+
+@dataclass(frozen=True)
+class _Means:
+    """Window means of a record (every sample, with n = f = 0 where there is no force)."""
+
+    friction: NDArray
+    normal: NDArray
+    slip: NDArray
+    cone_share: NDArray
+    """Share of the window's samples with a force whose own friction is at the cone."""
+    demand: NDArray | None = None
+    """|mean F_roll| / (mu mean N_roll): the rolling demand as a share of its cone (inf where
+    rolling needs a pull); None without the rolling demand."""
 
 
 def read_contact(
@@ -146,75 +209,233 @@ def read_contact(
     settings: ContactSettings | None = None,
     *,
     window_end: float | None = None,
+    rolling_demand: tuple[NDArray, NDArray] | None = None,
 ) -> ContactReading:
-    """The contact reading of ``traj`` with the pair's friction coefficient ``mu``.
+    """The canonical reading of ``traj`` with the pair's friction coefficient ``mu``.
+
+    ``rolling_demand``: (F_roll, N_roll) per sample, m/s^2, the friction and normal force the
+    rolling constraint needs at the run's own state (:func:`read_run` computes them from the
+    scene); without it, only friction at the cone follows the slip law.
 
     ``window_end`` (s): where the exact solution's window ends (its impact, for a hop). The
-    hop is the highest hop-sized flight that starts before it (a chatter flight that comes
-    first is not the hop), and the phases end with the hop's impact, as the exact ones do.
+    hop is the highest hop-sized flight that starts before it, and the phases end with the
+    hop's impact, as the exact ones do.
     """
     cfg = settings or ContactSettings()
     t, n, f = traj.t, traj.normal_force, traj.friction_force
     touching = n > cfg.contact_level * cfg.g
-    sliding = (np.abs(traj.slip_velocity) > cfg.slip_threshold) & (f * traj.slip_velocity < 0)
-    saturated = _saturated(touching, np.abs(f), mu * n, sliding, cfg)
+    means = _means(t, n, f, traj.slip_velocity, touching, mu, cfg, rolling_demand)
+    steps = _step_labels(touching, n, f, mu, cfg)
+    reaches = touching & (np.abs(f) >= (1.0 - cfg.cone_tolerance) * mu * n)
+    if rolling_demand is not None:
+        # A sample's own friction and state, under the slip law's rolling-demand rules.
+        share = np.divide(np.abs(f), mu * n, out=np.zeros(len(n)), where=touching & (n > 0))
+        demand = _demand_share(*rolling_demand, mu)
+        reaches |= touching & ((demand >= 1.0) | (share >= 0.5 * (1.0 + demand)))
+    slipping = _slipping(means, reaches, mu, cfg) & touching
     flights = _flights(t, n, traj.clearance, touching, cfg)
     hops = [fl for fl in flights if _is_hop(fl, t, cfg)]
     chatter = [fl for fl in flights if fl not in hops]
     end = math.inf if window_end is None else window_end
     hop = max((h for h in hops if h.t_start <= end), key=lambda h: h.max_clearance, default=None)
     in_hop = _inside(t, hops) & ~touching
-    labels = _labels(touching, saturated, f, in_hop)
-    modes = _modes(t, labels, touching | in_hop, cfg)
+    cone = np.abs(means.friction) >= (1.0 - cfg.cone_tolerance) * mu * means.normal
+    chattering = touching & ~slipping & ~cone & (means.cone_share >= cfg.chatter_share)
+    labels = _labels(touching, slipping, chattering, means.friction, in_hop)
+    modes = _modes(t, labels, steps, cfg)
     if hop is not None and hop.t_end is not None:
         modes = [m for m in modes if m[1] <= hop.t_end]  # the exact model ends at the impact
     t_slip, t_restick = _slip_events(modes)
-    rolling = touching & ~saturated & _in_mode(t, modes, PhaseKind.ROLL)
-    creep_time, creep_max_speed = _creep(t, traj.slip_velocity, rolling, cfg.slip_threshold)
+    creeping = (
+        touching
+        & ~slipping
+        & (np.abs(f) < (1.0 - cfg.cone_hold) * mu * n)
+        & (np.abs(traj.slip_velocity) > cfg.slip_threshold)
+    )
+    outside = np.abs(means.friction) > (1.0 + cfg.cone_tolerance) * mu * means.normal
+    sticking = touching & outside & (np.abs(means.slip) <= cfg.slip_threshold)
+    step = np.diff(t, append=t[-1])
     return ContactReading(
         t_slip=t_slip,
         t_restick=t_restick,
         t_lift=None if hop is None else hop.t_start,
         t_impact=None if hop is None else hop.t_end,
         hop_height=None if hop is None else hop.max_clearance,
-        phases=" ".join(_code(kind, sigma) for kind, _, sigma in modes),
+        phases=" ".join(code for code, _ in modes),
         t_last_phase=modes[-1][1] if modes else None,
         flights=tuple(flights),
         chatter_count=len(chatter),
         chatter_max_clearance=max((fl.max_clearance for fl in chatter), default=None),
-        creep_time=creep_time,
-        creep_max_speed=creep_max_speed,
+        creep_time=float(np.sum(step[creeping])),
+        creep_max_speed=float(np.max(np.abs(traj.slip_velocity[creeping])))
+        if creeping.any()
+        else None,
+        creep_distance=float(np.sum((step * np.abs(traj.slip_velocity))[creeping])),
+        cone_stick_time=max((float(np.sum(step[i:j])) for i, j in _runs(sticking)), default=0.0),
+        chattering_time=_mode_time(t, modes, _CHATTER),
+        modes=_phases(modes, float(t[-1]) if hop is None or hop.t_end is None else hop.t_end),
     )
 
 
-def _saturated(
-    touching: NDArray, friction: NDArray, cone: NDArray, sliding: NDArray, cfg: ContactSettings
+def read_run(
+    traj: Trajectory, scene: Scene, mu: float, *, window_end: float | None = None
+) -> ContactReading:
+    """The canonical reading of a run of ``scene`` with the pair's ``mu``: the thresholds
+    carried to the scene's hoop and the rolling demand at the run's own states. Every
+    reader of a run (the row, ``hb.run(...).events``, ``simulate``) reads it through this."""
+    demand = rolling_forces(scene, traj.theta, traj.thetadot)
+    settings = ContactSettings().for_hoop(scene.a, scene.g)
+    return read_contact(traj, mu, settings, window_end=window_end, rolling_demand=demand)
+
+
+def canonical_events(
+    traj: Trajectory, reading: ContactReading, *, painleve: bool = False
+) -> Events:
+    """The run's events as the canonical reading gives them (``hb.run(...).events``, the
+    unprefixed columns): the outcome is ``hops`` with a hop, else ``slips`` with a slip,
+    else ``rolls`` (``painleve`` where the run is the reference of a Painlevé scene)."""
+    if painleve:
+        outcome = Outcome.PAINLEVE
+    elif reading.t_lift is not None:
+        outcome = Outcome.HOPS
+    else:
+        outcome = Outcome.SLIPS if reading.t_slip is not None else Outcome.ROLLS
+    theta = thetadot = None
+    if reading.t_slip is not None:
+        theta = float(np.interp(reading.t_slip, traj.t, traj.theta))
+        thetadot = float(np.interp(reading.t_slip, traj.t, traj.thetadot))
+    return Events(
+        outcome=outcome,
+        t_slip=reading.t_slip,
+        theta_slip=theta,
+        thetadot_slip=thetadot,
+        t_restick=reading.t_restick,
+        t_lift=reading.t_lift,
+        hop_height=reading.hop_height,
+        t_impact=reading.t_impact,
+        phases=reading.modes,
+    )
+
+
+_KINDS = {
+    "F": (PhaseKind.FLIGHT, None),
+    "R": (PhaseKind.ROLL, None),
+    "S+": (PhaseKind.SLIP, 1),
+    "S-": (PhaseKind.SLIP, -1),
+    CHATTER_CODE: (PhaseKind.CHATTER, None),
+}
+
+
+def _phases(modes: list[Mode], t_end: float) -> tuple[Phase, ...]:
+    ends = [start for _, start in modes[1:]] + [t_end]
+    return tuple(
+        Phase(_KINDS[code][0], start, max(end, start), _KINDS[code][1])
+        for (code, start), end in zip(modes, ends, strict=True)
+    )
+
+
+def _means(
+    t: NDArray,
+    n: NDArray,
+    f: NDArray,
+    slip: NDArray,
+    touching: NDArray,
+    mu: float,
+    cfg: ContactSettings,
+    rolling_demand: tuple[NDArray, NDArray] | None = None,
+) -> _Means:
+    """Centred window means (the samples within W/2 of each sample's time)."""
+    half = 0.5 * cfg.window
+    lo = np.searchsorted(t, t - half - 1e-12, side="left")
+    hi = np.searchsorted(t, t + half + 1e-12, side="right")
+    count = (hi - lo).astype(float)
+
+    def mean(values: NDArray) -> NDArray:
+        sums = np.concatenate(([0.0], np.cumsum(values, dtype=float)))
+        return (sums[hi] - sums[lo]) / count
+
+    n_on = np.where(touching, n, 0.0)
+    f_on = np.where(touching, f, 0.0)
+    at_cone = touching & (np.abs(f) >= (1.0 - cfg.cone_tolerance) * mu * n)
+    forced = mean(touching.astype(float))
+    share = np.divide(mean(at_cone.astype(float)), forced, out=np.zeros(len(t)), where=forced > 0)
+    demand = None
+    if rolling_demand is not None:
+        demand = _demand_share(mean(rolling_demand[0]), mean(rolling_demand[1]), mu)
+    return _Means(mean(f_on), mean(n_on), mean(slip), share, demand)
+
+
+def _demand_share(f_roll: NDArray, n_roll: NDArray, mu: float) -> NDArray:
+    """|F_roll| / (mu N_roll), inf where rolling needs a pull (N_roll <= 0)."""
+    cone = mu * n_roll
+    return np.divide(np.abs(f_roll), cone, out=np.full(len(cone), np.inf), where=cone > 0.0)
+
+
+def _step_labels(
+    touching: NDArray, n: NDArray, f: NDArray, mu: float, cfg: ContactSettings
 ) -> NDArray:
-    """Samples at the friction cone, with hysteresis: a stretch of contact samples at the
-    loose level (1 - saturation_exit, or 1 - sliding_saturation while sliding) is saturated
-    from its first sample at the strict level (1 - saturation, or the sliding level) on.
-    Samples without contact force neither start nor end a stretch."""
-    idx = np.nonzero(touching)[0]
-    ratio = friction[idx] / cone[idx]
-    slides = sliding[idx] & (ratio >= 1.0 - cfg.sliding_saturation)
-    loose = (ratio >= 1.0 - cfg.saturation_exit) | slides
-    strict = (ratio >= 1.0 - cfg.saturation) | slides
-    saturated = np.zeros(len(touching), dtype=bool)
-    for start, stop in _runs(loose):
-        hits = np.nonzero(strict[start:stop])[0]
-        if hits.size:
-            saturated[idx[start + int(hits[0]) : stop]] = True
-    return saturated
+    """Each sample's own label from its own friction (no window): slip + or - at the cone
+    within ``cone_tolerance`` either side (outside it is no slip), roll inside it by more
+    than ``cone_hold``, else none (-1)."""
+    cone = mu * n
+    ratio = (np.abs(f) >= (1.0 - cfg.cone_tolerance) * cone) & (
+        np.abs(f) <= (1.0 + cfg.cone_tolerance) * cone
+    )
+    inside = np.abs(f) < (1.0 - cfg.cone_hold) * cone
+    labels = np.where(touching & inside, _ROLL, -1)
+    labels = np.where(touching & ratio & (f < 0), _SLIP_PLUS, labels)
+    return np.where(touching & ratio & (f > 0), _SLIP_MINUS, labels)
 
 
-def _in_mode(t: NDArray, modes: list[Mode], kind: PhaseKind) -> NDArray:
-    """Samples inside the modes of ``kind`` (a mode lasts until the next one starts)."""
-    inside = np.zeros(len(t), dtype=bool)
-    ends = [m[1] for m in modes[1:]] + [math.inf]
-    for (mode, start, _), end in zip(modes, ends, strict=True):
-        if mode is kind:
-            inside |= (t >= start) & (t < end)
-    return inside
+def _slipping(means: _Means, reaches: NDArray, mu: float, cfg: ContactSettings) -> NDArray:
+    """Samples in a slip: a stretch where the mean friction is at the cone within
+    ``cone_hold`` and the contact point slides against it, entered at a sample whose own
+    friction reaches the cone within ``cone_tolerance`` (``reaches``; beyond it too: the
+    contact slides, so it is a slip, outside the cone or not), and sliding faster than the
+    slip threshold somewhere after that."""
+    friction = np.abs(means.friction)
+    cone = mu * means.normal
+    against = (means.slip * means.friction < 0.0) & (np.abs(means.slip) > cfg.slip_floor)
+    hold = against & _slip_law(friction, cone, means.demand, cfg) & (cone > 0.0)
+    enter = hold & reaches
+    fast = np.abs(means.slip) > cfg.slip_threshold
+    out = np.zeros(len(friction), dtype=bool)
+    for start, stop in _runs(hold):
+        hits = np.nonzero(enter[start:stop])[0]
+        if hits.size and fast[start + int(hits[0]) : stop].any():
+            out[start + int(hits[0]) : stop] = True
+    return out
+
+
+def _slip_law(
+    friction: NDArray, cone: NDArray, demand: NDArray | None, cfg: ContactSettings
+) -> NDArray:
+    """Windows whose friction follows the slip law rather than the rolling constraint: at
+    the cone within ``cone_hold``, or (with the rolling demand) where rolling cannot go on
+    (the demand at or beyond the cone) or the friction lies nearer the cone than the demand."""
+    at_cone = friction >= (1.0 - cfg.cone_hold) * cone
+    if demand is None:
+        return at_cone
+    share = np.divide(friction, cone, out=np.zeros(len(cone)), where=cone > 0.0)
+    return at_cone | (demand >= 1.0) | (share >= 0.5 * (1.0 + demand))
+
+
+Mode = tuple[str, float]
+"""(phase code, start time in s)."""
+
+_FLIGHT, _ROLL, _SLIP_PLUS, _SLIP_MINUS, _CHATTER = 0, 1, 2, 3, 4
+_CODES = {_FLIGHT: "F", _ROLL: "R", _SLIP_PLUS: "S+", _SLIP_MINUS: "S-", _CHATTER: CHATTER_CODE}
+_SLIP_CODES = ("S+", "S-")
+_STEP_LABELS = (_ROLL, _SLIP_PLUS, _SLIP_MINUS)
+"""The modes a single sample's own friction can show."""
+
+
+def _mode_time(t: NDArray, modes: list[Mode], label: int) -> float:
+    """s spent in the modes of ``label`` (the last one lasts to the record's end)."""
+    ends = [m[1] for m in modes[1:]] + [float(t[-1])]
+    return sum(
+        end - start for (code, start), end in zip(modes, ends, strict=True) if code == _CODES[label]
+    )
 
 
 def _inside(t: NDArray, flights: list[Flight]) -> NDArray:
@@ -228,20 +449,11 @@ def _inside(t: NDArray, flights: list[Flight]) -> NDArray:
 
 def _slip_events(modes: list[Mode]) -> tuple[float | None, float | None]:
     """(first slip onset, first re-stick after it), s."""
-    slips = [k for k, (kind, _, _) in enumerate(modes) if kind is PhaseKind.SLIP]
+    slips = [k for k, (code, _) in enumerate(modes) if code in _SLIP_CODES]
     if not slips:
         return None, None
-    restick = [m[1] for m in modes[slips[0] :] if m[0] is PhaseKind.ROLL]
+    restick = [start for code, start in modes[slips[0] :] if code == _CODES[_ROLL]]
     return modes[slips[0]][1], restick[0] if restick else None
-
-
-def _creep(
-    t: NDArray, slip_velocity: NDArray, unsaturated: NDArray, threshold: float
-) -> tuple[float, float | None]:
-    """(time creeping, s; largest |slip velocity| while creeping, m/s or None)."""
-    creeping = unsaturated & (np.abs(slip_velocity) > threshold)
-    time = float(np.sum(np.diff(t, append=t[-1])[creeping]))
-    return time, float(np.max(np.abs(slip_velocity[creeping]))) if creeping.any() else None
 
 
 def _is_hop(flight: Flight, t: NDArray, cfg: ContactSettings) -> bool:
@@ -294,65 +506,34 @@ def _landing(t: NDArray, clearance: NDArray, start: int) -> float | None:
     return None
 
 
-Mode = tuple[PhaseKind, float, int | None]
-"""(kind, start time in s, slip direction or None)."""
-
-
-def _labels(touching: NDArray, saturated: NDArray, f: NDArray, in_hop: NDArray) -> NDArray:
-    """Per sample: 0 flight (inside a hop), 1 roll, 2 slip +, 3 slip - (the slip opposes the
-    friction). A sample without contact force outside a hop (chatter, or a force that drops
-    out for a step while the hoop stays on the floor) reads as the mode it interrupts: it is
-    counted with the chatter, not as a phase."""
-    labels = np.where(touching, 1, -1)
-    labels = np.where(saturated & (f < 0), 2, labels)
-    labels = np.where(saturated & (f > 0), 3, labels)
-    labels = np.where(in_hop, 0, labels)
+def _labels(
+    touching: NDArray, slipping: NDArray, chattering: NDArray, f: NDArray, in_hop: NDArray
+) -> NDArray:
+    """Per sample: flight (inside a hop), roll, slip + or - (the slip opposes the mean
+    friction ``f``), chattering. A sample without contact force outside a hop (chatter, or a
+    force that drops out for a step while the hoop stays on the floor) reads as the mode it
+    interrupts: it is counted with the chatter, not as a phase."""
+    labels = np.where(touching, _ROLL, -1)
+    labels = np.where(chattering, _CHATTER, labels)
+    labels = np.where(slipping & (f < 0), _SLIP_PLUS, labels)
+    labels = np.where(slipping & (f > 0), _SLIP_MINUS, labels)
+    labels = np.where(in_hop, _FLIGHT, labels)
     known = np.nonzero(labels >= 0)[0]
     if known.size == 0:
-        return np.zeros(len(labels), dtype=int)  # no contact at all: one flight
+        return np.full(len(labels), _FLIGHT, dtype=int)  # no contact at all: one flight
     # Each neutral sample takes the label before it (the first known one at the start).
     fill = np.maximum.accumulate(np.where(labels >= 0, np.arange(len(labels)), -1))
     fill = np.where(fill < 0, known[0], fill)
     return labels[fill]
 
 
-_KINDS = {
-    0: (PhaseKind.FLIGHT, None),
-    1: (PhaseKind.ROLL, None),
-    2: (PhaseKind.SLIP, 1),
-    3: (PhaseKind.SLIP, -1),
-}
-
-
 Run = tuple[int, float, float]
 """(label, start time, end time in s; the last run ends at infinity)."""
 
 
-def _label_runs(t: NDArray, labels: NDArray) -> list[tuple[int, int, int]]:
-    """(label, first sample, sample after the last) of each run of equal labels."""
-    edges = np.nonzero(np.diff(labels))[0] + 1
-    starts = np.concatenate(([0], edges))
-    stops = np.concatenate((edges, [len(t)]))
-    return [(int(labels[i]), int(i), int(j)) for i, j in zip(starts, stops, strict=True)]
-
-
-def _holds_from(t: NDArray, labels: NDArray, own: NDArray, i: int, cfg: ContactSettings) -> bool:
-    """Whether the label of sample i holds at least ``takeover_share`` of the samples with a
-    label of their own (``own``: not borrowed by a sample without force) in the ``sustain``
-    after it; with none there (a contact whose force acts on one step in fifty), it does."""
-    stop = int(np.searchsorted(t, t[i] + cfg.sustain))
-    window = own[i:stop]
-    if not window.any():
-        return True
-    return bool(np.mean(labels[i:stop][window] == labels[i]) >= cfg.takeover_share)
-
-
 def _takes_over(runs: list[Run], k: int, sustain: float) -> bool:
     """Whether run k's label becomes the mode: it gathers ``sustain`` of time (its own runs,
-    interrupted or not) before any run of another label lasts ``sustain`` on its own. So a
-    slip whose friction leaves the cone for a step here and there (MuJoCo's contact bounces
-    at a slip onset) starts at its first saturated sample, and a single saturated step
-    inside a roll is no slip."""
+    interrupted or not) before any run of another label lasts ``sustain`` on its own."""
     label, held = runs[k][0], 0.0
     for other, start, end in runs[k:]:
         if other == label:
@@ -364,22 +545,48 @@ def _takes_over(runs: list[Run], k: int, sustain: float) -> bool:
     return held > 0.0  # the record ends first: a mode at the window's end counts
 
 
-def _modes(t: NDArray, labels: NDArray, own: NDArray, cfg: ContactSettings) -> list[Mode]:
-    """The contact modes from the per-sample labels (:func:`_labels`): the mode changes at
-    the first run of a label that holds the samples after it (:func:`_holds_from`: lone
-    saturated steps in a chattering contact are no slip) and takes over
-    (:func:`_takes_over`); the first mode starts at t[0]."""
-    bounds = _label_runs(t, labels)
-    runs = [(label, float(t[i]), float(t[j]) if j < len(t) else math.inf) for label, i, j in bounds]
-    modes: list[tuple[int, float]] = []
-    for k, (label, first, _) in enumerate(bounds):
+def _modes(t: NDArray, labels: NDArray, steps: NDArray, cfg: ContactSettings) -> list[Mode]:
+    """The modes from the per-sample labels: the mode changes at the first run of a label
+    that takes over (:func:`_takes_over`); the first mode starts at t[0]. A later mode's
+    start moves back, by at most W/2, over the samples just before it whose own (per-step)
+    label is already the mode's (``steps``): the window's mean lags a sharp change by up
+    to W/2, a sample's own friction does not."""
+    edges = np.nonzero(np.diff(labels))[0] + 1
+    starts = np.concatenate(([0], edges)).astype(int)
+    stops = np.concatenate((edges, [len(t)])).astype(int)
+    runs = [
+        (int(labels[i]), float(t[i]), float(t[j]) if j < len(t) else math.inf)
+        for i, j in zip(starts, stops, strict=True)
+    ]
+    modes: list[tuple[int, int]] = []
+    for k, (label, _, _) in enumerate(runs):
         if modes and modes[-1][0] == label:
             continue
-        if _holds_from(t, labels, own, first, cfg) and _takes_over(runs, k, cfg.sustain):
-            modes.append((label, runs[k][1] if modes else float(t[0])))
-    return [(_KINDS[label][0], start, _KINDS[label][1]) for label, start in modes]
+        if _takes_over(runs, k, cfg.sustain):
+            first = int(starts[k])
+            if modes:
+                first = _refined_start(t, steps, modes, label, first, cfg.window / 2)
+            modes.append((label, first if modes else 0))
+    return [(_CODES[label], float(t[i])) for label, i in modes]
 
 
-def _code(kind: PhaseKind, sigma: int | None) -> str:
-    letter = {PhaseKind.ROLL: "R", PhaseKind.SLIP: "S", PhaseKind.FLIGHT: "F"}[kind]
-    return letter + {1: "+", -1: "-"}.get(sigma or 0, "")
+def _refined_start(
+    t: NDArray, steps: NDArray, modes: list[tuple[int, int]], label: int, first: int, reach: float
+) -> int:
+    """Where the mode of ``label`` starts, from ``first`` (where the window's mean starts it),
+    within ``reach`` s: back over the samples whose own label is already ``label``, else
+    forward over those whose own label is not yet ``label`` (the centred mean sees a sharp
+    change up to W/2 before it happens). Never at or before the previous mode's start."""
+    previous, start = modes[-1]
+    if label not in _STEP_LABELS or previous == _FLIGHT:
+        return first  # flights start and end where the force does; chattering has no step
+    lowest = max(start + 1, int(np.searchsorted(t, t[first] - reach - 1e-12)))
+    i = first
+    while i > lowest and steps[i - 1] == label:
+        i -= 1
+    if i < first or steps[first] == label:
+        return i
+    highest = int(np.searchsorted(t, t[first] + reach + 1e-12))
+    while i < min(highest, len(t) - 1) and steps[i] != label:
+        i += 1
+    return i

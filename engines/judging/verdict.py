@@ -6,48 +6,45 @@ with the row's column names; a stored row, with NaN for a missing number, works 
 fresh one) and returns a :class:`Judgement`; :func:`verdict_columns` gives the row's
 ``verdict``, ``outcome_agrees``, ``verdict_flags`` and ``verdict_reason`` from it.
 
-**Which reading.** A row carries two readings of the engine's events: from its clearance and
-slip velocity (engines/judging/detectors.py) and from its contact force
-(engines/judging/contact.py). The verdict reads the contact where the row has it, and the
-clearance only for rows stored before it (:func:`engine_reading`). Why: the events are
-defined by the contact force (a lift-off is where the normal force ends, a slip where
-friction reaches the cone), and the kinematic reading confuses with them what an engine's
-contact does around them: a hoop resting 0.4 mm deep crosses zero clearance 40 ms after its
-force ended, a single step without contact force carries a slip-velocity spike, and a soft
-contact creeps long before its friction saturates (docs/report.md gives the measured cases).
+**One reading.** The verdict reads the row's unprefixed event columns: the canonical reading
+(engines/judging/contact.py). The kinematic ``kin_*`` columns are never judged.
 
-**Outcome classes.** The exact outcome and the engine's are compared as classes: roll, slip,
-hop (``hops`` and ``lifts-at-start``) and, for the exact side only, Painlevé. An engine hops
-if it has a flight above the hop threshold (``DetectorSettings.hop_clearance``, 1 mm on the
-1 m hoop) lasting 5 ms inside the exact window; the hop is the highest such flight, not the
-first. It slips if its friction saturated (or, read by the clearance, its slip velocity
-crossed the slip threshold).
+**One tolerance table** (engines/judging/tolerances.toml, :mod:`tolerances`): an event
+agrees within its TIGHT tolerance, is close within its LOOSE one, and fails beyond it. Each
+tolerance is the table's, carried to the row's hoop (times with sqrt(a / g)) and timestep
+(plus ``steps`` timesteps), plus the row's **detection floor**: the canonical reading of the
+exact solution sampled at the run's timestep against the exact event (``floor_err_*``). So
+the reference's own row always agrees, and no engine is judged finer than the reading can
+see at its timestep.
 
-**The checks**, in this order; the primary verdict is the first that fails, and every failed
-check is a flag:
+**Absorbed at the timestep.** The exact phases compared are the exact solution's as read at
+the run's timestep (``floor_phases``): a phase too short for the reading (a 2 ms roll) is
+absorbed on both sides, and a slip the reading cannot see at that step is no slip to miss.
 
-- the class: ``false-hop``, ``missed-hop`` (no flight above the threshold inside the exact
-  window), ``missed-slip``, ``false-slip``;
-- where both hop: the height within a factor HOP_HEIGHT_FACTOR (2) of the exact one
-  (``hop-too-low``, ``hop-too-high``; a run that ends in the air can only be too high) and
-  the lift-off within LIFT_TIME_TOLERANCE (50 ms) of the exact one (``early-lift-off``,
-  ``late-lift-off``);
-- where both slip: the first slip onset within SLIP_TIME_TOLERANCE (10 ms) of the exact one
-  (``early-slip``, ``late-slip``);
-- the phase sequence (``wrong-phases``; the reason names the first phase that differs).
+**The checks**, every one of them run; the primary verdict is the first that fails, and
+every failed check is a flag (``verdict_flags``):
 
-``outcome_agrees`` is true when no class, height or lift-off check failed; ``agrees``
-requires every check. The sizes are stated for the catalogue's 1 m hoop and carried to the
-row's hoop as the detectors' are (``hoop_scale``): lengths with a, times with sqrt(a / g). A
-row without ``a`` (or ``g``) is judged for a = 1 m (g = 9.8 m/s^2).
+- the outcome class: ``false-hop``, ``missed-hop`` (no hop above the hop threshold inside the
+  exact window), ``missed-slip``, ``false-slip``;
+- where both hop: the hop height (``hop-too-low``, ``hop-too-high``; a run that ends in the
+  air can only be too high), the lift-off (``early-lift-off``, ``late-lift-off``) and the
+  impact (``early-impact``, ``late-impact``);
+- where both slip: the first slip onset (``early-slip``, ``late-slip``);
+- the phase sequence (``wrong-phases``; the reason names the first phase that differs);
+- a stick outside the Coulomb cone lasting the table's ``[cone] stick_s``
+  (``cone-violation``).
+
+No failure: ``agrees`` when every event is within its tight tolerance, else ``close`` (the
+reason names the events outside tight). ``outcome_agrees`` is true when none of the outcome
+failures (class, hop height, lift-off, impact) is flagged. A row without ``a`` (or ``g``)
+is judged for a = 1 m (g = 9.8 m/s^2).
 
 - **Painlevé.** The exact solution reaches a point where no consistent contact force exists
-  (D = 0 while slipping) at ``exact_t_painleve``, and the rigid model says nothing after it;
-  a compliant contact resolves it somehow (an impulsive normal force, a lift-off, a stick).
+  (D = 0 while slipping) at ``exact_t_painleve``, and the rigid model says nothing after it.
   So the engine agrees unless it contradicts the part the model does predict: a lift-off
-  more than 50 ms before the Painlevé point is a false hop, and a run that never slips where
-  the exact one slipped first is a missed slip. Its phases are compared up to that point:
-  the engine's sequence must begin with the exact one.
+  more than PHASE_END_TOLERANCE before the Painlevé point is a false hop, and a run that
+  never slips where the exact one slipped first is a missed slip. Its phases are compared up
+  to that point: the engine's sequence must begin with the exact one.
 - **lifts-at-start** (the normal force is negative at t = 0) is a hop whose lift-off is at
   t = 0.
 - ``degenerate`` and ``error`` exact outcomes, exact hops below the hop threshold and exact
@@ -58,31 +55,35 @@ row without ``a`` (or ``g``) is judged for a = 1 m (g = 9.8 m/s^2).
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any
 
 from hoopbench.engines.judging.columns import Col
 from hoopbench.engines.judging.detectors import DetectorSettings, hoop_scale
+from hoopbench.engines.judging.tolerances import (
+    EventTolerances,
+    Tier,
+    event_tolerances,
+    tolerances,
+)
 from hoopbench.engines.run import RunStatus
 from hoopbench.models.events import Events, Outcome
 
 __all__ = [
     "HOP_CLEARANCE",
-    "HOP_HEIGHT_FACTOR",
-    "LIFT_TIME_TOLERANCE",
+    "LOOSE_TIER",
     "OUTCOME_FAILURES",
-    "SLIP_TIME_TOLERANCE",
-    "EngineReading",
+    "PHASE_END_TOLERANCE",
+    "TIGHT_TIER",
+    "Event",
     "HoopThresholds",
     "Judgement",
     "Verdict",
     "classify",
-    "counts_as_hop",
-    "engine_reading",
+    "event_within",
     "hoop_thresholds",
-    "hop_matches",
     "number_or_none",
     "painleve_time",
     "phases_agree",
@@ -94,54 +95,52 @@ HOP_CLEARANCE = DetectorSettings().hop_clearance
 """The hop threshold of the 1 m hoop, m: read from its one home,
 ``DetectorSettings.hop_clearance``; :func:`hoop_thresholds` carries it to a row's hoop."""
 
-HOP_HEIGHT_FACTOR = 2.0
-"""An engine's hop agrees in size when its height is within this factor of the exact one
-(the issue's rule): wide enough for a soft contact's energy loss on a marginal hop (MuJoCo's
-hop-low, -26 %), narrow enough that a hop of another kind (a few mm against a metre) fails."""
-
-LIFT_TIME_TOLERANCE = 0.05
-"""s: how far an engine's lift-off may be from the exact one on the 1 m hoop (the issue's
-rule), about a twentieth of the hop scenes' flight times (0.5-1 s); it scales with the
-flight times, as sqrt(a / g)."""
-
-
-SLIP_TIME_TOLERANCE = 0.01
-"""s: how far an engine's first slip onset may be from the exact one on the 1 m hoop (the
-issue's rule); it scales as sqrt(a / g). The exact onsets of the catalogue are read within
-0.5 ms by both readings, so 10 ms is the engine's error, never the harness's."""
+PHASE_END_TOLERANCE = 0.05
+"""s (1 m hoop, scales with sqrt(a / g)): two phase sequences that differ by one last phase
+agree when that phase starts this close to the run's last sample (a re-stick 4 ms before the
+window's end in one and just after it in the other); and an engine's lift-off this long
+before a Painlevé point is a false hop."""
 
 
 class Verdict(StrEnum):
-    """What went wrong in a run: the primary verdict is the first in this order; every check
-    that fails is also a flag (the row's ``verdict_flags``). See the module docstring."""
+    """A run's verdict: ``agrees``, ``close``, or what went wrong (see the module
+    docstring); the primary failure is the first in this order."""
 
     AGREES = "agrees"
-    """The reference's outcome class, its hop's size and time, its slip onset and its phase
-    sequence."""
+    """Every event within the tight tolerances, the outcome and the phases the reference's."""
+    CLOSE = "close"
+    """No check fails, but some event is outside its tight tolerance (inside the loose)."""
     FALSE_HOP = "false-hop"
     """A hop above the threshold where the reference has none (or, on a Painlevé scene, one
-    that leaves more than 50 ms before the Painlevé point)."""
+    that leaves more than PHASE_END_TOLERANCE before the Painlevé point)."""
     MISSED_HOP = "missed-hop"
-    """The reference hops and the engine has no flight above the hop threshold inside the
-    exact window."""
-    HOP_TOO_LOW = "hop-too-low"
-    """Both hop; the engine's hop is lower than the exact one by more than the factor 2."""
-    HOP_TOO_HIGH = "hop-too-high"
-    """Both hop; the engine's hop is higher than the exact one by more than the factor 2."""
-    EARLY_LIFT_OFF = "early-lift-off"
-    """Both hop; the engine leaves more than 50 ms (scaled) before the exact lift-off."""
-    LATE_LIFT_OFF = "late-lift-off"
-    """Both hop; the engine leaves more than 50 ms (scaled) after the exact lift-off."""
+    """The reference hops and the engine has no hop above the threshold inside the exact
+    window."""
     MISSED_SLIP = "missed-slip"
-    """The reference slips (and does not hop) and the engine only rolls."""
+    """The reference slips (as read at the run's timestep, and does not hop) and the engine
+    never slips."""
     FALSE_SLIP = "false-slip"
     """The reference rolls throughout and the engine slips (without a hop)."""
+    HOP_TOO_LOW = "hop-too-low"
+    """Both hop; the engine's hop is lower than the loose tolerance allows."""
+    HOP_TOO_HIGH = "hop-too-high"
+    """Both hop; the engine's hop is higher than the loose tolerance allows."""
+    EARLY_LIFT_OFF = "early-lift-off"
+    LATE_LIFT_OFF = "late-lift-off"
+    EARLY_IMPACT = "early-impact"
+    LATE_IMPACT = "late-impact"
+    """Both hop; the engine lands later than the loose tolerance allows (or is still in the
+    air that long after the exact impact when its run ends)."""
     EARLY_SLIP = "early-slip"
-    """Both slip; the engine's first slip starts more than 10 ms (scaled) early."""
     LATE_SLIP = "late-slip"
-    """Both slip; the engine's first slip starts more than 10 ms (scaled) late."""
     WRONG_PHASES = "wrong-phases"
-    """Everything above agrees; the phase sequence does not."""
+    """The phase sequence differs from the exact one read at the run's timestep."""
+    CREEPS = "creeps"
+    """The rim slides, with its friction inside the cone at what rolling needs (creep),
+    farther than the loose tolerance, where the exact solution rolls without sliding."""
+    CONE_VIOLATION = "cone-violation"
+    """The contact sticks with friction outside the Coulomb cone (|mean f| above mu mean n)
+    for at least the table's ``[cone] stick_s``."""
     DIVERGED = "diverged"
     """The run stopped early: NaN, runaway energy or deep penetration."""
     FAILED = "failed"
@@ -156,12 +155,19 @@ OUTCOME_FAILURES = frozenset(
         Verdict.HOP_TOO_HIGH,
         Verdict.EARLY_LIFT_OFF,
         Verdict.LATE_LIFT_OFF,
+        Verdict.EARLY_IMPACT,
+        Verdict.LATE_IMPACT,
         Verdict.MISSED_SLIP,
         Verdict.FALSE_SLIP,
     }
 )
-"""The failures of the outcome (its class, its hop's size and time): ``outcome_agrees`` is
+"""The failures of the outcome (its class, its hop's size and times): ``outcome_agrees`` is
 true when none of them is flagged."""
+
+TIGHT_TIER = frozenset({Verdict.AGREES})
+"""The verdicts of the tight accuracy tier (summaries count these as right)."""
+LOOSE_TIER = frozenset({Verdict.AGREES, Verdict.CLOSE})
+"""The verdicts of the loose accuracy tier."""
 
 
 class _Class(StrEnum):
@@ -169,6 +175,9 @@ class _Class(StrEnum):
     SLIP = "slip"
     HOP = "hop"
     PAINLEVE = "painleve"
+    UNSEEN_SLIP = "slip too short to read"
+    UNSEEN_HOP = "hop the window cuts too short to read"
+    """The exact solution slips, but not long enough for the reading at the run's step."""
 
 
 _HOP_OUTCOMES = (str(Outcome.HOPS), str(Outcome.LIFTS_AT_START))
@@ -183,47 +192,7 @@ class Judgement:
     outcome_agrees: bool | None
     reason: str
     flags: tuple[Verdict, ...] = ()
-    """Every check that failed, the primary verdict first (empty for agrees)."""
-
-
-@dataclass(frozen=True)
-class EngineReading:
-    """The engine's events as the verdict reads them: from the contact force where the row
-    has the contact reading (engines/judging/contact.py), else from the clearance and slip
-    velocity (rows stored before it)."""
-
-    source: str
-    """'contact' or 'clearance'."""
-    t_slip: float | None
-    t_lift: float | None
-    hop_height: float | None
-    phases: str | None
-    t_last_phase: float | None
-    t_impact: float | None = None
-    """None: the run ended in the air (its window ends before the landing)."""
-
-
-def engine_reading(row: Mapping[str, Any]) -> EngineReading:
-    """The reading the verdict uses for ``row`` (see :class:`EngineReading`)."""
-    if _text(row.get(Col.CONTACT_PHASES)) is not None:
-        return EngineReading(
-            "contact",
-            number_or_none(row.get(Col.CONTACT_T_SLIP)),
-            number_or_none(row.get(Col.CONTACT_T_LIFT)),
-            number_or_none(row.get(Col.CONTACT_HOP_HEIGHT)),
-            _text(row.get(Col.CONTACT_PHASES)),
-            number_or_none(row.get(Col.CONTACT_T_LAST_PHASE)),
-            number_or_none(row.get(Col.CONTACT_T_IMPACT)),
-        )
-    return EngineReading(
-        "clearance",
-        number_or_none(row.get(Col.T_SLIP)),
-        number_or_none(row.get(Col.T_LIFT)),
-        number_or_none(row.get(Col.HOP_HEIGHT)),
-        _text(row.get(Col.PHASES)),
-        number_or_none(row.get(Col.T_LAST_PHASE)),
-        number_or_none(row.get(Col.T_IMPACT)),
-    )
+    """Every check that failed, the primary verdict first (empty for agrees and close)."""
 
 
 def number_or_none(value: Any) -> float | None:
@@ -243,63 +212,73 @@ def _text(value: Any) -> str | None:
 
 @dataclass(frozen=True)
 class HoopThresholds:
-    """The verdict's sizes, carried to one hoop."""
+    """The verdict's sizes, carried to one hoop and timestep (the tolerances before the row's
+    own detection floor)."""
 
     hop_clearance: float
     """m: a lift-off must rise above this to be a hop."""
-    lift_time_tolerance: float
-    """s: how far a hop's lift-off may be from the exact one."""
     slip_threshold: float
-    """m/s: the detectors' slip threshold; an exact slip slower than this is invisible."""
-    slip_time_tolerance: float
-    """s: how far a first slip onset may be from the exact one."""
+    """m/s: the slip threshold; an exact slip slower than this is invisible."""
+    phase_end: float
+    """s: PHASE_END_TOLERANCE carried to the hoop."""
+    cone_stick: float
+    """s: a stick outside the cone this long is a cone-violation."""
+    tight: EventTolerances
+    loose: EventTolerances
 
 
-def hoop_thresholds(a: Any = None, g: Any = None) -> HoopThresholds:
-    """HOP_CLEARANCE, LIFT_TIME_TOLERANCE and the detectors' slip threshold for a hoop of
-    radius ``a`` (m) under ``g`` (m/s^2), the 1 m hoop's where either is missing."""
+def hoop_thresholds(a: Any = None, g: Any = None, timestep: Any = None) -> HoopThresholds:
+    """The verdict's sizes for a hoop of radius ``a`` (m) under ``g`` (m/s^2) at
+    ``timestep`` (s), the 1 m hoop's (and no timestep) where one is missing."""
     base = DetectorSettings()
     a, g = number_or_none(a) or base.a, number_or_none(g) or base.g
+    step = number_or_none(timestep) or 0.0
     length, speed, duration = hoop_scale(a, g, base.a, base.g)
     return HoopThresholds(
-        length * HOP_CLEARANCE,
-        duration * LIFT_TIME_TOLERANCE,
-        speed * base.slip_threshold,
-        duration * SLIP_TIME_TOLERANCE,
+        hop_clearance=length * HOP_CLEARANCE,
+        slip_threshold=speed * base.slip_threshold,
+        phase_end=duration * PHASE_END_TOLERANCE,
+        cone_stick=duration * float(tolerances()["cone"]["stick_s"]),
+        tight=event_tolerances(Tier.TIGHT, duration, step, length),
+        loose=event_tolerances(Tier.LOOSE, duration, step, length),
     )
 
 
 def _row_thresholds(row: Mapping[str, Any]) -> HoopThresholds:
-    return hoop_thresholds(row.get(Col.A), row.get(Col.G))
+    return hoop_thresholds(row.get(Col.A), row.get(Col.G), row.get(Col.TIMESTEP))
 
 
-def counts_as_hop(
-    hop_height: float | None,
-    max_clearance: float | None = None,
-    threshold: float = HOP_CLEARANCE,
-) -> bool:
-    """Whether a detected lift-off is a hop: its height (or, where that was withheld, the
-    run's largest clearance) exceeds ``threshold`` (m; the 1 m hoop's HOP_CLEARANCE unless
-    given). With neither known, the detectors' word stands."""
-    size = number_or_none(hop_height)
-    size = number_or_none(max_clearance) if size is None else size
-    return size is None or size > threshold
+class Event(StrEnum):
+    """The judged events, for :func:`event_within`."""
+
+    SLIP_ONSET = "slip onset"
+    LIFT_OFF = "lift-off"
+    IMPACT = "impact"
+    HOP_HEIGHT = "hop height"
 
 
-def hop_matches(
-    hop_height: float | None,
-    t_lift: float | None,
-    exact_hop_height: float | None,
-    exact_t_lift: float | None,
-    tolerance: float = LIFT_TIME_TOLERANCE,
-) -> bool:
-    """Whether an engine's hop is the exact one: height within HOP_HEIGHT_FACTOR, lift-off
-    within ``tolerance`` (s; the 1 m hoop's LIFT_TIME_TOLERANCE unless given). False where
-    any of the four numbers is missing."""
-    h, t, h0, t0 = (number_or_none(v) for v in (hop_height, t_lift, exact_hop_height, exact_t_lift))
-    if h is None or t is None or h0 is None or t0 is None or h0 <= 0:
-        return False
-    return h0 / HOP_HEIGHT_FACTOR <= h <= h0 * HOP_HEIGHT_FACTOR and abs(t - t0) <= tolerance
+_EVENT_COLUMNS = {
+    Event.SLIP_ONSET: (Col.ERR_T_SLIP_MS, Col.FLOOR_ERR_T_SLIP_MS, "t_slip"),
+    Event.LIFT_OFF: (Col.ERR_T_LIFT_MS, Col.FLOOR_ERR_T_LIFT_MS, "t_lift"),
+    Event.IMPACT: (Col.ERR_T_IMPACT_MS, Col.FLOOR_ERR_T_IMPACT_MS, "t_impact"),
+    Event.HOP_HEIGHT: (Col.ERR_HOP_HEIGHT_REL, Col.FLOOR_ERR_HOP_HEIGHT_REL, "hop_height_rel"),
+}
+
+
+def event_within(row: Mapping[str, Any], event: Event, tier: Tier) -> bool | None:
+    """Whether the row's error of ``event`` (the canonical reading's) is within ``tier``'s
+    tolerance as the verdict sets it (the table's, carried to the row's hoop and timestep,
+    plus the row's detection floor); None where the row has no such error."""
+    error_column, floor_column, field = _EVENT_COLUMNS[event]
+    error = number_or_none(row.get(error_column))
+    if error is None:
+        return None
+    limits = _row_thresholds(row)
+    tolerance = getattr(limits.tight if tier is Tier.TIGHT else limits.loose, field)
+    floor = abs(number_or_none(row.get(floor_column)) or 0.0)
+    if event is Event.HOP_HEIGHT:
+        return abs(error) <= tolerance + floor
+    return abs(error) <= 1e3 * tolerance + floor  # the errors are in ms
 
 
 def painleve_time(exact: Events) -> float | None:
@@ -314,33 +293,51 @@ def painleve_time(exact: Events) -> float | None:
     return exact.phases[-1].t_end if exact.phases else 0.0
 
 
+def _exact_phases(row: Mapping[str, Any]) -> tuple[str | None, Any]:
+    """The exact phases the engine's are compared with, and the last one's start: as read at
+    the run's timestep where the row has them, else the exact solver's."""
+    floor = _text(row.get(Col.FLOOR_PHASES))
+    if floor is not None:
+        return floor, row.get(Col.FLOOR_T_LAST_PHASE)
+    return _text(row.get(Col.EXACT_PHASES)), row.get(Col.EXACT_T_LAST_PHASE)
+
+
 def _engine_class(row: Mapping[str, Any]) -> _Class | None:
     outcome = _text(row.get(Col.OUTCOME))
     if outcome is None:
         return None
-    reading = engine_reading(row)
-    if reading.source == "contact":
-        hops = reading.t_lift is not None  # a contact hop is above the hop threshold
-    else:
-        threshold = _row_thresholds(row).hop_clearance
-        hops = outcome in _HOP_OUTCOMES and counts_as_hop(
-            row.get(Col.HOP_HEIGHT), row.get(Col.MAX_CLEARANCE), threshold
-        )
-    if hops:
+    if number_or_none(row.get(Col.T_LIFT)) is not None:
         return _Class.HOP
     if outcome == str(Outcome.PAINLEVE):
         return _Class.PAINLEVE
-    if reading.t_slip is not None or (reading.source != "contact" and outcome == Outcome.SLIPS):
-        return _Class.SLIP
-    return _Class.ROLL
+    return _Class.SLIP if number_or_none(row.get(Col.T_SLIP)) is not None else _Class.ROLL
 
 
-def _exact_class(outcome: str) -> _Class:
+def _exact_slip_seen(row: Mapping[str, Any]) -> bool:
+    """Whether the reading sees a slip in the exact solution at the run's timestep (true
+    where the row has no floor reading)."""
+    phases, _ = _exact_phases(row)
+    return phases is None or any(code.startswith("S") for code in phases.split())
+
+
+def _exact_hop_seen(row: Mapping[str, Any]) -> bool:
+    """Whether the reading sees the exact hop in the exact solution sampled at the run's
+    timestep up to the window's end (true where the row has no floor reading): a hop that
+    lifts off just before the window ends may not yet reach the hop threshold there."""
+    phases, _ = _exact_phases(row)
+    return not phases or "F" in phases.split()
+
+
+def _exact_class(row: Mapping[str, Any], outcome: str) -> _Class:
     if outcome in _HOP_OUTCOMES:
-        return _Class.HOP
+        # A hop the reading cannot see at the run's timestep is no hop to miss.
+        return _Class.HOP if _exact_hop_seen(row) else _Class.UNSEEN_HOP
     if outcome == str(Outcome.PAINLEVE):
         return _Class.PAINLEVE
-    return _Class.SLIP if outcome == str(Outcome.SLIPS) else _Class.ROLL
+    if outcome != str(Outcome.SLIPS):
+        return _Class.ROLL
+    # A slip the reading cannot see at the run's timestep is no slip to miss.
+    return _Class.SLIP if _exact_slip_seen(row) else _Class.UNSEEN_SLIP
 
 
 def phases_agree(
@@ -351,7 +348,7 @@ def phases_agree(
     t_last: Any = None,
     exact_t_last: Any = None,
     t_final: Any = None,
-    tolerance: float = LIFT_TIME_TOLERANCE,
+    tolerance: float = PHASE_END_TOLERANCE,
 ) -> bool | None:
     """Whether the phase codes agree (None if either is missing); with ``prefix``, the
     engine's sequence need only begin with the exact one.
@@ -359,9 +356,8 @@ def phases_agree(
     At the window's end the two may differ by one last phase: the exact solution re-sticks
     at 2.996 s of a 3 s window and the engine 10 ms later, past its last sample. So a
     sequence that is the other's plus one last phase agrees when that phase starts within
-    ``tolerance`` (the lift-off tolerance, s) of ``t_final``, the run's last sample (s);
-    ``t_last`` and ``exact_t_last`` are the start times of the engine's and the exact last
-    phases.
+    ``tolerance`` (s) of ``t_final``, the run's last sample (s); ``t_last`` and
+    ``exact_t_last`` are the start times of the engine's and the exact last phases.
     """
     code, exact = _text(phases), _text(exact_phases)
     if code is None or exact is None:
@@ -382,19 +378,19 @@ def phases_agree(
 
 
 def row_phases_agree(row: Mapping[str, Any]) -> bool | None:
-    """:func:`phases_agree` on a row's columns, read as the verdict reads them
-    (:func:`engine_reading`): a prefix where the exact solution reaches a Painlevé point, the
-    lift-off tolerance carried to the row's hoop."""
+    """:func:`phases_agree` on a row's columns: the engine's phases against the exact ones
+    read at the run's timestep (``floor_phases``; the exact solver's where the row lacks
+    them), a prefix where the exact solution reaches a Painlevé point."""
     outcome = _text(row.get(Col.EXACT_OUTCOME))
-    reading = engine_reading(row)
+    exact, exact_t_last = _exact_phases(row)
     return phases_agree(
-        reading.phases,
-        row.get(Col.EXACT_PHASES),
-        prefix=outcome is not None and _exact_class(outcome) is _Class.PAINLEVE,
-        t_last=reading.t_last_phase,
-        exact_t_last=row.get(Col.EXACT_T_LAST_PHASE),
+        row.get(Col.PHASES),
+        exact,
+        prefix=outcome == str(Outcome.PAINLEVE),
+        t_last=row.get(Col.T_LAST_PHASE),
+        exact_t_last=exact_t_last,
         t_final=row.get(Col.T_FINAL),
-        tolerance=_row_thresholds(row).lift_time_tolerance,
+        tolerance=_row_thresholds(row).phase_end,
     )
 
 
@@ -403,85 +399,166 @@ def _mm(value: Any) -> str:
     return "-" if number is None else f"{1e3 * number:.3g} mm"
 
 
-_OutcomePart = tuple[Verdict | None, str]
-"""A failing Verdict (None: the outcome agrees) and the reason."""
-
-
-def _outcome(row: Mapping[str, Any], engine: _Class, exact: _Class) -> _OutcomePart:
-    """The outcome part of the verdict: a failing Verdict, or None if the outcome agrees."""
-    if exact is _Class.HOP:
-        return _hop_outcome(row, engine)
-    if exact is _Class.PAINLEVE:
-        return _painleve_outcome(row, engine)
-    if engine is _Class.HOP:
-        reading = engine_reading(row)
-        height = _mm(reading.hop_height)
-        return (
-            Verdict.FALSE_HOP,
-            f"a {height} hop the reference does not have (by the {reading.source})",
-        )
-    if engine is _Class.PAINLEVE:
-        engine = _Class.SLIP  # only the reference reports it, and it was slipping
-    if exact is _Class.SLIP and engine is _Class.ROLL:
-        return Verdict.MISSED_SLIP, "rolls where the reference slips"
-    if exact is _Class.ROLL and engine is _Class.SLIP:
-        return Verdict.FALSE_SLIP, "slips where the reference rolls"
-    return None, f"{exact}s as the reference does"
-
-
-def _hop_outcome(row: Mapping[str, Any], engine: _Class) -> _OutcomePart:
-    """Where the reference hops: the engine must hop inside the exact window."""
-    if engine is not _Class.HOP:
-        largest = _mm(row.get(Col.MAX_CLEARANCE))
-        threshold = _mm(_row_thresholds(row).hop_clearance)
-        return Verdict.MISSED_HOP, f"no hop above {threshold} (largest clearance {largest})"
-    return None, "the exact hop"
+def _ms_text(seconds: float) -> str:
+    return f"{abs(1e3 * seconds):.3g} ms {'early' if seconds < 0 else 'late'}"
 
 
 Failure = tuple[Verdict, str]
 """A failed check and the line that says by how much."""
 
 
-def _hop_failures(row: Mapping[str, Any], reading: EngineReading) -> list[Failure]:
-    """Both hop: the engine's hop height within the factor 2, its lift-off within 50 ms
-    (scaled) of the exact ones; each failure says which way and by how much."""
-    out: list[Failure] = []
-    h, h0 = reading.hop_height, number_or_none(row.get(Col.EXACT_HOP_HEIGHT))
-    by = f" (by the {reading.source})"
-    if h is not None and h0:
-        ratio = h / h0
-        # A run that ends in the air has not reached its height: only too high can be told.
-        cut = reading.t_impact is None and ratio < 1.0
-        if not cut and (ratio < 1.0 / HOP_HEIGHT_FACTOR or ratio > HOP_HEIGHT_FACTOR):
-            kind = Verdict.HOP_TOO_LOW if ratio < 1.0 else Verdict.HOP_TOO_HIGH
-            out.append((kind, f"hop {_mm(h)} against {_mm(h0)}: {ratio:.2f}x{by}"))
-    elif h is None:
-        out.append((Verdict.MISSED_HOP, "the hop's numbers were withheld as inconsistent"))
-    t, t0 = reading.t_lift, number_or_none(row.get(Col.EXACT_T_LIFT))
-    tolerance = _row_thresholds(row).lift_time_tolerance
-    if t is not None and t0 is not None and abs(t - t0) > tolerance:
-        kind = Verdict.EARLY_LIFT_OFF if t < t0 else Verdict.LATE_LIFT_OFF
-        out.append((kind, f"lift-off {_ms_text(t - t0)} ({t:.6g} s against {t0:.6g} s){by}"))
-    return out
+@dataclass
+class _Checks:
+    """The checks' findings on one row: failures in order, and events outside tight."""
+
+    failures: list[Failure]
+    close: list[str]
 
 
-def _slip_failures(row: Mapping[str, Any], reading: EngineReading) -> list[Failure]:
-    """Both slip: the engine's first slip onset within 10 ms (scaled) of the exact one."""
-    t, t0 = reading.t_slip, number_or_none(row.get(Col.EXACT_T_SLIP))
+def _outcome(row: Mapping[str, Any], engine: _Class, exact: _Class) -> Failure | None:
+    """The outcome class: a failure, or None if it agrees."""
+    if exact is _Class.UNSEEN_HOP or (exact is _Class.UNSEEN_SLIP and engine is not _Class.HOP):
+        return None  # either outcome is what the reading sees of it
+    if exact is _Class.HOP:
+        if engine is _Class.HOP:
+            return None
+        largest = _mm(row.get(Col.MAX_CLEARANCE))
+        threshold = _mm(_row_thresholds(row).hop_clearance)
+        return Verdict.MISSED_HOP, f"no hop above {threshold} (largest clearance {largest})"
+    if exact is _Class.PAINLEVE:
+        return _painleve_outcome(row, engine)
+    if engine is _Class.HOP:
+        height = _mm(row.get(Col.HOP_HEIGHT))
+        return Verdict.FALSE_HOP, f"a {height} hop the reference does not have"
+    if engine is _Class.PAINLEVE:
+        engine = _Class.SLIP  # only the reference reports it, and it was slipping
+    if exact is _Class.SLIP and engine is _Class.ROLL:
+        return Verdict.MISSED_SLIP, "never slips where the reference slips"
+    if exact is _Class.ROLL and engine is _Class.SLIP:
+        return Verdict.FALSE_SLIP, "slips where the reference rolls"
+    return None
+
+
+def _painleve_outcome(row: Mapping[str, Any], engine: _Class) -> Failure | None:
+    """Where the reference reaches a Painlevé point: nothing may contradict the motion the
+    rigid model predicts up to it (module docstring)."""
+    t_p = number_or_none(row.get(Col.EXACT_T_PAINLEVE)) or 0.0
+    if engine is _Class.HOP:
+        t_lift = number_or_none(row.get(Col.T_LIFT))
+        if t_lift is None or t_lift < t_p - _row_thresholds(row).phase_end:
+            when = "withheld" if t_lift is None else f"{t_lift:.6g} s"
+            return Verdict.FALSE_HOP, f"lift-off ({when}) before the Painlevé point {t_p:.6g} s"
+        return None
+    if engine is _Class.ROLL and number_or_none(row.get(Col.EXACT_T_SLIP)) is not None:
+        return Verdict.MISSED_SLIP, "no slip before the Painlevé point"
+    return None
+
+
+def _floor_s(row: Mapping[str, Any], column: Col) -> float:
+    """The row's detection floor of an event, s (0 where the row has none)."""
+    return abs(number_or_none(row.get(column)) or 0.0) * 1e-3
+
+
+def _timing(
+    checks: _Checks,
+    name: str,
+    kinds: tuple[Verdict, Verdict],
+    t: float | None,
+    t0: float | None,
+    tight: float,
+    loose: float,
+) -> None:
+    """One event time against the exact one: within ``tight`` (s) agrees, within ``loose``
+    close, beyond it the early or late failure of ``kinds``."""
     if t is None or t0 is None:
-        return []
-    if abs(t - t0) <= _row_thresholds(row).slip_time_tolerance:
-        return []
-    kind = Verdict.EARLY_SLIP if t < t0 else Verdict.LATE_SLIP
-    text = f"slip onset {_ms_text(t - t0)} ({t:.6g} s against {t0:.6g} s, by the {reading.source})"
-    return [(kind, text)]
+        return
+    error = t - t0
+    text = f"{name} {_ms_text(error)} ({t:.6g} s against {t0:.6g} s"
+    if abs(error) > loose:
+        checks.failures.append(
+            (kinds[0] if error < 0 else kinds[1], f"{text}, loose {1e3 * loose:.3g} ms)")
+        )
+    elif abs(error) > tight:
+        checks.close.append(f"{text}, tight {1e3 * tight:.3g} ms)")
 
 
-def _phase_failures(row: Mapping[str, Any], reading: EngineReading) -> list[Failure]:
-    if row_phases_agree(row) is not False:
-        return []
-    exact = _text(row.get(Col.EXACT_PHASES)) or ""
-    return [(Verdict.WRONG_PHASES, _phase_difference(reading.phases or "", exact))]
+def _hop_checks(row: Mapping[str, Any], checks: _Checks) -> None:
+    """Both hop: the height, the lift-off and the impact against the exact ones."""
+    limits = _row_thresholds(row)
+    h, h0 = number_or_none(row.get(Col.HOP_HEIGHT)), number_or_none(row.get(Col.EXACT_HOP_HEIGHT))
+    t_impact = number_or_none(row.get(Col.T_IMPACT))
+    if h is not None and h0:
+        error = h / h0 - 1.0
+        floor = abs(number_or_none(row.get(Col.FLOOR_ERR_HOP_HEIGHT_REL)) or 0.0)
+        cut = t_impact is None and error < 0.0  # ends in the air: only too high can be told
+        text = f"hop {_mm(h)} against {_mm(h0)}: {100 * error:+.3g} %"
+        if not cut and abs(error) > limits.loose.hop_height_rel + floor:
+            kind = Verdict.HOP_TOO_LOW if error < 0 else Verdict.HOP_TOO_HIGH
+            checks.failures.append((kind, text))
+        elif not cut and abs(error) > limits.tight.hop_height_rel + floor:
+            checks.close.append(text)
+    lift_floor = _floor_s(row, Col.FLOOR_ERR_T_LIFT_MS)
+    _timing(
+        checks,
+        "lift-off",
+        (Verdict.EARLY_LIFT_OFF, Verdict.LATE_LIFT_OFF),
+        number_or_none(row.get(Col.T_LIFT)),
+        number_or_none(row.get(Col.EXACT_T_LIFT)),
+        limits.tight.t_lift + lift_floor,
+        limits.loose.t_lift + lift_floor,
+    )
+    _impact_checks(row, checks, limits, t_impact)
+
+
+def _impact_checks(
+    row: Mapping[str, Any], checks: _Checks, limits: HoopThresholds, t_impact: float | None
+) -> None:
+    t0 = number_or_none(row.get(Col.EXACT_T_IMPACT))
+    floor = _floor_s(row, Col.FLOOR_ERR_T_IMPACT_MS)
+    if t_impact is None:
+        end = number_or_none(row.get(Col.T_FINAL))
+        if t0 is not None and end is not None and end - t0 > limits.loose.t_impact + floor:
+            text = f"still in the air at the run's end, {_ms_text(end - t0)} after the exact impact"
+            checks.failures.append((Verdict.LATE_IMPACT, text))
+        return
+    _timing(
+        checks,
+        "impact",
+        (Verdict.EARLY_IMPACT, Verdict.LATE_IMPACT),
+        t_impact,
+        t0,
+        limits.tight.t_impact + floor,
+        limits.loose.t_impact + floor,
+    )
+
+
+def _slip_checks(row: Mapping[str, Any], checks: _Checks) -> None:
+    """Both slip: the first slip onset against the exact one."""
+    limits, floor = _row_thresholds(row), _floor_s(row, Col.FLOOR_ERR_T_SLIP_MS)
+    _timing(
+        checks,
+        "slip onset",
+        (Verdict.EARLY_SLIP, Verdict.LATE_SLIP),
+        number_or_none(row.get(Col.T_SLIP)),
+        number_or_none(row.get(Col.EXACT_T_SLIP)),
+        limits.tight.t_slip + floor,
+        limits.loose.t_slip + floor,
+    )
+
+
+def _phase_checks(row: Mapping[str, Any], checks: _Checks) -> None:
+    if row_phases_agree(row) is False:
+        exact, _ = _exact_phases(row)
+        text = _phase_difference(_text(row.get(Col.PHASES)) or "", exact or "")
+        checks.failures.append((Verdict.WRONG_PHASES, text))
+
+
+def _cone_checks(row: Mapping[str, Any], checks: _Checks) -> None:
+    stick = number_or_none(row.get(Col.CONE_STICK_TIME_S))
+    limit = _row_thresholds(row).cone_stick
+    if stick is not None and stick >= limit:
+        text = f"sticks {1e3 * stick:.3g} ms with friction outside the Coulomb cone"
+        checks.failures.append((Verdict.CONE_VIOLATION, text))
 
 
 def _phase_difference(phases: str, exact: str) -> str:
@@ -495,33 +572,10 @@ def _phase_difference(phases: str, exact: str) -> str:
     return f"phase {k + 1} is {got} instead of {expected} ({phases} against {exact})"
 
 
-def _ms_text(seconds: float) -> str:
-    return f"{abs(1e3 * seconds):.3g} ms {'early' if seconds < 0 else 'late'}"
-
-
-def _painleve_outcome(row: Mapping[str, Any], engine: _Class) -> _OutcomePart:
-    """Where the reference reaches a Painlevé point: nothing may contradict the motion the
-    rigid model predicts up to it (module docstring)."""
-    t_p = number_or_none(row.get(Col.EXACT_T_PAINLEVE)) or 0.0
-    if engine is _Class.HOP:
-        t_lift = number_or_none(row.get(Col.T_LIFT))
-        if t_lift is None or t_lift < t_p - _row_thresholds(row).lift_time_tolerance:
-            when = "withheld" if t_lift is None else f"{t_lift:.6g} s"
-            return Verdict.FALSE_HOP, f"lift-off ({when}) before the Painlevé point {t_p:.6g} s"
-        return None, f"lift-off at {t_lift:.6g} s, not before the Painlevé point {t_p:.6g} s"
-    if engine is _Class.ROLL and number_or_none(row.get(Col.EXACT_T_SLIP)) is not None:
-        return Verdict.MISSED_SLIP, "no slip before the Painlevé point"
-    return None, "nothing contradicts the motion up to the Painlevé point"
-
-
 def _exact_slips_below_threshold(row: Mapping[str, Any]) -> str | None:
-    """Why exact slips cannot be judged, or None: none of them reaches the slip threshold.
-
-    The detectors call a slip when |slip velocity| exceeds the threshold (1 mm/s on the 1 m
-    hoop), so an engine that reproduced such slips exactly would still read as rolling: a
-    'missed-slip' would be the harness's blind spot, not the engine's. On a lam x chi map at
-    mu 0.8 such slips (0.05-0.2 mm/s, 17-20 ms long) made every engine 'miss' them.
-    """
+    """Why exact slips cannot be judged, or None: none of them reaches the slip threshold
+    (1 mm/s on the 1 m hoop), so an engine that reproduced them exactly would not slide
+    fast enough to slip by the reading."""
     speed = number_or_none(row.get(Col.EXACT_MAX_SLIP_SPEED))
     threshold = _row_thresholds(row).slip_threshold
     if speed is None or speed > threshold:
@@ -533,13 +587,9 @@ def _exact_slips_below_threshold(row: Mapping[str, Any]) -> str | None:
 
 
 def _exact_hop_below_threshold(row: Mapping[str, Any]) -> str | None:
-    """Why an exact hop cannot be judged, or None: it is no higher than the hop threshold.
-
-    No engine lift-off that small counts as a hop (it is read as contact noise), and the
-    exact solution ends at that hop's impact, where the rigid model stops saying anything;
-    so neither "agrees" nor "missed" would be true. Such hops occur where the normal force
-    only just turns negative (lam chi close to 1 from above: 0.07 mm on a lam x chi map).
-    """
+    """Why an exact hop cannot be judged, or None: it is no higher than the hop threshold, so
+    no engine lift-off that small counts as a hop, and the exact solution ends at its
+    impact: neither "agrees" nor "missed" would be true."""
     height = number_or_none(row.get(Col.EXACT_HOP_HEIGHT))
     threshold = _row_thresholds(row).hop_clearance
     if height is None or height > threshold:
@@ -551,46 +601,76 @@ def _exact_hop_below_threshold(row: Mapping[str, Any]) -> str | None:
 
 
 def classify(row: Mapping[str, Any]) -> Judgement:
-    """The verdict on one run from its row (its status, the exact_* columns, and the engine's
-    events as :func:`engine_reading` reads them). See the module docstring for the rules."""
+    """The verdict on one run from its row (its status, the exact_* and floor_* columns, and
+    the canonical event columns). See the module docstring for the rules."""
     status = _text(row.get(Col.STATUS))
     if status == RunStatus.DIVERGED:
-        return Judgement(Verdict.DIVERGED, False, row.get(Col.MESSAGE) or "diverged")
+        return Judgement(
+            Verdict.DIVERGED, False, row.get(Col.MESSAGE) or "diverged", (Verdict.DIVERGED,)
+        )
     if status != RunStatus.OK:
-        return Judgement(Verdict.FAILED, False, f"status {status}: {row.get(Col.MESSAGE) or ''}")
+        text = f"status {status}: {row.get(Col.MESSAGE) or ''}"
+        return Judgement(Verdict.FAILED, False, text, (Verdict.FAILED,))
     exact_outcome = _text(row.get(Col.EXACT_OUTCOME))
     if exact_outcome is None or exact_outcome in _NO_ANSWER:
         return Judgement(None, None, f"no exact answer to judge against ({exact_outcome})")
-    exact = _exact_class(exact_outcome)
+    exact = _exact_class(row, exact_outcome)
     below = _exact_hop_below_threshold(row) if exact is _Class.HOP else None
     below = below or (_exact_slips_below_threshold(row) if exact is _Class.SLIP else None)
     if below:
         return Judgement(None, None, below)
     engine = _engine_class(row)
     if engine is None:
-        return Judgement(Verdict.FAILED, False, "status ok but no events")
+        return Judgement(Verdict.FAILED, False, "status ok but no events", (Verdict.FAILED,))
     return _judged(row, engine, exact)
 
 
+def _creep_checks(row: Mapping[str, Any], checks: _Checks) -> None:
+    distance = number_or_none(row.get(Col.CREEP_DISTANCE_M))
+    if distance is None:
+        return
+    limits = _row_thresholds(row)
+    speed = _mm(row.get(Col.CREEP_MAX_SPEED))
+    text = f"creeps {_mm(distance)} with friction inside the cone (up to {speed}/s)"
+    if distance > limits.loose.creep_distance:
+        checks.failures.append((Verdict.CREEPS, text))
+    elif distance > limits.tight.creep_distance:
+        checks.close.append(text)
+
+
+_EVENT_CHECKS: tuple[Callable[[Mapping[str, Any], _Checks], None], ...] = (
+    _phase_checks,
+    _creep_checks,
+    _cone_checks,
+)
+
+
 def _judged(row: Mapping[str, Any], engine: _Class, exact: _Class) -> Judgement:
-    failure, reason = _outcome(row, engine, exact)
+    checks = _Checks([], [])
+    failure = _outcome(row, engine, exact)
     if failure is not None:
-        return Judgement(failure, False, reason, (failure,))
-    reading = engine_reading(row)
-    failures = _hop_failures(row, reading) if exact is _Class.HOP else []
-    if exact is not _Class.PAINLEVE:
-        failures += _slip_failures(row, reading)
-    failures += _phase_failures(row, reading)
-    if not failures:
-        return Judgement(Verdict.AGREES, True, reason)
-    flags = tuple(kind for kind, _ in failures)
+        checks.failures.append(failure)
+    if exact is _Class.HOP and engine is _Class.HOP:
+        _hop_checks(row, checks)
+    if _Class.PAINLEVE not in (exact, engine) and _exact_slip_seen(row):
+        _slip_checks(row, checks)
+    for check in _EVENT_CHECKS:
+        check(row, checks)
+    flags = tuple(dict.fromkeys(kind for kind, _ in checks.failures))
     agrees = not any(kind in OUTCOME_FAILURES for kind in flags)
-    return Judgement(flags[0], agrees, failures[0][1], flags)
+    if flags:
+        return Judgement(flags[0], agrees, checks.failures[0][1], flags)
+    if checks.close:
+        return Judgement(Verdict.CLOSE, True, "; ".join(checks.close))
+    return Judgement(
+        Verdict.AGREES, True, f"{exact}s as the reference does, every event within tight"
+    )
 
 
 def verdict_columns(row: Mapping[str, Any]) -> dict[str, Any]:
     """The row's ``verdict`` (a string, None without an exact answer), ``outcome_agrees``,
-    ``verdict_flags`` (every failed check) and ``verdict_reason`` (the primary one's line)."""
+    ``verdict_flags`` (every failed check) and ``verdict_reason`` (the primary one's line, or
+    for ``close`` the events outside tight)."""
     judgement = classify(row)
     verdict = None if judgement.verdict is None else str(judgement.verdict)
     return {

@@ -7,25 +7,49 @@ A compare results folder records its version in meta.json (``runs_format_version
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import pandas as pd
 
-from hoopbench.engines.judging.columns import CONTACT_COLUMNS, FORCE_COLUMNS, Col
+from hoopbench.engines.judging.columns import (
+    EVENT_COLUMNS,
+    FLOOR_COLUMNS,
+    FORCE_COLUMNS,
+    KIN_COLUMNS,
+    RENAMED_FROM_CONTACT,
+    RENAMED_TO_KIN,
+    Col,
+)
+from hoopbench.engines.judging.verdict import number_or_none, row_phases_agree, verdict_columns
 from hoopbench.engines.options import Profile
+from hoopbench.models.events import Outcome
 from hoopbench.models.formats import FileFormat
 from hoopbench.reports.sweep import results
 
-__all__ = ["FORMAT_VERSION", "RUNS_TABLE"]
+__all__ = [
+    "FORMAT_VERSION",
+    "ONE_READING_VERSION",
+    "RUNS_TABLE",
+    "before_one_reading",
+    "one_reading",
+]
 
-FORMAT_VERSION = 6
+FORMAT_VERSION = 7
 """Version of the runs table layout (1: runs.parquet and runs.json, before the runs/ dataset;
 2: run_id and the runner's bookkeeping columns; 3: the verdict, max_clearance, consistent,
 event_flags and exact_t_painleve columns; 4: g, and the last phases' start times and the run's
 last sample time, t_last_phase, exact_t_last_phase and t_final, for the phase comparison at
 the window's end, and exact_max_slip_speed; 5: the contact reading's columns,
 CONTACT_COLUMNS, and the verdict's flags and reason; 6: the contact force against the exact
-one, FORCE_COLUMNS). Columns also arrived between bumps
+one, FORCE_COLUMNS; 7, issue 24: one reading, the unprefixed event columns are the canonical
+(contact) reading, the clearance reading is kin_*, the detection floor floor_*, and the
+verdict has one meaning: :func:`one_reading`). Columns also arrived between bumps
 (profile and a late in 2, rms_position_m with 3, g late in 3, exact_max_slip_speed early in
 4): a table may lack one its version lists, and reads it empty."""
+
+ONE_READING_VERSION = 7
+"""The first format with one reading (issue 24): a folder stored before it is read migrated
+but cannot be resumed, since its old rows and new ones would name their columns apart."""
 
 _ADDED_IN = {
     3: (
@@ -37,7 +61,7 @@ _ADDED_IN = {
         "verdict",
     ),
     4: ("g", "exact_t_last_phase", "t_last_phase", "t_final", "exact_max_slip_speed"),
-    5: (*CONTACT_COLUMNS, Col.VERDICT_FLAGS, Col.VERDICT_REASON),
+    5: (*RENAMED_FROM_CONTACT, Col.VERDICT_FLAGS, Col.VERDICT_REASON),
     6: FORCE_COLUMNS,
 }
 """The columns each version added (or, for g and exact_max_slip_speed, came with it): an
@@ -66,11 +90,66 @@ def _to_6(frame: pd.DataFrame) -> pd.DataFrame:
     return results.with_columns(frame, _ADDED_IN[6])
 
 
+def _outcome(row: pd.Series) -> str | None:
+    if not isinstance(row.get(Col.PHASES), str):
+        return None
+    if row.get(Col.KIN_OUTCOME) == str(Outcome.PAINLEVE):
+        return str(Outcome.PAINLEVE)
+    if number_or_none(row.get(Col.T_LIFT)) is not None:
+        return str(Outcome.HOPS)
+    slips = number_or_none(row.get(Col.T_SLIP)) is not None
+    return str(Outcome.SLIPS if slips else Outcome.ROLLS)
+
+
+def before_one_reading(columns: Iterable[str]) -> bool:
+    """Whether a table with these columns was stored before one reading (format 7): it has
+    no kin_* columns (an older migration may have added empty contact_* ones)."""
+    return Col.KIN_PHASES not in set(columns)
+
+
+def one_reading(frame: pd.DataFrame) -> pd.DataFrame:
+    """Issue 24's migration of a runs table (a suite's, version 6, or a map's, version 3) to
+    one reading: its unprefixed event columns (the clearance reading) become ``kin_*``, its
+    ``contact_*`` columns (the contact reading, stored with the rules of its time) the
+    unprefixed ones, with the outcome and the relative hop-height error derived from them;
+    the columns that came with issue 24 (the detection floor, the cone-stick and
+    chattering times, the slip angle by the contact force) read empty; and the verdict is
+    judged again by today's rules, tolerances and tiers. Rows stored without a contact
+    reading (before version 5) keep empty event columns and their stored verdict."""
+    if not before_one_reading(frame.columns):
+        # A folder without meta.json counts as version 2, yet its rows may be this
+        # hoopbench's (a sweep still running, or interrupted): they need no renaming.
+        frame = frame.drop(columns=[c for c in RENAMED_FROM_CONTACT if c in frame.columns])
+        return results.with_columns(frame, (*EVENT_COLUMNS, *KIN_COLUMNS, *FLOOR_COLUMNS))
+    frame = frame.rename(columns={**RENAMED_TO_KIN, **RENAMED_FROM_CONTACT})
+    needed = (*EVENT_COLUMNS, *KIN_COLUMNS, *FLOOR_COLUMNS, Col.EXACT_HOP_HEIGHT)
+    frame = results.with_columns(frame, needed)
+    if frame.empty:
+        return frame
+    hop = pd.to_numeric(frame[Col.HOP_HEIGHT], errors="coerce")
+    exact_hop = pd.to_numeric(frame[Col.EXACT_HOP_HEIGHT], errors="coerce")
+    error = (hop / exact_hop.where(exact_hop > 0)) - 1.0
+    frame[Col.ERR_HOP_HEIGHT_REL] = error.astype(object).where(error.notna(), None)
+    frame[Col.OUTCOME] = frame.apply(_outcome, axis=1)
+    read = frame[Col.PHASES].map(lambda v: isinstance(v, str))
+    for index in frame.index[read]:
+        row = frame.loc[index].to_dict()
+        frame.at[index, Col.PHASES_AGREE] = row_phases_agree(row)
+        for column, value in verdict_columns(row).items():
+            frame.at[index, column] = value
+    return frame
+
+
+def _to_7(frame: pd.DataFrame) -> pd.DataFrame:
+    """One reading (:func:`one_reading`)."""
+    return one_reading(frame)
+
+
 RUNS_TABLE = FileFormat(
     "runs table",
     FORMAT_VERSION,
     oldest=2,
-    migrations={2: _to_3, 3: _to_4, 4: _to_5, 5: _to_6},
+    migrations={2: _to_3, 3: _to_4, 4: _to_5, 5: _to_6, 6: _to_7},
 )
 """A compare folder's runs table; a folder that records no version counts as 2, the first
 runs/ dataset (version 1 folders have no runs/ and are not read)."""

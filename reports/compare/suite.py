@@ -19,14 +19,26 @@ from typing import Any, Protocol
 
 import pandas as pd
 
-from hoopbench.engines.judging.columns import CONTACT_COLUMNS, EXACT_COLUMNS, FORCE_COLUMNS, Col
+from hoopbench.engines.judging.columns import (
+    EVENT_COLUMNS,
+    EXACT_COLUMNS,
+    FLOOR_COLUMNS,
+    FORCE_COLUMNS,
+    KIN_COLUMNS,
+    Col,
+)
 from hoopbench.engines.judging.comparison import exact_solution, judged_columns, scene_exact_columns
 from hoopbench.engines.judging.verdict import (
     Verdict,
 )
 from hoopbench.engines.registry import engine_class, get_engine
 from hoopbench.engines.run import RunResult, RunStatus
-from hoopbench.reports.compare.rows import FORMAT_VERSION, RUNS_TABLE
+from hoopbench.reports.compare.rows import (
+    FORMAT_VERSION,
+    ONE_READING_VERSION,
+    RUNS_TABLE,
+    before_one_reading,
+)
 from hoopbench.reports.compare.suite_file import (
     DEFAULT_VARIANT,
     RunTask,
@@ -35,7 +47,13 @@ from hoopbench.reports.compare.suite_file import (
     load_suite,
 )
 from hoopbench.reports.sweep import results
-from hoopbench.reports.sweep.runner import RunSummary, claim_folder, row_or_failure, run_tasks
+from hoopbench.reports.sweep.runner import (
+    RunnerError,
+    RunSummary,
+    claim_folder,
+    row_or_failure,
+    run_tasks,
+)
 
 __all__ = [
     "FORMAT_VERSION",
@@ -66,36 +84,20 @@ ROW_COLUMNS = (
     Col.N_STEPS,
     Col.US_PER_STEP,
     *EXACT_COLUMNS,
-    Col.OUTCOME,
-    Col.T_SLIP,
-    Col.T_SLIP_THRESHOLD,
-    Col.THETA_SLIP_DEG,
-    Col.T_RESTICK,
-    Col.T_LIFT,
-    Col.HOP_HEIGHT,
-    Col.T_IMPACT,
-    Col.ERR_T_SLIP_MS,
-    Col.ERR_THETA_SLIP_DEG,
-    Col.ERR_T_LIFT_MS,
-    Col.ERR_T_IMPACT_MS,
-    Col.ERR_HOP_HEIGHT_REL,
+    *EVENT_COLUMNS,
     Col.ENERGY_RISE_BEFORE_SLIP,
     Col.ENERGY_CHANGE_END,
     Col.MAX_PENETRATION_M,
     Col.RMS_POSITION_M,
     Col.MAX_CLEARANCE,
-    Col.CONSISTENT,
-    Col.EVENT_FLAGS,
+    Col.T_FINAL,
     Col.VERDICT,
     Col.OUTCOME_AGREES,
     Col.VERDICT_FLAGS,
     Col.VERDICT_REASON,
-    Col.PHASES,
-    Col.T_LAST_PHASE,
-    Col.T_FINAL,
-    Col.PHASES_AGREE,
-    *CONTACT_COLUMNS,
+    *FLOOR_COLUMNS,
     *FORCE_COLUMNS,
+    *KIN_COLUMNS,
     Col.TRAJECTORY_FILE,
 )
 """Every column of a run's row, in order; a failed run leaves most of them empty."""
@@ -188,6 +190,15 @@ class StepCounted(Protocol):
     def n_steps(self) -> int: ...
 
 
+def _stored_before_one_reading(out: Path) -> bool:
+    """Whether the runs stored in ``out`` name their columns as before format 7."""
+    try:
+        stored = results.read_runs(out)
+    except (OSError, ValueError):
+        return False
+    return len(stored) > 0 and before_one_reading(stored.columns)
+
+
 def run_timeout(task: StepCounted) -> float:
     """Seconds a run may take before it becomes a timeout row: generous, from its size.
 
@@ -228,6 +239,12 @@ def compare(
     timeout = run_timeout if run_timeout_s is None else run_timeout_s
     # A resumed folder keeps an older version (its old rows are still there); a newer one stops.
     version = results.resumed_format_version(out, RUNS_TABLE) if resume else FORMAT_VERSION
+    if resume and version < ONE_READING_VERSION and _stored_before_one_reading(out):
+        raise RunnerError(
+            f"{out} holds runs table format {version}, from before one reading (format "
+            f"{ONE_READING_VERSION}): its rows and this hoopbench's cannot share a table; "
+            "run the suite into a new folder (the old one reads as before)"
+        )
     meta = {
         "suite": suite.name,
         "suite_file": Path(suite_file).name,

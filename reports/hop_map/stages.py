@@ -30,9 +30,15 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from hoopbench.engines.base import n_steps_for
-from hoopbench.engines.judging.columns import CONTACT_COLUMNS, FORCE_COLUMNS, Col
+from hoopbench.engines.judging.columns import (
+    EVENT_COLUMNS,
+    FLOOR_COLUMNS,
+    FORCE_COLUMNS,
+    KIN_COLUMNS,
+    Col,
+)
 from hoopbench.engines.judging.comparison import exact_columns, exact_solution, judged_columns
-from hoopbench.engines.judging.verdict import counts_as_hop, number_or_none, verdict_columns
+from hoopbench.engines.judging.verdict import number_or_none, verdict_columns
 from hoopbench.engines.options import Profile
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.run import RunStatus
@@ -82,10 +88,11 @@ __all__ = [
 
 
 # --------------------------------------------------------------------------- points, tasks
-ROWS_FORMAT_VERSION = 3
+ROWS_FORMAT_VERSION = 4
 """Version of the map's runs table (meta.json; map.toml has its own, FORMAT_VERSION): 2 adds
-the contact reading's columns (CONTACT_COLUMNS) and the verdict's flags and reason, 3 the
-contact force against the exact one (FORCE_COLUMNS), as a suite's rows have them."""
+the contact reading's columns and the verdict's flags and reason, 3 the contact force
+against the exact one (FORCE_COLUMNS), as a suite's rows have them; 4 one reading (issue 24:
+reports/compare/rows.one_reading)."""
 
 EXACT_CARRIED = (
     Col.REGIME,
@@ -193,36 +200,19 @@ MAP_COLUMNS = (
     Col.SIM_TIME_S,
     Col.STOP_REASON,
     *EXACT_CARRIED,
-    Col.OUTCOME,
-    Col.HOP_HEIGHT,
+    *EVENT_COLUMNS,
     Col.MAX_CLEARANCE,
-    Col.T_SLIP,
-    Col.T_LIFT,
-    Col.T_IMPACT,
-    Col.PHASES,
     Col.VERDICT,
     Col.OUTCOME_AGREES,
     Col.VERDICT_FLAGS,
     Col.VERDICT_REASON,
     Col.HOP_HEIGHT_ERROR,
-    # the other event columns (judging.comparison.event_columns), for the same diagnostics
-    Col.T_SLIP_THRESHOLD,
-    Col.THETA_SLIP_DEG,
-    Col.T_RESTICK,
-    Col.ERR_T_SLIP_MS,
-    Col.ERR_THETA_SLIP_DEG,
-    Col.ERR_T_LIFT_MS,
-    Col.ERR_T_IMPACT_MS,
-    Col.ERR_HOP_HEIGHT_REL,
     Col.ENERGY_RISE_BEFORE_SLIP,
     Col.ENERGY_CHANGE_END,
     Col.MAX_PENETRATION_M,
-    Col.CONSISTENT,
-    Col.EVENT_FLAGS,
-    Col.T_LAST_PHASE,
     Col.T_FINAL,
-    Col.PHASES_AGREE,
-    *CONTACT_COLUMNS,
+    *FLOOR_COLUMNS,
+    *KIN_COLUMNS,
     Col.RMS_POSITION_M,
     *FORCE_COLUMNS,
 )
@@ -313,16 +303,14 @@ def _engine_row(task: MapTask) -> dict[str, Any]:
 
 
 def _hop_height_error(row: Mapping[str, Any]) -> float | None:
-    """Engine minus exact hop height, m, where both hop (the engine above the hop threshold)
-    and the run is judged (an exact hop below the threshold is not: engines/judging/verdict.py)."""
+    """Engine minus exact hop height, m, where both hop (the canonical reading's hop is above
+    the hop threshold) and the run is judged (an exact hop below the threshold is not:
+    engines/judging/verdict.py)."""
     height, exact = (
         number_or_none(row.get(Col.HOP_HEIGHT)),
         number_or_none(row[Col.EXACT_HOP_HEIGHT]),
     )
-    engine_hops = row.get(Col.OUTCOME) in _HOPS and counts_as_hop(
-        height, row.get(Col.MAX_CLEARANCE)
-    )
-    if height is None or exact is None or not engine_hops or row[Col.EXACT_OUTCOME] not in _HOPS:
+    if height is None or exact is None or row[Col.EXACT_OUTCOME] not in _HOPS:
         return None
     if row.get(Col.VERDICT) is None:
         return None
@@ -428,6 +416,13 @@ def run_map(
     spec_file = out / MAP_FILE
     if resume and holds_files(out) and not (spec_file.exists() or spec_file.is_symlink()):
         raise RunnerError(f"{out} holds no {MAP_FILE}: it is not a hop map folder to resume")
+    stored = results.recorded_format_version(out) if resume and out.is_dir() else None
+    if isinstance(stored, int) and stored < ROWS_FORMAT_VERSION:
+        raise RunnerError(
+            f"{out} holds map table format {stored}, from before one reading (format "
+            f"{ROWS_FORMAT_VERSION}): its rows and this hoopbench's cannot share a table; "
+            "run the map into a new folder (the old one reads as before)"
+        )
     say = None if quiet else (lambda text: _say(text, quiet, stream))
     with claim_folder(out, resume, MAP_IDENTITY, say):
         return _run_map(

@@ -9,9 +9,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from hoopbench.engines.judging.columns import CONTACT_COLUMNS, FORCE_COLUMNS, Col
+from hoopbench.engines.judging.columns import FORCE_COLUMNS, RENAMED_FROM_CONTACT, Col
 from hoopbench.models.formats import FileFormat
 from hoopbench.reference.regimes import Regime
+from hoopbench.reports.compare.rows import one_reading
 from hoopbench.reports.compare.selection import engine_rows
 from hoopbench.reports.hop_map.spec import REFERENCE, check_stored_points, load_spec
 from hoopbench.reports.hop_map.stages import MAP_COLUMNS, ROWS_FORMAT_VERSION
@@ -28,7 +29,9 @@ __all__ = [
 
 def _to_2(frame: pd.DataFrame) -> pd.DataFrame:
     """Maps run before the contact reading have its columns empty."""
-    return results.with_columns(frame, (*CONTACT_COLUMNS, Col.VERDICT_FLAGS, Col.VERDICT_REASON))
+    return results.with_columns(
+        frame, (*RENAMED_FROM_CONTACT, Col.VERDICT_FLAGS, Col.VERDICT_REASON)
+    )
 
 
 def _to_3(frame: pd.DataFrame) -> pd.DataFrame:
@@ -36,8 +39,25 @@ def _to_3(frame: pd.DataFrame) -> pd.DataFrame:
     return results.with_columns(frame, (Col.RMS_POSITION_M, *FORCE_COLUMNS))
 
 
+def _to_4(frame: pd.DataFrame) -> pd.DataFrame:
+    """One reading (reports/compare/rows.one_reading), and the hop-height error from it."""
+    frame = one_reading(frame)
+    if frame.empty:
+        return frame
+    frame = results.with_columns(frame, (Col.VERDICT, Col.HOP_HEIGHT, Col.EXACT_HOP_HEIGHT))
+    both = frame[Col.VERDICT].notna() & frame[Col.HOP_HEIGHT].notna()
+    error = pd.to_numeric(frame[Col.HOP_HEIGHT], errors="coerce") - pd.to_numeric(
+        frame[Col.EXACT_HOP_HEIGHT], errors="coerce"
+    )
+    frame[Col.HOP_HEIGHT_ERROR] = error.where(both)
+    return frame
+
+
 MAP_TABLE = FileFormat(
-    "hop map runs table", ROWS_FORMAT_VERSION, oldest=1, migrations={1: _to_2, 2: _to_3}
+    "hop map runs table",
+    ROWS_FORMAT_VERSION,
+    oldest=1,
+    migrations={1: _to_2, 2: _to_3, 3: _to_4},
 )
 """A map folder's runs table (its version in meta.json, as a compare folder's)."""
 

@@ -23,7 +23,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
-from hoopbench.engines.judging.verdict import HOP_HEIGHT_FACTOR, Verdict
+from hoopbench.engines.judging.tolerances import Tier, event_tolerances
+from hoopbench.engines.judging.verdict import Verdict
 from hoopbench.reference.regimes import Regime
 from hoopbench.reports.compare.selection import engine_names_of, reference_rows
 from hoopbench.reports.report.plotting import pyplot, save_figure
@@ -68,23 +69,28 @@ REGIME_COLOURS: dict[Regime, str] = {
 
 VERDICT_COLOURS: dict[Verdict, str] = {
     Verdict.AGREES: "#E4E4E4",  # faint: the points that need no attention
+    Verdict.CLOSE: "#BDBDBD",  # a darker grey: right, within the loose tolerances
     Verdict.FALSE_HOP: "#D55E00",
     Verdict.MISSED_HOP: "#E69F00",
+    Verdict.MISSED_SLIP: "#0072B2",
+    Verdict.FALSE_SLIP: "#56B4E9",
     Verdict.HOP_TOO_LOW: "#8C510A",  # the hop family: oranges and browns
     Verdict.HOP_TOO_HIGH: "#BF812D",
     Verdict.EARLY_LIFT_OFF: "#DFC27D",
     Verdict.LATE_LIFT_OFF: "#A6611A",
-    Verdict.MISSED_SLIP: "#0072B2",
-    Verdict.FALSE_SLIP: "#56B4E9",
+    Verdict.EARLY_IMPACT: "#F6E8C3",
+    Verdict.LATE_IMPACT: "#543005",
     Verdict.EARLY_SLIP: "#009E73",  # the slip-onset pair: greens
     Verdict.LATE_SLIP: "#66C2A4",
     Verdict.WRONG_PHASES: "#F0E442",
+    Verdict.CREEPS: "#1B7837",  # a dark green: sliding, as the slip family
+    Verdict.CONE_VIOLATION: "#762A83",
     Verdict.DIVERGED: "#000000",
     Verdict.FAILED: "#CC79A7",
 }
 """One colour per verdict, in the order of Verdict (the categorical map indexes it so):
-Okabe-Ito, with browns for the hop's size and time and greens for the slip onset; ``agrees``
-faint grey."""
+Okabe-Ito, with browns for the hop's size and times and greens for the slip onset; ``agrees``
+faint grey, ``close`` a darker one."""
 
 _NOT_JUDGED = "#FFFFFF"
 """Cells with no verdict: the reference has no answer (degenerate, error), or the engine
@@ -406,9 +412,9 @@ _RATIO_LIMIT = 3.0
 def hop_error_figure(frame: pd.DataFrame, path: str | Path) -> Path:
     """Per engine, its hop height over the exact one where both hop, on a log2 colour scale
     centred on 1 (a ratio, not engine - exact: hop heights across a map span decades, and
-    the verdict's rule is a factor, HOP_HEIGHT_FACTOR, so equal colours mean equal factors
-    whatever the height). Dark grey: the reference hops, the engine does not (or did not
-    run); white: the reference does not hop."""
+    equal colours mean equal factors whatever the height; the lines mark the loose
+    tolerance of the verdict's table). Dark grey: the reference hops, the engine does not
+    (or did not run); white: the reference does not hop."""
     from matplotlib.colors import Normalize
 
     grid = map_grid(frame)
@@ -433,7 +439,8 @@ def hop_error_figure(frame: pd.DataFrame, path: str | Path) -> Path:
     ticks = np.arange(-_RATIO_LIMIT, _RATIO_LIMIT + 1)
     bar = fig.colorbar(mesh, ax=list(axes), ticks=ticks, extend="both")
     bar.set_ticklabels([f"{2.0**t:g}" if t >= 0 else f"1/{2.0**-t:g}" for t in ticks])
-    for factor in (HOP_HEIGHT_FACTOR, 1 / HOP_HEIGHT_FACTOR):  # the verdict's hop-size rule
+    loose = event_tolerances(Tier.LOOSE).hop_height_rel
+    for factor in (1 + loose, 1 - loose):  # the verdict's hop-size rule (loose)
         bar.ax.axhline(math.log2(factor), color="k", lw=1.0)
-    bar.set_label(f"engine / exact hop height (lines: factor {HOP_HEIGHT_FACTOR:g})")
+    bar.set_label(f"engine / exact hop height (lines: loose tolerance, {100 * loose:g} %)")
     return _save(fig, path)

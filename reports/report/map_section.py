@@ -18,7 +18,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from hoopbench.engines.judging.verdict import HOP_HEIGHT_FACTOR, Verdict
+from hoopbench.engines.judging.tolerances import Tier, event_tolerances
+from hoopbench.engines.judging.verdict import Verdict
 from hoopbench.reference.regimes import Regime
 from hoopbench.reports.compare.selection import engine_rows, reference_rows
 from hoopbench.reports.hop_map.spec import AXES, MAP_FILE, Axis, MapSpec, load_spec
@@ -165,7 +166,8 @@ def _hardest_regime_sentence(table: pd.DataFrame) -> str:
 
 
 def _hop_sentence(frame: pd.DataFrame, engine: str) -> str:
-    """Hop heights where both hop: how many within the verdict's factor, the median ratio."""
+    """Hop heights where both hop: how many within the loose tolerance (the table's, the
+    verdict's), the median ratio."""
     mine = _engine_rows(frame)
     mine = mine[mine["engine"] == engine]
     error = pd.to_numeric(mine["hop_height_error"], errors="coerce")
@@ -174,9 +176,10 @@ def _hop_sentence(frame: pd.DataFrame, engine: str) -> str:
     if not both.any():
         return ""
     ratio = 1.0 + error[both] / exact[both]
-    within = int(((ratio >= 1 / HOP_HEIGHT_FACTOR) & (ratio <= HOP_HEIGHT_FACTOR)).sum())
+    loose = event_tolerances(Tier.LOOSE).hop_height_rel
+    within = int(((ratio - 1.0).abs() <= loose).sum())
     return (
-        f"Where both hop, {engine}'s hop height is within a factor {HOP_HEIGHT_FACTOR:g} of "
+        f"Where both hop, {engine}'s hop height is within {100 * loose:g} % (loose) of "
         f"the exact one at {_share(within, int(both.sum()))} points (median ratio "
         f"{ratio.median():.3g}, range {ratio.min():.3g} to {ratio.max():.3g})."
     )

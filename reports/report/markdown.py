@@ -20,6 +20,7 @@ from typing import Any
 import pandas as pd
 
 from hoopbench.engines.judging.columns import FORCE_COLUMNS
+from hoopbench.engines.judging.tolerances import tolerances
 from hoopbench.engines.judging.verdict import OUTCOME_FAILURES, Verdict
 from hoopbench.engines.options import Profile
 from hoopbench.engines.run import REFERENCE_ENGINE
@@ -53,7 +54,6 @@ from hoopbench.reports.report.stability import (
     stability_figure,
     stability_matrix,
 )
-from hoopbench.reports.report.tolerances import tolerances
 from hoopbench.reports.sweep import results
 
 __all__ = ["markdown_table", "write_markdown"]
@@ -130,16 +130,30 @@ def _header(runs: pd.DataFrame, generated: str) -> str:
         f"Generated {generated} on {platform.platform()} ({platform.python_version()}). "
         f"Engines: {_versions(runs)}.",
         "",
-        "Every engine event is read off its trajectory by the same detectors "
-        "(`engines/judging/detectors.py`); the exact events come from the event-driven reference "
-        "solver for the same scene with mus = muk = the run's mu. Errors are engine minus "
-        "exact. Times in s (errors in ms), angles in degrees, lengths in m. "
-        f"Tolerances of the regression tests: slip {tol['slip']['t_s'] * 1e3:g} ms and "
-        f"{tol['slip']['theta_deg']:g} deg.",
+        "Every engine event is read off its trajectory and contact force by one reading, "
+        "the canonical one (`engines/judging/contact.py`, docs/report.md); every section "
+        'but "Where the two readings differ" shows it. The exact events come from the '
+        "event-driven reference solver for the same scene with mus = muk = the run's mu. "
+        "Errors are engine minus exact. Times in s (errors in ms), angles in degrees, "
+        "lengths in m. The verdict's tolerances (`engines/judging/tolerances.toml`, shared "
+        "with the Findings and the regression tests), 1 m hoop, plus one timestep and the "
+        "row's detection floor: "
+        + _tolerance_text(tol["tight"], "tight (agrees)")
+        + "; "
+        + _tolerance_text(tol["loose"], "loose (close)")
+        + ".",
         "",
         f"Runs: {len(runs)}; status counts: "
         + escape_text(", ".join(f"{k} {v}" for k, v in runs["status"].value_counts().items()))
         + ".",
+    )
+
+
+def _tolerance_text(table: dict, name: str) -> str:
+    return (
+        f"{name}: slip onset {table['t_slip_s'] * 1e3:g} ms, lift-off "
+        f"{table['t_lift_s'] * 1e3:g} ms, impact {table['t_impact_s'] * 1e3:g} ms, hop "
+        f"height {table['hop_height_rel'] * 100:g} %"
     )
 
 
@@ -445,7 +459,8 @@ def force_panels(runs: pd.DataFrame) -> list[ForcePanel]:
 
 
 def _readings_section(runs: pd.DataFrame) -> str:
-    """Where the kinematic and the contact reading of a default-settings run differ."""
+    """Where the kinematic and the canonical reading of a default-settings run differ: the
+    one section that shows the ``kin_*`` columns."""
     table = reading_differences(runs)
     title = "## Where the two readings differ"
     if table.empty:
@@ -455,9 +470,10 @@ def _readings_section(runs: pd.DataFrame) -> str:
         "",
         f"Default settings, dt = {DEFAULT_TIMESTEP:g} s: each event whose error (engine minus "
         f"exact) differs by more than {READING_RESOLUTION_MS:g} ms between the reading by the "
-        "clearance and slip velocity and the reading by the contact force, or that one "
-        "reading has and the other not, and each run whose phase codes differ. The verdict "
-        'reads the contact force (docs/report.md, "What the contact force says").',
+        "clearance and slip velocity (the `kin_*` columns) and the canonical reading by the "
+        "contact force, or that one reading has and the other not, and each run whose phase "
+        "codes differ. Every other section, and the verdict, read the canonical reading "
+        '(docs/report.md, "The canonical reading").',
         "",
         _table(
             table,
@@ -466,8 +482,8 @@ def _readings_section(runs: pd.DataFrame) -> str:
                 "engine": "engine",
                 "profile": "profile",
                 "event": "event",
-                "kinematic": "by the clearance",
-                "contact": "by the contact force",
+                "kinematic": "by the clearance (kin_)",
+                "contact": "canonical (contact force)",
             },
         ),
     )

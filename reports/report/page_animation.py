@@ -28,11 +28,11 @@ from hoopbench.reports.report.page_html import PALETTE, rounded, text
 __all__ = ["EVENTS", "HoopMotion", "animation_figure", "hoop_motions"]
 
 EVENTS = (
-    ("slip", (Col.CONTACT_T_SLIP, Col.T_SLIP), Col.EXACT_T_SLIP, "x"),
-    ("lift-off", (Col.CONTACT_T_LIFT, Col.T_LIFT), Col.EXACT_T_LIFT, "triangle-up"),
-    ("impact", (Col.CONTACT_T_IMPACT, Col.T_IMPACT), Col.EXACT_T_IMPACT, "square"),
+    ("slip", (Col.T_SLIP,), Col.EXACT_T_SLIP, "x"),
+    ("lift-off", (Col.T_LIFT,), Col.EXACT_T_LIFT, "triangle-up"),
+    ("impact", (Col.T_IMPACT,), Col.EXACT_T_IMPACT, "square"),
 )
-"""(event, an engine row's columns in order of preference, the exact column, marker)."""
+"""(event, an engine row's column (the canonical reading), the exact column, marker)."""
 
 EXACT_LABEL = "exact"
 FRAMES = 80

@@ -1,9 +1,11 @@
 """Where the two readings of a run disagree: its events by the clearance and slip velocity
-against its events by the contact force (engines/judging/contact.py).
+(the ``kin_*`` columns) against its events by the canonical reading (the unprefixed ones,
+engines/judging/contact.py).
 
-The verdict reads the contact force (docs/report.md says why); this table shows every
-default-settings run where the other reading would tell a different story, so that no
-reader has to take the choice on trust.
+Everything else in the report reads the canonical reading (docs/report.md says why); this
+table, the one place the ``kin_*`` columns are shown, lists every default-settings run where
+the other reading would tell a different story, so that no reader has to take the choice on
+trust.
 """
 
 from __future__ import annotations
@@ -26,26 +28,27 @@ solution's events within 0.1 ms (tests/test_report.py) and the contact reading w
 0.5 ms (tests/test_contact_reading.py) at dt 1e-4: a larger difference is the engine's."""
 
 _EVENTS = (
-    ("slip onset", Col.ERR_T_SLIP_MS, Col.ERR_CONTACT_T_SLIP_MS),
-    ("lift-off", Col.ERR_T_LIFT_MS, Col.ERR_CONTACT_T_LIFT_MS),
-    ("impact", Col.ERR_T_IMPACT_MS, Col.ERR_CONTACT_T_IMPACT_MS),
+    ("slip onset", Col.KIN_ERR_T_SLIP_MS, Col.ERR_T_SLIP_MS),
+    ("lift-off", Col.KIN_ERR_T_LIFT_MS, Col.ERR_T_LIFT_MS),
+    ("impact", Col.KIN_ERR_T_IMPACT_MS, Col.ERR_T_IMPACT_MS),
 )
-"""(event, its error by the clearance or slip velocity, by the contact force), ms."""
+"""(event, its error by the clearance or slip velocity, by the canonical reading), ms."""
 
 
 def reading_differences(runs: pd.DataFrame) -> pd.DataFrame:
     """One row per (run, event) where the readings differ by more than the resolution, or
     one reading has the event and the other not, and per run whose phase codes differ:
-    default settings at the default timestep, engines only (rows without the contact
-    reading, stored before it, are left out)."""
+    default settings at the default timestep, engines only (rows without both readings are
+    left out)."""
     rows = default_rows(engine_rows(runs))
-    rows = rows[(rows[Col.TIMESTEP] == DEFAULT_TIMESTEP) & rows[Col.CONTACT_PHASES].notna()]
+    both = rows[Col.PHASES].notna() & rows[Col.KIN_PHASES].notna()
+    rows = rows[(rows[Col.TIMESTEP] == DEFAULT_TIMESTEP) & both]
     rows = rows.assign(profile=profile_of(rows))
     out: list[dict[str, Any]] = []
     for _, row in rows.iterrows():
         out += _event_differences(row)
-        if row[Col.PHASES] != row[Col.CONTACT_PHASES]:
-            out.append(_entry(row, "phases", row[Col.PHASES], row[Col.CONTACT_PHASES]))
+        if row[Col.KIN_PHASES] != row[Col.PHASES]:
+            out.append(_entry(row, "phases", row[Col.KIN_PHASES], row[Col.PHASES]))
     columns = ["scene", "engine", "profile", "event", "kinematic", "contact"]
     return pd.DataFrame(out, columns=columns)
 

@@ -1,0 +1,247 @@
+"""The truth test (issue 24, item 6): on scenes drawn at random, which nobody tuned the
+reading on, no label of any engine's row contradicts the run's own trajectory and contact
+force.
+
+Eight scenes are drawn with a seed of their own (tests/random_scenes.py: two rolls, two
+slips, a slip reversal, three hops). Each is run by the reference and the seven engines,
+stock and tuned, at dt 1e-3 and 1e-4, through ``hb.run`` as a user runs one, and every row
+is checked by the independent checker of tests/truth_checker.py, which reads the canonical
+events from their definitions and does not call the judging code. Both profiles and both
+timesteps, because the issue's three kinds of false slip do not all show in one (creep read
+as a slip is MuJoCo stock's, chattering read as a slip shows at dt 1e-4 tuned) and the four
+cost about 30 s of CPU together (the draw 3 s; a minute of wall time on a busy machine).
+
+Before issue 24's canonical reading, the row's labels read with today's names (the contact
+reading's contact_* columns), this test found 35 contradictions in 20 of the 256 rows: see
+the commit that introduced it.
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+from importlib.resources import files
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import engine_unavailable
+from random_scenes import Draw, draw
+from truth_checker import (
+    CANONICAL_NAMES,
+    DOCS_LOOSE,
+    Exact,
+    Hoop,
+    Kind,
+    Labels,
+    LooseTolerances,
+    contradictions,
+)
+
+import hoopbench as hb
+from hoopbench.engines.registry import engine_names
+from hoopbench.engines.run import RunStatus
+from hoopbench.models.scene import Scene
+from hoopbench.reference.regimes import Regime
+
+SEED = 2_411_026
+"""Not a seed the project used before: the scenes are new to every reading."""
+QUOTA = {Regime.ROLLS: 2, Regime.SLIPS: 2, Regime.SLIP_REVERSAL: 1, Regime.HOPS: 3}
+ENGINES = ("reference", "mujoco", "pybullet", "pymunk", "drake", "box2d", "rapier", "dart")
+PROFILES = ("tuned", "stock")
+TIMESTEPS = (1e-3, 1e-4)
+TIMESTEP = 1e-4
+"""s: the checker's own tests run the reference at this one."""
+T_END = 1.5
+"""s: each scene's window."""
+TABLE = files("hoopbench.engines.judging").joinpath("tolerances.toml")
+"""The one tolerance table of issue 24 (its [loose] tier), read as data from the installed
+package."""
+
+
+def loose() -> LooseTolerances:
+    """The table's loose tier; before the table existed, the tolerances docs/report.md
+    stated (wider: a looser check, never a stricter one)."""
+    return LooseTolerances.from_table(TABLE) if TABLE.is_file() else DOCS_LOOSE
+
+
+@pytest.fixture(scope="module")
+def drawn() -> Draw:
+    return draw(SEED, QUOTA, t_end=T_END)
+
+
+@pytest.fixture(scope="module")
+def exact(drawn: Draw) -> dict[str, Exact]:
+    return {s.name: Exact.from_solution(hb.exact(s), Hoop(s.a, s.g)) for s in drawn.scenes}
+
+
+def test_the_draw_covers_every_regime(drawn):
+    assert sorted(drawn.regimes) == sorted(r for r, k in QUOTA.items() for _ in range(k))
+    assert set(ENGINES) <= set(engine_names())
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("timestep", TIMESTEPS)
+@pytest.mark.parametrize("profile", PROFILES)
+def test_no_label_contradicts_its_run(drawn, exact, profile, timestep):
+    found, tolerances = [], loose()
+    for scene in drawn.scenes:
+        for engine in ENGINES:
+            run = hb.run(engine, scene, timestep=timestep, profile=profile)
+            if run.status is RunStatus.UNAVAILABLE:
+                engine_unavailable(engine, run.row.get("message"))
+            labels = Labels.from_row(run.row, CANONICAL_NAMES)
+            hoop = Hoop(scene.a, scene.g, scene)
+            for c in contradictions(
+                run.trajectory,
+                labels,
+                exact[scene.name],
+                mu=run.row["mu"],
+                hoop=hoop,
+                loose=tolerances,
+            ):
+                found.append(f"{scene.name} {engine} [{labels.verdict}]: {c.kind}: {c.text}")
+    head = f"{len(found)} contradictions (loose tolerances: {tolerances.source}):"
+    assert not found, "\n".join([head, *found])
+
+
+# --------------------------------------------------------------------------- the checker
+def test_the_checker_and_the_draw_do_not_call_the_judging_code():
+    """An independent check: sharing the judging code would share its mistakes."""
+    judging = ("hoopbench.engines", "hoopbench.reports")
+    for name in ("truth_checker.py", "random_scenes.py"):
+        tree = ast.parse((Path(__file__).parent / name).read_text())
+        modules = {n.module or "" for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
+        modules |= {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
+        assert not {m for m in modules if m.startswith(judging)}, name
+
+
+# It must accept the truth and catch a lie: the exact events on the reference's own
+# trajectory are no contradiction, and each label made false is one, of its kind.
+def _first(drawn: Draw, regime: Regime) -> Scene:
+    return next(s for s, r in zip(drawn.scenes, drawn.regimes, strict=True) if r is regime)
+
+
+def _truth(scene: Scene, exact: Exact) -> tuple:
+    run = hb.run("reference", scene, timestep=TIMESTEP)
+    labels = Labels(
+        engine="reference",
+        status="ok",
+        verdict="agrees",
+        flags=frozenset(),
+        t_slip=exact.t_slip,
+        t_lift=exact.t_lift,
+        t_impact=exact.t_impact,
+        hop_height=exact.hop_height,
+    )
+    return run.trajectory, labels, run.row["mu"], Hoop(scene.a, scene.g, scene)
+
+
+def _kinds(frame, labels, exact, mu, hoop) -> set[Kind]:
+    return {c.kind for c in contradictions(frame, labels, exact, mu=mu, hoop=hoop)}
+
+
+@pytest.mark.parametrize("regime", [Regime.HOPS, Regime.ROLLS, Regime.SLIP_REVERSAL])
+def test_the_checker_accepts_the_exact_events(drawn, exact, regime):
+    scene = _first(drawn, regime)
+    frame, labels, mu, hoop = _truth(scene, exact[scene.name])
+    assert contradictions(frame, labels, exact[scene.name], mu=mu, hoop=hoop) == []
+
+
+def _hop_lies(e: Exact) -> dict[str, tuple[dict, dict, Kind]]:
+    """Each lie: the labels changed, the exact events changed (to make the reference's own
+    run early or late), the kind of contradiction it is."""
+    assert e.t_lift is not None and e.hop_height is not None and e.t_slip is not None
+    missed = dict(verdict="missed-hop", flags=frozenset({"missed-hop"}))
+    hop = Kind.HOP_VERDICT
+    return {
+        "missed-hop": (missed, {}, Kind.HOP_VERDICT),
+        "late lift-off": (dict(verdict="late-lift-off"), dict(t_lift=e.t_lift + 0.1), hop),
+        "hop too low": (dict(verdict="hop-too-low"), {}, Kind.HOP_VERDICT),
+        "lift-off 50 ms off": (dict(t_lift=e.t_lift - 0.05), {}, Kind.HOP_LABEL),
+        "twice the height": (dict(hop_height=2 * e.hop_height), {}, Kind.HOP_LABEL),
+        "no impact": (dict(t_impact=None), {}, Kind.HOP_LABEL),
+        "no slip": (dict(t_slip=None), {}, Kind.SLIP_LABEL),
+        "slip 40 ms early": (dict(t_slip=e.t_slip - 0.04), {}, Kind.NO_SLIP_AS_SLIP),
+        "early slip": (dict(verdict="early-slip"), dict(t_slip=e.t_slip - 0.05), Kind.SLIP_VERDICT),
+        "late slip": (dict(verdict="late-slip"), dict(t_slip=e.t_slip + 0.05), Kind.SLIP_VERDICT),
+        "missed slip": (dict(verdict="missed-slip"), {}, Kind.SLIP_VERDICT),
+        "agrees, slip 50 ms off": ({}, dict(t_slip=e.t_slip - 0.05), Kind.TOLERANCE),
+        "agrees, lift-off 100 ms off": ({}, dict(t_lift=e.t_lift + 0.1), Kind.TOLERANCE),
+        "flags without the late slip": (
+            dict(verdict="hop-too-low", flags=frozenset({"hop-too-low"})),
+            dict(t_slip=e.t_slip - 0.05),
+            Kind.MISSING_FLAG,
+        ),
+        "diverged": (dict(verdict="diverged"), {}, Kind.DIVERGED),
+        "a reference failing": (dict(verdict="wrong-phases"), {}, Kind.REFERENCE),
+        "an unfounded cone flag": (dict(flags=frozenset({"cone-violation"})), {}, Kind.CONE_FLAG),
+    }
+
+
+@pytest.mark.parametrize("lie", list(_hop_lies(Exact(1.0, True, 0.5, 0.6, 0.9, 0.1))))
+def test_the_checker_catches_each_false_hop_scene_label(drawn, exact, lie):
+    scene = _first(drawn, Regime.HOPS)
+    e = exact[scene.name]
+    frame, labels, mu, hoop = _truth(scene, e)
+    change, exact_change, kind = _hop_lies(e)[lie]
+    lied = dataclasses.replace(labels, **change)
+    assert kind in _kinds(frame, lied, dataclasses.replace(e, **exact_change), mu, hoop)
+
+
+def test_the_checker_catches_a_false_slip_and_agreeing_on_a_missed_hop(drawn, exact):
+    rolls, hops = _first(drawn, Regime.ROLLS), _first(drawn, Regime.HOPS)
+    frame, labels, mu, hoop = _truth(rolls, exact[rolls.name])
+    false_slip = dataclasses.replace(labels, verdict="false-slip")
+    assert Kind.SLIP_VERDICT in _kinds(frame, false_slip, exact[rolls.name], mu, hoop)
+    # A roll judged against the hop scene's exact events: agrees would be a lie.
+    roll_as_hop = dataclasses.replace(labels, t_slip=None)
+    assert Kind.TOLERANCE in _kinds(frame, roll_as_hop, exact[hops.name], mu, hoop)
+
+
+def test_the_checker_tells_creep_and_a_stick_outside_the_cone_from_a_slip(drawn, exact):
+    """Edited exact runs. A roll made to slide at 5 mm/s against its friction, which stays at
+    the rolling demand inside the cone, is creep, not a slip; a slip whose friction is held
+    at 1.3 of the cone with the rim still is a stick outside the cone (and needs the
+    cone-violation flag)."""
+    rolls = _first(drawn, Regime.ROLLS)
+    frame, labels, mu, hoop = _truth(rolls, exact[rolls.name])
+    t = frame["t"].to_numpy()
+    middle = (t > 0.3 * t[-1]) & (t < 0.6 * t[-1])
+    creep = frame.copy()
+    creep.loc[middle, "slip_velocity"] = -np.sign(creep.loc[middle, "friction_force"]) * 5e-3
+    said_slip = dataclasses.replace(labels, t_slip=float(t[middle][0]))
+    assert Kind.CREEP_AS_SLIP in _kinds(creep, said_slip, exact[rolls.name], mu, hoop)
+    scene = _first(drawn, Regime.SLIPS)
+    e = exact[scene.name]
+    frame, labels, mu, hoop = _truth(scene, e)
+    assert e.t_slip is not None
+    after = frame["t"].to_numpy() >= e.t_slip
+    stick = frame.copy()
+    stick.loc[after, "friction_force"] *= 1.3
+    stick.loc[after, "slip_velocity"] = 0.0
+    kinds = _kinds(stick, labels, e, mu, hoop)
+    assert {Kind.STICK_AS_SLIP, Kind.CONE_FLAG} <= kinds
+    assert np.all(np.isfinite(stick["friction_force"]))
+
+
+def test_the_loose_tier_is_read_from_the_table(tmp_path):
+    table = tmp_path / "tolerances.toml"
+    table.write_text(
+        "[tight]\nt_slip_s = 0.002\n[loose]\nt_slip_s = 0.01\nt_lift_s = 0.02\n"
+        "t_impact_s = 0.005\nhop_height_rel = 0.05\nsteps = 1\n"
+    )
+    read = LooseTolerances.from_table(table)
+    assert (read.slip_s, read.lift_s, read.impact_s, read.steps) == (0.01, 0.02, 0.005, 1.0)
+    assert (read.height_low, read.height_high) == pytest.approx((0.95, 1.05))
+
+
+def test_a_hop_the_record_cuts_short_is_left_out(drawn, exact):
+    """A hop that lifts off just before the window's end cannot show in a run's record (nor
+    in the reference's): its checks are left out rather than asked of every engine."""
+    scene = _first(drawn, Regime.HOPS)
+    assert not exact[scene.name].hop_unresolved
+    t_lift = exact[scene.name].t_lift
+    assert t_lift is not None
+    cut = Exact.from_solution(hb.exact(scene.with_(t_end=t_lift + 0.003)), Hoop())
+    assert cut.hop_unresolved and cut.t_lift is None
