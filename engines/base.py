@@ -855,16 +855,21 @@ def check_window(scene: Scene, settings: RunSettings) -> None:
 def check_steps(t_end: float, timestep: float, max_steps: int) -> int:
     """The steps of a run over [0, t_end] (s) at ``timestep`` (s): the one check of a run's
     window, for a run and for a sweep's settings before any run starts. ValueError for a
-    timestep longer than the window or a run over ``max_steps``."""
+    timestep longer than the window or a run over ``max_steps`` (a step so small that the
+    count is past any float, 1e-320 s, included)."""
     dt = timestep
     if dt > t_end:
         raise ValueError(f"timestep {dt:g} s is longer than the window t_end = {t_end:g} s")
-    n_steps = steps_in(t_end, dt)
-    if n_steps > max_steps:
-        gigabytes = n_steps * BYTES_PER_STEP / 1e9
+    steps = t_end / dt  # inf for a subnormal step: compared as a float, never made an int
+    if steps > max_steps and (not math.isfinite(steps) or steps_in(t_end, dt) > max_steps):
+        size = (
+            f"{steps:.3g} steps (t_end {t_end:g} s / timestep {dt:g} s, "
+            f"about {steps * BYTES_PER_STEP / 1e9:.3g} GB)"
+            if math.isfinite(steps)
+            else f"more steps than a float counts (t_end {t_end:g} s / timestep {dt:g} s)"
+        )
         raise ValueError(
-            f"the run needs {n_steps:.3g} steps (t_end {t_end:g} s / timestep {dt:g} s, "
-            f"about {gigabytes:.3g} GB), over max_steps = {max_steps:.3g}: "
+            f"the run needs {size}, over max_steps = {max_steps:.3g}: "
             "shorten t_end, raise the timestep, or raise max_steps"
         )
-    return n_steps
+    return steps_in(t_end, dt)

@@ -138,6 +138,12 @@ def _check_solimp(name: str, value: Any) -> tuple[float, ...]:
     return solimp
 
 
+MAX_RING_SEGMENTS = 1024
+"""Most capsules in the ring: at 1024 the polygon's sagitta, a (1 - cos(pi/n)) = 4.7e-6 a, is
+below any penetration MuJoCo's soft contact allows; more only grows the model (one capsule
+each: 1e8 of them took minutes and gigabytes before the run began)."""
+
+
 @register
 class MujocoEngine(Engine):
     """MuJoCo through ``mujoco.rollout``, and batches through ``mujoco.batch``."""
@@ -227,7 +233,7 @@ class MujocoEngine(Engine):
         Option(
             "ring_segments",
             32,
-            integer(low=3),
+            integer(low=3, high=MAX_RING_SEGMENTS),
             "capsules in the ring geometry: a polygon fine enough to roll, coarse enough to see",
         ),
     )

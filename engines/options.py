@@ -14,7 +14,13 @@ from enum import StrEnum
 from types import MappingProxyType
 from typing import Any
 
-from hoopbench.models.checks import check_choice, check_flag, check_integer, check_real
+from hoopbench.models.checks import (
+    check_choice,
+    check_flag,
+    check_integer,
+    check_real,
+    shown_value,
+)
 
 __all__ = [
     "C_INT_MAX",
@@ -128,7 +134,8 @@ def integer(*, low: int | None = None, high: int | None = None) -> Check:
         out = check_integer(name, value, low=low, high=high)
         if not -C_INT_MAX - 1 <= out <= C_INT_MAX:
             raise ValueError(
-                f"{name} must be an integer that fits a C int (at most {C_INT_MAX}), got {value!r}"
+                f"{name} must be an integer that fits a C int (at most {C_INT_MAX}), "
+                f"got {shown_value(value)}"
             )
         return out
 

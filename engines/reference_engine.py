@@ -17,7 +17,7 @@ from hoopbench.models.events import Outcome
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.reference import exact
-from hoopbench.reference.exact import DEFAULT_ATOL, DEFAULT_RTOL
+from hoopbench.reference.exact import DEFAULT_ATOL, DEFAULT_RTOL, MIN_RTOL
 
 __all__ = ["ReferenceEngine"]
 
@@ -40,7 +40,7 @@ class ReferenceEngine(Engine):
         Option(
             "rtol",
             DEFAULT_RTOL,
-            number(low=0.0, high=1e-3, low_open=True),
+            number(low=MIN_RTOL, high=1e-3),
             "event times converge to ~1e-11 s between 1e-10 and 1e-12 (tests/test_exact.py)",
         ),
         Option(

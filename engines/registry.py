@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import os
 import pkgutil
+import threading
 from importlib import import_module
 from importlib.metadata import EntryPoint, entry_points
 from types import MappingProxyType, ModuleType
@@ -67,14 +68,20 @@ def unregister(name: str) -> None:
     _ENGINES.pop(name, None)
 
 
+_discovery_lock = threading.Lock()
+"""Discovery runs once: a second thread's first use waits for it (it used to find the flag
+set and the registry still empty: "unknown engine 'reference'; known: ")."""
+
+
 def _discover() -> None:
     global _discovered, _discovery_error
-    if not _discovered:
-        _discovered = True
-        try:
-            _load_engines()
-        except ValueError as exc:
-            _discovery_error = str(exc)
+    with _discovery_lock:
+        if not _discovered:
+            try:
+                _load_engines()
+            except ValueError as exc:
+                _discovery_error = str(exc)
+            _discovered = True
     if _discovery_error is not None:
         raise ValueError(_discovery_error)
 

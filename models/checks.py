@@ -20,6 +20,7 @@ __all__ = [
     "check_integer",
     "check_real",
     "interval_text",
+    "shown_value",
 ]
 
 
@@ -41,7 +42,9 @@ def check_finite(name: str, value: Any) -> float:
     try:
         out = float(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a real number, got {value!r}") from None
+        raise ValueError(f"{name} must be a real number, got {shown_value(value)}") from None
+    except OverflowError:  # an integer of hundreds of digits
+        raise ValueError(f"{name} must be finite, got {shown_value(value)}") from None
     if not math.isfinite(out):
         raise ValueError(f"{name} must be finite, got {out}")
     return out
@@ -64,8 +67,9 @@ def check_real(
         raise ValueError(f"{name} must be a number {allowed}{suffix}, got {value!r}")
     try:
         out = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number {allowed}{suffix}, got {value!r}") from None
+    except (TypeError, ValueError, OverflowError):
+        shown = shown_value(value)
+        raise ValueError(f"{name} must be a number {allowed}{suffix}, got {shown}") from None
     too_low = low is not None and (out <= low if low_open else out < low)
     too_high = high is not None and (out >= high if high_open else out > high)
     if not math.isfinite(out) or too_low or too_high:
@@ -77,13 +81,26 @@ def check_integer(name: str, value: Any, *, low: int | None = None, high: int | 
     """A whole number (3 or 3.0, not 3.5 or True) within the bounds, as int."""
     allowed = interval_text(low, high, False, False)
     ok = not isinstance(value, bool) and isinstance(value, numbers.Real)
-    ok = ok and math.isfinite(float(value)) and float(value).is_integer()
+    if ok and not isinstance(value, numbers.Integral):
+        ok = math.isfinite(float(value)) and float(value).is_integer()
     if ok:
         out = int(value)
         ok = (low is None or out >= low) and (high is None or out <= high)
     if not ok:
-        raise ValueError(f"{name} must be an integer {allowed}, got {value!r}")
+        raise ValueError(f"{name} must be an integer {allowed}, got {shown_value(value)}")
     return out
+
+
+_SHOWN_DIGITS = 40
+"""An integer of more digits is shown by its length: the line stays one line."""
+
+
+def shown_value(value: Any) -> str:
+    """``value!r``, an integer of hundreds of digits as its first digits and its length."""
+    text = repr(value)
+    if isinstance(value, int) and len(text) > _SHOWN_DIGITS:
+        return f"{text[:12]}... ({len(text.lstrip('-'))} digits)"
+    return text
 
 
 def check_choice(name: str, value: Any, allowed: Sequence[str]) -> str:

@@ -20,7 +20,7 @@ from typing import TypedDict, Unpack
 
 from hoopbench.models.checks import check_finite
 
-__all__ = ["THETA0_LIMIT_DEG", "DegenerateSceneError", "Scene"]
+__all__ = ["MAX_TURNS", "THETA0_LIMIT_DEG", "DegenerateSceneError", "Scene"]
 
 THETA0_LIMIT_DEG = 360.0
 """Largest start angle either way, deg: one turn (beyond it is the same start again, so a
@@ -30,6 +30,17 @@ way in: the command line, the API, suite files and the map's axis."""
 
 class DegenerateSceneError(ValueError):
     """A phase needs a positive moment of inertia about the centre of mass, and it is zero."""
+
+
+MAX_TURNS = 1e7
+"""Most turns of the hoop in the window at its initial spin (|thetadot0| t_end / 2 pi): a run
+resolves a turn in a step at the very least, and no run takes more than ten million steps
+(engines/settings.MAX_STEPS). A larger spin is one no run can follow, and its derived
+quantities (chi, the energy, the solver's thetadot^3) overflow a float: refused by name."""
+
+
+def _turns(thetadot0: float, t_end: float) -> float:
+    return abs(thetadot0) * t_end / (2 * math.pi)
 
 
 def _check_range(name: str, value: float, low: float, high: float, allowed: str) -> None:
@@ -104,6 +115,12 @@ class Scene:
         _check_range("theta0", self.theta0, -limit, limit, "within one turn, [-2 pi, 2 pi] rad")
         self._check_dimensions()
         self._check_coefficients()
+        turns = _turns(self.thetadot0, self.t_end)
+        if not turns <= MAX_TURNS:
+            raise ValueError(
+                f"thetadot0 = {self.thetadot0:g} rad/s turns the hoop {turns:.3g} times in the "
+                f"window t_end = {self.t_end:g} s, more than {MAX_TURNS:.0e}: no run can follow it"
+            )
 
     def _check_dimensions(self) -> None:
         if self.a <= 0:
@@ -137,7 +154,15 @@ class Scene:
         a = check_finite("a", kwargs.get("a", 1.0))
         if a <= 0 or g <= 0:
             return cls(thetadot0=0.0, **kwargs)  # let __post_init__ name the bad field
-        return cls(thetadot0=math.sqrt(chi * g / a), **kwargs)
+        thetadot0 = math.sqrt(chi * g / a)  # inf past a float: refused below, by chi's name
+        t_end = check_finite("t_end", kwargs.get("t_end", 3.0))
+        if t_end > 0 and not _turns(thetadot0, t_end) <= MAX_TURNS:
+            raise ValueError(
+                f"chi = {chi:g} (with a = {a:g} m, g = {g:g} m/s^2) spins the hoop "
+                f"{_turns(thetadot0, t_end):.3g} times in the window t_end = {t_end:g} s, more "
+                f"than {MAX_TURNS:.0e}: no run can follow it"
+            )
+        return cls(thetadot0=thetadot0, **kwargs)
 
     @classmethod
     def from_energy(cls, energy_per_mass: float, **kwargs: Unpack[_Settings]) -> Scene:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import os
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
@@ -162,10 +164,25 @@ class Trajectory:
 
     def write(self, path: str | Path, *, suffix: str | None = None) -> Path:
         """Write as CSV (with a format-version comment) or Parquet, chosen by the suffix
-        (``suffix`` overrides the path's, e.g. for a temporary name)."""
+        (``suffix`` overrides the path's, e.g. for a temporary name). Written whole: into a
+        hidden temporary file renamed at the end, so that a full disk or a kill leaves the
+        old file or none, never a truncated one under the name."""
         path = Path(path)
-        frame = self.to_frame()
         suffix = path.suffix if suffix is None else suffix
+        if suffix not in (".parquet", ".csv"):
+            raise ValueError(f"trajectory file must end in .csv or .parquet, got {path.name!r}")
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        try:
+            self._write(tmp, suffix)
+            os.replace(tmp, path)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
+            raise
+        return path
+
+    def _write(self, path: Path, suffix: str) -> None:
+        frame = self.to_frame()
         if suffix == ".parquet":
             frame.attrs[FORMAT_KEY] = FORMAT_VERSION
             frame.to_parquet(path, index=False)
@@ -173,9 +190,6 @@ class Trajectory:
             with path.open("w", newline="") as fh:
                 fh.write(f"# hoopbench trajectory format {FORMAT_VERSION}; SI units\n")
                 frame.to_csv(fh, index=False, float_format="%.17g")
-        else:
-            raise ValueError(f"trajectory file must end in .csv or .parquet, got {path.name!r}")
-        return path
 
     @classmethod
     def read(cls, path: str | Path) -> Trajectory:

@@ -19,6 +19,7 @@ integrator steps or ``max_phases`` phases are used, instead of running for hours
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import Enum
@@ -41,6 +42,7 @@ __all__ = [
     "DEFAULT_MAX_SAMPLES",
     "DEFAULT_MAX_STEPS",
     "DEFAULT_RTOL",
+    "MIN_RTOL",
     "EventReason",
     "ExactSolution",
     "Mode",
@@ -49,6 +51,10 @@ __all__ = [
     "flight_phase",
     "solve_exact",
 ]
+
+MIN_RTOL = 100 * float(np.finfo(float).eps)
+"""scipy's explicit Runge-Kutta solvers raise a smaller rtol to this (2.2e-14) with a
+warning: a smaller one would be recorded while another was used."""
 
 DEFAULT_RTOL = 1e-10
 """solve_ivp relative tolerance: event times agree to ~1e-11 s with 1e-12 (tests/test_exact.py)."""
@@ -780,8 +786,14 @@ def _checked_options(
     """The integrator settings; ValueError for a tolerance, step cap or budget
     (``budgets``: max_steps, max_phases) that is not a positive number."""
     for name, value in (("rtol", rtol), ("atol", atol)):
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
+            raise ValueError(f"{name} must be a positive number, got {value!r}")
         if not (value > 0 and math.isfinite(value)):
             raise ValueError(f"{name} must be a positive number, got {value}")
+    if rtol < MIN_RTOL:
+        raise ValueError(
+            f"rtol must be >= {MIN_RTOL:.3g} (scipy raises a smaller one to it), got {rtol:g}"
+        )
     units = _Units.of(scene)
     if max_step is None:
         max_step = MAX_STEP * units.time

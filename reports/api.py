@@ -16,6 +16,7 @@ anything runs; a sweep's folder that cannot be used raises RunnerError (a Runtim
 from __future__ import annotations
 
 import math
+import numbers
 import os
 from collections.abc import Mapping, Sequence
 from concurrent.futures import Executor
@@ -24,6 +25,7 @@ from enum import Enum
 from pathlib import Path
 from typing import Any, TypeVar
 
+import numpy as np
 import pandas as pd
 
 from hoopbench.engines.judging.columns import Col
@@ -46,13 +48,14 @@ from hoopbench.reports.compare.suite_file import (
     Suite,
     TrajectoryChoice,
     VariantSpec,
+    check_catalogue_name,
     load_suite,
     suite_path,
 )
 from hoopbench.reports.hop_map.spec import MAP_FILE, Axis, MapSpec, check_grid, load_spec
 from hoopbench.reports.hop_map.stages import run_map
 from hoopbench.reports.hop_map.table import map_frame
-from hoopbench.reports.report.build import build_report
+from hoopbench.reports.report.build import build_report, files_to_replace
 from hoopbench.reports.sweep.runner import RunSummary
 
 __all__ = [
@@ -116,8 +119,9 @@ def check_positive_int(value: int | str) -> int:
             value = int(value)
         except ValueError:
             raise ValueError(f"must be a whole number, got {value!r}") from None
-    if isinstance(value, bool) or not isinstance(value, int):
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         raise ValueError(f"must be a whole number, got {value!r}")
+    value = int(value)  # numpy's integers too
     if value < 1:
         raise ValueError(f"must be >= 1, got {value}")
     return value
@@ -153,6 +157,50 @@ def check_batch_size(value: int | str) -> int:
 def default_jobs() -> int:
     """Worker processes when none are asked for: two, or one on a one-core machine."""
     return min(2, os.cpu_count() or 1)
+
+
+def _check_flag(option: str, value: Any) -> bool:
+    """A yes/no option: True or False (numpy's too), never a string ("no" is truthy)."""
+    if not isinstance(value, bool | np.bool_):
+        raise OptionError(option, f"{{option}} must be True or False, got {value!r}")
+    return bool(value)
+
+
+def _check_out(option: str, value: Any) -> Path:
+    """A folder to write into: '' would be the current folder, which no one means."""
+    if not isinstance(value, str | os.PathLike) or not str(value).strip():
+        raise OptionError(option, f"{{option}} must name a folder, got {value!r}")
+    return Path(value)
+
+
+def _check_names(option: str, value: Any) -> list[str] | None:
+    """A list of names (a string would be read letter by letter)."""
+    if value is None:
+        return None
+    if isinstance(value, str) or not isinstance(value, Sequence):
+        raise OptionError(option, f"{{option}} must be a list of names, got {value!r}")
+    if not all(isinstance(name, str) for name in value):
+        raise OptionError(option, f"{{option}} must be a list of names, got {value!r}")
+    return list(value)
+
+
+def _check_folders(option: str, value: Any) -> list[Path]:
+    """A folder, or a list of them."""
+    items = [value] if isinstance(value, str | os.PathLike) else value
+    if not isinstance(items, Sequence) or not all(
+        isinstance(item, str | os.PathLike) for item in items
+    ):
+        raise OptionError(option, f"{{option}} must be a folder or a list of them, got {value!r}")
+    return [Path(item) for item in items]
+
+
+def _check_pair(option: str, value: Any) -> tuple[Any, ...] | None:
+    """None, or two values (low, high); what they must be, the map's spec says."""
+    if value is None:
+        return None
+    if isinstance(value, str) or not isinstance(value, Sequence) or len(value) != 2:
+        raise OptionError(option, f"{{option}} must be a pair (low, high), got {value!r}")
+    return tuple(value)
 
 
 _E = TypeVar("_E", bound=Enum)
@@ -342,6 +390,9 @@ def _run_task(
     variant: str | None,
 ) -> RunTask:
     """The run as a one-task suite builds it, so that its run_id and row are a suite's."""
+    if options is not None and not isinstance(options, Mapping):
+        raise OptionError("options", f"{{option}} must be a mapping of settings, got {options!r}")
+    check_catalogue_name(scene, "scene")  # as a suite file's [[scene]]: one meaning per name
     settings = RunSettings(
         timestep=timestep,
         geometry=geometry,
@@ -391,11 +442,16 @@ def suite_job(
     ``announce(name, runs)`` is told the run count before the runs are checked."""
     # a Path is a file; text follows the command line's rule (suite_file.suite_path)
     path = suite if isinstance(suite, Path) else suite_path(str(suite))
+    names = _check_names("engines", engines)
+    if run_timeout is not None and (
+        isinstance(run_timeout, bool)
+        or not isinstance(run_timeout, numbers.Real)
+        or not run_timeout > 0
+    ):
+        raise OptionError("run_timeout", f"{{option}} must be > 0 s, got {run_timeout!r}")
     loaded = load_suite(path, announce)  # the whole file is checked before anything runs
-    if engines:
-        loaded = loaded.with_engines(list(engines))
-    if run_timeout is not None and not (run_timeout > 0):
-        raise OptionError("run_timeout", f"{{option}} must be > 0 s, got {run_timeout}")
+    if names:
+        loaded = loaded.with_engines(names)
     choice = _choice("trajectories", TrajectoryChoice, trajectories)
     return SuiteJob(path, loaded, run_timeout, choice)
 
@@ -412,6 +468,8 @@ def run_suite(
 ) -> RunSummary:
     """Run a checked suite into ``out`` and return how the sweep ended (the command line
     reports it); :func:`compare` is this with the runs table as its answer."""
+    out = _check_out("out", out)
+    resume, quiet = _check_flag("resume", resume), _check_flag("quiet", quiet)
     workers = default_jobs() if jobs is None else _checked("jobs", check_workers, jobs)
     batch_size = _checked("batch_size", check_batch_size, batch_size)
     return suite_runs.compare(
@@ -494,13 +552,14 @@ def map_spec(
 ) -> MapSpec:
     """The map's spec from the options (None: the default). On ``resume``, options not given
     come from the map stored in ``out`` (the run refuses a spec that differs from it)."""
+    out, resume = _check_out("out", out), _check_flag("resume", resume)
     given: dict[str, Any] = {
         key: value
         for key, value in (
             ("x", x),
             ("y", y),
-            ("x_range", None if x_range is None else tuple(x_range)),
-            ("y_range", None if y_range is None else tuple(y_range)),
+            ("x_range", _check_pair("x_range", x_range)),
+            ("y_range", _check_pair("y_range", y_range)),
             ("t_end", t_end),
             ("engines", None if engines is None or isinstance(engines, str) else tuple(engines)),
             ("timestep", timestep),
@@ -512,9 +571,19 @@ def map_spec(
         given["engines"] = engines  # MapSpec names it: a list of names, not one string
     if grid is not None:
         given["nx"], given["ny"] = _checked("grid", check_grid, grid)
+    if fixed is not None and not isinstance(fixed, Mapping):
+        raise OptionError("fixed", f"{{option}} must be a mapping of parameters, got {fixed!r}")
     fixed = dict(fixed or {})
     stored_file = Path(out) / MAP_FILE
-    if not (resume and stored_file.is_file()):
+    stored = stored_file.exists() or stored_file.is_symlink()
+    if resume and not stored and not (out.is_dir() and any(out.iterdir())):
+        # a new default map, silently, is not what a resume asks for (a folder holding other
+        # files is refused by the run, which says what it holds)
+        what = "does not exist" if not out.exists() else "is empty"
+        raise OptionError(
+            "resume", f"{{option}}: {str(out)!r} {what}: there is no hop map to resume"
+        )
+    if not (resume and stored):
         return MapSpec(**given, fixed=fixed)
     try:
         base = load_spec(out).to_dict()
@@ -549,6 +618,8 @@ def run_hop_map(
 ) -> RunSummary:
     """Run (or finish, ``resume``) a map into ``out`` and return how it ended (the command
     line reports it); :func:`hop_map` is this with the map's table as its answer."""
+    out = _check_out("out", out)
+    resume, quiet = _check_flag("resume", resume), _check_flag("quiet", quiet)
     workers = default_jobs() if jobs is None else _checked("jobs", check_workers, jobs)
     batch_size = _checked("batch_size", check_batch_size, batch_size)
     return run_map(
@@ -624,7 +695,7 @@ def report(
 
     An existing report.md is replaced only with ``force=True``.
     """
-    folders = [Path(results)] if isinstance(results, str | Path) else [Path(f) for f in results]
+    folders = _check_folders("results", results)
     if not folders:
         raise OptionError("results", "{option} must name at least one results folder")
     for folder in folders:
@@ -638,13 +709,25 @@ def report(
         same = [f for f in folders[:k] if f.resolve() == folder.resolve()]
         if same:
             raise OptionError("results", f"{{option}} names the folder {str(same[0])!r} twice")
-    target = Path(out) if out is not None else folders[0]
+    target = _check_out("out", out) if out is not None else folders[0]
+    force = _check_flag("force", force)
     if target.exists() and not target.is_dir():
         raise OptionError("out", f"{{option}} {str(target)!r} is a file, not a folder")
-    if (target / REPORT_FILE).exists() and not force:
+    for folder in folders:  # its own files (runs/, trajectories/) are no place for a report
+        if target.resolve() != folder.resolve() and target.resolve().is_relative_to(
+            folder.resolve()
+        ):
+            raise OptionError(
+                "out",
+                f"{{option}} {str(target)!r} is inside the results folder {str(folder)!r}: "
+                "choose a folder outside it (or the results folder itself)",
+            )
+    held = [] if force else files_to_replace(target, folders)
+    if held:
+        more = f" (and {len(held) - 1} more file(s) the report writes)" if len(held) > 1 else ""
         raise OptionError(
             "force",
-            f"{str(target / REPORT_FILE)!r} exists; pass {{option}} to replace it",
+            f"{str(held[0])!r} exists; pass {{option}} to replace it{more}",
             shown="force=True",
         )
-    return build_report(folders, target)
+    return build_report(folders, target, force=force)

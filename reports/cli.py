@@ -5,17 +5,34 @@ Sub-commands: ``scenes``, ``reference``, ``simulate``, ``model``, ``settings``, 
 Bad arguments give a one-line error on stderr and exit status 2. JSON goes to stdout only.
 """
 
+# ruff: noqa: E402  (the signal handler below is set before the heavy imports)
 from __future__ import annotations
 
 import argparse
 import json
 import os
 import re
+import signal
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
 
+
+def _stopped_while_starting(signum: int, frame: object) -> None:
+    """Ctrl-C or SIGTERM while the command's modules load (a second or more): one line, not
+    the import machinery's traceback; nothing has run."""
+    what = "Ctrl-C" if signum == signal.SIGINT else signal.Signals(signum).name
+    os.write(2, f"hoopbench: interrupted ({what}) while starting; nothing ran\n".encode())
+    os._exit(128 + signum)
+
+
+_STARTING_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+if __name__ == "__main__" or Path(sys.argv[0]).name == "hoopbench":  # the command, not an import
+    for _signal in _STARTING_SIGNALS:
+        signal.signal(_signal, _stopped_while_starting)
+
+# isort: split
 from hoopbench import __version__
 from hoopbench.engines.options import Profile
 from hoopbench.engines.registry import engine_class, engine_classes, get_engine
@@ -52,7 +69,7 @@ class _Parser(argparse.ArgumentParser):
         # one argument"): its pattern for a negative number knows neither exponents nor
         # NxM. Here anything starting with '-' and a digit (or '-.' and a digit) is a value,
         # which the option's own check then refuses by name; no option here starts so.
-        self._negative_number_matcher = re.compile(r"^-\.?\d")
+        self._negative_number_matcher = re.compile(r"^-(\.?\d|(nan|inf|infinity)$)", re.I)
 
     def error(self, message: str) -> NoReturn:
         raise UsageError(message)
@@ -84,19 +101,19 @@ def _add_scene_options(parser: argparse.ArgumentParser) -> None:
         "scene", "a catalogue scene (--scene) and/or explicit parameters overriding it"
     )
     group.add_argument("--scene", help=f"catalogue scene: {', '.join(scene_names())}")
-    group.add_argument("--lam", type=float, help="weight's mass fraction, in [0, 1]")
-    group.add_argument("--eps", type=float, help="weight's own inertia parameter, >= 0")
+    group.add_argument("--lam", type=_number, help="weight's mass fraction, in [0, 1]")
+    group.add_argument("--eps", type=_number, help="weight's own inertia parameter, >= 0")
     spin = group.add_mutually_exclusive_group()
-    spin.add_argument("--chi", type=float, help="spin parameter a*thetadot0^2/g")
-    spin.add_argument("--thetadot0", type=float, help="initial spin, rad/s")
-    group.add_argument("--theta0-deg", type=float, help="initial angle of the weight, deg")
-    group.add_argument("--mus", type=float, help="static friction coefficient")
-    group.add_argument("--muk", type=float, help="kinetic friction coefficient (<= mus)")
-    group.add_argument("--g", type=float, help="gravity, m/s^2 (default 9.8)")
-    group.add_argument("--a", type=float, help="hoop radius, m (default 1)")
-    group.add_argument("--M", type=float, help="total mass, kg (default 1)")
-    group.add_argument("--t-end", type=float, help="end of the window, s (default 3)")
-    group.add_argument("--xdot0", type=float, help="initial hoop-centre velocity, m/s")
+    spin.add_argument("--chi", type=_number, help="spin parameter a*thetadot0^2/g")
+    spin.add_argument("--thetadot0", type=_number, help="initial spin, rad/s")
+    group.add_argument("--theta0-deg", type=_number, help="initial angle of the weight, deg")
+    group.add_argument("--mus", type=_number, help="static friction coefficient")
+    group.add_argument("--muk", type=_number, help="kinetic friction coefficient (<= mus)")
+    group.add_argument("--g", type=_number, help="gravity, m/s^2 (default 9.8)")
+    group.add_argument("--a", type=_number, help="hoop radius, m (default 1)")
+    group.add_argument("--M", type=_number, help="total mass, kg (default 1)")
+    group.add_argument("--t-end", type=_number, help="end of the window, s (default 3)")
+    group.add_argument("--xdot0", type=_number, help="initial hoop-centre velocity, m/s")
 
 
 def _scene_from_args(args: argparse.Namespace) -> Scene:
@@ -144,6 +161,24 @@ def _add_batch_size(p: argparse.ArgumentParser) -> None:
     )
 
 
+def _number(text: str) -> float:
+    """A float option as float() reads it (nan and inf too: the option's own check names
+    them), but never a number that underflows to 0: '1e-400' is not '0.0'."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    mantissa = re.split(r"[eE]", text.strip())[0]
+    if value == 0 and re.search(r"[1-9]", mantissa):
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is too small for a float (it would be read as 0)"
+        )
+    return value
+
+
+_number.__name__ = "number"  # argparse's fallback message
+
+
 def _folder(text: str) -> str:
     """A folder to write into: '' would be the current folder, which no one means."""
     if not text.strip():
@@ -163,10 +198,12 @@ def _output_file(path: str, suffixes: Sequence[str], force: bool) -> Path:
         raise UsageError(f"folder {str(out.parent)!r} of output file {path!r} does not exist")
     if not os.access(out.parent, os.W_OK):
         raise UsageError(f"folder {str(out.parent)!r} of output file {path!r} is not writable")
+    if out.is_dir():
+        raise UsageError(f"output file {path!r} is a folder: give a file name")
+    if out.exists() and not out.is_file():  # a FIFO or a device: writing it never ends
+        raise UsageError(f"output file {path!r} exists and is not a regular file")
     if out.exists() and not force:
         raise UsageError(f"output file {path!r} exists; pass --force to overwrite it")
-    if out.is_dir():
-        raise UsageError(f"output file {path!r} is a folder")
     return out
 
 
@@ -189,6 +226,25 @@ def _sweep_kept(out: str, resume: str) -> str:
     if (Path(out) / "runs").is_dir():
         return f"the runs stored before are kept in {out}/runs; resume with: {resume}"
     return "nothing was run or stored"
+
+
+def _write_trajectory(trajectory: Any, path: Path) -> None:
+    """Write a run's samples; a full disk or a refused write named with its path (the
+    file is written whole or not at all: models/trajectory.py)."""
+    try:
+        trajectory.write(path)
+    except OSError as exc:
+        if not _system_error(exc):
+            raise
+        exc.filename = str(path)  # the temporary file's name means nothing to the user
+        kept = "an existing file there is unchanged" if path.exists() else "nothing was written"
+        raise _write_failure(exc, path, kept) from None
+
+
+def _interrupted_sweep(out: str, resume: str) -> int:
+    """Ctrl-C outside the runner's handling: one line saying what the folder keeps."""
+    _error(f"interrupted (Ctrl-C); {_sweep_kept(out, resume)}")
+    return EXIT_INTERRUPTED
 
 
 # --------------------------------------------------------------------------- output
@@ -297,7 +353,7 @@ def _cmd_reference(args: argparse.Namespace) -> int:
         trajectory = result.trajectory() if csv else None
     payload = {"method": args.method, **events.to_dict(), "scene": scene.to_dict()}
     if trajectory is not None and csv is not None:
-        trajectory.write(csv)
+        _write_trajectory(trajectory, csv)
         payload["trajectory_file"] = str(csv)
     _emit(args, payload)
     # An answer the solver could not give (its work budget ran out) is not a success.
@@ -335,7 +391,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     if result.events is not None and result.trajectory is not None and result.info.mu:
         payload = {**_canonical(result, scene, result.info.mu), "scene": scene.to_dict()}
     if csv and result.trajectory is not None:
-        result.trajectory.write(csv)
+        _write_trajectory(result.trajectory, csv)
         payload["trajectory_file"] = str(csv)
     _emit(args, payload)
     return 0 if result.info.status.value in ("ok", "diverged") else 1
@@ -472,6 +528,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
             )
     except RunnerError as exc:
         raise UsageError(str(exc)) from None
+    except KeyboardInterrupt:  # outside the runner's own handling (between a map's stages)
+        return _interrupted_sweep(args.out, resume)
     except OSError as exc:
         if not _system_error(exc):
             raise
@@ -505,10 +563,19 @@ def _say_how_the_sweep_ended(summary: RunSummary, out: str, resume: str, quiet: 
 
 def _cmd_report(args: argparse.Namespace) -> int:
     import hoopbench.reports.api as api
+    from hoopbench.reports.sweep.runner import RunnerError
 
     out = args.out if args.out is not None else args.results[0]
     try:
         path = api.report(args.results, args.out, force=args.force)
+    except RunnerError as exc:  # another report (or a sweep) is writing into the folder
+        raise UsageError(str(exc)) from None
+    except KeyboardInterrupt:
+        _error(
+            f"interrupted (Ctrl-C) while the report was written into {out}: the files "
+            "written so far are whole but the report is not; the results are unchanged"
+        )
+        return EXIT_INTERRUPTED
     except OSError as exc:
         if not _system_error(exc):
             raise
@@ -599,6 +666,8 @@ def _cmd_map(args: argparse.Namespace) -> int:
             )
     except RunnerError as exc:
         raise UsageError(str(exc)) from None
+    except KeyboardInterrupt:  # outside the runner's own handling (between a map's stages)
+        return _interrupted_sweep(args.out, resume)
     except OSError as exc:
         if not _system_error(exc):
             raise
@@ -631,9 +700,9 @@ _TRAJECTORY_SUFFIXES = (".csv", ".parquet")
 def _engine_options(p: argparse.ArgumentParser, engines: Sequence[str]) -> None:
     geometries = sorted({g for cls in engine_classes().values() for g in cls.geometries})
     p.add_argument("--engine", required=True, choices=engines)
-    p.add_argument("--dt", type=float, help=f"engine timestep, s (default {DEFAULT_TIMESTEP:g})")
-    p.add_argument("--mu", type=float, help="pair friction coefficient (default: mus)")
-    p.add_argument("--restitution", type=float, default=0.0)
+    p.add_argument("--dt", type=_number, help=f"engine timestep, s (default {DEFAULT_TIMESTEP:g})")
+    p.add_argument("--mu", type=_number, help="pair friction coefficient (default: mus)")
+    p.add_argument("--restitution", type=_number, default=0.0)
     p.add_argument(
         "--geometry", default="sphere", help=f"contact geometry: {', '.join(geometries)}"
     )
@@ -669,19 +738,19 @@ def _add_map_options(p: argparse.ArgumentParser) -> None:
         metavar="NXxNY",
         help=f"points along x and y (default {DEFAULT_GRID[0]}x{DEFAULT_GRID[1]})",
     )
-    p.add_argument("--x-range", nargs=2, type=float, metavar=("LO", "HI"), help="x's range")
-    p.add_argument("--y-range", nargs=2, type=float, metavar=("LO", "HI"), help="y's range")
+    p.add_argument("--x-range", nargs=2, type=_number, metavar=("LO", "HI"), help="x's range")
+    p.add_argument("--y-range", nargs=2, type=_number, metavar=("LO", "HI"), help="y's range")
     group = p.add_argument_group("fixed values", "the parameters that are not axes")
     for axis, info in AXES.items():
         unit = f" {info.unit}" if info.unit else ""
         group.add_argument(
             f"--{str(axis).replace('_', '-')}",
             dest=str(axis),
-            type=float,
+            type=_number,
             help=f"(default {info.fixed:g}{unit}; as an axis {info.default_range[0]:g} to "
             f"{info.default_range[1]:g})" + (": mus = muk" if axis is Axis.MU else ""),
         )
-    p.add_argument("--t-end", type=float, help="end of each scene's window, s (default 3)")
+    p.add_argument("--t-end", type=_number, help="end of each scene's window, s (default 3)")
     p.add_argument(
         "--engines",
         nargs="*",
@@ -689,7 +758,7 @@ def _add_map_options(p: argparse.ArgumentParser) -> None:
         help=f"engines to run at every point (default {' '.join(DEFAULT_ENGINES)}; "
         "none: the exact regimes alone)",
     )
-    p.add_argument("--dt", type=float, help=f"engine timestep, s (default {DEFAULT_TIMESTEP:g})")
+    p.add_argument("--dt", type=_number, help=f"engine timestep, s (default {DEFAULT_TIMESTEP:g})")
     p.add_argument(
         "--profile", choices=[str(x) for x in Profile], help="engine option values (default tuned)"
     )
@@ -717,9 +786,9 @@ def _add_reference(sub: Any, classes: Mapping[str, Any]) -> None:
     _add_scene_options(p)
     p.add_argument("--method", choices=("exact", "seed-euler"), default="exact")
     p.add_argument("--dt", type=_seconds, help="seed-euler step (default 0.002 s); CSV sampling")
-    p.add_argument("--delta", type=float, default=1e-4, help="seed-euler contact tolerance, m")
-    p.add_argument("--rtol", type=float, default=DEFAULT_RTOL, help="exact: integrator rtol")
-    p.add_argument("--atol", type=float, default=DEFAULT_ATOL, help="exact: integrator atol")
+    p.add_argument("--delta", type=_number, default=1e-4, help="seed-euler contact tolerance, m")
+    p.add_argument("--rtol", type=_number, default=DEFAULT_RTOL, help="exact: integrator rtol")
+    p.add_argument("--atol", type=_number, default=DEFAULT_ATOL, help="exact: integrator atol")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--csv", help="write the trajectory (.csv or .parquet)")
     p.add_argument("--force", action="store_true", help="overwrite an existing --csv file")
@@ -769,7 +838,7 @@ def _add_compare(sub: Any, classes: Mapping[str, Any]) -> None:
     p.add_argument("--resume", action="store_true", help="skip runs already stored")
     p.add_argument(
         "--run-timeout",
-        type=float,
+        type=_number,
         metavar="SECONDS",
         help="time limit per run (default: 60 s + 0.5 ms per step)",
     )
@@ -856,6 +925,9 @@ def _parser() -> _Parser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    if signal.getsignal(signal.SIGINT) is _stopped_while_starting:  # loaded: main says it
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
     try:
         args = _parser().parse_args(argv)
         code = args.func(args)
@@ -876,15 +948,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         # A write or read the system refused (disk full, read-only folder, no permission)
         # outside the commands that say what they keep: the path and the reason.
         where = f"{str(exc.filename)!r}: " if exc.filename is not None else ""
-        print(f"hoopbench: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        _error(f"error: {where}{exc.strerror or exc}")
         return EXIT_USAGE
     except (UsageError, ValueError) as exc:
         # ValueError: a scene, setting or engine name that failed validation.
         if isinstance(exc, DegenerateSceneError):
-            print(f"hoopbench: degenerate scene: {exc}", file=sys.stderr)
+            _error(f"degenerate scene: {_message(exc)}")
         else:
-            print(f"hoopbench: error: {_message(exc)}", file=sys.stderr)
+            _error(f"error: {_message(exc)}")
         return EXIT_USAGE
+
+
+def _error(text: str) -> None:
+    """One line on stderr; whatever it quotes from files or names shown, never obeyed."""
+    from hoopbench.reports.sweep.control_chars import terminal_text
+
+    print(f"hoopbench: {terminal_text(text)}", file=sys.stderr)
 
 
 def _message(exc: Exception) -> str:

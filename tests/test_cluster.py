@@ -441,6 +441,35 @@ def test_a_port_that_is_not_a_scheduler_ends_within_the_timeout(answer, tmp_path
     assert not (tmp_path / "out").exists()
 
 
+def test_a_peer_that_sends_a_frame_length_and_then_nothing_ends_within_the_timeout():
+    """A valid greeting length (1000 bytes), then silence: Dask's client waited past 90 s
+    despite --scheduler-timeout 3 (issue 26)."""
+    server = socket.create_server(("127.0.0.1", 0))
+    kept: list[socket.socket] = []
+
+    def serve() -> None:
+        with contextlib.suppress(OSError):
+            while True:
+                conn, _ = server.accept()
+                kept.append(conn)
+                conn.sendall((1000).to_bytes(8, "little"))
+
+    threading.Thread(target=serve, daemon=True).start()
+    address = f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    start = time.monotonic()
+    try:
+        with (
+            pytest.raises(ClusterError, match=f"no Dask scheduler answered at {address}"),
+            cluster_executor(address, timeout=1.0),
+        ):
+            pass
+    finally:
+        server.close()
+        for conn in kept:
+            conn.close()
+    assert time.monotonic() - start < 10
+
+
 @pytest.mark.parametrize("timeout", [0.0, -1.0, math.nan, math.inf])
 def test_a_timeout_must_be_a_positive_number(timeout):
     message = f"--scheduler-timeout must be a number of seconds > 0, got {timeout}"

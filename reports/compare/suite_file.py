@@ -29,6 +29,7 @@ from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene, scene_names
 from hoopbench.models.checks import check_real
 from hoopbench.models.scene import THETA0_LIMIT_DEG, Scene
+from hoopbench.reports.sweep.folder_files import FolderFileError, read_input_file
 
 __all__ = [
     "MAX_SUITE_RUNS",
@@ -40,6 +41,7 @@ __all__ = [
     "TrajectoryChoice",
     "VariantSpec",
     "builtin_suite",
+    "check_catalogue_name",
     "load_suite",
     "parse_suite",
     "suite_path",
@@ -254,9 +256,11 @@ def load_suite(path: str | Path, announce: Announce | None = None) -> Suite:
     ``announce(name, runs)`` is called before the runs are checked (parse_suite)."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = read_input_file(path).decode("utf-8")
     except OSError as exc:
         raise SuiteError(f"cannot read suite file {str(path)!r}: {exc.strerror}") from None
+    except FolderFileError as exc:  # a FIFO, a device, a folder, a file past the cap
+        raise SuiteError(f"cannot read suite file {exc}") from None
     except UnicodeDecodeError as exc:  # TOML is UTF-8: say which file and where
         raise SuiteError(
             f"suite file {str(path)!r} is not UTF-8 text (byte {exc.start}: {exc.reason})"
@@ -424,7 +428,7 @@ def _param_scene(table: Any, k: int) -> Scene:
         )
     except ValueError as exc:
         raise SuiteError(f"{where}: {exc}") from None
-    _check_catalogue_name(scene, where)
+    check_catalogue_name(scene, where)
     return scene
 
 
@@ -438,7 +442,7 @@ def _same(mine: Any, theirs: Any) -> bool:
     return bool(mine == theirs)
 
 
-def _check_catalogue_name(scene: Scene, where: str) -> None:
+def check_catalogue_name(scene: Scene, where: str) -> None:
     """A [[scene]] may take a catalogue scene's name only with its parameters (another window
     allowed, as the stability suite's painleve): rows are keyed by scene name, and the report
     draws a catalogue scene's exact path and forces by that name. Refusing here, rather than
@@ -486,7 +490,14 @@ def _variants(value: Any, engines: Sequence[str], scenes: Sequence[str]) -> tupl
         timesteps = table.get("timesteps")
         if timesteps is not None:
             timesteps = _timesteps(timesteps, f"{where}: timesteps")
-        (profile,) = _profiles(table.get("profile", "tuned"), f"{where}: profile")
+        profile_value = table.get("profile", "tuned")
+        if not isinstance(profile_value, str):  # one variant is one profile
+            allowed = ", ".join(p.value for p in Profile)
+            raise SuiteError(
+                f"{where}: profile must be one of {allowed} (a variant has one; the suite's "
+                f"profiles key lists several), got {profile_value!r}"
+            )
+        (profile,) = _profiles(profile_value, f"{where}: profile")
         only = _variant_scenes(table.get("scenes"), scenes, where)
         try:
             settings = RunSettings(geometry=geometry, options=options, profile=profile)

@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.reference.exact import ExactSolution
+from hoopbench.reports.sweep.folder_files import MAX_DATA_BYTES, folder_file
 
 __all__ = [
     "DISPLAY_COLUMNS",
@@ -105,8 +106,8 @@ def read_display(out: str | Path, run_id: str) -> DisplayRun | None:
     """A run's thinned curves, or None when the map did not store them (an older map, a
     failed run). A file of the first maps with the page, a whole thinned trajectory, reads
     the same."""
-    path = display_path(out, run_id)
-    if not path.is_file():
+    path = folder_file(out, Path(DISPLAY_DIR) / f"{run_id}.parquet", MAX_DATA_BYTES)
+    if path is None:
         return None
     frame = pd.read_parquet(path, columns=list(DISPLAY_COLUMNS))
     return DisplayRun(*(frame[name].to_numpy() for name in DISPLAY_COLUMNS))

@@ -8,6 +8,7 @@ it (and a resume with a different spec is refused).
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import numbers
@@ -28,6 +29,7 @@ from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.engines.settings import DEFAULT_TIMESTEP, RunSettings
 from hoopbench.models.checks import check_integer, check_real
 from hoopbench.models.scene import THETA0_LIMIT_DEG, Scene
+from hoopbench.reports.sweep.folder_files import read_folder_text
 from hoopbench.reports.sweep.runner import (
     RunnerError,
 )
@@ -48,6 +50,7 @@ __all__ = [
     "MapSpec",
     "MapSpecMismatchError",
     "check_grid",
+    "check_stored_points",
     "load_spec",
 ]
 
@@ -441,6 +444,33 @@ def check_grid(value: str | Sequence[int]) -> tuple[int, int]:
     return grid
 
 
+def check_stored_points(spec: MapSpec, rows: Any, where: str) -> None:
+    """ValueError naming ``where`` unless every stored row (a DataFrame with columns ix, iy,
+    x, y) lies on ``spec``'s grid: indices inside it, checked before anything is allocated
+    for them, and the axis values the spec gives at those indices (a map.toml edited after
+    the run, nx 2 -> 3, moves every point: its rows would be drawn where they were not run)."""
+    for index, count, axis, value in (("ix", spec.nx, spec.x, "x"), ("iy", spec.ny, spec.y, "y")):
+        indices = np.asarray(rows[index], dtype=float)
+        bad = ~np.isfinite(indices) | (indices != np.round(indices))
+        bad |= (indices < 0) | (indices >= count)
+        if bad.any():
+            shown = indices[int(np.argmax(bad))]
+            raise ValueError(
+                f"{where}: a row has {index} = {shown:g}, not a point of the map's grid "
+                f"(0 to {count - 1}: {MAP_FILE} says n{value} = {count})"
+            )
+        expected = spec.axis_values(axis)[indices.astype(np.int64)]
+        stored = np.asarray(rows[value], dtype=float)
+        moved = ~np.isclose(stored, expected, rtol=1e-9, atol=1e-12)
+        if moved.any():
+            k = int(np.argmax(moved))
+            raise ValueError(
+                f"{where}: the rows were run on another grid than {MAP_FILE} describes "
+                f"({index} = {int(indices[k])}: {axis} = {stored[k]:.6g} stored, "
+                f"{expected[k]:.6g} by {MAP_FILE}); was {MAP_FILE} edited after the run?"
+            )
+
+
 def _toml_value(value: Any) -> str:
     if isinstance(value, bool):
         return "true" if value else "false"
@@ -454,9 +484,13 @@ def _toml_value(value: Any) -> str:
 
 
 def load_spec(out: str | Path) -> MapSpec:
-    """The spec stored in a map folder (FileNotFoundError without one)."""
+    """The spec stored in a map folder (FileNotFoundError without one; FolderFileError, a
+    ValueError, for a map.toml that is no file to read)."""
     path = Path(out) / MAP_FILE
+    text = read_folder_text(out, MAP_FILE)
+    if text is None:
+        raise FileNotFoundError(errno.ENOENT, f"{path} is missing", str(path))
     try:
-        return MapSpec.from_toml(path.read_text(encoding="utf-8"))
+        return MapSpec.from_toml(text)
     except (TypeError, RecursionError) as exc:  # a value of the wrong shape: still bad data
         raise ValueError(f"{MAP_FILE} is not a map's spec: {exc}") from None

@@ -63,9 +63,12 @@ from hoopbench.reports.hop_map.spec import (
     MapPoint,
     MapSpec,
     MapSpecMismatchError,
+    check_stored_points,
     load_spec,
 )
 from hoopbench.reports.sweep import results
+from hoopbench.reports.sweep.control_chars import terminal_text
+from hoopbench.reports.sweep.folder_files import read_folder_text
 from hoopbench.reports.sweep.runner import (
     Batching,
     RunnerError,
@@ -419,7 +422,7 @@ MAP_IDENTITY = {"kind": "map"}
 def _prepare(out: Path, spec: MapSpec, resume: bool) -> None:
     """Check the folder (and a stored spec on resume); write map.toml if it is not there."""
     path = out / MAP_FILE
-    if resume and path.is_file():
+    if resume and (path.exists() or path.is_symlink()):
         stored = load_spec(out)
         if stored != spec:
             differ = "; ".join(spec.differences(stored))
@@ -427,6 +430,12 @@ def _prepare(out: Path, spec: MapSpec, resume: bool) -> None:
                 f"{path} holds another map ({differ}): resume it with its own settings, "
                 "or choose a new folder"
             )
+        if (out / results.RUNS_NAME).is_dir():  # rows of another grid would be skipped as done
+            rows = results.read_runs(out, columns=["ix", "iy", "x", "y"])
+            try:
+                check_stored_points(spec, rows, str(out / results.RUNS_NAME))
+            except ValueError as exc:
+                raise MapSpecMismatchError(f"{exc}: not resumed") from None
         return
     prepare_dir(out, resume=False)  # the runner's checks: not a file, empty
     results.atomic_write(path, lambda tmp: tmp.write_text(spec.to_toml(), encoding="utf-8"))
@@ -455,7 +464,7 @@ def _stage_two_tasks(spec: MapSpec, out: Path) -> tuple[list[MapTask], int]:
 
 def _say(text: str, quiet: bool, stream: TextIO | None) -> None:
     if not quiet:
-        print(text, file=stream or sys.stderr, flush=True)
+        print(terminal_text(text), file=stream or sys.stderr, flush=True)
 
 
 def run_map(
@@ -482,7 +491,8 @@ def run_map(
     out = Path(out)
     if resume and out.is_dir():  # before the lock file is made
         check_identity(out, MAP_IDENTITY)
-    if resume and holds_files(out) and not (out / MAP_FILE).is_file():
+    spec_file = out / MAP_FILE
+    if resume and holds_files(out) and not (spec_file.exists() or spec_file.is_symlink()):
         raise RunnerError(f"{out} holds no {MAP_FILE}: it is not a hop map folder to resume")
     stored = results.recorded_format_version(out) if resume and out.is_dir() else None
     if isinstance(stored, int) and stored < ONE_READING_MAP_VERSION:
@@ -608,7 +618,7 @@ def _summary(spec: MapSpec, out: Path, stages: Sequence[RunSummary], n_refs: int
 def _complete_meta(out: Path, started_at: datetime, resume: bool, summary: RunSummary) -> None:
     """meta.json of both stages (the runner wrote stage 2's, and always resumes here)."""
     path = out / results.META_NAME
-    meta = json.loads(path.read_text())
+    meta = json.loads(read_folder_text(out, results.META_NAME) or "{}")
     meta.update(
         started_at=started_at.isoformat(),
         wall_time_s=round(summary.wall_time_s, 3),

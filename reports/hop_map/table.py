@@ -14,7 +14,7 @@ from hoopbench.models.formats import FileFormat
 from hoopbench.reference.regimes import Regime
 from hoopbench.reports.compare.rows import one_reading, with_batch_columns
 from hoopbench.reports.compare.selection import engine_rows
-from hoopbench.reports.hop_map.spec import REFERENCE, load_spec
+from hoopbench.reports.hop_map.spec import REFERENCE, check_stored_points, load_spec
 from hoopbench.reports.hop_map.stages import MAP_COLUMNS, ROWS_FORMAT_VERSION
 from hoopbench.reports.sweep import results
 
@@ -71,9 +71,12 @@ def map_frame(out: str | Path) -> pd.DataFrame:
     frame = results.with_columns(results.read_table(out, MAP_TABLE), MAP_COLUMNS)
     frame = frame[[*MAP_COLUMNS, *(c for c in frame.columns if c not in MAP_COLUMNS)]]
     try:
-        engines = (REFERENCE, *load_spec(out).engines)
-    except (OSError, ValueError):
-        engines = (REFERENCE,)
+        spec = load_spec(out)
+    except FileNotFoundError:  # rows without their spec: the report refuses them by name
+        engines: tuple[str, ...] = (REFERENCE,)
+    else:
+        check_stored_points(spec, frame, str(out / results.RUNS_NAME))
+        engines = (REFERENCE, *spec.engines)
     rank = {name: k for k, name in enumerate(engines)}
     key = frame["engine"].map(lambda e: rank.get(e, len(rank)))
     order = np.lexsort((frame["engine"].astype(str), key, frame["iy"], frame["ix"]))

@@ -12,6 +12,7 @@ from collections.abc import Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from hoopbench.engines.judging.columns import Col
@@ -23,13 +24,58 @@ from hoopbench.reports.report.markdown import write_markdown
 from hoopbench.reports.report.page import write_page
 from hoopbench.reports.report.plotting import plain_text
 from hoopbench.reports.sweep import results
+from hoopbench.reports.sweep.folder_files import (
+    MAX_DATA_BYTES,
+    FolderFileError,
+    folder_file,
+    read_folder_text,
+)
+from hoopbench.reports.sweep.runner import sweep_lock
 
-__all__ = ["build_report", "report_frame"]
+__all__ = ["ReportFilesExistError", "build_report", "files_to_replace", "report_frame"]
+
+
+class ReportFilesExistError(ValueError):
+    """The report's folder holds files the report would write: nothing is replaced."""
+
+
+REPORT_FILES = ("report.md", "report.html")
+FIGURE_SUFFIXES = (".png", ".gif")
+"""What a report writes: these two and its figures (their names depend on the results)."""
+
+
+def files_to_replace(out: Path, dirs: Sequence[Path]) -> list[Path]:
+    """The files of ``out`` a report would write over: report.md, report.html and (unless
+    ``out`` is one of the results folders, whose own figures a map redraws) any figure."""
+    if not out.is_dir():
+        return []
+    own = any(out.resolve() == d.resolve() for d in dirs)
+    return sorted(
+        (
+            p
+            for p in out.iterdir()
+            if p.name in REPORT_FILES or (not own and p.suffix in FIGURE_SUFFIXES)
+        ),
+        key=lambda p: (REPORT_FILES.index(p.name) if p.name in REPORT_FILES else 2, p.name),
+    )
+
+
+def _check_out(out: Path, dirs: Sequence[Path], force: bool) -> None:
+    """ReportFilesExistError if ``out`` holds files the report would write (the user's files
+    are never replaced without ``force``)."""
+    held = [] if force else files_to_replace(out, dirs)
+    if held:
+        raise ReportFilesExistError(
+            f"{str(held[0])!r} exists; pass --force (force=True) to replace it"
+            + (f" (and {len(held) - 1} more file(s) the report writes)" if len(held) > 1 else "")
+        )
 
 
 def build_report(
     results_dirs: str | os.PathLike[str] | Sequence[str | os.PathLike[str]],
     out: str | Path | None = None,
+    *,
+    force: bool = False,
 ) -> Path:
     """report.md and its figures, and report.html, from stored results alone (no simulation).
 
@@ -45,9 +91,11 @@ def build_report(
     runs = [report_frame(d) for d in dirs if d not in maps]
     _refuse_shared_runs([d for d in dirs if d not in maps], runs)
     frame = pd.concat(runs, ignore_index=True) if runs else pd.DataFrame()
-    out.mkdir(parents=True, exist_ok=True)
+    _check_out(out, dirs, force)
     generated = datetime.now(UTC).isoformat(timespec="seconds")
-    with plain_text():  # names from the results are drawn as written
+    # Two reports into one folder would mix their figures: the sweeps' lock serves.
+    with sweep_lock(out), plain_text():  # names from the results are drawn as written
+        _check_out(out, dirs, force)  # again, under the lock: one may have just finished
         report = write_markdown(frame, out, generated=generated, extra=map_sections(maps, out))
         write_page(frame, out, maps=maps, map_prefixes=map_prefixes(len(maps)))  # report.html
     return report
@@ -85,9 +133,11 @@ def _check_rows(frame: pd.DataFrame, results_dir: Path) -> None:
         if missing:
             raise ValueError(f"{where}: {missing} of {len(frame)} row(s) have no {column}")
     timestep = pd.to_numeric(frame[Col.TIMESTEP], errors="coerce")
-    if (timestep.isna() | (timestep <= 0)).any():
-        bad = frame[Col.TIMESTEP][timestep.isna() | (timestep <= 0)].iloc[0]
-        raise ValueError(f"{where}: timestep must be a number > 0 s, got {bad!r}")
+    wrong = ~np.isfinite(timestep.to_numpy(dtype=float)) | (timestep <= 0).to_numpy()
+    if wrong.any():  # "at inf" in a table is no timestep a run had
+        bad = frame[Col.TIMESTEP][wrong].iloc[0]
+        bad = bad.item() if hasattr(bad, "item") else bad  # 'inf', not 'np.float64(inf)'
+        raise ValueError(f"{where}: timestep must be a finite number > 0 s, got {bad!r}")
 
 
 def _trajectory_path(results_dir: Path, stored: object) -> str | None:
@@ -95,8 +145,11 @@ def _trajectory_path(results_dir: Path, stored: object) -> str | None:
     that leads out of the folder is data from elsewhere, not a file of this folder's."""
     if not isinstance(stored, str) or not stored:
         return None
-    path = (results_dir / stored).resolve()
-    return str(results_dir / stored) if path.is_relative_to(results_dir.resolve()) else None
+    try:
+        path = folder_file(results_dir, stored, MAX_DATA_BYTES)
+    except FolderFileError:
+        return None
+    return None if path is None else str(path)
 
 
 def _refuse_shared_runs(dirs: Sequence[Path], frames: Sequence[pd.DataFrame]) -> None:
@@ -116,14 +169,17 @@ def _refuse_shared_runs(dirs: Sequence[Path], frames: Sequence[pd.DataFrame]) ->
 
 def _suite_name(results_dir: Path) -> str:
     """The suite a results folder holds (from meta.json; the folder name if it is missing)."""
+    text = read_folder_text(results_dir, results.META_NAME)  # FolderFileError: not a file
     try:
-        return str(json.loads((results_dir / results.META_NAME).read_text())["suite"])
-    except (OSError, ValueError, KeyError):
+        return str(json.loads(text)["suite"]) if text is not None else results_dir.name
+    except (ValueError, KeyError, TypeError):
         return results_dir.name
 
 
 def _suite_order(suite_file: Path) -> dict[str, int]:
     """run_id -> position in the suite as run (empty if its copy is missing or unreadable)."""
+    if folder_file(suite_file.parent, suite_file.name) is None:  # FolderFileError: no file
+        return {}
     try:
         tasks = load_suite(suite_file).tasks()
     except CatalogueNameError as exc:  # its rows would be drawn as the catalogue's scene

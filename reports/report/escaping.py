@@ -16,6 +16,8 @@ import hashlib
 import html
 import re
 
+from hoopbench.reports.sweep.control_chars import visible_controls
+
 __all__ = ["escape_cell", "escape_html", "escape_text", "file_stem"]
 
 _MARKUP = re.compile(r"[\\`*\[\]|~$]|(?<![A-Za-z0-9])_|_(?![A-Za-z0-9])")
@@ -31,8 +33,9 @@ _LINE_BREAKS = re.compile(r"[\r\n\u2028\u2029\x0b\x0c\x85]+")
 def escape_text(value: object) -> str:
     """``value`` as Markdown text that renders as itself: markup characters backslash-escaped,
     ``&``, ``<`` and ``>`` as entities, line breaks as one space (a break would end the
-    table row or the heading)."""
-    text = _LINE_BREAKS.sub(" ", str(value))
+    table row or the heading), other control characters and bidirectional overrides as their
+    codes (``\\x1b``)."""
+    text = visible_controls(_LINE_BREAKS.sub(" ", str(value)))
     text = "".join(_ENTITIES.get(c, c) for c in text)
     return _MARKUP.sub(lambda m: "\\" + m.group(0), text)
 
@@ -44,8 +47,9 @@ def escape_cell(value: object) -> str:
 
 
 def escape_html(value: object) -> str:
-    """``value`` as HTML text or attribute value (quotes included)."""
-    return html.escape(str(value), quote=True)
+    """``value`` as HTML text or attribute value (quotes included; control characters as
+    their codes)."""
+    return html.escape(visible_controls(value), quote=True)
 
 
 _CLEAN_STEM = re.compile(r"[a-z0-9][a-z0-9_-]{0,63}")

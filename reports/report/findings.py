@@ -31,6 +31,7 @@ from hoopbench.reports.report.answer import answer, answer_markdown
 from hoopbench.reports.report.escaping import escape_text
 from hoopbench.reports.report.scoreboard import scoreboard, scoreboard_markdown
 from hoopbench.reports.report.stability import Stability, classify
+from hoopbench.reports.sweep.folder_files import read_input_file
 from hoopbench.reports.sweep.results import atomic_write
 
 __all__ = [
@@ -429,8 +430,8 @@ def all_findings_markdown(runs: pd.DataFrame) -> str:
 
 def update_readme(readme: str | Path, text: str) -> Path:
     """Replace the block between the README's findings markers with ``text``."""
-    path = Path(readme)
-    body = path.read_text()
+    path = Path(readme).resolve()  # through a link: the link stays, its file changes
+    body = read_input_file(path).decode("utf-8")
     pattern = re.compile(re.escape(README_BEGIN) + r".*?" + re.escape(README_END), re.DOTALL)
     if not pattern.search(body):
         raise ValueError(f"{path} has no findings markers ({README_BEGIN!r} ... {README_END!r})")

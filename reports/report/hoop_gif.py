@@ -19,7 +19,7 @@ from hoopbench.reports.report.palette import (
     WEIGHT_COLOUR,
     engine_colours,
 )
-from hoopbench.reports.report.plotting import pyplot
+from hoopbench.reports.report.plotting import pyplot, written_whole
 
 __all__ = ["GIF_FRAMES", "GIF_SCENE", "hoop_gif"]
 
@@ -112,6 +112,7 @@ def hoop_gif(scene: Scene, motions: list[HoopMotion], out: str | Path) -> Path:
 
     animation = FuncAnimation(fig, frame, frames=len(times), interval=_FRAME_MS, blit=False)
     out = Path(out)
-    animation.save(out, writer=PillowWriter(fps=1000 // _FRAME_MS), dpi=80)
+    writer = PillowWriter(fps=1000 // _FRAME_MS)
+    written_whole(out, lambda tmp: animation.save(tmp, writer=writer, dpi=80))
     plt.close(fig)
     return out

@@ -57,8 +57,10 @@ _FIGURES: dict[str, tuple[Callable[[pd.DataFrame, Path], Path], str, bool]] = {
 
 
 def is_map_folder(path: str | Path) -> bool:
-    """Whether a results folder holds a hop map (its map.toml)."""
-    return (Path(path) / MAP_FILE).is_file()
+    """Whether a results folder holds a hop map (its map.toml; whatever is under that name,
+    which reading it then checks, hop_map/spec.load_spec)."""
+    spec = Path(path) / MAP_FILE
+    return spec.exists() or spec.is_symlink()
 
 
 # --------------------------------------------------------------------------- numbers

@@ -41,6 +41,7 @@ from hoopbench.reports.report.page_figures import (
 from hoopbench.reports.report.page_html import figure_fragment, script_json, text
 from hoopbench.reports.report.page_map import map_fragment
 from hoopbench.reports.report.page_script import FILTER_COLUMNS, PAGE_SCRIPT, PAGE_STYLE
+from hoopbench.reports.sweep import results
 
 __all__ = ["PAGE_NAME", "page_fragments", "render_page", "write_gif", "write_page"]
 
@@ -213,6 +214,6 @@ def write_page(
     markdown_text = (out / "report.md").read_text(encoding="utf-8")
     page = render_page(markdown_text, out, page_fragments(frame, maps, map_prefixes))
     path = out / PAGE_NAME
-    path.write_text(page, encoding="utf-8")
+    results.atomic_write(path, lambda tmp: tmp.write_text(page, encoding="utf-8"))
     write_gif(frame, out)
     return path

@@ -17,16 +17,17 @@ figure is written by :func:`save`, which turns them into plain text (``10⁻⁶`
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from functools import cache
 from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-__all__ = ["plain_text", "plain_tick_label", "pyplot", "save"]
+__all__ = ["plain_text", "plain_tick_label", "pyplot", "save", "written_whole"]
 
 
 @cache
@@ -81,15 +82,31 @@ def _plain_formatter(formatter: Any) -> Any:
     return formatter
 
 
+def written_whole(path: str | os.PathLike[str], write: Callable[[Path], object]) -> Path:
+    """``write(tmp)`` into a hidden temporary file of the same suffix (matplotlib and Pillow
+    take the format from it), then renamed to ``path``: a report killed mid-figure leaves
+    the old file or none, never half a PNG under its final name."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+    return path
+
+
 def save(fig: Any, out: str | os.PathLike[str], *, dpi: int) -> Path:
-    """Write ``fig`` to ``out`` and close it. Every tick label drawn as math (a log or symlog
-    axis's, a log colour bar's) is written as plain text first: under :func:`plain_text`
-    matplotlib would show ``$\\mathdefault{10^{2}}$`` as written."""
+    """Write ``fig`` to ``out`` whole (:func:`written_whole`) and close it. Every tick label
+    drawn as math (a log or symlog axis's, a log colour bar's) is written as plain text first:
+    under :func:`plain_text` matplotlib would show ``$\\mathdefault{10^{2}}$`` as written."""
     for ax in fig.axes:
         for axis in (ax.xaxis, ax.yaxis):
             axis.set_major_formatter(_plain_formatter(axis.get_major_formatter()))
             axis.set_minor_formatter(_plain_formatter(axis.get_minor_formatter()))
-    path = Path(out)
-    fig.savefig(path, dpi=dpi)
-    pyplot().close(fig)
-    return path
+    try:
+        return written_whole(out, lambda tmp: fig.savefig(tmp, dpi=dpi))
+    finally:
+        pyplot().close(fig)

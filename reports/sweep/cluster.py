@@ -446,10 +446,10 @@ def _check_greeting(
     try:
         with socket.create_connection((host, port), timeout=timeout) as raw:
             if context is None:
-                header = _read_exactly(raw, 8, deadline)
+                _read_greeting(raw, deadline, address)
             else:
                 with context.wrap_socket(raw, server_hostname=host) as tls:
-                    header = _read_exactly(tls, 8, deadline)
+                    _read_greeting(tls, deadline, address)
     except TimeoutError:
         raise ClusterError(
             f"no Dask scheduler answered at {address} within {timeout:g} s: something "
@@ -465,9 +465,17 @@ def _check_greeting(
         raise ClusterError(
             f"{address} closed the connection before any Dask greeting: {reason}"
         ) from None
+
+
+def _read_greeting(sock: socket.socket, deadline: float, address: str) -> None:
+    """The greeting's 8-byte length, then the whole greeting, by the deadline: a peer that
+    sends a length and then nothing is timed out here (Dask's client waited for it past any
+    timeout)."""
+    header = _read_exactly(sock, 8, deadline)
     (length,) = struct.unpack("<Q", header)
     if length > MAX_GREETING_BYTES:
         raise ClusterError(f"{address} is not a Dask scheduler: its first bytes are {header!r}")
+    _read_exactly(sock, length, deadline)
 
 
 def _read_exactly(sock: socket.socket, n: int, deadline: float) -> bytes:

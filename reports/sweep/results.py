@@ -48,6 +48,7 @@ import pyarrow.dataset as ds
 import pyarrow.parquet as pq
 
 from hoopbench.models.formats import FileFormat
+from hoopbench.reports.sweep.folder_files import FolderFileError, folder_files, read_folder_text
 
 __all__ = [
     "BOOKKEEPING_COLUMNS",
@@ -293,7 +294,8 @@ def _dataset(out_dir: str | os.PathLike[str]) -> ds.Dataset:
     runs = Path(out_dir) / RUNS_NAME
     if not runs.is_dir():
         raise FileNotFoundError(f"no results dataset at {runs}")
-    return ds.dataset(runs, format="parquet")
+    # each file checked (inside the folder, a regular file): pyarrow would read any
+    return ds.dataset(folder_files(out_dir, RUNS_NAME, ".parquet"), format="parquet")
 
 
 def read_runs(
@@ -314,7 +316,10 @@ def read_runs(
         return pd.DataFrame(columns=list(BOOKKEEPING_COLUMNS) if wanted is None else wanted)
     if "run_id" not in dataset.schema.names:  # no sweep writes it so: the folder is not ours
         raise ValueError(f"{Path(out_dir) / RUNS_NAME}: the table has no run_id column")
-    frame = dataset.to_table(columns=wanted).to_pandas()
+    try:
+        frame = dataset.to_table(columns=wanted).to_pandas()
+    except pa.ArrowException as exc:  # a part no sweep wrote: name the folder it is in
+        raise ValueError(f"{Path(out_dir) / RUNS_NAME}: {exc}") from None
     frame = frame.sort_values("seq", kind="stable")
     if latest:
         frame = frame.drop_duplicates("run_id", keep="last")
@@ -332,10 +337,16 @@ def recorded_format_version(out_dir: str | os.PathLike[str]) -> object:
     object."""
     path = Path(out_dir) / META_NAME
     try:
-        meta = json.loads(path.read_text())
-    except FileNotFoundError:
-        return None
+        text = read_folder_text(out_dir, META_NAME)
+    except FolderFileError:
+        raise
     except (OSError, ValueError) as exc:
+        raise ValueError(f"{path} is unreadable: {exc}") from None
+    if text is None:
+        return None
+    try:
+        meta = json.loads(text)
+    except ValueError as exc:
         raise ValueError(f"{path} is unreadable: {exc}") from None
     if not isinstance(meta, dict):
         raise ValueError(f"{path} is unreadable: not a JSON object but {meta!r:.40}")

@@ -72,6 +72,8 @@ from tqdm import tqdm
 
 from hoopbench.engines.run import RunStatus
 from hoopbench.reports.sweep import results
+from hoopbench.reports.sweep.control_chars import terminal_text
+from hoopbench.reports.sweep.folder_files import read_folder_text
 
 __all__ = [
     "IDENTITY_NAME",
@@ -695,6 +697,7 @@ class _Progress:
     def note(self, text: str) -> None:
         if self.quiet:
             return
+        text = terminal_text(text)  # it may quote a folder's files or names
         if self.bar is not None:
             self.bar.write(text, file=self.stream)
         else:
@@ -731,7 +734,7 @@ class _Progress:
         left = self.total - self.done
         eta = _duration(elapsed / self.done * left) if left else "0s"
         print(
-            f"[{self.done}/{self.total}] {label}: {status.value}; "
+            f"[{self.done}/{self.total}] {terminal_text(label)}: {status.value}; "
             f"{self._failures_text()}; elapsed {_duration(elapsed)}, eta {eta}",
             file=self.stream,
             flush=True,
@@ -1063,7 +1066,7 @@ def _stored_identity(out: Path) -> dict[str, Any] | None:
     None when neither says."""
     for name in (IDENTITY_NAME, results.META_NAME):
         try:
-            stored = json.loads((out / name).read_text())
+            stored = json.loads(read_folder_text(out, name) or "null")
         except (OSError, ValueError):
             continue
         if not isinstance(stored, dict):
@@ -1374,7 +1377,7 @@ def run_tasks(
     _check_run_ids(tasks)
     out = Path(out_dir)
     text_stream = sys.stderr if stream is None else stream
-    say = None if quiet else (lambda text: print(text, file=text_stream, flush=True))
+    say = None if quiet else (lambda text: print(terminal_text(text), file=text_stream, flush=True))
     # The whole sweep holds the folder: a second one, or a resume, waits for none of it.
     with claim_folder(out, resume, None, say):
         notes: list[str] = []
@@ -1382,7 +1385,7 @@ def run_tasks(
         def note(text: str) -> None:
             notes.append(text)
             if not quiet:
-                print(text, file=text_stream, flush=True)
+                print(terminal_text(text), file=text_stream, flush=True)
 
         stored = _resumed_statuses(out, note) if resume else {}
         todo = [t for t in tasks if not is_final_status(stored.get(t.run_id))]
