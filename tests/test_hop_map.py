@@ -134,6 +134,8 @@ BAD_SPECS = [
     (dict(x="chi", y="chi"), "x and y are both chi"),
     (dict(nx=0), "nx must be an integer in [1, 999], got 0"),
     (dict(ny=2.5), "ny must be an integer in [1, 999], got 2.5"),
+    (dict(nx=999, ny=999, engines=()), "the map makes 998,001 runs (999 x 999 points, the"),
+    (dict(nx=300, ny=300), "more than 100,000: use a coarser grid or fewer engines"),
     (dict(x_range=(0.5, 1.5)), "x_range of lam must be a number in [0, 1], got 1.5"),
     (dict(y_range=(1.0, 0.5)), "y_range of chi must have low < high, got [1, 0.5]"),
     (dict(y_range=(1.0, 1.0)), "low < high"),

@@ -29,6 +29,7 @@ from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.engines.settings import DEFAULT_TIMESTEP, RunSettings
 from hoopbench.models.checks import check_integer, check_real
 from hoopbench.models.scene import THETA0_LIMIT_DEG, Scene
+from hoopbench.reports.compare.suite_file import MAX_SUITE_RUNS
 from hoopbench.reports.sweep.folder_files import read_folder_text
 from hoopbench.reports.sweep.runner import (
     RunnerError,
@@ -233,6 +234,12 @@ class MapSpec:
         self._check_timestep()
         set_(self, "profile", check_profile("profile", self.profile))
         set_(self, "engines", self._checked_engines())
+        if self.run_count > MAX_SUITE_RUNS:  # a suite's cap, for the same reasons
+            raise ValueError(
+                f"the map makes {self.run_count:,} runs ({self.nx} x {self.ny} points, the "
+                f"reference and {len(self.engines)} engine(s) at each), more than "
+                f"{MAX_SUITE_RUNS:,}: use a coarser grid or fewer engines"
+            )
 
     def _checked_fixed(self) -> tuple[tuple[str, float], ...]:
         given = dict(self.fixed)
