@@ -203,7 +203,10 @@ def test_ring_has_one_pair_per_capsule_and_starts_on_a_vertex(n):
         ({"options": {"solreffriction": (0.0, 1.0)}}, "solreffriction must be .0, 0."),
         ({"options": {"solimp": (0.99, 0.9, 0.001)}}, "solimp must satisfy"),
         ({"options": {"impratio": 0}}, "impratio must be a number > 0, got 0"),
-        ({"options": {"ring_segments": 2}}, "ring_segments must be an integer in \\[3, 1024\\], got 2"),
+        (
+            {"options": {"ring_segments": 2}},
+            "ring_segments must be an integer in \\[3, 1024\\], got 2",
+        ),
         ({"options": {"iterations": 2.5}}, "iterations must be an integer >= 1"),
         ({"restitution": 0.3}, "restitution must be 0 for MuJoCo, got 0.3"),
         ({"geometry": "hull"}, "geometry 'hull' is not available for mujoco"),
