@@ -40,7 +40,7 @@ from hoopbench.models.events import Events, Outcome
 from hoopbench.models.scene import THETA0_LIMIT_DEG, Scene
 from hoopbench.reference.exact import DEFAULT_ATOL, DEFAULT_RTOL, ExactSolution, solve_exact
 from hoopbench.reports.compare import suite as suite_runs
-from hoopbench.reports.compare.settings_file import load_settings, pick_setting
+from hoopbench.reports.compare.settings_file import load_settings, pick_setting, with_settings
 from hoopbench.reports.compare.suite_file import (
     DEFAULT_VARIANT,
     Announce,
@@ -83,8 +83,10 @@ __all__ = [
     "run",
     "run_hop_map",
     "run_suite",
+    "run_tune",
     "scene",
     "scene_names",
+    "setting_from_file",
     "suite_job",
     "tune",
     "tune_job",
@@ -340,7 +342,7 @@ def run(
             raise OptionError(
                 "settings", "{option} gives the timestep, profile and options: set none of them"
             )
-        chosen = _setting_from_file(engine, settings)
+        chosen = setting_from_file(engine, settings)
         timestep, profile, options = chosen.timestep, chosen.profile, chosen.options
         variant = chosen.name if variant is None else variant
     task = _run_task(engine, _as_scene(scene), timestep, profile, geometry, options, variant)
@@ -349,7 +351,7 @@ def run(
     return EngineRun(task=task, result=result, row=row, trajectory=frame)
 
 
-def _setting_from_file(engine: str, text: str | Path) -> Any:
+def setting_from_file(engine: str, text: str | Path) -> Any:
     """The setting a ``FILE`` or ``FILE#NAME`` names, for ``engine`` (ValueError otherwise)."""
     path, _, name = str(text).partition("#")
     loaded = load_settings(path)
@@ -411,15 +413,19 @@ def suite_job(
     engines: Sequence[str] | None = None,
     trajectories: TrajectoryChoice | str = TrajectoryChoice.NONE,
     announce: Announce | None = None,
+    settings: str | Path | None = None,
 ) -> SuiteJob:
     """Check a suite and its options. ``suite``: a suite file (.toml) or the name of a
     shipped one (quick, default, ...). SuiteError (a ValueError) names a bad file's key.
-    ``announce(name, runs)`` is told the run count before the runs are checked."""
+    ``announce(name, runs)`` is told the run count before the runs are checked. ``settings``:
+    a settings file of ``hoopbench tune``, each of its settings a variant of its engine."""
     # a Path is a file; text follows the command line's rule (suite_file.suite_path)
     path = suite if isinstance(suite, Path) else suite_path(str(suite))
     loaded = load_suite(path, announce)  # the whole file is checked before anything runs
     if engines:
         loaded = loaded.with_engines(list(engines))
+    if settings is not None:
+        loaded = with_settings(loaded, load_settings(settings))
     if run_timeout is not None and not (run_timeout > 0):
         raise OptionError("run_timeout", f"{{option}} must be > 0 s, got {run_timeout}")
     choice = _choice("trajectories", TrajectoryChoice, trajectories)
@@ -681,8 +687,11 @@ def tune_job(
         names = ", ".join(n for n in engine_names() if n != REFERENCE_ENGINE)
         raise OptionError("engine", f"{{option}} must be one of {names}, got {engine!r}")
     if trials is None and timeout is None:
-        raise OptionError("trials", "a search needs a budget: {option} or a timeout")
-    chosen = tuple(_as_scene(s) for s in (scenes or DEFAULT_TRAINING_SCENES))
+        raise OptionError("trials", "a search needs a budget: {option} (in all) or a timeout (s)")
+    try:
+        chosen = tuple(_as_scene(s) for s in (scenes or DEFAULT_TRAINING_SCENES))
+    except ValueError as exc:
+        raise OptionError("scenes", f"{{option}}: {exc}") from None
     if not chosen:
         raise OptionError("scenes", "{option} must name at least one scene")
     budget = Budget(
