@@ -200,9 +200,19 @@ def setting_of(engine: str, trial: FrozenTrial) -> Setting:
     )
 
 
+COUNTED_FAILURES = ("refused", "failed_runs")
+"""User attributes of a failed trial that counts toward the budget (the setting was tried);
+a trial cut short by a signal has neither and does not count."""
+
+
 def _finished(study: optuna.Study) -> int:
+    """Trials that count toward the budget: told with values, or failed after a real try."""
     state = _optuna().trial.TrialState
-    return len(study.get_trials(deepcopy=False, states=(state.COMPLETE, state.FAIL)))
+    return sum(
+        t.state is state.COMPLETE
+        or (t.state is state.FAIL and any(k in t.user_attrs for k in COUNTED_FAILURES))
+        for t in study.get_trials(deepcopy=False)
+    )
 
 
 def _open_study(spec: TuneSpec, out: Path, resume: bool) -> optuna.Study:
@@ -246,8 +256,11 @@ def _one_trial(
         study.tell(trial, state=TrialState.FAIL)
         raise
     cost = cost_us_per_s(rows)
-    if summary.interrupted is not None or len(rows) < len(tasks) or cost is None:
-        trial.set_user_attr("unfinished", summary.interrupted is not None)
+    if summary.interrupted is not None or len(rows) < len(tasks):
+        study.tell(trial, state=TrialState.FAIL)  # cut short: does not count, tried again
+        return summary
+    if cost is None:  # no run gave a time: every one failed
+        trial.set_user_attr("failed_runs", len(rows))
         study.tell(trial, state=TrialState.FAIL)
         return summary
     study.tell(trial, [error_score(rows), cost])

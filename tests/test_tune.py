@@ -1,0 +1,184 @@
+"""hoopbench tune: a small search end to end (2-3 trials, one short scene, pymunk), its
+resume, its settings file in compare and simulate, and its bad inputs."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+import hoopbench as hb
+from hoopbench.engines.options import Profile
+from hoopbench.engines.registry import engine_class
+from hoopbench.reports.cli import main
+from hoopbench.reports.compare.settings_file import load_settings
+from hoopbench.reports.compare.suite import runs_frame
+from hoopbench.reports.tune.heldout import is_overfitted
+from hoopbench.reports.tune.search import JOURNAL_NAME, STUDY_NAME, TRIALS_DIR
+
+optuna = pytest.importorskip("optuna")
+
+pytestmark = pytest.mark.slow
+
+ENGINE = "pymunk"
+
+
+def _scene() -> hb.Scene:  # type: ignore[name-defined]
+    return hb.scene("hop-bottom", t_end=1.2)
+
+
+def _study(out: Path) -> optuna.Study:
+    backend = optuna.storages.journal.JournalFileBackend(str(out / JOURNAL_NAME))
+    return optuna.load_study(study_name=STUDY_NAME, storage=optuna.storages.JournalStorage(backend))
+
+
+@pytest.fixture(scope="module")
+def searched(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, pd.DataFrame]:
+    out = tmp_path_factory.mktemp("tune") / "pymunk"
+    front = hb.tune(ENGINE, out, scenes=[_scene()], trials=2, quiet=True)
+    return out, front
+
+
+def test_every_trial_is_rows_and_the_first_is_tuned(searched: tuple[Path, pd.DataFrame]) -> None:
+    out, _ = searched
+    rows = runs_frame(out / TRIALS_DIR)
+    variants = sorted(rows["variant"])
+    assert variants == ["default", "default", "trial-0", "trial-1"]
+    assert set(rows.loc[rows["variant"] == "default", "profile"]) == {"stock", "tuned"}
+    assert (rows["status"] == "ok").all()
+    first = rows[rows["variant"] == "trial-0"].iloc[0]
+    assert first["timestep"] == pytest.approx(1e-4)
+    assert json.loads(first["options"]) == {}  # hoopbench's tuned values, nothing changed
+    trials = _study(out).trials
+    assert [t.state.name for t in trials] == ["COMPLETE", "COMPLETE"]
+
+
+def test_the_front_has_the_pareto_set_stock_and_tuned(searched: tuple[Path, pd.DataFrame]) -> None:
+    out, front = searched
+    assert set(front["kind"]) == {"pareto", "baseline"}
+    assert {"stock", "tuned"} <= set(front["setting"])
+    pareto = front[front["kind"] == "pareto"]
+    assert len(pareto) >= 1
+    assert pareto["heldout_error"].notna().all()
+    assert (out / "front.csv").is_file()
+    held = runs_frame(out / "heldout")
+    assert held["scene"].str.startswith("heldout-random-").all()
+    assert len(held) == 4 * len(front)  # four regimes, one scene each, every setting
+
+
+def test_the_settings_file_is_what_compare_and_simulate_run(
+    searched: tuple[Path, pd.DataFrame], tmp_path: Path
+) -> None:
+    out, front = searched
+    loaded = load_settings(out / "settings.toml")
+    assert loaded.engine == ENGINE
+    assert loaded.engine_version == engine_class(ENGINE)().version()
+    assert loaded.provenance["training_scenes"] == ["hop-bottom"]
+    assert [s.name for s in loaded.settings] == list(
+        front.loc[front["kind"] == "pareto", "setting"]
+    )
+    suite = tmp_path / "tiny.toml"
+    suite.write_text(
+        'name = "tiny"\nengines = ["pymunk"]\ntimesteps = [1e-3]\nscenes = ["seed-mu"]\n'
+    )
+    runs = tmp_path / "runs"
+    args = ["compare", "--suite", str(suite), "--out", str(runs), "--quiet"]
+    assert main([*args, "--settings", str(out / "settings.toml")]) == 0
+    rows = runs_frame(runs)
+    first = loaded.settings[0]
+    mine = rows[rows["variant"] == first.name].iloc[0]
+    assert mine["timestep"] == pytest.approx(first.timestep)
+    assert mine["status"] == "ok"
+    run = hb.run(ENGINE, "seed-mu", settings=out / "settings.toml")
+    assert run.row["variant"] == first.name
+    assert run.row["timestep"] == pytest.approx(first.timestep)
+
+
+def test_a_search_goes_on_after_an_interruption(tmp_path: Path) -> None:
+    out = tmp_path / "search"
+    hb.tune(ENGINE, out, scenes=[_scene()], trials=2, quiet=True)
+    stale = _study(out).ask()  # a trial a Ctrl-C left running: failed on resume, not counted
+    hb.tune(ENGINE, out, scenes=[_scene()], trials=3, resume=True, quiet=True)
+    trials = _study(out).trials
+    states = [t.state.name for t in trials]
+    assert states[stale.number] == "FAIL"
+    assert states.count("COMPLETE") == 3
+    rows = runs_frame(out / TRIALS_DIR)
+    assert sorted(v for v in rows["variant"] if v != "default") == ["trial-0", "trial-1", "trial-3"]
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--engine", "nosuch", "--trials", "2"], "--engine"),
+        (["--engine", "pymunk"], "a search needs a budget: --trials"),
+        (["--engine", "pymunk", "--trials", "0"], "--trials"),
+        (["--engine", "pymunk", "--trials", "2", "--scenes", "nosuch"], "--scenes"),
+        (["--engine", "pymunk", "--trials", "2", "--heldout-seed", "0"], "--heldout-seed"),
+        (["--engine", "pymunk", "--trials", "2", "--seed", "-1"], "--seed"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(
+    args: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["tune", "--out", str(tmp_path / "x"), *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and message in err, err
+    assert not (tmp_path / "x").exists()
+
+
+def test_a_folder_of_another_search_is_refused(
+    searched: tuple[Path, pd.DataFrame], capsys: pytest.CaptureFixture[str]
+) -> None:
+    out, _ = searched
+    assert main(["tune", "--engine", "pymunk", "--out", str(out), "--trials", "3"]) == 2
+    assert main(["tune", "--engine", "mujoco", "--out", str(out), "--trials", "3", "--resume"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 2, lines
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda t: t.replace("iterations =", "iteratons ="), "unknown pymunk setting"),
+        (lambda t: t.replace('engine = "pymunk"', 'engine = "mujoco"'), "unknown mujoco setting"),
+        (lambda t: "foo = 1\n" + t, "unknown key"),
+        (lambda t: t.replace("[[settings]]", "[[setting]]"), "unknown key"),
+    ],
+)
+def test_a_bad_settings_file_is_one_line_and_exit_2(
+    searched: tuple[Path, pd.DataFrame],
+    edit: object,
+    message: str,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    out, _ = searched
+    bad = tmp_path / "bad.toml"
+    bad.write_text(edit((out / "settings.toml").read_text()))  # type: ignore[operator]
+    code = main(["simulate", "--engine", "pymunk", "--scene", "seed-mu", "--settings", str(bad)])
+    assert code == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and message in err, err
+
+
+def test_simulate_refuses_a_settings_file_of_another_engine(
+    searched: tuple[Path, pd.DataFrame], capsys: pytest.CaptureFixture[str]
+) -> None:
+    out, _ = searched
+    path = str(out / "settings.toml")
+    assert main(["simulate", "--engine", "mujoco", "--scene", "seed-mu", "--settings", path]) == 2
+    assert "is for pymunk, not mujoco" in capsys.readouterr().err
+
+
+def test_overfitted_means_much_worse_on_held_out_scenes() -> None:
+    assert not is_overfitted(0.1, 0.6)
+    assert is_overfitted(0.1, 0.8)
+    assert is_overfitted(0.0, 0.6)
+    assert not is_overfitted(None, 10.0)
+
+
+def test_stock_and_tuned_profiles_exist() -> None:
+    assert {str(p) for p in Profile} == {"stock", "tuned"}
