@@ -54,6 +54,7 @@ from hoopbench.reports.compare.suite_file import (
 from hoopbench.reports.hop_map.spec import MAP_FILE, Axis, MapSpec, check_grid, load_spec
 from hoopbench.reports.hop_map.stages import run_map
 from hoopbench.reports.hop_map.table import map_frame
+from hoopbench.reports.report.best_settings import is_tune_folder
 from hoopbench.reports.report.build import build_report
 from hoopbench.reports.sweep.runner import RunSummary
 from hoopbench.reports.tune.heldout import validate
@@ -631,8 +632,8 @@ def report(
     *,
     force: bool = False,
 ) -> Path:
-    """report.md and its figures from result folders (of ``compare`` or ``hop_map``; no
-    simulation), into ``out`` (default: the first folder); the path of report.md.
+    """report.md and its figures from result folders (of ``compare``, ``hop_map`` or
+    ``tune``; no simulation), into ``out`` (default: the first folder); the path of report.md.
 
     An existing report.md is replaced only with ``force=True``.
     """
@@ -640,7 +641,7 @@ def report(
     if not folders:
         raise OptionError("results", "{option} must name at least one results folder")
     for folder in folders:
-        if not (folder / "runs").is_dir():
+        if not (folder / "runs").is_dir() and not is_tune_folder(folder):
             raise OptionError(
                 "results",
                 f"{{option}} {str(folder)!r} holds no results (no runs/ folder): "

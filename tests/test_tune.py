@@ -182,3 +182,34 @@ def test_overfitted_means_much_worse_on_held_out_scenes() -> None:
 
 def test_stock_and_tuned_profiles_exist() -> None:
     assert {str(p) for p in Profile} == {"stock", "tuned"}
+
+
+def test_the_report_has_a_best_settings_section(
+    searched: tuple[Path, pd.DataFrame], tmp_path: Path
+) -> None:
+    out, front = searched
+    report = hb.report([out], tmp_path / "report")
+    text = report.read_text()
+    section = text[text.index("## Best settings") :]
+    assert "### pymunk" in section
+    for name in front["setting"]:
+        assert f"| {name} |" in section
+    assert "Held-out error of tuned" in section
+    assert (tmp_path / "report" / "best-settings-pymunk.png").is_file()
+
+
+def test_the_front_figure_labels_its_log_axis_in_plain_numbers(
+    searched: tuple[Path, pd.DataFrame], tmp_path: Path
+) -> None:
+    from hoopbench.reports.report.best_settings import _panel, best_settings
+    from hoopbench.reports.report.plotting import pyplot
+
+    out, _ = searched
+    (best,) = best_settings([out])
+    plt = pyplot()
+    fig, ax = plt.subplots()
+    _panel(ax, best, "heldout")
+    fig.canvas.draw()
+    labels = [t.get_text() for t in ax.get_xticklabels() if t.get_text()]
+    plt.close(fig)
+    assert labels and not any("$" in label for label in labels), labels

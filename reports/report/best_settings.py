@@ -1,0 +1,201 @@
+"""The "Best settings" section: per engine searched with ``hoopbench tune``, its front (error
+against cost, on the training scenes and on the held-out ones) with ``stock`` and ``tuned``
+placed on it, as a table and a figure.
+
+:func:`best_settings` computes (from a tune folder's front.csv and trials.csv, no simulation);
+:func:`best_settings_section` presents.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from hoopbench.reports.report.plotting import pyplot
+from hoopbench.reports.tune.heldout import FRONT_NAME, TRIALS_NAME
+from hoopbench.reports.tune.search import SPEC_NAME
+
+__all__ = [
+    "COST_FACTOR",
+    "BestSettings",
+    "best_settings",
+    "best_settings_section",
+    "is_tune_folder",
+]
+
+COST_FACTOR = 10.0
+"""The second budget the section reads the front at: ten times tuned's cost."""
+
+
+def is_tune_folder(folder: str | Path) -> bool:
+    """Whether a folder holds a search of ``hoopbench tune``."""
+    return (Path(folder) / SPEC_NAME).is_file()
+
+
+@dataclass(frozen=True)
+class BestSettings:
+    """One engine's search, read back."""
+
+    engine: str
+    front: pd.DataFrame
+    """front.csv: the Pareto set and the baselines, training and held-out error and cost."""
+    trials: pd.DataFrame
+    """trials.csv: every trial's training error and cost."""
+    training_scenes: tuple[str, ...]
+    tuned_heldout: float | None
+    """tuned's held-out error."""
+    at_tuned_cost: float | None
+    """The best held-out error of the Pareto set at no more than tuned's held-out cost."""
+    at_ten_times: float | None
+    """The same at COST_FACTOR times tuned's held-out cost."""
+
+
+def _best_within(front: pd.DataFrame, cost: float | None) -> float | None:
+    if cost is None or not math.isfinite(cost):
+        return None
+    pareto = front[(front["kind"] == "pareto") & (front["heldout_cost_us_per_s"] <= cost)]
+    return None if pareto.empty else float(pareto["heldout_error"].min())
+
+
+def _read(folder: Path) -> BestSettings:
+    spec = json.loads((folder / SPEC_NAME).read_text())
+    front = pd.read_csv(folder / FRONT_NAME)
+    trials = pd.read_csv(folder / TRIALS_NAME)
+    tuned = front[front["setting"] == "tuned"]
+    cost = float(tuned["heldout_cost_us_per_s"].iloc[0]) if len(tuned) else None
+    return BestSettings(
+        engine=str(spec["engine"]),
+        front=front,
+        trials=trials,
+        training_scenes=tuple(str(s["name"]) for s in spec["scenes"]),
+        tuned_heldout=float(tuned["heldout_error"].iloc[0]) if len(tuned) else None,
+        at_tuned_cost=_best_within(front, cost),
+        at_ten_times=_best_within(front, None if cost is None else COST_FACTOR * cost),
+    )
+
+
+def best_settings(folders: Sequence[str | Path]) -> list[BestSettings]:
+    """Every tune folder's search, read back. ValueError naming a folder whose search has not
+    finished (no front.csv: resume it)."""
+    found = []
+    for folder in map(Path, folders):
+        if not (folder / FRONT_NAME).is_file():
+            raise ValueError(f"{folder}: the search has no {FRONT_NAME} yet: resume it first")
+        found.append(_read(folder))
+    return found
+
+
+# --------------------------------------------------------------------------- presenting
+def _number(value: Any, spec: str = ".3g") -> str:
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        return "-"
+    return "-" if not math.isfinite(number) else format(number, spec)
+
+
+def _table(best: BestSettings) -> list[str]:
+    lines = [
+        "| setting | kind | timestep (s) | training error | held-out error | "
+        "cost (us per simulated s) | overfitted |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for row in best.front.to_dict("records"):
+        lines.append(
+            f"| {row['setting']} | {row['kind']} | {_number(row['timestep'])} | "
+            f"{_number(row['train_error'])} | {_number(row['heldout_error'])} | "
+            f"{_number(row['train_cost_us_per_s'])} | "
+            f"{'yes' if row['overfitted'] else 'no'} |"
+        )
+    return lines
+
+
+def _summary(best: BestSettings) -> str:
+    return (
+        f"Held-out error of tuned: {_number(best.tuned_heldout)}; the best of the Pareto set at "
+        f"no more than tuned's cost: {_number(best.at_tuned_cost)}; at {COST_FACTOR:g}x its "
+        f"cost: {_number(best.at_ten_times)} (- where no setting of the front is that cheap)."
+    )
+
+
+def _plain_log_axis(axis: Any) -> None:
+    from matplotlib.ticker import FuncFormatter
+
+    axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    axis.set_minor_formatter(FuncFormatter(lambda v, _: ""))
+
+
+def _panel(ax: Any, best: BestSettings, which: str) -> None:
+    front = best.front
+    if which == "train":
+        done = best.trials[best.trials["state"] == "complete"]
+        ax.scatter(done["train_cost_us_per_s"], done["train_error"], s=12, c="0.7", label="trials")
+    pareto = front[front["kind"] == "pareto"].sort_values(f"{which}_cost_us_per_s")
+    ax.plot(
+        pareto[f"{which}_cost_us_per_s"], pareto[f"{which}_error"], "o-", c="C0", label="Pareto set"
+    )
+    for name, marker, colour in (("stock", "s", "C3"), ("tuned", "D", "C2")):
+        point = front[front["setting"] == name]
+        ax.scatter(
+            point[f"{which}_cost_us_per_s"],
+            point[f"{which}_error"],
+            marker=marker,
+            s=50,
+            c=colour,
+            label=name,
+            zorder=3,
+        )
+    ax.set_xscale("log")
+    _plain_log_axis(ax.xaxis)
+    ax.set_xlabel("cost, us per simulated second")
+    ax.set_ylabel("error (loose tolerances; 10 = failed)")
+    ax.set_title("training scenes" if which == "train" else "held-out scenes")
+    ax.grid(True, which="both", alpha=0.3)
+
+
+def _figure(best: BestSettings, path: Path) -> Path:
+    plt = pyplot()
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
+    _panel(axes[0], best, "train")
+    _panel(axes[1], best, "heldout")
+    axes[0].legend(loc="best", fontsize=8)
+    fig.suptitle(f"{best.engine}: error against cost")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def best_settings_section(found: Sequence[BestSettings], out: str | Path) -> str:
+    """The section's Markdown, its figures written to ``out`` (best-settings-ENGINE.png)."""
+    out = Path(out)
+    lines = [
+        "## Best settings",
+        "",
+        "Each engine's settings searched by `hoopbench tune` (docs/tune.md): error (the mean "
+        "over scenes of each run's worst event error in loose tolerances; 10 for a failed run, "
+        "a missed or invented event) against cost, on the training scenes and on held-out "
+        "scenes drawn at random from a seed the search never saw. A setting is overfitted when "
+        "its held-out error is more than twice its training error plus 0.5.",
+    ]
+    for best in found:
+        name = f"best-settings-{best.engine}.png"
+        _figure(best, out / name)
+        lines += [
+            "",
+            f"### {best.engine}",
+            "",
+            f"Training scenes: {', '.join(best.training_scenes)}; "
+            f"{len(best.trials)} trials. {_summary(best)}",
+            "",
+            *_table(best),
+            "",
+            f"![{best.engine}: error against cost]({name})",
+        ]
+    return "\n".join(lines) + "\n"
