@@ -17,6 +17,7 @@ from typing import Any
 
 import pandas as pd
 
+from hoopbench.reports.report.escaping import escape_cell, escape_text, file_stem
 from hoopbench.reports.report.plotting import pyplot
 from hoopbench.reports.tune.heldout import FRONT_NAME, TRIALS_NAME
 from hoopbench.reports.tune.search import SPEC_NAME
@@ -108,7 +109,8 @@ def _table(best: BestSettings) -> list[str]:
     ]
     for row in best.front.to_dict("records"):
         lines.append(
-            f"| {row['setting']} | {row['kind']} | {_number(row['timestep'])} | "
+            f"| {escape_cell(row['setting'])} | {escape_cell(row['kind'])} | "
+            f"{_number(row['timestep'])} | "
             f"{_number(row['train_error'])} | {_number(row['heldout_error'])} | "
             f"{_number(row['train_cost_us_per_s'])} | "
             f"{'yes' if row['overfitted'] else 'no'} |"
@@ -185,17 +187,18 @@ def best_settings_section(found: Sequence[BestSettings], out: str | Path) -> str
         "its held-out error is more than twice its training error plus 0.5.",
     ]
     for best in found:
-        name = f"best-settings-{best.engine}.png"
+        name = f"best-settings-{file_stem(best.engine)}.png"
         _figure(best, out / name)
+        engine = escape_text(best.engine)
         lines += [
             "",
-            f"### {best.engine}",
+            f"### {engine}",
             "",
-            f"Training scenes: {', '.join(best.training_scenes)}; "
+            f"Training scenes: {escape_text(', '.join(best.training_scenes))}; "
             f"{len(best.trials)} trials. {_summary(best)}",
             "",
             *_table(best),
             "",
-            f"![{best.engine}: error against cost]({name})",
+            f"![{engine}: error against cost]({name})",
         ]
     return "\n".join(lines) + "\n"

@@ -285,7 +285,7 @@ def _baselines(
 ) -> tuple[tuple[Setting, ...], bool]:
     """stock and tuned on the training scenes (at the default timestep), and whether a signal
     stopped them."""
-    settings = []
+    settings: list[Setting] = []
     cls = engine_class(spec.engine)
     for profile in (Profile.STOCK, Profile.TUNED):
         base = Setting(str(profile), DEFAULT_TIMESTEP, cls.defaults(profile), profile)
