@@ -12,6 +12,7 @@ import pytest
 import hoopbench as hb
 from hoopbench.engines.options import Profile
 from hoopbench.engines.registry import engine_class
+from hoopbench.models.scene import Scene
 from hoopbench.reports.cli import main
 from hoopbench.reports.compare.settings_file import load_settings
 from hoopbench.reports.compare.suite import runs_frame
@@ -25,7 +26,7 @@ pytestmark = pytest.mark.slow
 ENGINE = "pymunk"
 
 
-def _scene() -> hb.Scene:  # type: ignore[name-defined]
+def _scene() -> Scene:
     return hb.scene("hop-bottom", t_end=1.2)
 
 
