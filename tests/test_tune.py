@@ -214,3 +214,41 @@ def test_the_front_figure_labels_its_log_axis_in_plain_numbers(
     labels = [t.get_text() for t in ax.get_xticklabels() if t.get_text()]
     plt.close(fig)
     assert labels and not any("$" in label for label in labels), labels
+
+
+def test_ctrl_c_keeps_every_finished_trial(tmp_path: Path) -> None:
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "search"
+    command = [sys.executable, "-m", "hoopbench.reports.cli", "tune", "--engine", ENGINE]
+    command += ["--out", str(out), "--scenes", "hop-bottom", "--trials", "500", "--jobs", "1"]
+    process = subprocess.Popen(command, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline:
+            time.sleep(0.5)
+            if (out / JOURNAL_NAME).exists() and sum(
+                t.state.name == "COMPLETE" for t in _study(out).trials
+            ) >= 2:
+                break
+        process.send_signal(signal.SIGINT)
+        _, err = process.communicate(timeout=60)
+    finally:
+        process.kill()
+    assert process.returncode == 130, err
+    assert err.strip().splitlines()[-1].startswith("hoopbench: interrupted"), err
+    done = [t.number for t in _study(out).trials if t.state.name == "COMPLETE"]
+    assert len(done) >= 2
+    assert not (out / "settings.toml").exists()  # the search did not end: no front yet
+    trials = len(done) + 1
+    again = ["tune", "--engine", ENGINE, "--out", str(out), "--scenes", "hop-bottom"]
+    again += ["--trials", str(trials), "--jobs", "1", "--resume", "--quiet"]
+    code = main(again)
+    assert code == 0
+    after = _study(out).trials
+    assert [t.number for t in after if t.state.name == "COMPLETE"][: len(done)] == done
+    assert sum(t.state.name == "COMPLETE" for t in after) == trials
+    assert (out / "settings.toml").is_file()

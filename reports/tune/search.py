@@ -327,12 +327,15 @@ def search(
         started = time.monotonic()
         preload = ["hoopbench.reports.compare.suite"]
         with WorkerPool(jobs, preload=preload) as pool:
-            baselines, stopped = _baselines(spec, out, pool, budget)
-            while not stopped and _budget_left(study, budget, started):
-                summary = _one_trial(study, spec, out, pool, budget)
-                stopped = summary is not None and summary.interrupted is not None
-                if say is not None and not stopped:
-                    say(_progress(study))
+            try:
+                baselines, stopped = _baselines(spec, out, pool, budget)
+                while not stopped and _budget_left(study, budget, started):
+                    summary = _one_trial(study, spec, out, pool, budget)
+                    stopped = summary is not None and summary.interrupted is not None
+                    if say is not None and not stopped:
+                        say(_progress(study))
+            except KeyboardInterrupt:  # between two trials' runs (the runner handles its own)
+                baselines, stopped = (), True
             result = SearchResult(study, stopped, baselines)
             if then is not None and not stopped:
                 then(result, pool)
