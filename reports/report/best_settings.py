@@ -129,7 +129,7 @@ def _summary(best: BestSettings) -> str:
 def _plain_log_axis(axis: Any) -> None:
     from matplotlib.ticker import FuncFormatter
 
-    axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:,.0f}" if v >= 1 else f"{v:g}"))
     axis.set_minor_formatter(FuncFormatter(lambda v, _: ""))
 
 
@@ -139,8 +139,14 @@ def _panel(ax: Any, best: BestSettings, which: str) -> None:
         done = best.trials[best.trials["state"] == "complete"]
         ax.scatter(done["train_cost_us_per_s"], done["train_error"], s=12, c="0.7", label="trials")
     pareto = front[front["kind"] == "pareto"].sort_values(f"{which}_cost_us_per_s")
+    # On the held-out scenes the training front is no front: its points, not a line.
+    style = "o-" if which == "train" else "o"
     ax.plot(
-        pareto[f"{which}_cost_us_per_s"], pareto[f"{which}_error"], "o-", c="C0", label="Pareto set"
+        pareto[f"{which}_cost_us_per_s"],
+        pareto[f"{which}_error"],
+        style,
+        c="C0",
+        label="Pareto set",
     )
     for name, marker, colour in (("stock", "s", "C3"), ("tuned", "D", "C2")):
         point = front[front["setting"] == name]
