@@ -418,10 +418,21 @@ def _cmd_settings(args: argparse.Namespace) -> int:
             stock = spec["stock"][key]
             print(f"  {key} = {value}" + ("" if stock == value else f"  (stock: {stock})"))
             print(f"      {spec['reasons'][key]}")
+            print(f"      search: {spec['search'][key]}")
         if spec["variants"]:
             print("  suite variants: " + ", ".join(v["name"] for v in spec["variants"]))
     print("detectors: " + ", ".join(f"{k}={v}" for k, v in payload["detectors"].items()))
     return 0
+
+
+def _search_text(option: Any) -> str:
+    """What ``hoopbench tune`` tries for an option, in a few words."""
+    if option.space is None:
+        return f"not searched: {option.outside_search}"
+    if isinstance(option.space, tuple):
+        parts = ["default" if s is None else s.describe() for s in option.space]
+        return "(" + "; ".join(parts) + ")"
+    return str(option.space.describe())
 
 
 def _engine_declaration(cls: Any) -> dict[str, Any]:
@@ -430,6 +441,7 @@ def _engine_declaration(cls: Any) -> dict[str, Any]:
         "options": cls.defaults(),
         "stock": cls.defaults(Profile.STOCK),
         "reasons": {option.name: option.reason for option in cls.options},
+        "search": {option.name: _search_text(option) for option in cls.options},
         "variants": [
             {"name": v.name, "geometry": v.geometry, "options": dict(v.options)}
             for v in cls.variants

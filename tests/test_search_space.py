@@ -73,3 +73,18 @@ def test_stock_values_mostly_lie_in_the_space() -> None:
             if option.space is not None and not option.in_space(option.value(Profile.STOCK)):
                 found.add((name, option.name))
     assert found == outside
+
+
+def test_hoopbench_settings_shows_each_options_search(capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    from hoopbench.reports.cli import main
+
+    assert main(["settings", "--engine", "mujoco", "--json"]) == 0
+    search = json.loads(capsys.readouterr().out)["engines"]["mujoco"]["search"]
+    assert search["iterations"] == "log-int 10..200"
+    assert (
+        search["solimp"]
+        == "(linear 0.8..0.95; linear 0.95..0.9999; log 0.0001..0.01; default; default)"
+    )
+    assert search["ring_segments"].startswith("not searched: ")
