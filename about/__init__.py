@@ -36,6 +36,7 @@ _API = {
     "hop_map": "hop_map",
     "map": "hop_map",
     "report": "report",
+    "tune": "tune",
     "EngineRun": "EngineRun",
     "OptionError": "OptionError",
 }

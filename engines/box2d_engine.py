@@ -39,7 +39,16 @@ from typing import Any
 import numpy as np
 
 from hoopbench.engines.base import Chunk, Engine, call_repeatedly
-from hoopbench.engines.options import Option, Variant, flag, integer, number
+from hoopbench.engines.options import (
+    Option,
+    Variant,
+    flag,
+    int_range,
+    integer,
+    log_range,
+    number,
+    one_of,
+)
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models import kinematics
@@ -78,6 +87,7 @@ class Box2DEngine(Engine):
             "b2World_Step's substeps, Box2D's recommended 4. Measured at dt 1e-4: 8 moves "
             "seed-mu's slip by the contact force from +0.2 to +0.02 ms and hop-top's lift-off "
             "from +11 to +2 ms, with the same 0.77x hop, at 1.4x the cost; the variant shows it",
+            space=int_range(1, 16, log=True),
         ),
         Option(
             "contactHertz",
@@ -89,18 +99,21 @@ class Box2DEngine(Engine):
             "wrong phases; 240 Hz: 1.1 um at rest, 0.25 mm on high-spin, hop-top's phases "
             "right. 1000 Hz changes no hop by more than 1 %",
             stock=30.0,
+            space=log_range(10.0, 2000.0),
         ),
         Option(
             "contactDampingRatio",
             10.0,
             number(low=0.0),
             "Box2D's 10: the push-out is overdamped and never bounces the hoop",
+            space=log_range(0.1, 100.0),
         ),
         Option(
             "maxContactPushSpeed",
             3.0,
             number(low=0.0, low_open=True, unit="m/s"),
             "Box2D's 3 m/s cap on the push-out; the hoop's overlaps are micrometres",
+            space=log_range(0.1, 100.0),
         ),
         Option(
             "enableSleep",
@@ -109,6 +122,7 @@ class Box2DEngine(Engine):
             "Box2D's 1 may freeze a body slower than 5 cm/s for 0.5 s: a measurement must "
             "not stop because the hoop is slow",
             stock=1,
+            space=one_of(0, 1),
         ),
     )
     variants = (

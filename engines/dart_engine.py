@@ -53,7 +53,17 @@ from typing import Any
 import numpy as np
 
 from hoopbench.engines.base import Chunk, Engine, call_repeatedly, states_and_step_forces
-from hoopbench.engines.options import Option, Variant, choice, flag, integer, number
+from hoopbench.engines.options import (
+    Option,
+    Variant,
+    choice,
+    flag,
+    int_range,
+    integer,
+    log_range,
+    number,
+    one_of,
+)
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models import kinematics
@@ -108,6 +118,7 @@ class DartEngine(Engine):
             "at 32 deg (0.507 s) with friction at 0.26 mu n, at every timestep, with every "
             "collision detector and with a FreeJoint instead of the planar one",
             stock="dantzig",
+            space=one_of(*LCP_SOLVERS),
         ),
         Option(
             "collision_detector",
@@ -117,6 +128,7 @@ class DartEngine(Engine):
             "Bullet and ODE give seed-mu's slip to 1e-5 deg, DART's own detector 0.0001 deg "
             "apart; ODE is the cheapest per step of the three (FCL is DART's default)",
             stock="fcl",
+            space=one_of(*COLLISION_DETECTORS),
         ),
         Option(
             "lcp_fallback",
@@ -125,24 +137,28 @@ class DartEngine(Engine):
             "1: a second solver for the steps the first fails on (DART's default: Dantzig, "
             "then PGS; with PGS first, Dantzig after it). PGS alone fails on single steps "
             "(no convergence in its iterations) and DART then zeroes the step's impulses",
+            space=one_of(0, 1),
         ),
         Option(
             "pgs_max_iteration",
             30,
             integer(low=1),
             "PgsBoxedLcpSolverOption.mMaxIteration, DART's 30 (PGS only)",
+            space=int_range(5, 500, log=True),
         ),
         Option(
             "pgs_delta_x_threshold",
             1e-6,
             number(low=0.0),
             "PgsBoxedLcpSolverOption.mDeltaXThreshold, DART's (PGS only)",
+            space=log_range(1e-10, 1e-3),
         ),
         Option(
             "pgs_relative_delta_x_tolerance",
             1e-3,
             number(low=0.0),
             "PgsBoxedLcpSolverOption.mRelativeDeltaXTolerance, DART's (PGS only)",
+            space=log_range(1e-8, 0.1),
         ),
     )
     variants = (

@@ -53,7 +53,16 @@ from typing import Any
 import numpy as np
 
 from hoopbench.engines.base import Chunk, Engine, equilibrium_depth, import_engine
-from hoopbench.engines.options import Option, Variant, choice, number, optional
+from hoopbench.engines.options import (
+    Option,
+    Variant,
+    choice,
+    linear_range,
+    log_range,
+    number,
+    one_of,
+    optional,
+)
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models import kinematics
@@ -161,6 +170,7 @@ class DrakeEngine(Engine):
             "similar kick a sliding stiff contact off the floor: false lift-offs in every "
             "scene that slips",
             stock="lagged",
+            space=one_of(*APPROXIMATIONS),
         ),
         Option(
             "time_step",
@@ -168,6 +178,7 @@ class DrakeEngine(Engine):
             _check_time_step,
             "None: a discrete plant stepping at the run's timestep; 0: a continuous plant, "
             "integrated with error control and sampled at the run's timestep",
+            space=one_of(None, 0.0),
         ),
         Option(
             "contact_model",
@@ -176,6 +187,7 @@ class DrakeEngine(Engine):
             "the issue's choice, explicit: Drake's default hydroelastic_with_fallback falls back "
             "to point contact here, as the model gives no hydroelastic properties",
             stock="hydroelastic_with_fallback",
+            space=one_of(*CONTACT_MODELS),
         ),
         Option(
             "penetration_allowance",
@@ -187,6 +199,7 @@ class DrakeEngine(Engine):
             "(420 g) read as a 2 mm/s slip (s uses radius a) and hid a re-stick; TAMSI stopped "
             "converging on hop-low at 1e-7",
             stock=None,
+            space=log_range(1e-8, 1e-2, or_none=True),
         ),
         Option(
             "stiction_tolerance",
@@ -196,6 +209,7 @@ class DrakeEngine(Engine):
             "this speed while rolling; Drake's 1e-4 put seed-mu's slip onset 0.7 ms early, "
             "1e-5 puts it +0.04 ms",
             stock=1e-4,
+            space=log_range(1e-7, 1e-2),
         ),
         Option(
             "relaxation_time",
@@ -205,6 +219,7 @@ class DrakeEngine(Engine):
             "0.1 s per geometry, with which a sliding hoop climbed 38 mm in 20 ms at any "
             "timestep; 0 leaves SAP's O(dt) gliding (4 mm at dt 1e-4, 0.03 mm at 2.5e-5)",
             stock=None,
+            space=linear_range(0.0, 0.1, or_none=True),
         ),
         Option(
             "sap_near_rigid_threshold",
@@ -212,6 +227,7 @@ class DrakeEngine(Engine):
             number(low=0.0),
             "Drake's default; 0 (no near-rigid regularization) left SAP's false lift-offs as "
             "they were",
+            space=linear_range(0.0, 2.0),
         ),
         Option(
             "integration_scheme",
@@ -221,12 +237,14 @@ class DrakeEngine(Engine):
             "sample on the stiff contact and friction; implicit_euler ~0.3-0.7 ms, and hop-top "
             "within 0.5 ms and 0.5 %",
             stock="runge_kutta3",
+            space=one_of(*INTEGRATION_SCHEMES),
         ),
         Option(
             "accuracy",
             1e-4,
             number(low=0.0, low_open=True, high=1.0),
             "continuous plant only: Drake's default (error control's target accuracy)",
+            space=log_range(1e-8, 0.1),
         ),
     )
     variants = (

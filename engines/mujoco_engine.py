@@ -72,8 +72,12 @@ from hoopbench.engines.options import (
     Option,
     Variant,
     choice,
+    int_range,
     integer,
+    linear_range,
+    log_range,
     number,
+    one_of,
     real_tuple,
 )
 from hoopbench.engines.registry import register
@@ -162,6 +166,7 @@ class MujocoEngine(Engine):
             "(timeconst s, dampratio); refsafe clamps timeconst to 2*timestep. Stiffer than "
             "MuJoCo's 0.02: slip onset within 2.4 ms on seed-mu (table in the module doc)",
             stock=(0.02, 1.0),
+            space=(log_range(1e-4, 0.05), linear_range(0.2, 2.0)),
         ),
         Option(
             "solreffriction",
@@ -171,6 +176,7 @@ class MujocoEngine(Engine):
             "apart; with one solref for all rows the hoop chattered 0.2 mm off the floor while "
             "slipping and the detectors saw false hops; this cuts the chatter tenfold",
             stock=(0.0, 0.0),
+            space=(log_range(1e-4, 0.1), linear_range(0.2, 2.0)),
         ),
         Option(
             "solimp",
@@ -181,6 +187,13 @@ class MujocoEngine(Engine):
             "lift-off from +20.9 to -1.3 ms and halves seed-mu's rolling creep (2.1 -> 1.1 s) "
             "(contact-force reading, dt 1e-4)",
             stock=(0.9, 0.95, 0.001, 0.5, 2.0),
+            space=(
+                linear_range(0.8, 0.95),
+                linear_range(0.95, 0.9999),
+                log_range(1e-4, 1e-2),
+                None,
+                None,
+            ),
         ),
         Option(
             "cone",
@@ -189,6 +202,7 @@ class MujocoEngine(Engine):
             "pyramidal cones reported false hops at every solref tried (0.3-2.3 mm) and, "
             "with solref 0.02 and impratio 1, slipped at 26 deg instead of 88.5",
             stock="pyramidal",
+            space=one_of(*CONES),
         ),
         Option(
             "impratio",
@@ -199,6 +213,7 @@ class MujocoEngine(Engine):
             "pyramidal cones too: stock with 100 lifts off on hop-top at -9.9 ms instead of "
             "+20.9 (contact-force reading, dt 1e-4)",
             stock=1.0,
+            space=log_range(1.0, 1000.0),
         ),
         Option(
             "noslip_iterations",
@@ -207,6 +222,7 @@ class MujocoEngine(Engine):
             "tuned: no measurable effect (seed-mu, dt 1e-4: slip onset +0.02 ms by the contact "
             "force with 0 or 10); stock: 10 cuts the rolling creep from 2.1 s to 0.4 s (its "
             "slip-velocity onset -914 -> -297 ms) and leaves the Coulomb onset at +1.3-1.5 ms",
+            space=int_range(0, 20),
         ),
         Option(
             "integrator",
@@ -215,6 +231,7 @@ class MujocoEngine(Engine):
             "RK4 costs ~4x per step, but the one-step integrators lost the hop-top and "
             "hop-low hops to contact chatter (hop-top height -1 % with RK4)",
             stock="Euler",
+            space=one_of(*INTEGRATORS),
         ),
         Option(
             "tolerance",
@@ -223,18 +240,21 @@ class MujocoEngine(Engine):
             "tighter than MuJoCo's 1e-8 so that convergence never limits a result; measured: "
             "1e-8 and 1e-10 give the same events on seed-mu and hop-top on both profiles",
             stock=1e-8,
+            space=log_range(1e-12, 1e-6),
         ),
         Option(
             "iterations",
             100,
             integer(low=1),
             "enough for the tolerance above on this one-contact problem",
+            space=int_range(10, 200, log=True),
         ),
         Option(
             "ring_segments",
             32,
             integer(low=3, high=MAX_RING_SEGMENTS),
             "capsules in the ring geometry: a polygon fine enough to roll, coarse enough to see",
+            outside_search="used only by geometry ring; a search runs the sphere",
         ),
     )
     variants = (

@@ -28,12 +28,19 @@ __all__ = [
     "Check",
     "Option",
     "Profile",
+    "Scale",
+    "SearchSpace",
+    "Space",
     "Variant",
     "check_profile",
     "choice",
     "flag",
+    "int_range",
     "integer",
+    "linear_range",
+    "log_range",
     "number",
+    "one_of",
     "optional",
     "real_tuple",
 ]
@@ -70,6 +77,88 @@ Check = Callable[[str, Any], Any]
 """(option name, value) -> the value converted; ValueError naming the value and the allowed."""
 
 
+class Scale(StrEnum):
+    """How a search draws an option's values (``hoopbench tune``)."""
+
+    LINEAR = "linear"
+    """A real number, uniform between the bounds."""
+    LOG = "log"
+    """A positive real number, uniform in its logarithm: for values over decades."""
+    INT = "int"
+    """A whole number, uniform between the bounds."""
+    LOG_INT = "log-int"
+    """A positive whole number, uniform in its logarithm."""
+    CHOICE = "choice"
+    """One of a few values."""
+
+
+@dataclass(frozen=True)
+class Space:
+    """The values of one option (or one component of a tuple option) a search may try."""
+
+    scale: Scale
+    low: float = 0.0
+    """Smallest value (LINEAR, LOG, INT, LOG_INT), in the option's unit."""
+    high: float = 0.0
+    """Largest value, in the option's unit."""
+    choices: tuple[Any, ...] = ()
+    """The values of a CHOICE."""
+    or_none: bool = False
+    """The search also tries None (the engine's own behaviour, for an optional option)."""
+
+    def __post_init__(self) -> None:
+        if self.scale is Scale.CHOICE:
+            if not self.choices:
+                raise ValueError("a choice space needs its choices")
+        elif not self.low <= self.high or (
+            self.scale in (Scale.LOG, Scale.LOG_INT) and not self.low > 0
+        ):
+            raise ValueError(f"bad {self.scale} space [{self.low}, {self.high}]")
+
+    def contains(self, value: Any) -> bool:
+        """Whether the search can draw ``value``."""
+        if self.scale is Scale.CHOICE and value in self.choices:
+            return True
+        if value is None or self.scale is Scale.CHOICE:
+            return value is None and self.or_none
+        if self.scale in (Scale.INT, Scale.LOG_INT) and value != int(value):
+            return False
+        return bool(self.low <= value <= self.high)
+
+    def describe(self) -> str:
+        """The space in a few words, e.g. 'log 1e-05..0.1' or 'one of a, b'."""
+        if self.scale is Scale.CHOICE:
+            text = "one of " + ", ".join(str(c) for c in self.choices)
+        else:
+            text = f"{self.scale} {self.low:g}..{self.high:g}"
+        return text + (" or None" if self.or_none else "")
+
+
+def log_range(low: float, high: float, *, or_none: bool = False) -> Space:
+    """Reals from ``low`` to ``high``, drawn uniformly in their logarithm."""
+    return Space(Scale.LOG, low, high, or_none=or_none)
+
+
+def linear_range(low: float, high: float, *, or_none: bool = False) -> Space:
+    """Reals from ``low`` to ``high``, drawn uniformly."""
+    return Space(Scale.LINEAR, low, high, or_none=or_none)
+
+
+def int_range(low: int, high: int, *, log: bool = False) -> Space:
+    """Whole numbers from ``low`` to ``high`` (drawn uniformly in their logarithm if ``log``)."""
+    return Space(Scale.LOG_INT if log else Scale.INT, low, high)
+
+
+def one_of(*choices: Any) -> Space:
+    """One of ``choices``."""
+    return Space(Scale.CHOICE, choices=tuple(choices))
+
+
+SearchSpace = Space | tuple[Space | None, ...]
+"""An option's search space: one Space, or one per component of a tuple option (None: that
+component keeps its default)."""
+
+
 @dataclass(frozen=True)
 class Option:
     """One engine option, by its real engine name."""
@@ -82,6 +171,26 @@ class Option:
     """Why the default has this value (measurements where there are any)."""
     stock: Any = SAME
     """The engine's own default (the ``stock`` profile); SAME when hoopbench keeps it."""
+    space: SearchSpace | None = None
+    """The values a search over the engine's settings tries (``hoopbench tune``); None for an
+    option that cannot change the events (``outside_search`` says why)."""
+    outside_search: str = ""
+    """Why an option without a space stays out of the search (it changes only the cost or
+    the bookkeeping)."""
+
+    def in_space(self, value: Any) -> bool:
+        """Whether a search over this option can draw ``value`` (False without a space)."""
+        if self.space is None:
+            return False
+        if isinstance(self.space, Space):
+            return self.space.contains(value)
+        if not isinstance(value, tuple | list) or len(value) != len(self.space):
+            return False
+        default = tuple(self.default)
+        return all(
+            part == default[k] if space is None else space.contains(part)
+            for k, (space, part) in enumerate(zip(self.space, value, strict=True))
+        )
 
     def value(self, profile: Profile) -> Any:
         """The option's value in a profile."""

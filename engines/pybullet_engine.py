@@ -52,7 +52,18 @@ from typing import Any
 import numpy as np
 
 from hoopbench.engines.base import Chunk, Engine, call_repeatedly, states_and_step_forces
-from hoopbench.engines.options import Option, Variant, flag, integer, number, optional
+from hoopbench.engines.options import (
+    Option,
+    Variant,
+    flag,
+    int_range,
+    integer,
+    linear_range,
+    log_range,
+    number,
+    one_of,
+    optional,
+)
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models import kinematics
@@ -113,23 +124,32 @@ class PybulletEngine(Engine):
             integer(low=1),
             "PyBullet's 50; the result depends on its parity where the solver does not "
             "converge (phi < -1 while slipping: see the module doc)",
+            space=int_range(5, 500, log=True),
         ),
-        Option("contactERP", 0.2, _UNIT, "PyBullet's default"),
-        Option("frictionERP", 0.2, _UNIT, "PyBullet's default"),
+        Option("contactERP", 0.2, _UNIT, "PyBullet's default", space=linear_range(0.0, 1.0)),
+        Option("frictionERP", 0.2, _UNIT, "PyBullet's default", space=linear_range(0.0, 1.0)),
         Option(
             "contactStiffness",
             None,
             optional(number(low=0.0, low_open=True)),
             "None: PyBullet's rigid, ERP-based contact (give with contactDamping)",
+            space=log_range(1e2, 1e9, or_none=True),
         ),
         Option(
             "contactDamping",
             None,
             optional(number(low=0.0, low_open=True)),
             "None: rigid contact (give with contactStiffness)",
+            space=log_range(0.1, 1e6, or_none=True),
         ),
-        Option("enableConeFriction", 1, flag(), "PyBullet's default: a friction cone"),
-        Option("frictionAnchor", 0, flag(), "PyBullet's default"),
+        Option(
+            "enableConeFriction",
+            1,
+            flag(),
+            "PyBullet's default: a friction cone",
+            space=one_of(0, 1),
+        ),
+        Option("frictionAnchor", 0, flag(), "PyBullet's default", space=one_of(0, 1)),
         Option(
             "contactSlop",
             1e-8,
@@ -137,6 +157,7 @@ class PybulletEngine(Engine):
             "PyBullet's 1e-5 m lets a contact sink that deep with no force, so the hoop fell "
             "freely for the first 1.4 ms; 0 made the contact flicker and slip 10 ms early",
             stock=1e-5,
+            space=log_range(1e-10, 1e-3),
         ),
     )
     variants = (

@@ -38,7 +38,15 @@ from typing import Any
 import numpy as np
 
 from hoopbench.engines.base import Chunk, Engine, call_repeatedly
-from hoopbench.engines.options import Option, Variant, integer, number, optional
+from hoopbench.engines.options import (
+    Option,
+    Variant,
+    int_range,
+    integer,
+    log_range,
+    number,
+    optional,
+)
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models import kinematics
@@ -101,6 +109,7 @@ class PymunkEngine(Engine):
             integer(low=1),
             "pymunk's 10 leaves the slipping contact unconverged; 50 as PyBullet's solver",
             stock=10,
+            space=int_range(5, 200, log=True),
         ),
         Option(
             "collision_slop",
@@ -108,6 +117,7 @@ class PymunkEngine(Engine):
             number(low=0.0, unit="m"),
             "pymunk's default 0.1 (game pixels) is a tenth of the hoop radius here",
             stock=0.1,
+            space=log_range(1e-7, 0.1),
         ),
         Option(
             "collision_bias",
@@ -117,6 +127,7 @@ class PymunkEngine(Engine):
             "which let the rolling hop-bottom scene sink 0.2 mm and lift off 12 ms late); "
             "1e-40 removes overlap with an 11 ms time constant",
             stock=None,
+            space=log_range(1e-60, 0.5, or_none=True),
         ),
     )
     variants = (Variant("iterations=10", options={"iterations": 10}),)

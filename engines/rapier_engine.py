@@ -63,7 +63,17 @@ from typing import Any
 import numpy as np
 
 from hoopbench.engines.base import Chunk, Engine, call_repeatedly, states_and_step_forces
-from hoopbench.engines.options import Option, Variant, choice, flag, integer, real_tuple
+from hoopbench.engines.options import (
+    Option,
+    Variant,
+    choice,
+    flag,
+    int_range,
+    integer,
+    log_range,
+    one_of,
+    real_tuple,
+)
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models import kinematics
@@ -104,12 +114,14 @@ class RapierEngine(Engine):
             4,
             integer(low=1),
             "Rapier's 4: the solver's substeps per step, each with its own position update",
+            space=int_range(1, 64, log=True),
         ),
         Option(
             "num_internal_pgs_iterations",
             1,
             integer(low=1),
             "Rapier's 1: Gauss-Seidel sweeps per substep (one contact: one sweep is exact)",
+            space=int_range(1, 16, log=True),
         ),
         Option(
             "num_internal_stabilization_iterations",
@@ -117,6 +129,7 @@ class RapierEngine(Engine):
             integer(low=0),
             "Rapier's 1: relax (unbiased) sweeps per substep, which remove the position "
             "correction's velocity",
+            space=int_range(0, 8),
         ),
         Option(
             "static_contact_softness",
@@ -127,6 +140,7 @@ class RapierEngine(Engine):
             "hoop sink 1 mm and seed-mu's slip velocity creep (slip -43 ms by it, dt 1e-4); "
             "(200, 1): -1.5 ms, 0.4 mm; stiffer (1000, 1) made the slip flicker (-282 ms)",
             stock=(60.0, 10.0),
+            space=(log_range(10.0, 5000.0), log_range(0.1, 50.0)),
         ),
         Option(
             "friction_model",
@@ -135,6 +149,7 @@ class RapierEngine(Engine):
             "one contact point: both models solve one friction constraint at it, but only "
             "coulomb exposes the friction impulse (simplified's column is the momentum balance)",
             stock="simplified",
+            space=one_of(*FRICTION_MODELS),
         ),
         Option(
             "contact_recycling",
@@ -143,12 +158,14 @@ class RapierEngine(Engine):
             "Rapier's 1 keeps a pair's contact points while the pose moved less than 0.05 m: a "
             "rolling hoop's contact point then stays behind on the rim",
             stock=1,
+            space=one_of(0, 1),
         ),
         Option(
             "friction_in_bias_pass",
             0,
             flag(),
             "Rapier's 0: friction acts in the relax pass only",
+            space=one_of(0, 1),
         ),
     )
     variants = (

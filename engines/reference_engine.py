@@ -42,12 +42,14 @@ class ReferenceEngine(Engine):
             DEFAULT_RTOL,
             number(low=MIN_RTOL, high=1e-3),
             "event times converge to ~1e-11 s between 1e-10 and 1e-12 (tests/test_exact.py)",
+            outside_search="the exact solver's own accuracy: the reference is not searched",
         ),
         Option(
             "atol",
             DEFAULT_ATOL,
             number(low=0.0, high=1e-3, low_open=True),
             "state errors of ~1e-12 m, far below every engine's penetration",
+            outside_search="the exact solver's own accuracy: the reference is not searched",
         ),
     )
 

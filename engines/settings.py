@@ -11,7 +11,7 @@ from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import Any
 
-from hoopbench.engines.options import Profile
+from hoopbench.engines.options import Profile, Space, log_range
 from hoopbench.engines.stopping import StopRule
 from hoopbench.models.checks import check_integer, check_real
 
@@ -20,6 +20,7 @@ __all__ = [
     "DEFAULT_BATCH_SIZE",
     "DEFAULT_TIMESTEP",
     "MAX_STEPS",
+    "TIMESTEP_SPACE",
     "RunSettings",
     "parse_option_value",
 ]
@@ -28,6 +29,10 @@ DEFAULT_TIMESTEP = 1e-4
 """Engine step, s. At 1e-3 pymunk slips 34 deg instead of 88.5 and MuJoCo reports false hops;
 1e-4 is the largest step at which every engine's slip onset is within a few ms (README)."""
 
+TIMESTEP_SPACE: Space = log_range(2.5e-5, 1e-3)
+"""The timesteps a search over an engine's settings tries (``hoopbench tune``), s: from 1e-3,
+where pymunk and MuJoCo fail (above), to 2.5e-5, where the first-order engines' hop-top
+height is within 1-5 % (engines/judging/tolerances.toml)."""
 
 MAX_STEPS = 10_000_000
 """Default limit on the steps of one run (``RunSettings.max_steps`` overrides it): about

@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 import numbers
 import os
+import sys
 from collections.abc import Mapping, Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
@@ -33,7 +34,7 @@ from hoopbench.engines.judging.contact import canonical_events, read_run
 from hoopbench.engines.judging.verdict import number_or_none
 from hoopbench.engines.options import Profile, check_profile
 from hoopbench.engines.registry import engine_class, engine_names
-from hoopbench.engines.run import RunResult, RunStatus
+from hoopbench.engines.run import REFERENCE_ENGINE, RunResult, RunStatus
 from hoopbench.engines.settings import DEFAULT_BATCH_SIZE, DEFAULT_TIMESTEP, RunSettings
 from hoopbench.models.catalogue import get_scene, scene_names
 from hoopbench.models.checks import check_real
@@ -41,6 +42,7 @@ from hoopbench.models.events import Events, Outcome
 from hoopbench.models.scene import THETA0_LIMIT_DEG, Scene
 from hoopbench.reference.exact import DEFAULT_ATOL, DEFAULT_RTOL, ExactSolution, solve_exact
 from hoopbench.reports.compare import suite as suite_runs
+from hoopbench.reports.compare.settings_file import load_settings, pick_setting, with_settings
 from hoopbench.reports.compare.suite_file import (
     DEFAULT_VARIANT,
     Announce,
@@ -55,8 +57,17 @@ from hoopbench.reports.compare.suite_file import (
 from hoopbench.reports.hop_map.spec import MAP_FILE, Axis, MapSpec, check_grid, load_spec
 from hoopbench.reports.hop_map.stages import run_map
 from hoopbench.reports.hop_map.table import map_frame
+from hoopbench.reports.report.best_settings import is_tune_folder
 from hoopbench.reports.report.build import build_report, files_to_replace
 from hoopbench.reports.sweep.runner import RunSummary
+from hoopbench.reports.tune.heldout import validate
+from hoopbench.reports.tune.search import (
+    DEFAULT_TRAINING_SCENES,
+    Budget,
+    SearchResult,
+    TuneSpec,
+    search,
+)
 
 __all__ = [
     "EngineRun",
@@ -77,9 +88,13 @@ __all__ = [
     "run",
     "run_hop_map",
     "run_suite",
+    "run_tune",
     "scene",
     "scene_names",
+    "setting_from_file",
     "suite_job",
+    "tune",
+    "tune_job",
 ]
 
 REPORT_FILE = "report.md"
@@ -364,6 +379,7 @@ def run(
     geometry: str = "sphere",
     options: Mapping[str, Any] | None = None,
     variant: str | None = None,
+    settings: str | Path | None = None,
 ) -> EngineRun:
     """Run a scene (or a catalogue scene by name) in an engine and judge it against the exact
     solution, as a suite run is judged: ``row`` is exactly what ``hb.compare`` stores.
@@ -371,13 +387,33 @@ def run(
     ``options`` are the engine's own settings (``hoopbench settings`` lists them) over the
     ``profile``'s values; ``variant`` names the row's variant (default: ``default`` without
     options or another geometry, ``custom`` with them; a suite's variant name gives that
-    suite run's run_id). The engine's failures are statuses in the result; bad settings
-    raise ValueError before the run.
+    suite run's run_id). ``settings``: a settings file of ``hoopbench tune`` (``FILE`` for its
+    first setting, ``FILE#NAME`` for another), whose timestep, profile and options the run
+    takes (then ``timestep``, ``profile`` and ``options`` must stay unset); its name is the
+    variant. The engine's failures are statuses in the result; bad settings raise ValueError
+    before the run.
     """
+    if settings is not None:
+        if options or timestep != DEFAULT_TIMESTEP or str(profile) != str(Profile.TUNED):
+            raise OptionError(
+                "settings", "{option} gives the timestep, profile and options: set none of them"
+            )
+        chosen = setting_from_file(engine, settings)
+        timestep, profile, options = chosen.timestep, chosen.profile, chosen.options
+        variant = chosen.name if variant is None else variant
     task = _run_task(engine, _as_scene(scene), timestep, profile, geometry, options, variant)
     result, row = suite_runs.run_and_row(task)
     frame = None if result.trajectory is None else result.trajectory.to_frame()
     return EngineRun(task=task, result=result, row=row, trajectory=frame)
+
+
+def setting_from_file(engine: str, text: str | Path) -> Any:
+    """The setting a ``FILE`` or ``FILE#NAME`` names, for ``engine`` (ValueError otherwise)."""
+    path, _, name = str(text).partition("#")
+    loaded = load_settings(path)
+    if loaded.engine != engine:
+        raise OptionError("settings", f"{{option}} {path!r} is for {loaded.engine}, not {engine}")
+    return pick_setting(loaded, name or None)
 
 
 def _run_task(
@@ -436,10 +472,12 @@ def suite_job(
     engines: Sequence[str] | None = None,
     trajectories: TrajectoryChoice | str = TrajectoryChoice.NONE,
     announce: Announce | None = None,
+    settings: str | Path | None = None,
 ) -> SuiteJob:
     """Check a suite and its options. ``suite``: a suite file (.toml) or the name of a
     shipped one (quick, default, ...). SuiteError (a ValueError) names a bad file's key.
-    ``announce(name, runs)`` is told the run count before the runs are checked."""
+    ``announce(name, runs)`` is told the run count before the runs are checked. ``settings``:
+    a settings file of ``hoopbench tune``, each of its settings a variant of its engine."""
     # a Path is a file; text follows the command line's rule (suite_file.suite_path)
     path = suite if isinstance(suite, Path) else suite_path(str(suite))
     names = _check_names("engines", engines)
@@ -452,6 +490,8 @@ def suite_job(
     loaded = load_suite(path, announce)  # the whole file is checked before anything runs
     if names:
         loaded = loaded.with_engines(names)
+    if settings is not None:
+        loaded = with_settings(loaded, load_settings(settings))
     choice = _choice("trajectories", TrajectoryChoice, trajectories)
     return SuiteJob(path, loaded, run_timeout, choice)
 
@@ -690,8 +730,8 @@ def report(
     *,
     force: bool = False,
 ) -> Path:
-    """report.md and its figures from result folders (of ``compare`` or ``hop_map``; no
-    simulation), into ``out`` (default: the first folder); the path of report.md.
+    """report.md and its figures from result folders (of ``compare``, ``hop_map`` or
+    ``tune``; no simulation), into ``out`` (default: the first folder); the path of report.md.
 
     An existing report.md is replaced only with ``force=True``.
     """
@@ -699,7 +739,7 @@ def report(
     if not folders:
         raise OptionError("results", "{option} must name at least one results folder")
     for folder in folders:
-        if not (folder / "runs").is_dir():
+        if not (folder / "runs").is_dir() and not is_tune_folder(folder):
             raise OptionError(
                 "results",
                 f"{{option}} {str(folder)!r} holds no results (no runs/ folder): "
@@ -731,3 +771,114 @@ def report(
             shown="force=True",
         )
     return build_report(folders, target, force=force)
+
+
+# --------------------------------------------------------------------------- tune
+@dataclass(frozen=True)
+class TuneJob:
+    """A search with its options, every one checked: nothing runs before this exists."""
+
+    spec: TuneSpec
+    budget: Budget
+
+
+def tune_job(
+    engine: str,
+    *,
+    scenes: Sequence[Scene | str] | None = None,
+    trials: int | None = None,
+    timeout: float | None = None,
+    seed: int = 0,
+    heldout_seed: int | None = None,
+    heldout_per_regime: int = 1,
+    run_timeout: float | None = None,
+) -> TuneJob:
+    """Check a search's options (see :func:`tune`)."""
+    if engine not in engine_names() or engine == REFERENCE_ENGINE:
+        names = ", ".join(n for n in engine_names() if n != REFERENCE_ENGINE)
+        raise OptionError("engine", f"{{option}} must be one of {names}, got {engine!r}")
+    if trials is None and timeout is None:
+        raise OptionError("trials", "a search needs a budget: {option} (in all) or a timeout (s)")
+    try:
+        chosen = tuple(_as_scene(s) for s in (scenes or DEFAULT_TRAINING_SCENES))
+    except ValueError as exc:
+        raise OptionError("scenes", f"{{option}}: {exc}") from None
+    if not chosen:
+        raise OptionError("scenes", "{option} must name at least one scene")
+    budget = Budget(
+        trials=None if trials is None else _checked("trials", check_positive_int, trials),
+        timeout_s=None if timeout is None else _checked("timeout", check_positive_seconds, timeout),
+        run_timeout_s=None
+        if run_timeout is None
+        else _checked("run_timeout", check_positive_seconds, run_timeout),
+    )
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise OptionError("seed", f"{{option}} must be a whole number >= 0, got {seed!r}")
+    held = TuneSpec.heldout_seed if heldout_seed is None else heldout_seed
+    if isinstance(held, bool) or not isinstance(held, int) or held < 0 or held == seed:
+        raise OptionError(
+            "heldout_seed",
+            f"{{option}} must be a whole number >= 0 other than the seed, got {held!r}",
+        )
+    per_regime = _checked("heldout_per_regime", check_positive_int, heldout_per_regime)
+    return TuneJob(TuneSpec(engine, chosen, seed, held, per_regime), budget)
+
+
+def run_tune(
+    job: TuneJob,
+    out: str | Path,
+    *,
+    resume: bool = False,
+    jobs: int | None = None,
+    quiet: bool = False,
+) -> tuple[SearchResult, pd.DataFrame | None]:
+    """Run a checked search into ``out``: the search and its front table (None if a signal
+    stopped it before the held-out runs ended)."""
+    workers = default_jobs() if jobs is None else _checked("jobs", check_workers, jobs)
+    say = None if quiet else (lambda text: print(text, file=sys.stderr, flush=True))
+    front: list[pd.DataFrame | None] = [None]
+
+    def then(result: SearchResult, pool: Any) -> None:
+        front[0] = validate(job.spec, result, Path(out), pool, job.budget)
+
+    result = search(job.spec, out, job.budget, resume=resume, jobs=workers, say=say, then=then)
+    return result, front[0]
+
+
+def tune(
+    engine: str,
+    out: str | Path,
+    *,
+    scenes: Sequence[Scene | str] | None = None,
+    trials: int | None = None,
+    timeout: float | None = None,
+    seed: int = 0,
+    heldout_seed: int | None = None,
+    heldout_per_regime: int = 1,
+    resume: bool = False,
+    jobs: int | None = None,
+    run_timeout: float | None = None,
+    quiet: bool = False,
+) -> pd.DataFrame:
+    """Search an engine's settings (error against cost) into the folder ``out`` and return
+    its front: the Pareto set and ``stock`` and ``tuned``, each with its training and held-out
+    error (docs/tune.md). ``trials`` (in all, a resumed search's included) or ``timeout`` (s
+    for this session) is the budget; ``scenes`` the training scenes (default: the
+    catalogue's scenes with events); ``heldout_seed`` draws the held-out scenes. Needs
+    Optuna (the ``tune`` extra). KeyboardInterrupt if a signal stopped it (``resume=True``
+    goes on).
+    """
+    job = tune_job(
+        engine,
+        scenes=scenes,
+        trials=trials,
+        timeout=timeout,
+        seed=seed,
+        heldout_seed=heldout_seed,
+        heldout_per_regime=heldout_per_regime,
+        run_timeout=run_timeout,
+    )
+    result, front = run_tune(job, out, resume=resume, jobs=jobs, quiet=quiet)
+    if result.interrupted or front is None:
+        raise KeyboardInterrupt(f"interrupted: resume with hb.tune(..., resume=True) in {out}")
+    return front

@@ -1,7 +1,7 @@
 """The ``hoopbench`` command line.
 
 Sub-commands: ``scenes``, ``reference``, ``simulate``, ``model``, ``settings``, ``compare``,
-``map``, ``report``, ``findings``, ``figure``.
+``map``, ``report``, ``findings``, ``figure``, ``tune``.
 Bad arguments give a one-line error on stderr and exit status 2. JSON goes to stdout only.
 """
 
@@ -382,9 +382,25 @@ def _settings_from_args(args: argparse.Namespace, engine: str) -> RunSettings:
     return settings
 
 
+def _settings_from_file(args: argparse.Namespace) -> RunSettings:
+    """simulate --settings FILE[#NAME]: a setting of ``hoopbench tune``'s settings file."""
+    import hoopbench.reports.api as api
+
+    if args.set or args.dt is not None:
+        raise UsageError("--settings gives the timestep and the options: drop --dt and --set")
+    chosen = api.setting_from_file(args.engine, args.settings)
+    return chosen.run_settings().with_(
+        mu=args.mu, restitution=args.restitution, geometry=args.geometry, max_steps=args.max_steps
+    )
+
+
 def _cmd_simulate(args: argparse.Namespace) -> int:
     scene = _scene_from_args(args)
-    settings = _settings_from_args(args, args.engine)
+    if args.settings is not None:
+        settings = _settings_from_file(args)
+        engine_class(args.engine)().check(scene, settings)
+    else:
+        settings = _settings_from_args(args, args.engine)
     csv = None if args.csv is None else _output_file(args.csv, _TRAJECTORY_SUFFIXES, args.force)
     result = get_engine(args.engine).run(scene, settings)
     payload = {**result.to_dict(), "scene": scene.to_dict()}
@@ -476,10 +492,21 @@ def _cmd_settings(args: argparse.Namespace) -> int:
             stock = spec["stock"][key]
             print(f"  {key} = {value}" + ("" if stock == value else f"  (stock: {stock})"))
             print(f"      {spec['reasons'][key]}")
+            print(f"      search: {spec['search'][key]}")
         if spec["variants"]:
             print("  suite variants: " + ", ".join(v["name"] for v in spec["variants"]))
     print("detectors: " + ", ".join(f"{k}={v}" for k, v in payload["detectors"].items()))
     return 0
+
+
+def _search_text(option: Any) -> str:
+    """What ``hoopbench tune`` tries for an option, in a few words."""
+    if option.space is None:
+        return f"not searched: {option.outside_search}"
+    if isinstance(option.space, tuple):
+        parts = ["default" if s is None else s.describe() for s in option.space]
+        return "(" + "; ".join(parts) + ")"
+    return str(option.space.describe())
 
 
 def _engine_declaration(cls: Any) -> dict[str, Any]:
@@ -488,6 +515,7 @@ def _engine_declaration(cls: Any) -> dict[str, Any]:
         "options": cls.defaults(),
         "stock": cls.defaults(Profile.STOCK),
         "reasons": {option.name: option.reason for option in cls.options},
+        "search": {option.name: _search_text(option) for option in cls.options},
         "variants": [
             {"name": v.name, "geometry": v.geometry, "options": dict(v.options)}
             for v in cls.variants
@@ -508,6 +536,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         engines=args.engines,
         trajectories=args.trajectories,
         announce=None if args.quiet else _announce_suite,
+        settings=args.settings,
     )
     if args.scheduler and args.trajectories != "none" and not args.quiet:
         print(
@@ -802,6 +831,11 @@ def _add_simulate(sub: Any, classes: Mapping[str, Any]) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--csv", help="write the trajectory (.csv or .parquet)")
     p.add_argument("--force", action="store_true", help="overwrite an existing --csv file")
+    p.add_argument(
+        "--settings",
+        metavar="FILE[#NAME]",
+        help="a settings file of hoopbench tune: its first setting, or the one named NAME",
+    )
     p.set_defaults(func=_cmd_simulate)
 
 
@@ -849,6 +883,11 @@ def _add_compare(sub: Any, classes: Mapping[str, Any]) -> None:
         choices=[c.value for c in TrajectoryChoice],
         default="none",
         help="store trajectories: of no run, of the default-settings runs, or of all",
+    )
+    p.add_argument(
+        "--settings",
+        metavar="FILE",
+        help="a settings file of hoopbench tune: each of its settings runs as a variant",
     )
     add_cluster_arguments(p)
     p.set_defaults(func=_cmd_compare)
@@ -899,6 +938,64 @@ def _add_figure(sub: Any, classes: Mapping[str, Any]) -> None:
     p.set_defaults(func=_cmd_figure)
 
 
+def _add_tune(sub: Any, classes: Mapping[str, Any]) -> None:
+    p = sub.add_parser(
+        "tune", help="search an engine's settings, error against cost (needs the tune extra)"
+    )
+    p.add_argument("--engine", required=True, choices=[n for n in classes if n != "reference"])
+    p.add_argument("--out", required=True, type=_folder, help="search folder (new, or --resume)")
+    p.add_argument(
+        "--scenes", nargs="+", metavar="NAME", help="training scenes (default: the catalogue's)"
+    )
+    p.add_argument("--trials", type=_positive_int, help="trials in all (a resumed search's too)")
+    p.add_argument("--timeout", type=_seconds, help="seconds this session may start trials for")
+    p.add_argument("--seed", type=int, default=0, help="the sampler's seed (default 0)")
+    p.add_argument("--heldout-seed", type=int, help="the held-out scenes' seed")
+    p.add_argument(
+        "--heldout-per-regime", type=_positive_int, default=1, help="held-out scenes per regime"
+    )
+    p.add_argument("--jobs", type=_workers, help="worker processes (default 2, at most the cores)")
+    p.add_argument("--run-timeout", type=_seconds, help="time limit per run, s")
+    p.add_argument("--resume", action="store_true", help="go on with the search in --out")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.set_defaults(func=_cmd_tune)
+
+
+def _cmd_tune(args: argparse.Namespace) -> int:
+    import hoopbench.reports.api as api
+    from hoopbench.reports.sweep.runner import RunnerError
+    from hoopbench.reports.tune.search import TuneUnavailableError
+
+    job = api.tune_job(
+        args.engine,
+        scenes=args.scenes,
+        trials=args.trials,
+        timeout=args.timeout,
+        seed=args.seed,
+        heldout_seed=args.heldout_seed,
+        heldout_per_regime=args.heldout_per_regime,
+        run_timeout=args.run_timeout,
+    )
+    try:
+        result, front = api.run_tune(
+            job, args.out, resume=args.resume, jobs=args.jobs, quiet=args.quiet
+        )
+    except (RunnerError, TuneUnavailableError) as exc:
+        raise UsageError(str(exc)) from None
+    if result.interrupted or front is None:
+        print(
+            f"hoopbench: interrupted; every finished trial is kept. Resume with: hoopbench tune "
+            f"--engine {args.engine} --out {args.out} --resume --trials N",
+            file=sys.stderr,
+        )
+        return EXIT_INTERRUPTED
+    columns = ["setting", "kind", "timestep", "train_error", "heldout_error"]
+    columns += ["train_cost_us_per_s", "overfitted"]
+    print(front[columns].to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    print(f"hoopbench: settings -> {Path(args.out) / 'settings.toml'}", file=sys.stderr)
+    return 0
+
+
 def _parser() -> _Parser:
     parser = _Parser(
         prog="hoopbench",
@@ -919,6 +1016,7 @@ def _parser() -> _Parser:
         _add_report,
         _add_findings,
         _add_figure,
+        _add_tune,
     ):
         add(sub, classes)
     return parser

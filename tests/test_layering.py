@@ -43,6 +43,7 @@ RANKS = {
         "sweep": 0,
         "compare": 1,
         "hop_map": 2,
+        "tune": 2,
         "report": 3,
         "bench": 4,
         "api": 5,

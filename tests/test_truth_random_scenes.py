@@ -2,7 +2,7 @@
 reading on, no label of any engine's row contradicts the run's own trajectory and contact
 force.
 
-Eight scenes are drawn with a seed of their own (tests/random_scenes.py: two rolls, two
+Eight scenes are drawn with a seed of their own (reference/random_scenes.py: two rolls, two
 slips, a slip reversal, three hops). Each is run by the reference and the seven engines,
 stock and tuned, at dt 1e-3 and 1e-4, through ``hb.run`` as a user runs one, and every row
 is checked by the independent checker of tests/truth_checker.py, which reads the canonical
@@ -26,7 +26,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import engine_unavailable
-from random_scenes import Draw, draw
 from truth_checker import (
     CANONICAL_NAMES,
     DOCS_LOOSE,
@@ -42,6 +41,7 @@ import hoopbench as hb
 from hoopbench.engines.registry import engine_names
 from hoopbench.engines.run import RunStatus
 from hoopbench.models.scene import Scene
+from hoopbench.reference.random_scenes import Draw, draw
 from hoopbench.reference.regimes import Regime
 
 SEED = 2_411_026
@@ -109,8 +109,10 @@ def test_no_label_contradicts_its_run(drawn, exact, profile, timestep):
 def test_the_checker_and_the_draw_do_not_call_the_judging_code():
     """An independent check: sharing the judging code would share its mistakes."""
     judging = ("hoopbench.engines", "hoopbench.reports")
-    for name in ("truth_checker.py", "random_scenes.py"):
-        tree = ast.parse((Path(__file__).parent / name).read_text())
+    here = Path(__file__).parent
+    for path in (here / "truth_checker.py", here.parent / "reference" / "random_scenes.py"):
+        name = path.name
+        tree = ast.parse(path.read_text())
         modules = {n.module or "" for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
         modules |= {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
         assert not {m for m in modules if m.startswith(judging)}, name

@@ -83,6 +83,7 @@ __all__ = [
     "Judgement",
     "Verdict",
     "classify",
+    "event_error_ratio",
     "event_within",
     "hoop_thresholds",
     "number_or_none",
@@ -273,6 +274,13 @@ def event_within(row: Mapping[str, Any], event: Event, tier: Tier) -> bool | Non
     """Whether the row's error of ``event`` (the canonical reading's) is within ``tier``'s
     tolerance as the verdict sets it (the table's, carried to the row's hoop and timestep,
     plus the row's detection floor); None where the row has no such error."""
+    ratio = event_error_ratio(row, event, tier)
+    return None if ratio is None else ratio <= 1.0
+
+
+def event_error_ratio(row: Mapping[str, Any], event: Event, tier: Tier) -> float | None:
+    """The row's error of ``event`` over ``tier``'s tolerance as the verdict sets it (so at
+    most 1 within it); None where the row has no such error."""
     error_column, floor_column, field = _EVENT_COLUMNS[event]
     error = number_or_none(row.get(error_column))
     if error is None:
@@ -280,9 +288,9 @@ def event_within(row: Mapping[str, Any], event: Event, tier: Tier) -> bool | Non
     limits = _row_thresholds(row)
     tolerance = getattr(limits.tight if tier is Tier.TIGHT else limits.loose, field)
     floor = abs(number_or_none(row.get(floor_column)) or 0.0)
-    if event is Event.HOP_HEIGHT:
-        return abs(error) <= tolerance + floor
-    return abs(error) <= 1e3 * tolerance + floor  # the errors are in ms
+    if event is not Event.HOP_HEIGHT:
+        tolerance *= 1e3  # the time errors are in ms
+    return abs(error) / (tolerance + floor)
 
 
 def painleve_time(exact: Events) -> float | None:

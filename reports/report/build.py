@@ -19,6 +19,11 @@ from hoopbench.engines.judging.columns import Col
 from hoopbench.reports.compare.suite import runs_frame
 from hoopbench.reports.compare.suite_file import CatalogueNameError, load_suite
 from hoopbench.reports.hop_map.spec import MAP_FILE
+from hoopbench.reports.report.best_settings import (
+    best_settings,
+    best_settings_section,
+    is_tune_folder,
+)
 from hoopbench.reports.report.map_section import is_map_folder, map_prefixes, map_sections
 from hoopbench.reports.report.markdown import write_markdown
 from hoopbench.reports.report.page import write_page
@@ -88,15 +93,21 @@ def build_report(
     dirs = [Path(d) for d in given]
     out = Path(out) if out is not None else dirs[0]
     maps = [d for d in dirs if is_map_folder(d)]  # hop maps: a section each, not runs rows
-    runs = [report_frame(d) for d in dirs if d not in maps]
-    _refuse_shared_runs([d for d in dirs if d not in maps], runs)
+    tunes = [d for d in dirs if is_tune_folder(d)]  # searches: the Best settings section
+    found = best_settings(tunes)
+    plain = [d for d in dirs if d not in maps and d not in tunes]
+    runs = [report_frame(d) for d in plain]
+    _refuse_shared_runs(plain, runs)
     frame = pd.concat(runs, ignore_index=True) if runs else pd.DataFrame()
     _check_out(out, dirs, force)
     generated = datetime.now(UTC).isoformat(timespec="seconds")
     # Two reports into one folder would mix their figures: the sweeps' lock serves.
     with sweep_lock(out), plain_text():  # names from the results are drawn as written
         _check_out(out, dirs, force)  # again, under the lock: one may have just finished
-        report = write_markdown(frame, out, generated=generated, extra=map_sections(maps, out))
+        extra = map_sections(maps, out)
+        if found:
+            extra.append(best_settings_section(found, out))
+        report = write_markdown(frame, out, generated=generated, extra=extra)
         write_page(frame, out, maps=maps, map_prefixes=map_prefixes(len(maps)))  # report.html
     return report
 

@@ -1,4 +1,5 @@
-"""Scenes drawn at random, seeded, sorted by their exact regime: scenes nobody tuned on.
+"""Scenes drawn at random, seeded, sorted by their exact regime: scenes nobody tuned on (the
+truth test's scenes, and the held-out scenes of `hoopbench tune`).
 
 :func:`draw` draws (lam, chi, mu, theta0, eps) from wide ranges, solves each scene exactly
 (reference/regimes.py ``classify``) and keeps the first scenes of each wanted regime until

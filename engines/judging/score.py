@@ -1,0 +1,93 @@
+"""One number for how well a set of runs agrees with the exact solution, and one for what it
+costs: the two objectives of a search over an engine's settings (``hoopbench tune``).
+
+The error of a run is read off its verdict with the shared tolerance table (tolerances.py,
+verdict.py), continuous so that a search can tell "nearly close" from "far off":
+
+- each judged event's error over its LOOSE tolerance (as the verdict sets it: carried to the
+  hoop and timestep, plus the row's detection floor), the largest of them: at most 1 means
+  every event is within the loose tier (``close`` or ``agrees``);
+- at least FLAG_SCORE when the verdict flags a failure no event error measures (wrong phases,
+  creep, a stick outside the Coulomb cone);
+- SCORE_CAP, the worst, for an event missed or invented (false or missed hop or slip), a run
+  that diverged or gave nothing (failed, timeout, crashed), and any ratio above it.
+
+The error of a set of runs is the mean of theirs (each scene weighs the same); its cost is
+the runs' wall time per simulated second, in microseconds. docs/tune.md explains both.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+from hoopbench.engines.judging.columns import Col
+from hoopbench.engines.judging.tolerances import Tier
+from hoopbench.engines.judging.verdict import Event, Verdict, event_error_ratio, number_or_none
+
+__all__ = ["FLAG_SCORE", "SCORE_CAP", "cost_us_per_s", "error_score", "row_error"]
+
+SCORE_CAP = 10.0
+"""The worst error of a run: ten loose tolerances, or an event missed, invented, or no run."""
+
+FLAG_SCORE = 2.0
+"""The least error of a run whose verdict flags a failure no event error measures: twice the
+loose tolerance, so such a run is never within a tier."""
+
+_WORST = frozenset(
+    {
+        Verdict.DIVERGED,
+        Verdict.FAILED,
+        Verdict.FALSE_HOP,
+        Verdict.MISSED_HOP,
+        Verdict.FALSE_SLIP,
+        Verdict.MISSED_SLIP,
+    }
+)
+_UNMEASURED = frozenset({Verdict.WRONG_PHASES, Verdict.CREEPS, Verdict.CONE_VIOLATION})
+
+
+def _flags(row: Mapping[str, Any]) -> set[str]:
+    text = row.get(Col.VERDICT_FLAGS)
+    flags = set(text.split()) if isinstance(text, str) else set()
+    verdict = row.get(Col.VERDICT)
+    if isinstance(verdict, str):
+        flags.add(verdict)
+    return flags
+
+
+def row_error(row: Mapping[str, Any]) -> float:
+    """The error of one judged run (a runs-table row), from 0 to SCORE_CAP."""
+    if row.get(Col.STATUS) != "ok":
+        return SCORE_CAP
+    flags = _flags(row)
+    if not flags or flags & {str(v) for v in _WORST}:
+        return SCORE_CAP  # no verdict (unjudged), or an outcome nothing can time
+    ratios = [event_error_ratio(row, event, Tier.LOOSE) for event in Event]
+    error = max((r for r in ratios if r is not None), default=0.0)
+    if flags & {str(v) for v in _UNMEASURED}:
+        error = max(error, FLAG_SCORE)
+    return min(error, SCORE_CAP)
+
+
+def error_score(rows: Iterable[Mapping[str, Any]]) -> float:
+    """The mean error of a set of runs (one per scene); SCORE_CAP for no runs."""
+    errors = [row_error(row) for row in rows]
+    return sum(errors) / len(errors) if errors else SCORE_CAP
+
+
+def cost_us_per_s(rows: Iterable[Mapping[str, Any]]) -> float | None:
+    """Wall time of the runs' stepping per simulated second, us; None if no run was timed."""
+    wall = simulated = 0.0
+    for row in rows:
+        time_s = number_or_none(row.get(Col.WALL_TIME_S))
+        steps = number_or_none(row.get(Col.N_STEPS))
+        step = number_or_none(row.get(Col.TIMESTEP))
+        if time_s is None or not steps or not step:
+            continue
+        wall += time_s
+        simulated += steps * step
+    if simulated <= 0 or not math.isfinite(wall):
+        return None
+    return 1e6 * wall / simulated

@@ -1,0 +1,231 @@
+"""The "Best settings" section: per engine searched with ``hoopbench tune``, its front (error
+against cost, on the training scenes and on the held-out ones) with ``stock`` and ``tuned``
+placed on it, as a table and a figure.
+
+:func:`best_settings` computes (from a tune folder's front.csv and trials.csv, no simulation);
+:func:`best_settings_section` presents.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from hoopbench.reports.report.escaping import escape_cell, escape_text, file_stem
+from hoopbench.reports.report.palette import engine_colours, profile_style
+from hoopbench.reports.report.plotting import pyplot, save
+from hoopbench.reports.sweep.folder_files import (
+    MAX_DATA_BYTES,
+    FolderFileError,
+    folder_file,
+    read_folder_bytes,
+    read_folder_text,
+)
+from hoopbench.reports.tune.heldout import FRONT_NAME, TRIALS_NAME
+from hoopbench.reports.tune.search import SPEC_NAME
+
+__all__ = [
+    "COST_FACTOR",
+    "BestSettings",
+    "best_settings",
+    "best_settings_section",
+    "is_tune_folder",
+]
+
+COST_FACTOR = 10.0
+"""The second budget the section reads the front at: ten times tuned's cost."""
+
+
+def is_tune_folder(folder: str | Path) -> bool:
+    """Whether a folder holds a search of ``hoopbench tune``."""
+    return (Path(folder) / SPEC_NAME).is_file()
+
+
+@dataclass(frozen=True)
+class BestSettings:
+    """One engine's search, read back."""
+
+    engine: str
+    front: pd.DataFrame
+    """front.csv: the Pareto set and the baselines, training and held-out error and cost."""
+    trials: pd.DataFrame
+    """trials.csv: every trial's training error and cost."""
+    training_scenes: tuple[str, ...]
+    tuned_heldout: float | None
+    """tuned's held-out error."""
+    at_tuned_cost: float | None
+    """The best held-out error of the Pareto set at no more than tuned's held-out cost."""
+    at_ten_times: float | None
+    """The same at COST_FACTOR times tuned's held-out cost."""
+
+
+def _best_within(front: pd.DataFrame, cost: float | None) -> float | None:
+    if cost is None or not math.isfinite(cost):
+        return None
+    pareto = front[(front["kind"] == "pareto") & (front["heldout_cost_us_per_s"] <= cost)]
+    return None if pareto.empty else float(pareto["heldout_error"].min())
+
+
+def _table_file(folder: Path, name: str) -> pd.DataFrame:
+    """A CSV file of the folder, read through folder_files (a link out of the folder, a FIFO
+    or a huge file is refused)."""
+    data = read_folder_bytes(folder, name, MAX_DATA_BYTES)
+    if data is None:
+        raise FolderFileError(f"{folder / name} is missing")
+    return pd.read_csv(io.BytesIO(data))
+
+
+def _read(folder: Path) -> BestSettings:
+    text = read_folder_text(folder, SPEC_NAME)
+    if text is None:
+        raise FolderFileError(f"{folder / SPEC_NAME} is missing")
+    spec = json.loads(text)
+    front = _table_file(folder, FRONT_NAME)
+    trials = _table_file(folder, TRIALS_NAME)
+    tuned = front[front["setting"] == "tuned"]
+    cost = float(tuned["heldout_cost_us_per_s"].iloc[0]) if len(tuned) else None
+    return BestSettings(
+        engine=str(spec["engine"]),
+        front=front,
+        trials=trials,
+        training_scenes=tuple(str(s["name"]) for s in spec["scenes"]),
+        tuned_heldout=float(tuned["heldout_error"].iloc[0]) if len(tuned) else None,
+        at_tuned_cost=_best_within(front, cost),
+        at_ten_times=_best_within(front, None if cost is None else COST_FACTOR * cost),
+    )
+
+
+def best_settings(folders: Sequence[str | Path]) -> list[BestSettings]:
+    """Every tune folder's search, read back. ValueError naming a folder whose search has not
+    finished (no front.csv: resume it)."""
+    found = []
+    for folder in map(Path, folders):
+        if folder_file(folder, FRONT_NAME, MAX_DATA_BYTES) is None:
+            raise ValueError(f"{folder}: the search has no {FRONT_NAME} yet: resume it first")
+        found.append(_read(folder))
+    return found
+
+
+# --------------------------------------------------------------------------- presenting
+def _number(value: Any, spec: str = ".3g") -> str:
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        return "-"
+    return "-" if not math.isfinite(number) else format(number, spec)
+
+
+def _table(best: BestSettings) -> list[str]:
+    lines = [
+        "| setting | kind | timestep (s) | training error | held-out error | "
+        "cost (us per simulated s) | overfitted |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for row in best.front.to_dict("records"):
+        lines.append(
+            f"| {escape_cell(row['setting'])} | {escape_cell(row['kind'])} | "
+            f"{_number(row['timestep'])} | "
+            f"{_number(row['train_error'])} | {_number(row['heldout_error'])} | "
+            f"{_number(row['train_cost_us_per_s'])} | "
+            f"{'yes' if row['overfitted'] else 'no'} |"
+        )
+    return lines
+
+
+def _summary(best: BestSettings) -> str:
+    return (
+        f"Held-out error of tuned: {_number(best.tuned_heldout)}; the best of the Pareto set at "
+        f"no more than tuned's cost: {_number(best.at_tuned_cost)}; at {COST_FACTOR:g}x its "
+        f"cost: {_number(best.at_ten_times)} (- where no setting of the front is that cheap)."
+    )
+
+
+def _plain_log_axis(axis: Any) -> None:
+    from matplotlib.ticker import FuncFormatter
+
+    axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:,.0f}" if v >= 1 else f"{v:g}"))
+    axis.set_minor_formatter(FuncFormatter(lambda v, _: ""))
+
+
+def _panel(ax: Any, best: BestSettings, which: str) -> None:
+    front = best.front
+    colour = engine_colours([best.engine])[best.engine]  # the engine's colour in every figure
+    if which == "train":
+        done = best.trials[best.trials["state"] == "complete"]
+        ax.scatter(done["train_cost_us_per_s"], done["train_error"], s=12, c="0.7", label="trials")
+    pareto = front[front["kind"] == "pareto"].sort_values(f"{which}_cost_us_per_s")
+    # On the held-out scenes the training front is no front: its points, not a line.
+    style = "o-" if which == "train" else "o"
+    ax.plot(
+        pareto[f"{which}_cost_us_per_s"],
+        pareto[f"{which}_error"],
+        style,
+        c=colour,
+        label="Pareto set",
+    )
+    for name in ("stock", "tuned"):  # the profiles' markers, edged black to stand out
+        point = front[front["setting"] == name]
+        ax.scatter(
+            point[f"{which}_cost_us_per_s"],
+            point[f"{which}_error"],
+            marker=profile_style(name).marker,
+            s=60,
+            c=colour,
+            edgecolors="black",
+            label=name,
+            zorder=3,
+        )
+    ax.set_xscale("log")
+    _plain_log_axis(ax.xaxis)
+    ax.set_xlabel("cost, us per simulated second")
+    ax.set_ylabel("error (loose tolerances; 10 = failed)")
+    ax.set_title("training scenes" if which == "train" else "held-out scenes")
+    ax.grid(True, which="both", alpha=0.3)
+
+
+def _figure(best: BestSettings, path: Path) -> Path:
+    plt = pyplot()
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
+    _panel(axes[0], best, "train")
+    _panel(axes[1], best, "heldout")
+    axes[0].legend(loc="best", fontsize=8)
+    fig.suptitle(f"{best.engine}: error against cost")
+    fig.tight_layout()
+    return save(fig, path, dpi=110)  # whole or not at all, plain tick labels
+
+
+def best_settings_section(found: Sequence[BestSettings], out: str | Path) -> str:
+    """The section's Markdown, its figures written to ``out`` (best-settings-ENGINE.png)."""
+    out = Path(out)
+    lines = [
+        "## Best settings",
+        "",
+        "Each engine's settings searched by `hoopbench tune` (docs/tune.md): error (the mean "
+        "over scenes of each run's worst event error in loose tolerances; 10 for a failed run, "
+        "a missed or invented event) against cost, on the training scenes and on held-out "
+        "scenes drawn at random from a seed the search never saw. A setting is overfitted when "
+        "its held-out error is more than twice its training error plus 0.5.",
+    ]
+    for best in found:
+        name = f"best-settings-{file_stem(best.engine)}.png"
+        _figure(best, out / name)
+        engine = escape_text(best.engine)
+        lines += [
+            "",
+            f"### {engine}",
+            "",
+            f"Training scenes: {escape_text(', '.join(best.training_scenes))}; "
+            f"{len(best.trials)} trials. {_summary(best)}",
+            "",
+            *_table(best),
+            "",
+            f"![{engine}: error against cost]({name})",
+        ]
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,1 @@
+"""A search over an engine's settings against the exact solution (``hoopbench tune``)."""

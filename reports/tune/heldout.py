@@ -1,0 +1,160 @@
+"""The held-out check of a search: its Pareto set (and stock and tuned) run again on scenes
+drawn at random from a seed the search never saw; the front table and the settings file.
+
+A setting is *overfitted* when its held-out error exceeds OVERFIT_FACTOR times its training
+error plus OVERFIT_MARGIN (errors in loose tolerances: engines/judging/score.py).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Sequence
+from dataclasses import replace
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from hoopbench.engines.judging.score import cost_us_per_s, error_score
+from hoopbench.engines.registry import engine_class
+from hoopbench.models.scene import Scene
+from hoopbench.reference.random_scenes import draw
+from hoopbench.reference.regimes import Regime
+from hoopbench.reports.compare.settings_file import TunedSetting, settings_text
+from hoopbench.reports.sweep import results
+from hoopbench.reports.sweep.runner import WorkerPool
+from hoopbench.reports.tune.search import (
+    Budget,
+    SearchResult,
+    Setting,
+    TuneSpec,
+    run_settings,
+    setting_of,
+    setting_tasks,
+    trials_frame,
+)
+
+__all__ = [
+    "FRONT_NAME",
+    "HELDOUT_DIR",
+    "OVERFIT_FACTOR",
+    "OVERFIT_MARGIN",
+    "SETTINGS_NAME",
+    "TRIALS_NAME",
+    "heldout_scenes",
+    "is_overfitted",
+    "validate",
+]
+
+HELDOUT_DIR = "heldout"
+FRONT_NAME = "front.csv"
+TRIALS_NAME = "trials.csv"
+SETTINGS_NAME = "settings.toml"
+HELDOUT_REGIMES = (Regime.ROLLS, Regime.SLIPS, Regime.SLIP_REVERSAL, Regime.HOPS)
+HELDOUT_T_END = 1.5
+"""s: the held-out scenes' window (the truth test's)."""
+
+OVERFIT_FACTOR = 2.0
+OVERFIT_MARGIN = 0.5
+"""Half a loose tolerance: a held-out error this much above twice the training one is more
+than the spread between scenes of one regime."""
+
+
+def heldout_scenes(spec: TuneSpec) -> tuple[Scene, ...]:
+    """The held-out scenes: ``heldout_per_regime`` of each regime, from ``heldout_seed``."""
+    quota = dict.fromkeys(HELDOUT_REGIMES, spec.heldout_per_regime)
+    drawn = draw(spec.heldout_seed, quota, t_end=HELDOUT_T_END)
+    return tuple(replace(s, name=f"heldout-{s.name}") for s in drawn.scenes)
+
+
+def is_overfitted(train_error: float | None, heldout_error: float | None) -> bool:
+    """Whether a setting does much worse on the held-out scenes than on the training ones."""
+    if train_error is None or heldout_error is None:
+        return False
+    return heldout_error > OVERFIT_FACTOR * train_error + OVERFIT_MARGIN
+
+
+def _line(setting: Setting, kind: str, rows: list[dict[str, Any]]) -> dict[str, Any]:
+    heldout = error_score(rows)
+    return {
+        "setting": setting.name,
+        "kind": kind,
+        "timestep": setting.timestep,
+        "options": json.dumps(dict(setting.options), sort_keys=True, default=list),
+        "train_error": setting.train_error,
+        "train_cost_us_per_s": setting.train_cost,
+        "heldout_error": heldout,
+        "heldout_cost_us_per_s": cost_us_per_s(rows),
+        "overfitted": is_overfitted(setting.train_error, heldout),
+    }
+
+
+def validate(
+    spec: TuneSpec, result: SearchResult, out: Path, pool: WorkerPool, budget: Budget
+) -> pd.DataFrame | None:
+    """Run the Pareto set and the baselines on the held-out scenes; write front.csv,
+    trials.csv and settings.toml. None if a signal stopped the runs (resume goes on)."""
+    scenes = heldout_scenes(spec)
+    front = [setting_of(spec.engine, t) for t in result.study.best_trials]
+    front.sort(key=lambda s: (s.train_error, s.train_cost))
+    lines = []
+    for kind, settings in (("pareto", front), ("baseline", list(result.baselines))):
+        for setting in settings:
+            tasks = setting_tasks(spec.engine, scenes, setting)
+            summary, rows = run_settings(tasks, out / HELDOUT_DIR, pool, budget, spec.engine)
+            if summary.interrupted is not None:
+                return None
+            lines.append(_line(setting, kind, rows))
+    table = pd.DataFrame(lines)
+    results.write_csv(table, out / FRONT_NAME)
+    results.write_csv(trials_frame(result.study), out / TRIALS_NAME)
+    _write_settings(spec, result, table, front, scenes, budget, out)
+    return table
+
+
+def _number(value: Any) -> float | str:
+    number = float(value) if value is not None else math.nan
+    return number if math.isfinite(number) else "none"
+
+
+def _write_settings(
+    spec: TuneSpec,
+    result: SearchResult,
+    table: pd.DataFrame,
+    front: Sequence[Setting],
+    scenes: Sequence[Scene],
+    budget: Budget,
+    out: Path,
+) -> None:
+    by_name = table.set_index("setting")
+    settings = [
+        TunedSetting(
+            s.name,
+            s.timestep,
+            s.options,
+            s.profile,
+            {
+                "train_error": _number(s.train_error),
+                "heldout_error": _number(by_name.loc[s.name, "heldout_error"]),
+                "cost_us_per_s": _number(s.train_cost),
+                "overfitted": bool(by_name.loc[s.name, "overfitted"]),
+            },
+        )
+        for s in front
+    ]
+    provenance = {
+        "training_scenes": [s.name for s in spec.scenes],
+        "heldout_scenes": [s.name for s in scenes],
+        "heldout_seed": spec.heldout_seed,
+        "seed": spec.seed,
+        "trials": len(result.study.trials),
+        "budget_trials": budget.trials if budget.trials is not None else "none",
+        "budget_timeout_s": budget.timeout_s if budget.timeout_s is not None else "none",
+        "sampler": type(result.study.sampler).__name__,
+        "date": datetime.now(UTC).isoformat(timespec="seconds"),
+    }
+    version = engine_class(spec.engine)().version()
+    text = settings_text(spec.engine, version, provenance, settings)
+    results.atomic_write(out / SETTINGS_NAME, lambda tmp: tmp.write_text(text, encoding="utf-8"))

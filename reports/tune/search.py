@@ -1,0 +1,379 @@
+"""``hoopbench tune``: a search over one engine's settings, error against cost, with Optuna.
+
+Each trial draws a setting from the engine's declared space (space.py), runs it on every
+training scene through the runner as ordinary runs (worker processes, time limits; rows in
+``trials/``, variant ``trial-N``), and scores them with engines/judging/score.py: the mean
+error and the cost in us per simulated second. Optuna's journal file (``journal.log``) keeps
+every told trial, so a search stopped by Ctrl-C or by its budget goes on with ``resume``. The
+first trial is hoopbench's ``tuned`` setting; ``stock`` and ``tuned`` also run as baselines.
+When the budget is spent, the Pareto set (and the baselines) run again on held-out scenes
+(heldout.py) and the folder gets ``front.csv`` and ``settings.toml``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
+
+import pandas as pd
+
+from hoopbench.engines.judging.score import cost_us_per_s, error_score
+from hoopbench.engines.options import Profile
+from hoopbench.engines.registry import engine_class
+from hoopbench.engines.settings import DEFAULT_TIMESTEP
+from hoopbench.models.scene import Scene
+from hoopbench.reports.compare.rows import FORMAT_VERSION
+from hoopbench.reports.compare.suite import failure_row, run_task, run_timeout, runs_frame
+from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT, RunTask, Suite, VariantSpec
+from hoopbench.reports.sweep import results
+from hoopbench.reports.sweep.folder_files import MAX_DATA_BYTES, folder_file
+from hoopbench.reports.sweep.runner import RunSummary, WorkerPool, claim_folder, run_tasks
+from hoopbench.reports.tune.space import draw_settings, trial_params
+
+if TYPE_CHECKING:  # Optuna is an extra (tune): imported when a search runs (_optuna)
+    import optuna
+    from optuna.trial import FrozenTrial
+
+__all__ = [
+    "DEFAULT_TRAINING_SCENES",
+    "JOURNAL_NAME",
+    "SPEC_NAME",
+    "TRIALS_DIR",
+    "Budget",
+    "SearchResult",
+    "Setting",
+    "TuneSpec",
+    "TuneUnavailableError",
+    "run_settings",
+    "search",
+    "setting_of",
+    "setting_tasks",
+    "trials_frame",
+]
+
+DEFAULT_TRAINING_SCENES = (
+    "seed-mu",
+    "hop-top",
+    "hop-low",
+    "hop-bottom",
+    "high-spin",
+    "low-friction",
+    "slip-reversal",
+)
+"""The catalogue scenes a search trains on by default: every one with events to time (seed
+has mus != muk, which the engines cannot run; massless is degenerate; painleve ends at a
+Painlevé point; seed-pi is seed-mu's postscript with mus != muk)."""
+
+JOURNAL_NAME = "journal.log"
+SPEC_NAME = "tune.json"
+TRIALS_DIR = "trials"
+TRIAL_PREFIX = "trial-"
+STUDY_NAME = "tune"
+
+
+class TuneUnavailableError(RuntimeError):
+    """Optuna is not installed."""
+
+
+def _optuna() -> ModuleType:
+    """Optuna, or TuneUnavailableError saying how to install it."""
+    try:
+        import optuna
+        import optuna.storages.journal
+    except ImportError:
+        raise TuneUnavailableError(
+            "hoopbench tune needs Optuna: pip install 'hoopbench[tune]'"
+        ) from None
+    return optuna
+
+
+@dataclass(frozen=True)
+class TuneSpec:
+    """What a search is: a resumed search must be the same one."""
+
+    engine: str
+    scenes: tuple[Scene, ...]
+    """The training scenes."""
+    seed: int = 0
+    """The sampler's seed."""
+    heldout_seed: int = 20_261_128
+    """The seed of the held-out scenes' draw (heldout.py); the search never sees it."""
+    heldout_per_regime: int = 1
+    """Held-out scenes drawn per regime (rolls, slips, slip reversals, hops)."""
+
+    def identity(self) -> dict[str, Any]:
+        return {
+            "kind": "tune",
+            "engine": self.engine,
+            "scenes": [s.to_dict() for s in self.scenes],
+            "seed": self.seed,
+            "heldout_seed": self.heldout_seed,
+            "heldout_per_regime": self.heldout_per_regime,
+        }
+
+
+@dataclass(frozen=True)
+class Budget:
+    trials: int | None = None
+    """Trials told in all (a resumed search counts the earlier ones); None: no limit."""
+    timeout_s: float | None = None
+    """Seconds this session may start new trials for; None: no limit."""
+    run_timeout_s: float | None = None
+    """Time limit of one run, s; None: the suites' (60 s + 0.5 ms a step)."""
+
+
+@dataclass(frozen=True)
+class Setting:
+    """A setting of the search: a trial's, or a baseline profile's (stock, tuned)."""
+
+    name: str
+    """``trial-N``, ``stock`` or ``tuned``."""
+    timestep: float
+    options: Mapping[str, Any]
+    profile: Profile = Profile.TUNED
+    train_error: float | None = None
+    train_cost: float | None = None
+    """us per simulated second."""
+    extra: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def variant(self) -> str:
+        return DEFAULT_VARIANT if self.name in (str(p) for p in Profile) else self.name
+
+
+def setting_tasks(engine: str, scenes: Sequence[Scene], setting: Setting) -> list[RunTask]:
+    """The runs of one setting on some scenes, as a suite builds them (a suite's run ids)."""
+    if setting.variant == DEFAULT_VARIANT:
+        suite = Suite("tune", (engine,), (setting.timestep,), tuple(scenes), (), (setting.profile,))
+        return suite.tasks()
+    spec = VariantSpec(
+        engine,
+        setting.variant,
+        options=setting.options,
+        timesteps=(setting.timestep,),
+        profile=setting.profile,
+    )
+    suite = Suite("tune", (engine,), (setting.timestep,), tuple(scenes), (spec,), (Profile.TUNED,))
+    return [t for t in suite.tasks() if t.variant == setting.variant]
+
+
+def run_settings(
+    tasks: Sequence[RunTask], out: Path, pool: WorkerPool, budget: Budget, engine: str
+) -> tuple[RunSummary, list[dict[str, Any]]]:
+    """Run the tasks into ``out`` (resumed: stored runs are not run again) and return their
+    rows."""
+    meta = {
+        results.FORMAT_KEY: FORMAT_VERSION,
+        "engine_versions": {engine: engine_class(engine)().version()},
+    }
+    limit = run_timeout if budget.run_timeout_s is None else budget.run_timeout_s
+    summary = run_tasks(
+        tasks,
+        run_task,
+        out,
+        failure_row=failure_row,
+        timeout=limit,
+        executor=pool,
+        resume=True,
+        meta=meta,
+        quiet=True,
+    )
+    ids = {t.run_id for t in tasks}
+    frame = runs_frame(out)
+    rows = frame[frame["run_id"].isin(ids)].to_dict("records")
+    return summary, rows
+
+
+def setting_of(engine: str, trial: FrozenTrial) -> Setting:
+    """A told trial's setting (its options replayed from its parameters)."""
+    fixed = _optuna().trial.FixedTrial(trial.params)
+    options, timestep = draw_settings(fixed, engine_class(engine))
+    values = trial.values or [None, None]
+    return Setting(
+        f"{TRIAL_PREFIX}{trial.number}", timestep, options, Profile.TUNED, values[0], values[1]
+    )
+
+
+COUNTED_FAILURES = ("refused", "failed_runs")
+"""User attributes of a failed trial that counts toward the budget (the setting was tried);
+a trial cut short by a signal has neither and does not count."""
+
+
+def _finished(study: optuna.Study) -> int:
+    """Trials that count toward the budget: told with values, or failed after a real try."""
+    state = _optuna().trial.TrialState
+    return sum(
+        t.state is state.COMPLETE
+        or (t.state is state.FAIL and any(k in t.user_attrs for k in COUNTED_FAILURES))
+        for t in study.get_trials(deepcopy=False)
+    )
+
+
+def _open_study(spec: TuneSpec, out: Path, resume: bool) -> optuna.Study:
+    optuna = _optuna()
+    TrialState = optuna.trial.TrialState
+    # Optuna opens the journal itself: it must be a regular file inside the folder (a link out
+    # of it, a FIFO or a huge file is refused, FolderFileError) or not be there yet.
+    folder_file(out, JOURNAL_NAME, MAX_DATA_BYTES)
+    backend = optuna.storages.journal.JournalFileBackend(str(out / JOURNAL_NAME))
+    storage = optuna.storages.JournalStorage(backend)
+    sampler = optuna.samplers.TPESampler(seed=spec.seed, n_startup_trials=5)
+    study = optuna.create_study(
+        study_name=STUDY_NAME,
+        storage=storage,
+        sampler=sampler,
+        directions=["minimize", "minimize"],
+        load_if_exists=resume,
+    )
+    for stale in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,)):
+        study.tell(stale.number, state=TrialState.FAIL)  # cut short by an earlier Ctrl-C
+    if not study.trials:
+        cls = engine_class(spec.engine)
+        study.enqueue_trial(trial_params(cls, cls.defaults(Profile.TUNED), DEFAULT_TIMESTEP))
+    return study
+
+
+def _one_trial(
+    study: optuna.Study, spec: TuneSpec, out: Path, pool: WorkerPool, budget: Budget
+) -> RunSummary | None:
+    """Ask, run and tell one trial; the runs' summary (None if the setting was refused)."""
+    TrialState = _optuna().trial.TrialState
+    trial = study.ask()
+    try:
+        options, timestep = draw_settings(trial, engine_class(spec.engine))
+        setting = Setting(f"{TRIAL_PREFIX}{trial.number}", timestep, options)
+        tasks = setting_tasks(spec.engine, spec.scenes, setting)
+    except ValueError as exc:  # a combination the engine's own checks refuse
+        trial.set_user_attr("refused", str(exc))
+        study.tell(trial, state=TrialState.FAIL)
+        return None
+    try:
+        summary, rows = run_settings(tasks, out / TRIALS_DIR, pool, budget, spec.engine)
+    except BaseException:
+        study.tell(trial, state=TrialState.FAIL)
+        raise
+    cost = cost_us_per_s(rows)
+    if summary.interrupted is not None or len(rows) < len(tasks):
+        study.tell(trial, state=TrialState.FAIL)  # cut short: does not count, tried again
+        return summary
+    if cost is None:  # no run gave a time: every one failed
+        trial.set_user_attr("failed_runs", len(rows))
+        study.tell(trial, state=TrialState.FAIL)
+        return summary
+    study.tell(trial, [error_score(rows), cost])
+    return summary
+
+
+def _budget_left(study: optuna.Study, budget: Budget, started: float) -> bool:
+    if budget.trials is not None and _finished(study) >= budget.trials:
+        return False
+    return budget.timeout_s is None or time.monotonic() - started < budget.timeout_s
+
+
+@dataclass(frozen=True)
+class SearchResult:
+    study: optuna.Study
+    interrupted: bool
+    baselines: tuple[Setting, ...]
+
+
+def _baselines(
+    spec: TuneSpec, out: Path, pool: WorkerPool, budget: Budget
+) -> tuple[tuple[Setting, ...], bool]:
+    """stock and tuned on the training scenes (at the default timestep), and whether a signal
+    stopped them."""
+    settings: list[Setting] = []
+    cls = engine_class(spec.engine)
+    for profile in (Profile.STOCK, Profile.TUNED):
+        base = Setting(str(profile), DEFAULT_TIMESTEP, cls.defaults(profile), profile)
+        tasks = setting_tasks(spec.engine, spec.scenes, base)
+        summary, rows = run_settings(tasks, out / TRIALS_DIR, pool, budget, spec.engine)
+        if summary.interrupted is not None:
+            return tuple(settings), True
+        settings.append(
+            Setting(
+                base.name,
+                base.timestep,
+                base.options,
+                profile,
+                error_score(rows),
+                cost_us_per_s(rows),
+            )
+        )
+    return tuple(settings), False
+
+
+def search(
+    spec: TuneSpec,
+    out: str | Path,
+    budget: Budget,
+    *,
+    resume: bool = False,
+    jobs: int = 2,
+    say: Callable[[str], None] | None = None,
+    then: Callable[[SearchResult, WorkerPool], None] | None = None,
+) -> SearchResult:
+    """Run (or go on with) the search into ``out``; ``then(result, pool)`` runs in the same
+    folder claim and worker pool once the budget is spent (the held-out validation)."""
+    out = Path(out)
+    optuna = _optuna()
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    with claim_folder(out, resume, spec.identity(), say):
+        _write_spec(out, spec)
+        study = _open_study(spec, out, resume)
+        started = time.monotonic()
+        preload = ["hoopbench.reports.compare.suite"]
+        with WorkerPool(jobs, preload=preload) as pool:
+            try:
+                baselines, stopped = _baselines(spec, out, pool, budget)
+                while not stopped and _budget_left(study, budget, started):
+                    summary = _one_trial(study, spec, out, pool, budget)
+                    stopped = summary is not None and summary.interrupted is not None
+                    if say is not None and not stopped:
+                        say(_progress(study))
+            except KeyboardInterrupt:  # between two trials' runs (the runner handles its own)
+                baselines, stopped = (), True
+            result = SearchResult(study, stopped, baselines)
+            if then is not None and not stopped:
+                then(result, pool)
+    return result
+
+
+def _progress(study: optuna.Study) -> str:
+    last = study.trials[-1]
+    if last.state is not _optuna().trial.TrialState.COMPLETE or last.values is None:
+        return f"trial {last.number}: {last.state.name.lower()}"
+    error, cost = last.values
+    return f"trial {last.number}: error {error:.3g}, cost {cost:.3g} us per simulated s"
+
+
+def _write_spec(out: Path, spec: TuneSpec) -> None:
+    path = out / SPEC_NAME
+    if folder_file(out, SPEC_NAME) is not None:  # a resumed search's (checked, not followed out)
+        return
+    data = {**spec.identity(), "created": datetime.now(UTC).isoformat(timespec="seconds")}
+    results.atomic_write(path, lambda tmp: tmp.write_text(json.dumps(data, indent=2) + "\n"))
+
+
+def trials_frame(study: optuna.Study) -> pd.DataFrame:
+    """One line per trial: number, state, error, cost and parameters."""
+    lines = []
+    for trial in study.get_trials(deepcopy=False):
+        values = trial.values or [math.nan, math.nan]
+        lines.append(
+            {
+                "trial": trial.number,
+                "state": trial.state.name.lower(),
+                "train_error": values[0],
+                "train_cost_us_per_s": values[1],
+                "params": json.dumps(trial.params, sort_keys=True),
+            }
+        )
+    return pd.DataFrame(lines)

@@ -1,0 +1,254 @@
+"""hoopbench tune: a small search end to end (2-3 trials, one short scene, pymunk), its
+resume, its settings file in compare and simulate, and its bad inputs."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+import hoopbench as hb
+from hoopbench.engines.options import Profile
+from hoopbench.engines.registry import engine_class
+from hoopbench.models.scene import Scene
+from hoopbench.reports.cli import main
+from hoopbench.reports.compare.settings_file import load_settings
+from hoopbench.reports.compare.suite import runs_frame
+from hoopbench.reports.tune.heldout import is_overfitted
+from hoopbench.reports.tune.search import JOURNAL_NAME, STUDY_NAME, TRIALS_DIR
+
+optuna = pytest.importorskip("optuna")
+
+pytestmark = pytest.mark.slow
+
+ENGINE = "pymunk"
+
+
+def _scene() -> Scene:
+    return hb.scene("hop-bottom", t_end=1.2)
+
+
+def _study(out: Path) -> optuna.Study:
+    backend = optuna.storages.journal.JournalFileBackend(str(out / JOURNAL_NAME))
+    return optuna.load_study(study_name=STUDY_NAME, storage=optuna.storages.JournalStorage(backend))
+
+
+@pytest.fixture(scope="module")
+def searched(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, pd.DataFrame]:
+    out = tmp_path_factory.mktemp("tune") / "pymunk"
+    front = hb.tune(ENGINE, out, scenes=[_scene()], trials=2, quiet=True)
+    return out, front
+
+
+def test_every_trial_is_rows_and_the_first_is_tuned(searched: tuple[Path, pd.DataFrame]) -> None:
+    out, _ = searched
+    rows = runs_frame(out / TRIALS_DIR)
+    variants = sorted(rows["variant"])
+    assert variants == ["default", "default", "trial-0", "trial-1"]
+    assert set(rows.loc[rows["variant"] == "default", "profile"]) == {"stock", "tuned"}
+    assert (rows["status"] == "ok").all()
+    first = rows[rows["variant"] == "trial-0"].iloc[0]
+    assert first["timestep"] == pytest.approx(1e-4)
+    assert json.loads(first["options"]) == {}  # hoopbench's tuned values, nothing changed
+    trials = _study(out).trials
+    assert [t.state.name for t in trials] == ["COMPLETE", "COMPLETE"]
+
+
+def test_the_front_has_the_pareto_set_stock_and_tuned(searched: tuple[Path, pd.DataFrame]) -> None:
+    out, front = searched
+    assert set(front["kind"]) == {"pareto", "baseline"}
+    assert {"stock", "tuned"} <= set(front["setting"])
+    pareto = front[front["kind"] == "pareto"]
+    assert len(pareto) >= 1
+    assert pareto["heldout_error"].notna().all()
+    assert (out / "front.csv").is_file()
+    held = runs_frame(out / "heldout")
+    assert held["scene"].str.startswith("heldout-random-").all()
+    assert len(held) == 4 * len(front)  # four regimes, one scene each, every setting
+
+
+def test_the_settings_file_is_what_compare_and_simulate_run(
+    searched: tuple[Path, pd.DataFrame], tmp_path: Path
+) -> None:
+    out, front = searched
+    loaded = load_settings(out / "settings.toml")
+    assert loaded.engine == ENGINE
+    assert loaded.engine_version == engine_class(ENGINE)().version()
+    assert loaded.provenance["training_scenes"] == ["hop-bottom"]
+    assert [s.name for s in loaded.settings] == list(
+        front.loc[front["kind"] == "pareto", "setting"]
+    )
+    suite = tmp_path / "tiny.toml"
+    suite.write_text(
+        'name = "tiny"\nengines = ["pymunk"]\ntimesteps = [1e-3]\nscenes = ["seed-mu"]\n'
+    )
+    runs = tmp_path / "runs"
+    args = ["compare", "--suite", str(suite), "--out", str(runs), "--quiet"]
+    assert main([*args, "--settings", str(out / "settings.toml")]) == 0
+    rows = runs_frame(runs)
+    first = loaded.settings[0]
+    mine = rows[rows["variant"] == first.name].iloc[0]
+    assert mine["timestep"] == pytest.approx(first.timestep)
+    assert mine["status"] == "ok"
+    run = hb.run(ENGINE, "seed-mu", settings=out / "settings.toml")
+    assert run.row["variant"] == first.name
+    assert run.row["timestep"] == pytest.approx(first.timestep)
+
+
+def test_a_search_goes_on_after_an_interruption(tmp_path: Path) -> None:
+    out = tmp_path / "search"
+    hb.tune(ENGINE, out, scenes=[_scene()], trials=2, quiet=True)
+    stale = _study(out).ask()  # a trial a Ctrl-C left running: failed on resume, not counted
+    hb.tune(ENGINE, out, scenes=[_scene()], trials=3, resume=True, quiet=True)
+    trials = _study(out).trials
+    states = [t.state.name for t in trials]
+    assert states[stale.number] == "FAIL"
+    assert states.count("COMPLETE") == 3
+    rows = runs_frame(out / TRIALS_DIR)
+    assert sorted(v for v in rows["variant"] if v != "default") == ["trial-0", "trial-1", "trial-3"]
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--engine", "nosuch", "--trials", "2"], "--engine"),
+        (["--engine", "pymunk"], "a search needs a budget: --trials"),
+        (["--engine", "pymunk", "--trials", "0"], "--trials"),
+        (["--engine", "pymunk", "--trials", "2", "--scenes", "nosuch"], "--scenes"),
+        (["--engine", "pymunk", "--trials", "2", "--heldout-seed", "0"], "--heldout-seed"),
+        (["--engine", "pymunk", "--trials", "2", "--seed", "-1"], "--seed"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(
+    args: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["tune", "--out", str(tmp_path / "x"), *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and message in err, err
+    assert not (tmp_path / "x").exists()
+
+
+def test_a_folder_of_another_search_is_refused(
+    searched: tuple[Path, pd.DataFrame], capsys: pytest.CaptureFixture[str]
+) -> None:
+    out, _ = searched
+    assert main(["tune", "--engine", "pymunk", "--out", str(out), "--trials", "3"]) == 2
+    assert main(["tune", "--engine", "mujoco", "--out", str(out), "--trials", "3", "--resume"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 2, lines
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda t: t.replace("iterations =", "iteratons ="), "unknown pymunk setting"),
+        (lambda t: t.replace('engine = "pymunk"', 'engine = "mujoco"'), "unknown mujoco setting"),
+        (lambda t: "foo = 1\n" + t, "unknown key"),
+        (lambda t: t.replace("[[settings]]", "[[setting]]"), "unknown key"),
+    ],
+)
+def test_a_bad_settings_file_is_one_line_and_exit_2(
+    searched: tuple[Path, pd.DataFrame],
+    edit: object,
+    message: str,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    out, _ = searched
+    bad = tmp_path / "bad.toml"
+    bad.write_text(edit((out / "settings.toml").read_text()))  # type: ignore[operator]
+    code = main(["simulate", "--engine", "pymunk", "--scene", "seed-mu", "--settings", str(bad)])
+    assert code == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and message in err, err
+
+
+def test_simulate_refuses_a_settings_file_of_another_engine(
+    searched: tuple[Path, pd.DataFrame], capsys: pytest.CaptureFixture[str]
+) -> None:
+    out, _ = searched
+    path = str(out / "settings.toml")
+    assert main(["simulate", "--engine", "mujoco", "--scene", "seed-mu", "--settings", path]) == 2
+    assert "is for pymunk, not mujoco" in capsys.readouterr().err
+
+
+def test_overfitted_means_much_worse_on_held_out_scenes() -> None:
+    assert not is_overfitted(0.1, 0.6)
+    assert is_overfitted(0.1, 0.8)
+    assert is_overfitted(0.0, 0.6)
+    assert not is_overfitted(None, 10.0)
+
+
+def test_stock_and_tuned_profiles_exist() -> None:
+    assert {str(p) for p in Profile} == {"stock", "tuned"}
+
+
+def test_the_report_has_a_best_settings_section(
+    searched: tuple[Path, pd.DataFrame], tmp_path: Path
+) -> None:
+    out, front = searched
+    report = hb.report([out], tmp_path / "report")
+    text = report.read_text()
+    section = text[text.index("## Best settings") :]
+    assert "### pymunk" in section
+    for name in front["setting"]:
+        assert f"| {name} |" in section
+    assert "Held-out error of tuned" in section
+    assert (tmp_path / "report" / "best-settings-pymunk.png").is_file()
+
+
+def test_the_front_figure_labels_its_log_axis_in_plain_numbers(
+    searched: tuple[Path, pd.DataFrame], tmp_path: Path
+) -> None:
+    from hoopbench.reports.report.best_settings import _panel, best_settings
+    from hoopbench.reports.report.plotting import pyplot
+
+    out, _ = searched
+    (best,) = best_settings([out])
+    plt = pyplot()
+    fig, ax = plt.subplots()
+    _panel(ax, best, "heldout")
+    fig.canvas.draw()
+    labels = [t.get_text() for t in ax.get_xticklabels() if t.get_text()]
+    plt.close(fig)
+    assert labels and not any("$" in label for label in labels), labels
+
+
+def test_ctrl_c_keeps_every_finished_trial(tmp_path: Path) -> None:
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "search"
+    command = [sys.executable, "-m", "hoopbench.reports.cli", "tune", "--engine", ENGINE]
+    command += ["--out", str(out), "--scenes", "hop-bottom", "--trials", "500", "--jobs", "1"]
+    process = subprocess.Popen(command, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline:
+            time.sleep(0.5)
+            if (out / JOURNAL_NAME).exists() and sum(
+                t.state.name == "COMPLETE" for t in _study(out).trials
+            ) >= 2:
+                break
+        process.send_signal(signal.SIGINT)
+        _, err = process.communicate(timeout=60)
+    finally:
+        process.kill()
+    assert process.returncode == 130, err
+    assert err.strip().splitlines()[-1].startswith("hoopbench: interrupted"), err
+    done = [t.number for t in _study(out).trials if t.state.name == "COMPLETE"]
+    assert len(done) >= 2
+    assert not (out / "settings.toml").exists()  # the search did not end: no front yet
+    trials = len(done) + 1
+    again = ["tune", "--engine", ENGINE, "--out", str(out), "--scenes", "hop-bottom"]
+    again += ["--trials", str(trials), "--jobs", "1", "--resume", "--quiet"]
+    code = main(again)
+    assert code == 0
+    after = _study(out).trials
+    assert [t.number for t in after if t.state.name == "COMPLETE"][: len(done)] == done
+    assert sum(t.state.name == "COMPLETE" for t in after) == trials
+    assert (out / "settings.toml").is_file()
