@@ -12,10 +12,13 @@ When the budget is spent, the Pareto set (and the baselines) run again on held-o
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
+import signal
+import threading
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -310,6 +313,26 @@ def _baselines(
     return tuple(settings), False
 
 
+@contextlib.contextmanager
+def _signals_noted() -> Iterator[list[int]]:
+    """SIGINT and SIGTERM between two trials' runs are noted (the list gets the signal), not
+    raised: a KeyboardInterrupt inside Optuna's journal lock would leave it half released (its
+    own cleanup then fails on the lock file it has just removed). The runner installs its own
+    handler during the runs and puts this one back."""
+    noted: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield noted
+        return
+    previous = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    for sig in previous:
+        signal.signal(sig, lambda signum, frame: noted.append(signum))
+    try:
+        yield noted
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, signal.SIG_DFL if handler is None else handler)
+
+
 def search(
     spec: TuneSpec,
     out: str | Path,
@@ -330,15 +353,16 @@ def search(
         study = _open_study(spec, out, resume)
         started = time.monotonic()
         preload = ["hoopbench.reports.compare.suite"]
-        with WorkerPool(jobs, preload=preload) as pool:
+        with WorkerPool(jobs, preload=preload) as pool, _signals_noted() as noted:
             try:
                 baselines, stopped = _baselines(spec, out, pool, budget)
-                while not stopped and _budget_left(study, budget, started):
+                while not stopped and not noted and _budget_left(study, budget, started):
                     summary = _one_trial(study, spec, out, pool, budget)
                     stopped = summary is not None and summary.interrupted is not None
                     if say is not None and not stopped:
                         say(_progress(study))
-            except KeyboardInterrupt:  # between two trials' runs (the runner handles its own)
+                stopped = stopped or bool(noted)
+            except KeyboardInterrupt:  # a signal where no handler of ours was installed
                 baselines, stopped = (), True
             result = SearchResult(study, stopped, baselines)
             if then is not None and not stopped:
