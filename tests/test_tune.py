@@ -252,3 +252,39 @@ def test_ctrl_c_keeps_every_finished_trial(tmp_path: Path) -> None:
     assert [t.number for t in after if t.state.name == "COMPLETE"][: len(done)] == done
     assert sum(t.state.name == "COMPLETE" for t in after) == trials
     assert (out / "settings.toml").is_file()
+
+
+@pytest.mark.parametrize("name", ["tune.json", "front.csv", "trials.csv"])
+def test_a_tune_folder_file_leading_out_of_it_is_not_read(
+    searched: tuple[Path, pd.DataFrame],
+    name: str,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """A tune folder is read as any results folder is (folder_files): a file that is a link
+    to one outside the folder is refused in one line, never read as the folder's."""
+    import shutil
+
+    out, _ = searched
+    copy = tmp_path / "search"
+    shutil.copytree(out, copy)
+    outside = tmp_path / f"elsewhere-{name}"
+    shutil.move(copy / name, outside)
+    (copy / name).symlink_to(outside)
+    code = main(["report", "--results", str(copy), "--out", str(tmp_path / "report")])
+    assert code == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "leads out of the results folder" in err, err
+
+
+def test_a_settings_file_that_is_a_fifo_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import os
+
+    fifo = tmp_path / "settings.toml"
+    os.mkfifo(fifo)  # read as a file it would never end
+    code = main(["simulate", "--engine", ENGINE, "--scene", "seed-mu", "--settings", str(fifo)])
+    assert code == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "FIFO" in err, err
