@@ -812,8 +812,9 @@ def tune_job(
         if run_timeout is None
         else _checked("run_timeout", check_positive_seconds, run_timeout),
     )
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise OptionError("seed", f"{{option}} must be a whole number >= 0, got {seed!r}")
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32:
+        # the sampler's seed (numpy's): refused here, before the folder is made
+        raise OptionError("seed", f"{{option}} must be a whole number in [0, 2**32), got {seed!r}")
     held = TuneSpec.heldout_seed if heldout_seed is None else heldout_seed
     if isinstance(held, bool) or not isinstance(held, int) or held < 0 or held == seed:
         raise OptionError(

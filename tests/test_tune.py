@@ -119,6 +119,7 @@ def test_a_search_goes_on_after_an_interruption(tmp_path: Path) -> None:
         (["--engine", "pymunk", "--trials", "2", "--scenes", "nosuch"], "--scenes"),
         (["--engine", "pymunk", "--trials", "2", "--heldout-seed", "0"], "--heldout-seed"),
         (["--engine", "pymunk", "--trials", "2", "--seed", "-1"], "--seed"),
+        (["--engine", "pymunk", "--trials", "2", "--seed", str(2**32)], "--seed"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(
