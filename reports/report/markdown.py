@@ -779,7 +779,7 @@ def write_markdown(
 ) -> Path:
     """Write out/report.md with tables and PNG figures; return its path. ``frame`` is unchanged.
 
-    ``extra``: finished sections of other results (the hop maps'), placed before the Files
+    ``extra``: finished sections of other results (the hop maps', the Best settings), placed before the Files
     section; with an empty ``frame`` the report holds its title and those alone.
     """
     out = Path(out)
