@@ -779,8 +779,8 @@ def write_markdown(
 ) -> Path:
     """Write out/report.md with tables and PNG figures; return its path. ``frame`` is unchanged.
 
-    ``extra``: finished sections of other results (the hop maps', the Best settings), placed before the Files
-    section; with an empty ``frame`` the report holds its title and those alone.
+    ``extra``: finished sections of other results (the hop maps', the Best settings), placed
+    before the Files section; with an empty ``frame`` the report holds its title and those alone.
     """
     out = Path(out)
     if frame.empty:  # hop maps alone: no runs table to make sections of
