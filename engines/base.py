@@ -18,15 +18,17 @@ from __future__ import annotations
 
 import gc
 import math
+import os
 import sys
 import time
 import traceback
 from abc import ABC
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import AbstractContextManager, contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import partial
 from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
 from types import ModuleType
 from typing import Any, ClassVar
 
@@ -34,7 +36,7 @@ import numpy as np
 
 from hoopbench.engines.judging.detectors import DetectorSettings
 from hoopbench.engines.judging.judge import judge
-from hoopbench.engines.options import Option, Profile, Variant
+from hoopbench.engines.options import Option, Profile, Variant, choice
 from hoopbench.engines.run import Run, RunInfo, RunResult, RunStatus
 from hoopbench.engines.settings import BYTES_PER_STEP, MAX_STEPS, RunSettings
 from hoopbench.engines.stopping import StopMonitor, StopReason
@@ -46,23 +48,35 @@ from hoopbench.models.trajectory import Trajectory
 __all__ = [
     "BYTES_PER_STEP",
     "CHUNK_STEPS",
+    "DEVICE",
+    "DEVICES",
     "MAX_STEPS",
+    "STATE_KEYS",
     "Chunk",
     "DivergenceLimits",
     "Engine",
     "EngineUnavailableError",
     "Simulation",
+    "WorldsEngine",
+    "cache_folder",
     "check_divergence",
     "check_steps",
     "equilibrium_depth",
     "import_engine",
+    "import_warp",
     "n_steps_for",
     "states_and_step_forces",
     "steps_in",
+    "warp_device",
+    "world_trajectory",
 ]
 
 CHUNK_STEPS = 1000
 """Steps the loop has an adapter take between divergence checks (and per recording chunk)."""
+
+STATE_KEYS = ("X", "Y", "theta", "Xdot", "Ydot", "thetadot")
+"""The centre-of-mass state's components, in the order of a batch hook's last axis (m, m,
+rad, m/s, m/s, rad/s)."""
 
 
 class EngineUnavailableError(RuntimeError):
@@ -528,3 +542,165 @@ def check_steps(t_end: float, timestep: float, max_steps: int) -> int:
             "shorten t_end, raise the timestep, or raise max_steps"
         )
     return n_steps
+
+
+class WorldsEngine(Engine):
+    """An engine that steps many worlds in one call (MJX, MuJoCo Warp, Newton): a single
+    run is a batch of one world, so an adapter implements only the batch hooks,
+
+    ``_open_batch(module, scenes, settings, options)``, a context manager giving ``batch``
+        One world per scene, each at its scene's initial state, ready to step from t = 0.
+    ``_batch_advance(batch, active, steps) -> (states, forces)``
+        ``steps`` steps of every world (``active``, (W,) bool, says which are read; a
+        batched engine may step them all): the centre-of-mass states before the chunk and
+        after each step, (W, steps + 1, 6), columns ``STATE_KEYS``, and the contact force
+        on the hoop of each step, (W, steps, 2), N: normal (+Y) and friction (+X), row i
+        the force of the step taken from state i (the engine's constraint force at that
+        state).
+
+    and this class gives the single-run hooks of :class:`Engine` on a batch of one: the
+    window's last chunk takes one step more for the last state's force (MuJoCo's
+    convention); a run that diverged or stopped early drops its last state, which has no
+    force. The bare loop steps the batch of one through the same hook.
+    """
+
+    batches: ClassVar[bool] = True
+    """Steps many worlds in one call: the runner groups runs of one settings into batches."""
+
+    def _open_batch(
+        self,
+        module: ModuleType,
+        scenes: Sequence[Scene],
+        settings: RunSettings,
+        options: dict[str, Any],
+    ) -> AbstractContextManager[Any]:
+        """One world per scene at its initial state (class docstring)."""
+        raise self._no_hook("_open_batch")
+
+    def _batch_advance(
+        self, batch: Any, active: np.ndarray, steps: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """States (W, steps + 1, 6) and forces (W, steps, 2), N (class docstring)."""
+        raise self._no_hook("_batch_advance")
+
+    @contextmanager
+    def _open(
+        self,
+        module: ModuleType,
+        scene: Scene,
+        settings: RunSettings,
+        options: dict[str, Any],
+        *,
+        record: bool,
+    ) -> Iterator[_OneWorld]:
+        with self._open_batch(module, [scene], settings, options) as batch:
+            yield _OneWorld(batch, scene, settings.timestep, n_steps_for(scene, settings.timestep))
+
+    def _advance(self, run: _OneWorld, done: int, steps: int, last: bool) -> Chunk:
+        states, forces = self._batch_advance(run.batch, _ONE, steps + (1 if last else 0))
+        run.states[done : done + steps + 1] = states[0, : steps + 1]
+        run.forces[done : done + len(forces[0])] = forces[0]
+        chunk = states[0, : steps + 1]
+        return Chunk(dict(zip(STATE_KEYS, chunk.T, strict=True)), done + steps)
+
+    def _trajectory(self, run: _OneWorld, done: int, ended_early: bool) -> Trajectory:
+        n = done if ended_early else done + 1
+        return world_trajectory(run.scene, run.timestep, run.states[:n], run.forces[:n])
+
+    def _diverged(self, run: _OneWorld) -> str | None:
+        return None
+
+    def _contact_shape(self, run: _OneWorld) -> kinematics.Polygon | None:
+        return None
+
+    def _step_bare(self, run: _OneWorld, steps: int) -> None:
+        """The batch hook in chunks: these engines record states as they step (on a device,
+        reading nothing back would leave their cost unmeasured)."""
+        done = 0
+        while done < steps:
+            chunk = min(CHUNK_STEPS, steps - done)
+            self._batch_advance(run.batch, _ONE, chunk)
+            done += chunk
+
+
+_ONE = np.ones(1, dtype=bool)
+"""The ``active`` mask of a batch of one world."""
+
+
+@dataclass
+class _OneWorld:
+    """A single run of a :class:`WorldsEngine`: its batch of one and what it recorded."""
+
+    batch: Any
+    scene: Scene
+    timestep: float
+    n_steps: int
+    states: np.ndarray = field(init=False)
+    """(n_steps + 1, 6): the centre-of-mass state of every row."""
+    forces: np.ndarray = field(init=False)
+    """(n_steps + 1, 2), N: the force of the step taken from each row."""
+
+    def __post_init__(self) -> None:
+        self.states = np.empty((self.n_steps + 1, len(STATE_KEYS)))
+        self.forces = np.empty((self.n_steps + 1, 2))
+
+
+def world_trajectory(
+    scene: Scene, timestep: float, states: np.ndarray, forces: np.ndarray
+) -> Trajectory:
+    """One world's trajectory from its states (n, 6), columns ``STATE_KEYS``, and forces
+    (n, 2), N (normal, friction), row i the force of the step from state i."""
+    n = len(states)
+    return Trajectory.from_state(
+        scene,
+        t=np.arange(n) * timestep,
+        **dict(zip(STATE_KEYS, states.T, strict=True)),
+        normal_force=forces[:, 0] / scene.M,
+        friction_force=forces[:, 1] / scene.M,
+    )
+
+
+DEVICES: tuple[str, ...] = ("auto", "cpu", "gpu")
+"""Where a batched engine runs. auto: a GPU if the engine sees one, else the CPU."""
+
+DEVICE = Option(
+    "device",
+    "auto",
+    choice(*DEVICES),
+    "the engine's own choice: a GPU where there is one, else the CPU (the CI and the "
+    "measurements here have no GPU: every figure is the CPU's)",
+)
+"""The ``device`` option of the batched engines (MJX, MuJoCo Warp, Newton)."""
+
+
+def cache_folder(engine: str) -> Path:
+    """Where an engine keeps its compiled code between processes: ``$HOOPBENCH_CACHE/<engine>``,
+    else the user's cache folder (``$XDG_CACHE_HOME`` or ~/.cache) ``/hoopbench/<engine>``."""
+    root = os.environ.get("HOOPBENCH_CACHE")
+    if root:
+        return Path(root) / engine
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "hoopbench" / engine
+
+
+def warp_device(wp: ModuleType, choice: str) -> str:
+    """NVIDIA Warp's device for a run (MuJoCo Warp, Newton): ``cuda:0`` for auto when Warp
+    sees a GPU, else ``cpu``; RuntimeError for gpu without one (the run's error row)."""
+    gpus = wp.get_cuda_device_count()
+    if choice == "cpu" or (choice == "auto" and gpus == 0):
+        return "cpu"
+    if gpus == 0:
+        raise RuntimeError("device gpu: NVIDIA Warp sees no CUDA device")
+    return "cuda:0"
+
+
+def import_warp() -> ModuleType:
+    """NVIDIA Warp, quiet (its start-up banner would go to stdout, which ``--json`` output
+    owns) and with its kernel cache under :func:`cache_folder`; EngineUnavailableError if
+    it cannot be imported."""
+    wp = import_engine("warp")
+    if not wp.config.kernel_cache_dir:
+        wp.config.kernel_cache_dir = str(cache_folder("warp"))
+    wp.config.quiet = True
+    wp.config.log_level = max(wp.config.log_level, wp.LOG_WARNING)  # no per-module timings
+    return wp

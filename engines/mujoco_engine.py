@@ -52,14 +52,15 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import ModuleType
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
 from hoopbench.engines.base import Chunk, Engine, equilibrium_depth, n_steps_for
 from hoopbench.engines.options import (
+    Check,
     Option,
     Variant,
     choice,
@@ -134,6 +135,9 @@ class MujocoEngine(Engine):
     modules = ("mujoco", "mujoco.rollout")
     geometries = MJCF_GEOMETRIES
     model_format = "MJCF (XML)"
+    contact_sensor: ClassVar[bool] = True
+    """The MJCF declares the contact-force sensor (the backends that refuse it read the
+    force from the constraint instead)."""
     options = (
         Option(
             "solref",
@@ -225,6 +229,21 @@ class MujocoEngine(Engine):
         Variant("geometry=ring", geometry="ring"),
     )
 
+    @classmethod
+    def options_except(cls, *dropped: str, **checks: Check) -> tuple[Option, ...]:
+        """MuJoCo's options for a backend that reads the same MJCF (MJX, MuJoCo Warp): all
+        but ``dropped``, with the checks in ``checks`` (name -> check) replacing MuJoCo's
+        where the backend allows less; defaults, stock values and reasons stay MuJoCo's."""
+        known = {option.name for option in cls.options}
+        unknown = sorted((set(dropped) | set(checks)) - known)
+        if unknown:
+            raise ValueError(f"not MuJoCo options: {', '.join(unknown)}")
+        return tuple(
+            replace(option, check=checks.get(option.name, option.check))
+            for option in cls.options
+            if option.name not in dropped
+        )
+
     # ----------------------------------------------------------------- hooks
     def _check(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> None:
         """Restitution != 0 raises ValueError before a run (see scene_to_mjcf)."""
@@ -238,6 +257,7 @@ class MujocoEngine(Engine):
             restitution=settings.restitution,
             geometry=settings.geometry,
             options=options,
+            contact_sensor=self.contact_sensor,
         )
 
     def _build(

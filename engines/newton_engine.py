@@ -1,0 +1,1 @@
+"""Newton adapter (being written)."""
