@@ -25,8 +25,7 @@ import traceback
 from abc import ABC
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import AbstractContextManager, contextmanager
-from dataclasses import dataclass, field
-from functools import partial
+from dataclasses import dataclass
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from types import ModuleType
@@ -37,9 +36,9 @@ import numpy as np
 from hoopbench.engines.judging.detectors import DetectorSettings
 from hoopbench.engines.judging.judge import judge
 from hoopbench.engines.options import Option, Profile, Variant, choice
-from hoopbench.engines.run import Run, RunInfo, RunResult, RunStatus
+from hoopbench.engines.run import BatchCost, Run, RunInfo, RunResult, RunStatus
 from hoopbench.engines.settings import BYTES_PER_STEP, MAX_STEPS, RunSettings
-from hoopbench.engines.stopping import StopMonitor, StopReason
+from hoopbench.engines.stopping import StopMonitor, StopReason, StopRule
 from hoopbench.models import kinematics
 from hoopbench.models.events import Events
 from hoopbench.models.scene import Scene
@@ -51,6 +50,7 @@ __all__ = [
     "DEVICE",
     "DEVICES",
     "MAX_STEPS",
+    "RUN_ALONE",
     "STATE_KEYS",
     "Chunk",
     "DivergenceLimits",
@@ -59,6 +59,7 @@ __all__ = [
     "Simulation",
     "WorldsEngine",
     "cache_folder",
+    "call_repeatedly",
     "check_divergence",
     "check_steps",
     "equilibrium_depth",
@@ -68,11 +69,15 @@ __all__ = [
     "states_and_step_forces",
     "steps_in",
     "warp_device",
-    "world_trajectory",
 ]
 
 CHUNK_STEPS = 1000
 """Steps the loop has an adapter take between divergence checks (and per recording chunk)."""
+
+RUN_ALONE = "the batch cannot step this world as its single run would"
+"""What ``_batch_diverged`` says of a world that must run alone (MuJoCo's batch halts a world
+on a warning where a single run steps on): the world leaves the batch and runs again by
+itself, so that its row is its single run's."""
 
 STATE_KEYS = ("X", "Y", "theta", "Xdot", "Ydot", "thetadot")
 """The centre-of-mass state's components, in the order of a batch hook's last axis (m, m,
@@ -211,6 +216,48 @@ class Engine(ABC):
     An exception in a hook makes the run an error row with the exception's message; the
     context of ``_open`` is left as usual. An engine that does not step (the exact
     reference) overrides ``_simulate`` instead and has no bare loop.
+
+    **Batches.** :meth:`simulate_batch` runs many worlds (scenes) with one settings (engine,
+    profile, variant, timestep) in one call and returns one ``Run`` per world, the same as
+    :meth:`simulate` would. By default it loops over single runs. An engine that steps many
+    worlds at once declares ``batches = True`` and implements the batch hooks; the loop is
+    again the base class's (``_simulate_batch``): every world takes its own window's steps
+    in the same chunks as a single run (chunk ends at multiples of ``CHUNK_STEPS`` and at its
+    window's end), is checked for divergence and fed to its own ``StopMonitor`` at each of
+    its chunk ends, and stops being stepped and recorded once it diverges, stops or reaches
+    its window's end; the batch ends when every world has. ``W`` is the batch's world count,
+    world ``i`` is ``scenes[i]``:
+
+    ``_open_batch(module, scenes, settings, options)``, a context manager giving ``batch``
+        Build one world per scene, each at its scene's initial state, ready to step from
+        t = 0; release what they hold on exit.
+    ``_batch_state(batch) -> (W, 6)``
+        Every world's centre-of-mass state now, columns ``STATE_KEYS`` (m, rad, m/s, rad/s,
+        the frame of ``kinematics.com_state``).
+    ``_batch_step(batch, active)``
+        One step of the worlds where ``active`` (bool, (W,)) is True. An engine may step the
+        others too (a GPU steps all worlds): their results are not read.
+    ``_batch_force(batch) -> (W, 2)``
+        Every world's contact force on the hoop over the step just taken, N: normal (+Y, up)
+        and friction (+X), the engine's own (row i of a trajectory holds the force of the
+        step taken from state i, as ``states_and_step_forces``).
+    ``_batch_advance(batch, active, steps) -> (states (W, steps + 1, 6), forces (W, steps, 2))``,
+        optional. ``steps`` steps of the active worlds: the states before the chunk and
+        after each step, and each step's force. The default calls the three hooks above
+        per step; an engine that can take many steps in one call (MuJoCo's rollout)
+        overrides it. Rows of inactive worlds are ignored.
+    ``_batch_diverged(batch, active) -> [str | None] * W``, optional
+        The engine's own divergence reasons after a chunk (as ``_diverged``), or
+        ``RUN_ALONE`` for a world the batch cannot step as its single run would: it leaves
+        the batch and runs again alone. Default None.
+    ``_batch_shapes(batch) -> [Polygon | None] * W``, optional
+        Each world's contact shape (as ``_contact_shape``). Default None: circles.
+
+    A world that reaches its window's end takes one more step for its last state's force
+    (not counted in ``n_steps``); a world that diverged or stopped early does not, and its
+    last state, which has no force, is dropped (the timing of MuJoCo's single runs). An
+    exception in a batch hook makes every run of the batch an error row. The batch's cost
+    (``BatchCost``: worlds, wall time, world-steps) goes to every run's ``RunInfo.batch``.
     """
 
     name: ClassVar[str]
@@ -230,6 +277,9 @@ class Engine(ABC):
     model_note: ClassVar[str | None] = None
     """For an engine without a model file: how it builds its model instead, the one line
     ``hoopbench model`` gives."""
+    batches: ClassVar[bool] = False
+    """True: the engine steps many worlds in one call (the batch hooks), and the runner
+    groups a suite's or a map's runs of one settings into batches for it."""
 
     def __init__(
         self,
@@ -305,6 +355,50 @@ class Engine(ABC):
         """Anything timed after the last chunk (e.g. a step for the last force)."""
         return None
 
+    # ----------------------------------------------------------------- batch hooks
+    def _open_batch(
+        self,
+        module: ModuleType,
+        scenes: Sequence[Scene],
+        settings: RunSettings,
+        options: dict[str, Any],
+    ) -> AbstractContextManager[Any]:
+        """One world per scene at its initial state (class docstring, Batches)."""
+        raise self._no_hook("_open_batch")
+
+    def _batch_state(self, batch: Any) -> np.ndarray:
+        """(W, 6): every world's centre-of-mass state now, columns STATE_KEYS."""
+        raise self._no_hook("_batch_state")
+
+    def _batch_step(self, batch: Any, active: np.ndarray) -> None:
+        """One step of the active worlds ((W,) bool)."""
+        raise self._no_hook("_batch_step")
+
+    def _batch_force(self, batch: Any) -> np.ndarray:
+        """(W, 2): every world's (normal, friction) contact force of the last step, N."""
+        raise self._no_hook("_batch_force")
+
+    def _batch_advance(
+        self, batch: Any, active: np.ndarray, steps: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``steps`` steps of the active worlds: states (W, steps + 1, 6), the one before
+        the chunk first, and forces (W, steps, 2), N, of each step."""
+        states = [self._batch_state(batch)]
+        forces = []
+        for _ in range(steps):
+            self._batch_step(batch, active)
+            states.append(self._batch_state(batch))
+            forces.append(self._batch_force(batch))
+        return np.stack(states, axis=1), np.stack(forces, axis=1)
+
+    def _batch_diverged(self, batch: Any, active: np.ndarray) -> Sequence[str | None]:
+        """The engine's own divergence reason per world after a chunk, or None."""
+        return [None] * len(active)
+
+    def _batch_shapes(self, batch: Any) -> Sequence[kinematics.Polygon | None] | None:
+        """Each world's contact shape; None (the default): every world's is the circle."""
+        return None
+
     def _no_hook(self, hook: str) -> NotImplementedError:
         return NotImplementedError(f"engine {self.name} does not step: it implements no {hook}")
 
@@ -347,44 +441,131 @@ class Engine(ABC):
         """Step the scene. Bad settings raise ValueError; engine failures return a status."""
         settings = settings or RunSettings()
         options = self.check(scene, settings)
-        run_info = partial(
-            RunInfo,
+        try:
+            module = self._import()
+        except EngineUnavailableError as exc:
+            return self._failed_run(scene, settings, RunStatus.UNAVAILABLE, str(exc), None)
+        try:
+            sim = self._simulate(module, scene, settings, options)
+        except Exception as exc:  # an engine failure is a result, not a crash
+            text = _last_line(exc)
+            return self._failed_run(scene, settings, RunStatus.ERROR, text, self.version())
+        return self._finished_run(scene, settings, sim)
+
+    def simulate_batch(
+        self,
+        scenes: Sequence[Scene],
+        settings: RunSettings | None = None,
+        *,
+        stops: Sequence[StopRule | None] | None = None,
+    ) -> list[Run]:
+        """Step many scenes (worlds) with one settings: one Run per scene, in order, as
+        :meth:`simulate` gives it. ``stops``: each world's own stop rule in place of
+        ``settings.stop`` (a hop map's runs stop after their own settling time). An engine
+        that declares ``batches`` steps the worlds together (class docstring, Batches); any
+        other runs them one by one. Bad settings, or a scene a run could not take, raise
+        ValueError before anything is stepped."""
+        settings = settings or RunSettings()
+        scenes = list(scenes)
+        if stops is not None and len(stops) != len(scenes):
+            raise ValueError(f"{len(stops)} stop rules for {len(scenes)} scenes")
+        each = [
+            settings if stops is None else settings.with_(stop=stop)
+            for stop in stops or [None] * len(scenes)
+        ]
+        options = [self.check(scene, s) for scene, s in zip(scenes, each, strict=True)]
+        if not self.batches:
+            return [self.simulate(scene, s) for scene, s in zip(scenes, each, strict=True)]
+        if not scenes:
+            return []
+        try:
+            module = self._import()
+        except EngineUnavailableError as exc:
+            status, text = RunStatus.UNAVAILABLE, str(exc)
+            return [
+                self._failed_run(scene, s, status, text, None)
+                for scene, s in zip(scenes, each, strict=True)
+            ]
+        try:
+            sims, cost = self._simulate_batch(module, scenes, each, options[0])
+        except Exception as exc:  # an engine failure is a result, not a crash
+            status, text, found = RunStatus.ERROR, _last_line(exc), self.version()
+            return [
+                self._failed_run(scene, s, status, text, found)
+                for scene, s in zip(scenes, each, strict=True)
+            ]
+        return [
+            self.simulate(scene, s)
+            if sim.diverged == RUN_ALONE
+            else self._finished_run(scene, s, sim, cost)
+            for scene, s, sim in zip(scenes, each, sims, strict=True)
+        ]
+
+    def _run_info(self, scene: Scene, settings: RunSettings, **fields: Any) -> RunInfo:
+        return RunInfo(
             engine=self.name,
             mu=self.mu_for(scene, settings),
             timestep=settings.timestep,
             settings=settings.to_dict(),
+            **fields,
         )
-        try:
-            module = self._import()
-        except EngineUnavailableError as exc:
-            info = run_info(engine_version=None, status=RunStatus.UNAVAILABLE, message=str(exc))
-            return Run(None, info)
-        engine_version = self.version()
-        try:
-            sim = self._simulate(module, scene, settings, options)
-        except Exception as exc:  # an engine failure is a result, not a crash
-            last = traceback.format_exception_only(type(exc), exc)[-1].strip()
-            info = run_info(engine_version=engine_version, status=RunStatus.ERROR, message=last)
-            return Run(None, info)
+
+    def _failed_run(
+        self,
+        scene: Scene,
+        settings: RunSettings,
+        status: RunStatus,
+        message: str,
+        engine_version: str | None,
+    ) -> Run:
+        """A run that produced nothing: unavailable (no version) or an engine error."""
+        info = self._run_info(
+            scene, settings, engine_version=engine_version, status=status, message=message
+        )
+        return Run(None, info)
+
+    def _finished_run(
+        self,
+        scene: Scene,
+        settings: RunSettings,
+        sim: Simulation,
+        batch: BatchCost | None = None,
+    ) -> Run:
+        """The Run of a simulation that returned, with its status."""
         if sim.failed:
             status, message = RunStatus.ERROR, sim.failed
         elif sim.diverged:
             status, message = RunStatus.DIVERGED, sim.diverged
         else:
             status, message = RunStatus.OK, ""
-        info = run_info(
-            engine_version=engine_version,
+        info = self._run_info(
+            scene,
+            settings,
+            engine_version=self.version(),
             status=status,
             message=message,
             wall_time_s=sim.wall_time_s,
             n_steps=sim.n_steps,
             stop_reason=None if sim.stop_reason is None else str(sim.stop_reason),
+            batch=batch,
         )
         return Run(sim.trajectory, info, sim.exact_events)
 
     def run(self, scene: Scene, settings: RunSettings | None = None) -> RunResult:
         """Simulate, then judge with this engine's detectors."""
         return judge(self.simulate(scene, settings), self.detectors, scene)
+
+    def run_batch(
+        self,
+        scenes: Sequence[Scene],
+        settings: RunSettings | None = None,
+        *,
+        stops: Sequence[StopRule | None] | None = None,
+    ) -> list[RunResult]:
+        """Simulate a batch (:meth:`simulate_batch`), then judge each run."""
+        scenes = list(scenes)
+        runs = self.simulate_batch(scenes, settings, stops=stops)
+        return [judge(run, self.detectors, scene) for run, scene in zip(runs, scenes, strict=True)]
 
     def bare_loop_time(self, scene: Scene, settings: RunSettings | None = None) -> float:
         """Wall time, s, of stepping the run's model as many times as a run would, reading
@@ -450,6 +631,154 @@ class Engine(ABC):
                 return done, None, stopped
         return done, None, None
 
+    def _simulate_batch(
+        self,
+        module: ModuleType,
+        scenes: Sequence[Scene],
+        settings: Sequence[RunSettings],
+        options: dict[str, Any],
+    ) -> tuple[list[Simulation], BatchCost]:
+        """Step every world of the batch from t = 0 until it reaches its window's end,
+        diverges or is stopped: the loop of the class docstring (Batches). ``settings``:
+        each world's, the same but for their stop rules."""
+        with self._open_batch(module, scenes, settings[0], options) as batch:
+            worlds = _Worlds(scenes, settings, self._batch_shapes(batch), self.detectors)
+            with _collector_paused():
+                start = time.perf_counter()
+                while (active := worlds.active).any():
+                    steps = worlds.chunk_steps()
+                    worlds.record(*self._batch_advance(batch, active, steps))
+                    ends = worlds.at_chunk_end()
+                    reasons = self._batch_diverged(batch, active)
+                    finishing = worlds.judge_chunk(ends, reasons, self.limits)
+                    if finishing.any():  # the last state's force: one step more
+                        _, forces = self._batch_advance(batch, finishing, 1)
+                        worlds.finish(finishing, forces[:, 0])
+                wall = time.perf_counter() - start
+        return worlds.simulations(wall)
+
+
+class _Worlds:
+    """The per-world bookkeeping of a batch: what each world has recorded, whether it is
+    still stepped, and how it ended. All active worlds have taken the same steps."""
+
+    def __init__(
+        self,
+        scenes: Sequence[Scene],
+        settings: Sequence[RunSettings],
+        shapes: Sequence[kinematics.Polygon | None] | None,
+        detectors: DetectorSettings,
+    ) -> None:
+        self.scenes, self.timestep = list(scenes), settings[0].timestep
+        self.shapes = list(shapes) if shapes is not None else [None] * len(self.scenes)
+        self.n_steps = np.array([n_steps_for(s, self.timestep) for s in self.scenes])
+        self.monitors = [
+            StopMonitor.for_run(s, rule.stop, self.timestep, detectors=detectors, shape=p)
+            for s, rule, p in zip(self.scenes, settings, self.shapes, strict=True)
+        ]
+        self.active = np.ones(len(self.scenes), dtype=bool)
+        self.done = 0
+        self.states: list[list[np.ndarray]] = [[] for _ in self.scenes]
+        self.forces: list[list[np.ndarray]] = [[] for _ in self.scenes]
+        self.steps_taken = np.zeros(len(self.scenes), dtype=int)
+        self.diverged: list[str | None] = [None] * len(self.scenes)
+        self.stopped: list[StopReason | None] = [None] * len(self.scenes)
+        self.last_chunk: list[dict[str, np.ndarray]] = [{} for _ in self.scenes]
+
+    def chunk_steps(self) -> int:
+        """Steps to the next chunk end of any active world (a multiple of CHUNK_STEPS or a
+        window's end), as a single run chunks its window."""
+        to_window = int(np.min(self.n_steps[self.active])) - self.done
+        return min(CHUNK_STEPS - self.done % CHUNK_STEPS, to_window)
+
+    def record(self, states: np.ndarray, forces: np.ndarray) -> None:
+        """Keep the active worlds' chunk: states (W, steps + 1, 6), forces (W, steps, 2)."""
+        steps = forces.shape[1]
+        for i in np.flatnonzero(self.active):
+            blocks = self.states[i]
+            if blocks:  # the chunk's first row restates the previous chunk's last one
+                blocks[-1] = blocks[-1][:-1]
+            blocks.append(np.array(states[i]))  # a copy: an adapter may reuse its buffers
+            self.forces[i].append(np.array(forces[i]))
+            self.last_chunk[i] = {
+                key: np.ascontiguousarray(blocks[-1][:, k]) for k, key in enumerate(STATE_KEYS)
+            }
+        self.done += steps
+        self.steps_taken[self.active] = self.done
+
+    def at_chunk_end(self) -> np.ndarray:
+        """(W,) bool: the active worlds whose chunk ends here."""
+        if self.done % CHUNK_STEPS == 0:
+            return self.active.copy()
+        return self.active & (self.n_steps == self.done)
+
+    def judge_chunk(
+        self, ends: np.ndarray, reasons: Sequence[str | None], limits: DivergenceLimits
+    ) -> np.ndarray:
+        """Check the worlds whose chunk ended, as a single run does (the engine's reason,
+        divergence, the monitor); retire those that end. (W,) bool: the worlds that reached
+        their window's end, which need one more step for their last force."""
+        finishing = np.zeros_like(self.active)
+        for i in map(int, np.flatnonzero(ends)):
+            scene, chunk = self.scenes[i], self.last_chunk[i]
+            diverged = reasons[i] or check_divergence(scene, chunk, limits, self.shapes[i])
+            monitor = self.monitors[i]
+            if diverged:
+                self.diverged[i] = diverged
+            elif monitor and (stopped := monitor.feed(chunk, self.done)):
+                self.stopped[i] = stopped
+            elif self.done < self.n_steps[i]:
+                continue
+            else:
+                finishing[i] = True
+            self.active[i] = False
+        return finishing
+
+    def finish(self, finishing: np.ndarray, forces: np.ndarray) -> None:
+        """The force (W, 2) of the step from each finishing world's last state."""
+        for i in np.flatnonzero(finishing):
+            self.forces[i].append(forces[i : i + 1])
+
+    def simulations(self, wall: float) -> tuple[list[Simulation], BatchCost]:
+        """Each world's Simulation (its wall time: its share of the batch's, by steps), and
+        the batch's cost."""
+        trajectories = [self._trajectory(i) for i in range(len(self.scenes))]
+        steps = np.array([len(t) - 1 for t in trajectories])
+        total = int(steps.sum())
+        cost = BatchCost(size=len(self.scenes), wall_time_s=wall, world_steps=total)
+        sims = [
+            Simulation(
+                trajectory=trajectory,
+                n_steps=int(n),
+                wall_time_s=wall * n / total if total else 0.0,
+                diverged=self.diverged[i],
+                stop_reason=self.stopped[i],
+            )
+            for i, (trajectory, n) in enumerate(zip(trajectories, steps, strict=True))
+        ]
+        return sims, cost
+
+    def _trajectory(self, i: int) -> Trajectory:
+        """World i's trajectory: every state that has a force (Trajectory.from_state)."""
+        scene = self.scenes[i]
+        states = np.concatenate(self.states[i])
+        forces = np.concatenate(self.forces[i]) / scene.M
+        n = len(forces)  # an early end has no force for its last state: dropped
+        columns = {key: np.ascontiguousarray(states[:n, k]) for k, key in enumerate(STATE_KEYS)}
+        return Trajectory.from_steps(
+            scene,
+            self.timestep,
+            columns,
+            normal_force=np.ascontiguousarray(forces[:, 0]),
+            friction_force=np.ascontiguousarray(forces[:, 1]),
+            shape=self.shapes[i],
+        )
+
+
+def _last_line(exc: BaseException) -> str:
+    """An exception's one-line text, as a run's error message gives it."""
+    return traceback.format_exception_only(type(exc), exc)[-1].strip()
+
 
 @contextmanager
 def _collector_paused() -> Iterator[None]:
@@ -510,6 +839,13 @@ def states_and_step_forces(
     return states, forces
 
 
+def call_repeatedly(step: Callable[..., object], times: int, *args: object) -> None:
+    """``step(*args)``, ``times`` times: the bare loop (``_step_bare``) of an engine stepped
+    one call per step from Python."""
+    for _ in range(times):
+        step(*args)
+
+
 def n_steps_for(scene: Scene, timestep: float) -> int:
     """Steps a run takes: the whole steps that fit in [0, scene.t_end] (never past it)."""
     return steps_in(scene.t_end, timestep)
@@ -545,43 +881,20 @@ def check_steps(t_end: float, timestep: float, max_steps: int) -> int:
 
 
 class WorldsEngine(Engine):
-    """An engine that steps many worlds in one call (MJX, MuJoCo Warp, Newton): a single
-    run is a batch of one world, so an adapter implements only the batch hooks,
-
-    ``_open_batch(module, scenes, settings, options)``, a context manager giving ``batch``
-        One world per scene, each at its scene's initial state, ready to step from t = 0.
-    ``_batch_advance(batch, active, steps) -> (states, forces)``
-        ``steps`` steps of every world (``active``, (W,) bool, says which are read; a
-        batched engine may step them all): the centre-of-mass states before the chunk and
-        after each step, (W, steps + 1, 6), columns ``STATE_KEYS``, and the contact force
-        on the hoop of each step, (W, steps, 2), N: normal (+Y) and friction (+X), row i
-        the force of the step taken from state i (the engine's constraint force at that
-        state).
-
-    and this class gives the single-run hooks of :class:`Engine` on a batch of one: the
-    window's last chunk takes one step more for the last state's force (MuJoCo's
-    convention); a run that diverged or stopped early drops its last state, which has no
-    force. The bare loop steps the batch of one through the same hook.
-    """
+    """An engine that steps many worlds in one call (MJX, MuJoCo Warp, Newton): it
+    implements ``_open_batch`` and ``_batch_advance`` (the class docstring of
+    :class:`Engine`, Batches), and a single run is the batch loop on one world, so that a
+    lone run's row is its batched row (the same loop, the same chunks). The bare loop steps
+    a batch of one through ``_batch_advance`` in chunks: these engines record states as
+    they step (on a device, reading nothing back would leave the cost unmeasured)."""
 
     batches: ClassVar[bool] = True
-    """Steps many worlds in one call: the runner groups runs of one settings into batches."""
 
-    def _open_batch(
-        self,
-        module: ModuleType,
-        scenes: Sequence[Scene],
-        settings: RunSettings,
-        options: dict[str, Any],
-    ) -> AbstractContextManager[Any]:
-        """One world per scene at its initial state (class docstring)."""
-        raise self._no_hook("_open_batch")
-
-    def _batch_advance(
-        self, batch: Any, active: np.ndarray, steps: int
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """States (W, steps + 1, 6) and forces (W, steps, 2), N (class docstring)."""
-        raise self._no_hook("_batch_advance")
+    def _simulate(
+        self, module: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
+    ) -> Simulation:
+        sims, _ = self._simulate_batch(module, [scene], [settings], options)
+        return sims[0]
 
     @contextmanager
     def _open(
@@ -592,72 +905,28 @@ class WorldsEngine(Engine):
         options: dict[str, Any],
         *,
         record: bool,
-    ) -> Iterator[_OneWorld]:
+    ) -> Iterator[Any]:
         with self._open_batch(module, [scene], settings, options) as batch:
-            yield _OneWorld(batch, scene, settings.timestep, n_steps_for(scene, settings.timestep))
+            yield batch
 
-    def _advance(self, run: _OneWorld, done: int, steps: int, last: bool) -> Chunk:
-        states, forces = self._batch_advance(run.batch, _ONE, steps + (1 if last else 0))
-        run.states[done : done + steps + 1] = states[0, : steps + 1]
-        run.forces[done : done + len(forces[0])] = forces[0]
-        chunk = states[0, : steps + 1]
-        return Chunk(dict(zip(STATE_KEYS, chunk.T, strict=True)), done + steps)
+    # Engine's defaults again: an adapter that reuses another engine's model (MJX and MuJoCo
+    # Warp subclass MuJoCo's adapter for its MJCF) must not inherit that engine's hooks.
+    def _batch_diverged(self, batch: Any, active: np.ndarray) -> Sequence[str | None]:
+        return [None] * len(active)
 
-    def _trajectory(self, run: _OneWorld, done: int, ended_early: bool) -> Trajectory:
-        n = done if ended_early else done + 1
-        return world_trajectory(run.scene, run.timestep, run.states[:n], run.forces[:n])
-
-    def _diverged(self, run: _OneWorld) -> str | None:
+    def _batch_shapes(self, batch: Any) -> Sequence[kinematics.Polygon | None] | None:
         return None
 
-    def _contact_shape(self, run: _OneWorld) -> kinematics.Polygon | None:
-        return None
-
-    def _step_bare(self, run: _OneWorld, steps: int) -> None:
-        """The batch hook in chunks: these engines record states as they step (on a device,
-        reading nothing back would leave their cost unmeasured)."""
+    def _step_bare(self, run: Any, steps: int) -> None:
         done = 0
         while done < steps:
             chunk = min(CHUNK_STEPS, steps - done)
-            self._batch_advance(run.batch, _ONE, chunk)
+            self._batch_advance(run, _ONE_WORLD, chunk)
             done += chunk
 
 
-_ONE = np.ones(1, dtype=bool)
+_ONE_WORLD = np.ones(1, dtype=bool)
 """The ``active`` mask of a batch of one world."""
-
-
-@dataclass
-class _OneWorld:
-    """A single run of a :class:`WorldsEngine`: its batch of one and what it recorded."""
-
-    batch: Any
-    scene: Scene
-    timestep: float
-    n_steps: int
-    states: np.ndarray = field(init=False)
-    """(n_steps + 1, 6): the centre-of-mass state of every row."""
-    forces: np.ndarray = field(init=False)
-    """(n_steps + 1, 2), N: the force of the step taken from each row."""
-
-    def __post_init__(self) -> None:
-        self.states = np.empty((self.n_steps + 1, len(STATE_KEYS)))
-        self.forces = np.empty((self.n_steps + 1, 2))
-
-
-def world_trajectory(
-    scene: Scene, timestep: float, states: np.ndarray, forces: np.ndarray
-) -> Trajectory:
-    """One world's trajectory from its states (n, 6), columns ``STATE_KEYS``, and forces
-    (n, 2), N (normal, friction), row i the force of the step from state i."""
-    n = len(states)
-    return Trajectory.from_state(
-        scene,
-        t=np.arange(n) * timestep,
-        **dict(zip(STATE_KEYS, states.T, strict=True)),
-        normal_force=forces[:, 0] / scene.M,
-        friction_force=forces[:, 1] / scene.M,
-    )
 
 
 DEVICES: tuple[str, ...] = ("auto", "cpu", "gpu")

@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from hoopbench.engines.base import Chunk, Engine
+from hoopbench.engines.base import Chunk, Engine, call_repeatedly
 from hoopbench.engines.options import Option, Variant, flag, integer, number
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
@@ -194,20 +194,11 @@ class Box2DEngine(Engine):
         impulse_x, impulse_y = free_flight_residual(raw[:, 3:5], dt, run.substeps, run.gravity_y)
         f, n = impulse_x / dt, impulse_y / dt
         raw = raw[:-1]
-        return Trajectory.from_state(
-            run.scene,
-            t=dt * np.arange(len(raw)),
-            **_our_state(run.scene, raw, np.unwrap(raw[:, 2])),
-            normal_force=n,
-            friction_force=f,
-            contact=n > 0,
-            shape=None,  # the hoop's circle
-        )
+        state = _our_state(run.scene, raw, np.unwrap(raw[:, 2]))
+        return Trajectory.from_steps(run.scene, dt, state, normal_force=n, friction_force=f)
 
     def _step_bare(self, run: _Run, steps: int) -> None:
-        step, dt, n = run.world.step, run.timestep, run.substeps
-        for _ in range(steps):
-            step(dt, n)
+        call_repeatedly(run.world.step, steps, run.timestep, run.substeps)
 
 
 def free_flight_residual(

@@ -52,7 +52,7 @@ from typing import Any
 
 import numpy as np
 
-from hoopbench.engines.base import Chunk, Engine, states_and_step_forces
+from hoopbench.engines.base import Chunk, Engine, call_repeatedly, states_and_step_forces
 from hoopbench.engines.options import Option, Variant, choice, flag, integer, number
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
@@ -250,20 +250,12 @@ class DartEngine(Engine):
         states, forces = states_and_step_forces(run.blocks[0], run.blocks[1:], run.last_force)
         state = _com_state(run.scene, states)
         force = forces / run.scene.M
-        return Trajectory.from_state(
-            run.scene,
-            t=np.arange(len(force)) * run.timestep,
-            **state,
-            normal_force=force[:, 1],
-            friction_force=force[:, 0],
-            contact=force[:, 1] > 0.0,
-            shape=None,  # the hoop's circle
+        return Trajectory.from_steps(
+            run.scene, run.timestep, state, normal_force=force[:, 1], friction_force=force[:, 0]
         )
 
     def _step_bare(self, run: _Run, steps: int) -> None:
-        step = run.world.step
-        for _ in range(steps):
-            step()
+        call_repeatedly(run.world.step, steps)
 
 
 @dataclass

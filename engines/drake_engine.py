@@ -405,13 +405,12 @@ class DrakeEngine(Engine):
             raise RuntimeError(f"Drake's logger recorded {n} samples, expected {done + 1}")
         state, force = state[:, :n], force[:, :n]
         # The planar joint's generalized forces: along world x, along world z, about -y.
-        return Trajectory.from_state(
+        return Trajectory.from_steps(
             run.scene,
-            t=run.timestep * np.arange(n),
-            **_our_state(run.scene, state),
+            run.timestep,
+            _our_state(run.scene, state),
             normal_force=force[1] / run.scene.M,
             friction_force=force[0] / run.scene.M,
-            shape=None,  # the hoop's circle
         )
 
     def _step_bare(self, run: _Run, steps: int) -> None:

@@ -50,7 +50,7 @@ The sensor is read at the first RK4 stage: the force at the recorded state.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from types import ModuleType
@@ -58,7 +58,14 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from hoopbench.engines.base import Chunk, Engine, equilibrium_depth, n_steps_for
+from hoopbench.engines.base import (
+    RUN_ALONE,
+    STATE_KEYS,
+    Chunk,
+    Engine,
+    equilibrium_depth,
+    n_steps_for,
+)
 from hoopbench.engines.options import (
     Check,
     Option,
@@ -86,6 +93,10 @@ from hoopbench.models.trajectory import Trajectory
 __all__ = ["MujocoEngine"]
 
 _BAD_STATE_WARNINGS = ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")
+
+BATCH_THREADS = 1
+"""Threads of a ``mujoco.batch.Batch``: one, since the runner's worker processes already
+share the machine's cores among them (``--workers``)."""
 
 
 def _check_solref(name: str, value: Any) -> tuple[float, float]:
@@ -128,11 +139,12 @@ def _check_solimp(name: str, value: Any) -> tuple[float, ...]:
 
 @register
 class MujocoEngine(Engine):
-    """MuJoCo through ``mujoco.rollout``."""
+    """MuJoCo through ``mujoco.rollout``, and batches through ``mujoco.batch``."""
 
     name = "mujoco"
     distribution = "mujoco"
-    modules = ("mujoco", "mujoco.rollout")
+    modules = ("mujoco", "mujoco.rollout", "mujoco.batch")
+    batches = True
     geometries = MJCF_GEOMETRIES
     model_format = "MJCF (XML)"
     contact_sensor: ClassVar[bool] = True
@@ -337,10 +349,10 @@ class MujocoEngine(Engine):
         # Sensor layout: found, then the force (x, y, z) on the hoop in the world frame.
         fx = run.sensors[0, :n, 1] / run.scene.M
         fz = run.sensors[0, :n, 3] / run.scene.M
-        return Trajectory.from_state(
+        return Trajectory.from_steps(
             run.scene,
-            t=np.arange(n) * run.timestep,
-            **{key: val[:n] for key, val in run.com.items()},
+            run.timestep,
+            {key: val[:n] for key, val in run.com.items()},
             normal_force=fz,
             friction_force=fx,
             # The ring is a polygon: clearance and slip are read at its lowest point.
@@ -350,6 +362,66 @@ class MujocoEngine(Engine):
     def _step_bare(self, run: _Run, steps: int) -> None:
         """``mj_step`` in C: no sensors read, nothing recorded."""
         run.mujoco.mj_step(run.model, run.data, nstep=steps)
+
+    # ----------------------------------------------------------------- batch hooks
+    @contextmanager
+    def _open_batch(
+        self,
+        module: ModuleType,
+        scenes: Sequence[Scene],
+        settings: RunSettings,
+        options: dict[str, Any],
+    ) -> Iterator[_Batch]:
+        """One model per world (its own mu, mass, ...), in one ``mujoco.batch.Batch``; each
+        world's state row is its single run's initial state."""
+        mujoco = module
+        built = [self._build(mujoco, scene, settings, options) for scene in scenes]
+        models = [model for model, _ in built]
+        batch = mujoco.batch.Batch(models[0], len(scenes), BATCH_THREADS)
+        batch.set_models(models)
+        for field_name in ("qpos", "qvel", "qacc_warmstart", "time"):
+            rows = batch.bind(field_name)
+            for i, (_, data) in enumerate(built):
+                rows[i] = getattr(data, field_name)
+        shapes = [contact_shape(scene, settings.geometry, options) for scene in scenes]
+        start = np.array([[data.qpos[k] for k in range(3)] for _, data in built])
+        velocity = np.array([[data.qvel[k] for k in range(3)] for _, data in built])
+        time = np.array([data.time for _, data in built])
+        yield _Batch(mujoco, list(scenes), batch, shapes, start, velocity, time)
+
+    def _batch_shapes(self, batch: _Batch) -> Sequence[Polygon | None]:
+        return batch.shapes
+
+    def _batch_advance(
+        self, batch: _Batch, active: np.ndarray, steps: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """A rollout of the active worlds in C: positions, velocities and the contact
+        sensor after each step (the sensor row of a step: the force at its start state)."""
+        mujoco, ids = batch.mujoco, np.flatnonzero(active)
+        time_spec = mujoco.mjtState.mjSTATE_TIME
+        out = batch.batch.rollout(steps, record=["qpos", "qvel", "sensordata", time_spec], ids=ids)
+        states = np.full((len(active), steps + 1, len(STATE_KEYS)), np.nan)
+        forces = np.full((len(active), steps, 2), np.nan)
+        for row, i in enumerate(ids):
+            q = np.concatenate([batch.qpos[i : i + 1], out["qpos"][row]])
+            v = np.concatenate([batch.qvel[i : i + 1], out["qvel"][row]])
+            scene = batch.scenes[i]
+            # The slide z joint is the hoop centre's height above its resting height.
+            com = kinematics.com_state(scene, q[:, 0], scene.a + q[:, 1], q[:, 2], *v.T)
+            states[i] = np.stack([com[key] for key in STATE_KEYS], axis=1)
+            # Sensor layout: found, then the force (x, y, z) on the hoop in the world frame.
+            forces[i] = out["sensordata"][row][:, [3, 1]]
+            batch.qpos[i], batch.qvel[i] = q[-1], v[-1]
+            times = np.concatenate([batch.time[i : i + 1], out[time_spec][row][:, 0]])
+            batch.time[i] = times[-1]
+            if np.any(np.diff(times) <= 0):  # the batch stopped stepping it
+                batch.halted[i] = True
+        return states, forces
+
+    def _batch_diverged(self, batch: _Batch, active: np.ndarray) -> list[str | None]:
+        # mujoco.batch stops stepping a world whose warning counters rise; a single run steps
+        # on (MuJoCo resets its state), so the world runs again alone.
+        return [RUN_ALONE if halted else None for halted in batch.halted]
 
 
 @dataclass
@@ -385,6 +457,25 @@ class _Run:
         self.com = {
             k: np.empty(n_steps + 1) for k in ("X", "Y", "theta", "Xdot", "Ydot", "thetadot")
         }
+
+
+@dataclass
+class _Batch:
+    """A batch's worlds: their scenes, the ``mujoco.batch.Batch`` stepping them, and each
+    world's last recorded joint positions and velocities (slide x, slide z, hinge)."""
+
+    mujoco: ModuleType
+    scenes: list[Scene]
+    batch: Any
+    shapes: list[Polygon | None]
+    qpos: np.ndarray
+    qvel: np.ndarray
+    time: np.ndarray
+    """s, each world's simulation time after its last step: a halted world's stands still."""
+    halted: np.ndarray = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.halted = np.zeros(len(self.scenes), dtype=bool)
 
 
 @contextmanager

@@ -51,7 +51,7 @@ from typing import Any
 
 import numpy as np
 
-from hoopbench.engines.base import Chunk, Engine, states_and_step_forces
+from hoopbench.engines.base import Chunk, Engine, call_repeatedly, states_and_step_forces
 from hoopbench.engines.options import Option, Variant, flag, integer, number, optional
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
@@ -307,20 +307,17 @@ class PybulletEngine(Engine):
         states, forces = states_and_step_forces(run.blocks[0], run.blocks[1:], run.last_force)
         state = _com_state(run.scene, states)
         force = forces / run.scene.M
-        return Trajectory.from_state(
+        return Trajectory.from_steps(
             run.scene,
-            t=np.arange(len(force)) * run.timestep,
-            **state,
+            run.timestep,
+            state,
             normal_force=force[:, 0],
             friction_force=force[:, 1],
-            contact=force[:, 0] > 0.0,
             shape=run.shape,
         )
 
     def _step_bare(self, run: _Run, steps: int) -> None:
-        step, cid = run.p.stepSimulation, run.cid
-        for _ in range(steps):
-            step(cid)
+        call_repeatedly(run.p.stepSimulation, steps, run.cid)
 
 
 @dataclass

@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from hoopbench.engines.base import Chunk, Engine
+from hoopbench.engines.base import Chunk, Engine, call_repeatedly
 from hoopbench.engines.options import Option, Variant, integer, number, optional
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
@@ -195,20 +195,11 @@ class PymunkEngine(Engine):
         f[1:] = (vx[1:] - (vx[:-1] + 0.0 * dt)) / dt
         n[1:] = (vy[1:] - (vy[:-1] + gy * dt)) / dt
         f[0], n[0] = f[1], n[1]
-        return Trajectory.from_state(
-            run.scene,
-            t=dt * np.arange(len(raw)),
-            **_our_state(run.scene, raw),
-            normal_force=n,
-            friction_force=f,
-            contact=n > 0,
-            shape=None,  # the hoop's circle
-        )
+        state = _our_state(run.scene, raw)
+        return Trajectory.from_steps(run.scene, dt, state, normal_force=n, friction_force=f)
 
     def _step_bare(self, run: _Run, steps: int) -> None:
-        step, dt = run.space.step, run.timestep
-        for _ in range(steps):
-            step(dt)
+        call_repeatedly(run.space.step, steps, run.timestep)
 
 
 @dataclass

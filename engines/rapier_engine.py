@@ -62,7 +62,7 @@ from typing import Any
 
 import numpy as np
 
-from hoopbench.engines.base import Chunk, Engine, states_and_step_forces
+from hoopbench.engines.base import Chunk, Engine, call_repeatedly, states_and_step_forces
 from hoopbench.engines.options import Option, Variant, choice, flag, integer, real_tuple
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
@@ -263,20 +263,16 @@ class RapierEngine(Engine):
             vx = states[:, 4]
             friction = np.append(np.diff(vx), run.last[2]) * run.scene.M
         scale = run.scene.M * run.timestep
-        return Trajectory.from_state(
+        return Trajectory.from_steps(
             run.scene,
-            t=np.arange(len(normal)) * run.timestep,
-            **state,
+            run.timestep,
+            state,
             normal_force=normal / scale,
             friction_force=friction / scale,
-            contact=normal > 0.0,
-            shape=None,  # the hoop's circle
         )
 
     def _step_bare(self, run: _Run, steps: int) -> None:
-        step = run.world.step
-        for _ in range(steps):
-            step()
+        call_repeatedly(run.world.step, steps)
 
 
 @dataclass

@@ -11,7 +11,7 @@ from typing import Any
 from hoopbench.models.events import Events
 from hoopbench.models.trajectory import Trajectory
 
-__all__ = ["REFERENCE_ENGINE", "Run", "RunInfo", "RunResult", "RunStatus"]
+__all__ = ["REFERENCE_ENGINE", "BatchCost", "Run", "RunInfo", "RunResult", "RunStatus"]
 
 REFERENCE_ENGINE = "reference"
 """The engine name of the exact reference's runs and rows (engines/reference_engine.py)."""
@@ -37,6 +37,36 @@ class RunStatus(StrEnum):
 
 
 @dataclass(frozen=True)
+class BatchCost:
+    """What the batch a run was stepped in cost, the same for every run of it
+    (``Engine.simulate_batch``)."""
+
+    size: int
+    """Worlds stepped together in the batch."""
+    wall_time_s: float
+    """Wall time of stepping the whole batch (model building excluded), s."""
+    world_steps: int
+    """Steps taken, summed over the batch's worlds (each world's ``n_steps``)."""
+
+    @property
+    def s_per_world_step(self) -> float | None:
+        """s per world-step: the batch's wall time over its world-steps."""
+        return self.wall_time_s / self.world_steps if self.world_steps else None
+
+    @property
+    def world_steps_per_s(self) -> float | None:
+        """Throughput, world-steps per second."""
+        return self.world_steps / self.wall_time_s if self.wall_time_s > 0 else None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "batch_size": self.size,
+            "batch_wall_time_s": self.wall_time_s,
+            "batch_world_steps": self.world_steps,
+        }
+
+
+@dataclass(frozen=True)
 class RunInfo:
     engine: str
     engine_version: str | None
@@ -53,6 +83,9 @@ class RunInfo:
     stop_reason: str | None = None
     """A StopReason value if the run ended early by its stop rule; None: the window's end
     (or a failure). ``n_steps`` counts the steps recorded either way."""
+    batch: BatchCost | None = None
+    """The batch the run was stepped in (None: stepped alone). ``wall_time_s`` is then the
+    run's share of the batch's wall time, in proportion to its steps."""
 
     def to_dict(self) -> dict[str, Any]:
         out = {
@@ -68,6 +101,8 @@ class RunInfo:
         }
         if self.stop_reason is not None:  # absent otherwise: output as before stop rules
             out["stop_reason"] = self.stop_reason
+        if self.batch is not None:  # absent otherwise: output as before batches
+            out.update(self.batch.to_dict())
         return out
 
 

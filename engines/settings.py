@@ -15,7 +15,14 @@ from hoopbench.engines.options import Profile
 from hoopbench.engines.stopping import StopRule
 from hoopbench.models.checks import check_integer, check_real
 
-__all__ = ["BYTES_PER_STEP", "DEFAULT_TIMESTEP", "MAX_STEPS", "RunSettings", "parse_option_value"]
+__all__ = [
+    "BYTES_PER_STEP",
+    "DEFAULT_BATCH_SIZE",
+    "DEFAULT_TIMESTEP",
+    "MAX_STEPS",
+    "RunSettings",
+    "parse_option_value",
+]
 
 DEFAULT_TIMESTEP = 1e-4
 """Engine step, s. At 1e-3 pymunk slips 34 deg instead of 88.5 and MuJoCo reports false hops;
@@ -26,6 +33,13 @@ MAX_STEPS = 10_000_000
 """Default limit on the steps of one run (``RunSettings.max_steps`` overrides it): about
 2 minutes of MuJoCo RK4 and 3 GB of recorded states, so a mistyped --dt or --t-end is
 refused at once instead of running for hours or being killed for memory."""
+
+DEFAULT_BATCH_SIZE = 64
+"""Runs per batch for an engine that steps many worlds at once (``Engine.batches``), when a
+suite or a map is not told: enough that a batched simulator's cost per call is spread thin
+(MuJoCo's batch: reports/bench/batch.py), few enough that a batch's recordings (about
+BYTES_PER_STEP per step and world, 9 MB for a 3 s window at 1e-4 s) stay small beside a
+worker's memory."""
 
 BYTES_PER_STEP = 300
 """Memory of one recorded step, bytes, for the estimate in the error: the trajectory's 13

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from pathlib import Path
 
@@ -117,6 +118,29 @@ class Trajectory:
             energy=kinematics.energy_per_mass(
                 scene, arr["Y"], arr["Xdot"], arr["Ydot"], arr["thetadot"]
             ),
+        )
+
+    @classmethod
+    def from_steps(
+        cls,
+        scene: Scene,
+        timestep: float,
+        state: Mapping[str, ArrayLike],
+        *,
+        normal_force: NDArray,
+        friction_force: NDArray,
+        shape: kinematics.Polygon | None = None,
+    ) -> Trajectory:
+        """An engine's samples, one per step of ``timestep`` s from t = 0: centre-of-mass
+        states (``state``: the keys of ``kinematics.com_state``) and the contact force per
+        unit mass, m/s^2, in contact where the normal force is positive (from_state)."""
+        return cls.from_state(
+            scene,
+            t=np.arange(len(normal_force)) * timestep,
+            **state,
+            normal_force=normal_force,
+            friction_force=friction_force,
+            shape=shape,
         )
 
     def __len__(self) -> int:

@@ -29,7 +29,7 @@ import pandas as pd
 from hoopbench.engines.options import Profile, check_profile
 from hoopbench.engines.registry import engine_class, engine_names
 from hoopbench.engines.run import RunResult, RunStatus
-from hoopbench.engines.settings import DEFAULT_TIMESTEP, RunSettings
+from hoopbench.engines.settings import DEFAULT_BATCH_SIZE, DEFAULT_TIMESTEP, RunSettings
 from hoopbench.models.catalogue import get_scene, scene_names
 from hoopbench.models.checks import check_real
 from hoopbench.models.events import Events
@@ -56,6 +56,7 @@ __all__ = [
     "EngineRun",
     "OptionError",
     "SuiteJob",
+    "check_batch_size",
     "check_grid",
     "check_positive_int",
     "check_positive_seconds",
@@ -138,6 +139,12 @@ def check_workers(value: int | str) -> int:
     if value > cores:
         raise ValueError(f"must be at most {cores} (this machine's cores), got {value}")
     return value
+
+
+def check_batch_size(value: int | str) -> int:
+    """Runs per batch for an engine that steps many worlds at once: a whole number >= 1
+    (1: every run alone)."""
+    return check_positive_int(value)
 
 
 def default_jobs() -> int:
@@ -379,10 +386,12 @@ def run_suite(
     resume: bool = False,
     quiet: bool = False,
     executor: Executor | None = None,
+    batch_size: int = DEFAULT_BATCH_SIZE,
 ) -> RunSummary:
     """Run a checked suite into ``out`` and return how the sweep ended (the command line
     reports it); :func:`compare` is this with the runs table as its answer."""
     workers = default_jobs() if jobs is None else _checked("jobs", check_workers, jobs)
+    batch_size = _checked("batch_size", check_batch_size, batch_size)
     return suite_runs.compare(
         job.path,
         out,
@@ -393,6 +402,7 @@ def run_suite(
         trajectories=job.trajectories,
         suite=job.suite,
         executor=executor,
+        batch_size=batch_size,
     )
 
 
@@ -407,6 +417,7 @@ def compare(
     trajectories: TrajectoryChoice | str = TrajectoryChoice.NONE,
     quiet: bool = False,
     executor: Executor | None = None,
+    batch_size: int = DEFAULT_BATCH_SIZE,
 ) -> pd.DataFrame:
     """Run a suite (a .toml file or a shipped suite's name) into the folder ``out``, or
     finish it there (``resume=True``), and return its runs table: one row per run, in the
@@ -414,11 +425,14 @@ def compare(
 
     As ``hoopbench compare``: ``jobs`` worker processes (default 2), ``run_timeout`` s per
     run, only some ``engines`` of the suite, ``trajectories`` stored for none, the default
-    runs or all; ``executor`` another backend (a Dask cluster's). Raises RunnerError for a
+    runs or all; ``executor`` another backend (a Dask cluster's); ``batch_size`` runs per
+    batch for an engine that steps many worlds at once. Raises RunnerError for a
     folder that holds files without ``resume``, KeyboardInterrupt if a signal stopped it.
     """
     job = suite_job(suite, run_timeout=run_timeout, engines=engines, trajectories=trajectories)
-    summary = run_suite(job, out, jobs=jobs, resume=resume, quiet=quiet, executor=executor)
+    summary = run_suite(
+        job, out, jobs=jobs, resume=resume, quiet=quiet, executor=executor, batch_size=batch_size
+    )
     _raise_if_interrupted(summary)
     return _in_suite_order(suite_runs.runs_frame(out), job.suite)
 
@@ -509,11 +523,21 @@ def run_hop_map(
     resume: bool = False,
     quiet: bool = False,
     executor: Executor | None = None,
+    batch_size: int = DEFAULT_BATCH_SIZE,
 ) -> RunSummary:
     """Run (or finish, ``resume``) a map into ``out`` and return how it ended (the command
     line reports it); :func:`hop_map` is this with the map's table as its answer."""
     workers = default_jobs() if jobs is None else _checked("jobs", check_workers, jobs)
-    return run_map(spec, out, jobs=workers, executor=executor, resume=resume, quiet=quiet)
+    batch_size = _checked("batch_size", check_batch_size, batch_size)
+    return run_map(
+        spec,
+        out,
+        jobs=workers,
+        executor=executor,
+        resume=resume,
+        quiet=quiet,
+        batch_size=batch_size,
+    )
 
 
 def hop_map(
@@ -533,6 +557,7 @@ def hop_map(
     jobs: int | None = None,
     quiet: bool = False,
     executor: Executor | None = None,
+    batch_size: int = DEFAULT_BATCH_SIZE,
 ) -> pd.DataFrame:
     """The hop map into the folder ``out``: the exact regime and every engine's verdict over
     a grid of scenes, as ``hoopbench map``; its table, one row per (point, engine).
@@ -558,7 +583,9 @@ def hop_map(
         timestep=timestep,
         profile=profile,
     )
-    summary = run_hop_map(spec, out, jobs=jobs, resume=resume, quiet=quiet, executor=executor)
+    summary = run_hop_map(
+        spec, out, jobs=jobs, resume=resume, quiet=quiet, executor=executor, batch_size=batch_size
+    )
     _raise_if_interrupted(summary)
     return map_frame(out)
 

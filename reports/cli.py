@@ -19,7 +19,13 @@ from typing import TYPE_CHECKING, Any, NoReturn
 from hoopbench import __version__
 from hoopbench.engines.options import Profile
 from hoopbench.engines.registry import engine_class, engine_classes, get_engine
-from hoopbench.engines.settings import DEFAULT_TIMESTEP, MAX_STEPS, RunSettings, parse_option_value
+from hoopbench.engines.settings import (
+    DEFAULT_BATCH_SIZE,
+    DEFAULT_TIMESTEP,
+    MAX_STEPS,
+    RunSettings,
+    parse_option_value,
+)
 from hoopbench.models.catalogue import get_scene, scene_names
 from hoopbench.models.events import Outcome
 from hoopbench.models.scene import DegenerateSceneError, Scene
@@ -120,10 +126,22 @@ def _argument(check_name: str) -> Any:
 _positive_int = _argument("check_positive_int")
 _seconds = _argument("check_positive_seconds")
 """A time step, s: finite and > 0 (0 used to fall back on the default without a word)."""
+_batch_size = _argument("check_batch_size")
 _workers = _argument("check_workers")
 """1 up to the machine's cores: more processes than cores only slow a sweep down."""
 _grid = _argument("check_grid")
 """'40x40' -> (40, 40)."""
+
+
+def _add_batch_size(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--batch-size",
+        type=_batch_size,
+        default=DEFAULT_BATCH_SIZE,
+        metavar="N",
+        help="runs per batch for an engine that steps many worlds at once (default "
+        f"{DEFAULT_BATCH_SIZE}; 1: every run alone; docs/engines.md, Batches)",
+    )
 
 
 def _folder(text: str) -> str:
@@ -431,6 +449,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
                 resume=args.resume,
                 quiet=args.quiet,
                 executor=executor,
+                batch_size=args.batch_size,
             )
     except RunnerError as exc:
         raise UsageError(str(exc)) from None
@@ -557,6 +576,7 @@ def _cmd_map(args: argparse.Namespace) -> int:
                 executor=executor,
                 resume=args.resume,
                 quiet=args.quiet,
+                batch_size=args.batch_size,
             )
     except RunnerError as exc:
         raise UsageError(str(exc)) from None
@@ -658,6 +678,7 @@ def _add_map_options(p: argparse.ArgumentParser) -> None:
         "--out", required=True, type=_folder, help="map folder (new or empty, or --resume)"
     )
     p.add_argument("--jobs", type=_workers, help="worker processes (default 2, at most the cores)")
+    _add_batch_size(p)
     p.add_argument(
         "--resume",
         action="store_true",
@@ -725,6 +746,7 @@ def _add_compare(sub: Any, classes: Mapping[str, Any]) -> None:
         "--out", required=True, type=_folder, help="results folder (new or empty, or --resume)"
     )
     p.add_argument("--jobs", type=_workers, help="worker processes (default 2, at most the cores)")
+    _add_batch_size(p)
     p.add_argument("--resume", action="store_true", help="skip runs already stored")
     p.add_argument(
         "--run-timeout",

@@ -28,6 +28,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from hoopbench.engines.judging.columns import CLOCK_COLUMNS
 from hoopbench.reports.compare.suite import compare as run_suite
 from hoopbench.reports.hop_map.spec import MapSpec
 from hoopbench.reports.hop_map.stages import run_map
@@ -47,7 +48,7 @@ distributed = pytest.importorskip("distributed")
 
 TESTS = Path(__file__).resolve().parent
 CLI = [sys.executable, "-m", "hoopbench.reports.cli"]
-TIMING = {*TIMING_COLUMNS, "wall_time_s", "us_per_step"}
+TIMING = {*TIMING_COLUMNS, *CLOCK_COLUMNS}
 LIMIT = 120  # s: no subprocess may hang the test run
 
 TINY = """

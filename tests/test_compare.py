@@ -17,11 +17,12 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from hoopbench.engines.judging.columns import CLOCK_COLUMNS
 from hoopbench.reports.sweep.results import TIMING_COLUMNS, read_runs
 
 TESTS = Path(__file__).resolve().parent
 CLI = [sys.executable, "-m", "hoopbench.reports.cli"]
-TIMING = {*TIMING_COLUMNS, "wall_time_s", "us_per_step"}
+TIMING = {*TIMING_COLUMNS, *CLOCK_COLUMNS}
 
 FAULTS = """
 name = "faults"

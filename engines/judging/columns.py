@@ -11,7 +11,14 @@ from __future__ import annotations
 
 from enum import StrEnum
 
-__all__ = ["CONTACT_COLUMNS", "EXACT_COLUMNS", "FORCE_COLUMNS", "Col"]
+__all__ = [
+    "BATCH_COLUMNS",
+    "CLOCK_COLUMNS",
+    "CONTACT_COLUMNS",
+    "EXACT_COLUMNS",
+    "FORCE_COLUMNS",
+    "Col",
+]
 
 
 class Col(StrEnum):
@@ -134,6 +141,14 @@ class Col(StrEnum):
     HOP_HEIGHT_ERROR = "hop_height_error"
     # Where the run's trajectory is stored.
     TRAJECTORY_FILE = "trajectory_file"
+    # What the batch the run was stepped in cost (engines/base.py, Batches); a run stepped
+    # alone is a batch of one.
+    BATCH_SIZE = "batch_size"
+    """Worlds stepped together."""
+    US_PER_WORLD_STEP = "us_per_world_step"
+    """The batch's wall time over its world-steps (the steps of all its runs), us."""
+    WORLD_STEPS_PER_S = "world_steps_per_s"
+    """The batch's throughput: world-steps per second of its wall time."""
 
 
 EXACT_COLUMNS = (
@@ -180,3 +195,11 @@ FORCE_COLUMNS = (
 )
 """The contact-force columns against the exact solution (engines/judging/forces.py), in a
 suite's rows (judged with the exact solution); a map's rows have none."""
+
+BATCH_COLUMNS = (Col.BATCH_SIZE, Col.US_PER_WORLD_STEP, Col.WORLD_STEPS_PER_S)
+"""A run's batch cost (:func:`comparison.cost_columns`), in every row of a suite and a map
+beside the run's own cost (wall_time_s, us_per_step)."""
+
+CLOCK_COLUMNS = (Col.WALL_TIME_S, Col.US_PER_STEP, Col.US_PER_WORLD_STEP, Col.WORLD_STEPS_PER_S)
+"""The columns a clock measures: they differ between two runs of the same task (and between
+a run stepped alone and in a batch), everything else is the same."""

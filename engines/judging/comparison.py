@@ -25,7 +25,7 @@ from hoopbench.engines.judging.verdict import (
     row_phases_agree,
     verdict_columns,
 )
-from hoopbench.engines.run import RunResult
+from hoopbench.engines.run import BatchCost, RunInfo, RunResult
 from hoopbench.models import kinematics
 from hoopbench.models.events import Events
 from hoopbench.models.scene import Scene
@@ -35,6 +35,7 @@ from hoopbench.reference.regimes import max_slip_speed
 
 __all__ = [
     "contact_columns",
+    "cost_columns",
     "event_columns",
     "exact_columns",
     "exact_solution",
@@ -55,6 +56,21 @@ def exact_solution(scene: Scene, mu: float) -> ExactSolution:
 @functools.cache
 def _exact_max_slip_speed(scene: Scene, mu: float) -> float | None:
     return max_slip_speed(exact_solution(scene, mu))
+
+
+def cost_columns(info: RunInfo) -> dict[str, Any]:
+    """The cost of the batch a run was stepped in (Col.BATCH_SIZE and after; empty for a run
+    that produced nothing): a run stepped alone is a batch of one, its own wall time and
+    steps. A batched run's wall_time_s is its share of the batch's, by steps."""
+    if info.wall_time_s is None or info.n_steps is None:
+        return {}
+    batch = info.batch or BatchCost(1, info.wall_time_s, info.n_steps)
+    per_step = batch.s_per_world_step
+    return {
+        Col.BATCH_SIZE: batch.size,
+        Col.US_PER_WORLD_STEP: None if per_step is None else 1e6 * per_step,
+        Col.WORLD_STEPS_PER_S: batch.world_steps_per_s,
+    }
 
 
 def scene_exact_columns(scene: Scene, mu: float) -> dict[str, Any]:

@@ -1,7 +1,8 @@
 """The comparison suite: the worker that runs one task, and the compare and report steps.
 
 A suite file (:mod:`hoopbench.reports.compare.suite_file`) expands into tasks; the isolated runner
-(:mod:`hoopbench.reports.sweep.runner`) runs :func:`run_task` for each in a worker process and
+(:mod:`hoopbench.reports.sweep.runner`) runs :func:`run_task` for each in a worker process (or
+:func:`run_task_batch` for a batch of them, for an engine that steps many worlds at once) and
 stores one tidy row per run: the run's settings, its status and cost, its detected events,
 the exact events for the same scene and mu, and the errors (engine minus exact).
 """
@@ -12,20 +13,34 @@ import hashlib
 import json
 import shutil
 import sys
+from collections.abc import Hashable
 from concurrent.futures import Executor
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 from typing import Any, Protocol
 
 import pandas as pd
 
-from hoopbench.engines.judging.columns import CONTACT_COLUMNS, EXACT_COLUMNS, FORCE_COLUMNS, Col
-from hoopbench.engines.judging.comparison import exact_solution, judged_columns, scene_exact_columns
+from hoopbench.engines.judging.columns import (
+    BATCH_COLUMNS,
+    CONTACT_COLUMNS,
+    EXACT_COLUMNS,
+    FORCE_COLUMNS,
+    Col,
+)
+from hoopbench.engines.judging.comparison import (
+    cost_columns,
+    exact_solution,
+    judged_columns,
+    scene_exact_columns,
+)
 from hoopbench.engines.judging.verdict import (
     Verdict,
 )
 from hoopbench.engines.registry import engine_class, get_engine
 from hoopbench.engines.run import RunResult, RunStatus
+from hoopbench.engines.settings import DEFAULT_BATCH_SIZE
 from hoopbench.reports.compare.rows import FORMAT_VERSION, RUNS_TABLE
 from hoopbench.reports.compare.suite_file import (
     DEFAULT_VARIANT,
@@ -35,15 +50,23 @@ from hoopbench.reports.compare.suite_file import (
     load_suite,
 )
 from hoopbench.reports.sweep import results
-from hoopbench.reports.sweep.runner import RunSummary, claim_folder, row_or_failure, run_tasks
+from hoopbench.reports.sweep.runner import (
+    Batching,
+    RunSummary,
+    claim_folder,
+    row_or_failure,
+    run_tasks,
+)
 
 __all__ = [
     "FORMAT_VERSION",
     "TrajectoryChoice",
+    "batch_key",
     "compare",
     "failure_row",
     "run_and_row",
     "run_task",
+    "run_task_batch",
     "run_timeout",
 ]
 
@@ -65,6 +88,7 @@ ROW_COLUMNS = (
     Col.WALL_TIME_S,
     Col.N_STEPS,
     Col.US_PER_STEP,
+    *BATCH_COLUMNS,
     *EXACT_COLUMNS,
     Col.OUTCOME,
     Col.T_SLIP,
@@ -137,6 +161,7 @@ def _row(task: RunTask, result: RunResult) -> dict[str, Any]:
         Col.US_PER_STEP: None
         if not info.n_steps or info.wall_time_s is None
         else 1e6 * info.wall_time_s / info.n_steps,
+        **cost_columns(info),
         **scene_exact_columns(task.scene, mu),
     }
     exact = exact_solution(task.scene, mu)
@@ -152,7 +177,38 @@ def run_task(task: RunTask) -> dict[str, Any]:
 
 
 def _run_task(task: RunTask) -> dict[str, Any]:
-    result, row = run_and_row(task)
+    return _stored(task, *run_and_row(task))
+
+
+def batch_key(task: RunTask) -> Hashable | None:
+    """Runs of one engine that steps many worlds at once and of one settings share batches
+    (the runner's Batching key); any other run goes alone (None)."""
+    if not engine_class(task.engine).batches:
+        return None
+    return (task.engine, json.dumps(task.settings().to_dict(), sort_keys=True, default=repr))
+
+
+def run_task_batch(tasks: list[RunTask]) -> list[dict[str, Any]]:
+    """The batch worker: the tasks' scenes in one engine call (``Engine.run_batch``), their
+    rows in order, each as :func:`run_task` would give it. If the engine refuses the batch
+    (a bad scene raises before anything steps), each task runs alone for its own row."""
+    try:
+        engine = get_engine(tasks[0].engine)
+        judged = engine.run_batch([task.scene for task in tasks], tasks[0].settings())
+    except Exception:
+        return [run_task(task) for task in tasks]
+    return [
+        row_or_failure(partial(_stored_row, result=result), task, failure_row)
+        for task, result in zip(tasks, judged, strict=True)
+    ]
+
+
+def _stored_row(task: RunTask, result: RunResult) -> dict[str, Any]:
+    return _stored(task, result, _row(task, result))
+
+
+def _stored(task: RunTask, result: RunResult, row: dict[str, Any]) -> dict[str, Any]:
+    """The row, with the run's trajectory stored if the task asks for it."""
     if task.trajectory_dir and result.trajectory is not None:
         name = f"{task.run_id}.parquet"
         path = Path(task.trajectory_dir) / name
@@ -210,8 +266,11 @@ def compare(
     trajectories: str = TrajectoryChoice.NONE,
     executor: Executor | None = None,
     suite: Suite | None = None,
+    batch_size: int = DEFAULT_BATCH_SIZE,
 ) -> RunSummary:
-    """Run a suite file into ``out`` (see the README's results layout).
+    """Run a suite file into ``out`` (see the README's results layout). The runs of an
+    engine that steps many worlds at once go in batches of ``batch_size`` (docs/engines.md,
+    Batches); ``batch_size`` 1 runs every run alone.
 
     Raises SuiteError for a bad suite file, OutputDirNotEmptyError for a folder that holds
     files when ``resume`` is false, and FormatVersionError for resuming a folder a newer
@@ -248,6 +307,7 @@ def compare(
             resume=resume,
             meta=meta,
             quiet=quiet,
+            batching=Batching(run_task_batch, batch_key, batch_size) if batch_size > 1 else None,
         )
         copy = out / "suite.toml"
         if Path(suite_file).is_file() and not copy.exists():

@@ -22,21 +22,27 @@ from __future__ import annotations
 import json
 import sys
 from collections import Counter
-from collections.abc import Mapping, Sequence
+from collections.abc import Hashable, Mapping, Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass
 from datetime import UTC, datetime
+from functools import partial
 from pathlib import Path
 from typing import Any, TextIO
 
 from hoopbench.engines.base import n_steps_for
-from hoopbench.engines.judging.columns import CONTACT_COLUMNS, FORCE_COLUMNS, Col
-from hoopbench.engines.judging.comparison import exact_columns, exact_solution, judged_columns
+from hoopbench.engines.judging.columns import BATCH_COLUMNS, CONTACT_COLUMNS, FORCE_COLUMNS, Col
+from hoopbench.engines.judging.comparison import (
+    cost_columns,
+    exact_columns,
+    exact_solution,
+    judged_columns,
+)
 from hoopbench.engines.judging.verdict import counts_as_hop, number_or_none, verdict_columns
 from hoopbench.engines.options import Profile
-from hoopbench.engines.registry import get_engine
-from hoopbench.engines.run import RunStatus
-from hoopbench.engines.settings import RunSettings
+from hoopbench.engines.registry import engine_class, get_engine
+from hoopbench.engines.run import RunResult, RunStatus
+from hoopbench.engines.settings import DEFAULT_BATCH_SIZE, RunSettings
 from hoopbench.engines.stopping import StopRule
 from hoopbench.models.events import Outcome
 from hoopbench.models.scene import DegenerateSceneError
@@ -54,6 +60,7 @@ from hoopbench.reports.hop_map.spec import (
 )
 from hoopbench.reports.sweep import results
 from hoopbench.reports.sweep.runner import (
+    Batching,
     RunnerError,
     RunSummary,
     check_identity,
@@ -71,18 +78,21 @@ __all__ = [
     "MAP_COLUMNS",
     "ROWS_FORMAT_VERSION",
     "MapTask",
+    "map_batch_key",
     "map_failure_row",
     "reference_tasks",
     "run_map",
+    "run_map_batch",
     "run_map_task",
 ]
 
 
 # --------------------------------------------------------------------------- points, tasks
-ROWS_FORMAT_VERSION = 3
+ROWS_FORMAT_VERSION = 4
 """Version of the map's runs table (meta.json; map.toml has its own, FORMAT_VERSION): 2 adds
 the contact reading's columns (CONTACT_COLUMNS) and the verdict's flags and reason, 3 the
-contact force against the exact one (FORCE_COLUMNS), as a suite's rows have them."""
+contact force against the exact one (FORCE_COLUMNS), as a suite's rows have them; 4 the
+batch's cost (BATCH_COLUMNS)."""
 
 EXACT_CARRIED = (
     Col.REGIME,
@@ -189,6 +199,7 @@ MAP_COLUMNS = (
     Col.N_STEPS,
     Col.SIM_TIME_S,
     Col.STOP_REASON,
+    *BATCH_COLUMNS,
     *EXACT_CARRIED,
     Col.OUTCOME,
     Col.HOP_HEIGHT,
@@ -275,21 +286,44 @@ def _engine_settings(task: MapTask, t_settled: float | None) -> RunSettings:
 
 
 def _engine_row(task: MapTask) -> dict[str, Any]:
-    exact = {column: None for column in EXACT_CARRIED} | dict(task.exact)
-    row: dict[str, Any] = {**_task_columns(task), **exact}
+    not_run = _not_run_row(task)
+    if not_run is not None:
+        return not_run
+    scene, settings = task.point.scene(), _task_settings(task)
+    return _judged_row(task, get_engine(task.engine).run(scene, settings), settings)
+
+
+def _task_settings(task: MapTask) -> RunSettings:
+    return _engine_settings(task, dict(task.exact).get(Col.EXACT_T_SETTLED))
+
+
+def _not_run_row(task: MapTask) -> dict[str, Any] | None:
+    """The row of a point no engine can run (a degenerate scene), or None."""
     scene = task.point.scene()
-    if scene.is_degenerate:
-        # No engine builds a body without inertia (each would fail the same way), and no
-        # engine answer means nothing to judge: a row saying so, with no verdict.
-        message = "not run: degenerate scene"
-        try:
-            scene.require_inertia("an engine's rigid body")
-        except DegenerateSceneError as exc:
-            message = f"not run: {exc}"
-        return _ordered({**row, Col.STATUS: str(RunStatus.ERROR), Col.MESSAGE: message})
-    settings = _engine_settings(task, exact[Col.EXACT_T_SETTLED])
-    result = get_engine(task.engine).run(scene, settings)
-    info = result.info
+    if not scene.is_degenerate:
+        return None
+    # No engine builds a body without inertia (each would fail the same way), and no
+    # engine answer means nothing to judge: a row saying so, with no verdict.
+    message = "not run: degenerate scene"
+    try:
+        scene.require_inertia("an engine's rigid body")
+    except DegenerateSceneError as exc:
+        message = f"not run: {exc}"
+    row = {**_carried(task), Col.STATUS: str(RunStatus.ERROR), Col.MESSAGE: message}
+    return _ordered(row)
+
+
+def _carried(task: MapTask) -> dict[str, Any]:
+    """The task's columns and the exact ones its reference row gave."""
+    exact = {column: None for column in EXACT_CARRIED} | dict(task.exact)
+    return {**_task_columns(task), **exact}
+
+
+def _judged_row(task: MapTask, result: RunResult, settings: RunSettings) -> dict[str, Any]:
+    """The row of an engine run: its status and cost, its events judged against the exact
+    ones, and its display file written."""
+    scene, info = task.point.scene(), result.info
+    row = _carried(task)
     row.update(
         status=str(info.status),
         message=info.message,
@@ -299,6 +333,7 @@ def _engine_row(task: MapTask) -> dict[str, Any]:
         sim_time_s=None if info.n_steps is None else info.n_steps * settings.timestep,
         stop_reason=info.stop_reason,
     )
+    row.update(cost_columns(info))
     # The exact solution again (about 30 ms, small beside a run): the force columns need its
     # n(t) and f(t), which a stored reference row does not hold.
     solution = exact_solution(scene, scene.mus) if result.trajectory is not None else None
@@ -307,6 +342,41 @@ def _engine_row(task: MapTask) -> dict[str, Any]:
     if task.display_dir is not None and result.trajectory is not None:
         write_display(result.trajectory, task.display_dir, task.run_id)
     return _ordered(row)
+
+
+def map_batch_key(task: MapTask) -> Hashable | None:
+    """Engine runs of one engine that steps many worlds at once, one profile and one
+    timestep share batches (each point keeps its own stop rule); others go alone (None)."""
+    if task.engine == REFERENCE or not engine_class(task.engine).batches:
+        return None
+    return (task.engine, str(task.profile), task.timestep)
+
+
+def run_map_batch(tasks: list[MapTask]) -> list[dict[str, Any]]:
+    """The batch worker: the tasks' points in one engine call (``Engine.run_batch``), each
+    with its own stop rule; their rows in order, as :func:`run_map_task` gives them. If the
+    engine refuses the batch (a bad scene raises before anything steps), each task runs
+    alone for its own row."""
+    rows = [_not_run_row(task) for task in tasks]
+    todo = [task for task, row in zip(tasks, rows, strict=True) if row is None]
+    settings = [_task_settings(task) for task in todo]
+    try:
+        judged = get_engine(tasks[0].engine).run_batch(
+            [task.point.scene() for task in todo] if todo else [],
+            settings[0] if settings else None,
+            stops=[s.stop for s in settings],
+        )
+    except Exception:
+        return [run_map_task(task) for task in tasks]
+    found = iter(zip(todo, judged, settings, strict=True))
+    out = []
+    for row in rows:
+        if row is None:
+            task, result, each = next(found)
+            judged_row = partial(_judged_row, result=result, settings=each)
+            row = row_or_failure(judged_row, task, map_failure_row)
+        out.append(row)
+    return out
 
 
 def _hop_height_error(row: Mapping[str, Any]) -> float | None:
@@ -404,8 +474,11 @@ def run_map(
     resume: bool = False,
     quiet: bool = False,
     stream: TextIO | None = None,
+    batch_size: int = DEFAULT_BATCH_SIZE,
 ) -> RunSummary:
     """Run the map into ``out`` (two stages, one runs dataset; see the module docstring).
+    The runs of an engine that steps many worlds at once go in batches of ``batch_size``
+    (1: every run alone).
 
     ``executor``: any ``concurrent.futures.Executor`` (e.g. Dask's ``Client.get_executor()``);
     None: the runner's local pool of ``jobs`` processes. Raises OutputDirNotEmptyError for a
@@ -421,7 +494,14 @@ def run_map(
     say = None if quiet else (lambda text: _say(text, quiet, stream))
     with claim_folder(out, resume, MAP_IDENTITY, say):
         return _run_map(
-            spec, out, jobs=jobs, executor=executor, resume=resume, quiet=quiet, stream=stream
+            spec,
+            out,
+            jobs=jobs,
+            executor=executor,
+            resume=resume,
+            quiet=quiet,
+            stream=stream,
+            batch_size=batch_size,
         )
 
 
@@ -434,6 +514,7 @@ def _run_map(
     resume: bool,
     quiet: bool,
     stream: TextIO | None,
+    batch_size: int,
 ) -> RunSummary:
     _prepare(out, spec, resume)
     started_at = datetime.now(UTC)
@@ -461,7 +542,8 @@ def _run_map(
         # end of stage 2 with every row, as a map's must be, and never stand for it meanwhile.
         for name in (results.CSV_NAME, results.META_NAME):
             (out / name).unlink(missing_ok=True)
-    second = run_tasks(tasks, run_map_task, out, **common)
+    batching = Batching(run_map_batch, map_batch_key, batch_size) if batch_size > 1 else None
+    second = run_tasks(tasks, run_map_task, out, batching=batching, **common)
     summary = _summary(spec, out, [first, second], n_refs)
     if second.interrupted is None and not finished:
         _complete_meta(out, started_at, resume, summary)

@@ -12,6 +12,7 @@ import pandas as pd
 from hoopbench.engines.judging.columns import CONTACT_COLUMNS, FORCE_COLUMNS, Col
 from hoopbench.models.formats import FileFormat
 from hoopbench.reference.regimes import Regime
+from hoopbench.reports.compare.rows import with_batch_columns
 from hoopbench.reports.compare.selection import engine_rows
 from hoopbench.reports.hop_map.spec import REFERENCE, load_spec
 from hoopbench.reports.hop_map.stages import MAP_COLUMNS, ROWS_FORMAT_VERSION
@@ -37,7 +38,10 @@ def _to_3(frame: pd.DataFrame) -> pd.DataFrame:
 
 
 MAP_TABLE = FileFormat(
-    "hop map runs table", ROWS_FORMAT_VERSION, oldest=1, migrations={1: _to_2, 2: _to_3}
+    "hop map runs table",
+    ROWS_FORMAT_VERSION,
+    oldest=1,
+    migrations={1: _to_2, 2: _to_3, 3: with_batch_columns},
 )
 """A map folder's runs table (its version in meta.json, as a compare folder's)."""
 

@@ -29,6 +29,13 @@ also costs about 40 microseconds more per run.
 The runner knows nothing of engines: a task is any picklable object with a ``run_id``
 string, a worker any importable function ``task -> row dict`` (small and picklable) that
 catches its own exceptions and sets ``status`` (a :class:`RunStatus` value) in its row.
+
+Batches (:class:`Batching`): tasks that share a key (for hoopbench, one batching engine and
+one settings) are grouped, up to a batch size, into one call of a batch worker ``tasks ->
+rows``, so that a simulator stepping many worlds at once pays its start-up once. A batch is
+one call in every respect: one worker process, one time limit (the sum of its tasks'), one
+retry after a crash, and every task of it gets a row (its own, or the batch's timeout,
+crash or error row); a resumed sweep groups the tasks still to run afresh.
 """
 
 from __future__ import annotations
@@ -47,7 +54,7 @@ import threading
 import time
 import traceback
 from collections import Counter, deque
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Hashable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, BrokenExecutor, Executor, Future
 from concurrent.futures import wait as wait_futures
 from dataclasses import dataclass, field
@@ -67,6 +74,7 @@ from hoopbench.reports.sweep import results
 __all__ = [
     "IDENTITY_NAME",
     "LOCK_NAME",
+    "Batching",
     "ExecutorBrokenError",
     "FolderInUseError",
     "OtherSweepError",
@@ -75,6 +83,7 @@ __all__ = [
     "RunSummary",
     "RunnerError",
     "Task",
+    "TaskBatch",
     "WorkerCrashedError",
     "WorkerKilledError",
     "WorkerPool",
@@ -558,6 +567,63 @@ class Task(Protocol):
 Row = dict[str, Any]
 Worker = Callable[[Any], Mapping[str, Any]]
 FailureRow = Callable[[Any, RunStatus, str], Mapping[str, Any]]
+BatchWorker = Callable[[list[Any]], Sequence[Mapping[str, Any]]]
+
+
+@dataclass(frozen=True)
+class Batching:
+    """How :func:`run_tasks` groups tasks into batches."""
+
+    worker: BatchWorker
+    """An importable module-level function: tasks -> their rows, in order (as ``worker``
+    for one task; it catches its own exceptions)."""
+    key: Callable[[Any], Hashable | None]
+    """Tasks with equal keys may share a batch; None: the task runs alone. Called here."""
+    size: int
+    """Tasks per batch at most (>= 1)."""
+
+    def __post_init__(self) -> None:
+        if isinstance(self.size, bool) or not isinstance(self.size, int) or self.size < 1:
+            raise ValueError(f"batch size must be a whole number >= 1, got {self.size!r}")
+
+    def units(self, tasks: Sequence[Any]) -> list[Any]:
+        """The tasks as calls: each task alone, or a TaskBatch of up to ``size`` tasks of one
+        key, in the order of their first tasks."""
+        units: list[Any] = []
+        open_batches: dict[Hashable, list[Any]] = {}
+        for task in tasks:
+            key = self.key(task)
+            if key is None:
+                units.append(task)
+                continue
+            members = open_batches.get(key)
+            if members is None:
+                members = open_batches[key] = []
+                units.append(members)
+            members.append(task)
+            if len(members) == self.size:
+                del open_batches[key]
+        return [TaskBatch(tuple(u)) if isinstance(u, list) else u for u in units]
+
+
+@dataclass(frozen=True)
+class TaskBatch:
+    """Tasks run in one call of a batch worker."""
+
+    tasks: tuple[Any, ...]
+
+    @property
+    def run_id(self) -> str:
+        return self.tasks[0].run_id
+
+    @property
+    def label(self) -> str:
+        first = getattr(self.tasks[0], "label", self.run_id)
+        return f"{first} (batch of {len(self.tasks)})"
+
+
+def _tasks_of(unit: Any) -> tuple[Any, ...]:
+    return unit.tasks if isinstance(unit, TaskBatch) else (unit,)
 
 
 class RunnerError(RuntimeError):
@@ -702,10 +768,15 @@ def _stop_on_signals(enabled: bool) -> Iterator[_StopFlag]:
 @dataclass
 class _Attempt:
     task: Any
+    """A task, or a TaskBatch."""
     number: int
     """1 for the first try, 2 for the retry after a crash."""
     limit: float | None
     submitted_at: float
+
+    def of(self, task: Any) -> _Attempt:
+        """The same attempt, for one task of its batch."""
+        return _Attempt(task, self.number, self.limit, self.submitted_at)
 
 
 class _Sweep:
@@ -731,9 +802,35 @@ class _Sweep:
         self.counts = Counter[RunStatus]()
         self.last_flush = time.monotonic()
 
-    def limit(self, task: Any) -> float | None:
+    def limit(self, unit: Any) -> float | None:
+        """A call's time limit, s: a batch's is the sum of its tasks' (None if any has none)."""
+        limits = [self._task_limit(task) for task in _tasks_of(unit)]
+        known = [limit for limit in limits if limit is not None]
+        return float(sum(known)) if len(known) == len(limits) else None
+
+    def _task_limit(self, task: Any) -> float | None:
         limit = self.timeout(task) if callable(self.timeout) else self.timeout
         return None if limit is None or limit <= 0 else float(limit)
+
+    def record_value(self, attempt: _Attempt, value: Any, started: float | None) -> None:
+        """A call's result: a task's row, or a batch's rows, one per task."""
+        if not isinstance(attempt.task, TaskBatch):
+            self.record(attempt, self.worker_row(attempt.task, value), started)
+            return
+        tasks = attempt.task.tasks
+        if not isinstance(value, Sequence) or len(value) != len(tasks):
+            text = f"batch worker returned {type(value).__name__}, not {len(tasks)} rows"
+            self.record_failure(attempt, RunStatus.ERROR, text, started)
+            return
+        for task, row in zip(tasks, value, strict=True):
+            self.record(attempt.of(task), self.worker_row(task, row), started)
+
+    def record_failure(
+        self, attempt: _Attempt, status: RunStatus, message: str, started: float | None
+    ) -> None:
+        """The runner's row for every task of a call that produced none."""
+        for task in _tasks_of(attempt.task):
+            self.record(attempt.of(task), self.failed_row(task, status, message), started)
 
     def record(self, attempt: _Attempt, row: Mapping[str, Any], started: float | None) -> None:
         now = time.monotonic()
@@ -1092,12 +1189,19 @@ class _Calls:
     """The calls of one sweep: attempts waiting, futures in flight, and the executor."""
 
     def __init__(
-        self, sweep: _Sweep, pool: Executor, owned: bool, todo: Sequence[Any], limit: int
+        self,
+        sweep: _Sweep,
+        pool: Executor,
+        owned: bool,
+        todo: Sequence[Any],
+        limit: int,
+        batch_worker: BatchWorker | None = None,
     ) -> None:
         self.sweep = sweep
         self.pool = pool
         self.owned = owned
         """Whether this sweep made the pool (then it also shuts it down)."""
+        self.batch_worker = batch_worker
         self.queue: deque[_Attempt] = deque(_Attempt(t, 1, None, 0.0) for t in todo)
         self.in_flight: dict[Future, _Attempt] = {}
         self.limit = limit
@@ -1105,7 +1209,9 @@ class _Calls:
 
     @property
     def unfinished(self) -> int:
-        return len(self.in_flight) + len(self.queue)
+        """Tasks not run: those of the calls in flight or waiting."""
+        attempts = [*self.in_flight.values(), *self.queue]
+        return sum(len(_tasks_of(attempt.task)) for attempt in attempts)
 
     def run(self, flag: _StopFlag, tick: float) -> None:
         """Submit, collect and time out calls until all are done or a signal arrives."""
@@ -1144,7 +1250,7 @@ class _Calls:
             attempt.limit = self.sweep.limit(attempt.task)
             attempt.submitted_at = time.monotonic()
             try:
-                future = self.pool.submit(self.sweep.worker, attempt.task)
+                future = self._submit_one(attempt.task)
             except BrokenExecutor as exc:
                 self.queue.appendleft(attempt)
                 raise ExecutorBrokenError(
@@ -1152,6 +1258,12 @@ class _Calls:
                     "resume the sweep with a new one"
                 ) from exc
             self.in_flight[future] = attempt
+
+    def _submit_one(self, unit: Any) -> Future:
+        """Submit a task to the worker, or a batch to the batch worker."""
+        if isinstance(unit, TaskBatch) and self.batch_worker is not None:
+            return self.pool.submit(self.batch_worker, list(unit.tasks))
+        return self.pool.submit(self.sweep.worker, unit)
 
     def _stop_overdue(self) -> None:
         """Calls past their time limit: stopped, and a timeout row for each."""
@@ -1167,8 +1279,7 @@ class _Calls:
             else:
                 future.cancel()  # a running call cannot be cancelled: abandoned
             text = f"no result after {attempt.limit:g} s; the call was stopped"
-            row = self.sweep.failed_row(attempt.task, RunStatus.TIMEOUT, text)
-            self.sweep.record(attempt, row, start)
+            self.sweep.record_failure(attempt, RunStatus.TIMEOUT, text, start)
 
     @staticmethod
     def _started(future: Future, attempt: _Attempt) -> float | None:
@@ -1180,8 +1291,7 @@ class _Calls:
             self.queue.appendleft(_Attempt(attempt.task, 2, None, 0.0))
             return
         message = f"worker died twice: {text}"
-        row = self.sweep.failed_row(attempt.task, RunStatus.CRASHED, message)
-        self.sweep.record(attempt, row, None)
+        self.sweep.record_failure(attempt, RunStatus.CRASHED, message, None)
 
     def _settle(self, future: Future, attempt: _Attempt, stopping: bool) -> None:
         """A finished future: its row, a retry, or (stopping) nothing unless it has a row."""
@@ -1191,8 +1301,7 @@ class _Calls:
             return
         exc = future.exception()
         if exc is None:
-            row = self.sweep.worker_row(attempt.task, future.result())
-            self.sweep.record(attempt, row, self._started(future, attempt))
+            self.sweep.record_value(attempt, future.result(), self._started(future, attempt))
         elif stopping:
             return
         elif isinstance(self.pool, WorkerPool) and not isinstance(
@@ -1200,8 +1309,9 @@ class _Calls:
         ):
             # The worker function itself raised: a bug of the worker, not a dead process.
             text = f"worker raised {_exception_text(exc)}"
-            row = self.sweep.failed_row(attempt.task, RunStatus.ERROR, text)
-            self.sweep.record(attempt, row, self._started(future, attempt))
+            self.sweep.record_failure(
+                attempt, RunStatus.ERROR, text, self._started(future, attempt)
+            )
         else:
             self._crash(attempt, _exception_text(exc))
 
@@ -1223,8 +1333,11 @@ def run_tasks(
     flush_interval: float = 2.0,
     flush_rows: int = 500,
     handle_signals: bool = True,
+    batching: Batching | None = None,
 ) -> RunSummary:
     """Run ``worker(task)`` for every task and store the rows in ``out_dir``.
+
+    ``batching``: tasks of one key run as batches (:class:`Batching`, module docstring).
 
     ``worker`` must be an importable module-level function returning a small row dict with a
     ``status`` (:class:`RunStatus` value) and ideally a ``message``; ``failure_row(task,
@@ -1279,7 +1392,9 @@ def run_tasks(
         pool, in_flight_limit = _pool_for(worker, executor, jobs, max_in_flight)
         progress = _Progress(len(todo), text_stream, quiet)
         sweep = _Sweep(worker, writer, progress, failure_row, timeout, flush_interval, flush_rows)
-        calls = _Calls(sweep, pool, executor is None, todo, in_flight_limit)
+        units = batching.units(todo) if batching is not None else todo
+        batch_worker = batching.worker if batching is not None else None
+        calls = _Calls(sweep, pool, executor is None, units, in_flight_limit, batch_worker)
         stopped_by = _drive(calls, handle_signals, tick=0.1 if timeout is not None else 0.25)
         if stopped_by is None:
             _finalize(out, task_order, meta, started_at, wall_start, resume, session)

@@ -1,0 +1,123 @@
+"""The runner's batches (reports/sweep/runner.py, Batching): tasks of one key run as one call
+of a batch worker, and a batch keeps what a call has: isolation, one time limit, one retry
+after a crash, a row for every task, resume. Real worker processes, as tests/test_runner.py.
+"""
+
+from __future__ import annotations
+
+import threading
+from pathlib import Path
+
+import pytest
+from test_runner import Job, by_run_id, calls, job_failure_row, job_worker
+
+from hoopbench.engines.run import RunStatus
+from hoopbench.reports.sweep.runner import Batching, RunSummary, TaskBatch, run_tasks
+
+
+@pytest.fixture
+def scratch(tmp_path: Path) -> Path:
+    folder = tmp_path / "scratch"
+    folder.mkdir()
+    return folder
+
+
+def job_batch_worker(jobs: list[Job]) -> list[dict]:
+    """The batch worker: each job's row as job_worker gives it (a crash or hang in one job
+    is the whole call's), with the batch's run ids logged as one call."""
+    if jobs and jobs[0].scratch:
+        with open(Path(jobs[0].scratch) / "batches.log", "a") as log:
+            log.write(",".join(job.run_id for job in jobs) + "\n")
+    return [job_worker(job) for job in jobs]
+
+
+def job_key(job: Job) -> str | None:
+    """Jobs whose run id starts with 'b' batch together by their second letter."""
+    return job.run_id[:2] if job.run_id.startswith("b") else None
+
+
+def batches(folder: Path) -> list[list[str]]:
+    log = folder / "batches.log"
+    return [line.split(",") for line in log.read_text().split()] if log.exists() else []
+
+
+def run(tasks, out, size: int = 3, **kwargs) -> RunSummary:
+    kwargs.setdefault("jobs", 2)
+    kwargs.setdefault("quiet", True)
+    kwargs.setdefault("failure_row", job_failure_row)
+    batching = Batching(job_batch_worker, job_key, size)
+    return run_tasks(tasks, job_worker, out, batching=batching, **kwargs)
+
+
+def test_tasks_group_by_key_up_to_the_size_in_order():
+    jobs = [Job(name) for name in ("bx-1", "a-1", "by-1", "bx-2", "bx-3", "bx-4", "a-2", "by-2")]
+    units = Batching(job_batch_worker, job_key, 3).units(jobs)
+    assert [u.run_id if isinstance(u, Job) else [t.run_id for t in u.tasks] for u in units] == [
+        ["bx-1", "bx-2", "bx-3"],
+        "a-1",
+        ["by-1", "by-2"],
+        ["bx-4"],
+        "a-2",
+    ]
+    assert isinstance(units[0], TaskBatch) and units[0].run_id == "bx-1"
+    with pytest.raises(ValueError, match="batch size"):
+        Batching(job_batch_worker, job_key, 0)
+
+
+def test_a_batched_sweep_writes_the_rows_of_an_unbatched_one(tmp_path, scratch):
+    s = str(scratch)
+    tasks = [Job(f"bx-{i}", scratch=s) for i in range(5)] + [Job("a-1", scratch=s)]
+    tasks.append(Job("bx-diverges", "diverged", scratch=s))
+    summary = run(tasks, tmp_path / "batched")
+    run_tasks(tasks, job_worker, tmp_path / "alone", failure_row=job_failure_row, quiet=True)
+    batched, alone = by_run_id(tmp_path / "batched"), by_run_id(tmp_path / "alone")
+    kept = ("status", "message", "kind", "label", "value", "n", "attempts")
+    assert {k: [row[c] for c in kept] for k, row in batched.items()} == {
+        k: [row[c] for c in kept] for k, row in alone.items()
+    }
+    assert batches(scratch) == [["bx-0", "bx-1", "bx-2"], ["bx-3", "bx-4", "bx-diverges"]]
+    assert summary.counts == {RunStatus.OK: 6, RunStatus.DIVERGED: 1}
+
+
+def test_a_batch_that_crashes_is_retried_once_as_a_batch(tmp_path, scratch):
+    s = str(scratch)
+    tasks = [Job("bx-1", scratch=s), Job("bx-once", "crash-once", scratch=s), Job("a", scratch=s)]
+    tasks += [Job("by-1", scratch=s), Job("by-dies", "crash", scratch=s)]
+    summary = run(tasks, tmp_path / "out")
+    rows = by_run_id(tmp_path / "out")
+    assert [rows[k]["status"] for k in ("bx-1", "bx-once", "a")] == ["ok", "ok", "ok"]
+    assert rows["bx-1"]["attempts"] == rows["bx-once"]["attempts"] == 2
+    # A task that always kills its worker takes its batch with it: every task crashed.
+    assert [rows[k]["status"] for k in ("by-1", "by-dies")] == ["crashed", "crashed"]
+    assert rows["by-1"]["label"] == "label-by-1"  # each task's own failure row
+    assert calls(scratch).count("by-1") == 2
+    assert summary.counts == {RunStatus.OK: 3, RunStatus.CRASHED: 2}
+
+
+def test_a_batch_has_the_sum_of_its_tasks_time_limits(tmp_path, scratch):
+    s = str(scratch)
+    tasks = [Job("bx-hangs", "hang", scratch=s), Job("bx-2", scratch=s), Job("a", scratch=s)]
+    outcome: list[RunSummary] = []
+    sweep = threading.Thread(
+        target=lambda: outcome.append(run(tasks, tmp_path / "out", timeout=0.75)), daemon=True
+    )
+    sweep.start()
+    sweep.join(timeout=30)
+    assert outcome, "the sweep did not finish"
+    rows = by_run_id(tmp_path / "out")
+    assert [rows[k]["status"] for k in ("bx-hangs", "bx-2", "a")] == ["timeout", "timeout", "ok"]
+    assert "1.5 s" in rows["bx-2"]["message"]
+    assert outcome[0].counts == {RunStatus.OK: 1, RunStatus.TIMEOUT: 2}
+
+
+def test_a_resumed_sweep_batches_what_is_left(tmp_path, scratch):
+    s = str(scratch)
+    tasks = [Job(f"bx-{i}", scratch=s) for i in range(2)]
+    tasks += [Job("bx-flaky", "flaky-crash", scratch=s), Job("bx-3", scratch=s)]
+    run(tasks, tmp_path / "out")
+    assert by_run_id(tmp_path / "out")["bx-0"]["status"] == "crashed"
+    (scratch / "healthy").touch()
+    (scratch / "batches.log").unlink()
+    second = run(tasks, tmp_path / "out", resume=True)
+    assert batches(scratch) == [["bx-0", "bx-1", "bx-flaky"]]  # bx-3 was stored: skipped
+    assert second.skipped == 1 and second.counts == {RunStatus.OK: 3}
