@@ -50,6 +50,9 @@ __all__ = ["MjwarpEngine"]
 _MJWARP_INTEGRATORS = ("Euler", "RK4", "implicit", "implicitfast")
 """MuJoCo Warp's integrators without ``discrete`` (its step differs: no force before it)."""
 
+_STATE = ("qpos", "qvel", "qacc_warmstart", "time")
+"""What a step changes that the next step reads (MuJoCo's integration state, no actuators)."""
+
 _UNUSED_WITHOUT_WORLD_AXIS = frozenset({"dof_length"})
 """Model arrays without a world axis that may differ between worlds: read only by features
 this model turns off (``dof_length``: sleeping)."""
@@ -107,7 +110,7 @@ class MjwarpEngine(WorldsEngine, MujocoEngine):
         self, batch: _Batch, active: np.ndarray, steps: int
     ) -> tuple[np.ndarray, np.ndarray]:
         with batch.wp.ScopedDevice(batch.data.qpos.device):
-            qpos, qvel, force = batch.advance(steps)
+            qpos, qvel, force = batch.advance(steps, active)
         states = np.stack(
             [com_rows(s, q, v) for s, q, v in zip(batch.scenes, qpos, qvel, strict=True)]
         )
@@ -184,11 +187,16 @@ class _Batch:
         self.integrate(self.model, scratch)
         self.wp.synchronize()
 
-    def advance(self, steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def advance(self, steps: int, active: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """qpos, qvel (W, steps + 1, 3): before the chunk and after each step; the
-        world-frame contact force on the hoop of each step (W, steps, 3), N."""
+        world-frame contact force on the hoop of each step (W, steps, 3), N. Every world
+        steps (one launch serves all); the inactive ones get their state back after each
+        step, so that a world still running does not move while others finish."""
         mjw, wp, m, d = self.mjw, self.wp, self.model, self.data
         nworld = d.nworld
+        kept = (
+            {name: getattr(d, name).numpy().copy() for name in _STATE} if not active.all() else {}
+        )
         qpos = [d.qpos.numpy().astype(float)]
         qvel = [d.qvel.numpy().astype(float)]
         force = np.zeros((steps, nworld, 3))
@@ -199,6 +207,10 @@ class _Batch:
             world = d.contact.worldid.numpy()[:n]
             np.add.at(force[i], world, self.contact.numpy()[:n, :3])
             self.integrate(m, d)
+            for name, before in kept.items():
+                now = getattr(d, name).numpy()
+                now[~active] = before[~active]
+                getattr(d, name).assign(now)
             qpos.append(d.qpos.numpy().astype(float))
             qvel.append(d.qvel.numpy().astype(float))
         wp.synchronize()

@@ -14,7 +14,8 @@ Worlds. Each world is its own scene (mass, radius, centre of mass, inertia, fric
 gravity differ). MJX's ``put_model`` keeps the model's arrays as JAX leaves and its integer
 layout (geom types, pair indices, the names) as static metadata: the worlds' models are
 stacked leaf by leaf, which needs equal metadata; the only difference between two scenes'
-metadata is the model's name, which is made the batch's.
+metadata is the model's name (and the addresses of the names written after it), which are
+made the first world's.
 
 Contact force. Each step is ``forward`` (which fills ``efc_force`` at the state before the
 step), then the integrator; the force read between the two is the contact's at that state,
@@ -55,6 +56,9 @@ PRECISIONS: tuple[str, ...] = ("float32", "float64")
 _MJX_INTEGRATORS = ("Euler", "RK4", "implicitfast")
 """MJX's integrators (``mjx.IntegratorType``): no implicit, no discrete."""
 
+_precision_used: list[str] = []
+"""The precisions this process has run, last one last (see MjxEngine._open_batch)."""
+
 PRECISION = Option(
     "precision",
     "float32",
@@ -92,6 +96,9 @@ class MjxEngine(WorldsEngine, MujocoEngine):
         import jax
 
         jax.config.update("jax_compilation_cache_dir", str(cache_folder("jax")))
+        # An error row's message is its exception's last line: JAX's own, not its note
+        # about the frames it removed.
+        jax.config.update("jax_traceback_filtering", "off")
         return module
 
     @contextmanager
@@ -104,12 +111,16 @@ class MjxEngine(WorldsEngine, MujocoEngine):
     ) -> Iterator[_Batch]:
         import jax
 
-        x64 = bool(jax.config.jax_enable_x64)
-        jax.config.update("jax_enable_x64", options["precision"] == "float64")
-        try:
+        precision = options["precision"]
+        if _precision_used and _precision_used[-1] != precision:
+            # JAX 0.10 keeps inner traces (MJX's RK4 tableau) across a change of
+            # jax_enable_x64 and then fails to lower ("operand type mismatch"): a process
+            # that changes precision starts its traces anew (a trace takes about 5 s).
+            jax.clear_caches()
+            _chunk_function.cache_clear()
+        _precision_used.append(precision)
+        with jax.enable_x64(precision == "float64"):
             yield self._batch(module, scenes, settings, options)
-        finally:
-            jax.config.update("jax_enable_x64", x64)
 
     def _batch(
         self,
@@ -126,8 +137,10 @@ class MjxEngine(WorldsEngine, MujocoEngine):
         built = [self._build(mujoco, scene, settings, options) for scene in scenes]
         models = [mjx.put_model(m, device=device, impl="jax") for m, _ in built]
         datas = [mjx.put_data(m, d, device=device, impl="jax") for m, d in built]
-        # Scenes differ in their arrays, and in their metadata only by the model's name.
-        models = [model.replace(names=models[0].names) for model in models]
+        # Scenes differ in their arrays, and in their metadata only by the model's name (its
+        # text and the addresses of the names after it): the batch takes the first's.
+        names = {k: v for k, v in vars(models[0]).items() if k == "names" or k.startswith("name_")}
+        models = [model.replace(**names) for model in models]
         try:
             model = jax.tree.map(lambda *leaves: jnp.stack(leaves), *models)
         except ValueError as exc:
@@ -145,18 +158,20 @@ class MjxEngine(WorldsEngine, MujocoEngine):
         )
         chunk = _chunk_function(jax, options["integrator"])
         # Compiled here, outside the timed loop: zero steps (a cached compile takes ~1 s).
-        jax.block_until_ready(chunk(model, data, 0))
+        jax.block_until_ready(chunk(model, data, 0, np.ones(len(scenes), dtype=bool)))
         return _Batch(scenes=list(scenes), model=model, data=data, chunk=chunk, state=start)
 
     def _batch_advance(
         self, batch: _Batch, active: np.ndarray, steps: int
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Every world steps (vmap); chunks longer than the compiled buffer are split."""
+        """The active worlds step (vmap; the others keep their state: a world still running
+        must not move while the finishing ones take their last step); chunks longer than the
+        compiled buffer are split."""
         states, forces = [batch.state[:, None]], []
         done = 0
         while done < steps:
             n = min(CHUNK_STEPS, steps - done)
-            batch.data, qpos, qvel, force = batch.chunk(batch.model, batch.data, n)
+            batch.data, qpos, qvel, force = batch.chunk(batch.model, batch.data, n, active)
             qpos, qvel, force = (np.asarray(x[:, :n], dtype=float) for x in (qpos, qvel, force))
             rows = np.stack(
                 [com_rows(s, q, v) for s, q, v in zip(batch.scenes, qpos, qvel, strict=True)]
@@ -190,10 +205,10 @@ def _forward() -> ModuleType:
 @cache
 def _chunk_function(jax: ModuleType, integrator: str) -> Any:
     """The compiled chunk, one per process and integrator (JAX keeps a trace per shape and
-    precision; tracing RK4 takes about 5 s): (model, data, steps) -> (data, qpos, qvel,
-    force), each world's rows after each step in buffers of CHUNK_STEPS rows (``steps`` is
-    traced, so one compile serves every chunk length), and the world-frame contact force of
-    each step."""
+    precision; tracing RK4 takes about 5 s): (model, data, steps, active) -> (data, qpos,
+    qvel, force). The inactive worlds' data is left as it was; each world's rows after each
+    step fill buffers of CHUNK_STEPS rows (``steps`` is traced, so one compile serves every
+    chunk length), with the world-frame contact force of each step."""
     import jax.numpy as jnp
     from mujoco.mjx._src import forward, support
 
@@ -203,7 +218,7 @@ def _chunk_function(jax: ModuleType, integrator: str) -> Any:
         "implicitfast": forward.implicit,
     }[integrator]
 
-    def world(model: Any, data: Any, steps: Any) -> tuple[Any, Any, Any, Any]:
+    def world(model: Any, data: Any, steps: Any, active: Any) -> tuple[Any, Any, Any, Any]:
         rows = (
             jnp.zeros((CHUNK_STEPS, model.nq), data.qpos.dtype),
             jnp.zeros((CHUNK_STEPS, model.nv), data.qvel.dtype),
@@ -212,14 +227,16 @@ def _chunk_function(jax: ModuleType, integrator: str) -> Any:
 
         def step(i: Any, carry: tuple[Any, ...]) -> tuple[Any, ...]:
             data, qpos, qvel, force = carry
+            before = data
             data = forward.forward(model, data)
             f = support.contact_force(model, data, 0, to_world_frame=True)[:3]
             data = integrate(model, data)
+            data = jax.tree.map(lambda new, old: jnp.where(active, new, old), data, before)
             return data, qpos.at[i].set(data.qpos), qvel.at[i].set(data.qvel), force.at[i].set(f)
 
         return jax.lax.fori_loop(0, steps, step, (data, *rows))
 
-    return jax.jit(jax.vmap(world, in_axes=(0, 0, None)))
+    return jax.jit(jax.vmap(world, in_axes=(0, 0, None, 0)))
 
 
 @dataclass

@@ -59,7 +59,16 @@ about a thousand runs, and a sweep of more is several sweeps, each resumable on 
 Announce = Callable[[str, int], None]
 """Told a suite's name and run count before its runs are checked."""
 
-_TOP_KEYS = ("name", "engines", "timesteps", "profiles", "scenes", "scene", "variant")
+_TOP_KEYS = (
+    "name",
+    "engines",
+    "timesteps",
+    "engine_timesteps",
+    "profiles",
+    "scenes",
+    "scene",
+    "variant",
+)
 _SCENE_KEYS = (
     "name",
     "lam",
@@ -160,6 +169,12 @@ class Suite:
     variants: tuple[VariantSpec, ...] = ()
     profiles: tuple[Profile, ...] = (Profile.TUNED,)
     """Each engine's defaults run once per profile (variant ``default``)."""
+    engine_timesteps: Mapping[str, tuple[float, ...]] = field(default_factory=dict)
+    """An engine's own timesteps (s), in place of the suite's for its runs without their
+    own: an engine too slow to run at every timestep of the suite (``[engine_timesteps]``)."""
+
+    def _timesteps_of(self, variant: VariantSpec) -> tuple[float, ...]:
+        return variant.timesteps or self.engine_timesteps.get(variant.engine) or self.timesteps
 
     def _variants_of(self, scene: Scene, engine: str) -> list[VariantSpec]:
         """The variants one engine runs on one scene: its defaults (one per distinct
@@ -179,7 +194,7 @@ class Suite:
     def run_count(self) -> int:
         """How many runs :meth:`tasks` makes, counted without making them."""
         return sum(
-            len(variant.timesteps or self.timesteps)
+            len(self._timesteps_of(variant))
             for scene in self.scenes
             for engine in self.engines
             for variant in self._variants_of(scene, engine)
@@ -191,7 +206,7 @@ class Suite:
         for scene in self.scenes:
             for engine in self.engines:
                 for variant in self._variants_of(scene, engine):
-                    for dt in variant.timesteps or self.timesteps:
+                    for dt in self._timesteps_of(variant):
                         tasks.append(_task(scene, variant, dt, trajectory_dir))
         return tasks
 
@@ -204,8 +219,9 @@ class Suite:
                 f"(it has {', '.join(self.engines)})"
             )
         variants = tuple(v for v in self.variants if v.engine in engines)
+        own = {e: dt for e, dt in self.engine_timesteps.items() if e in engines}
         return Suite(
-            self.name, tuple(engines), self.timesteps, self.scenes, variants, self.profiles
+            self.name, tuple(engines), self.timesteps, self.scenes, variants, self.profiles, own
         )
 
 
@@ -317,7 +333,8 @@ def parse_suite(data: Mapping[str, Any], announce: Announce | None = None) -> Su
         raise SuiteError(f"scene name(s) {', '.join(repeated)} given twice")
     variants = _variants(data.get("variant", []), engines, names)
     profiles = _profiles(data.get("profiles", ["tuned"]), "profiles")
-    suite = Suite(name, engines, timesteps, tuple(scenes), variants, profiles)
+    own = _engine_timesteps(data.get("engine_timesteps", {}), engines)
+    suite = Suite(name, engines, timesteps, tuple(scenes), variants, profiles, own)
     count = suite.run_count
     if count > MAX_SUITE_RUNS:
         raise SuiteError(
@@ -350,6 +367,19 @@ def _engines(value: Any) -> tuple[str, ...]:
     if len(set(value)) != len(value):
         raise SuiteError(f"engines: an engine is listed twice in {value!r}")
     return tuple(value)
+
+
+def _engine_timesteps(value: Any, engines: Sequence[str]) -> dict[str, tuple[float, ...]]:
+    """``[engine_timesteps]``: engine name -> its own list of timesteps, s."""
+    if not isinstance(value, Mapping):
+        raise SuiteError(f"engine_timesteps must be a table (engine = [timesteps]), got {value!r}")
+    for engine in value:
+        if engine not in engines:
+            raise SuiteError(
+                f"engine_timesteps: {engine!r} is not one of the suite's engines "
+                f"({', '.join(engines)})"
+            )
+    return {e: _timesteps(dt, f"engine_timesteps.{e}") for e, dt in value.items()}
 
 
 def _timesteps(value: Any, key: str) -> tuple[float, ...]:
