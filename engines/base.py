@@ -909,14 +909,6 @@ class WorldsEngine(Engine):
         with self._open_batch(module, [scene], settings, options) as batch:
             yield batch
 
-    # Engine's defaults again: an adapter that reuses another engine's model (MJX and MuJoCo
-    # Warp subclass MuJoCo's adapter for its MJCF) must not inherit that engine's hooks.
-    def _batch_diverged(self, batch: Any, active: np.ndarray) -> Sequence[str | None]:
-        return [None] * len(active)
-
-    def _batch_shapes(self, batch: Any) -> Sequence[kinematics.Polygon | None] | None:
-        return None
-
     def _step_bare(self, run: Any, steps: int) -> None:
         done = 0
         while done < steps:

@@ -54,7 +54,7 @@ from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from types import ModuleType
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 
@@ -90,7 +90,7 @@ from hoopbench.models.mjcf import (
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 
-__all__ = ["MujocoEngine"]
+__all__ = ["MujocoEngine", "mjcf_text", "model_at_start"]
 
 _BAD_STATE_WARNINGS = ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")
 
@@ -147,9 +147,6 @@ class MujocoEngine(Engine):
     batches = True
     geometries = MJCF_GEOMETRIES
     model_format = "MJCF (XML)"
-    contact_sensor: ClassVar[bool] = True
-    """The MJCF declares the contact-force sensor (the backends that refuse it read the
-    force from the constraint instead)."""
     options = (
         Option(
             "solref",
@@ -262,30 +259,14 @@ class MujocoEngine(Engine):
         check_restitution(settings.restitution)
 
     def _model_text(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
-        return scene_to_mjcf(
-            scene,
-            mu=self.mu_for(scene, settings),
-            timestep=settings.timestep,
-            restitution=settings.restitution,
-            geometry=settings.geometry,
-            options=options,
-            contact_sensor=self.contact_sensor,
-        )
+        return mjcf_text(scene, settings, options, self.mu_for(scene, settings))
 
     def _build(
         self, mujoco: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
     ) -> tuple[Any, Any]:
         """Model and data at the initial state (equilibrium penetration, see module doc)."""
-        model = mujoco.MjModel.from_xml_string(self._model_text(scene, settings, options))
-        data = mujoco.MjData(model)
-        # The lowest point of the contact shape (the ring's vertex) on the floor, rolling.
-        shape = contact_shape(scene, settings.geometry, options)
-        x, y, theta, xdot, ydot, thetadot = kinematics.rolling_start(scene, shape)
-        data.qpos[:] = (x, y - scene.a, theta)
-        data.qvel[:] = (xdot, ydot, thetadot)
-        data.qpos[1] -= _equilibrium_penetration(mujoco, model, data, scene.a)
-        mujoco.mj_forward(model, data)
-        return model, data
+        text = self._model_text(scene, settings, options)
+        return model_at_start(mujoco, text, scene, settings.geometry, options)
 
     # ----------------------------------------------------------------- stepping hooks
     @contextmanager
@@ -422,6 +403,45 @@ class MujocoEngine(Engine):
         # mujoco.batch stops stepping a world whose warning counters rise; a single run steps
         # on (MuJoCo resets its state), so the world runs again alone.
         return [RUN_ALONE if halted else None for halted in batch.halted]
+
+
+def mjcf_text(
+    scene: Scene,
+    settings: RunSettings,
+    options: dict[str, Any],
+    mu: float,
+    *,
+    contact_sensor: bool = True,
+) -> str:
+    """The MJCF of a run (models/mjcf.py): this adapter's, and MJX's and MuJoCo Warp's,
+    which read the same model (MJX without the contact sensor it refuses)."""
+    return scene_to_mjcf(
+        scene,
+        mu=mu,
+        timestep=settings.timestep,
+        restitution=settings.restitution,
+        geometry=settings.geometry,
+        options=options,
+        contact_sensor=contact_sensor,
+    )
+
+
+def model_at_start(
+    mujoco: ModuleType, text: str, scene: Scene, geometry: str, options: dict[str, Any]
+) -> tuple[Any, Any]:
+    """MuJoCo C's model of an MJCF text and its data at the scene's initial state, at the
+    equilibrium penetration (module doc): the start of this adapter's runs, and of MJX's
+    and MuJoCo Warp's, which put these on their device."""
+    model = mujoco.MjModel.from_xml_string(text)
+    data = mujoco.MjData(model)
+    # The lowest point of the contact shape (the ring's vertex) on the floor, rolling.
+    shape = contact_shape(scene, geometry, options)
+    x, y, theta, xdot, ydot, thetadot = kinematics.rolling_start(scene, shape)
+    data.qpos[:] = (x, y - scene.a, theta)
+    data.qvel[:] = (xdot, ydot, thetadot)
+    data.qpos[1] -= _equilibrium_penetration(mujoco, model, data, scene.a)
+    mujoco.mj_forward(model, data)
+    return model, data
 
 
 @dataclass
