@@ -38,11 +38,11 @@ from typing import Any
 import numpy as np
 
 from hoopbench.engines.base import DEVICE, WorldsEngine, import_warp, warp_device
-from hoopbench.engines.mujoco_engine import MujocoEngine, mjcf_text, model_at_start
+from hoopbench.engines.mujoco_engine import MjcfEngine, MujocoEngine
 from hoopbench.engines.options import Variant, choice
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
-from hoopbench.models.mjcf import check_restitution, com_rows
+from hoopbench.models.mjcf import com_rows
 from hoopbench.models.scene import Scene
 
 __all__ = ["MjwarpEngine"]
@@ -59,33 +59,18 @@ this model turns off (``dof_length``: sleeping)."""
 
 
 @register
-class MjwarpEngine(WorldsEngine):
+class MjwarpEngine(WorldsEngine, MjcfEngine):
     """MuJoCo Warp: the MuJoCo adapter's model, nworld worlds in one Data."""
 
     name = "mjwarp"
     distribution = "mujoco-warp"
     modules = ("mujoco", "warp", "mujoco_warp")
     geometries = ("sphere",)
-    model_format = "MJCF (XML)"
     options = (
         *MujocoEngine.options_except("ring_segments", integrator=choice(*_MJWARP_INTEGRATORS)),
         DEVICE,
     )
     variants = (Variant("cone=pyramidal", options={"cone": "pyramidal"}),)
-
-    def _check(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> None:
-        """Restitution != 0 raises ValueError before a run, as for MuJoCo."""
-        check_restitution(settings.restitution)
-
-    def _model_text(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
-        mu = self.mu_for(scene, settings)
-        return mjcf_text(scene, settings, options, mu, contact_sensor=True)
-
-    def _build(
-        self, mujoco: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
-    ) -> tuple[Any, Any]:
-        text = self._model_text(scene, settings, options)
-        return model_at_start(mujoco, text, scene, settings.geometry, options)
 
     def _import(self) -> ModuleType:
         import_warp()

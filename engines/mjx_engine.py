@@ -42,11 +42,11 @@ from typing import Any
 import numpy as np
 
 from hoopbench.engines.base import CHUNK_STEPS, DEVICE, WorldsEngine, cache_folder
-from hoopbench.engines.mujoco_engine import MujocoEngine, mjcf_text, model_at_start
+from hoopbench.engines.mujoco_engine import MjcfEngine, MujocoEngine
 from hoopbench.engines.options import Option, Variant, choice
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
-from hoopbench.models.mjcf import check_restitution, com_rows
+from hoopbench.models.mjcf import com_rows
 from hoopbench.models.scene import Scene
 
 __all__ = ["PRECISIONS", "MjxEngine"]
@@ -69,14 +69,14 @@ PRECISION = Option(
 
 
 @register
-class MjxEngine(WorldsEngine):
+class MjxEngine(WorldsEngine, MjcfEngine):
     """MuJoCo XLA (JAX): the MuJoCo adapter's model, worlds stepped with vmap."""
 
     name = "mjx"
     distribution = "mujoco-mjx"
     modules = ("mujoco", "jax", "mujoco.mjx")
     geometries = ("sphere",)
-    model_format = "MJCF (XML)"
+    contact_sensor = False
     options = (
         *MujocoEngine.options_except(
             "noslip_iterations",  # MJX's JAX solver has no noslip pass
@@ -90,20 +90,6 @@ class MjxEngine(WorldsEngine):
         Variant("precision=float64", options={"precision": "float64"}),
         Variant("cone=pyramidal", options={"cone": "pyramidal"}),
     )
-
-    def _check(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> None:
-        """Restitution != 0 raises ValueError before a run, as for MuJoCo."""
-        check_restitution(settings.restitution)
-
-    def _model_text(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
-        mu = self.mu_for(scene, settings)
-        return mjcf_text(scene, settings, options, mu, contact_sensor=False)
-
-    def _build(
-        self, mujoco: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
-    ) -> tuple[Any, Any]:
-        text = self._model_text(scene, settings, options)
-        return model_at_start(mujoco, text, scene, settings.geometry, options)
 
     def _import(self) -> ModuleType:
         module = super()._import()

@@ -54,7 +54,7 @@ from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from types import ModuleType
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -90,7 +90,7 @@ from hoopbench.models.mjcf import (
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 
-__all__ = ["MujocoEngine", "mjcf_text", "model_at_start"]
+__all__ = ["MjcfEngine", "MujocoEngine", "mjcf_text", "model_at_start"]
 
 _BAD_STATE_WARNINGS = ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")
 
@@ -137,8 +137,32 @@ def _check_solimp(name: str, value: Any) -> tuple[float, ...]:
     return solimp
 
 
+class MjcfEngine(Engine):
+    """An engine that reads the MJCF of models/mjcf.py and starts at MuJoCo C's equilibrium
+    penetration: MuJoCo, and MJX and MuJoCo Warp, which put MuJoCo C's model and data on
+    their device. ``contact_sensor``: whether the model declares the contact-force sensor."""
+
+    model_format = "MJCF (XML)"
+    contact_sensor: ClassVar[bool] = True
+
+    def _check(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> None:
+        """Restitution != 0 raises ValueError before a run (see scene_to_mjcf)."""
+        check_restitution(settings.restitution)
+
+    def _model_text(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
+        mu = self.mu_for(scene, settings)
+        return mjcf_text(scene, settings, options, mu, contact_sensor=self.contact_sensor)
+
+    def _build(
+        self, mujoco: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
+    ) -> tuple[Any, Any]:
+        """Model and data at the initial state (equilibrium penetration, see module doc)."""
+        text = self._model_text(scene, settings, options)
+        return model_at_start(mujoco, text, scene, settings.geometry, options)
+
+
 @register
-class MujocoEngine(Engine):
+class MujocoEngine(MjcfEngine):
     """MuJoCo through ``mujoco.rollout``, and batches through ``mujoco.batch``."""
 
     name = "mujoco"
@@ -146,7 +170,6 @@ class MujocoEngine(Engine):
     modules = ("mujoco", "mujoco.rollout", "mujoco.batch")
     batches = True
     geometries = MJCF_GEOMETRIES
-    model_format = "MJCF (XML)"
     options = (
         Option(
             "solref",
@@ -252,21 +275,6 @@ class MujocoEngine(Engine):
             for option in cls.options
             if option.name not in dropped
         )
-
-    # ----------------------------------------------------------------- hooks
-    def _check(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> None:
-        """Restitution != 0 raises ValueError before a run (see scene_to_mjcf)."""
-        check_restitution(settings.restitution)
-
-    def _model_text(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
-        return mjcf_text(scene, settings, options, self.mu_for(scene, settings))
-
-    def _build(
-        self, mujoco: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
-    ) -> tuple[Any, Any]:
-        """Model and data at the initial state (equilibrium penetration, see module doc)."""
-        text = self._model_text(scene, settings, options)
-        return model_at_start(mujoco, text, scene, settings.geometry, options)
 
     # ----------------------------------------------------------------- stepping hooks
     @contextmanager
