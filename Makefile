@@ -45,6 +45,7 @@ findings: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python -m hoopbench.reports.bench.overhead
+	$(BIN)/python -m hoopbench.reports.bench.batch
 	$(BIN)/python -m hoopbench.reports.bench.batched_engines
 
 # mypy checks the package as installed, `hoopbench.*`: from the editable install's tree of

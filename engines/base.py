@@ -680,7 +680,6 @@ class _Worlds:
         self.done = 0
         self.states: list[list[np.ndarray]] = [[] for _ in self.scenes]
         self.forces: list[list[np.ndarray]] = [[] for _ in self.scenes]
-        self.steps_taken = np.zeros(len(self.scenes), dtype=int)
         self.diverged: list[str | None] = [None] * len(self.scenes)
         self.stopped: list[StopReason | None] = [None] * len(self.scenes)
         self.last_chunk: list[dict[str, np.ndarray]] = [{} for _ in self.scenes]
@@ -704,7 +703,6 @@ class _Worlds:
                 key: np.ascontiguousarray(blocks[-1][:, k]) for k, key in enumerate(STATE_KEYS)
             }
         self.done += steps
-        self.steps_taken[self.active] = self.done
 
     def at_chunk_end(self) -> np.ndarray:
         """(W,) bool: the active worlds whose chunk ends here."""

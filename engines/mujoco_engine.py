@@ -9,7 +9,9 @@ the force acting at the state *before* step i: the adapter rolls out one extra s
 every recorded state, t = 0 and t_end included, has its own force. The sensor equals
 ``mj_contactForce`` summed over all contacts and rotated into the world frame, and the
 chunked rollout equals a plain ``mj_step`` loop bit for bit (both checked in
-tests/test_mujoco.py).
+tests/test_mujoco.py). A batch of runs (``Engine.simulate_batch``) steps through
+``mujoco.batch.Batch`` instead, one model per world, with the same rows bit for bit
+(tests/test_batch.py).
 
 Soft contact start. MuJoCo's contacts are springs with an equilibrium penetration (8e-8 m
 in the seed scene with the defaults, 1.3e-6 m at solref 0.002). A hoop started exactly

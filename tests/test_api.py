@@ -15,7 +15,7 @@ import pandas as pd
 import pytest
 
 import hoopbench as hb
-from hoopbench.engines.judging.columns import CLOCK_COLUMNS
+from hoopbench.engines.judging.columns import COST_COLUMNS
 from hoopbench.models.catalogue import get_scene
 from hoopbench.reference.exact import solve_exact
 from hoopbench.reports import api
@@ -141,7 +141,7 @@ def test_run_rows_are_the_rows_a_suite_stores(tmp_path):
     for run in runs:
         row = stored.loc[run.row["run_id"]]
         for key, value in run.row.items():
-            if key == "run_id" or key in CLOCK_COLUMNS:
+            if key == "run_id" or key in COST_COLUMNS:
                 continue  # the index, and the clock
             assert _same(row[key], value), (run.task.label, key, row[key], value)
 

@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hoopbench.engines.judging.columns import CLOCK_COLUMNS, Col
+from hoopbench.engines.judging.columns import COST_COLUMNS, Col
 from hoopbench.reports.compare.rows import with_batch_columns
 from hoopbench.reports.compare.suite import compare, runs_frame
 from hoopbench.reports.hop_map.spec import MapSpec
@@ -24,7 +24,7 @@ engines = ["mujoco", "pymunk"]
 timesteps = [1e-3]
 scenes = ["seed-mu", "hop-top", "hop-bottom"]
 """
-COST = {*TIMING_COLUMNS, *CLOCK_COLUMNS, Col.BATCH_SIZE}
+COST = {*TIMING_COLUMNS, *COST_COLUMNS}
 """Columns that differ between a batched and a lone run of the same task."""
 
 
@@ -67,8 +67,9 @@ def test_a_map_batches_mujoco_and_writes_the_same_rows(tmp_path):
         x_range=(0.05, 0.3),
         y_range=(0.5, 0.9),
     )
-    with ThreadPoolExecutor(2) as pool:
+    with ThreadPoolExecutor(1) as pool:  # one call at a time: all six points in one batch
         run_map(spec, tmp_path / "batched", executor=pool, quiet=True, batch_size=6)
+    with ThreadPoolExecutor(2) as pool:
         run_map(spec, tmp_path / "alone", executor=pool, quiet=True, batch_size=1)
     batched, alone = map_frame(tmp_path / "batched"), map_frame(tmp_path / "alone")
     _same_but_cost(batched, alone)

@@ -28,7 +28,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from hoopbench.engines.judging.columns import CLOCK_COLUMNS
+from hoopbench.engines.judging.columns import COST_COLUMNS
 from hoopbench.reports.compare.suite import compare as run_suite
 from hoopbench.reports.hop_map.spec import MapSpec
 from hoopbench.reports.hop_map.stages import run_map
@@ -48,7 +48,7 @@ distributed = pytest.importorskip("distributed")
 
 TESTS = Path(__file__).resolve().parent
 CLI = [sys.executable, "-m", "hoopbench.reports.cli"]
-TIMING = {*TIMING_COLUMNS, *CLOCK_COLUMNS}
+TIMING = {*TIMING_COLUMNS, *COST_COLUMNS}
 LIMIT = 120  # s: no subprocess may hang the test run
 
 TINY = """

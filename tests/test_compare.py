@@ -17,12 +17,12 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from hoopbench.engines.judging.columns import CLOCK_COLUMNS
+from hoopbench.engines.judging.columns import COST_COLUMNS
 from hoopbench.reports.sweep.results import TIMING_COLUMNS, read_runs
 
 TESTS = Path(__file__).resolve().parent
 CLI = [sys.executable, "-m", "hoopbench.reports.cli"]
-TIMING = {*TIMING_COLUMNS, *CLOCK_COLUMNS}
+TIMING = {*TIMING_COLUMNS, *COST_COLUMNS}
 
 FAULTS = """
 name = "faults"

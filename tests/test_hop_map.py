@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hoopbench.engines.judging.columns import CLOCK_COLUMNS, FORCE_COLUMNS
+from hoopbench.engines.judging.columns import COST_COLUMNS, FORCE_COLUMNS
 from hoopbench.engines.judging.comparison import event_columns
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.settings import RunSettings
@@ -44,7 +44,7 @@ TINY = MapSpec(nx=3, ny=2, engines=("pymunk",), timestep=1e-3, t_end=1.0)
 """lam 0.5, 0.75, 1 x chi 0.05, 2: rolls at chi 0.05, a hop (lam 0.5, chi 2), lifts-at-start
 (lam chi > 1), and lam = 1 with eps = 0, where I = 0 and no engine can build the body."""
 TINY_ARGS = ["--grid", "3x2", "--engines", "pymunk", "--dt", "1e-3", "--t-end", "1"]
-TIMING = [*results.TIMING_COLUMNS, *CLOCK_COLUMNS]
+TIMING = [*results.TIMING_COLUMNS, *COST_COLUMNS]
 
 
 def comparable(frame: pd.DataFrame) -> pd.DataFrame:

@@ -43,6 +43,7 @@ def batches(folder: Path) -> list[list[str]]:
 
 def run(tasks, out, size: int = 3, **kwargs) -> RunSummary:
     kwargs.setdefault("jobs", 2)
+    kwargs.setdefault("max_in_flight", 1)  # one call at a time: batches of the full size
     kwargs.setdefault("quiet", True)
     kwargs.setdefault("failure_row", job_failure_row)
     batching = Batching(job_batch_worker, job_key, size)
@@ -60,6 +61,11 @@ def test_tasks_group_by_key_up_to_the_size_in_order():
         "a-2",
     ]
     assert isinstance(units[0], TaskBatch) and units[0].run_id == "bx-1"
+    # With four calls in flight, four tasks of one key make four batches, not two: no
+    # worker waits while another steps a full batch.
+    spread = Batching(job_batch_worker, job_key, 3).units(jobs, parallel=4)
+    sizes = [len(u.tasks) if isinstance(u, TaskBatch) else 0 for u in spread]
+    assert sizes == [1, 0, 1, 1, 1, 1, 0, 1]
     with pytest.raises(ValueError, match="batch size"):
         Batching(job_batch_worker, job_key, 0)
 

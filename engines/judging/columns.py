@@ -13,8 +13,8 @@ from enum import StrEnum
 
 __all__ = [
     "BATCH_COLUMNS",
-    "CLOCK_COLUMNS",
     "CONTACT_COLUMNS",
+    "COST_COLUMNS",
     "EXACT_COLUMNS",
     "FORCE_COLUMNS",
     "Col",
@@ -200,6 +200,12 @@ BATCH_COLUMNS = (Col.BATCH_SIZE, Col.US_PER_WORLD_STEP, Col.WORLD_STEPS_PER_S)
 """A run's batch cost (:func:`comparison.cost_columns`), in every row of a suite and a map
 beside the run's own cost (wall_time_s, us_per_step)."""
 
-CLOCK_COLUMNS = (Col.WALL_TIME_S, Col.US_PER_STEP, Col.US_PER_WORLD_STEP, Col.WORLD_STEPS_PER_S)
-"""The columns a clock measures: they differ between two runs of the same task (and between
-a run stepped alone and in a batch), everything else is the same."""
+COST_COLUMNS = (
+    Col.WALL_TIME_S,
+    Col.US_PER_STEP,
+    Col.BATCH_SIZE,
+    Col.US_PER_WORLD_STEP,
+    Col.WORLD_STEPS_PER_S,
+)
+"""What a run cost, and the batch it was stepped in: the only columns that differ between two
+runs of the same task (alone or in a batch, on one machine or a cluster)."""

@@ -14,7 +14,9 @@ nothing here asserts a time.
   building excluded) and world-steps per second; best of ``--repeat``.
 * **The hop map.** The map of MuJoCo alone, on ``--grid`` with ``--jobs`` worker processes,
   run twice: every run alone (``batch_size`` 1) and in batches (the default). Its wall time
-  (both stages), the engine stage's (from the first to the last MuJoCo row finished), the
+  (both stages), the CPU time of this process and its workers (``bench.map.CpuMeter``;
+  other users of the machine do not inflate it, as they do the wall times), the engine
+  stage's (from the last reference row to the last MuJoCo row finished), the
   sum of the MuJoCo runs' own stepping times, and whether both wrote the same rows (cost
   columns aside). A smaller grid than 40x40 is extrapolated to 40x40 by the number of
   points, and says so.
@@ -32,17 +34,19 @@ from typing import Any
 
 import pandas as pd
 
-from hoopbench.engines.judging.columns import CLOCK_COLUMNS, Col
+from hoopbench.engines.judging.columns import COST_COLUMNS, Col
 from hoopbench.engines.registry import get_engine
+from hoopbench.engines.run import Run
 from hoopbench.engines.settings import DEFAULT_BATCH_SIZE, RunSettings
 from hoopbench.models.scene import Scene
+from hoopbench.reports.bench.map import CpuMeter
 from hoopbench.reports.hop_map.spec import MapSpec, check_grid
 from hoopbench.reports.hop_map.stages import run_map
 from hoopbench.reports.hop_map.table import map_frame
 from hoopbench.reports.sweep.results import TIMING_COLUMNS
 
 DT = 1e-4
-COST = {*TIMING_COLUMNS, *CLOCK_COLUMNS, Col.BATCH_SIZE}
+COST = {*TIMING_COLUMNS, *COST_COLUMNS}
 """Columns that differ between a batched and a lone run."""
 FULL_MAP = 40 * 40
 
@@ -57,22 +61,19 @@ def world_scenes(size: int, steps: int) -> list[Scene]:
     return [s.with_(t_end=steps * DT) for s in scenes[:size]]
 
 
-def step_cost(size: int, steps: int, repeat: int, alone: bool) -> dict[str, Any]:
+def step_cost(engine_name: str, size: int, steps: int, repeat: int, alone: bool) -> dict[str, Any]:
     """us per world-step of the batch path, of single runs (if ``alone``) and of the bare
     loop, for ``size`` worlds of ``steps`` steps; best of ``repeat``."""
-    engine, settings = get_engine("mujoco"), RunSettings(timestep=DT)
+    engine, settings = get_engine(engine_name), RunSettings(timestep=DT)
     scenes = world_scenes(size, steps)
     batch, single = [], []
     for _ in range(repeat):
         runs = engine.simulate_batch(scenes, settings)
-        cost = runs[0].info.batch
-        if cost is None or any(run.info.status != "ok" for run in runs):
+        if any(run.info.status != "ok" for run in runs):
             raise RuntimeError(f"a batch of {size} did not run: {runs[0].info.message}")
-        batch.append(cost.wall_time_s / cost.world_steps)
+        batch.append(_per_step(runs))  # an engine without batches: its runs one by one
         if alone:
-            lone = [engine.simulate(scene, settings) for scene in scenes]
-            wall = sum(run.info.wall_time_s or 0.0 for run in lone)
-            single.append(wall / sum(run.info.n_steps or 0 for run in lone))
+            single.append(_per_step([engine.simulate(scene, settings) for scene in scenes]))
     bare = min(engine.bare_loop_time(scenes[0], settings) for _ in range(repeat)) / steps
     return {
         "size": size,
@@ -82,12 +83,23 @@ def step_cost(size: int, steps: int, repeat: int, alone: bool) -> dict[str, Any]
     }
 
 
+def _per_step(runs: list[Run]) -> float:
+    """s per world-step of runs: their stepping wall time (a batch's, once) over their steps."""
+    cost = runs[0].info.batch
+    if cost is not None:
+        return cost.wall_time_s / cost.world_steps
+    wall = sum(run.info.wall_time_s or 0.0 for run in runs)
+    return wall / sum(run.info.n_steps or 0 for run in runs)
+
+
 def map_cost(grid: tuple[int, int], jobs: int, batch_size: int, out: Path) -> dict[str, Any]:
     """The MuJoCo hop map on ``grid``: wall times and the runs' own stepping time."""
     spec = MapSpec(nx=grid[0], ny=grid[1], engines=("mujoco",))
-    start = time.perf_counter()
-    summary = run_map(spec, out, jobs=jobs, quiet=True, batch_size=batch_size)
-    wall = time.perf_counter() - start
+    with CpuMeter() as meter:
+        start = time.perf_counter()
+        summary = run_map(spec, out, jobs=jobs, quiet=True, batch_size=batch_size)
+        wall = time.perf_counter() - start
+    cpu = meter.seconds
     frame = map_frame(out)
     engine = frame[frame[Col.ENGINE] == "mujoco"]
     finished = pd.to_datetime(engine["finished_at"])
@@ -95,6 +107,7 @@ def map_cost(grid: tuple[int, int], jobs: int, batch_size: int, out: Path) -> di
     return {
         "batch_size": batch_size,
         "wall_s": wall,
+        "cpu_s": cpu,
         "engine_stage_s": (finished.max() - reference_done.max()).total_seconds(),
         "stepping_s": float(engine[Col.WALL_TIME_S].sum()),
         "runs": len(engine),
@@ -110,11 +123,13 @@ def _same_rows(one: pd.DataFrame, other: pd.DataFrame) -> bool:
     return bool(a.equals(b))
 
 
-def print_step_costs(sizes: list[int], steps: int, repeat: int, alone_up_to: int) -> None:
-    print(f"MuJoCo C, us per world-step, {steps} steps per world at dt {DT:g} s, best of {repeat}")
+def print_step_costs(
+    engine: str, sizes: list[int], steps: int, repeat: int, alone_up_to: int
+) -> None:
+    print(f"{engine}, us per world-step, {steps} steps per world at dt {DT:g} s, best of {repeat}")
     print(f"{'worlds':>7}{'batch':>9}{'alone':>9}{'bare':>9}{'batch world-steps/s':>22}")
     for size in sizes:
-        row = step_cost(size, steps, repeat, alone=size <= alone_up_to)
+        row = step_cost(engine, size, steps, repeat, alone=size <= alone_up_to)
         single = "-" if row["single_us"] is None else f"{row['single_us']:.2f}"
         print(
             f"{size:>7}{row['batch_us']:>9.2f}{single:>9}{row['bare_us']:>9.2f}"
@@ -126,27 +141,34 @@ def print_step_costs(sizes: list[int], steps: int, repeat: int, alone_up_to: int
 def print_map_costs(grid: tuple[int, int], jobs: int) -> None:
     points = grid[0] * grid[1]
     print(f"\nhop map of MuJoCo alone, {grid[0]}x{grid[1]}, {jobs} jobs, dt {DT:g} s (defaults)")
-    print(f"{'batch size':>11}{'wall s':>9}{'engine stage s':>16}{'stepping s':>12}{'runs':>6}")
+    print(
+        f"{'batch size':>11}{'wall s':>9}{'CPU s':>9}{'engine stage s':>16}{'stepping s':>12}"
+        f"{'runs':>6}"
+    )
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for size in (1, DEFAULT_BATCH_SIZE):
             row = map_cost(grid, jobs, size, Path(tmp) / f"map-{size}")
             rows.append(row)
             print(
-                f"{size:>11}{row['wall_s']:>9.1f}{row['engine_stage_s']:>16.1f}"
-                f"{row['stepping_s']:>12.1f}{row['runs']:>6}",
+                f"{size:>11}{row['wall_s']:>9.1f}{row['cpu_s']:>9.1f}"
+                f"{row['engine_stage_s']:>16.1f}{row['stepping_s']:>12.1f}{row['runs']:>6}",
                 flush=True,
             )
     print(f"same rows (cost columns aside): {_same_rows(rows[0]['frame'], rows[1]['frame'])}")
     if points != FULL_MAP:
         scale = FULL_MAP / points
-        print(f"extrapolated to 40x40 ({scale:g} times the points), engine stage:")
+        print(f"extrapolated to 40x40 ({scale:g} times the points): wall, CPU, engine stage")
         for row in rows:
-            print(f"{row['batch_size']:>11}{scale * row['engine_stage_s']:>25.0f} s")
+            print(
+                f"{row['batch_size']:>11}{scale * row['wall_s']:>9.0f}{scale * row['cpu_s']:>9.0f}"
+                f"{scale * row['engine_stage_s']:>16.0f} s"
+            )
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--engine", default="mujoco", help="the engine of the first part")
     parser.add_argument("--sizes", type=int, nargs="*", default=[1, 64, 1024])
     parser.add_argument("--steps", type=int, default=1000, help="steps per world")
     parser.add_argument("--repeat", type=int, default=3)
@@ -156,7 +178,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--grid", default="10x10", help="the hop map's grid; 0x0: no map")
     parser.add_argument("--jobs", type=int, default=2)
     args = parser.parse_args(argv)
-    print_step_costs(args.sizes, args.steps, args.repeat, args.alone_up_to)
+    print_step_costs(args.engine, args.sizes, args.steps, args.repeat, args.alone_up_to)
     if args.grid not in ("0x0", "0"):
         print_map_costs(check_grid(args.grid), args.jobs)
     return 0

@@ -34,7 +34,7 @@ from typing import Any
 import pandas as pd
 import psutil  # Dask's dependency: the benchmark needs hoopbench[dask] anyway
 
-from hoopbench.engines.judging.columns import CLOCK_COLUMNS
+from hoopbench.engines.judging.columns import COST_COLUMNS
 from hoopbench.engines.options import Profile
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
 from hoopbench.reports.hop_map.spec import DEFAULT_ENGINES, MapSpec, check_grid
@@ -43,7 +43,7 @@ from hoopbench.reports.hop_map.table import map_frame
 from hoopbench.reports.sweep.cluster import cluster_executor, local_cluster
 from hoopbench.reports.sweep.results import TIMING_COLUMNS
 
-TIMING = (*TIMING_COLUMNS, *CLOCK_COLUMNS)
+TIMING = (*TIMING_COLUMNS, *COST_COLUMNS)
 """Columns that differ between two runs of the same map."""
 
 

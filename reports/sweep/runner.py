@@ -31,11 +31,13 @@ string, a worker any importable function ``task -> row dict`` (small and picklab
 catches its own exceptions and sets ``status`` (a :class:`RunStatus` value) in its row.
 
 Batches (:class:`Batching`): tasks that share a key (for hoopbench, one batching engine and
-one settings) are grouped, up to a batch size, into one call of a batch worker ``tasks ->
+one settings) are grouped, up to a batch size (smaller when there are too few tasks to give
+every call in flight a batch), into one call of a batch worker ``tasks ->
 rows``, so that a simulator stepping many worlds at once pays its start-up once. A batch is
 one call in every respect: one worker process, one time limit (the sum of its tasks'), one
 retry after a crash, and every task of it gets a row (its own, or the batch's timeout,
-crash or error row); a resumed sweep groups the tasks still to run afresh.
+crash or error row; ``attempts`` and ``elapsed_s`` are the batch's); a resumed sweep groups
+the tasks still to run afresh.
 """
 
 from __future__ import annotations
@@ -586,13 +588,17 @@ class Batching:
         if isinstance(self.size, bool) or not isinstance(self.size, int) or self.size < 1:
             raise ValueError(f"batch size must be a whole number >= 1, got {self.size!r}")
 
-    def units(self, tasks: Sequence[Any]) -> list[Any]:
+    def units(self, tasks: Sequence[Any], parallel: int = 1) -> list[Any]:
         """The tasks as calls: each task alone, or a TaskBatch of up to ``size`` tasks of one
-        key, in the order of their first tasks."""
+        key, in the order of their first tasks. A key's tasks make at least ``parallel``
+        batches where they can (smaller ones), so that a few batches do not leave workers
+        idle while one of them steps the rest."""
+        keys = [self.key(task) for task in tasks]
+        counts = Counter(key for key in keys if key is not None)
+        sizes = {key: min(self.size, -(-n // max(parallel, 1))) for key, n in counts.items()}
         units: list[Any] = []
         open_batches: dict[Hashable, list[Any]] = {}
-        for task in tasks:
-            key = self.key(task)
+        for task, key in zip(tasks, keys, strict=True):
             if key is None:
                 units.append(task)
                 continue
@@ -601,7 +607,7 @@ class Batching:
                 members = open_batches[key] = []
                 units.append(members)
             members.append(task)
-            if len(members) == self.size:
+            if len(members) == sizes[key]:
                 del open_batches[key]
         return [TaskBatch(tuple(u)) if isinstance(u, list) else u for u in units]
 
@@ -1392,7 +1398,7 @@ def run_tasks(
         pool, in_flight_limit = _pool_for(worker, executor, jobs, max_in_flight)
         progress = _Progress(len(todo), text_stream, quiet)
         sweep = _Sweep(worker, writer, progress, failure_row, timeout, flush_interval, flush_rows)
-        units = batching.units(todo) if batching is not None else todo
+        units = batching.units(todo, in_flight_limit) if batching is not None else todo
         batch_worker = batching.worker if batching is not None else None
         calls = _Calls(sweep, pool, executor is None, units, in_flight_limit, batch_worker)
         stopped_by = _drive(calls, handle_signals, tick=0.1 if timeout is not None else 0.25)
