@@ -142,6 +142,10 @@ class MjxEngine(WorldsEngine, MjcfEngine):
         built = [self._build(mujoco, s.with_(name=""), settings, options) for s in scenes]
         models = [mjx.put_model(m, device=device, impl="jax") for m, _ in built]
         datas = [mjx.put_data(m, d, device=device, impl="jax") for m, d in built]
+        # Heightfield bounds are static metadata that follow the radius; this model has no
+        # heightfield, so the first world's stand for all (scenes of different sizes stack).
+        hfield = models[0]._impl.geom_rbound_hfield
+        models = [m.replace(_impl=m._impl.replace(geom_rbound_hfield=hfield)) for m in models]
         try:
             model = jax.tree.map(lambda *leaves: jnp.stack(leaves), *models)
         except ValueError as exc:
