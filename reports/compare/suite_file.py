@@ -64,6 +64,7 @@ _TOP_KEYS = (
     "engines",
     "timesteps",
     "engine_timesteps",
+    "engine_scenes",
     "profiles",
     "scenes",
     "scene",
@@ -173,12 +174,19 @@ class Suite:
     """An engine's own timesteps (s), in place of the suite's for its runs without their
     own: an engine too slow to run at every timestep of the suite (``[engine_timesteps]``)."""
 
+    engine_scenes: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+    """An engine's own scenes (names of the suite's), in place of all of them: an engine
+    too slow to run every scene (``[engine_scenes]``)."""
+
     def _timesteps_of(self, variant: VariantSpec) -> tuple[float, ...]:
         return variant.timesteps or self.engine_timesteps.get(variant.engine) or self.timesteps
 
     def _variants_of(self, scene: Scene, engine: str) -> list[VariantSpec]:
         """The variants one engine runs on one scene: its defaults (one per distinct
         profile), then the suite's own."""
+        only = self.engine_scenes.get(engine)
+        if only is not None and scene.name not in only:
+            return []
         defaults = [
             VariantSpec(engine, DEFAULT_VARIANT, profile=p)
             for p in _distinct_profiles(engine, self.profiles)
@@ -220,8 +228,16 @@ class Suite:
             )
         variants = tuple(v for v in self.variants if v.engine in engines)
         own = {e: dt for e, dt in self.engine_timesteps.items() if e in engines}
+        scenes = {e: names for e, names in self.engine_scenes.items() if e in engines}
         return Suite(
-            self.name, tuple(engines), self.timesteps, self.scenes, variants, self.profiles, own
+            self.name,
+            tuple(engines),
+            self.timesteps,
+            self.scenes,
+            variants,
+            self.profiles,
+            own,
+            scenes,
         )
 
 
@@ -334,7 +350,8 @@ def parse_suite(data: Mapping[str, Any], announce: Announce | None = None) -> Su
     variants = _variants(data.get("variant", []), engines, names)
     profiles = _profiles(data.get("profiles", ["tuned"]), "profiles")
     own = _engine_timesteps(data.get("engine_timesteps", {}), engines)
-    suite = Suite(name, engines, timesteps, tuple(scenes), variants, profiles, own)
+    only = _engine_scenes(data.get("engine_scenes", {}), engines, names)
+    suite = Suite(name, engines, timesteps, tuple(scenes), variants, profiles, own, only)
     count = suite.run_count
     if count > MAX_SUITE_RUNS:
         raise SuiteError(
@@ -380,6 +397,29 @@ def _engine_timesteps(value: Any, engines: Sequence[str]) -> dict[str, tuple[flo
                 f"({', '.join(engines)})"
             )
     return {e: _timesteps(dt, f"engine_timesteps.{e}") for e, dt in value.items()}
+
+
+def _engine_scenes(
+    value: Any, engines: Sequence[str], scenes: Sequence[str]
+) -> dict[str, tuple[str, ...]]:
+    """``[engine_scenes]``: engine name -> the suite's scenes it runs (all, if not given)."""
+    if not isinstance(value, Mapping):
+        raise SuiteError(f"engine_scenes must be a table (engine = [scene names]), got {value!r}")
+    out = {}
+    for engine, names in value.items():
+        if engine not in engines:
+            raise SuiteError(
+                f"engine_scenes: {engine!r} is not one of the suite's engines "
+                f"({', '.join(engines)})"
+            )
+        where = f"engine_scenes.{engine}"
+        if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
+            raise SuiteError(f"{where} must be a non-empty list of scene names, got {names!r}")
+        unknown = [n for n in names if n not in scenes]
+        if unknown:
+            raise SuiteError(f"{where}: {', '.join(unknown)} not among the suite's scenes")
+        out[engine] = tuple(names)
+    return out
 
 
 def _timesteps(value: Any, key: str) -> tuple[float, ...]:
