@@ -1,10 +1,10 @@
 """Test-wide rules: under CI a skipped test fails the session.
 
-A test may skip only for want of an optional extra (drake, dask[distributed]), or, marked
-``gpu``, for want of a GPU; the engines and
-libraries hoopbench depends on are imported plainly, so that a broken install fails. CI
-installs the test extra, which holds both optional extras: there any skip means a test that
-did not run, and the session fails with one line naming the skipped tests.
+A test may skip only for want of an optional extra (an engine of OPTIONAL_ENGINES, dask), or,
+marked ``gpu``, for want of a GPU; the engines and libraries hoopbench depends on are imported
+plainly, so that a broken install fails. CI installs the test extra, which holds every
+optional extra: there any skip but a gpu test's means a test that did not run, and the
+session fails with one line naming the skipped tests.
 """
 
 from __future__ import annotations

@@ -12,40 +12,30 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import engine_unavailable
+from worlds_runs import DT, STATE_COLUMNS, run_ok, worst
 
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.run import RunStatus
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene
 
-DT = 1e-3
 SCENE = get_scene("hop-top").with_(t_end=0.6)
-STATE_COLUMNS = ("X", "Y", "theta", "Xdot", "Ydot", "thetadot")
 
 
 def _run(engine: str, scene=SCENE, **options):
-    result = get_engine(engine).run(scene, RunSettings(timestep=DT, options=options))
-    if result.info.status is RunStatus.UNAVAILABLE:
-        engine_unavailable(engine, result.info.message)
-    assert result.info.status is RunStatus.OK, result.info.message
-    return result
-
-
-def _worst(a, b, columns, rows=slice(None)) -> float:
-    return max(float(np.max(np.abs(getattr(a, c) - getattr(b, c))[rows])) for c in columns)
+    return run_ok(engine, scene, **options)
 
 
 def test_mujoco_warp_is_mujoco_c_in_float32():
     warp, c = _run("mjwarp"), _run("mujoco")
     a, b = warp.trajectory, c.trajectory
     assert len(a) == len(b)
-    assert _worst(a, b, ("X", "Y", "theta")) <= 2e-4
+    assert worst(a, b, ("X", "Y", "theta")) <= 2e-4
     rolling = b.t < 0.4  # before the slip at 0.442 s
-    assert _worst(a, b, ("Xdot", "Ydot", "thetadot"), rolling) <= 1e-2
+    assert worst(a, b, ("Xdot", "Ydot", "thetadot"), rolling) <= 1e-2
     assert np.max(np.abs(a.normal_force - b.normal_force)[rolling]) / SCENE.g <= 1e-2
     assert warp.events.t_slip == pytest.approx(c.events.t_slip, abs=2e-3)
-    assert _worst(a, b, STATE_COLUMNS) > 1e-9  # single precision shows
+    assert worst(a, b, STATE_COLUMNS) > 1e-9  # single precision shows
 
 
 def test_batch_rows_are_the_single_runs():
@@ -59,7 +49,7 @@ def test_batch_rows_are_the_single_runs():
         single = engine.simulate(scene, settings)
         assert run.info.status is RunStatus.OK, run.info.message
         assert run.info.n_steps == single.info.n_steps
-        assert _worst(run.trajectory, single.trajectory, STATE_COLUMNS) <= 1e-6
+        assert worst(run.trajectory, single.trajectory, STATE_COLUMNS) <= 1e-6
 
 
 def test_unknown_device_is_named():

@@ -22,27 +22,18 @@ import mujoco
 import numpy as np
 import pytest
 from conftest import engine_unavailable
+from worlds_runs import DT, run_ok, worst
 
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.run import RunStatus
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene
 
-DT = 1e-3
 SCENE = get_scene("hop-top").with_(t_end=0.6)
-STATE_COLUMNS = ("X", "Y", "theta", "Xdot", "Ydot", "thetadot")
 
 
 def _run(engine: str, scene=SCENE, **options):
-    result = get_engine(engine).run(scene, RunSettings(timestep=DT, options=options))
-    if result.info.status is RunStatus.UNAVAILABLE:
-        engine_unavailable(engine, result.info.message)
-    assert result.info.status is RunStatus.OK, result.info.message
-    return result
-
-
-def _worst_state(a, b) -> float:
-    return max(float(np.max(np.abs(getattr(a, c) - getattr(b, c)))) for c in STATE_COLUMNS)
+    return run_ok(engine, scene, **options)
 
 
 @pytest.fixture(scope="module")
@@ -54,7 +45,7 @@ def test_float64_is_mujoco_c(mujoco_c):
     mjx = _run("mjx", precision="float64")
     a, b = mjx.trajectory, mujoco_c.trajectory
     assert len(a) == len(b)
-    assert _worst_state(a, b) <= 1e-9
+    assert worst(a, b) <= 1e-9
     g = SCENE.g
     assert np.max(np.abs(a.normal_force - b.normal_force)) / g <= 1e-6
     assert np.max(np.abs(a.friction_force - b.friction_force)) / g <= 1e-6
@@ -72,7 +63,7 @@ def test_float32_differs_by_float32(mujoco_c):
     worst = np.max(np.abs(a.normal_force - b.normal_force)[rolling]) / SCENE.g
     assert worst <= 1e-2
     # float32 is there: the states are not MuJoCo C's to double precision
-    assert _worst_state(a, b) > 1e-9
+    assert worst(a, b) > 1e-9
 
 
 def test_batch_rows_are_the_single_runs():
@@ -87,7 +78,7 @@ def test_batch_rows_are_the_single_runs():
         single = engine.simulate(scene, settings)
         assert run.info.status is RunStatus.OK, run.info.message
         assert run.info.n_steps == single.info.n_steps
-        assert _worst_state(run.trajectory, single.trajectory) <= 1e-6
+        assert worst(run.trajectory, single.trajectory) <= 1e-6
         assert run.info.batch is not None and run.info.batch.size == 2
 
 

@@ -20,26 +20,20 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import engine_unavailable
+from worlds_runs import DT, STATE_COLUMNS, run_ok
 
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.run import RunStatus
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene
 
-DT = 1e-3
 SEED = get_scene("seed-mu").with_(t_end=0.1)
-STATE_COLUMNS = ("X", "Y", "theta", "Xdot", "Ydot", "thetadot")
 SLIP_AT_0_1_S = {"mujoco": 6.6e-4, "xpbd": 5.5e-3, "featherstone": 0.13, "semi_implicit": 6.6e-3}
 """|slip velocity|, m/s, at 0.1 s, measured (module doc)."""
 
 
 def _run(scene=SEED, **options):
-    result = get_engine("newton").run(scene, RunSettings(timestep=DT, options=options))
-    if result.info.status is RunStatus.UNAVAILABLE:
-        engine_unavailable("newton", result.info.message)
-    assert result.info.status is RunStatus.OK, result.info.message
-    return result
+    return run_ok("newton", scene, **options)
 
 
 @pytest.mark.parametrize("solver", sorted(SLIP_AT_0_1_S))
