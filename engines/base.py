@@ -280,6 +280,10 @@ class Engine(ABC):
     batches: ClassVar[bool] = False
     """True: the engine steps many worlds in one call (the batch hooks), and the runner
     groups a suite's or a map's runs of one settings into batches for it."""
+    step_cost_bound: ClassVar[float] = 5e-4
+    """The most a step of a run may cost on a loaded CPU (s): a suite's or a map's time limit
+    allows it for every step of the run. 0.5 ms is 50 times the dearest step of the engines
+    that step one world in C or Rust (about 10 us: MuJoCo RK4, PyBullet)."""
 
     def __init__(
         self,

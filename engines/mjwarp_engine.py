@@ -66,6 +66,8 @@ class MjwarpEngine(WorldsEngine, MjcfEngine):
     distribution = "mujoco-warp"
     modules = ("mujoco", "warp", "mujoco_warp")
     geometries = ("sphere",)
+    step_cost_bound = 0.2
+    """6 times a lone world's step on the CPU (34 ms, docs/engines.md)."""
     options = (
         *MujocoEngine.options_except("ring_segments", integrator=choice(*_MJWARP_INTEGRATORS)),
         DEVICE,

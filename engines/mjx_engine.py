@@ -79,6 +79,8 @@ class MjxEngine(WorldsEngine, MjcfEngine):
     modules = ("mujoco", "jax", "mujoco.mjx")
     geometries = ("sphere",)
     contact_sensor = False
+    step_cost_bound = 0.02
+    """5 times a lone world's float32 step on the CPU (3.7 ms, docs/engines.md)."""
     options = (
         *MujocoEngine.options_except(
             "noslip_iterations",  # MJX's JAX solver has no noslip pass

@@ -79,6 +79,9 @@ class NewtonEngine(WorldsEngine):
     distribution = "newton"
     modules = ("newton",)
     model_note = "the worlds are built by calls (newton.ModelBuilder), not read"
+    step_cost_bound = 0.2
+    """5 times a lone world's step on the CPU with its dearest solver (MuJoCo: 41 ms,
+    docs/engines.md)."""
     options = (
         Option(
             "solver",

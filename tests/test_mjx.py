@@ -60,8 +60,8 @@ def test_float32_differs_by_float32(mujoco_c):
     rolling = b.t < 0.4  # before the slip at 0.442 s
     for column in ("Xdot", "Ydot", "thetadot"):
         assert np.max(np.abs(getattr(a, column) - getattr(b, column))[rolling]) <= 1e-2
-    worst = np.max(np.abs(a.normal_force - b.normal_force)[rolling]) / SCENE.g
-    assert worst <= 1e-2
+    force = np.max(np.abs(a.normal_force - b.normal_force)[rolling]) / SCENE.g
+    assert force <= 1e-2
     # float32 is there: the states are not MuJoCo C's to double precision
     assert worst(a, b) > 1e-9
 
