@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from worlds_runs import DT, STATE_COLUMNS, run_ok, worst
+from worlds_runs import DT, STATE_COLUMNS, run_ok, skip_without_a_warp_gpu, worst
 
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.run import RunStatus
@@ -59,11 +59,6 @@ def test_unknown_device_is_named():
 
 @pytest.mark.gpu
 def test_runs_on_a_gpu():
-    try:
-        import warp as wp
-    except ImportError as exc:
-        pytest.skip(f"no GPU: {exc}")
-    if wp.get_cuda_device_count() == 0:
-        pytest.skip("no GPU for Warp")
+    skip_without_a_warp_gpu()
     result = _run("mjwarp", scene=SCENE.with_(t_end=0.05), device="gpu")
     assert result.info.status is RunStatus.OK

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from worlds_runs import DT, STATE_COLUMNS, run_ok
+from worlds_runs import DT, STATE_COLUMNS, run_ok, skip_without_a_warp_gpu
 
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.run import RunStatus
@@ -78,10 +78,5 @@ def test_unknown_solver_is_named():
 
 @pytest.mark.gpu
 def test_runs_on_a_gpu():
-    try:
-        import warp as wp
-    except ImportError as exc:
-        pytest.skip(f"no GPU: {exc}")
-    if wp.get_cuda_device_count() == 0:
-        pytest.skip("no GPU for Warp")
+    skip_without_a_warp_gpu()
     assert _run(SEED.with_(t_end=0.02), device="gpu").info.status is RunStatus.OK

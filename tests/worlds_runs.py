@@ -5,6 +5,7 @@ difference between two trajectories."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from conftest import engine_unavailable
 
 from hoopbench.engines.registry import get_engine
@@ -32,3 +33,14 @@ def worst(
 ) -> float:
     """The largest |a - b| over ``columns`` and ``rows`` of two trajectories."""
     return max(float(np.max(np.abs(getattr(a, c) - getattr(b, c))[rows])) for c in columns)
+
+
+def skip_without_a_warp_gpu() -> None:
+    """A skip for a ``gpu`` test of MuJoCo Warp or Newton where Warp sees no CUDA device (CI
+    has none; without Warp, the module's other tests fail under CI)."""
+    try:
+        import warp as wp
+    except ImportError as exc:
+        pytest.skip(f"no GPU: {exc}")
+    if wp.get_cuda_device_count() == 0:
+        pytest.skip("no GPU for Warp")
