@@ -58,6 +58,7 @@ findings: $(REPORT_STAMP)
 bench: $(REPORT_STAMP)
 	$(BIN)/python -m hoopbench.reports.bench.overhead
 	$(BIN)/python -m hoopbench.reports.bench.batch
+	$(BIN)/python -m hoopbench.reports.bench.batched_engines
 
 # mypy checks the package as installed, `hoopbench.*`: from the editable install's tree of
 # links (build/__editable__.*/), which the installed package itself points to, so that the

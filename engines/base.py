@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import gc
 import math
+import os
 import sys
 import time
 import traceback
@@ -26,6 +27,7 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import AbstractContextManager, contextmanager
 from dataclasses import dataclass
 from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
 from types import ModuleType
 from typing import Any, ClassVar
 
@@ -33,7 +35,7 @@ import numpy as np
 
 from hoopbench.engines.judging.detectors import DetectorSettings
 from hoopbench.engines.judging.judge import judge
-from hoopbench.engines.options import Option, Profile, Variant
+from hoopbench.engines.options import Option, Profile, Variant, choice
 from hoopbench.engines.run import BatchCost, Run, RunInfo, RunResult, RunStatus
 from hoopbench.engines.settings import BYTES_PER_STEP, MAX_STEPS, RunSettings
 from hoopbench.engines.stopping import StopMonitor, StopReason, StopRule
@@ -45,6 +47,8 @@ from hoopbench.models.trajectory import Trajectory
 __all__ = [
     "BYTES_PER_STEP",
     "CHUNK_STEPS",
+    "DEVICE",
+    "DEVICES",
     "MAX_STEPS",
     "RUN_ALONE",
     "STATE_KEYS",
@@ -53,14 +57,18 @@ __all__ = [
     "Engine",
     "EngineUnavailableError",
     "Simulation",
+    "WorldsEngine",
+    "cache_folder",
     "call_repeatedly",
     "check_divergence",
     "check_steps",
     "equilibrium_depth",
     "import_engine",
+    "import_warp",
     "n_steps_for",
     "states_and_step_forces",
     "steps_in",
+    "warp_device",
 ]
 
 CHUNK_STEPS = 1000
@@ -272,6 +280,10 @@ class Engine(ABC):
     batches: ClassVar[bool] = False
     """True: the engine steps many worlds in one call (the batch hooks), and the runner
     groups a suite's or a map's runs of one settings into batches for it."""
+    step_cost_bound: ClassVar[float] = 5e-4
+    """The most a step of a run may cost on a loaded CPU (s): a suite's or a map's time limit
+    allows it for every step of the run. 0.5 ms is 50 times the dearest step of the engines
+    that step one world in C or Rust (about 10 us: MuJoCo RK4, PyBullet)."""
 
     def __init__(
         self,
@@ -873,3 +885,90 @@ def check_steps(t_end: float, timestep: float, max_steps: int) -> int:
             "shorten t_end, raise the timestep, or raise max_steps"
         )
     return steps_in(t_end, dt)
+
+
+class WorldsEngine(Engine):
+    """An engine that steps many worlds in one call (MJX, MuJoCo Warp, Newton): it
+    implements ``_open_batch`` and ``_batch_advance`` (the class docstring of
+    :class:`Engine`, Batches), and a single run is the batch loop on one world, so that a
+    lone run's row is its batched row (the same loop, the same chunks). The bare loop steps
+    a batch of one through ``_batch_advance`` in chunks: these engines record states as
+    they step (on a device, reading nothing back would leave the cost unmeasured)."""
+
+    batches: ClassVar[bool] = True
+
+    def _simulate(
+        self, module: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
+    ) -> Simulation:
+        sims, _ = self._simulate_batch(module, [scene], [settings], options)
+        return sims[0]
+
+    @contextmanager
+    def _open(
+        self,
+        module: ModuleType,
+        scene: Scene,
+        settings: RunSettings,
+        options: dict[str, Any],
+        *,
+        record: bool,
+    ) -> Iterator[Any]:
+        with self._open_batch(module, [scene], settings, options) as batch:
+            yield batch
+
+    def _step_bare(self, run: Any, steps: int) -> None:
+        done = 0
+        while done < steps:
+            chunk = min(CHUNK_STEPS, steps - done)
+            self._batch_advance(run, _ONE_WORLD, chunk)
+            done += chunk
+
+
+_ONE_WORLD = np.ones(1, dtype=bool)
+"""The ``active`` mask of a batch of one world."""
+
+
+DEVICES: tuple[str, ...] = ("auto", "cpu", "gpu")
+"""Where a batched engine runs. auto: a GPU if the engine sees one, else the CPU."""
+
+DEVICE = Option(
+    "device",
+    "auto",
+    choice(*DEVICES),
+    "the engine's own choice: a GPU where there is one, else the CPU (the CI and the "
+    "measurements here have no GPU: every figure is the CPU's)",
+)
+"""The ``device`` option of the batched engines (MJX, MuJoCo Warp, Newton)."""
+
+
+def cache_folder(engine: str) -> Path:
+    """Where an engine keeps its compiled code between processes: ``$HOOPBENCH_CACHE/<engine>``,
+    else the user's cache folder (``$XDG_CACHE_HOME`` or ~/.cache) ``/hoopbench/<engine>``."""
+    root = os.environ.get("HOOPBENCH_CACHE")
+    if root:
+        return Path(root) / engine
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "hoopbench" / engine
+
+
+def warp_device(wp: ModuleType, choice: str) -> str:
+    """NVIDIA Warp's device for a run (MuJoCo Warp, Newton): ``cuda:0`` for auto when Warp
+    sees a GPU, else ``cpu``; RuntimeError for gpu without one (the run's error row)."""
+    gpus = wp.get_cuda_device_count()
+    if choice == "cpu" or (choice == "auto" and gpus == 0):
+        return "cpu"
+    if gpus == 0:
+        raise RuntimeError("device gpu: NVIDIA Warp sees no CUDA device")
+    return "cuda:0"
+
+
+def import_warp() -> ModuleType:
+    """NVIDIA Warp, quiet (its start-up banner would go to stdout, which ``--json`` output
+    owns) and with its kernel cache under :func:`cache_folder`; EngineUnavailableError if
+    it cannot be imported."""
+    wp = import_engine("warp")
+    if not wp.config.kernel_cache_dir:
+        wp.config.kernel_cache_dir = str(cache_folder("warp"))
+    wp.config.quiet = True
+    wp.config.log_level = max(wp.config.log_level, wp.LOG_WARNING)  # no per-module timings
+    return wp

@@ -54,9 +54,9 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import ModuleType
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -69,6 +69,7 @@ from hoopbench.engines.base import (
     n_steps_for,
 )
 from hoopbench.engines.options import (
+    Check,
     Option,
     Variant,
     choice,
@@ -95,7 +96,7 @@ from hoopbench.models.mjcf import (
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 
-__all__ = ["MujocoEngine"]
+__all__ = ["MjcfEngine", "MujocoEngine", "mjcf_text", "model_at_start"]
 
 _BAD_STATE_WARNINGS = ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")
 
@@ -148,8 +149,32 @@ below any penetration MuJoCo's soft contact allows; more only grows the model (o
 each: 1e8 of them took minutes and gigabytes before the run began)."""
 
 
+class MjcfEngine(Engine):
+    """An engine that reads the MJCF of models/mjcf.py and starts at MuJoCo C's equilibrium
+    penetration: MuJoCo, and MJX and MuJoCo Warp, which put MuJoCo C's model and data on
+    their device. ``contact_sensor``: whether the model declares the contact-force sensor."""
+
+    model_format = "MJCF (XML)"
+    contact_sensor: ClassVar[bool] = True
+
+    def _check(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> None:
+        """Restitution != 0 raises ValueError before a run (see scene_to_mjcf)."""
+        check_restitution(settings.restitution)
+
+    def _model_text(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
+        mu = self.mu_for(scene, settings)
+        return mjcf_text(scene, settings, options, mu, contact_sensor=self.contact_sensor)
+
+    def _build(
+        self, mujoco: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
+    ) -> tuple[Any, Any]:
+        """Model and data at the initial state (equilibrium penetration, see module doc)."""
+        text = self._model_text(scene, settings, options)
+        return model_at_start(mujoco, text, scene, settings.geometry, options)
+
+
 @register
-class MujocoEngine(Engine):
+class MujocoEngine(MjcfEngine):
     """MuJoCo through ``mujoco.rollout``, and batches through ``mujoco.batch``."""
 
     name = "mujoco"
@@ -157,7 +182,6 @@ class MujocoEngine(Engine):
     modules = ("mujoco", "mujoco.rollout", "mujoco.batch")
     batches = True
     geometries = MJCF_GEOMETRIES
-    model_format = "MJCF (XML)"
     options = (
         Option(
             "solref",
@@ -265,35 +289,20 @@ class MujocoEngine(Engine):
         Variant("geometry=ring", geometry="ring"),
     )
 
-    # ----------------------------------------------------------------- hooks
-    def _check(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> None:
-        """Restitution != 0 raises ValueError before a run (see scene_to_mjcf)."""
-        check_restitution(settings.restitution)
-
-    def _model_text(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
-        return scene_to_mjcf(
-            scene,
-            mu=self.mu_for(scene, settings),
-            timestep=settings.timestep,
-            restitution=settings.restitution,
-            geometry=settings.geometry,
-            options=options,
+    @classmethod
+    def options_except(cls, *dropped: str, **checks: Check) -> tuple[Option, ...]:
+        """MuJoCo's options for a backend that reads the same MJCF (MJX, MuJoCo Warp): all
+        but ``dropped``, with the checks in ``checks`` (name -> check) replacing MuJoCo's
+        where the backend allows less; defaults, stock values and reasons stay MuJoCo's."""
+        known = {option.name for option in cls.options}
+        unknown = sorted((set(dropped) | set(checks)) - known)
+        if unknown:
+            raise ValueError(f"not MuJoCo options: {', '.join(unknown)}")
+        return tuple(
+            replace(option, check=checks.get(option.name, option.check))
+            for option in cls.options
+            if option.name not in dropped
         )
-
-    def _build(
-        self, mujoco: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
-    ) -> tuple[Any, Any]:
-        """Model and data at the initial state (equilibrium penetration, see module doc)."""
-        model = mujoco.MjModel.from_xml_string(self._model_text(scene, settings, options))
-        data = mujoco.MjData(model)
-        # The lowest point of the contact shape (the ring's vertex) on the floor, rolling.
-        shape = contact_shape(scene, settings.geometry, options)
-        x, y, theta, xdot, ydot, thetadot = kinematics.rolling_start(scene, shape)
-        data.qpos[:] = (x, y - scene.a, theta)
-        data.qvel[:] = (xdot, ydot, thetadot)
-        data.qpos[1] -= _equilibrium_penetration(mujoco, model, data, scene.a)
-        mujoco.mj_forward(model, data)
-        return model, data
 
     # ----------------------------------------------------------------- stepping hooks
     @contextmanager
@@ -430,6 +439,45 @@ class MujocoEngine(Engine):
         # mujoco.batch stops stepping a world whose warning counters rise; a single run steps
         # on (MuJoCo resets its state), so the world runs again alone.
         return [RUN_ALONE if halted else None for halted in batch.halted]
+
+
+def mjcf_text(
+    scene: Scene,
+    settings: RunSettings,
+    options: dict[str, Any],
+    mu: float,
+    *,
+    contact_sensor: bool = True,
+) -> str:
+    """The MJCF of a run (models/mjcf.py): this adapter's, and MJX's and MuJoCo Warp's,
+    which read the same model (MJX without the contact sensor it refuses)."""
+    return scene_to_mjcf(
+        scene,
+        mu=mu,
+        timestep=settings.timestep,
+        restitution=settings.restitution,
+        geometry=settings.geometry,
+        options=options,
+        contact_sensor=contact_sensor,
+    )
+
+
+def model_at_start(
+    mujoco: ModuleType, text: str, scene: Scene, geometry: str, options: dict[str, Any]
+) -> tuple[Any, Any]:
+    """MuJoCo C's model of an MJCF text and its data at the scene's initial state, at the
+    equilibrium penetration (module doc): the start of this adapter's runs, and of MJX's
+    and MuJoCo Warp's, which put these on their device."""
+    model = mujoco.MjModel.from_xml_string(text)
+    data = mujoco.MjData(model)
+    # The lowest point of the contact shape (the ring's vertex) on the floor, rolling.
+    shape = contact_shape(scene, geometry, options)
+    x, y, theta, xdot, ydot, thetadot = kinematics.rolling_start(scene, shape)
+    data.qpos[:] = (x, y - scene.a, theta)
+    data.qvel[:] = (xdot, ydot, thetadot)
+    data.qpos[1] -= _equilibrium_penetration(mujoco, model, data, scene.a)
+    mujoco.mj_forward(model, data)
+    return model, data
 
 
 @dataclass

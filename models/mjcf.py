@@ -25,6 +25,9 @@ import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 from typing import Any
 
+import numpy as np
+
+from hoopbench.models import kinematics
 from hoopbench.models.checks import check_real
 from hoopbench.models.kinematics import Polygon
 from hoopbench.models.scene import Scene
@@ -34,6 +37,7 @@ __all__ = [
     "INTEGRATORS",
     "MJCF_GEOMETRIES",
     "check_restitution",
+    "com_rows",
     "contact_shape",
     "scene_to_mjcf",
 ]
@@ -131,6 +135,16 @@ def contact_shape(scene: Scene, geometry: str, options: Mapping[str, Any]) -> Po
     return _ring(scene, options["ring_segments"]) if geometry == "ring" else None
 
 
+def com_rows(scene: Scene, qpos: Any, qvel: Any) -> Any:
+    """(n, 6) centre-of-mass rows (X, Y, theta, Xdot, Ydot, thetadot: m, rad, m/s, rad/s)
+    from the joints' positions and velocities, each (n, 3) (slide x, slide z from the start
+    height a, hinge theta; the frames of the module doc), as the backends that step this
+    model's joints (MJX, MuJoCo Warp) give them."""
+    qpos, qvel = np.atleast_2d(qpos), np.atleast_2d(qvel)
+    com = kinematics.com_state(scene, qpos[:, 0], scene.a + qpos[:, 1], qpos[:, 2], *qvel.T)
+    return np.stack(list(com.values()), axis=-1)
+
+
 def _hoop_geoms(body: ET.Element, scene: Scene, geometry: str, opts: Mapping, mu: float) -> list:
     """Collision geoms of the hoop; their names, for the contact pairs."""
     a = scene.a
@@ -179,6 +193,7 @@ def scene_to_mjcf(
     restitution: float = 0.0,
     geometry: str = "sphere",
     options: Mapping[str, Any],
+    contact_sensor: bool = True,
 ) -> str:
     """A complete MJCF document of the scene, ready for ``mujoco.MjModel.from_xml_string``.
 
@@ -208,6 +223,8 @@ def scene_to_mjcf(
     _add_settings(root, scene, timestep, opts)
     names = _add_world(root, scene, mu, geometry, opts)
     _add_contacts(root, names, mu, opts)
+    if contact_sensor:
+        _add_sensor(root)
     ET.indent(root, space="  ")
     return (
         _header(scene, mu, timestep, restitution, geometry, opts)
@@ -219,18 +236,22 @@ def scene_to_mjcf(
 def _add_settings(root: ET.Element, scene: Scene, timestep: float, opts: Mapping) -> None:
     """Compiler, solver options, and the look of the viewer."""
     ET.SubElement(root, "compiler", angle="radian", inertiafromgeom="false")
-    ET.SubElement(
-        root,
-        "option",
-        timestep=_num(timestep),
-        gravity=_vec(0, 0, -scene.g),
-        integrator=opts["integrator"],
-        cone=opts["cone"],
-        impratio=_num(opts["impratio"]),
-        noslip_iterations=str(opts["noslip_iterations"]),
-        tolerance=_num(opts["tolerance"]),
-        iterations=str(opts["iterations"]),
-    )
+    option = {
+        "timestep": _num(timestep),
+        "gravity": _vec(0, 0, -scene.g),
+        "integrator": opts["integrator"],
+        "cone": opts["cone"],
+        "impratio": _num(opts["impratio"]),
+        # A backend without a noslip pass (MJX) declares no such option: MuJoCo's default 0.
+        **(
+            {"noslip_iterations": str(opts["noslip_iterations"])}
+            if "noslip_iterations" in opts
+            else {}
+        ),
+        "tolerance": _num(opts["tolerance"]),
+        "iterations": str(opts["iterations"]),
+    }
+    ET.SubElement(root, "option", option)
     visual = ET.SubElement(root, "visual")
     ET.SubElement(visual, "global", azimuth="90", elevation="-10")
     asset = ET.SubElement(root, "asset")
@@ -296,7 +317,7 @@ def _add_world(
 
 
 def _add_contacts(root: ET.Element, names: list[str], mu: float, opts: Mapping) -> None:
-    """One contact pair per hoop geom with the floor, and the contact-force sensor."""
+    """One contact pair per hoop geom with the floor."""
     contact = ET.SubElement(root, "contact")
     for name in names:
         ET.SubElement(
@@ -312,6 +333,10 @@ def _add_contacts(root: ET.Element, names: list[str], mu: float, opts: Mapping) 
             solreffriction=_vec(*opts["solreffriction"]),
             solimp=_vec(*opts["solimp"]),
         )
+
+
+def _add_sensor(root: ET.Element) -> None:
+    """The contact-force sensor the MuJoCo adapter reads."""
     sensor = ET.SubElement(root, "sensor")
     # One synthetic contact: the net contact force on the hoop, world frame (adapter reads it).
     ET.SubElement(

@@ -1,9 +1,10 @@
 """Test-wide rules: under CI a skipped test fails the session.
 
-A test may skip only for want of an optional extra (drake, dask[distributed]); the engines and
-libraries hoopbench depends on are imported plainly, so that a broken install fails. CI
-installs the test extra, which holds both optional extras: there any skip means a test that
-did not run, and the session fails with one line naming the skipped tests.
+A test may skip only for want of an optional extra (an engine of OPTIONAL_ENGINES, dask), or,
+marked ``gpu``, for want of a GPU; the engines and libraries hoopbench depends on are imported
+plainly, so that a broken install fails. CI installs the test extra, which holds every
+optional extra: there any skip but a gpu test's means a test that did not run, and the
+session fails with one line naming the skipped tests.
 """
 
 from __future__ import annotations
@@ -15,8 +16,10 @@ import pytest
 
 pytest_plugins = ["pytester"]  # tests/test_skips_under_ci.py runs pytest on made-up tests
 
-OPTIONAL_ENGINES = frozenset({"drake", "rapier", "box2d", "dart"})
+OPTIONAL_ENGINES = frozenset({"drake", "rapier", "box2d", "dart", "mjx", "mjwarp", "newton"})
 """Engines of an optional extra: a test may skip when one is unavailable, never for another."""
+GPU_MARK = "gpu"
+"""The marker of a test that needs a GPU: the one kind of test that may skip under CI."""
 CI_VARIABLE = "CI"
 """Set, to anything but the empty string, by CI services (GitHub Actions sets CI=true)."""
 
@@ -41,8 +44,9 @@ class SkipsFailUnderCI:
             self.skipped.append(report.nodeid)
 
     def pytest_runtest_logreport(self, report: pytest.TestReport) -> None:
-        # An expected failure (xfail) is reported as skipped too, with wasxfail set.
-        if report.skipped and not hasattr(report, "wasxfail"):
+        # An expected failure (xfail) is reported as skipped too, with wasxfail set. A test
+        # marked gpu may skip for want of a GPU: CI has none (it runs everything on the CPU).
+        if report.skipped and not hasattr(report, "wasxfail") and GPU_MARK not in report.keywords:
             self.skipped.append(report.nodeid)
 
     def failing(self) -> bool:

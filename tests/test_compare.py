@@ -13,11 +13,13 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import pandas as pd
 import pytest
 
 from hoopbench.engines.judging.columns import COST_COLUMNS
+from hoopbench.reports.compare.suite import run_timeout
 from hoopbench.reports.sweep.results import TIMING_COLUMNS, read_runs
 
 TESTS = Path(__file__).resolve().parent
@@ -123,3 +125,13 @@ def test_an_unimportable_engine_module_is_one_line(tmp_path, name):
         "hoopbench: error: HOOPBENCH_ENGINE_MODULES: cannot import engine module "
         "'no_such_engines': No module named 'no_such_engines'"
     )
+
+
+@pytest.mark.parametrize(("engine", "lone_step_s"), [("mjx", 3.7e-3), ("mjwarp", 34e-3)])
+def test_a_batched_engines_time_limit_covers_its_measured_steps(engine, lone_step_s):
+    """A world alone costs 3.7 ms (MJX float32) and 34 ms (MuJoCo Warp) a step on the CPU
+    (docs/engines.md): a run's time limit beyond its minute of start-up covers three times
+    that. With 0.5 ms a step for every engine, MuJoCo Warp's seed-mu and hop-top rows of the
+    default suite were timeouts."""
+    task = SimpleNamespace(engine=engine, n_steps=1500)
+    assert run_timeout(task) - 60.0 >= 3 * lone_step_s * task.n_steps

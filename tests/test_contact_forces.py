@@ -54,6 +54,9 @@ from hoopbench.reference import dynamics
 from hoopbench.reference.exact import ExactSolution, solve_exact
 
 ENGINES = ("mujoco", "pybullet", "pymunk", "drake", "rapier", "box2d", "dart")
+"""The batched engines' forces are checked in their own modules at dt 1e-3: MJX's and MuJoCo
+Warp's against MuJoCo C's (test_mjx.py: in float64 within 6.4e-8 g of the sensor's; the same
+row convention, shift 0), Newton's as the step's momentum balance (test_newton.py)."""
 SCENES = ("seed-mu", "hop-top")
 TIMESTEP = 1e-4
 GUARD = 5e-3

@@ -16,6 +16,11 @@ STOCK = {
     "mujoco": {"solref": (0.02, 1.0), "cone": "pyramidal", "impratio": 1.0, "integrator": "Euler"},
     "pybullet": {"contactSlop": 1e-5, "numSolverIterations": 50},
     "pymunk": {"iterations": 10, "collision_slop": 0.1, "collision_bias": None},
+    # MJX and MuJoCo Warp read MuJoCo's MJCF: MuJoCo's own defaults
+    "mjx": {"solref": (0.02, 1.0), "cone": "pyramidal", "impratio": 1.0, "integrator": "Euler"},
+    "mjwarp": {"solref": (0.02, 1.0), "cone": "pyramidal", "integrator": "Euler"},
+    # Newton's ShapeConfig and the solver of its examples
+    "newton": {"solver": "xpbd", "ke": 2.5e3, "kd": 100.0, "kf": 1000.0, "iterations": 2},
 }
 
 

@@ -177,3 +177,26 @@ def test_a_variant_runs_on_its_scenes_only(tmp_path):
     text = GOOD + 'scenes = ["hop-top", "spun"]\n'
     tasks = [t for t in load_suite(write(tmp_path, text)).tasks() if t.variant == "pyramidal"]
     assert sorted(t.scene.name for t in tasks) == ["hop-top", "spun"]
+
+
+def test_an_engine_may_have_its_own_timesteps_and_scenes():
+    """[engine_timesteps] and [engine_scenes]: the batched engines run at one timestep and,
+    MuJoCo Warp, on some scenes (docs/report.md); the other engines keep the suite's."""
+    data = {
+        "name": "own",
+        "engines": ["pymunk", "mujoco"],
+        "timesteps": [1e-3, 1e-4],
+        "scenes": ["seed-mu", "hop-top"],
+        "engine_timesteps": {"pymunk": [1e-3]},
+        "engine_scenes": {"pymunk": ["hop-top"]},
+    }
+    tasks = parse_suite(data).tasks()
+    pymunk = {(t.scene.name, t.timestep) for t in tasks if t.engine == "pymunk"}
+    mujoco = {(t.scene.name, t.timestep) for t in tasks if t.engine == "mujoco"}
+    assert pymunk == {("hop-top", 1e-3)}
+    assert mujoco == {(s, dt) for s in ("seed-mu", "hop-top") for dt in (1e-3, 1e-4)}
+    assert parse_suite(data).run_count == len(tasks)
+    with pytest.raises(SuiteError, match="engine_timesteps: 'dart' is not one of the suite's"):
+        parse_suite({**data, "engine_timesteps": {"dart": [1e-3]}})
+    with pytest.raises(SuiteError, match=r"engine_scenes.pymunk: seed not among the suite's"):
+        parse_suite({**data, "engine_scenes": {"pymunk": ["seed"]}})

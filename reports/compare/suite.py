@@ -230,7 +230,11 @@ def failure_row(task: RunTask, status: RunStatus, message: str) -> dict[str, Any
 
 
 class StepCounted(Protocol):
-    """A task that knows the steps of its whole window: a suite's RunTask, a map's MapTask."""
+    """A task that knows its engine and the steps of its whole window: a suite's RunTask, a
+    map's MapTask."""
+
+    @property
+    def engine(self) -> str: ...
 
     @property
     def n_steps(self) -> int: ...
@@ -248,10 +252,11 @@ def _stored_before_one_reading(out: Path) -> bool:
 def run_timeout(task: StepCounted) -> float:
     """Seconds a run may take before it becomes a timeout row: generous, from its size.
 
-    The slowest engine here costs about 10 us a step (MuJoCo RK4, PyBullet); 0.5 ms a step
-    is 50 times that, plus a minute for imports, model building and the exact solve.
+    A minute for imports, model building, compiling and the exact solve, and the engine's
+    ``step_cost_bound`` for each step (0.5 ms unless the engine says more: the batched
+    engines launch their kernels from Python, 3-40 ms a step for a world alone on the CPU).
     """
-    return 60.0 + 5e-4 * task.n_steps
+    return 60.0 + engine_class(task.engine).step_cost_bound * task.n_steps
 
 
 # --------------------------------------------------------------------------- compare

@@ -61,7 +61,17 @@ about a thousand runs, and a sweep of more is several sweeps, each resumable on 
 Announce = Callable[[str, int], None]
 """Told a suite's name and run count before its runs are checked."""
 
-_TOP_KEYS = ("name", "engines", "timesteps", "profiles", "scenes", "scene", "variant")
+_TOP_KEYS = (
+    "name",
+    "engines",
+    "timesteps",
+    "engine_timesteps",
+    "engine_scenes",
+    "profiles",
+    "scenes",
+    "scene",
+    "variant",
+)
 _SCENE_KEYS = (
     "name",
     "lam",
@@ -162,10 +172,23 @@ class Suite:
     variants: tuple[VariantSpec, ...] = ()
     profiles: tuple[Profile, ...] = (Profile.TUNED,)
     """Each engine's defaults run once per profile (variant ``default``)."""
+    engine_timesteps: Mapping[str, tuple[float, ...]] = field(default_factory=dict)
+    """An engine's own timesteps (s), in place of the suite's for its runs without their
+    own: an engine too slow to run at every timestep of the suite (``[engine_timesteps]``)."""
+
+    engine_scenes: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+    """An engine's own scenes (names of the suite's), in place of all of them: an engine
+    too slow to run every scene (``[engine_scenes]``)."""
+
+    def _timesteps_of(self, variant: VariantSpec) -> tuple[float, ...]:
+        return variant.timesteps or self.engine_timesteps.get(variant.engine) or self.timesteps
 
     def _variants_of(self, scene: Scene, engine: str) -> list[VariantSpec]:
         """The variants one engine runs on one scene: its defaults (one per distinct
         profile), then the suite's own."""
+        only = self.engine_scenes.get(engine)
+        if only is not None and scene.name not in only:
+            return []
         defaults = [
             VariantSpec(engine, DEFAULT_VARIANT, profile=p)
             for p in _distinct_profiles(engine, self.profiles)
@@ -181,7 +204,7 @@ class Suite:
     def run_count(self) -> int:
         """How many runs :meth:`tasks` makes, counted without making them."""
         return sum(
-            len(variant.timesteps or self.timesteps)
+            len(self._timesteps_of(variant))
             for scene in self.scenes
             for engine in self.engines
             for variant in self._variants_of(scene, engine)
@@ -193,7 +216,7 @@ class Suite:
         for scene in self.scenes:
             for engine in self.engines:
                 for variant in self._variants_of(scene, engine):
-                    for dt in variant.timesteps or self.timesteps:
+                    for dt in self._timesteps_of(variant):
                         tasks.append(_task(scene, variant, dt, trajectory_dir))
         return tasks
 
@@ -206,8 +229,17 @@ class Suite:
                 f"(it has {', '.join(self.engines)})"
             )
         variants = tuple(v for v in self.variants if v.engine in engines)
+        own = {e: dt for e, dt in self.engine_timesteps.items() if e in engines}
+        scenes = {e: names for e, names in self.engine_scenes.items() if e in engines}
         return Suite(
-            self.name, tuple(engines), self.timesteps, self.scenes, variants, self.profiles
+            self.name,
+            tuple(engines),
+            self.timesteps,
+            self.scenes,
+            variants,
+            self.profiles,
+            own,
+            scenes,
         )
 
 
@@ -321,7 +353,9 @@ def parse_suite(data: Mapping[str, Any], announce: Announce | None = None) -> Su
         raise SuiteError(f"scene name(s) {', '.join(repeated)} given twice")
     variants = _variants(data.get("variant", []), engines, names)
     profiles = _profiles(data.get("profiles", ["tuned"]), "profiles")
-    suite = Suite(name, engines, timesteps, tuple(scenes), variants, profiles)
+    own = _engine_timesteps(data.get("engine_timesteps", {}), engines)
+    only = _engine_scenes(data.get("engine_scenes", {}), engines, names)
+    suite = Suite(name, engines, timesteps, tuple(scenes), variants, profiles, own, only)
     count = suite.run_count
     if count > MAX_SUITE_RUNS:
         raise SuiteError(
@@ -354,6 +388,42 @@ def _engines(value: Any) -> tuple[str, ...]:
     if len(set(value)) != len(value):
         raise SuiteError(f"engines: an engine is listed twice in {value!r}")
     return tuple(value)
+
+
+def _engine_timesteps(value: Any, engines: Sequence[str]) -> dict[str, tuple[float, ...]]:
+    """``[engine_timesteps]``: engine name -> its own list of timesteps, s."""
+    if not isinstance(value, Mapping):
+        raise SuiteError(f"engine_timesteps must be a table (engine = [timesteps]), got {value!r}")
+    for engine in value:
+        if engine not in engines:
+            raise SuiteError(
+                f"engine_timesteps: {engine!r} is not one of the suite's engines "
+                f"({', '.join(engines)})"
+            )
+    return {e: _timesteps(dt, f"engine_timesteps.{e}") for e, dt in value.items()}
+
+
+def _engine_scenes(
+    value: Any, engines: Sequence[str], scenes: Sequence[str]
+) -> dict[str, tuple[str, ...]]:
+    """``[engine_scenes]``: engine name -> the suite's scenes it runs (all, if not given)."""
+    if not isinstance(value, Mapping):
+        raise SuiteError(f"engine_scenes must be a table (engine = [scene names]), got {value!r}")
+    out = {}
+    for engine, names in value.items():
+        if engine not in engines:
+            raise SuiteError(
+                f"engine_scenes: {engine!r} is not one of the suite's engines "
+                f"({', '.join(engines)})"
+            )
+        where = f"engine_scenes.{engine}"
+        if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
+            raise SuiteError(f"{where} must be a non-empty list of scene names, got {names!r}")
+        unknown = [n for n in names if n not in scenes]
+        if unknown:
+            raise SuiteError(f"{where}: {', '.join(unknown)} not among the suite's scenes")
+        out[engine] = tuple(names)
+    return out
 
 
 def _timesteps(value: Any, key: str) -> tuple[float, ...]:

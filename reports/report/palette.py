@@ -6,7 +6,7 @@ time plot, the clearance plot, the contact forces and the animation. The profile
 style and marker (:data:`PROFILE_STYLES`); the exact reference is always black and dashed
 (:data:`REFERENCE_COLOUR`, :data:`REFERENCE_DASH`).
 
-The seven engines hoopbench ships have fixed colours (matplotlib's and plotly's own
+The ten engines hoopbench ships have fixed colours (mostly matplotlib's and plotly's own
 categorical ten, so a reader who knows them reads them). An engine from a plugin, or a name in
 an older results folder, takes one of the spare colours, chosen from its name, and never one
 another engine of the same figure has.
@@ -58,11 +58,16 @@ ENGINE_COLOURS: Mapping[str, str] = MappingProxyType(
         "box2d": "#9467bd",
         "rapier": "#8c564b",
         "dart": "#e377c2",
+        "mjx": "#17becf",
+        "mjwarp": "#bcbd22",
+        "newton": "#393b79",
     }
 )
-"""The shipped engines' colours (the categorical ten's first seven, in the registry's order)."""
+"""The shipped engines' colours: the categorical ten's first seven for the seven engines of
+one world at a time, its cyan and olive for MJX and MuJoCo Warp, and a dark indigo for Newton
+(the ten's grey would read as the animations' neutral hoop)."""
 
-SPARE_COLOURS = ("#17becf", "#bcbd22", "#7f7f7f", "#393b79", "#637939", "#8c6d31", "#843c39")
+SPARE_COLOURS = ("#7f7f7f", "#637939", "#8c6d31", "#843c39", "#7b4173", "#e7ba52", "#5254a3")
 """For engines without a fixed colour (a plugin's)."""
 
 

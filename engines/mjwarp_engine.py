@@ -1,0 +1,222 @@
+"""MuJoCo Warp adapter (``mujoco-warp``, on NVIDIA Warp): the hoop of the MuJoCo adapter, many
+worlds in one ``Data`` (``nworld``), stepped by Warp kernels on the CPU or a GPU.
+
+The model is the MuJoCo adapter's (``models/mjcf.py``: the same pair, solref, solimp, cone,
+integrator), and every world starts where the MuJoCo adapter starts it (the equilibrium
+penetration found with MuJoCo C's ``mj_forward``): the C model and data are built first, then
+put on the device, so a difference between the two engines is the stepping's.
+
+Worlds. Each world is its own scene. MuJoCo Warp's ``Model`` keeps one copy of each array,
+except those whose spec has a leading ``*`` (mass, inertia, centre of mass, geom size, pair
+friction, gravity, ...), which may hold one row per world: the worlds' models are put on the
+device one by one and every such array that differs between them is stacked, one row per
+world. An array that differs and has no world axis makes the batch an error, except
+``dof_length``, which only the sleeping feature reads (off in this model): the first
+world's is kept.
+
+Contact force. Each step is ``forward`` (constraint forces at the state before the step),
+then ``contact_force`` (world frame) of every active contact, summed per world, then the
+integrator (``mujoco_warp.step`` would leave RK4's last stage's forces): the MuJoCo adapter's
+timing (its sensor is evaluated before integrating). States and forces are read back to the
+host after every step: free on the CPU (shared memory), a cost on a GPU that a captured
+graph would remove (left out here).
+
+Precision: single (Warp's ``float``), MuJoCo Warp's only one. Warp's compiled kernels go to
+its kernel cache (``HOOPBENCH_CACHE`` or the user's cache folder, ``hoopbench/warp``): the
+first step of a new build compiles for about 20 s on 2 CPU cores.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+
+from hoopbench.engines.base import DEVICE, WorldsEngine, import_warp, warp_device
+from hoopbench.engines.mujoco_engine import MjcfEngine, MujocoEngine
+from hoopbench.engines.options import Variant, choice
+from hoopbench.engines.registry import register
+from hoopbench.engines.settings import RunSettings
+from hoopbench.models.mjcf import com_rows
+from hoopbench.models.scene import Scene
+
+__all__ = ["MjwarpEngine"]
+
+_MJWARP_INTEGRATORS = ("Euler", "RK4", "implicit", "implicitfast")
+"""MuJoCo Warp's integrators without ``discrete`` (its step differs: no force before it)."""
+
+_STATE = ("qpos", "qvel", "qacc_warmstart", "time")
+"""What a step changes that the next step reads (MuJoCo's integration state, no actuators)."""
+
+_UNUSED_WITHOUT_WORLD_AXIS = frozenset({"dof_length"})
+"""Model arrays without a world axis that may differ between worlds: read only by features
+this model turns off (``dof_length``: sleeping)."""
+
+
+@register
+class MjwarpEngine(WorldsEngine, MjcfEngine):
+    """MuJoCo Warp: the MuJoCo adapter's model, nworld worlds in one Data."""
+
+    name = "mjwarp"
+    distribution = "mujoco-warp"
+    modules = ("mujoco", "warp", "mujoco_warp")
+    geometries = ("sphere",)
+    step_cost_bound = 0.2
+    """6 times a lone world's step on the CPU (34 ms, docs/engines.md)."""
+    options = (
+        *MujocoEngine.options_except("ring_segments", integrator=choice(*_MJWARP_INTEGRATORS)),
+        DEVICE,
+    )
+    variants = (Variant("cone=pyramidal", options={"cone": "pyramidal"}),)
+
+    def _import(self) -> ModuleType:
+        import_warp()
+        return super()._import()
+
+    @contextmanager
+    def _open_batch(
+        self,
+        module: ModuleType,
+        scenes: Sequence[Scene],
+        settings: RunSettings,
+        options: dict[str, Any],
+    ) -> Iterator[_Batch]:
+        import mujoco_warp as mjw
+        import warp as wp
+
+        device = warp_device(wp, options["device"])
+        with wp.ScopedDevice(device):
+            built = [self._build(module, scene, settings, options) for scene in scenes]
+            model = _stacked_model(mjw, wp, [m for m, _ in built])
+            data = mjw.put_data(built[0][0], built[0][1], nworld=len(scenes))
+            for field in ("qpos", "qvel", "qacc_warmstart"):
+                rows = np.array([getattr(d, field) for _, d in built])
+                getattr(data, field).assign(rows.astype(np.float32))
+            integrate = {
+                "Euler": mjw.euler,
+                "RK4": mjw.rungekutta4,
+                "implicit": mjw.implicit,
+                "implicitfast": mjw.implicit,
+            }[options["integrator"]]
+            batch = _Batch(mjw, wp, list(scenes), model, data, integrate)
+            batch.warm_up(*built[0])
+            yield batch
+
+    def _batch_advance(
+        self, batch: _Batch, active: np.ndarray, steps: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        with batch.wp.ScopedDevice(batch.data.qpos.device):
+            qpos, qvel, force = batch.advance(steps, active)
+        states = np.stack(
+            [com_rows(s, q, v) for s, q, v in zip(batch.scenes, qpos, qvel, strict=True)]
+        )
+        # world frame: z is the normal (up), x the friction.
+        return states, force[:, :, [2, 0]]
+
+
+def _stacked_model(mjw: ModuleType, wp: ModuleType, models: Sequence[Any]) -> Any:
+    """One MuJoCo Warp model of all worlds: every world-axis array that differs between the
+    worlds' models holds one row per world (module doc)."""
+    puts = [mjw.put_model(m) for m in models]
+    first = puts[0]
+    if len(puts) == 1:
+        return first
+    for path, arrays in _differing_arrays(puts):
+        holder = first
+        for part in path[:-1]:
+            holder = getattr(holder, part)
+        name = path[-1]
+        if arrays[0].shape[:1] != (1,) or not _has_world_axis(holder, name):
+            if name in _UNUSED_WITHOUT_WORLD_AXIS:
+                continue
+            raise ValueError(
+                f"MuJoCo Warp cannot batch these scenes: {'.'.join(path)} differs between "
+                "worlds and has no world axis"
+            )
+        stacked = np.concatenate([a.numpy() for a in arrays])
+        setattr(holder, name, wp.array(stacked, dtype=arrays[0].dtype))
+    return first
+
+
+def _has_world_axis(holder: Any, name: str) -> bool:
+    """Whether a Model (or Option) field's array spec starts with ``*``, the world axis."""
+    spec = {f.name: f.type for f in dataclasses.fields(holder)}.get(name)
+    return tuple(getattr(spec, "shape", ()))[:1] == ("*",)
+
+
+def _differing_arrays(models: Sequence[Any], path: tuple[str, ...] = ()) -> Iterator[Any]:
+    """(field path, the worlds' arrays) for each Warp array that is not the same in every
+    model, walking the model's nested dataclasses (``opt``)."""
+    for f in dataclasses.fields(models[0]):
+        values = [getattr(m, f.name) for m in models]
+        if dataclasses.is_dataclass(values[0]) and not isinstance(values[0], type):
+            yield from _differing_arrays(values, (*path, f.name))
+        elif hasattr(values[0], "numpy") and hasattr(values[0], "dtype"):
+            first = values[0].numpy()
+            if any(not np.array_equal(first, v.numpy()) for v in values[1:]):
+                yield (*path, f.name), values
+
+
+@dataclass
+class _Batch:
+    """The worlds on a Warp device, the integrator, and the buffers of one step's contact
+    forces."""
+
+    mjw: ModuleType
+    wp: ModuleType
+    scenes: list[Scene]
+    model: Any
+    data: Any
+    integrate: Any
+
+    def __post_init__(self) -> None:
+        n = self.data.naconmax
+        self.ids = self.wp.array(np.arange(n, dtype=np.int32), dtype=self.wp.int32)
+        self.contact = self.wp.zeros(n, dtype=self.wp.spatial_vector)
+
+    def warm_up(self, mjm: Any, mjd: Any) -> None:
+        """Load (or compile, on first use) the kernels with one step of a scratch copy of
+        the first world: the run's timed loop then holds stepping only."""
+        scratch = self.mjw.put_data(mjm, mjd, nworld=self.data.nworld)
+        self.mjw.forward(self.model, scratch)
+        self.mjw.contact_force(self.model, scratch, self.ids, True, self.contact)
+        self.integrate(self.model, scratch)
+        self.wp.synchronize()
+
+    def advance(self, steps: int, active: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """qpos, qvel (W, steps + 1, 3): before the chunk and after each step; the
+        world-frame contact force on the hoop of each step (W, steps, 3), N. Every world
+        steps (one launch serves all); the inactive ones get their state back after each
+        step, so that a world still running does not move while others finish."""
+        mjw, wp, m, d = self.mjw, self.wp, self.model, self.data
+        nworld = d.nworld
+        kept = (
+            {name: getattr(d, name).numpy().copy() for name in _STATE} if not active.all() else {}
+        )
+        qpos = [d.qpos.numpy().astype(float)]
+        qvel = [d.qvel.numpy().astype(float)]
+        force = np.zeros((steps, nworld, 3))
+        for i in range(steps):
+            mjw.forward(m, d)
+            mjw.contact_force(m, d, self.ids, True, self.contact)
+            n = int(d.nacon.numpy()[0])
+            world = d.contact.worldid.numpy()[:n]
+            np.add.at(force[i], world, self.contact.numpy()[:n, :3])
+            self.integrate(m, d)
+            for name, before in kept.items():
+                now = getattr(d, name).numpy()
+                now[~active] = before[~active]
+                getattr(d, name).assign(now)
+            qpos.append(d.qpos.numpy().astype(float))
+            qvel.append(d.qvel.numpy().astype(float))
+        wp.synchronize()
+        return (
+            np.stack(qpos, axis=1),
+            np.stack(qvel, axis=1),
+            np.transpose(force, (1, 0, 2)),
+        )

@@ -1,0 +1,279 @@
+"""Newton adapter (``newton``, on NVIDIA Warp): the hoop as a free rigid body on a ground
+plane, one Newton world per scene, every world in one model, stepped by one of Newton's
+rigid-body solvers (the ``solver`` setting).
+
+Newton reads no model file here: the worlds are built by calls (``ModelBuilder``). Frames:
+Newton's z is up, so hoopbench's (x, y) is Newton's (x, z); the body turns about +y, and a
+positive rotation about +y carries the body's +z toward +x: the angle is theta (clockwise
+from the top), read from the body's quaternion, 2 atan2(q_y, q_w), unwrapped step by step.
+The body's origin is the hoop centre; ``body_qd``'s linear part is the centre of mass's
+velocity (Newton's convention), its angular part the world-frame angular velocity.
+
+The body. Mass M, centre of mass (0, 0, lam a) in the body frame and the principal inertia
+I_com about y from the scene (``add_body(..., lock_inertia=True)``; the sphere has density 0,
+so nothing comes from the geometry); the out-of-plane moments are I_com/2, padded as the MJCF
+pads them. The body is free (6 degrees of freedom), not held in the plane: every force on it
+(gravity, the contact below the centre, the friction along x) lies in the plane, so it stays
+there (measured: the centre's y stays 0 with XPBD, SemiImplicit, Featherstone; 2e-8 m with
+MuJoCo). A free body is what every Newton rigid solver takes; a planar joint would leave
+XPBD and SemiImplicit to hold it by constraints of their own.
+
+Contact. A sphere of radius a on a ground plane: the hoop's circle in the plane. Each world
+has its own ground plane with the scene's mu on both shapes (Newton averages the two
+shapes' coefficients). The contact law is the solver's: XPBD projects positions (rigid, no
+stiffness); SemiImplicit and Featherstone apply a penalty force ``ke`` depth + ``kd`` rate with
+viscous-regularised friction ``kf`` capped at mu n; MuJoCo (MuJoCo Warp inside Newton) maps
+the shapes' ke/kd to its own soft constraint.
+
+Force. Row i is the step's impulse on the hoop over dt, from the step's own momentum
+balance: M (v_{i+1} - v_i) / dt - M g, normal along z and friction along x. The contact is
+the only force on the body besides gravity, so this is the contact force the solver applied
+over the step from state i, whichever solver it is; SemiImplicit and Featherstone expose no
+contact force of their own (``supported_observables``), and XPBD's and MuJoCo's
+``contact_f`` observable was left out for time.
+
+Precision: single (Warp's ``float``). The first step of a new build compiles kernels (tens
+of seconds on 2 CPU cores, kept in Warp's kernel cache, ``HOOPBENCH_CACHE`` or the user's
+cache folder, ``hoopbench/warp``).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+
+from hoopbench.engines.base import DEVICE, WorldsEngine, import_warp, warp_device
+from hoopbench.engines.options import Option, Variant, choice, integer, number
+from hoopbench.engines.registry import register
+from hoopbench.engines.settings import RunSettings
+from hoopbench.models import kinematics
+from hoopbench.models.mjcf import INERTIA_PAD
+from hoopbench.models.scene import Scene
+
+__all__ = ["SOLVERS", "NewtonEngine"]
+
+SOLVERS: dict[str, str] = {
+    "xpbd": "SolverXPBD",
+    "featherstone": "SolverFeatherstone",
+    "semi_implicit": "SolverSemiImplicit",
+    "mujoco": "SolverMuJoCo",
+}
+"""The ``solver`` setting -> Newton's solver class. Newton's other solvers cannot hold the
+hoop: VBD, Style3D and ImplicitMPM step particles, cloth and continua (VBD's rigid bodies
+need a colouring and a rigid-body mode this build refuses without one), Kamino and Steel are
+experimental (docs/engines.md, Newton)."""
+
+
+@register
+class NewtonEngine(WorldsEngine):
+    """Newton: one world per scene in one model; XPBD, Featherstone, SemiImplicit, MuJoCo."""
+
+    name = "newton"
+    distribution = "newton"
+    modules = ("newton",)
+    model_note = "the worlds are built by calls (newton.ModelBuilder), not read"
+    step_cost_bound = 0.2
+    """5 times a lone world's step on the CPU with its dearest solver (MuJoCo: 41 ms,
+    docs/engines.md)."""
+    options = (
+        Option(
+            "solver",
+            "xpbd",
+            choice(*SOLVERS),
+            "Newton's examples' default (XPBD). Its contact is positional, with no stiffness "
+            "to choose; the penalty solvers (semi_implicit, featherstone) depend on ke, kd, kf",
+        ),
+        Option(
+            "ke",
+            1.0e5,
+            number(low=0.0, low_open=True, unit="N/m"),
+            "contact stiffness for a 1 kg, 1 m hoop: a static sink M g / ke = 0.1 mm; "
+            "Newton's 2.5e3 lets it sink 4 mm at rest (measured 2-47 mm rolling with "
+            "semi_implicit and featherstone). Read by semi_implicit, featherstone, mujoco",
+            stock=2.5e3,
+        ),
+        Option(
+            "kd",
+            100.0,
+            number(low=0.0, unit="N s/m"),
+            "Newton's: with ke 1e5 a critical damping 2 sqrt(ke M) = 632 N s/m made "
+            "semi_implicit diverge at dt 1e-3 (measured, seed-mu)",
+        ),
+        Option(
+            "kf",
+            1000.0,
+            number(low=0.0, unit="N s/m"),
+            "Newton's: the slope of the penalty solvers' viscous friction below mu n",
+        ),
+        Option(
+            "iterations",
+            2,
+            integer(low=1),
+            "Newton's XPBD default (read by xpbd only)",
+        ),
+        DEVICE,
+    )
+    variants = tuple(
+        Variant(f"solver={solver}", options={"solver": solver})
+        for solver in SOLVERS
+        if solver != "xpbd"  # the default
+    )
+
+    def _import(self) -> ModuleType:
+        import_warp()
+        return super()._import()
+
+    @contextmanager
+    def _open_batch(
+        self,
+        module: ModuleType,
+        scenes: Sequence[Scene],
+        settings: RunSettings,
+        options: dict[str, Any],
+    ) -> Iterator[_Batch]:
+        import warp as wp
+
+        newton = module
+        with wp.ScopedDevice(warp_device(wp, options["device"])), warnings.catch_warnings():
+            # SolverMuJoCo warns that it was built against mujoco 3.17 (here: 4.0).
+            warnings.filterwarnings("ignore", message="MuJoCo dependency version mismatch")
+            mus = [self.mu_for(scene, settings) for scene in scenes]
+            model = _build(newton, wp, scenes, mus, options)
+            solver = _solver(newton, model, options)
+            batch = _Batch(newton, wp, list(scenes), model, solver, settings.timestep)
+            batch.start()
+            yield batch
+
+    def _batch_advance(
+        self, batch: _Batch, active: np.ndarray, steps: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        with batch.wp.ScopedDevice(batch.model.device):
+            return batch.advance(steps, active)
+
+
+def _build(
+    newton: ModuleType, wp: ModuleType, scenes: Sequence[Scene], mus: Sequence[float], opts: dict
+) -> Any:
+    """One world per scene: its ground plane and its hoop, at the scene's initial pose."""
+    builder = newton.ModelBuilder(gravity=(0.0, 0.0, -scenes[0].g))
+    for scene, mu in zip(scenes, mus, strict=True):
+        cfg = newton.ModelBuilder.ShapeConfig(
+            density=0.0, mu=mu, ke=opts["ke"], kd=opts["kd"], kf=opts["kf"]
+        )
+        builder.begin_world(gravity=(0.0, 0.0, -scene.g))
+        builder.add_ground_plane(cfg=cfg)
+        x, y, theta, *_ = kinematics.rolling_start(scene)
+        side = 0.5 * scene.inertia_com * (1.0 + INERTIA_PAD)
+        body = builder.add_body(
+            xform=wp.transform((x, 0.0, y), wp.quat_from_axis_angle(wp.vec3(0, 1, 0), theta)),
+            com=(0.0, 0.0, scene.com_offset),
+            inertia=wp.mat33(side, 0, 0, 0, scene.inertia_com, 0, 0, 0, side),
+            mass=scene.M,
+            lock_inertia=True,
+        )
+        builder.add_shape_sphere(body, radius=scene.a, cfg=cfg)
+        builder.end_world()
+    return builder.finalize()
+
+
+def _solver(newton: ModuleType, model: Any, opts: dict) -> Any:
+    cls = getattr(newton.solvers, SOLVERS[opts["solver"]])
+    if opts["solver"] == "xpbd":
+        return cls(model, iterations=opts["iterations"])
+    return cls(model)
+
+
+@dataclass
+class _Batch:
+    """The worlds' model, solver, states and contacts; the last velocities and angles read."""
+
+    newton: ModuleType
+    wp: ModuleType
+    scenes: list[Scene]
+    model: Any
+    solver: Any
+    timestep: float
+    mass: np.ndarray = field(init=False)
+    gravity: np.ndarray = field(init=False)
+    theta: np.ndarray = field(init=False)
+
+    def start(self) -> None:
+        """The worlds' initial velocities, the joint coordinates the articulated solvers
+        step, and one step of a scratch state: the kernels load (or compile) here, outside
+        the timed loop."""
+        newton, model = self.newton, self.model
+        self.state, self.next, self.control = model.state(), model.state(), model.control()
+        self.pipeline = newton.CollisionPipeline(model)
+        self.contacts = self.pipeline.contacts()
+        qd = [_start_velocity(scene) for scene in self.scenes]
+        self.state.body_qd.assign(np.array(qd, dtype=np.float32))
+        newton.eval_ik(model, self.state, self.state.joint_q, self.state.joint_qd)
+        self.mass = np.array([scene.M for scene in self.scenes])
+        self.gravity = np.array([scene.g for scene in self.scenes])
+        self.theta = np.array([scene.theta0 for scene in self.scenes])
+        scratch = model.state()
+        self.pipeline.collide(self.state, self.contacts)
+        self.solver.step(self.state, scratch, self.control, self.contacts, self.timestep)
+        self.wp.synchronize()
+
+    def read(self) -> np.ndarray:
+        """(W, 6): every world's hoop centre (x, z), theta (unwrapped: the nearest angle to
+        the last one read) and centre-of-mass velocity (x, z) and spin about y, now."""
+        q = self.state.body_q.numpy().astype(float)
+        qd = self.state.body_qd.numpy().astype(float)
+        turn = 2.0 * np.arctan2(q[:, 4], q[:, 6])
+        self.theta = self.theta + (turn - self.theta + math.pi) % (2 * math.pi) - math.pi
+        return np.stack([q[:, 0], q[:, 2], self.theta, qd[:, 0], qd[:, 2], qd[:, 4]], axis=-1)
+
+    def advance(self, steps: int, active: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Every world steps (one launch serves all); the inactive ones get their state back
+        after each step, so that a world still running does not move while others finish."""
+        raw = [self.read()]
+        kept = self._state_arrays() if not active.all() else {}
+        for _ in range(steps):
+            self.state.clear_forces()
+            self.pipeline.collide(self.state, self.contacts)
+            self.solver.step(self.state, self.next, self.control, self.contacts, self.timestep)
+            self.state, self.next = self.next, self.state
+            for name, before in kept.items():
+                array = getattr(self.state, name)
+                now = array.numpy()
+                rows = now.reshape(len(active), -1)
+                rows[~active] = before[~active]
+                array.assign(rows.reshape(now.shape))
+            raw.append(self.read())
+        rows = np.stack(raw, axis=1)  # (W, steps + 1, 6)
+        # The step's momentum balance (module doc): M dv/dt - M g, per world.
+        dv = np.diff(rows[:, :, 3:5], axis=1) / self.timestep
+        mass = self.mass[:, None]
+        forces = np.stack([mass * (dv[..., 1] + self.gravity[:, None]), mass * dv[..., 0]], -1)
+        states = np.stack([_com_rows(s, world) for s, world in zip(self.scenes, rows, strict=True)])
+        return states, forces
+
+    def _state_arrays(self) -> dict[str, np.ndarray]:
+        """The worlds' body and joint state, one row per world (one body, one free joint
+        each: joint_q 7 and joint_qd 6 values per world)."""
+        w = len(self.scenes)
+        return {
+            name: getattr(self.state, name).numpy().reshape(w, -1).copy()
+            for name in ("body_q", "body_qd", "joint_q", "joint_qd")
+        }
+
+
+def _com_rows(scene: Scene, rows: np.ndarray) -> np.ndarray:
+    """(n, 6) centre-of-mass rows (STATE_KEYS) from (n, 6) rows of ``_Batch.read``."""
+    X, Y = kinematics.com_position(scene, rows[:, 0], rows[:, 1], rows[:, 2])
+    return np.stack([X, Y, rows[:, 2], rows[:, 3], rows[:, 4], rows[:, 5]], axis=-1)
+
+
+def _start_velocity(scene: Scene) -> list[float]:
+    """Newton's body velocity at t = 0: the centre of mass's (x, z) and the spin about y."""
+    _, _, _, Xdot, Ydot, thetadot = scene.initial_state()
+    return [Xdot, 0.0, Ydot, 0.0, thetadot, 0.0]
