@@ -937,6 +937,7 @@ DEVICE = Option(
     choice(*DEVICES),
     "the engine's own choice: a GPU where there is one, else the CPU (the CI and the "
     "measurements here have no GPU: every figure is the CPU's)",
+    outside_search="where the worlds run: it changes the cost, and the events only by round-off",
 )
 """The ``device`` option of the batched engines (MJX, MuJoCo Warp, Newton)."""
 

@@ -45,7 +45,7 @@ import numpy as np
 
 from hoopbench.engines.base import CHUNK_STEPS, DEVICE, WorldsEngine, cache_folder
 from hoopbench.engines.mujoco_engine import MjcfEngine, MujocoEngine
-from hoopbench.engines.options import Option, Variant, choice
+from hoopbench.engines.options import Option, Variant, choice, one_of
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.mjcf import com_rows
@@ -67,6 +67,7 @@ PRECISION = Option(
     choice(*PRECISIONS),
     "float32 is what the engine's users run (JAX's default); float64 (jax_enable_x64) is "
     "the option that tells round-off from the engine's own differences",
+    space=one_of(*PRECISIONS),
 )
 
 
@@ -85,6 +86,7 @@ class MjxEngine(WorldsEngine, MjcfEngine):
         *MujocoEngine.options_except(
             "noslip_iterations",  # MJX's JAX solver has no noslip pass
             "ring_segments",  # sphere only
+            spaces={"integrator": one_of(*_MJX_INTEGRATORS)},
             integrator=choice(*_MJX_INTEGRATORS),
         ),
         PRECISION,

@@ -52,7 +52,7 @@ The sensor is read at the first RK4 stage: the force at the recorded state.
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from types import ModuleType
@@ -71,6 +71,7 @@ from hoopbench.engines.base import (
 from hoopbench.engines.options import (
     Check,
     Option,
+    Space,
     Variant,
     choice,
     int_range,
@@ -290,16 +291,23 @@ class MujocoEngine(MjcfEngine):
     )
 
     @classmethod
-    def options_except(cls, *dropped: str, **checks: Check) -> tuple[Option, ...]:
+    def options_except(
+        cls, *dropped: str, spaces: Mapping[str, Space] | None = None, **checks: Check
+    ) -> tuple[Option, ...]:
         """MuJoCo's options for a backend that reads the same MJCF (MJX, MuJoCo Warp): all
-        but ``dropped``, with the checks in ``checks`` (name -> check) replacing MuJoCo's
-        where the backend allows less; defaults, stock values and reasons stay MuJoCo's."""
+        but ``dropped``, with the checks in ``checks`` (name -> check) and the search spaces
+        in ``spaces`` replacing MuJoCo's where the backend allows less; defaults, stock values
+        and reasons stay MuJoCo's."""
         known = {option.name for option in cls.options}
         unknown = sorted((set(dropped) | set(checks)) - known)
         if unknown:
             raise ValueError(f"not MuJoCo options: {', '.join(unknown)}")
         return tuple(
-            replace(option, check=checks.get(option.name, option.check))
+            replace(
+                option,
+                check=checks.get(option.name, option.check),
+                space=(spaces or {}).get(option.name, option.space),
+            )
             for option in cls.options
             if option.name not in dropped
         )

@@ -50,7 +50,16 @@ from typing import Any
 import numpy as np
 
 from hoopbench.engines.base import DEVICE, WorldsEngine, import_warp, warp_device
-from hoopbench.engines.options import Option, Variant, choice, integer, number
+from hoopbench.engines.options import (
+    Option,
+    Variant,
+    choice,
+    int_range,
+    integer,
+    log_range,
+    number,
+    one_of,
+)
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models import kinematics
@@ -89,6 +98,7 @@ class NewtonEngine(WorldsEngine):
             choice(*SOLVERS),
             "Newton's examples' default (XPBD). Its contact is positional, with no stiffness "
             "to choose; the penalty solvers (semi_implicit, featherstone) depend on ke, kd, kf",
+            space=one_of(*SOLVERS),
         ),
         Option(
             "ke",
@@ -98,6 +108,7 @@ class NewtonEngine(WorldsEngine):
             "Newton's 2.5e3 lets it sink 4 mm at rest (measured 2-47 mm rolling with "
             "semi_implicit and featherstone). Read by semi_implicit, featherstone, mujoco",
             stock=2.5e3,
+            space=log_range(1e3, 1e7),
         ),
         Option(
             "kd",
@@ -105,18 +116,21 @@ class NewtonEngine(WorldsEngine):
             number(low=0.0, unit="N s/m"),
             "Newton's: with ke 1e5 a critical damping 2 sqrt(ke M) = 632 N s/m made "
             "semi_implicit diverge at dt 1e-3 (measured, seed-mu)",
+            space=log_range(1.0, 1e4),
         ),
         Option(
             "kf",
             1000.0,
             number(low=0.0, unit="N s/m"),
             "Newton's: the slope of the penalty solvers' viscous friction below mu n",
+            space=log_range(10.0, 1e5),
         ),
         Option(
             "iterations",
             2,
             integer(low=1),
             "Newton's XPBD default (read by xpbd only)",
+            space=int_range(1, 50, log=True),
         ),
         DEVICE,
     )

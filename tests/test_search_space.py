@@ -70,6 +70,8 @@ def test_stock_values_mostly_lie_in_the_space() -> None:
     """Stock values outside the space are listed here, each with its reason."""
     outside = {
         ("mujoco", "solreffriction"),  # (0, 0): 'same as solref', not a time constant
+        ("mjx", "solreffriction"),  # MuJoCo's option, read from the same MJCF
+        ("mjwarp", "solreffriction"),  # likewise
     }
     found = set()
     for name, cls in engine_classes().items():
