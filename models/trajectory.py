@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
-import os
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
@@ -16,6 +14,7 @@ from numpy.typing import ArrayLike, NDArray
 from hoopbench.models import kinematics
 from hoopbench.models.formats import FileFormat
 from hoopbench.models.scene import Scene
+from hoopbench.models.whole_files import write_whole
 
 __all__ = ["COLUMNS", "FORMAT_KEY", "FORMAT_VERSION", "TRAJECTORY_FILE", "Trajectory"]
 
@@ -171,15 +170,7 @@ class Trajectory:
         suffix = path.suffix if suffix is None else suffix
         if suffix not in (".parquet", ".csv"):
             raise ValueError(f"trajectory file must end in .csv or .parquet, got {path.name!r}")
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        try:
-            self._write(tmp, suffix)
-            os.replace(tmp, path)
-        except BaseException:
-            with contextlib.suppress(OSError):
-                tmp.unlink()
-            raise
-        return path
+        return write_whole(path, lambda tmp: self._write(tmp, suffix))
 
     def _write(self, path: Path, suffix: str) -> None:
         frame = self.to_frame()

@@ -17,7 +17,6 @@ figure is written by :func:`save`, which turns them into plain text (``10⁻⁶`
 
 from __future__ import annotations
 
-import contextlib
 import os
 import re
 from collections.abc import Callable, Iterator
@@ -26,6 +25,8 @@ from functools import cache
 from pathlib import Path
 from types import ModuleType
 from typing import Any
+
+from hoopbench.models.whole_files import write_whole
 
 __all__ = ["plain_text", "plain_tick_label", "pyplot", "save", "written_whole"]
 
@@ -87,15 +88,9 @@ def written_whole(path: str | os.PathLike[str], write: Callable[[Path], object])
     take the format from it), then renamed to ``path``: a report killed mid-figure leaves
     the old file or none, never half a PNG under its final name."""
     path = Path(path)
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
-        raise
-    return path
+    return write_whole(
+        path, write, tmp=path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
+    )
 
 
 def save(fig: Any, out: str | os.PathLike[str], *, dpi: int) -> Path:

@@ -25,7 +25,6 @@ on ``DIR/runs`` mid-sweep). Hence:
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import enum
 import json
@@ -48,6 +47,7 @@ import pyarrow.dataset as ds
 import pyarrow.parquet as pq
 
 from hoopbench.models.formats import FileFormat
+from hoopbench.models.whole_files import write_whole
 from hoopbench.reports.sweep.folder_files import FolderFileError, folder_files, read_folder_text
 
 __all__ = [
@@ -113,21 +113,7 @@ def atomic_write(path: str | os.PathLike[str], write: Callable[[Path], object]) 
     A reader sees the old file or the new one, never half of one. If ``write`` fails, the
     temporary file is removed when possible (a crash leaves it: :func:`leftover_temp_files`).
     """
-    path = Path(path)
-    tmp = temp_path(path)
-    try:
-        write(tmp)
-        fd = os.open(tmp, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
-        raise
-    return path
+    return write_whole(path, write, tmp=temp_path(Path(path)), sync=True)
 
 
 def leftover_temp_files(out_dir: str | os.PathLike[str]) -> list[Path]:
