@@ -59,6 +59,10 @@ _COLOURS = {
 }
 
 
+_NOT_RUN = "#ffffff"
+"""A cell whose engine did not run at that timestep."""
+
+
 def classify(row: pd.Series | dict) -> tuple[Stability, str]:
     """The class of one run's row and the figure behind it (a short text)."""
     status = str(row.get("status"))
@@ -130,9 +134,14 @@ def stability_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
     if table.empty:
         return None
     kinds = list(Stability)
-    codes = table.map(lambda cell: kinds.index(Stability(str(cell).split(":")[0])))
+    # An engine that runs only some of the suite's timesteps (the batched ones run 1e-3)
+    # leaves cells empty: drawn blank, "not run" in the legend.
+    codes = table.map(
+        lambda cell: kinds.index(Stability(cell.split(":")[0])) if isinstance(cell, str) else None
+    ).astype(float)
     fig, ax = plt.subplots(figsize=(2.2 + 1.1 * len(table.columns), 1.0 + 0.28 * len(table)))
     cmap = ListedColormap([_COLOURS[k] for k in kinds])
+    cmap.set_bad(_NOT_RUN)
     ax.imshow(
         codes.to_numpy(dtype=float), cmap=cmap, vmin=-0.5, vmax=len(kinds) - 0.5, aspect="auto"
     )
@@ -140,9 +149,13 @@ def stability_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
     ax.set_yticks(range(len(table)), [f"{scene} | {engine}" for scene, engine in table.index])
     ax.set_xlabel("timestep (s)")
     ax.tick_params(labelsize=7)
-    present = sorted({kinds[int(c)] for c in codes.to_numpy().ravel()}, key=kinds.index)
+    values = codes.to_numpy().ravel()
+    present = sorted({kinds[int(c)] for c in values if c == c}, key=kinds.index)
+    handles = [Patch(color=_COLOURS[k], label=k.value) for k in present]
+    if (values != values).any():
+        handles.append(Patch(facecolor=_NOT_RUN, edgecolor="#999999", label="not run"))
     ax.legend(
-        handles=[Patch(color=_COLOURS[k], label=k.value) for k in present],
+        handles=handles,
         loc="upper left",
         bbox_to_anchor=(1.01, 1.0),
         fontsize=7,
