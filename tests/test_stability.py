@@ -8,6 +8,7 @@ import pytest
 from hoopbench.reports.compare.suite import ROW_COLUMNS
 from hoopbench.reports.compare.suite_file import builtin_suite, load_suite
 from hoopbench.reports.report.markdown import write_markdown
+from hoopbench.reports.report.page_figures import stability_page_figure
 from hoopbench.reports.report.stability import (
     ENERGY_GAIN_LIMIT,
     PENETRATION_LIMIT,
@@ -131,3 +132,7 @@ def test_an_engine_run_at_some_timesteps_only_leaves_blank_cells(tmp_path):
     table = stability_matrix(frame)
     assert table[1e-2].isna().any()
     assert stability_figure(frame, tmp_path / "s.png").stat().st_size > 0
+    page = stability_page_figure(frame)
+    assert page is not None
+    z = page["data"][0]["z"]
+    assert any(None in row for row in z)

@@ -228,7 +228,7 @@ def stability_page_figure(runs: pd.DataFrame) -> Figure | None:
     hover = [[text(c) or "not run" for c in row] for row in cells.to_numpy()]
     heatmap = {
         "type": "heatmap",
-        "z": codes.to_numpy().tolist(),
+        "z": [[None if pd.isna(c) else int(c) for c in row] for row in codes.to_numpy()],
         "x": [f"{dt:g}" for dt in table.columns],
         "y": labels,
         "text": hover,
@@ -240,7 +240,7 @@ def stability_page_figure(runs: pd.DataFrame) -> Figure | None:
         "xgap": 1,
         "ygap": 1,
     }
-    present = sorted({int(c) for c in codes.to_numpy().ravel() if c is not None})
+    present = sorted({int(c) for c in codes.to_numpy().ravel() if pd.notna(c)})
     legend = [  # a legend of the classes present: invisible points, one per class
         {
             "type": "scatter",
