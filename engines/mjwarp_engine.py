@@ -39,7 +39,7 @@ import numpy as np
 
 from hoopbench.engines.base import DEVICE, WorldsEngine, import_warp, warp_device
 from hoopbench.engines.mujoco_engine import MjcfEngine, MujocoEngine
-from hoopbench.engines.options import Variant, choice, one_of
+from hoopbench.engines.options import Variant, choice
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.mjcf import com_rows
@@ -69,11 +69,7 @@ class MjwarpEngine(WorldsEngine, MjcfEngine):
     step_cost_bound = 0.2
     """6 times a lone world's step on the CPU (34 ms, docs/engines.md)."""
     options = (
-        *MujocoEngine.options_except(
-            "ring_segments",
-            spaces={"integrator": one_of(*_MJWARP_INTEGRATORS)},
-            integrator=choice(*_MJWARP_INTEGRATORS),
-        ),
+        *MujocoEngine.options_except("ring_segments", integrator=choice(*_MJWARP_INTEGRATORS)),
         DEVICE,
     )
     variants = (Variant("cone=pyramidal", options={"cone": "pyramidal"}),)

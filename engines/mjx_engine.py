@@ -86,7 +86,6 @@ class MjxEngine(WorldsEngine, MjcfEngine):
         *MujocoEngine.options_except(
             "noslip_iterations",  # MJX's JAX solver has no noslip pass
             "ring_segments",  # sphere only
-            spaces={"integrator": one_of(*_MJX_INTEGRATORS)},
             integrator=choice(*_MJX_INTEGRATORS),
         ),
         PRECISION,

@@ -52,7 +52,7 @@ The sensor is read at the first RK4 stage: the force at the recorded state.
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from types import ModuleType
@@ -71,6 +71,7 @@ from hoopbench.engines.base import (
 from hoopbench.engines.options import (
     Check,
     Option,
+    Scale,
     Space,
     Variant,
     choice,
@@ -172,6 +173,23 @@ class MjcfEngine(Engine):
         """Model and data at the initial state (equilibrium penetration, see module doc)."""
         text = self._model_text(scene, settings, options)
         return model_at_start(mujoco, text, scene, settings.geometry, options)
+
+
+def _narrowed(option: Option, check: Check) -> Any:
+    """``option``'s search space without the choices ``check`` refuses (a tuple option's
+    spaces, one per part, are no choice: as they are)."""
+    space = option.space
+    if not isinstance(space, Space) or space.scale is not Scale.CHOICE:
+        return space
+    return replace(space, choices=tuple(c for c in space.choices if _accepts(check, option, c)))
+
+
+def _accepts(check: Check, option: Option, value: Any) -> bool:
+    try:
+        check(option.name, value)
+    except ValueError:
+        return False
+    return True
 
 
 @register
@@ -291,25 +309,20 @@ class MujocoEngine(MjcfEngine):
     )
 
     @classmethod
-    def options_except(
-        cls, *dropped: str, spaces: Mapping[str, Space] | None = None, **checks: Check
-    ) -> tuple[Option, ...]:
+    def options_except(cls, *dropped: str, **checks: Check) -> tuple[Option, ...]:
         """MuJoCo's options for a backend that reads the same MJCF (MJX, MuJoCo Warp): all
-        but ``dropped``, with the checks in ``checks`` (name -> check) and the search spaces
-        in ``spaces`` replacing MuJoCo's where the backend allows less; defaults, stock values
-        and reasons stay MuJoCo's."""
+        but ``dropped``, with the checks in ``checks`` (name -> check) replacing MuJoCo's
+        where the backend allows less, and a choice's search space narrowed to what the
+        new check accepts; defaults, stock values and reasons stay MuJoCo's."""
         known = {option.name for option in cls.options}
         unknown = sorted((set(dropped) | set(checks)) - known)
         if unknown:
             raise ValueError(f"not MuJoCo options: {', '.join(unknown)}")
         return tuple(
-            replace(
-                option,
-                check=checks.get(option.name, option.check),
-                space=(spaces or {}).get(option.name, option.space),
-            )
+            replace(option, check=check, space=_narrowed(option, check))
             for option in cls.options
             if option.name not in dropped
+            for check in [checks.get(option.name, option.check)]
         )
 
     # ----------------------------------------------------------------- stepping hooks
