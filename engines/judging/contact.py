@@ -226,12 +226,10 @@ def read_contact(
     touching = n > cfg.contact_level * cfg.g
     means = _means(t, n, f, traj.slip_velocity, touching, mu, cfg, rolling_demand)
     steps = _step_labels(touching, n, f, mu, cfg)
-    reaches = touching & (np.abs(f) >= (1.0 - cfg.cone_tolerance) * mu * n)
-    if rolling_demand is not None:
-        # A sample's own friction and state, under the slip law's rolling-demand rules.
-        share = np.divide(np.abs(f), mu * n, out=np.zeros(len(n)), where=touching & (n > 0))
-        demand = _demand_share(*rolling_demand, mu)
-        reaches |= touching & ((demand >= 1.0) | (share >= 0.5 * (1.0 + demand)))
+    # Where a slip may start: a sample's own friction and state under the slip law, at the
+    # cone's strict tolerance.
+    demand = None if rolling_demand is None else _demand_share(*rolling_demand, mu)
+    reaches = touching & _slip_law(np.abs(f), mu * n, demand, cfg.cone_tolerance)
     slipping = _slipping(means, reaches, mu, cfg) & touching
     flights = _flights(t, n, traj.clearance, touching, cfg)
     hops = [fl for fl in flights if _is_hop(fl, t, cfg)]
@@ -400,7 +398,7 @@ def _slipping(means: _Means, reaches: NDArray, mu: float, cfg: ContactSettings) 
     friction = np.abs(means.friction)
     cone = mu * means.normal
     against = (means.slip * means.friction < 0.0) & (np.abs(means.slip) > cfg.slip_floor)
-    hold = against & _slip_law(friction, cone, means.demand, cfg) & (cone > 0.0)
+    hold = against & _slip_law(friction, cone, means.demand, cfg.cone_hold) & (cone > 0.0)
     enter = hold & reaches
     fast = np.abs(means.slip) > cfg.slip_threshold
     out = np.zeros(len(friction), dtype=bool)
@@ -412,12 +410,13 @@ def _slipping(means: _Means, reaches: NDArray, mu: float, cfg: ContactSettings) 
 
 
 def _slip_law(
-    friction: NDArray, cone: NDArray, demand: NDArray | None, cfg: ContactSettings
+    friction: NDArray, cone: NDArray, demand: NDArray | None, tolerance: float
 ) -> NDArray:
-    """Windows whose friction follows the slip law rather than the rolling constraint: at
-    the cone within ``cone_hold``, or (with the rolling demand) where rolling cannot go on
-    (the demand at or beyond the cone) or the friction lies nearer the cone than the demand."""
-    at_cone = friction >= (1.0 - cfg.cone_hold) * cone
+    """Samples (window means, or a sample's own values) whose friction follows the slip law
+    rather than the rolling constraint: at the cone within ``tolerance``, or (with the
+    rolling demand) where rolling cannot go on (the demand at or beyond the cone) or the
+    friction lies nearer the cone than the demand."""
+    at_cone = friction >= (1.0 - tolerance) * cone
     if demand is None:
         return at_cone
     share = np.divide(friction, cone, out=np.zeros(len(cone)), where=cone > 0.0)
