@@ -25,8 +25,9 @@ whose time lies within W/2 of a sample's (a sample without contact force counts 
   a sample's own friction reaches the cone (within ``cone_tolerance``) or the rolling demand
   reaches it, in which |mean s| exceeds ``slip_threshold`` somewhere; its direction is
   opposite the friction;
-- **creep**: |mean s| above the slip threshold against friction, not under the slip law:
-  never a slip (``creep_time``, ``creep_max_speed``);
+- **creep**: |s| above the slip threshold against friction inside the cone, not under the
+  slip law and outside the slip phases (a slip's edges are the slip's): never a slip
+  (``creep_time``, ``creep_max_speed``, ``creep_distance``);
 - **stick outside the cone**: outside the cone and not sliding above the slip threshold: a
   Coulomb violation, never a slip (``cone_stick_time``: its longest stretch);
 - **chattering**: not a slip, averaged friction inside the cone, but at least
@@ -247,10 +248,13 @@ def read_contact(
     # Creep and sticks are read where the phases are: up to the exact window's end and the
     # hop's impact (the exact model ends there; after it an engine's hoop rolls on unjudged).
     judged = t <= min(end, math.inf if hop is None or hop.t_end is None else hop.t_end)
+    # A sample inside a slip phase is the slip's, whatever its own friction: the modes absorb
+    # a slip's edges (a lagged friction at 0.95 mu n while n ramps up) into the slip.
     creeping = (
         judged
         & touching
         & ~slipping
+        & ~_in_modes(t, modes, _SLIP_CODES)
         & (np.abs(f) < (1.0 - cfg.cone_hold) * mu * n)
         & (np.abs(traj.slip_velocity) > cfg.slip_threshold)
     )
@@ -439,6 +443,16 @@ def _mode_time(t: NDArray, modes: list[Mode], label: int) -> float:
     return sum(
         end - start for (code, start), end in zip(modes, ends, strict=True) if code == _CODES[label]
     )
+
+
+def _in_modes(t: NDArray, modes: list[Mode], codes: tuple[str, ...]) -> NDArray:
+    """Samples from the start of a mode of ``codes`` up to the next mode's start."""
+    ends = [m[1] for m in modes[1:]] + [math.inf]
+    inside = np.zeros(len(t), dtype=bool)
+    for (code, start), end in zip(modes, ends, strict=True):
+        if code in codes:
+            inside |= (t >= start) & (t < end)
+    return inside
 
 
 def _inside(t: NDArray, flights: list[Flight]) -> NDArray:
