@@ -18,6 +18,7 @@ from hoopbench.reports.compare.settings_file import load_settings
 from hoopbench.reports.compare.suite import runs_frame
 from hoopbench.reports.tune.heldout import is_overfitted
 from hoopbench.reports.tune.search import JOURNAL_NAME, STUDY_NAME, TRIALS_DIR
+from hoopbench.reports.tune.tiers import cheapest_by_tier
 
 optuna = pytest.importorskip("optuna")
 
@@ -95,6 +96,85 @@ def test_the_settings_file_is_what_compare_and_simulate_run(
     run = hb.run(ENGINE, "seed-mu", settings=out / "settings.toml")
     assert run.row["variant"] == first.name
     assert run.row["timestep"] == pytest.approx(first.timestep)
+
+
+def test_each_setting_is_labelled_with_the_tier_every_one_of_its_runs_reaches(
+    searched: tuple[Path, pd.DataFrame],
+) -> None:
+    out, front = searched
+    expected = {"agrees": {"agrees"}, "close": {"agrees", "close"}}
+    for folder, column in ((TRIALS_DIR, "train_tier"), ("heldout", "heldout_tier")):
+        rows = runs_frame(out / folder)
+        for line in front[front["kind"] == "pareto"].to_dict("records"):
+            verdicts = set(rows.loc[rows["variant"] == line["setting"], "verdict"])
+            assert verdicts, (folder, line["setting"])
+            within = [t for t, admitted in expected.items() if verdicts <= admitted]
+            assert line[column] == (within[0] if within else "none"), (folder, line, verdicts)
+    loaded = load_settings(out / "settings.toml")
+    assert set(loaded.tiers) == {"agrees", "close"}
+    assert loaded.tiers == cheapest_by_tier(front)
+    for setting in loaded.settings:
+        line = front[front["setting"] == setting.name].iloc[0]
+        assert setting.measured["train_tier"] == line["train_tier"]
+        assert setting.measured["heldout_tier"] == line["heldout_tier"]
+
+
+def _tier_file(out: Path, tmp_path: Path, close: str) -> Path:
+    """The search's settings file with its [tiers] saying ``close`` for the loose tier."""
+    text = (out / "settings.toml").read_text()
+    start = text.index("[tiers]")
+    end = text.index("[[settings]]")
+    edited = tmp_path / "edited.toml"
+    edited.write_text(f'{text[:start]}[tiers]\nclose = "{close}"\n\n{text[end:]}')
+    return edited
+
+
+def test_file_hash_close_runs_the_cheapest_close_setting_and_says_when_there_is_none(
+    searched: tuple[Path, pd.DataFrame], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out, front = searched
+    last = str(front.loc[front["kind"] == "pareto", "setting"].iloc[-1])
+    named = _tier_file(out, tmp_path, last)
+    run = hb.run(ENGINE, "seed-mu", settings=f"{named}#close")
+    assert run.row["variant"] == last
+    none = _tier_file(out, tmp_path, "none")
+    args = ["simulate", "--engine", ENGINE, "--scene", "seed-mu", "--settings"]
+    assert main([*args, f"{none}#close"]) == 2
+    assert main([*args, f"{none}#agrees"]) == 2  # the edited file names no tight setting
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 2, lines
+    assert "no setting of the settings file reaches the tier 'close'" in lines[0]
+    assert "names no setting for the tier 'agrees'" in lines[1]
+
+
+def test_a_results_folder_resumes_only_with_its_own_settings_file(
+    searched: tuple[Path, pd.DataFrame], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out, front = searched
+    suite = tmp_path / "tiny.toml"
+    suite.write_text(
+        'name = "tiny"\nengines = ["pymunk"]\ntimesteps = [1e-3]\nscenes = ["seed-mu"]\n'
+    )
+    mine = tmp_path / "mine.toml"
+    mine.write_bytes((out / "settings.toml").read_bytes())
+    other = tmp_path / "other.toml"
+    other.write_text(mine.read_text().replace("heldout_seed =", "# edited\nheldout_seed ="))
+    runs = tmp_path / "runs"
+    args = ["compare", "--suite", str(suite), "--out", str(runs), "--quiet"]
+    last = str(front.loc[front["kind"] == "pareto", "setting"].iloc[-1])
+    assert main([*args, "--settings", f"{mine}#{last}"]) == 0
+    assert set(runs_frame(runs)["variant"]) == {"default", last}  # the one setting named
+    capsys.readouterr()
+    for refused in ([], ["--settings", str(other)], ["--settings", str(mine)]):
+        assert main([*args, "--resume", *refused]) == 2, refused
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and "resume it with the same --settings" in err, err
+    copy = tmp_path / "copy.toml"  # the same content under another name is the same file
+    copy.write_bytes(mine.read_bytes())
+    assert main([*args, "--resume", "--settings", f"{copy}#{last}"]) == 0
+    meta = json.loads((runs / "meta.json").read_text())  # the file the folder was made with
+    assert meta["settings_file"] == f"mine.toml#{last}"
+    assert meta["settings_sha256"] == load_settings(mine).sha256
 
 
 def test_a_search_goes_on_after_an_interruption(tmp_path: Path) -> None:
