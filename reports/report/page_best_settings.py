@@ -152,8 +152,10 @@ def best_settings_page_figure(best: BestSettings) -> Figure:
     for k, (which, title) in enumerate(_PANELS):
         traces += _panel_traces(best, which, k, colour)
         suffix = "" if k == 0 else str(k + 1)
-        layout[f"xaxis{suffix}"] = {
+        layout[f"xaxis{suffix}"] = {  # plain numbers, as the PNG's axis (10,000, not 10k)
             "type": "log",
+            "exponentformat": "none",
+            "separatethousands": True,
             "title": {"text": "cost, us per simulated second"},
         }
         layout[f"yaxis{suffix}"] = {
