@@ -874,11 +874,11 @@ def tune(
 ) -> pd.DataFrame:
     """Search an engine's settings (error against cost) into the folder ``out`` and return
     its front: the Pareto set and ``stock`` and ``tuned``, each with its training and held-out
-    error and the accuracy tier it reaches on each (docs/tune.md). ``trials`` (in all, a resumed search's included) or ``timeout`` (s
-    for this session) is the budget; ``scenes`` the training scenes (default: the
-    catalogue's scenes with events); ``heldout_seed`` draws the held-out scenes. Needs
-    Optuna (the ``tune`` extra). KeyboardInterrupt if a signal stopped it (``resume=True``
-    goes on).
+    error and the accuracy tier it reaches on each (docs/tune.md). ``trials`` (in all, a
+    resumed search's included) or ``timeout`` (s for this session) is the budget; ``scenes``
+    the training scenes (default: the catalogue's scenes with events); ``heldout_seed`` draws
+    the held-out scenes. Needs Optuna (the ``tune`` extra). KeyboardInterrupt if a signal
+    stopped it (``resume=True`` goes on).
     """
     job = tune_job(
         engine,
