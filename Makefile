@@ -5,6 +5,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 REPORT_STAMP := $(VENV)/.installed-engines
+TUNE_STAMP := $(VENV)/.installed-tune
 FILES := $(VENV)/.files
 # A new folder for every report: evaluated once, so both steps below use the same one.
 ifndef OUT
@@ -13,7 +14,7 @@ endif
 PACKAGE_FILES := $(sort $(wildcard about/*.py models/*.py reference/*.py engines/*.py \
 	engines/*/*.py engines/*/*.toml reports/*.py reports/*/*.py reports/compare/suites/*.toml))
 
-.PHONY: test report findings lint format clean bench FORCE
+.PHONY: test report tune searches findings lint format clean bench FORCE
 
 # The strict editable install is a tree of links, one per file, installed as `hoopbench.*`:
 # type checkers resolve it, and `import models` stays an error. A new or removed file needs a
@@ -36,16 +37,62 @@ $(REPORT_STAMP): pyproject.toml $(FILES)
 	$(BIN)/python -m pip install --quiet -e ".[engines]" --config-settings editable_mode=strict
 	touch $(REPORT_STAMP)
 
+# `make tune` needs Optuna too: the engines' extra and the tune one.
+$(TUNE_STAMP): pyproject.toml $(FILES)
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e ".[engines,tune]" --config-settings editable_mode=strict
+	touch $(TUNE_STAMP)
+
 test: lint
 	$(BIN)/python -m pytest
 
+# The shipped searches of `hoopbench tune` (compact: tune.json, front.csv, trials.csv and
+# settings.toml of each, no runs), one folder per engine: the report's Best settings section.
+SEARCHES ?= reports/tune/searches
+SEARCH_DIRS = $(patsubst %/tune.json,%,$(sort $(wildcard $(SEARCHES)/*/tune.json)))
+SEARCH_FILES := tune.json front.csv trials.csv settings.toml
+
 # The default suite, the scenes its timesteps cannot resolve at a finer one (finer.toml),
-# and the stiff and extreme scenes; then one report of all three.
+# and the stiff and extreme scenes; then one report of all three and the shipped searches.
 report: $(REPORT_STAMP)
 	$(BIN)/hoopbench compare --suite default --out $(OUT)/default --trajectories default
 	$(BIN)/hoopbench compare --suite finer --out $(OUT)/finer
 	$(BIN)/hoopbench compare --suite stability --out $(OUT)/stability
-	$(BIN)/hoopbench report --results $(OUT)/default $(OUT)/finer $(OUT)/stability --out $(OUT)
+	$(BIN)/hoopbench report --results $(OUT)/default $(OUT)/finer $(OUT)/stability \
+		$(SEARCH_DIRS) --out $(OUT)
+
+# A search of each engine's settings (docs/tune.md), into $(OUT)/tune/<engine>: each may
+# start trials for TUNE_TIMEOUT s (a started trial finishes) up to TUNE_TRIALS, then runs its
+# Pareto set on TUNE_HELDOUT held-out scenes per regime: 5-10 minutes an engine on 2 cores.
+# The batched engines (mjx, mjwarp, newton) take minutes a trial on a CPU: add them by hand.
+TUNE_ENGINES ?= pymunk mujoco pybullet rapier box2d drake dart
+TUNE_TRIALS ?= 40
+TUNE_TIMEOUT ?= 240
+TUNE_HELDOUT ?= 1
+tune: $(TUNE_STAMP)
+	for engine in $(TUNE_ENGINES); do \
+		$(BIN)/hoopbench tune --engine $$engine --out $(OUT)/tune/$$engine \
+			--trials $(TUNE_TRIALS) --timeout $(TUNE_TIMEOUT) \
+			--heldout-per-regime $(TUNE_HELDOUT) || exit $$?; \
+	done
+	@echo "searches in $(OUT)/tune; ship them to the report: make searches TUNE=$(OUT)/tune"
+
+# The compact copy of every finished search under TUNE (a folder of `make tune`) into
+# $(SEARCHES)/<engine>/, which `make report` reads; an engine already there is not replaced.
+searches:
+	@test -n "$(TUNE)" || { echo "which searches? make searches TUNE=reports/output/<date>/tune"; exit 2; }
+	@for dir in $(TUNE)/*/; do \
+		engine=$$(basename $$dir); \
+		test -f $$dir/front.csv || { echo "$$dir: no front.csv (resume the search first)"; exit 2; }; \
+		test ! -e $(SEARCHES)/$$engine || { echo "$(SEARCHES)/$$engine exists: remove it first"; exit 2; }; \
+	done
+	@for dir in $(TUNE)/*/; do \
+		engine=$$(basename $$dir); \
+		mkdir -p $(SEARCHES)/$$engine && \
+		for name in $(SEARCH_FILES); do cp $$dir/$$name $(SEARCHES)/$$engine/ || exit $$?; done; \
+		echo "$(SEARCHES)/$$engine"; \
+	done
 
 # The README's answer, findings and animation from the newest report folder (or RESULTS=...).
 RESULTS ?= $(lastword $(sort $(wildcard reports/output/*/default)))

@@ -42,7 +42,12 @@ from hoopbench.models.events import Events, Outcome
 from hoopbench.models.scene import THETA0_LIMIT_DEG, Scene
 from hoopbench.reference.exact import DEFAULT_ATOL, DEFAULT_RTOL, ExactSolution, solve_exact
 from hoopbench.reports.compare import suite as suite_runs
-from hoopbench.reports.compare.settings_file import load_settings, pick_setting, with_settings
+from hoopbench.reports.compare.settings_file import (
+    SettingsFile,
+    load_choice,
+    pick_setting,
+    with_settings,
+)
 from hoopbench.reports.compare.suite_file import (
     DEFAULT_VARIANT,
     Announce,
@@ -409,11 +414,11 @@ def run(
 
 def setting_from_file(engine: str, text: str | Path) -> Any:
     """The setting a ``FILE`` or ``FILE#NAME`` names, for ``engine`` (ValueError otherwise)."""
-    path, _, name = str(text).partition("#")
-    loaded = load_settings(path)
+    loaded, name = load_choice(text)
     if loaded.engine != engine:
+        path = str(text).partition("#")[0]
         raise OptionError("settings", f"{{option}} {path!r} is for {loaded.engine}, not {engine}")
-    return pick_setting(loaded, name or None)
+    return pick_setting(loaded, name)
 
 
 def _run_task(
@@ -463,6 +468,9 @@ class SuiteJob:
     run_timeout: float | None
     """s per run; None: the suite's own limit per run (60 s + 0.5 ms per step)."""
     trajectories: TrajectoryChoice
+    settings: tuple[SettingsFile, str | None] | None = None
+    """The ``--settings FILE[#NAME]`` whose settings the suite holds as variants: the file
+    and the NAME (part of the results folder's identity)."""
 
 
 def suite_job(
@@ -477,7 +485,8 @@ def suite_job(
     """Check a suite and its options. ``suite``: a suite file (.toml) or the name of a
     shipped one (quick, default, ...). SuiteError (a ValueError) names a bad file's key.
     ``announce(name, runs)`` is told the run count before the runs are checked. ``settings``:
-    a settings file of ``hoopbench tune``, each of its settings a variant of its engine."""
+    a settings file of ``hoopbench tune``, each of its settings a variant of its engine
+    (``FILE#NAME``: only the setting NAME, or the cheapest of a tier: ``FILE#close``)."""
     # a Path is a file; text follows the command line's rule (suite_file.suite_path)
     path = suite if isinstance(suite, Path) else suite_path(str(suite))
     names = _check_names("engines", engines)
@@ -490,10 +499,11 @@ def suite_job(
     loaded = load_suite(path, announce)  # the whole file is checked before anything runs
     if names:
         loaded = loaded.with_engines(names)
-    if settings is not None:
-        loaded = with_settings(loaded, load_settings(settings))
+    chosen = None if settings is None else load_choice(settings)
+    if chosen is not None:
+        loaded = with_settings(loaded, *chosen)
     choice = _choice("trajectories", TrajectoryChoice, trajectories)
-    return SuiteJob(path, loaded, run_timeout, choice)
+    return SuiteJob(path, loaded, run_timeout, choice, chosen)
 
 
 def run_suite(
@@ -523,6 +533,7 @@ def run_suite(
         suite=job.suite,
         executor=executor,
         batch_size=batch_size,
+        settings=job.settings,
     )
 
 
@@ -863,11 +874,11 @@ def tune(
 ) -> pd.DataFrame:
     """Search an engine's settings (error against cost) into the folder ``out`` and return
     its front: the Pareto set and ``stock`` and ``tuned``, each with its training and held-out
-    error (docs/tune.md). ``trials`` (in all, a resumed search's included) or ``timeout`` (s
-    for this session) is the budget; ``scenes`` the training scenes (default: the
-    catalogue's scenes with events); ``heldout_seed`` draws the held-out scenes. Needs
-    Optuna (the ``tune`` extra). KeyboardInterrupt if a signal stopped it (``resume=True``
-    goes on).
+    error and the accuracy tier it reaches on each (docs/tune.md). ``trials`` (in all, a
+    resumed search's included) or ``timeout`` (s for this session) is the budget; ``scenes``
+    the training scenes (default: the catalogue's scenes with events); ``heldout_seed`` draws
+    the held-out scenes. Needs Optuna (the ``tune`` extra). KeyboardInterrupt if a signal
+    stopped it (``resume=True`` goes on).
     """
     job = tune_job(
         engine,

@@ -530,6 +530,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     from hoopbench.reports.sweep.runner import RunnerError
 
     resume = f"hoopbench compare --suite {args.suite} --out {args.out} --resume"
+    if args.settings is not None:  # the same file resumes, another or none is refused
+        resume += f" --settings {args.settings}"
     job = api.suite_job(  # the whole suite and every option checked before anything runs
         args.suite,
         run_timeout=args.run_timeout,
@@ -834,7 +836,8 @@ def _add_simulate(sub: Any, classes: Mapping[str, Any]) -> None:
     p.add_argument(
         "--settings",
         metavar="FILE[#NAME]",
-        help="a settings file of hoopbench tune: its first setting, or the one named NAME",
+        help="a settings file of hoopbench tune: its first setting, the one named NAME, or "
+        "the cheapest of a tier (FILE#close, FILE#agrees)",
     )
     p.set_defaults(func=_cmd_simulate)
 
@@ -886,8 +889,9 @@ def _add_compare(sub: Any, classes: Mapping[str, Any]) -> None:
     )
     p.add_argument(
         "--settings",
-        metavar="FILE",
-        help="a settings file of hoopbench tune: each of its settings runs as a variant",
+        metavar="FILE[#NAME]",
+        help="a settings file of hoopbench tune: each of its settings runs as a variant "
+        "(FILE#NAME: the setting NAME; FILE#close, FILE#agrees: the cheapest of that tier)",
     )
     add_cluster_arguments(p)
     p.set_defaults(func=_cmd_compare)

@@ -12,6 +12,7 @@ from hoopbench.engines.judging.score import (
     cost_us_per_s,
     error_score,
     row_error,
+    tier_reached,
 )
 from hoopbench.engines.judging.tolerances import Tier, event_tolerances
 
@@ -80,3 +81,12 @@ def test_the_cost_is_wall_time_per_simulated_second() -> None:
     ]
     assert cost_us_per_s(rows) == pytest.approx(1e6 * 2.0 / 4.0)
     assert cost_us_per_s([_row()]) is None
+
+
+def test_a_tier_is_reached_when_every_run_is_within_it() -> None:
+    agrees, close = _row(), _row(**{Col.VERDICT: "close"})
+    assert tier_reached([agrees, agrees]) is Tier.TIGHT
+    assert tier_reached([agrees, close]) is Tier.LOOSE
+    assert tier_reached([close, _row(**{Col.VERDICT: "late-slip"})]) is None
+    assert tier_reached([agrees, _row(**{Col.VERDICT: None})]) is None  # an unjudged run
+    assert tier_reached([]) is None

@@ -4,6 +4,7 @@ resume, its settings file in compare and simulate, and its bad inputs."""
 from __future__ import annotations
 
 import json
+import time
 from pathlib import Path
 
 import pandas as pd
@@ -18,6 +19,7 @@ from hoopbench.reports.compare.settings_file import load_settings
 from hoopbench.reports.compare.suite import runs_frame
 from hoopbench.reports.tune.heldout import is_overfitted
 from hoopbench.reports.tune.search import JOURNAL_NAME, STUDY_NAME, TRIALS_DIR
+from hoopbench.reports.tune.tiers import cheapest_by_tier
 
 optuna = pytest.importorskip("optuna")
 
@@ -95,6 +97,85 @@ def test_the_settings_file_is_what_compare_and_simulate_run(
     run = hb.run(ENGINE, "seed-mu", settings=out / "settings.toml")
     assert run.row["variant"] == first.name
     assert run.row["timestep"] == pytest.approx(first.timestep)
+
+
+def test_each_setting_is_labelled_with_the_tier_every_one_of_its_runs_reaches(
+    searched: tuple[Path, pd.DataFrame],
+) -> None:
+    out, front = searched
+    expected = {"agrees": {"agrees"}, "close": {"agrees", "close"}}
+    for folder, column in ((TRIALS_DIR, "train_tier"), ("heldout", "heldout_tier")):
+        rows = runs_frame(out / folder)
+        for line in front[front["kind"] == "pareto"].to_dict("records"):
+            verdicts = set(rows.loc[rows["variant"] == line["setting"], "verdict"])
+            assert verdicts, (folder, line["setting"])
+            within = [t for t, admitted in expected.items() if verdicts <= admitted]
+            assert line[column] == (within[0] if within else "none"), (folder, line, verdicts)
+    loaded = load_settings(out / "settings.toml")
+    assert set(loaded.tiers) == {"agrees", "close"}
+    assert loaded.tiers == cheapest_by_tier(front)
+    for setting in loaded.settings:
+        line = front[front["setting"] == setting.name].iloc[0]
+        assert setting.measured["train_tier"] == line["train_tier"]
+        assert setting.measured["heldout_tier"] == line["heldout_tier"]
+
+
+def _tier_file(out: Path, tmp_path: Path, close: str) -> Path:
+    """The search's settings file with its [tiers] saying ``close`` for the loose tier."""
+    text = (out / "settings.toml").read_text()
+    start = text.index("[tiers]")
+    end = text.index("[[settings]]")
+    edited = tmp_path / "edited.toml"
+    edited.write_text(f'{text[:start]}[tiers]\nclose = "{close}"\n\n{text[end:]}')
+    return edited
+
+
+def test_file_hash_close_runs_the_cheapest_close_setting_and_says_when_there_is_none(
+    searched: tuple[Path, pd.DataFrame], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out, front = searched
+    last = str(front.loc[front["kind"] == "pareto", "setting"].iloc[-1])
+    named = _tier_file(out, tmp_path, last)
+    run = hb.run(ENGINE, "seed-mu", settings=f"{named}#close")
+    assert run.row["variant"] == last
+    none = _tier_file(out, tmp_path, "none")
+    args = ["simulate", "--engine", ENGINE, "--scene", "seed-mu", "--settings"]
+    assert main([*args, f"{none}#close"]) == 2
+    assert main([*args, f"{none}#agrees"]) == 2  # the edited file names no tight setting
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 2, lines
+    assert "no setting of the settings file reaches the tier 'close'" in lines[0]
+    assert "names no setting for the tier 'agrees'" in lines[1]
+
+
+def test_a_results_folder_resumes_only_with_its_own_settings_file(
+    searched: tuple[Path, pd.DataFrame], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out, front = searched
+    suite = tmp_path / "tiny.toml"
+    suite.write_text(
+        'name = "tiny"\nengines = ["pymunk"]\ntimesteps = [1e-3]\nscenes = ["seed-mu"]\n'
+    )
+    mine = tmp_path / "mine.toml"
+    mine.write_bytes((out / "settings.toml").read_bytes())
+    other = tmp_path / "other.toml"
+    other.write_text(mine.read_text().replace("heldout_seed =", "# edited\nheldout_seed ="))
+    runs = tmp_path / "runs"
+    args = ["compare", "--suite", str(suite), "--out", str(runs), "--quiet"]
+    last = str(front.loc[front["kind"] == "pareto", "setting"].iloc[-1])
+    assert main([*args, "--settings", f"{mine}#{last}"]) == 0
+    assert set(runs_frame(runs)["variant"]) == {"default", last}  # the one setting named
+    capsys.readouterr()
+    for refused in ([], ["--settings", str(other)], ["--settings", str(mine)]):
+        assert main([*args, "--resume", *refused]) == 2, refused
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and "resume it with the same --settings" in err, err
+    copy = tmp_path / "copy.toml"  # the same content under another name is the same file
+    copy.write_bytes(mine.read_bytes())
+    assert main([*args, "--resume", "--settings", f"{copy}#{last}"]) == 0
+    meta = json.loads((runs / "meta.json").read_text())  # the file the folder was made with
+    assert meta["settings_file"] == f"mine.toml#{last}"
+    assert meta["settings_sha256"] == load_settings(mine).sha256
 
 
 def test_a_search_goes_on_after_an_interruption(tmp_path: Path) -> None:
@@ -198,6 +279,121 @@ def test_the_report_has_a_best_settings_section(
         assert f"| {name} |" in section
     assert "Held-out error of tuned" in section
     assert (tmp_path / "report" / "best-settings-pymunk.png").is_file()
+
+
+CHROMIUM = Path("/usr/bin/chromium")
+CHROMEDRIVER = Path("/usr/bin/chromedriver")
+"""Debian's packages, as tests/test_report_page.py drives them (.ci/run installs both)."""
+
+COMPACT_FILES = ("tune.json", "front.csv", "trials.csv", "settings.toml")
+"""What a shipped search keeps (the Makefile's SEARCH_FILES): no runs, no journal."""
+
+
+def _compact(out: Path, folder: Path) -> Path:
+    folder.mkdir(parents=True)
+    for name in COMPACT_FILES:
+        (folder / name).write_bytes((out / name).read_bytes())
+    return folder
+
+
+def test_the_section_reads_a_compact_search_and_the_page_shows_it(
+    searched: tuple[Path, pd.DataFrame], tmp_path: Path
+) -> None:
+    out, front = searched
+    compact = _compact(out, tmp_path / "searches" / "pymunk")
+    report = hb.report([compact], tmp_path / "report")
+    text = report.read_text()
+    section = text[text.index("## Best settings") :]
+    cheapest = load_settings(compact / "settings.toml").tiers
+    line = next(s for s in section.splitlines() if s.startswith("The cheapest setting"))
+    for tier, name in cheapest.items():
+        assert f"{tier}: {name or 'none'}" in line, line
+    for row in front.to_dict("records"):
+        assert f"| {row['train_tier']} | {row['heldout_tier']} |" in section
+    page = (tmp_path / "report" / "report.html").read_text()
+    body = page[page.index('id="section-1">Best settings') :]
+    assert "Held-out error of tuned" in body and "The cheapest setting" in body
+    for name in front["setting"]:
+        assert f"<td>{name}</td>" in body
+    # the figure is the interactive one, its points named by setting, not the PNG
+    assert 'id="best-settings-0"' in body and "data:image/png" not in body
+    data = body[body.index('id="best-settings-0-data">') :]
+    data = json.loads(data[data.index(">") + 1 : data.index("</script>")])
+    named = {point[0] for trace in data["data"] for point in trace.get("customdata", [])}
+    assert set(front["setting"]) <= named
+
+
+def test_hovering_a_point_of_the_front_names_its_setting(
+    searched: tuple[Path, pd.DataFrame], tmp_path: Path
+) -> None:
+    """In headless Chromium (Debian's, as tests/test_report_page.py drives it): the page's
+    front draws without a console error, and tuned's held-out point names it and its tier."""
+    from selenium.webdriver.common.action_chains import ActionChains
+
+    if not (CHROMIUM.is_file() and CHROMEDRIVER.is_file()):
+        pytest.skip(f"no {CHROMIUM} and {CHROMEDRIVER}: apt-get install chromium chromium-driver")
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    out, front = searched
+    hb.report([_compact(out, tmp_path / "pymunk")], tmp_path / "report")
+    options = webdriver.ChromeOptions()
+    options.binary_location = str(CHROMIUM)
+    for argument in ("--headless=new", "--no-sandbox", "--disable-gpu", "--window-size=1400,1000"):
+        options.add_argument(argument)
+    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    driver = webdriver.Chrome(service=Service(str(CHROMEDRIVER)), options=options)
+    try:
+        driver.get((tmp_path / "report" / "report.html").as_uri())
+        driver.execute_async_script("const done = arguments[0]; hoopDrawAll().then(() => done());")
+        figure = driver.find_element("id", "best-settings-0")
+        driver.execute_script("arguments[0].scrollIntoView({block: 'center'});", figure)
+        dx, dy = driver.execute_script(
+            """const gd = document.getElementById('best-settings-0'), L = gd._fullLayout;
+            const t = gd.data.find(d => d.name === 'tuned' && d.xaxis === 'x2');
+            const r = gd.getBoundingClientRect();
+            const x = L.xaxis2._offset + L.xaxis2.c2p(t.x[0]);
+            const y = L.yaxis2._offset + L.yaxis2.c2p(t.y[0]);
+            return [Math.round(x - r.width / 2), Math.round(y - r.height / 2)];"""
+        )
+        ActionChains(driver).move_to_element_with_offset(figure, dx, dy).perform()
+        script = (
+            "const h = document.querySelector('#best-settings-0 .hoverlayer .hovertext');"
+            "return h ? h.textContent : '';"
+        )
+        hover = ""
+        for _ in range(100):  # at most 10 s on a loaded machine
+            hover = driver.execute_script(script)
+            if hover:
+                break
+            time.sleep(0.1)
+        driver.save_screenshot(str(tmp_path / "best_settings_hover.png"))
+        severe = [e for e in driver.get_log("browser") if e["level"] == "SEVERE"]
+    finally:
+        driver.quit()
+    assert not severe, severe
+    tuned = front[front["setting"] == "tuned"].iloc[0]
+    assert "tuned (baseline)" in hover, hover
+    assert f"tier {tuned['heldout_tier']}" in hover, hover
+
+
+def test_make_report_passes_every_shipped_search(
+    searched: tuple[Path, pd.DataFrame], tmp_path: Path
+) -> None:
+    import subprocess
+
+    out, _ = searched
+    shipped = tmp_path / "searches"
+    for engine in ("pymunk", "mujoco"):  # two engines' compact searches (one search copied)
+        _compact(out, shipped / engine)
+    (shipped / "empty").mkdir()  # not a search: left out
+    root = Path(__file__).resolve().parent.parent
+    command = ["make", "-n", "report", f"SEARCHES={shipped}", f"OUT={tmp_path / 'out'}"]
+    dry = subprocess.run(command, cwd=root, capture_output=True, text=True, check=True)
+    line = dry.stdout.replace("\\\n", " ")
+    report = next(s for s in line.splitlines() if "hoopbench report" in s)
+    assert f"{shipped / 'mujoco'} {shipped / 'pymunk'} --out" in " ".join(report.split())
+    assert str(shipped / "empty") not in report
 
 
 def test_the_front_figure_labels_its_log_axis_in_plain_numbers(

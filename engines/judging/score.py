@@ -24,9 +24,15 @@ from typing import Any
 
 from hoopbench.engines.judging.columns import Col
 from hoopbench.engines.judging.tolerances import Tier
-from hoopbench.engines.judging.verdict import Event, Verdict, event_error_ratio, number_or_none
+from hoopbench.engines.judging.verdict import (
+    TIER_VERDICTS,
+    Event,
+    Verdict,
+    event_error_ratio,
+    number_or_none,
+)
 
-__all__ = ["FLAG_SCORE", "SCORE_CAP", "cost_us_per_s", "error_score", "row_error"]
+__all__ = ["FLAG_SCORE", "SCORE_CAP", "cost_us_per_s", "error_score", "row_error", "tier_reached"]
 
 SCORE_CAP = 10.0
 """The worst error of a run: ten loose tolerances, or an event missed, invented, or no run."""
@@ -75,6 +81,19 @@ def error_score(rows: Iterable[Mapping[str, Any]]) -> float:
     """The mean error of a set of runs (one per scene); SCORE_CAP for no runs."""
     errors = [row_error(row) for row in rows]
     return sum(errors) / len(errors) if errors else SCORE_CAP
+
+
+def tier_reached(rows: Iterable[Mapping[str, Any]]) -> Tier | None:
+    """The finest accuracy tier every run is within (its verdict one of the tier's:
+    TIER_VERDICTS); None when some run is within none, or there are no runs."""
+    verdicts = [row.get(Col.VERDICT) for row in rows]
+    if not verdicts:
+        return None
+    for tier in Tier:  # finest first: the tolerance table's order
+        admitted = {str(v) for v in TIER_VERDICTS[tier]}
+        if all(isinstance(v, str) and v in admitted for v in verdicts):
+            return tier
+    return None
 
 
 def cost_us_per_s(rows: Iterable[Mapping[str, Any]]) -> float | None:

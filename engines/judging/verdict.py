@@ -76,6 +76,7 @@ __all__ = [
     "LOOSE_TIER",
     "OUTCOME_FAILURES",
     "PHASE_END_TOLERANCE",
+    "TIER_NAMES",
     "TIER_VERDICTS",
     "TIGHT_TIER",
     "Event",
@@ -173,6 +174,9 @@ LOOSE_TIER = frozenset({Verdict.AGREES, Verdict.CLOSE})
 TIER_VERDICTS: Mapping[Tier, frozenset[Verdict]] = {Tier.TIGHT: TIGHT_TIER, Tier.LOOSE: LOOSE_TIER}
 """The accuracy tiers of every summary (the answer, the findings, the scoreboard), in the
 order of the tolerance table's tiers: the verdicts that meet each."""
+TIER_NAMES: Mapping[Tier, Verdict] = {Tier.TIGHT: Verdict.AGREES, Tier.LOOSE: Verdict.CLOSE}
+"""What a user calls each tier (a settings file's ``FILE#agrees``, ``FILE#close``): the
+verdict the tier admits that no finer tier does."""
 
 
 class _Class(StrEnum):

@@ -9,13 +9,23 @@ per setting, the most accurate on the training scenes first::
     [provenance]
     training_scenes = ["seed-mu"]
     ...
+    [tiers]
+    agrees = "none"
+    close = "trial-7"
     [[settings]]
     name = "trial-7"
     timestep = 0.0001
     profile = "tuned"
     train_error = 0.4
+    train_tier = "close"
+    heldout_tier = "close"
     [settings.options]
     iterations = 80
+
+``[tiers]`` names, per accuracy tier (engines/judging/verdict.TIER_NAMES: ``agrees`` for the
+tight tier, ``close`` for the loose one), the cheapest setting of the file whose every run
+was within it, or "none"; ``FILE#close`` picks it. A file written before the tiers has no
+such table and reads as before (its settings by name only).
 
 An option whose value is None (the engine's own behaviour) is written as the string "none"
 (TOML has no null). Every name and value is checked against the engine's declarations when
@@ -25,6 +35,7 @@ naming it.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import tomllib
@@ -34,6 +45,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
+from hoopbench.engines.judging.verdict import TIER_NAMES
 from hoopbench.engines.options import Profile, check_profile
 from hoopbench.engines.registry import engine_class, engine_names
 from hoopbench.engines.settings import RunSettings
@@ -42,11 +54,16 @@ from hoopbench.reports.sweep.folder_files import read_input_file
 
 __all__ = [
     "NONE_TEXT",
+    "TIER_CHOICES",
     "SettingsFile",
     "SettingsFileError",
     "TunedSetting",
+    "load_choice",
     "load_settings",
     "pick_setting",
+    "settings_identity",
+    "settings_meta",
+    "settings_mismatch",
     "settings_text",
     "with_settings",
 ]
@@ -54,7 +71,10 @@ __all__ = [
 NONE_TEXT = "none"
 """How a None option value is written (TOML has no null)."""
 
-_TOP_KEYS = ("engine", "engine_version", "provenance", "settings")
+TIER_CHOICES = tuple(str(name) for name in TIER_NAMES.values())
+"""What ``FILE#TIER`` may name: ``agrees`` (the tight tier), ``close`` (the loose one)."""
+
+_TOP_KEYS = ("engine", "engine_version", "provenance", "tiers", "settings")
 _SETTING_KEYS = ("name", "timestep", "profile", "options")
 """Required keys of a setting; any other key is a number the search measured (kept as is)."""
 
@@ -90,6 +110,13 @@ class SettingsFile:
     engine_version: str | None
     settings: tuple[TunedSetting, ...]
     provenance: Mapping[str, Any] = field(default_factory=dict)
+    tiers: Mapping[str, str | None] = field(default_factory=dict)
+    """Tier name (TIER_CHOICES) -> the cheapest setting within it, None where none is; empty
+    for a file written before the tiers."""
+    sha256: str | None = None
+    """The file's content hash (what a results folder made with it records)."""
+    file_name: str | None = None
+    """The file's name, for the reader (its content is what counts)."""
 
 
 def _fail(path: Path, text: str) -> SettingsFileError:
@@ -102,6 +129,10 @@ def _option_value(value: Any) -> Any:
     return tuple(value) if isinstance(value, list) else value
 
 
+_TAKEN_NAMES = (DEFAULT_VARIANT, *TIER_CHOICES)
+"""Names a setting may not have: the engine's default variant and the tiers' names."""
+
+
 def _setting(path: Path, engine: str, k: int, table: Any) -> TunedSetting:
     where = f"settings[{k}]"
     if not isinstance(table, dict):
@@ -110,8 +141,9 @@ def _setting(path: Path, engine: str, k: int, table: Any) -> TunedSetting:
     if missing:
         raise _fail(path, f"{where} lacks {', '.join(missing)}")
     name, options = table["name"], table["options"]
-    if not isinstance(name, str) or not name.strip() or name == DEFAULT_VARIANT:
-        raise _fail(path, f"{where}.name must be a name other than 'default', got {name!r}")
+    if not isinstance(name, str) or not name.strip() or name in _TAKEN_NAMES:
+        taken = ", ".join(map(repr, _TAKEN_NAMES))
+        raise _fail(path, f"{where}.name must be a name other than {taken}, got {name!r}")
     if not isinstance(options, dict):
         raise _fail(path, f"{where}.options must be a table")
     measured = {key: v for key, v in table.items() if key not in _SETTING_KEYS}
@@ -135,7 +167,8 @@ def load_settings(path: str | Path) -> SettingsFile:
     path = Path(path)
     try:
         # a FIFO, a device or a huge file is refused (FolderFileError, a ValueError)
-        data = tomllib.loads(read_input_file(path).decode("utf-8"))
+        raw = read_input_file(path)
+        data = tomllib.loads(raw.decode("utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise _fail(path, f"not TOML: {exc}") from None
     unknown = sorted(set(data) - set(_TOP_KEYS))
@@ -153,13 +186,51 @@ def load_settings(path: str | Path) -> SettingsFile:
         raise _fail(path, "two settings share a name")
     version = data.get("engine_version")
     provenance = data.get("provenance", {})
-    return SettingsFile(engine, version if isinstance(version, str) else None, settings, provenance)
+    tiers = _tiers(path, data.get("tiers", {}), names)
+    return SettingsFile(
+        engine,
+        version if isinstance(version, str) else None,
+        settings,
+        provenance,
+        tiers,
+        hashlib.sha256(raw).hexdigest(),
+        path.name,
+    )
+
+
+def _tiers(path: Path, table: Any, names: Sequence[str]) -> dict[str, str | None]:
+    """The [tiers] table checked: known tiers, each naming a setting of the file or "none"."""
+    if not isinstance(table, dict):
+        raise _fail(path, "tiers must be a table")
+    unknown = sorted(set(table) - set(TIER_CHOICES))
+    if unknown:
+        raise _fail(path, f"unknown tier(s) {', '.join(map(repr, unknown))} in [tiers]")
+    tiers: dict[str, str | None] = {}
+    for tier, name in table.items():
+        if name != NONE_TEXT and name not in names:
+            raise _fail(path, f"tiers.{tier} must name a setting of the file or be 'none'")
+        tiers[tier] = None if name == NONE_TEXT else name
+    return tiers
+
+
+def load_choice(text: str | Path) -> tuple[SettingsFile, str | None]:
+    """A ``FILE`` or ``FILE#NAME`` (NAME a setting's name or a tier, TIER_CHOICES): the file,
+    checked, and the name (None without one). SettingsFileError for a NAME the file does not
+    have (pick_setting)."""
+    path, _, name = str(text).partition("#")
+    loaded = load_settings(path)
+    if name:
+        pick_setting(loaded, name)
+    return loaded, name or None
 
 
 def pick_setting(loaded: SettingsFile, name: str | None = None) -> TunedSetting:
-    """The setting named ``name`` (default: the first, the most accurate in training)."""
+    """The setting named ``name``, or the one a tier's name names (TIER_CHOICES); default:
+    the first, the most accurate in training."""
     if name is None:
         return loaded.settings[0]
+    if name in TIER_CHOICES:
+        name = _tier_setting(loaded, name)
     for setting in loaded.settings:
         if setting.name == name:
             return setting
@@ -167,23 +238,42 @@ def pick_setting(loaded: SettingsFile, name: str | None = None) -> TunedSetting:
     raise SettingsFileError(f"no setting named {name!r} in the settings file (it has {known})")
 
 
-def with_settings(suite: Suite, loaded: SettingsFile) -> Suite:
-    """The suite with each setting of the file as a variant of its engine (at the setting's
-    own timestep). SuiteError if the suite does not run that engine."""
+def _tier_setting(loaded: SettingsFile, tier: str) -> str:
+    """The name of the setting ``[tiers]`` gives for ``tier``; SettingsFileError if the file
+    has no tiers or no setting reached it."""
+    if tier not in loaded.tiers:
+        raise SettingsFileError(
+            f"the settings file names no setting for the tier {tier!r} (written before the "
+            f"tiers, or edited): name a setting ({', '.join(s.name for s in loaded.settings)})"
+        )
+    chosen = loaded.tiers[tier]
+    if chosen is None:
+        raise SettingsFileError(
+            f"no setting of the settings file reaches the tier {tier!r} on every training "
+            "and held-out scene (its [tiers] says none)"
+        )
+    return chosen
+
+
+def with_settings(suite: Suite, loaded: SettingsFile, name: str | None = None) -> Suite:
+    """The suite with each setting of the file (only the one ``name`` picks, if given:
+    pick_setting) as a variant of its engine (at the setting's own timestep). SuiteError if
+    the suite does not run that engine."""
     if loaded.engine not in suite.engines:
         raise SuiteError(
             f"the settings file is for {loaded.engine}, which suite {suite.name!r} does not run "
             f"(it has {', '.join(suite.engines)})"
         )
+    chosen = loaded.settings if name is None else (pick_setting(loaded, name),)
     taken = {v.name for v in suite.variants if v.engine == loaded.engine}
-    clash = [s.name for s in loaded.settings if s.name in taken]
+    clash = [s.name for s in chosen if s.name in taken]
     if clash:
         raise SuiteError(f"setting name(s) {', '.join(clash)} already name variants of the suite")
     added = tuple(
         VariantSpec(
             loaded.engine, s.name, options=s.options, timesteps=(s.timestep,), profile=s.profile
         )
-        for s in loaded.settings
+        for s in chosen
     )
     return Suite(
         suite.name,
@@ -192,6 +282,51 @@ def with_settings(suite: Suite, loaded: SettingsFile) -> Suite:
         suite.scenes,
         suite.variants + added,
         suite.profiles,
+    )
+
+
+# --------------------------------------------------------------------------- identity
+SETTINGS_SHA256_KEY = "settings_sha256"
+SETTINGS_CHOICE_KEY = "settings_choice"
+SETTINGS_FILE_KEY = "settings_file"
+
+
+def settings_identity(loaded: SettingsFile | None, name: str | None = None) -> dict[str, Any]:
+    """What a results folder records of its ``--settings FILE[#NAME]`` (runner's sweep.json):
+    the file's content hash and the NAME, None for both without a file (so that a resume
+    with one, or without, differs); the file's own name goes to meta.json
+    (:func:`settings_meta`), as a file renamed is the same settings."""
+    return {
+        SETTINGS_SHA256_KEY: None if loaded is None else loaded.sha256,
+        SETTINGS_CHOICE_KEY: name,
+    }
+
+
+def settings_meta(loaded: SettingsFile | None, name: str | None = None) -> dict[str, Any]:
+    """The settings file a results folder was made with, for meta.json (empty without)."""
+    if loaded is None:
+        return {}
+    shown = loaded.file_name if name is None else f"{loaded.file_name}#{name}"
+    return {SETTINGS_FILE_KEY: shown, SETTINGS_SHA256_KEY: loaded.sha256}
+
+
+def _settings_words(identity: Mapping[str, Any]) -> str:
+    digest, name = identity.get(SETTINGS_SHA256_KEY), identity.get(SETTINGS_CHOICE_KEY)
+    if digest is None:
+        return "without --settings"
+    return f"with the settings file of sha256 {str(digest)[:12]}" + (f"#{name}" if name else "")
+
+
+def settings_mismatch(stored: Mapping[str, Any], identity: Mapping[str, Any]) -> str | None:
+    """runner.check_identity's words when a resume's settings file (or none) is not the
+    one the folder was made with; None when the settings agree (or the folder, made before
+    they were recorded, does not say)."""
+    keys = (SETTINGS_SHA256_KEY, SETTINGS_CHOICE_KEY)
+    if not all(k in stored for k in keys) or all(stored[k] == identity.get(k) for k in keys):
+        return None
+    return (
+        f"was made {_settings_words(stored)}, not {_settings_words(identity)}: resume it "
+        "with the same --settings file, or choose a new folder"
     )
 
 
@@ -224,8 +359,10 @@ def settings_text(
     engine_version: str | None,
     provenance: Mapping[str, Any],
     settings: Sequence[TunedSetting],
+    tiers: Mapping[str, str | None] | None = None,
 ) -> str:
-    """The settings file's text (what :func:`load_settings` reads back)."""
+    """The settings file's text (what :func:`load_settings` reads back); ``tiers``: tier name
+    (TIER_CHOICES) -> the cheapest setting within it, or None where none is."""
     lines = [
         "# Written by `hoopbench tune`: the Pareto set of a search over this engine's settings,",
         "# the most accurate on the training scenes first. docs/tune.md explains the numbers.",
@@ -235,6 +372,8 @@ def settings_text(
         lines.append(f"engine_version = {_toml_value(engine_version)}")
     lines += ["", "[provenance]"]
     lines += [f"{_key(k)} = {_toml_value(v)}" for k, v in provenance.items()]
+    if tiers is not None:
+        lines += ["", *_tiers_lines(tiers)]
     for setting in settings:
         lines += ["", "[[settings]]", f"name = {_toml_value(setting.name)}"]
         lines.append(f"timestep = {_toml_value(float(setting.timestep))}")
@@ -243,3 +382,16 @@ def settings_text(
         lines.append("[settings.options]")
         lines += [f"{_key(k)} = {_toml_value(v)}" for k, v in setting.options.items()]
     return "\n".join(lines) + "\n"
+
+
+def _tiers_lines(tiers: Mapping[str, str | None]) -> list[str]:
+    lines = [
+        "# The cheapest setting below whose every run, on the training and on the held-out",
+        "# scenes, is within each accuracy tier (engines/judging/tolerances.toml): agrees =",
+        "# every event within the tight tolerances, close = within the loose ones. Run one",
+        "# with --settings 'FILE#close'. \"none\": no setting of the file reaches that tier.",
+        "[tiers]",
+    ]
+    for tier in TIER_CHOICES:
+        lines.append(f"{tier} = {_toml_value(tiers.get(tier))}")
+    return lines

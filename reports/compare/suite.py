@@ -49,6 +49,12 @@ from hoopbench.reports.compare.rows import (
     RUNS_TABLE,
     before_one_reading,
 )
+from hoopbench.reports.compare.settings_file import (
+    SettingsFile,
+    settings_identity,
+    settings_meta,
+    settings_mismatch,
+)
 from hoopbench.reports.compare.suite_file import (
     DEFAULT_VARIANT,
     RunTask,
@@ -273,10 +279,13 @@ def compare(
     executor: Executor | None = None,
     suite: Suite | None = None,
     batch_size: int = DEFAULT_BATCH_SIZE,
+    settings: tuple[SettingsFile, str | None] | None = None,
 ) -> RunSummary:
     """Run a suite file into ``out`` (see the README's results layout). The runs of an
     engine that steps many worlds at once go in batches of ``batch_size`` (docs/engines.md,
-    Batches); ``batch_size`` 1 runs every run alone.
+    Batches); ``batch_size`` 1 runs every run alone. ``settings``: the ``--settings`` file
+    (and the NAME of ``FILE#NAME``) whose settings ``suite`` holds as variants: part of the
+    folder's identity, so that a resume with another file, or none, is refused.
 
     Raises SuiteError for a bad suite file, OutputDirNotEmptyError for a folder that holds
     files when ``resume`` is false, and FormatVersionError for resuming a folder a newer
@@ -305,9 +314,11 @@ def compare(
         results.FORMAT_KEY: version,
         "units": {"times": "s", "angles": "deg", "lengths": "m", "*_ms": "ms"},
         "engine_versions": _engine_versions(suite.engines),
+        **settings_meta(*(settings or (None,))),
     }
     say = None if quiet else (lambda text: print(text, file=sys.stderr, flush=True))
-    with claim_folder(out, resume, suite_identity(suite, suite_file), say):
+    identity = suite_identity(suite, suite_file) | settings_identity(*(settings or (None,)))
+    with claim_folder(out, resume, identity, say, settings_mismatch):
         summary = run_tasks(
             tasks,
             run_task,

@@ -1,9 +1,11 @@
 """The "Best settings" section: per engine searched with ``hoopbench tune``, its front (error
 against cost, on the training scenes and on the held-out ones) with ``stock`` and ``tuned``
-placed on it, as a table and a figure.
+placed on it, the accuracy tier each setting reaches and the cheapest of each tier, as a
+table and a figure.
 
-:func:`best_settings` computes (from a tune folder's front.csv and trials.csv, no simulation);
-:func:`best_settings_section` presents.
+:func:`best_settings` computes (from a tune folder's tune.json, front.csv and trials.csv
+alone, no simulation and no runs: a compact copy of a search, as ``make searches`` ships,
+reads the same); :func:`best_settings_section` presents.
 """
 
 from __future__ import annotations
@@ -30,17 +32,28 @@ from hoopbench.reports.sweep.folder_files import (
 )
 from hoopbench.reports.tune.heldout import FRONT_NAME, TRIALS_NAME
 from hoopbench.reports.tune.search import SPEC_NAME
+from hoopbench.reports.tune.tiers import TIER_COLUMNS, cheapest_by_tier
 
 __all__ = [
     "COST_FACTOR",
+    "SCORE_AXIS",
     "BestSettings",
     "best_settings",
     "best_settings_section",
+    "figure_name",
     "is_tune_folder",
 ]
 
 COST_FACTOR = 10.0
 """The second budget the section reads the front at: ten times tuned's cost."""
+
+SCORE_AXIS = "error (loose tolerances; 10 = failed)"
+"""The error axis of the figure, PNG and page alike."""
+
+
+def figure_name(engine: str) -> str:
+    """The file name of an engine's figure (the page draws its own in its place)."""
+    return f"best-settings-{file_stem(engine)}.png"
 
 
 def is_tune_folder(folder: str | Path) -> bool:
@@ -64,6 +77,14 @@ class BestSettings:
     """The best held-out error of the Pareto set at no more than tuned's held-out cost."""
     at_ten_times: float | None
     """The same at COST_FACTOR times tuned's held-out cost."""
+    cheapest: dict[str, str | None]
+    """Tier name -> the cheapest Pareto setting within it on the training and held-out scenes
+    (settings.toml's [tiers]); every tier None for a front.csv from before the tiers."""
+
+    @property
+    def has_tiers(self) -> bool:
+        """Whether front.csv labels each setting's tiers (a search from before does not)."""
+        return set(TIER_COLUMNS) <= set(self.front.columns)
 
 
 def _best_within(front: pd.DataFrame, cost: float | None) -> float | None:
@@ -99,6 +120,7 @@ def _read(folder: Path) -> BestSettings:
         tuned_heldout=float(tuned["heldout_error"].iloc[0]) if len(tuned) else None,
         at_tuned_cost=_best_within(front, cost),
         at_ten_times=_best_within(front, None if cost is None else COST_FACTOR * cost),
+        cheapest=cheapest_by_tier(front),
     )
 
 
@@ -122,21 +144,51 @@ def _number(value: Any, spec: str = ".3g") -> str:
     return "-" if not math.isfinite(number) else format(number, spec)
 
 
+def _tier(row: dict[str, Any], column: str) -> str:
+    value = row.get(column)
+    return escape_cell(value) if isinstance(value, str) else "-"
+
+
 def _table(best: BestSettings) -> list[str]:
     lines = [
         "| setting | kind | timestep (s) | training error | held-out error | "
-        "cost (us per simulated s) | overfitted |",
-        "|---|---|---|---|---|---|---|",
+        "training cost (us per simulated s) | overfitted | training tier | held-out tier |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
+    train, heldout = TIER_COLUMNS
     for row in best.front.to_dict("records"):
         lines.append(
             f"| {escape_cell(row['setting'])} | {escape_cell(row['kind'])} | "
             f"{_number(row['timestep'])} | "
             f"{_number(row['train_error'])} | {_number(row['heldout_error'])} | "
             f"{_number(row['train_cost_us_per_s'])} | "
-            f"{'yes' if row['overfitted'] else 'no'} |"
+            f"{'yes' if row['overfitted'] else 'no'} | "
+            f"{_tier(row, train)} | {_tier(row, heldout)} |"
         )
     return lines
+
+
+def _tiers_line(best: BestSettings) -> str:
+    """The cheapest setting of each tier, as the settings file names it."""
+    if not best.has_tiers:
+        return (
+            "This search's front.csv is from before the tier labels: resume it "
+            "(`hoopbench tune --resume`, no new trials) to label its settings."
+        )
+    costs = best.front.set_index("setting")["train_cost_us_per_s"]
+    said = []
+    for tier, name in best.cheapest.items():
+        if name is None:
+            said.append(f"{tier}: none")
+        else:
+            cost = _number(costs.get(name))
+            said.append(f"{tier}: {escape_text(name)} ({cost} us per simulated s)")
+    return (
+        "The cheapest setting whose every run, on the training and on the held-out scenes, "
+        "is within each accuracy tier (`--settings 'settings.toml#close'`): "
+        + "; ".join(said)
+        + "."
+    )
 
 
 def _summary(best: BestSettings) -> str:
@@ -185,7 +237,7 @@ def _panel(ax: Any, best: BestSettings, which: str) -> None:
     ax.set_xscale("log")
     _plain_log_axis(ax.xaxis)
     ax.set_xlabel("cost, us per simulated second")
-    ax.set_ylabel("error (loose tolerances; 10 = failed)")
+    ax.set_ylabel(SCORE_AXIS)
     ax.set_title("training scenes" if which == "train" else "held-out scenes")
     ax.grid(True, which="both", alpha=0.3)
 
@@ -211,10 +263,12 @@ def best_settings_section(found: Sequence[BestSettings], out: str | Path) -> str
         "over scenes of each run's worst event error in loose tolerances; 10 for a failed run, "
         "a missed or invented event) against cost, on the training scenes and on held-out "
         "scenes drawn at random from a seed the search never saw. A setting is overfitted when "
-        "its held-out error is more than twice its training error plus 0.5.",
+        "its held-out error is more than twice its training error plus 0.5. Its tier on a set "
+        "of scenes is the finest every one of its runs there is within: agrees (every event "
+        "within the tight tolerances), close (within the loose ones) or none.",
     ]
     for best in found:
-        name = f"best-settings-{file_stem(best.engine)}.png"
+        name = figure_name(best.engine)
         _figure(best, out / name)
         engine = escape_text(best.engine)
         lines += [
@@ -223,6 +277,8 @@ def best_settings_section(found: Sequence[BestSettings], out: str | Path) -> str
             "",
             f"Training scenes: {escape_text(', '.join(best.training_scenes))}; "
             f"{len(best.trials)} trials. {_summary(best)}",
+            "",
+            _tiers_line(best),
             "",
             *_table(best),
             "",

@@ -108,7 +108,8 @@ def build_report(
         if found:
             extra.append(best_settings_section(found, out))
         report = write_markdown(frame, out, generated=generated, extra=extra)
-        write_page(frame, out, maps=maps, map_prefixes=map_prefixes(len(maps)))  # report.html
+        prefixes = map_prefixes(len(maps))
+        write_page(frame, out, maps=maps, map_prefixes=prefixes, searches=found)  # report.html
     return report
 
 

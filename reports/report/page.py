@@ -3,9 +3,10 @@
 The page's text and tables are report.md's own, rendered (markdown-it, raw HTML in it shown
 as text): the same sections and the same numbers, by construction. Where report.md shows a
 figure that has an interactive version, the page shows that instead (error against run time,
-the stability matrix, the contact forces, each hop map, and each catalogue scene's hoop in
-motion in place of its paths figure); every other figure is embedded as its PNG. One file:
-plotly.js, the script and the style are inside it, so it opens from disk with no network.
+the stability matrix, the contact forces, each hop map, each searched engine's best settings,
+and each catalogue scene's hoop in motion in place of its paths figure); every other figure
+is embedded as its PNG. One file: plotly.js, the script and the style are inside it, so it
+opens from disk with no network.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
 from hoopbench.models.catalogue import get_scene, scene_names
 from hoopbench.reports.compare.selection import default_rows, profile_of
+from hoopbench.reports.report.best_settings import BestSettings, figure_name
 from hoopbench.reports.report.findings import MORE_FINDINGS
 from hoopbench.reports.report.hoop_gif import GIF_SCENE, hoop_gif
 from hoopbench.reports.report.markdown import (
@@ -33,6 +35,7 @@ from hoopbench.reports.report.markdown import (
     with_optional_columns,
 )
 from hoopbench.reports.report.page_animation import animation_figure, hoop_motions
+from hoopbench.reports.report.page_best_settings import best_settings_page_figure
 from hoopbench.reports.report.page_figures import (
     force_page_figure,
     precision_page_figure,
@@ -86,7 +89,10 @@ def _split(frame: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
 
 
 def page_fragments(
-    frame: pd.DataFrame, maps: Sequence[Path], map_prefixes: Sequence[str]
+    frame: pd.DataFrame,
+    maps: Sequence[Path],
+    map_prefixes: Sequence[str],
+    searches: Sequence[BestSettings] = (),
 ) -> Fragments:
     """What the page shows in place of report.md's figures (module doc), by figure file name."""
     fragments: Fragments = {}
@@ -104,7 +110,13 @@ def page_fragments(
                 fragments[f"paths_{scene}.png"] = _animation(runs, scene, f"motion-{k}")
     for k, (folder, prefix) in enumerate(zip(maps, map_prefixes, strict=True)):
         fragments[f"{prefix}_regimes.png"] = _map(folder, f"map-{k}")
+    for k, best in enumerate(searches):
+        fragments[figure_name(best.engine)] = _best_settings(best, f"best-settings-{k}")
     return fragments
+
+
+def _best_settings(best: BestSettings, figure_id: str) -> Callable[[], str]:
+    return _figure(figure_id, lambda: best_settings_page_figure(best))
 
 
 def _map(folder: Path, figure_id: str) -> Callable[[], str]:
@@ -206,13 +218,20 @@ def write_gif(frame: pd.DataFrame, out: Path) -> Path | None:
 
 
 def write_page(
-    frame: pd.DataFrame, out: Path, *, maps: Sequence[Path] = (), map_prefixes: Sequence[str] = ()
+    frame: pd.DataFrame,
+    out: Path,
+    *,
+    maps: Sequence[Path] = (),
+    map_prefixes: Sequence[str] = (),
+    searches: Sequence[BestSettings] = (),
 ) -> Path:
-    """Write out/report.html from out/report.md (written first) and the rows it was made of,
-    and the README's animation (:func:`write_gif`)."""
+    """Write out/report.html from out/report.md (written first) and the rows it was made of
+    (and the searches read back, whose fronts it draws), and the README's animation
+    (:func:`write_gif`)."""
     out = Path(out)
     markdown_text = (out / "report.md").read_text(encoding="utf-8")
-    page = render_page(markdown_text, out, page_fragments(frame, maps, map_prefixes))
+    fragments = page_fragments(frame, maps, map_prefixes, searches)
+    page = render_page(markdown_text, out, fragments)
     path = out / PAGE_NAME
     results.atomic_write(path, lambda tmp: tmp.write_text(page, encoding="utf-8"))
     write_gif(frame, out)

@@ -1084,15 +1084,24 @@ def _describe(identity: Mapping[str, Any]) -> str:
     return f"suite {identity.get('suite')!r}"
 
 
-def check_identity(out: Path, identity: Mapping[str, Any]) -> None:
+Explain = Callable[[Mapping[str, Any], Mapping[str, Any]], str | None]
+"""(stored identity, this sweep's) -> what differs in the caller's words, or None: the
+generic words."""
+
+
+def check_identity(out: Path, identity: Mapping[str, Any], explain: Explain | None = None) -> None:
     """OtherSweepError if ``out`` holds another kind of sweep or another suite than
-    ``identity`` says (the keys both record are compared)."""
+    ``identity`` says (the keys both record are compared); ``explain`` words a difference
+    the caller knows better (compare's settings file)."""
     stored = _stored_identity(out)
     if stored is None:
         return
     differ = [k for k in identity if k in stored and stored[k] != identity[k]]
     if not differ:
         return
+    said = None if explain is None or "kind" in differ else explain(stored, identity)
+    if said is not None:
+        raise OtherSweepError(f"{out} {said}")
     if "kind" in differ or "suite" in differ:
         what = f"holds {_describe(stored)}, not {_describe(identity)}"
     else:
@@ -1108,23 +1117,24 @@ def claim_folder(
     resume: bool,
     identity: Mapping[str, Any] | None = None,
     say: Callable[[str], None] | None = None,
+    explain: Explain | None = None,
 ) -> Iterator[None]:
     """The folder, for one whole sweep: checked, locked (sweep_lock), checked again under the
     lock (a sweep started at the same instant may have filled it), and its identity written
-    (a new sweep) or compared (a resume). Nothing is written for a refused folder that did
-    not exist or held files."""
+    (a new sweep) or compared (a resume; ``explain``: check_identity's). Nothing is written
+    for a refused folder that did not exist or held files."""
     try:
         check_dir(out, resume)
     except OutputDirNotEmptyError:
         _refuse_if_locked(out)  # "in use" says more than "not empty"
         raise
     if resume and identity is not None and out.is_dir():
-        check_identity(out, identity)
+        check_identity(out, identity, explain)
     with sweep_lock(out, say):
         check_dir(out, resume)
         if identity is not None:
             if resume:
-                check_identity(out, identity)
+                check_identity(out, identity, explain)
             if not (out / IDENTITY_NAME).exists() and not holds_files(out):
                 text = json.dumps(dict(identity), indent=2) + "\n"
                 results.atomic_write(out / IDENTITY_NAME, lambda tmp: tmp.write_text(text))

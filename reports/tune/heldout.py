@@ -23,9 +23,11 @@ from hoopbench.models.scene import Scene
 from hoopbench.reference.random_scenes import draw
 from hoopbench.reference.regimes import Regime
 from hoopbench.reports.compare.settings_file import TunedSetting, settings_text
+from hoopbench.reports.compare.suite import runs_frame
 from hoopbench.reports.sweep import results
 from hoopbench.reports.sweep.runner import WorkerPool
 from hoopbench.reports.tune.search import (
+    TRIALS_DIR,
     Budget,
     SearchResult,
     Setting,
@@ -35,6 +37,7 @@ from hoopbench.reports.tune.search import (
     setting_tasks,
     trials_frame,
 )
+from hoopbench.reports.tune.tiers import TIER_COLUMNS, cheapest_by_tier, tier_columns
 
 __all__ = [
     "FRONT_NAME",
@@ -76,7 +79,9 @@ def is_overfitted(train_error: float | None, heldout_error: float | None) -> boo
     return heldout_error > OVERFIT_FACTOR * train_error + OVERFIT_MARGIN
 
 
-def _line(setting: Setting, kind: str, rows: list[dict[str, Any]]) -> dict[str, Any]:
+def _line(
+    setting: Setting, kind: str, rows: list[dict[str, Any]], train_rows: list[dict[str, Any]]
+) -> dict[str, Any]:
     heldout = error_score(rows)
     return {
         "setting": setting.name,
@@ -88,6 +93,7 @@ def _line(setting: Setting, kind: str, rows: list[dict[str, Any]]) -> dict[str, 
         "heldout_error": heldout,
         "heldout_cost_us_per_s": cost_us_per_s(rows),
         "overfitted": is_overfitted(setting.train_error, heldout),
+        **tier_columns(train_rows, rows),
     }
 
 
@@ -100,13 +106,16 @@ def validate(
     front = [setting_of(spec.engine, t) for t in result.study.best_trials]
     front.sort(key=lambda s: (s.train_error, s.train_cost))
     lines = []
+    trained = runs_frame(out / TRIALS_DIR)
     for kind, settings in (("pareto", front), ("baseline", list(result.baselines))):
         for setting in settings:
             tasks = setting_tasks(spec.engine, scenes, setting)
             summary, rows = run_settings(tasks, out / HELDOUT_DIR, pool, budget, spec.engine)
             if summary.interrupted is not None:
                 return None
-            lines.append(_line(setting, kind, rows))
+            ids = {t.run_id for t in setting_tasks(spec.engine, spec.scenes, setting)}
+            train_rows = trained[trained["run_id"].isin(ids)].to_dict("records")
+            lines.append(_line(setting, kind, rows, train_rows))
     table = pd.DataFrame(lines)
     results.write_csv(table, out / FRONT_NAME)
     results.write_csv(trials_frame(result.study), out / TRIALS_NAME)
@@ -140,6 +149,7 @@ def _write_settings(
                 "heldout_error": _number(by_name.loc[s.name, "heldout_error"]),
                 "cost_us_per_s": _number(s.train_cost),
                 "overfitted": bool(by_name.loc[s.name, "overfitted"]),
+                **{c: str(by_name.loc[s.name, c]) for c in TIER_COLUMNS},
             },
         )
         for s in front
@@ -156,5 +166,5 @@ def _write_settings(
         "date": datetime.now(UTC).isoformat(timespec="seconds"),
     }
     version = engine_class(spec.engine)().version()
-    text = settings_text(spec.engine, version, provenance, settings)
+    text = settings_text(spec.engine, version, provenance, settings, cheapest_by_tier(table))
     results.atomic_write(out / SETTINGS_NAME, lambda tmp: tmp.write_text(text, encoding="utf-8"))
