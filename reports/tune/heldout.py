@@ -1,5 +1,6 @@
 """The held-out check of a search: its Pareto set (and stock and tuned) run again on scenes
-drawn at random from a seed the search never saw; the front table and the settings file.
+drawn at random from a seed the search never saw (random scenes of each regime, and the
+training scenes' neighbours: neighbours.py); the front table and the settings file.
 
 A setting is *overfitted* when its held-out error exceeds OVERFIT_FACTOR times its training
 error plus OVERFIT_MARGIN (errors in loose tolerances: engines/judging/score.py).
@@ -24,9 +25,10 @@ from hoopbench.reference.random_scenes import draw
 from hoopbench.reference.regimes import Regime
 from hoopbench.reports.compare.settings_file import TunedSetting, settings_text
 from hoopbench.reports.sweep import results
-from hoopbench.reports.sweep.runner import WorkerPool
+from hoopbench.reports.tune.neighbours import neighbours_of
 from hoopbench.reports.tune.search import (
     Budget,
+    Runner,
     SearchResult,
     Setting,
     TuneSpec,
@@ -49,6 +51,8 @@ __all__ = [
 ]
 
 HELDOUT_DIR = "heldout"
+HELDOUT_PREFIX = "heldout-"
+"""Of a held-out scene's name: heldout-random-N, heldout-near-<training scene>-K."""
 FRONT_NAME = "front.csv"
 TRIALS_NAME = "trials.csv"
 SETTINGS_NAME = "settings.toml"
@@ -63,10 +67,14 @@ than the spread between scenes of one regime."""
 
 
 def heldout_scenes(spec: TuneSpec) -> tuple[Scene, ...]:
-    """The held-out scenes: ``heldout_per_regime`` of each regime, from ``heldout_seed``."""
-    quota = dict.fromkeys(HELDOUT_REGIMES, spec.heldout_per_regime)
-    drawn = draw(spec.heldout_seed, quota, t_end=HELDOUT_T_END)
-    return tuple(replace(s, name=f"heldout-{s.name}") for s in drawn.scenes)
+    """The held-out scenes, from ``heldout_seed``: ``heldout_per_regime`` random scenes of
+    each regime, then ``heldout_neighbours`` neighbours of each training scene."""
+    drawn: tuple[Scene, ...] = ()
+    if spec.heldout_per_regime:
+        quota = dict.fromkeys(HELDOUT_REGIMES, spec.heldout_per_regime)
+        drawn = draw(spec.heldout_seed, quota, t_end=HELDOUT_T_END).scenes
+    near = neighbours_of(spec.scenes, spec.heldout_seed, spec.heldout_neighbours)
+    return tuple(replace(s, name=f"{HELDOUT_PREFIX}{s.name}") for s in (*drawn, *near))
 
 
 def is_overfitted(train_error: float | None, heldout_error: float | None) -> bool:
@@ -92,7 +100,7 @@ def _line(setting: Setting, kind: str, rows: list[dict[str, Any]]) -> dict[str, 
 
 
 def validate(
-    spec: TuneSpec, result: SearchResult, out: Path, pool: WorkerPool, budget: Budget
+    spec: TuneSpec, result: SearchResult, out: Path, runner: Runner, budget: Budget
 ) -> pd.DataFrame | None:
     """Run the Pareto set and the baselines on the held-out scenes; write front.csv,
     trials.csv and settings.toml. None if a signal stopped the runs (resume goes on)."""
@@ -103,7 +111,7 @@ def validate(
     for kind, settings in (("pareto", front), ("baseline", list(result.baselines))):
         for setting in settings:
             tasks = setting_tasks(spec.engine, scenes, setting)
-            summary, rows = run_settings(tasks, out / HELDOUT_DIR, pool, budget, spec.engine)
+            summary, rows = run_settings(tasks, out / HELDOUT_DIR, runner)
             if summary.interrupted is not None:
                 return None
             lines.append(_line(setting, kind, rows))
@@ -148,6 +156,8 @@ def _write_settings(
         "training_scenes": [s.name for s in spec.scenes],
         "heldout_scenes": [s.name for s in scenes],
         "heldout_seed": spec.heldout_seed,
+        "heldout_per_regime": spec.heldout_per_regime,
+        "heldout_neighbours": spec.heldout_neighbours,
         "seed": spec.seed,
         "trials": len(result.study.trials),
         "budget_trials": budget.trials if budget.trials is not None else "none",
