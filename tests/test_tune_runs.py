@@ -135,7 +135,7 @@ def test_a_search_folder_from_before_the_neighbours_resumes_and_adds_their_rows(
     heldout_neighbours key: it resumes, keeps its held-out rows and adds the neighbours'."""
     out = tmp_path / "search"
     scene = hb.scene("hop-bottom", t_end=0.6)
-    hb.tune("pymunk", out, scenes=[scene], trials=1, heldout_neighbours=0, quiet=True)
+    old = hb.tune("pymunk", out, scenes=[scene], trials=1, heldout_neighbours=0, quiet=True)
     for name in (SPEC_NAME, IDENTITY_NAME):  # as the search of before wrote them
         data = json.loads((out / name).read_text())
         del data["heldout_neighbours"]
@@ -155,7 +155,10 @@ def test_a_search_folder_from_before_the_neighbours_resumes_and_adds_their_rows(
     assert json.loads((out / SPEC_NAME).read_text())["heldout_neighbours"] == 1
     provenance = load_settings(out / "settings.toml").provenance
     assert provenance["heldout_scenes"][-1] == "heldout-near-hop-bottom-1"
-    assert front["heldout_error"].notna().all()
+    assert front["heldout_near_error"].notna().all() and old["heldout_near_error"].isna().all()
+    pd.testing.assert_series_equal(  # the error on the random scenes is the old held-out error
+        front["heldout_random_error"], old["heldout_error"], check_names=False
+    )
 
 
 # --------------------------------------------------------------------------- every engine
@@ -190,6 +193,31 @@ def test_the_smallest_search_runs_for_every_engine(
     assert load_settings(settings).engine == engine
     capsys.readouterr()
     args = ["simulate", "--engine", engine, "--scene", "hop-bottom"]
-    assert main([*args, "--t-end", str(SHORT_T_END), "--settings", settings, "--json"]) == 0
+    assert main([*args, "--t-end", "0.01", "--settings", settings, "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["engine"] == engine
     print(f"{engine}: the smallest search took {seconds:.1f} s")
+
+
+# --------------------------------------------------------------------------- bad input
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--heldout-neighbours", "-1"], "--heldout-neighbours: must be >= 0, got -1"),
+        (["--heldout-neighbours", "x"], "--heldout-neighbours: must be a whole number"),
+        (
+            ["--heldout-neighbours", "0", "--heldout-per-regime", "0"],
+            "--heldout-per-regime and the neighbours cannot both be 0",
+        ),
+        (["--batch-size", "0"], "--batch-size: must be >= 1, got 0"),
+        (["--tls-cert", "c.pem"], "--tls-cert: only with --scheduler tls://HOST:PORT"),
+        (["--scheduler", "nosuch://h:1"], "the scheme must be tcp:// or tls://"),
+    ],
+)
+def test_bad_run_options_are_one_line_and_exit_2(
+    args: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "x"
+    assert main(["tune", "--engine", "pymunk", "--trials", "1", "--out", str(out), *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and message in err, err
+    assert not out.exists()

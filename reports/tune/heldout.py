@@ -18,14 +18,15 @@ from typing import Any
 
 import pandas as pd
 
+from hoopbench.engines.judging.columns import Col
 from hoopbench.engines.judging.score import cost_us_per_s, error_score
 from hoopbench.engines.registry import engine_class
 from hoopbench.models.scene import Scene
-from hoopbench.reference.random_scenes import draw
+from hoopbench.reference.random_scenes import RANDOM_PREFIX, draw
 from hoopbench.reference.regimes import Regime
 from hoopbench.reports.compare.settings_file import TunedSetting, settings_text
 from hoopbench.reports.sweep import results
-from hoopbench.reports.tune.neighbours import neighbours_of
+from hoopbench.reports.tune.neighbours import NEIGHBOUR_PREFIX, neighbours_of
 from hoopbench.reports.tune.search import (
     Budget,
     Runner,
@@ -84,6 +85,12 @@ def is_overfitted(train_error: float | None, heldout_error: float | None) -> boo
     return heldout_error > OVERFIT_FACTOR * train_error + OVERFIT_MARGIN
 
 
+def _part_error(rows: list[dict[str, Any]], prefix: str) -> float | None:
+    """The error on the held-out scenes named ``prefix...``; None without any."""
+    part = [r for r in rows if str(r.get(Col.SCENE, "")).startswith(prefix)]
+    return error_score(part) if part else None
+
+
 def _line(setting: Setting, kind: str, rows: list[dict[str, Any]]) -> dict[str, Any]:
     heldout = error_score(rows)
     return {
@@ -96,6 +103,8 @@ def _line(setting: Setting, kind: str, rows: list[dict[str, Any]]) -> dict[str, 
         "heldout_error": heldout,
         "heldout_cost_us_per_s": cost_us_per_s(rows),
         "overfitted": is_overfitted(setting.train_error, heldout),
+        "heldout_random_error": _part_error(rows, f"{HELDOUT_PREFIX}{RANDOM_PREFIX}"),
+        "heldout_near_error": _part_error(rows, f"{HELDOUT_PREFIX}{NEIGHBOUR_PREFIX}"),
     }
 
 
