@@ -27,7 +27,10 @@ from hoopbench.models.events import PhaseKind
 from hoopbench.models.scene import Scene
 from hoopbench.reference.regimes import Regime, classify
 
-__all__ = ["RANGES", "Draw", "draw"]
+__all__ = ["RANDOM_PREFIX", "RANGES", "Draw", "draw"]
+
+RANDOM_PREFIX = "random-"
+"""A drawn scene's name: random-<its draw's index>."""
 
 RANGES: Mapping[str, tuple[float, float]] = {
     "lam": (0.5, 0.97),
@@ -61,7 +64,7 @@ def _scene(rng: np.random.Generator, index: int, t_end: float) -> Scene:
         muk=mu,
         theta0=float(values["theta0"]),
         t_end=t_end,
-        name=f"random-{index}",
+        name=f"{RANDOM_PREFIX}{index}",
     )
 
 

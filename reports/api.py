@@ -69,6 +69,7 @@ from hoopbench.reports.tune.heldout import validate
 from hoopbench.reports.tune.search import (
     DEFAULT_TRAINING_SCENES,
     Budget,
+    Runner,
     SearchResult,
     TuneSpec,
     search,
@@ -79,6 +80,7 @@ __all__ = [
     "OptionError",
     "SuiteJob",
     "check_batch_size",
+    "check_count",
     "check_grid",
     "check_positive_int",
     "check_positive_seconds",
@@ -131,9 +133,8 @@ def _checked(option: str, check: Any, value: Any) -> Any:
         raise OptionError(option, f"{{option}} {exc}") from None
 
 
-def check_positive_int(value: int | str) -> int:
-    """A whole number >= 1 (text from the command line, or an int); the ValueError's message
-    leaves the name out, for the caller (or argparse) to put in front."""
+def _whole(value: int | str) -> int:
+    """A whole number (text from the command line, or an int: numpy's too, never a bool)."""
     if isinstance(value, str):
         try:
             value = int(value)
@@ -141,9 +142,23 @@ def check_positive_int(value: int | str) -> int:
             raise ValueError(f"must be a whole number, got {value!r}") from None
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         raise ValueError(f"must be a whole number, got {value!r}")
-    value = int(value)  # numpy's integers too
+    return int(value)
+
+
+def check_positive_int(value: int | str) -> int:
+    """A whole number >= 1 (text from the command line, or an int); the ValueError's message
+    leaves the name out, for the caller (or argparse) to put in front."""
+    value = _whole(value)
     if value < 1:
         raise ValueError(f"must be >= 1, got {value}")
+    return value
+
+
+def check_count(value: int | str) -> int:
+    """A whole number >= 0, as :func:`check_positive_int` reads it."""
+    value = _whole(value)
+    if value < 0:
+        raise ValueError(f"must be >= 0, got {value}")
     return value
 
 
@@ -802,6 +817,7 @@ def tune_job(
     seed: int = 0,
     heldout_seed: int | None = None,
     heldout_per_regime: int = 1,
+    heldout_neighbours: int = 1,
     run_timeout: float | None = None,
 ) -> TuneJob:
     """Check a search's options (see :func:`tune`)."""
@@ -832,8 +848,13 @@ def tune_job(
             "heldout_seed",
             f"{{option}} must be a whole number >= 0 other than the seed, got {held!r}",
         )
-    per_regime = _checked("heldout_per_regime", check_positive_int, heldout_per_regime)
-    return TuneJob(TuneSpec(engine, chosen, seed, held, per_regime), budget)
+    per_regime = _checked("heldout_per_regime", check_count, heldout_per_regime)
+    near = _checked("heldout_neighbours", check_count, heldout_neighbours)
+    if per_regime == near == 0:
+        raise OptionError(
+            "heldout_per_regime", "{option} and the neighbours cannot both be 0: no held-out scene"
+        )
+    return TuneJob(TuneSpec(engine, chosen, seed, held, per_regime, near), budget)
 
 
 def run_tune(
@@ -843,17 +864,31 @@ def run_tune(
     resume: bool = False,
     jobs: int | None = None,
     quiet: bool = False,
+    executor: Executor | None = None,
+    batch_size: int = DEFAULT_BATCH_SIZE,
 ) -> tuple[SearchResult, pd.DataFrame | None]:
     """Run a checked search into ``out``: the search and its front table (None if a signal
-    stopped it before the held-out runs ended)."""
+    stopped it before the held-out runs ended). ``executor``: a Dask cluster's (``jobs`` is
+    then ignored); ``batch_size``: runs per batch for an engine that steps many worlds."""
     workers = default_jobs() if jobs is None else _checked("jobs", check_workers, jobs)
+    batch_size = _checked("batch_size", check_batch_size, batch_size)
     say = None if quiet else (lambda text: print(text, file=sys.stderr, flush=True))
     front: list[pd.DataFrame | None] = [None]
 
-    def then(result: SearchResult, pool: Any) -> None:
-        front[0] = validate(job.spec, result, Path(out), pool, job.budget)
+    def then(result: SearchResult, runner: Runner) -> None:
+        front[0] = validate(job.spec, result, Path(out), runner, job.budget)
 
-    result = search(job.spec, out, job.budget, resume=resume, jobs=workers, say=say, then=then)
+    result = search(
+        job.spec,
+        out,
+        job.budget,
+        resume=resume,
+        jobs=workers,
+        executor=executor,
+        batch_size=batch_size,
+        say=say,
+        then=then,
+    )
     return result, front[0]
 
 
@@ -867,18 +902,24 @@ def tune(
     seed: int = 0,
     heldout_seed: int | None = None,
     heldout_per_regime: int = 1,
+    heldout_neighbours: int = 1,
     resume: bool = False,
     jobs: int | None = None,
     run_timeout: float | None = None,
     quiet: bool = False,
+    executor: Executor | None = None,
+    batch_size: int = DEFAULT_BATCH_SIZE,
 ) -> pd.DataFrame:
     """Search an engine's settings (error against cost) into the folder ``out`` and return
     its front: the Pareto set and ``stock`` and ``tuned``, each with its training and held-out
-    error and the accuracy tier it reaches on each (docs/tune.md). ``trials`` (in all, a
-    resumed search's included) or ``timeout`` (s for this session) is the budget; ``scenes``
-    the training scenes (default: the catalogue's scenes with events); ``heldout_seed`` draws
-    the held-out scenes. Needs Optuna (the ``tune`` extra). KeyboardInterrupt if a signal
-    stopped it (``resume=True`` goes on).
+    error and the accuracy tier it reaches on each (docs/tune.md). ``trials`` (in all, a resumed search's included) or ``timeout`` (s
+    for this session) is the budget; ``scenes`` the training scenes (default: the
+    catalogue's scenes with events); ``heldout_seed`` draws the held-out scenes:
+    ``heldout_per_regime`` random scenes of each regime and ``heldout_neighbours`` neighbours
+    of each training scene. ``executor`` runs the runs elsewhere (a Dask cluster's, as in
+    :func:`compare`); ``batch_size`` is runs per batch for an engine that steps many worlds
+    at once. Needs Optuna (the ``tune`` extra). KeyboardInterrupt if a signal stopped it
+    (``resume=True`` goes on).
     """
     job = tune_job(
         engine,
@@ -888,9 +929,18 @@ def tune(
         seed=seed,
         heldout_seed=heldout_seed,
         heldout_per_regime=heldout_per_regime,
+        heldout_neighbours=heldout_neighbours,
         run_timeout=run_timeout,
     )
-    result, front = run_tune(job, out, resume=resume, jobs=jobs, quiet=quiet)
+    result, front = run_tune(
+        job,
+        out,
+        resume=resume,
+        jobs=jobs,
+        quiet=quiet,
+        executor=executor,
+        batch_size=batch_size,
+    )
     if result.interrupted or front is None:
         raise KeyboardInterrupt(f"interrupted: resume with hb.tune(..., resume=True) in {out}")
     return front

@@ -141,6 +141,7 @@ def _argument(check_name: str) -> Any:
 
 
 _positive_int = _argument("check_positive_int")
+_count = _argument("check_count")
 _seconds = _argument("check_positive_seconds")
 """A time step, s: finite and > 0 (0 used to fall back on the default without a word)."""
 _batch_size = _argument("check_batch_size")
@@ -943,6 +944,8 @@ def _add_figure(sub: Any, classes: Mapping[str, Any]) -> None:
 
 
 def _add_tune(sub: Any, classes: Mapping[str, Any]) -> None:
+    from hoopbench.reports.sweep.cluster import add_cluster_arguments
+
     p = sub.add_parser(
         "tune", help="search an engine's settings, error against cost (needs the tune extra)"
     )
@@ -956,17 +959,31 @@ def _add_tune(sub: Any, classes: Mapping[str, Any]) -> None:
     p.add_argument("--seed", type=int, default=0, help="the sampler's seed (default 0)")
     p.add_argument("--heldout-seed", type=int, help="the held-out scenes' seed")
     p.add_argument(
-        "--heldout-per-regime", type=_positive_int, default=1, help="held-out scenes per regime"
+        "--heldout-per-regime",
+        type=_count,
+        default=1,
+        help="held-out random scenes of each regime (default 1)",
+    )
+    p.add_argument(
+        "--heldout-neighbours",
+        type=_count,
+        default=1,
+        metavar="N",
+        help="held-out neighbours of each training scene: its parameters moved at random, its "
+        "events kept (default 1)",
     )
     p.add_argument("--jobs", type=_workers, help="worker processes (default 2, at most the cores)")
+    _add_batch_size(p)
     p.add_argument("--run-timeout", type=_seconds, help="time limit per run, s")
     p.add_argument("--resume", action="store_true", help="go on with the search in --out")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    add_cluster_arguments(p)
     p.set_defaults(func=_cmd_tune)
 
 
 def _cmd_tune(args: argparse.Namespace) -> int:
     import hoopbench.reports.api as api
+    from hoopbench.reports.sweep.cluster import executor_from_args
     from hoopbench.reports.sweep.runner import RunnerError
     from hoopbench.reports.tune.search import TuneUnavailableError
 
@@ -978,12 +995,20 @@ def _cmd_tune(args: argparse.Namespace) -> int:
         seed=args.seed,
         heldout_seed=args.heldout_seed,
         heldout_per_regime=args.heldout_per_regime,
+        heldout_neighbours=args.heldout_neighbours,
         run_timeout=args.run_timeout,
     )
     try:
-        result, front = api.run_tune(
-            job, args.out, resume=args.resume, jobs=args.jobs, quiet=args.quiet
-        )
+        with executor_from_args(args) as executor:
+            result, front = api.run_tune(
+                job,
+                args.out,
+                resume=args.resume,
+                jobs=args.jobs,
+                quiet=args.quiet,
+                executor=executor,
+                batch_size=args.batch_size,
+            )
     except (RunnerError, TuneUnavailableError) as exc:
         raise UsageError(str(exc)) from None
     if result.interrupted or front is None:

@@ -28,8 +28,10 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+import hoopbench as hb
 from hoopbench.engines.judging.columns import COST_COLUMNS
 from hoopbench.reports.compare.suite import compare as run_suite
+from hoopbench.reports.compare.suite import runs_frame
 from hoopbench.reports.hop_map.spec import MapSpec
 from hoopbench.reports.hop_map.stages import run_map
 from hoopbench.reports.hop_map.table import map_frame
@@ -136,6 +138,24 @@ def test_a_map_on_the_cluster_gives_the_local_rows(tmp_path, cluster):
     frame = map_frame(tmp_path / "remote")
     assert len(frame) == 9 * 3  # the reference and two engines at every point
     pd.testing.assert_frame_equal(comparable(frame), comparable(map_frame(tmp_path / "local")))
+
+
+@pytest.mark.slow
+def test_a_search_on_the_cluster_gives_the_local_rows(tmp_path, cluster):
+    """hoopbench tune --scheduler: every trial's and held-out run on the cluster, the rows a
+    local search gives (one trial, so that the Pareto set does not hang on timings)."""
+    pytest.importorskip("optuna")
+    tune = ["tune", "--engine", "pymunk", "--scenes", "hop-bottom", "--trials", "1"]
+    tune += ["--heldout-per-regime", "0", "--quiet", "--scheduler", cluster.address]
+    done = hoopbench(*tune, "--out", str(tmp_path / "remote"), cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    hb.tune("pymunk", tmp_path / "local", scenes=["hop-bottom"], trials=1,
+            heldout_per_regime=0, quiet=True)  # fmt: skip
+    for folder in ("trials", "heldout"):
+        remote = runs_frame(tmp_path / "remote" / folder)
+        assert len(remote) == 3 and set(remote["status"]) == {"ok"}
+        local = runs_frame(tmp_path / "local" / folder)
+        pd.testing.assert_frame_equal(comparable(remote), comparable(local))
 
 
 # --------------------------------------------------------------------------- faults

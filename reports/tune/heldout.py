@@ -1,5 +1,6 @@
 """The held-out check of a search: its Pareto set (and stock and tuned) run again on scenes
-drawn at random from a seed the search never saw; the front table and the settings file.
+drawn at random from a seed the search never saw (random scenes of each regime, and the
+training scenes' neighbours: neighbours.py); the front table and the settings file.
 
 A setting is *overfitted* when its held-out error exceeds OVERFIT_FACTOR times its training
 error plus OVERFIT_MARGIN (errors in loose tolerances: engines/judging/score.py).
@@ -17,18 +18,20 @@ from typing import Any
 
 import pandas as pd
 
+from hoopbench.engines.judging.columns import Col
 from hoopbench.engines.judging.score import cost_us_per_s, error_score
 from hoopbench.engines.registry import engine_class
 from hoopbench.models.scene import Scene
-from hoopbench.reference.random_scenes import draw
+from hoopbench.reference.random_scenes import RANDOM_PREFIX, draw
 from hoopbench.reference.regimes import Regime
 from hoopbench.reports.compare.settings_file import TunedSetting, settings_text
 from hoopbench.reports.compare.suite import runs_frame
 from hoopbench.reports.sweep import results
-from hoopbench.reports.sweep.runner import WorkerPool
+from hoopbench.reports.tune.neighbours import NEIGHBOUR_PREFIX, neighbours_of
 from hoopbench.reports.tune.search import (
     TRIALS_DIR,
     Budget,
+    Runner,
     SearchResult,
     Setting,
     TuneSpec,
@@ -52,6 +55,8 @@ __all__ = [
 ]
 
 HELDOUT_DIR = "heldout"
+HELDOUT_PREFIX = "heldout-"
+"""Of a held-out scene's name: heldout-random-N, heldout-near-<training scene>-K."""
 FRONT_NAME = "front.csv"
 TRIALS_NAME = "trials.csv"
 SETTINGS_NAME = "settings.toml"
@@ -66,10 +71,14 @@ than the spread between scenes of one regime."""
 
 
 def heldout_scenes(spec: TuneSpec) -> tuple[Scene, ...]:
-    """The held-out scenes: ``heldout_per_regime`` of each regime, from ``heldout_seed``."""
-    quota = dict.fromkeys(HELDOUT_REGIMES, spec.heldout_per_regime)
-    drawn = draw(spec.heldout_seed, quota, t_end=HELDOUT_T_END)
-    return tuple(replace(s, name=f"heldout-{s.name}") for s in drawn.scenes)
+    """The held-out scenes, from ``heldout_seed``: ``heldout_per_regime`` random scenes of
+    each regime, then ``heldout_neighbours`` neighbours of each training scene."""
+    drawn: tuple[Scene, ...] = ()
+    if spec.heldout_per_regime:
+        quota = dict.fromkeys(HELDOUT_REGIMES, spec.heldout_per_regime)
+        drawn = draw(spec.heldout_seed, quota, t_end=HELDOUT_T_END).scenes
+    near = neighbours_of(spec.scenes, spec.heldout_seed, spec.heldout_neighbours)
+    return tuple(replace(s, name=f"{HELDOUT_PREFIX}{s.name}") for s in (*drawn, *near))
 
 
 def is_overfitted(train_error: float | None, heldout_error: float | None) -> bool:
@@ -77,6 +86,12 @@ def is_overfitted(train_error: float | None, heldout_error: float | None) -> boo
     if train_error is None or heldout_error is None:
         return False
     return heldout_error > OVERFIT_FACTOR * train_error + OVERFIT_MARGIN
+
+
+def _part_error(rows: list[dict[str, Any]], prefix: str) -> float | None:
+    """The error on the held-out scenes named ``prefix...``; None without any."""
+    part = [r for r in rows if str(r.get(Col.SCENE, "")).startswith(prefix)]
+    return error_score(part) if part else None
 
 
 def _line(
@@ -94,11 +109,13 @@ def _line(
         "heldout_cost_us_per_s": cost_us_per_s(rows),
         "overfitted": is_overfitted(setting.train_error, heldout),
         **tier_columns(train_rows, rows),
+        "heldout_random_error": _part_error(rows, f"{HELDOUT_PREFIX}{RANDOM_PREFIX}"),
+        "heldout_near_error": _part_error(rows, f"{HELDOUT_PREFIX}{NEIGHBOUR_PREFIX}"),
     }
 
 
 def validate(
-    spec: TuneSpec, result: SearchResult, out: Path, pool: WorkerPool, budget: Budget
+    spec: TuneSpec, result: SearchResult, out: Path, runner: Runner, budget: Budget
 ) -> pd.DataFrame | None:
     """Run the Pareto set and the baselines on the held-out scenes; write front.csv,
     trials.csv and settings.toml. None if a signal stopped the runs (resume goes on)."""
@@ -110,7 +127,7 @@ def validate(
     for kind, settings in (("pareto", front), ("baseline", list(result.baselines))):
         for setting in settings:
             tasks = setting_tasks(spec.engine, scenes, setting)
-            summary, rows = run_settings(tasks, out / HELDOUT_DIR, pool, budget, spec.engine)
+            summary, rows = run_settings(tasks, out / HELDOUT_DIR, runner)
             if summary.interrupted is not None:
                 return None
             ids = {t.run_id for t in setting_tasks(spec.engine, spec.scenes, setting)}
@@ -158,6 +175,8 @@ def _write_settings(
         "training_scenes": [s.name for s in spec.scenes],
         "heldout_scenes": [s.name for s in scenes],
         "heldout_seed": spec.heldout_seed,
+        "heldout_per_regime": spec.heldout_per_regime,
+        "heldout_neighbours": spec.heldout_neighbours,
         "seed": spec.seed,
         "trials": len(result.study.trials),
         "budget_trials": budget.trials if budget.trials is not None else "none",

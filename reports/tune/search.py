@@ -1,8 +1,9 @@
 """``hoopbench tune``: a search over one engine's settings, error against cost, with Optuna.
 
 Each trial draws a setting from the engine's declared space (space.py), runs it on every
-training scene through the runner as ordinary runs (worker processes, time limits; rows in
-``trials/``, variant ``trial-N``), and scores them with engines/judging/score.py: the mean
+training scene through the runner as ordinary runs (worker processes or a Dask cluster, time
+limits, batches for an engine that steps many worlds at once, as ``compare`` runs them; rows
+in ``trials/``, variant ``trial-N``), and scores them with engines/judging/score.py: the mean
 error and the cost in us per simulated second. Optuna's journal file (``journal.log``) keeps
 every told trial, so a search stopped by Ctrl-C or by its budget goes on with ``resume``. The
 first trial is hoopbench's ``tuned`` setting; ``stock`` and ``tuned`` also run as baselines.
@@ -19,6 +20,7 @@ import signal
 import threading
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
+from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -30,14 +32,27 @@ import pandas as pd
 from hoopbench.engines.judging.score import cost_us_per_s, error_score
 from hoopbench.engines.options import Profile
 from hoopbench.engines.registry import engine_class
-from hoopbench.engines.settings import DEFAULT_TIMESTEP
+from hoopbench.engines.settings import DEFAULT_BATCH_SIZE, DEFAULT_TIMESTEP
 from hoopbench.models.scene import Scene
 from hoopbench.reports.compare.rows import FORMAT_VERSION
-from hoopbench.reports.compare.suite import failure_row, run_task, run_timeout, runs_frame
+from hoopbench.reports.compare.suite import (
+    batch_key,
+    failure_row,
+    run_task,
+    run_task_batch,
+    run_timeout,
+    runs_frame,
+)
 from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT, RunTask, Suite, VariantSpec
 from hoopbench.reports.sweep import results
-from hoopbench.reports.sweep.folder_files import MAX_DATA_BYTES, folder_file
-from hoopbench.reports.sweep.runner import RunSummary, WorkerPool, claim_folder, run_tasks
+from hoopbench.reports.sweep.folder_files import MAX_DATA_BYTES, folder_file, read_folder_text
+from hoopbench.reports.sweep.runner import (
+    Batching,
+    RunSummary,
+    WorkerPool,
+    claim_folder,
+    run_tasks,
+)
 from hoopbench.reports.tune.space import draw_settings, trial_params
 
 if TYPE_CHECKING:  # Optuna is an extra (tune): imported when a search runs (_optuna)
@@ -50,6 +65,7 @@ __all__ = [
     "SPEC_NAME",
     "TRIALS_DIR",
     "Budget",
+    "Runner",
     "SearchResult",
     "Setting",
     "TuneSpec",
@@ -110,6 +126,9 @@ class TuneSpec:
     """The seed of the held-out scenes' draw (heldout.py); the search never sees it."""
     heldout_per_regime: int = 1
     """Held-out scenes drawn per regime (rolls, slips, slip reversals, hops)."""
+    heldout_neighbours: int = 1
+    """Held-out neighbours drawn per training scene (heldout.py): a search folder made before
+    they existed has no such key and resumes with any value."""
 
     def identity(self) -> dict[str, Any]:
         return {
@@ -119,6 +138,7 @@ class TuneSpec:
             "seed": self.seed,
             "heldout_seed": self.heldout_seed,
             "heldout_per_regime": self.heldout_per_regime,
+            "heldout_neighbours": self.heldout_neighbours,
         }
 
 
@@ -167,26 +187,42 @@ def setting_tasks(engine: str, scenes: Sequence[Scene], setting: Setting) -> lis
     return [t for t in suite.tasks() if t.variant == setting.variant]
 
 
+@dataclass(frozen=True)
+class Runner:
+    """Where and how a search's runs go: as a suite's runs go in ``compare``."""
+
+    executor: Executor
+    """The local WorkerPool, or a Dask cluster's executor (reports/sweep/cluster.py)."""
+    engine: str
+    run_timeout_s: float | None = None
+    """Time limit of one run, s; None: the suites' (60 s + the engine's step cost bound)."""
+    batch_size: int = DEFAULT_BATCH_SIZE
+    """Runs per batch for an engine that steps many worlds at once (compare's batch_key:
+    one setting's scenes share batches); 1: every run alone."""
+
+
 def run_settings(
-    tasks: Sequence[RunTask], out: Path, pool: WorkerPool, budget: Budget, engine: str
+    tasks: Sequence[RunTask], out: Path, runner: Runner
 ) -> tuple[RunSummary, list[dict[str, Any]]]:
     """Run the tasks into ``out`` (resumed: stored runs are not run again) and return their
     rows."""
     meta = {
         results.FORMAT_KEY: FORMAT_VERSION,
-        "engine_versions": {engine: engine_class(engine)().version()},
+        "engine_versions": {runner.engine: engine_class(runner.engine)().version()},
     }
-    limit = run_timeout if budget.run_timeout_s is None else budget.run_timeout_s
+    limit = run_timeout if runner.run_timeout_s is None else runner.run_timeout_s
+    batching = Batching(run_task_batch, batch_key, runner.batch_size)
     summary = run_tasks(
         tasks,
         run_task,
         out,
         failure_row=failure_row,
         timeout=limit,
-        executor=pool,
+        executor=runner.executor,
         resume=True,
         meta=meta,
         quiet=True,
+        batching=batching if runner.batch_size > 1 else None,
     )
     ids = {t.run_id for t in tasks}
     frame = runs_frame(out)
@@ -243,9 +279,7 @@ def _open_study(spec: TuneSpec, out: Path, resume: bool) -> optuna.Study:
     return study
 
 
-def _one_trial(
-    study: optuna.Study, spec: TuneSpec, out: Path, pool: WorkerPool, budget: Budget
-) -> RunSummary | None:
+def _one_trial(study: optuna.Study, spec: TuneSpec, out: Path, runner: Runner) -> RunSummary | None:
     """Ask, run and tell one trial; the runs' summary (None if the setting was refused)."""
     TrialState = _optuna().trial.TrialState
     trial = study.ask()
@@ -258,7 +292,7 @@ def _one_trial(
         study.tell(trial, state=TrialState.FAIL)
         return None
     try:
-        summary, rows = run_settings(tasks, out / TRIALS_DIR, pool, budget, spec.engine)
+        summary, rows = run_settings(tasks, out / TRIALS_DIR, runner)
     except BaseException:
         study.tell(trial, state=TrialState.FAIL)
         raise
@@ -287,9 +321,7 @@ class SearchResult:
     baselines: tuple[Setting, ...]
 
 
-def _baselines(
-    spec: TuneSpec, out: Path, pool: WorkerPool, budget: Budget
-) -> tuple[tuple[Setting, ...], bool]:
+def _baselines(spec: TuneSpec, out: Path, runner: Runner) -> tuple[tuple[Setting, ...], bool]:
     """stock and tuned on the training scenes (at the default timestep), and whether a signal
     stopped them."""
     settings: list[Setting] = []
@@ -297,7 +329,7 @@ def _baselines(
     for profile in (Profile.STOCK, Profile.TUNED):
         base = Setting(str(profile), DEFAULT_TIMESTEP, cls.defaults(profile), profile)
         tasks = setting_tasks(spec.engine, spec.scenes, base)
-        summary, rows = run_settings(tasks, out / TRIALS_DIR, pool, budget, spec.engine)
+        summary, rows = run_settings(tasks, out / TRIALS_DIR, runner)
         if summary.interrupted is not None:
             return tuple(settings), True
         settings.append(
@@ -340,11 +372,14 @@ def search(
     *,
     resume: bool = False,
     jobs: int = 2,
+    executor: Executor | None = None,
+    batch_size: int = DEFAULT_BATCH_SIZE,
     say: Callable[[str], None] | None = None,
-    then: Callable[[SearchResult, WorkerPool], None] | None = None,
+    then: Callable[[SearchResult, Runner], None] | None = None,
 ) -> SearchResult:
-    """Run (or go on with) the search into ``out``; ``then(result, pool)`` runs in the same
-    folder claim and worker pool once the budget is spent (the held-out validation)."""
+    """Run (or go on with) the search into ``out``; ``then(result, runner)`` runs in the same
+    folder claim and with the same executor once the budget is spent (the held-out
+    validation). ``executor``: a Dask cluster's (else a local pool of ``jobs`` workers)."""
     out = Path(out)
     optuna = _optuna()
     optuna.logging.set_verbosity(optuna.logging.WARNING)
@@ -352,12 +387,12 @@ def search(
         _write_spec(out, spec)
         study = _open_study(spec, out, resume)
         started = time.monotonic()
-        preload = ["hoopbench.reports.compare.suite"]
-        with WorkerPool(jobs, preload=preload) as pool, _signals_noted() as noted:
+        with _executor(executor, jobs) as runs_on, _signals_noted() as noted:
+            runner = Runner(runs_on, spec.engine, budget.run_timeout_s, batch_size)
             try:
-                baselines, stopped = _baselines(spec, out, pool, budget)
+                baselines, stopped = _baselines(spec, out, runner)
                 while not stopped and not noted and _budget_left(study, budget, started):
-                    summary = _one_trial(study, spec, out, pool, budget)
+                    summary = _one_trial(study, spec, out, runner)
                     stopped = summary is not None and summary.interrupted is not None
                     if say is not None and not stopped:
                         say(_progress(study))
@@ -366,8 +401,19 @@ def search(
                 baselines, stopped = (), True
             result = SearchResult(study, stopped, baselines)
             if then is not None and not stopped:
-                then(result, pool)
+                then(result, runner)
     return result
+
+
+@contextlib.contextmanager
+def _executor(executor: Executor | None, jobs: int) -> Iterator[Executor]:
+    """``executor`` as it is (a cluster's: not ours to shut down), or a local worker pool for
+    the whole search (its workers keep their imports and compiled kernels between trials)."""
+    if executor is not None:
+        yield executor
+        return
+    with WorkerPool(jobs, preload=["hoopbench.reports.compare.suite"]) as pool:
+        yield pool
 
 
 def _progress(study: optuna.Study) -> str:
@@ -379,11 +425,25 @@ def _progress(study: optuna.Study) -> str:
 
 
 def _write_spec(out: Path, spec: TuneSpec) -> None:
-    path = out / SPEC_NAME
-    if folder_file(out, SPEC_NAME) is not None:  # a resumed search's (checked, not followed out)
-        return
-    data = {**spec.identity(), "created": datetime.now(UTC).isoformat(timespec="seconds")}
-    results.atomic_write(path, lambda tmp: tmp.write_text(json.dumps(data, indent=2) + "\n"))
+    """tune.json: a new search's; a resumed one's keeps what it recorded and gains the keys
+    of options added since it was made (their values this session's)."""
+    text = read_folder_text(out, SPEC_NAME)  # checked, not followed out of the folder
+    if text is None:
+        data = {**spec.identity(), "created": datetime.now(UTC).isoformat(timespec="seconds")}
+    else:
+        try:
+            stored = json.loads(text)
+        except ValueError:
+            return  # not ours to overwrite: the report names what is wrong with it
+        if not isinstance(stored, dict):
+            return
+        missing = {k: v for k, v in spec.identity().items() if k not in stored}
+        if not missing:
+            return
+        data = {**stored, **missing}
+    results.atomic_write(
+        out / SPEC_NAME, lambda tmp: tmp.write_text(json.dumps(data, indent=2) + "\n")
+    )
 
 
 def trials_frame(study: optuna.Study) -> pd.DataFrame:
