@@ -912,9 +912,10 @@ def tune(
 ) -> pd.DataFrame:
     """Search an engine's settings (error against cost) into the folder ``out`` and return
     its front: the Pareto set and ``stock`` and ``tuned``, each with its training and held-out
-    error and the accuracy tier it reaches on each (docs/tune.md). ``trials`` (in all, a resumed search's included) or ``timeout`` (s
-    for this session) is the budget; ``scenes`` the training scenes (default: the
-    catalogue's scenes with events); ``heldout_seed`` draws the held-out scenes:
+    error and the accuracy tier it reaches on each (docs/tune.md). ``trials`` (in all, a
+    resumed search's included) or ``timeout`` (s for this session) is the budget; ``scenes``
+    the training scenes (default: the catalogue's scenes with events); ``heldout_seed`` draws
+    the held-out scenes:
     ``heldout_per_regime`` random scenes of each regime and ``heldout_neighbours`` neighbours
     of each training scene. ``executor`` runs the runs elsewhere (a Dask cluster's, as in
     :func:`compare`); ``batch_size`` is runs per batch for an engine that steps many worlds
