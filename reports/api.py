@@ -57,6 +57,7 @@ from hoopbench.reports.compare.suite_file import (
 from hoopbench.reports.hop_map.spec import MAP_FILE, Axis, MapSpec, check_grid, load_spec
 from hoopbench.reports.hop_map.stages import run_map
 from hoopbench.reports.hop_map.table import map_frame
+from hoopbench.reports.report.batch_cost import is_batch_cost_folder
 from hoopbench.reports.report.best_settings import is_tune_folder
 from hoopbench.reports.report.build import build_report, files_to_replace
 from hoopbench.reports.sweep.runner import RunSummary
@@ -739,7 +740,9 @@ def report(
     if not folders:
         raise OptionError("results", "{option} must name at least one results folder")
     for folder in folders:
-        if not (folder / "runs").is_dir() and not is_tune_folder(folder):
+        if not (
+            (folder / "runs").is_dir() or is_tune_folder(folder) or is_batch_cost_folder(folder)
+        ):
             raise OptionError(
                 "results",
                 f"{{option}} {str(folder)!r} holds no results (no runs/ folder): "
