@@ -43,7 +43,7 @@ SCENES = (
 """The default suite's catalogue scenes."""
 FLOAT64 = "precision=float64"
 """The variant name of MJX in float64 (the default suite's)."""
-EVENTS = {
+EVENTS: dict[str, str] = {
     Col.ERR_T_SLIP_MS: "slip ms",
     Col.ERR_T_LIFT_MS: "lift ms",
     Col.ERR_HOP_HEIGHT_REL: "height %",
