@@ -174,20 +174,15 @@ def test_a_bad_spec_is_refused_by_name(kwargs, message):
 
 
 def test_the_default_map_runs_the_batched_engines_at_their_own_step():
-    """The batched engines are in the default map at the suites' 1e-3 s (a default map of
-    them at 1e-4 s costs too much: docs/map.md, Cost); the others at the map's timestep."""
+    """MJX and Newton are in the default map at the suites' 1e-3 s (at 1e-4 s they cost too
+    much: docs/map.md, Cost); the others at the map's timestep; MuJoCo Warp keeps its own
+    step when given."""
     spec = MapSpec()
-    assert {"mjx", "mjwarp", "newton"} <= set(spec.engines) == set(DEFAULT_ENGINES)
-    assert (
-        dict(spec.engine_timesteps)
-        == dict(ENGINE_TIMESTEPS)
-        == {
-            "mjx": 1e-3,
-            "mjwarp": 1e-3,
-            "newton": 1e-3,
-        }
-    )
-    assert [spec.timestep_of(e) for e in spec.engines] == [1e-4] * 3 + [1e-3] * 3
+    assert spec.engines == DEFAULT_ENGINES == ("mujoco", "pybullet", "pymunk", "mjx", "newton")
+    assert dict(spec.engine_timesteps) == {"mjx": 1e-3, "newton": 1e-3}
+    assert dict(ENGINE_TIMESTEPS) == {"mjx": 1e-3, "mjwarp": 1e-3, "newton": 1e-3}
+    assert [spec.timestep_of(e) for e in spec.engines] == [1e-4] * 3 + [1e-3] * 2
+    assert MapSpec(engines=("mjwarp",)).timestep_of("mjwarp") == 1e-3
     # only the map's engines keep their own step; --dt moves the others alone
     spec = MapSpec(engines=("mujoco", "newton"), timestep=2e-4)
     assert spec.engine_timesteps == (("newton", 1e-3),)
@@ -211,7 +206,7 @@ def test_given_engine_steps_go_over_the_default_ones(tmp_path):
     import hoopbench.reports.api as api
 
     spec = api.map_spec(tmp_path / "new", engine_timesteps={"mjx": 2e-4})
-    assert dict(spec.engine_timesteps) == {"mjx": 2e-4, "mjwarp": 1e-3, "newton": 1e-3}
+    assert dict(spec.engine_timesteps) == {"mjx": 2e-4, "newton": 1e-3}
     spec = api.map_spec(tmp_path / "new", engines=["pymunk"], engine_timesteps={"pymunk": 5e-4})
     assert spec.engine_timesteps == (("pymunk", 5e-4),)
 

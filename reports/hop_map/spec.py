@@ -159,16 +159,19 @@ AXES: Mapping[Axis, AxisInfo] = MappingProxyType(
 )
 """Every axis's domain and defaults: the one place they live."""
 
-DEFAULT_ENGINES = ("mujoco", "pybullet", "pymunk", "mjx", "mjwarp", "newton")
-"""The three engines every install has, and the three batched simulators (the ``mjx`` and
-``warp`` extras, in ``engines``; without them their rows are ``unavailable``). Drake, Box2D,
-Rapier and DART are left to ``--engines``: each costs a 10 x 10 map minutes more."""
+DEFAULT_ENGINES = ("mujoco", "pybullet", "pymunk", "mjx", "newton")
+"""The three engines every install has, and the batched MJX and Newton (the ``mjx`` and
+``warp`` extras, in ``engines``; without them their rows are ``unavailable``) at their own
+step (ENGINE_TIMESTEPS). MuJoCo Warp only with ``--engines``: on a CPU its world-step costs
+5 ms in the default map's batches of 25, so it alone would add about 19 CPU-minutes to the
+default map, and it gave MJX float32's verdict at every point and scene compared
+(docs/map.md, Cost). Drake, Box2D, Rapier and DART only with ``--engines``, as before."""
 ENGINE_TIMESTEPS: Mapping[str, float] = MappingProxyType(
     {"mjx": 1e-3, "mjwarp": 1e-3, "newton": 1e-3}
 )
 """s: the batched engines' own step in a map unless one is given (``engine_timesteps``), the
-suites' step for them. At the map's 1e-4 s a default 10 x 10 map of the three takes about
-an hour on 2 CPU cores (docs/map.md, Cost), at 1e-3 s a few minutes."""
+suites' step for them: on a CPU their world-step costs 10 to 500 times MuJoCo C's
+(docs/map.md, Cost), so a map of them at the map's 1e-4 s costs ten times as much."""
 DEFAULT_GRID = (10, 10)
 """Points along x and y: the 10 x 10 map of the issue's measurements, about a minute."""
 DEFAULT_T_END = 3.0
