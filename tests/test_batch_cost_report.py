@@ -75,7 +75,7 @@ def test_the_section_shows_every_figure(bench_dir):
     assert "| mujoco | 502 | 132 | 80 | 6.28x |" in text
     assert "| mjx precision=float64 | 1,446 | 202 | 174 | 8.31x |" in text
     assert "| newton | 1,801 | 27 | - | - |" in text
-    assert "dt 0.001 s, 100 steps per world, on the cpu" in text
+    assert "dt 0.001 s, 100 steps per world, device cpu, measured from 2026-11-26T13" in text
 
 
 def test_the_report_of_a_bench_folder_has_the_section(bench_dir, tmp_path, capsys):

@@ -72,18 +72,16 @@ def _label(engine: str, options: dict[str, Any]) -> str:
 
 def _row(engine: str, options: dict[str, Any], size: int, steps: int, us: float) -> dict:
     settings = RunSettings(timestep=DT, options=options)
-    device = engine_class(engine).resolve(settings).get("device", "cpu")
     return {
         Col.ENGINE: engine,
         SETTING: _label(engine, options),
         Col.ENGINE_VERSION: get_engine(engine).version(),
         Col.TIMESTEP: DT,
         STEPS_PER_WORLD: steps,
-        DEVICE: device if device != "auto" else "auto (the CPU here without a GPU)",
+        DEVICE: engine_class(engine).resolve(settings).get("device", "cpu"),  # MuJoCo C: cpu
         Col.BATCH_SIZE: size,
         Col.US_PER_WORLD_STEP: us,
         Col.WORLD_STEPS_PER_S: 1e6 / us if us == us else float("nan"),
-        MEASURED_AT: datetime.now(UTC).isoformat(timespec="seconds"),
     }
 
 
@@ -95,6 +93,7 @@ def measure(
     print(f"us per world-step, tuned, dt {DT:g} s, {steps} steps per world, the CPU")
     print(f"{'engine':<30}" + "".join(f"{size:>12}" for size in sizes))
     rows = []
+    started = datetime.now(UTC).isoformat(timespec="seconds")
     for engine, options in cases:
         cells = []
         for size in sizes:
@@ -104,7 +103,7 @@ def measure(
                 print(f"{_label(engine, options)}: {exc}", file=sys.stderr)
                 us = float("nan")
             cells.append(f"{us:>12.1f}" if us == us else f"{'failed':>12}")
-            rows.append(_row(engine, options, size, steps, us))
+            rows.append({**_row(engine, options, size, steps, us), MEASURED_AT: started})
         print(f"{_label(engine, options):<30}" + "".join(cells), flush=True)
     return pd.DataFrame(rows)
 

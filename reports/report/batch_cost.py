@@ -119,13 +119,14 @@ def _number(value: float) -> str:
 
 
 def _conditions(frame: pd.DataFrame) -> str:
-    """'dt 0.001 s, 100 steps per world, cpu, measured 2026-11-26T...' (each value as given)."""
+    """'dt 0.001 s, 100 steps per world, device auto / cpu, measured from 2026-11-26T...'
+    (each value as the file gives it; several joined by ' / ')."""
     parts = []
     for column, say in (
         (Col.TIMESTEP, "dt {} s"),
         (STEPS_PER_WORLD, "{} steps per world"),
-        (DEVICE, "on the {}"),
-        (MEASURED_AT, "measured {}"),
+        (DEVICE, "device {}"),
+        (MEASURED_AT, "measured from {}"),
     ):
         values = [f"{v:g}" if isinstance(v, float) else str(v) for v in frame[column].unique()]
         parts.append(say.format(" / ".join(values)))
@@ -145,9 +146,11 @@ def batch_cost_section(folders: Sequence[Path]) -> str:
         lines += [
             f"From `{escape_cell(str(folder.name))}/{BATCH_COST_FILE}` "
             "(`python -m hoopbench.reports.bench.batched_engines --out DIR`, `make bench`): "
-            f"µs per world-step, tuned, {escape_cell(_conditions(frame))}. The stepping loop "
-            "of `Engine.simulate_batch` over the batch's world-steps (compile and model "
-            "building excluded); the last column is how many times cheaper a world-step is "
+            f"µs per world-step, tuned, {escape_cell(_conditions(frame))} (device auto: a "
+            "GPU if the engine sees one, else the CPU; MuJoCo C runs on the CPU). The "
+            "stepping loop of `Engine.simulate_batch` over the batch's world-steps (compile "
+            "and model building excluded); the last column is how many times cheaper a "
+            "world-step is "
             "in the largest batch than alone. A machine shared with other work makes these "
             "upper bounds.",
             "",
