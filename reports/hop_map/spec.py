@@ -163,17 +163,20 @@ DEFAULT_ENGINES = ("mujoco", "pybullet", "pymunk", "mjx", "newton")
 """The three engines every install has, and the batched MJX and Newton (the ``mjx`` and
 ``warp`` extras, in ``engines``; without them their rows are ``unavailable``) at their own
 step (ENGINE_TIMESTEPS). MuJoCo Warp only with ``--engines``: on a CPU its world-step costs
-5 ms in the default map's batches of 25, so it alone would add about 19 CPU-minutes to the
-default map, and it gave MJX float32's verdict at every point and scene compared
-(docs/map.md, Cost). Drake, Box2D, Rapier and DART only with ``--engines``, as before."""
+5.4 ms in the default map's batches of 25 (measured on a loaded machine: an upper bound),
+so it alone would add up to 19 CPU-minutes to a map of two, and it gave MJX float32's
+verdict at every point and scene compared (docs/map.md, Cost). Drake, Box2D, Rapier and DART
+only with ``--engines``, as before."""
 ENGINE_TIMESTEPS: Mapping[str, float] = MappingProxyType(
     {"mjx": 1e-3, "mjwarp": 1e-3, "newton": 1e-3}
 )
 """s: the batched engines' own step in a map unless one is given (``engine_timesteps``), the
-suites' step for them: on a CPU their world-step costs 10 to 500 times MuJoCo C's
-(docs/map.md, Cost), so a map of them at the map's 1e-4 s costs ten times as much."""
+suites' step for them: on a CPU their world-step costs 4 to 300 times MuJoCo C's in the
+default map's batches (docs/map.md, Cost): at the map's 1e-4 s MJX and Newton would step
+about 15 CPU-minutes of a default map that takes about 2 minutes at 1e-3 s."""
 DEFAULT_GRID = (10, 10)
-"""Points along x and y: the 10 x 10 map of the issue's measurements, about a minute."""
+"""Points along x and y: the 10 x 10 map of the issue's measurements, about a minute with the
+three C engines and two with MJX and Newton (docs/map.md, Cost)."""
 DEFAULT_T_END = 3.0
 """s: the catalogue's window (Scene.t_end's default)."""
 

@@ -441,7 +441,8 @@ def hop_error_figure(frame: pd.DataFrame, path: str | Path) -> Path:
         mesh = _mesh(ax, grid, np.log2(ratio), cmap="RdBu_r", norm=norm)
         n = int(np.isfinite(ratio).sum())
         label = _engine_label(frame, engine)
-        title = f"{label}: hops at {n} of {int(hops.sum())} exact hops (grey: no hop)"
+        wrap = "\n" if label != engine else " "  # a step in the label: too long for one line
+        title = f"{label}: hops at {n} of {int(hops.sum())} exact hops{wrap}(grey: no hop)"
         ax.set_title(title, fontsize=10)
         if not hops.any():
             _message(ax, "no hop on this map")
