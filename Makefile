@@ -60,7 +60,7 @@ report: $(REPORT_STAMP)
 	$(BIN)/hoopbench compare --suite finer --out $(OUT)/finer
 	$(BIN)/hoopbench compare --suite stability --out $(OUT)/stability
 	$(BIN)/hoopbench report --results $(OUT)/default $(OUT)/finer $(OUT)/stability \
-		$(SEARCH_DIRS) --out $(OUT)
+		$(SEARCH_DIRS) $(wildcard $(BENCH_OUT)) --out $(OUT)
 
 # A search of each engine's settings (docs/tune.md), into $(OUT)/tune/<engine>: each may
 # start trials for TUNE_TIMEOUT s (a started trial finishes) up to TUNE_TRIALS, then runs its
@@ -102,10 +102,13 @@ findings: $(REPORT_STAMP)
 		$(dir $(RESULTS))stability --update README.md
 	test ! -f $(dir $(RESULTS))hop-top.gif || cp $(dir $(RESULTS))hop-top.gif reports/img/
 
+# The batched engines' cost per world-step goes to $(BENCH_OUT)/batch_cost.csv too, which
+# `make report` shows (its section "Cost per world-step by batch size") once it exists.
+BENCH_OUT := reports/output/bench
 bench: $(REPORT_STAMP)
 	$(BIN)/python -m hoopbench.reports.bench.overhead
 	$(BIN)/python -m hoopbench.reports.bench.batch
-	$(BIN)/python -m hoopbench.reports.bench.batched_engines
+	$(BIN)/python -m hoopbench.reports.bench.batched_engines --out $(BENCH_OUT) --force
 
 # mypy checks the package as installed, `hoopbench.*`: from the editable install's tree of
 # links (build/__editable__.*/), which the installed package itself points to, so that the

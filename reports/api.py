@@ -59,9 +59,18 @@ from hoopbench.reports.compare.suite_file import (
     load_suite,
     suite_path,
 )
-from hoopbench.reports.hop_map.spec import MAP_FILE, Axis, MapSpec, check_grid, load_spec
+from hoopbench.reports.hop_map.spec import (
+    DEFAULT_ENGINES,
+    MAP_FILE,
+    Axis,
+    MapSpec,
+    check_grid,
+    default_engine_timesteps,
+    load_spec,
+)
 from hoopbench.reports.hop_map.stages import run_map
 from hoopbench.reports.hop_map.table import map_frame
+from hoopbench.reports.report.batch_cost import is_batch_cost_folder
 from hoopbench.reports.report.best_settings import is_tune_folder
 from hoopbench.reports.report.build import build_report, files_to_replace
 from hoopbench.reports.sweep.runner import RunSummary
@@ -615,9 +624,12 @@ def map_spec(
     engines: Sequence[str] | None = None,
     timestep: float | None = None,
     profile: Profile | str | None = None,
+    engine_timesteps: Mapping[str, float] | None = None,
 ) -> MapSpec:
     """The map's spec from the options (None: the default). On ``resume``, options not given
-    come from the map stored in ``out`` (the run refuses a spec that differs from it)."""
+    come from the map stored in ``out`` (the run refuses a spec that differs from it).
+    ``engine_timesteps`` (engine -> s) go over the engines' own steps (the default ones,
+    ``hop_map.spec.ENGINE_TIMESTEPS``, or the stored ones on ``resume``)."""
     out, resume = _check_out("out", out), _check_flag("resume", resume)
     given: dict[str, Any] = {
         key: value
@@ -640,6 +652,12 @@ def map_spec(
     if fixed is not None and not isinstance(fixed, Mapping):
         raise OptionError("fixed", f"{{option}} must be a mapping of parameters, got {fixed!r}")
     fixed = dict(fixed or {})
+    if engine_timesteps is not None and not isinstance(engine_timesteps, Mapping):
+        raise OptionError(
+            "engine_timesteps",
+            f"{{option}} must map engine names to steps, got {engine_timesteps!r}",
+        )
+    own = dict(engine_timesteps or {})
     stored_file = Path(out) / MAP_FILE
     stored = stored_file.exists() or stored_file.is_symlink()
     if resume and not stored and not (out.is_dir() and any(out.iterdir())):
@@ -650,19 +668,27 @@ def map_spec(
             "resume", f"{{option}}: {str(out)!r} {what}: there is no hop map to resume"
         )
     if not (resume and stored):
+        if own:
+            names = given.get("engines", DEFAULT_ENGINES)
+            names = () if isinstance(names, str) else names  # MapSpec names that error
+            given["engine_timesteps"] = {**default_engine_timesteps(names), **own}
         return MapSpec(**given, fixed=fixed)
     try:
         base = load_spec(out).to_dict()
     except ValueError as exc:
         raise OptionError("resume", f"{{option}}: {stored_file}: {exc}") from None
-    return _resumed_spec(base, given, fixed)
+    return _resumed_spec(base, given, fixed, own)
 
 
-def _resumed_spec(base: dict[str, Any], given: dict[str, Any], fixed: dict[str, Any]) -> MapSpec:
+def _resumed_spec(
+    base: dict[str, Any], given: dict[str, Any], fixed: dict[str, Any], own: dict[str, float]
+) -> MapSpec:
     """The stored spec with the given options over it: a new axis takes its own default
-    range, and the stored fixed values of parameters that are now axes go."""
+    range, the stored fixed values of parameters that are now axes go, and the engines' own
+    steps ``own`` go over the stored ones."""
     base.pop("format_version")
     stored_fixed = base.pop("fixed")
+    base["engine_timesteps"] = {**base["engine_timesteps"], **own}
     merged = {**base, **given}
     for axis, range_key in (("x", "x_range"), ("y", "y_range")):
         if merged[axis] != base[axis] and range_key not in given:
@@ -713,6 +739,7 @@ def hop_map(
     engines: Sequence[str] | None = None,
     timestep: float | None = None,
     profile: Profile | str | None = None,
+    engine_timesteps: Mapping[str, float] | None = None,
     jobs: int | None = None,
     quiet: bool = False,
     executor: Executor | None = None,
@@ -723,7 +750,8 @@ def hop_map(
 
     Axes ``x`` and ``y`` (lam, chi, mu, eps, theta0_deg; default lam and chi), their ranges,
     ``grid`` ((nx, ny) or ``"10x10"``), ``fixed`` values of the other parameters, the window
-    ``t_end``, the ``engines`` (empty: the exact regimes alone), their ``timestep`` and
+    ``t_end``, the ``engines`` (empty: the exact regimes alone), their ``timestep`` (the
+    batched engines have their own, 1e-3 s, unless ``engine_timesteps`` gives one) and
     ``profile``. ``resume=True`` finishes the map stored in ``out``, its options coming from
     its map.toml unless given. Raises RunnerError for a folder that cannot take the map,
     KeyboardInterrupt if a signal stopped it.
@@ -741,6 +769,7 @@ def hop_map(
         engines=engines,
         timestep=timestep,
         profile=profile,
+        engine_timesteps=engine_timesteps,
     )
     summary = run_hop_map(
         spec, out, jobs=jobs, resume=resume, quiet=quiet, executor=executor, batch_size=batch_size
@@ -765,7 +794,9 @@ def report(
     if not folders:
         raise OptionError("results", "{option} must name at least one results folder")
     for folder in folders:
-        if not (folder / "runs").is_dir() and not is_tune_folder(folder):
+        if not (
+            (folder / "runs").is_dir() or is_tune_folder(folder) or is_batch_cost_folder(folder)
+        ):
             raise OptionError(
                 "results",
                 f"{{option}} {str(folder)!r} holds no results (no runs/ folder): "

@@ -674,6 +674,7 @@ def _map_spec(args: argparse.Namespace) -> Any:
         engines=args.engines,
         timestep=args.dt,
         profile=args.profile,
+        engine_timesteps=dict(args.engine_dt) if args.engine_dt else None,
     )
 
 
@@ -758,8 +759,23 @@ def _engine_options(p: argparse.ArgumentParser, engines: Sequence[str]) -> None:
     )
 
 
+def _engine_step(text: str) -> tuple[str, float]:
+    """'mjx=1e-4' -> ('mjx', 1e-4): an engine's own step on a map (the name is checked by
+    the map's spec, the step by _number and then the spec)."""
+    name, sep, value = text.partition("=")
+    if not sep or not name.strip():
+        raise argparse.ArgumentTypeError(f"must be ENGINE=DT, got {text!r}")
+    return name.strip(), _number(value)
+
+
 def _add_map_options(p: argparse.ArgumentParser) -> None:
-    from hoopbench.reports.hop_map.spec import AXES, DEFAULT_ENGINES, DEFAULT_GRID, Axis
+    from hoopbench.reports.hop_map.spec import (
+        AXES,
+        DEFAULT_ENGINES,
+        DEFAULT_GRID,
+        ENGINE_TIMESTEPS,
+        Axis,
+    )
 
     axes = [str(a) for a in Axis]
     p.add_argument("--x", choices=axes, help="parameter along x (default lam)")
@@ -790,7 +806,20 @@ def _add_map_options(p: argparse.ArgumentParser) -> None:
         help=f"engines to run at every point (default {' '.join(DEFAULT_ENGINES)}; "
         "none: the exact regimes alone)",
     )
-    p.add_argument("--dt", type=_number, help=f"engine timestep, s (default {DEFAULT_TIMESTEP:g})")
+    own = " ".join(f"{name}={dt:g}" for name, dt in ENGINE_TIMESTEPS.items())
+    p.add_argument(
+        "--dt",
+        type=_number,
+        help=f"timestep of the engines without their own, s (default {DEFAULT_TIMESTEP:g})",
+    )
+    p.add_argument(
+        "--engine-dt",
+        nargs="+",
+        type=_engine_step,
+        metavar="ENGINE=DT",
+        help=f"an engine's own timestep, s (default {own}: the batched engines at the "
+        "suites' step, for their cost; docs/map.md)",
+    )
     p.add_argument(
         "--profile", choices=[str(x) for x in Profile], help="engine option values (default tuned)"
     )

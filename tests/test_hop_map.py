@@ -28,6 +28,8 @@ from hoopbench.reference.regimes import classify
 from hoopbench.reports.cli import main
 from hoopbench.reports.hop_map.spec import (
     AXES,
+    DEFAULT_ENGINES,
+    ENGINE_TIMESTEPS,
     MAP_FILE,
     REFERENCE,
     Axis,
@@ -154,6 +156,13 @@ BAD_SPECS = [
     (dict(engines="pymunk"), "engines must be a list of engine names, got 'pymunk'"),
     (dict(engines=("pymunk", "pymunk")), "engine 'pymunk' is given twice"),
     (dict(profile="best"), "profile must be one of tuned, stock, got 'best'"),
+    (
+        dict(engines=("pymunk",), engine_timesteps={"mjx": 1e-3}),
+        "engine_timesteps gives 'mjx' a step, but 'mjx' is not one of the map's engines",
+    ),
+    (dict(engine_timesteps={"mjx": 0}), "engine_timesteps[mjx] must be a number > 0 s, got 0"),
+    (dict(engine_timesteps={"mjx": 5.0}), "engine_timesteps[mjx]: timestep 5 s is longer than the"),
+    (dict(engine_timesteps=[1e-3]), "engine_timesteps must map engine names to steps"),
 ]
 
 
@@ -162,6 +171,58 @@ def test_a_bad_spec_is_refused_by_name(kwargs, message):
     with pytest.raises(ValueError) as info:
         MapSpec(**kwargs)
     assert message in str(info.value)
+
+
+def test_the_default_map_runs_the_batched_engines_at_their_own_step():
+    """MJX and Newton are in the default map at the suites' 1e-3 s (at 1e-4 s they cost too
+    much: docs/map.md, Cost); the others at the map's timestep; MuJoCo Warp keeps its own
+    step when given."""
+    spec = MapSpec()
+    assert spec.engines == DEFAULT_ENGINES == ("mujoco", "pybullet", "pymunk", "mjx", "newton")
+    assert dict(spec.engine_timesteps) == {"mjx": 1e-3, "newton": 1e-3}
+    assert dict(ENGINE_TIMESTEPS) == {"mjx": 1e-3, "mjwarp": 1e-3, "newton": 1e-3}
+    assert [spec.timestep_of(e) for e in spec.engines] == [1e-4] * 3 + [1e-3] * 2
+    assert MapSpec(engines=("mjwarp",)).timestep_of("mjwarp") == 1e-3
+    # only the map's engines keep their own step; --dt moves the others alone
+    spec = MapSpec(engines=("mujoco", "newton"), timestep=2e-4)
+    assert spec.engine_timesteps == (("newton", 1e-3),)
+    assert (spec.timestep_of("mujoco"), spec.timestep_of("newton")) == (2e-4, 1e-3)
+    # given steps replace the default ones: none at all runs every engine at `timestep`
+    assert MapSpec(engines=("mjx",), engine_timesteps={}).timestep_of("mjx") == 1e-4
+
+
+def test_engine_steps_round_trip_and_old_files_have_none(tmp_path):
+    spec = MapSpec(engines=("pymunk", "mjx"), engine_timesteps={"pymunk": 5e-4, "mjx": 2e-3})
+    text = spec.to_toml()
+    assert "[engine_timesteps]" in text and MapSpec.from_toml(text) == spec
+    assert spec.engine_timesteps == (("mjx", 2e-3), ("pymunk", 5e-4))
+    # a map.toml written before engines had own steps ran every engine at its timestep
+    old = text.split("\n[engine_timesteps]")[0]
+    loaded = MapSpec.from_toml(old)
+    assert loaded.engine_timesteps == () and loaded.timestep_of("mjx") == 1e-4
+
+
+def test_given_engine_steps_go_over_the_default_ones(tmp_path):
+    import hoopbench.reports.api as api
+
+    spec = api.map_spec(tmp_path / "new", engine_timesteps={"mjx": 2e-4})
+    assert dict(spec.engine_timesteps) == {"mjx": 2e-4, "newton": 1e-3}
+    spec = api.map_spec(tmp_path / "new", engines=["pymunk"], engine_timesteps={"pymunk": 5e-4})
+    assert spec.engine_timesteps == (("pymunk", 5e-4),)
+
+
+def test_an_engine_with_its_own_step_runs_at_it(tmp_path):
+    """Rows and tasks carry each engine's own step: the map's runs, not just its file."""
+    spec = MapSpec(
+        nx=1, ny=2, engines=("pymunk", "pybullet"), timestep=1e-3, t_end=0.5,
+        engine_timesteps={"pybullet": 5e-4},
+    )  # fmt: skip
+    with ThreadPoolExecutor(2) as pool:
+        assert run_map(spec, tmp_path / "m", executor=pool, quiet=True).completed
+    frame = map_frame(tmp_path / "m")
+    steps = frame[frame["engine"] != REFERENCE].groupby("engine")["timestep"].unique()
+    assert steps.map(list).to_dict() == {"pybullet": [5e-4], "pymunk": [1e-3]}
+    assert (frame.loc[frame["engine"] == "pybullet", "n_steps"] > 500).all()
 
 
 def test_a_bad_map_file_is_refused():
@@ -463,6 +524,10 @@ BAD_CLI = [
     (["--engines", "reference"], "'reference'"),
     (["--engines", "pymunk", "pymunk"], "'pymunk' is given twice"),
     (["--profile", "best"], "'best'"),
+    (["--engine-dt", "mjx"], "must be ENGINE=DT, got 'mjx'"),
+    (["--engine-dt", "mjx=fast"], "not a number: 'fast'"),
+    (["--engine-dt", "mjx=-1"], "engine_timesteps[mjx] must be a number > 0 s, got -1"),
+    (["--engines", "pymunk", "--engine-dt", "mjx=1e-3"], "'mjx' is not one of the map's"),
     (["--jobs", "0"], "got 0"),
 ]
 

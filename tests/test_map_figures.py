@@ -18,6 +18,7 @@ from hoopbench.reports.cli import main
 from hoopbench.reports.hop_map.spec import MAP_FILE, MapSpec
 from hoopbench.reports.hop_map.table import map_frame
 from hoopbench.reports.report import map_figures
+from hoopbench.reports.report import map_section as map_section_module
 from hoopbench.reports.report.map_figures import (
     figure_pixels,
     hop_error_figure,
@@ -423,3 +424,21 @@ def test_engines_that_agree_alike_are_a_tie_not_a_ranking():
     )
     assert text.startswith("mujoco and drake agree most with the reference")
     assert "; pymunk least: the outcome on 2/4" in text
+
+
+def test_engines_at_their_own_step_are_named_with_it(tmp_path):
+    """A map whose engines run at different steps (the batched engines' own, 1e-3 s) says
+    each engine's step in its text and in its panels' titles; one step for all: no label."""
+    spec = MapSpec(nx=2, ny=2, engines=("mujoco", "mjx", "newton"))
+    assert map_section_module._engines_text(spec) == (
+        "mujoco at dt = 0.0001 s; mjx, newton at dt = 0.001 s (their own step)"
+    )
+    same = MapSpec(nx=2, ny=2, engines=("mujoco", "mjx"), engine_timesteps={})
+    assert map_section_module._engines_text(same) == "mujoco, mjx at dt = 0.0001 s"
+    frame = synthetic_frame(2, 2, ("mujoco", "mjx"))
+    engines = frame["engine"] != "reference"
+    frame.loc[engines, "timestep"] = np.where(frame.loc[engines, "engine"] == "mjx", 1e-3, 1e-4)
+    assert map_figures._engine_label(frame, "mjx") == "mjx (dt 0.001 s)"
+    assert map_figures._engine_label(frame, "mujoco") == "mujoco (dt 0.0001 s)"
+    frame.loc[engines, "timestep"] = 1e-4
+    assert map_figures._engine_label(frame, "mjx") == "mjx"

@@ -2,8 +2,10 @@
 MuJoCo C through ``mujoco.batch``), at batch sizes 1, 64 and 1,024 by default.
 
 Run with ``make bench`` or ``python -m hoopbench.reports.bench.batched_engines [--sizes 1 64
-1024] [--steps 100] [--engines mjx mjwarp newton]``. A measurement, not a test: nothing here
-asserts a time.
+1024] [--steps 100] [--engines mjx mjwarp newton] [--out DIR]``. A measurement, not a test:
+nothing here asserts a time. With ``--out DIR`` the figures also go to ``DIR/batch_cost.csv``
+(a new file; ``--force`` replaces it), which ``hoopbench report --results DIR`` shows as the
+section "Cost per world-step by batch size" (reports/report/batch_cost.py).
 
 Each batch is ``size`` worlds, the hop map's points (reports/bench/batch.py's
 ``world_scenes``), each stepping ``--steps`` steps at dt 1e-3 with the tuned settings, run
@@ -18,12 +20,25 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from datetime import UTC, datetime
+from pathlib import Path
 from typing import Any
 
-from hoopbench.engines.registry import get_engine
+import pandas as pd
+
+from hoopbench.engines.judging.columns import Col
+from hoopbench.engines.registry import engine_class, get_engine
 from hoopbench.engines.run import RunStatus
 from hoopbench.engines.settings import RunSettings
 from hoopbench.reports.bench.batch import world_scenes
+from hoopbench.reports.report.batch_cost import (
+    BATCH_COST_FILE,
+    DEVICE,
+    MEASURED_AT,
+    SETTING,
+    STEPS_PER_WORLD,
+    write_batch_cost,
+)
 
 DT = 1e-3
 CASES: tuple[tuple[str, dict[str, Any]], ...] = (
@@ -50,25 +65,65 @@ def cost_per_world_step(engine: str, options: dict[str, Any], size: int, steps: 
     return 1e6 * cost.wall_time_s / cost.world_steps
 
 
+def _label(engine: str, options: dict[str, Any]) -> str:
+    """'mjx precision=float64'."""
+    return engine + "".join(f" {k}={v}" for k, v in options.items())
+
+
+def _row(engine: str, options: dict[str, Any], size: int, steps: int, us: float) -> dict:
+    settings = RunSettings(timestep=DT, options=options)
+    return {
+        Col.ENGINE: engine,
+        SETTING: _label(engine, options),
+        Col.ENGINE_VERSION: get_engine(engine).version(),
+        Col.TIMESTEP: DT,
+        STEPS_PER_WORLD: steps,
+        DEVICE: engine_class(engine).resolve(settings).get("device", "cpu"),  # MuJoCo C: cpu
+        Col.BATCH_SIZE: size,
+        Col.US_PER_WORLD_STEP: us,
+        Col.WORLD_STEPS_PER_S: 1e6 / us if us == us else float("nan"),
+    }
+
+
+def measure(
+    cases: Sequence[tuple[str, dict[str, Any]]], sizes: Sequence[int], steps: int
+) -> pd.DataFrame:
+    """One row per case and size (BATCH_COST_COLUMNS), printed as they come; a batch that
+    failed has no cost (NaN) and its reason on stderr."""
+    print(f"us per world-step, tuned, dt {DT:g} s, {steps} steps per world, the CPU")
+    print(f"{'engine':<30}" + "".join(f"{size:>12}" for size in sizes))
+    rows = []
+    started = datetime.now(UTC).isoformat(timespec="seconds")
+    for engine, options in cases:
+        cells = []
+        for size in sizes:
+            try:
+                us = cost_per_world_step(engine, options, size, steps)
+            except RuntimeError as exc:
+                print(f"{_label(engine, options)}: {exc}", file=sys.stderr)
+                us = float("nan")
+            cells.append(f"{us:>12.1f}" if us == us else f"{'failed':>12}")
+            rows.append({**_row(engine, options, size, steps, us), MEASURED_AT: started})
+        print(f"{_label(engine, options):<30}" + "".join(cells), flush=True)
+    return pd.DataFrame(rows)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[1, 64, 1024])
     parser.add_argument("--steps", type=int, default=100)
     parser.add_argument("--engines", nargs="+", default=None, help="only these engines")
+    parser.add_argument("--out", type=Path, help=f"folder for {BATCH_COST_FILE} (the report's)")
+    parser.add_argument(
+        "--force", action="store_true", help=f"replace an existing {BATCH_COST_FILE}"
+    )
     args = parser.parse_args(argv)
+    if args.out is not None and (args.out / BATCH_COST_FILE).exists() and not args.force:
+        parser.error(f"{args.out / BATCH_COST_FILE} exists; pass --force to replace it")
     cases = [c for c in CASES if args.engines is None or c[0] in args.engines]
-    print(f"us per world-step, tuned, dt {DT:g} s, {args.steps} steps per world, the CPU")
-    print(f"{'engine':<30}" + "".join(f"{size:>12}" for size in args.sizes))
-    for engine, options in cases:
-        label = engine + "".join(f" {k}={v}" for k, v in options.items())
-        cells = []
-        for size in args.sizes:
-            try:
-                cells.append(f"{cost_per_world_step(engine, options, size, args.steps):>12.1f}")
-            except RuntimeError as exc:
-                print(f"{label}: {exc}", file=sys.stderr)
-                cells.append(f"{'failed':>12}")
-        print(f"{label:<30}" + "".join(cells), flush=True)
+    frame = measure(cases, args.sizes, args.steps)
+    if args.out is not None:
+        print(f"written: {write_batch_cost(frame, args.out)}")
     return 0
 
 

@@ -94,10 +94,11 @@ def floor_scene(point: MapPoint, n_steps: int, timestep: float) -> Scene:
 def bare_seconds(spec: MapSpec, rows: pd.DataFrame) -> np.ndarray:
     """Each row's bare loop time, s: its engine, its point's scene, its number of steps."""
     points = {(p.ix, p.iy): p for p in spec.points()}
-    settings = RunSettings(timestep=spec.timestep, profile=spec.profile)
     out = np.empty(len(rows))
     for k, row in enumerate(rows.itertuples(index=False)):
-        scene = floor_scene(points[row.ix, row.iy], row.n_steps, spec.timestep)
+        timestep = spec.timestep_of(row.engine)
+        settings = RunSettings(timestep=timestep, profile=spec.profile)
+        scene = floor_scene(points[row.ix, row.iy], row.n_steps, timestep)
         out[k] = get_engine(row.engine).bare_loop_time(scene, settings)
     return out
 
@@ -116,8 +117,9 @@ def group_floor(rows: pd.DataFrame, sampled: pd.DataFrame, bare_s: np.ndarray) -
     return table.reset_index()
 
 
-def must_run_steps(rows: pd.DataFrame, timestep: float) -> pd.Series:
-    """Steps no stopping rule can leave out (module docstring), per row."""
+def must_run_steps(rows: pd.DataFrame, timestep: float | pd.Series) -> pd.Series:
+    """Steps no stopping rule can leave out (module docstring), per row (``timestep``: the
+    map's, or each row's)."""
     steps = rows["n_steps"].where(rows["regime"].isin(MUST_RUN_REGIMES), 0)
     slips = rows["regime"] == str(Regime.SLIPS)
     # The step at or after the last event; an event on a step up to round-off is that step.
@@ -125,7 +127,7 @@ def must_run_steps(rows: pd.DataFrame, timestep: float) -> pd.Series:
     return steps.where(~slips, np.minimum(rows["n_steps"], last)).astype(int)
 
 
-def stopping_bound(rows: pd.DataFrame, groups: pd.DataFrame, timestep: float) -> float:
+def stopping_bound(rows: pd.DataFrame, groups: pd.DataFrame, timestep: float | pd.Series) -> float:
     """Bare seconds of the must-run steps, at each row's group's bare cost per step."""
     cost = groups.set_index(GROUP)["bare_us"] * 1e-6
     per_step = rows.set_index(GROUP).index.map(cost.to_dict()).to_numpy(dtype=float)
@@ -139,7 +141,8 @@ def measure(out: Path, per_group: int, seed: int) -> Floor:
     picked = sample(rows, per_group, seed)
     groups = group_floor(rows, picked, bare_seconds(spec, picked))
     reference = frame.loc[frame["engine"] == REFERENCE, "wall_time_s"].fillna(0.0).sum()
-    return Floor(groups, float(reference), stopping_bound(rows, groups, spec.timestep))
+    steps = rows["engine"].map(spec.timestep_of)  # an engine may have its own step
+    return Floor(groups, float(reference), stopping_bound(rows, groups, steps))
 
 
 def report(floor: Floor, cores: int, map_wall_s: float | None) -> str:

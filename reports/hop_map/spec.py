@@ -40,6 +40,7 @@ __all__ = [
     "DEFAULT_ENGINES",
     "DEFAULT_GRID",
     "DEFAULT_T_END",
+    "ENGINE_TIMESTEPS",
     "FORMAT_VERSION",
     "MAP_FILE",
     "MAX_GRID",
@@ -52,6 +53,7 @@ __all__ = [
     "MapSpecMismatchError",
     "check_grid",
     "check_stored_points",
+    "default_engine_timesteps",
     "load_spec",
 ]
 
@@ -157,10 +159,24 @@ AXES: Mapping[Axis, AxisInfo] = MappingProxyType(
 )
 """Every axis's domain and defaults: the one place they live."""
 
-DEFAULT_ENGINES = ("mujoco", "pybullet", "pymunk")
-"""The issue's map: the three engines every install has (Drake is an optional extra)."""
+DEFAULT_ENGINES = ("mujoco", "pybullet", "pymunk", "mjx", "newton")
+"""The three engines every install has, and the batched MJX and Newton (the ``mjx`` and
+``warp`` extras, in ``engines``; without them their rows are ``unavailable``) at their own
+step (ENGINE_TIMESTEPS). MuJoCo Warp only with ``--engines``: on a CPU its world-step costs
+5.4 ms in the default map's batches of 25 (measured on a loaded machine: an upper bound),
+so it alone would add up to 19 CPU-minutes to a map of two, and it gave MJX float32's
+verdict at every point and scene compared (docs/map.md, Cost). Drake, Box2D, Rapier and DART
+only with ``--engines``, as before."""
+ENGINE_TIMESTEPS: Mapping[str, float] = MappingProxyType(
+    {"mjx": 1e-3, "mjwarp": 1e-3, "newton": 1e-3}
+)
+"""s: the batched engines' own step in a map unless one is given (``engine_timesteps``), the
+suites' step for them: on a CPU their world-step costs 4 to 300 times MuJoCo C's in the
+default map's batches (docs/map.md, Cost): at the map's 1e-4 s MJX and Newton would step
+about 15 CPU-minutes of a default map that takes about 2 minutes at 1e-3 s."""
 DEFAULT_GRID = (10, 10)
-"""Points along x and y: the 10 x 10 map of the issue's measurements, about a minute."""
+"""Points along x and y: the 10 x 10 map of the issue's measurements, about a minute with the
+three C engines and two with MJX and Newton (docs/map.md, Cost)."""
 DEFAULT_T_END = 3.0
 """s: the catalogue's window (Scene.t_end's default)."""
 
@@ -212,9 +228,13 @@ class MapSpec:
     engines: tuple[str, ...] = DEFAULT_ENGINES
     """Engines to run at every point (none: the reference's regime map alone)."""
     timestep: float = DEFAULT_TIMESTEP
-    """The engines' step, s."""
+    """The step of the engines without their own (``engine_timesteps``), s."""
     profile: Profile = Profile.TUNED
     """The engines' option values: hoopbench's tuned ones or the engines' stock ones."""
+    engine_timesteps: Mapping[str, float] | tuple[tuple[str, float], ...] | None = None
+    """Engines with their own step, s, name -> step, each one of the map's engines; None:
+    ENGINE_TIMESTEPS's for the map's engines (default_engine_timesteps). Stored as sorted
+    (name, step) pairs."""
 
     def __post_init__(self) -> None:
         x, y = _axis("x", self.x), _axis("y", self.y)
@@ -231,9 +251,11 @@ class MapSpec:
         set_(self, "ny", check_integer("ny", self.ny, low=1, high=MAX_GRID))
         set_(self, "fixed", self._checked_fixed())
         set_(self, "t_end", check_real("t_end", self.t_end, low=0.0, low_open=True, unit="s"))
-        self._check_timestep()
+        set_(self, "timestep", self._checked_step("timestep", self.timestep))
         set_(self, "profile", check_profile("profile", self.profile))
-        set_(self, "engines", self._checked_engines())
+        set_(self, "engines", self._checked_engine_names())
+        set_(self, "engine_timesteps", self._checked_engine_timesteps())
+        self._check_engine_settings()
         if self.run_count > MAX_SUITE_RUNS:  # a suite's cap, for the same reasons
             raise ValueError(
                 f"the map makes {self.run_count:,} runs ({self.nx} x {self.ny} points, the "
@@ -257,12 +279,17 @@ class MapSpec:
             if axis not in (self.x, self.y)
         )
 
-    def _check_timestep(self) -> None:
-        dt = check_real("timestep", self.timestep, low=0.0, low_open=True, unit="s")
-        object.__setattr__(self, "timestep", dt)
-        check_steps(self.t_end, dt, MAX_STEPS)  # the runs' own window check, before any run
+    def _checked_step(self, name: str, value: Any) -> float:
+        dt = check_real(name, value, low=0.0, low_open=True, unit="s")
+        try:
+            check_steps(self.t_end, dt, MAX_STEPS)  # the runs' own window check, before any run
+        except ValueError as exc:
+            if name == "timestep":
+                raise
+            raise ValueError(f"{name}: {exc}") from None
+        return dt
 
-    def _checked_engines(self) -> tuple[str, ...]:
+    def _checked_engine_names(self) -> tuple[str, ...]:
         if isinstance(self.engines, str):
             raise ValueError(f"engines must be a list of engine names, got {self.engines!r}")
         engines = tuple(self.engines)
@@ -270,14 +297,43 @@ class MapSpec:
         for name in engines:
             if name not in known:
                 raise ValueError(f"unknown engine {name!r} for a map; known: {', '.join(known)}")
-            # Options and profile as a run checks them: a bad one fails before anything runs.
-            engine_class(name).resolve(RunSettings(timestep=self.timestep, profile=self.profile))
         repeated = sorted({name for name in engines if engines.count(name) > 1})
         if repeated:
             raise ValueError(f"engine {repeated[0]!r} is given twice")
         return engines
 
+    def _checked_engine_timesteps(self) -> tuple[tuple[str, float], ...]:
+        given: Any = self.engine_timesteps
+        if given is None:
+            given = default_engine_timesteps(self.engines)
+        elif isinstance(given, tuple) and all(
+            isinstance(p, tuple) and len(p) == 2 for p in given
+        ):  # the stored pairs
+            given = dict(given)
+        if not isinstance(given, Mapping):
+            raise ValueError(f"engine_timesteps must map engine names to steps, got {given!r}")
+        for name in given:
+            if name not in self.engines:
+                raise ValueError(
+                    f"engine_timesteps gives {name!r} a step, but {name!r} is not one of the "
+                    f"map's engines ({', '.join(self.engines) or 'none'})"
+                )
+        return tuple(
+            (name, self._checked_step(f"engine_timesteps[{name}]", given[name]))
+            for name in sorted(given)
+        )
+
+    def _check_engine_settings(self) -> None:
+        """Options and profile as a run checks them: a bad one fails before anything runs."""
+        for name in self.engines:
+            settings = RunSettings(timestep=self.timestep_of(name), profile=self.profile)
+            engine_class(name).resolve(settings)
+
     # ----------------------------------------------------------------- derived
+    def timestep_of(self, engine: str) -> float:
+        """The step ``engine`` runs at on this map, s: its own or the map's."""
+        return dict(self.engine_timesteps or ()).get(engine, self.timestep)
+
     @property
     def fixed_values(self) -> dict[str, float]:
         """The fixed parameters, name -> value."""
@@ -336,16 +392,18 @@ class MapSpec:
             "timestep": self.timestep,
             "profile": str(self.profile),
             "fixed": self.fixed_values,
+            "engine_timesteps": dict(self.engine_timesteps or ()),
         }
 
     def to_toml(self) -> str:
         """The spec as TOML (floats written by repr, so they read back exactly)."""
         data = self.to_dict()
-        fixed = data.pop("fixed")
+        tables = {key: data.pop(key) for key in ("fixed", "engine_timesteps")}
         lines = ["# A hoopbench hop map (hoopbench map); read by --resume and the report."]
         lines += [f"{key} = {_toml_value(value)}" for key, value in data.items()]
-        lines += ["", "[fixed]"]
-        lines += [f"{key} = {_toml_value(value)}" for key, value in fixed.items()]
+        for name, table in tables.items():
+            lines += ["", f"[{name}]"]
+            lines += [f"{key} = {_toml_value(value)}" for key, value in table.items()]
         return "\n".join(lines) + "\n"
 
     @classmethod
@@ -363,8 +421,11 @@ class MapSpec:
                 raise ValueError(f"{key} must be a list, got {data[key]!r}")
             if key in data:
                 data[key] = tuple(data[key])
-        if "fixed" in data and not isinstance(data["fixed"], Mapping):
-            raise ValueError(f"fixed must be a table, got {data['fixed']!r}")
+        for key in ("fixed", "engine_timesteps"):
+            if key in data and not isinstance(data[key], Mapping):
+                raise ValueError(f"{key} must be a table, got {data[key]!r}")
+        # A map stored before engines had their own steps ran every engine at `timestep`.
+        data.setdefault("engine_timesteps", {})
         return cls(**data)
 
     @classmethod
@@ -433,6 +494,11 @@ class MapPoint:
             "theta0_deg": self.theta0_deg,
             "t_end": self.t_end,
         }
+
+
+def default_engine_timesteps(engines: Sequence[str]) -> dict[str, float]:
+    """ENGINE_TIMESTEPS's steps of the engines among ``engines``, name -> s."""
+    return {name: ENGINE_TIMESTEPS[name] for name in engines if name in ENGINE_TIMESTEPS}
 
 
 def check_grid(value: str | Sequence[int]) -> tuple[int, int]:

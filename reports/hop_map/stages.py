@@ -174,7 +174,13 @@ def _engine_task(
 ) -> MapTask:
     carried = tuple((c, exact[c]) for c in EXACT_CARRIED if c in exact)
     return MapTask(
-        f"{point.name}-{engine}", point, engine, spec.timestep, spec.profile, carried, display_dir
+        f"{point.name}-{engine}",
+        point,
+        engine,
+        spec.timestep_of(engine),
+        spec.profile,
+        carried,
+        display_dir,
     )
 
 

@@ -19,6 +19,7 @@ from hoopbench.engines.judging.columns import Col
 from hoopbench.reports.compare.suite import runs_frame
 from hoopbench.reports.compare.suite_file import CatalogueNameError, load_suite
 from hoopbench.reports.hop_map.spec import MAP_FILE
+from hoopbench.reports.report.batch_cost import batch_cost_section, is_batch_cost_folder
 from hoopbench.reports.report.best_settings import (
     best_settings,
     best_settings_section,
@@ -86,16 +87,18 @@ def build_report(
 
     Several results folders (e.g. the default suite and the stability suite) make one report;
     each row keeps the name of its suite in the column ``suite``. A hop map folder (it holds
-    map.toml) adds its own section (reports/report/map_section.py). ``out`` defaults to the first
-    folder.
+    map.toml) adds its own section (reports/report/map_section.py), and so does a folder of the
+    batched engines' bench (batch_cost.csv: reports/report/batch_cost.py). ``out`` defaults to
+    the first folder.
     """
     given = [results_dirs] if isinstance(results_dirs, str | os.PathLike) else results_dirs
     dirs = [Path(d) for d in given]
     out = Path(out) if out is not None else dirs[0]
     maps = [d for d in dirs if is_map_folder(d)]  # hop maps: a section each, not runs rows
     tunes = [d for d in dirs if is_tune_folder(d)]  # searches: the Best settings section
+    benches = [d for d in dirs if is_batch_cost_folder(d)]  # make bench's batch costs
     found = best_settings(tunes)
-    plain = [d for d in dirs if d not in maps and d not in tunes]
+    plain = [d for d in dirs if d not in maps and d not in tunes and d not in benches]
     runs = [report_frame(d) for d in plain]
     _refuse_shared_runs(plain, runs)
     frame = pd.concat(runs, ignore_index=True) if runs else pd.DataFrame()
@@ -107,6 +110,8 @@ def build_report(
         extra = map_sections(maps, out)
         if found:
             extra.append(best_settings_section(found, out))
+        if benches:
+            extra.append(batch_cost_section(benches))
         report = write_markdown(frame, out, generated=generated, extra=extra)
         prefixes = map_prefixes(len(maps))
         write_page(frame, out, maps=maps, map_prefixes=prefixes, searches=found)  # report.html

@@ -370,12 +370,22 @@ def regime_figure(frame: pd.DataFrame, path: str | Path) -> Path:
     return _save(fig, path)
 
 
-def _agreement_title(engine: str, cells: np.ndarray) -> str:
+def _engine_label(frame: pd.DataFrame, engine: str) -> str:
+    """The engine's name, with its timestep where the map's engines run at different ones
+    (a map's batched engines have their own: spec.ENGINE_TIMESTEPS)."""
+    steps = pd.to_numeric(frame.loc[frame["engine"].isin(engines_of(frame)), "timestep"])
+    mine = pd.to_numeric(frame.loc[frame["engine"] == engine, "timestep"]).dropna().unique()
+    if steps.nunique() < 2 or len(mine) != 1:
+        return engine
+    return f"{engine} (dt {mine[0]:g} s)"
+
+
+def _agreement_title(label: str, cells: np.ndarray) -> str:
     judged = np.isfinite(cells)
     agree = int(np.sum(cells == list(Verdict).index(Verdict.AGREES)))
     n = int(judged.sum())
     rate = f"{100 * agree / n:.0f} %" if n else "-"
-    return f"{engine}: agrees on {rate} ({agree}/{n})"
+    return f"{label}: agrees on {rate} ({agree}/{n})"
 
 
 def verdict_figure(frame: pd.DataFrame, path: str | Path) -> Path:
@@ -396,7 +406,7 @@ def verdict_figure(frame: pd.DataFrame, path: str | Path) -> Path:
         _fill(ax, grid, np.isfinite(ran), NOT_JUDGED)  # under the verdicts
         _categorical(ax, grid, cells, [VERDICT_COLOURS[v] for v in Verdict])
         present |= {v for k, v in enumerate(Verdict) if np.any(cells == k)}
-        ax.set_title(_agreement_title(engine, cells), fontsize=10)
+        ax.set_title(_agreement_title(_engine_label(frame, engine), cells), fontsize=10)
         _set_axes(ax, grid)
     handles = [Patch(color=VERDICT_COLOURS[v], label=str(v)) for v in Verdict if v in present]
     no_verdict = "no verdict (no exact answer, too small to see, or not run)"
@@ -430,7 +440,9 @@ def hop_error_figure(frame: pd.DataFrame, path: str | Path) -> Path:
         _fill(ax, grid, hops, _NOT_COMPARED)
         mesh = _mesh(ax, grid, np.log2(ratio), cmap="RdBu_r", norm=norm)
         n = int(np.isfinite(ratio).sum())
-        title = f"{engine}: hops at {n} of {int(hops.sum())} exact hops (grey: no hop)"
+        label = _engine_label(frame, engine)
+        wrap = "\n" if label != engine else " "  # a step in the label: too long for one line
+        title = f"{label}: hops at {n} of {int(hops.sum())} exact hops{wrap}(grey: no hop)"
         ax.set_title(title, fontsize=10)
         if not hops.any():
             _message(ax, "no hop on this map")

@@ -248,13 +248,25 @@ def _axis_span(spec: MapSpec, axis: Axis, which: str, n: int) -> str:
 
 def _spec_text(spec: MapSpec) -> str:
     fixed = ", ".join(f"{k} = {_axis_text(Axis(k), v)}" for k, v in spec.fixed_values.items())
-    engines = ", ".join(spec.engines) or "none (the reference's regimes alone)"
     return (
         f"A {spec.nx} x {spec.ny} grid, {_axis_span(spec, spec.x, 'x', spec.nx)}, "
         f"{_axis_span(spec, spec.y, 'y', spec.ny)}; fixed {fixed} (mus = muk = mu); "
-        f"window t_end = {spec.t_end:g} s. Engines: {engines}, dt = {spec.timestep:g} s, "
+        f"window t_end = {spec.t_end:g} s. Engines: {_engines_text(spec)}, "
         f"profile {spec.profile}."
     )
+
+
+def _engines_text(spec: MapSpec) -> str:
+    """'mujoco, pymunk at dt = 0.0001 s; mjx at dt = 0.001 s (its own step)'."""
+    if not spec.engines:
+        return "none (the reference's regimes alone)"
+    steps = {name: spec.timestep_of(name) for name in spec.engines}
+    parts = []
+    for dt in sorted(set(steps.values()), key=lambda v: (v != spec.timestep, v)):
+        names = [n for n, v in steps.items() if v == dt]
+        own = "" if dt == spec.timestep else f" ({'its' if len(names) == 1 else 'their'} own step)"
+        parts.append(f"{', '.join(names)} at dt = {dt:g} s{own}")
+    return "; ".join(parts)
 
 
 def _status_text(frame: pd.DataFrame) -> str:
