@@ -342,6 +342,14 @@ def test_the_section_reads_a_compact_search_and_the_page_shows_it(
     data = json.loads(data[data.index(">") + 1 : data.index("</script>")])
     named = {point[0] for trace in data["data"] for point in trace.get("customdata", [])}
     assert set(front["setting"]) <= named
+    settings = [
+        p for trace in data["data"] for p in trace.get("customdata", []) if isinstance(p, list)
+    ]
+    counts = {p[0]: p[11] for p in settings}  # a trial's customdata is its number alone
+    for row in front.to_dict("records"):
+        scenes = row["n_scenes"]
+        said = f"agrees {row['agrees_scenes']}/{scenes}, close {row['close_scenes']}/{scenes}"
+        assert counts[row["setting"]] == said, counts
 
 
 def test_hovering_a_point_of_the_front_names_its_setting(
