@@ -11,6 +11,7 @@ import pandas as pd
 import pytest
 
 from hoopbench.engines.judging.columns import Col
+from hoopbench.reports.cli import main
 from hoopbench.reports.compare.settings_file import (
     SettingsFileError,
     TierChoice,
@@ -21,6 +22,7 @@ from hoopbench.reports.compare.settings_file import (
     settings_identity,
     settings_mismatch,
     settings_text,
+    tier_note,
 )
 from hoopbench.reports.tune.tiers import NO_TIER, cheapest_by_tier, count_columns, tier_columns
 
@@ -190,3 +192,17 @@ def test_a_folders_settings_identity_is_the_files_content_and_choice(tmp_path: P
     path.write_text(path.read_text().replace("iterations = 80", "iterations = 81"))
     assert settings_mismatch(made, settings_identity(load_settings(path))) is not None
     assert settings_mismatch({"kind": "suite"}, made) is None  # a folder from before says nothing
+
+
+def test_file_hash_tier_says_when_its_setting_is_within_the_tier_on_some_scenes_only(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    all_of_them = {"agrees": None, "close": TierChoice("trial-4", 22, 22)}
+    assert tier_note(load_settings(_file(tmp_path, all_of_them)), "close") is None
+    path = _file(tmp_path, _TIERS)
+    loaded = load_settings(path)
+    assert tier_note(loaded, "trial-4") is None  # a setting by name: nothing to say
+    assert "trial-4, within the tier on only 13/22" in str(tier_note(loaded, "close"))
+    args = ["simulate", "--engine", ENGINE, "--scene", "seed-mu", "--settings"]
+    assert main([*args, f"{path}#close"]) == 0
+    assert "#close is trial-4, within the tier on only 13/22" in capsys.readouterr().err

@@ -70,6 +70,7 @@ __all__ = [
     "settings_meta",
     "settings_mismatch",
     "settings_text",
+    "tier_note",
     "with_settings",
 ]
 
@@ -303,6 +304,20 @@ def _tier_setting(loaded: SettingsFile, tier: str) -> str:
             "[tiers] says none)"
         )
     return chosen
+
+
+def tier_note(loaded: SettingsFile, name: str | None) -> str | None:
+    """What to tell a user whose ``FILE#TIER`` names a setting within the tier on some of
+    its scenes only (no setting of the file is within it on all); None otherwise."""
+    if name is None or name not in loaded.tier_scenes:
+        return None
+    within, scenes = loaded.tier_scenes[name]
+    if within == scenes:
+        return None
+    return (
+        f"#{name} is {loaded.tiers[name]}, within the tier on only {within}/{scenes} of its "
+        "training and held-out scenes: no setting of the file is within it on all"
+    )
 
 
 def with_settings(suite: Suite, loaded: SettingsFile, name: str | None = None) -> Suite:
