@@ -383,13 +383,25 @@ def _settings_from_args(args: argparse.Namespace, engine: str) -> RunSettings:
     return settings
 
 
+def _say_tier_note(loaded: Any, name: str | None) -> None:
+    """A note on stderr when FILE#TIER names a setting within the tier on some scenes only."""
+    from hoopbench.reports.compare.settings_file import tier_note
+
+    note = tier_note(loaded, name)
+    if note is not None:
+        print(f"hoopbench: note: settings file {loaded.file_name}{note}", file=sys.stderr)
+
+
 def _settings_from_file(args: argparse.Namespace) -> RunSettings:
     """simulate --settings FILE[#NAME]: a setting of ``hoopbench tune``'s settings file."""
     import hoopbench.reports.api as api
 
     if args.set or args.dt is not None:
         raise UsageError("--settings gives the timestep and the options: drop --dt and --set")
+    from hoopbench.reports.compare.settings_file import load_choice
+
     chosen = api.setting_from_file(args.engine, args.settings)
+    _say_tier_note(*load_choice(args.settings))
     return chosen.run_settings().with_(
         mu=args.mu, restitution=args.restitution, geometry=args.geometry, max_steps=args.max_steps
     )
@@ -541,6 +553,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         announce=None if args.quiet else _announce_suite,
         settings=args.settings,
     )
+    if job.settings is not None and not args.quiet:
+        _say_tier_note(*job.settings)
     if args.scheduler and args.trajectories != "none" and not args.quiet:
         print(
             "hoopbench: note: the Dask workers write the trajectories into --out as they see "

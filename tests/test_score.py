@@ -9,9 +9,11 @@ from hoopbench.engines.judging.columns import Col
 from hoopbench.engines.judging.score import (
     FLAG_SCORE,
     SCORE_CAP,
+    cheapest_of_most,
     cost_us_per_s,
     error_score,
     row_error,
+    scenes_within,
     tier_reached,
 )
 from hoopbench.engines.judging.tolerances import Tier, event_tolerances
@@ -90,3 +92,18 @@ def test_a_tier_is_reached_when_every_run_is_within_it() -> None:
     assert tier_reached([close, _row(**{Col.VERDICT: "late-slip"})]) is None
     assert tier_reached([agrees, _row(**{Col.VERDICT: None})]) is None  # an unjudged run
     assert tier_reached([]) is None
+
+
+def test_the_cheapest_of_a_tier_is_the_cheapest_of_those_within_it_on_most_scenes() -> None:
+    assert cheapest_of_most([("a", 5, 10.0), ("b", 7, 100.0), ("c", 7, 50.0)]) == "c"
+    assert cheapest_of_most([("a", 7, None), ("b", 7, 100.0)]) == "b"  # unmeasured last
+    assert cheapest_of_most([("a", 7, float("nan")), ("b", 7, float("inf"))]) == "a"  # tie
+    assert cheapest_of_most([("a", 0, 1.0)]) is None
+    assert cheapest_of_most([]) is None
+
+
+def test_scenes_within_a_tier_counts_the_tiers_verdicts() -> None:
+    rows = [_row(), _row(**{Col.VERDICT: "close"}), _row(**{Col.VERDICT: "late-slip"})]
+    rows.append(_row(**{Col.VERDICT: float("nan")}))
+    assert scenes_within(rows, Tier.TIGHT) == 1
+    assert scenes_within(rows, Tier.LOOSE) == 2

@@ -115,11 +115,27 @@ def test_each_setting_is_labelled_with_the_tier_every_one_of_its_runs_reaches(
             assert line[column] == (within[0] if within else "none"), (folder, line, verdicts)
     loaded = load_settings(out / "settings.toml")
     assert set(loaded.tiers) == {"agrees", "close"}
-    assert loaded.tiers == cheapest_by_tier(front)
+    chosen = cheapest_by_tier(front)
+    assert loaded.tiers == {t: None if c is None else c.setting for t, c in chosen.items()}
+    assert loaded.tier_scenes == {
+        t: (c.scenes_within, c.scenes) for t, c in chosen.items() if c is not None
+    }
     for setting in loaded.settings:
         line = front[front["setting"] == setting.name].iloc[0]
         assert setting.measured["train_tier"] == line["train_tier"]
         assert setting.measured["heldout_tier"] == line["heldout_tier"]
+
+
+def test_each_setting_counts_its_scenes_within_each_tier(
+    searched: tuple[Path, pd.DataFrame],
+) -> None:
+    out, front = searched
+    rows = pd.concat([runs_frame(out / TRIALS_DIR), runs_frame(out / "heldout")])
+    for line in front[front["kind"] == "pareto"].to_dict("records"):
+        verdicts = list(rows.loc[rows["variant"] == line["setting"], "verdict"])
+        assert line["n_scenes"] == len(verdicts) > 0, line
+        assert line["agrees_scenes"] == verdicts.count("agrees"), line
+        assert line["close_scenes"] == sum(v in ("agrees", "close") for v in verdicts), line
 
 
 def _tier_file(out: Path, tmp_path: Path, close: str) -> Path:
@@ -146,7 +162,7 @@ def test_file_hash_close_runs_the_cheapest_close_setting_and_says_when_there_is_
     assert main([*args, f"{none}#agrees"]) == 2  # the edited file names no tight setting
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 2, lines
-    assert "no setting of the settings file reaches the tier 'close'" in lines[0]
+    assert "no setting of the settings file is within the tier 'close'" in lines[0]
     assert "names no setting for the tier 'agrees'" in lines[1]
 
 
@@ -306,10 +322,13 @@ def test_the_section_reads_a_compact_search_and_the_page_shows_it(
     report = hb.report([compact], tmp_path / "report")
     text = report.read_text()
     section = text[text.index("## Best settings") :]
-    cheapest = load_settings(compact / "settings.toml").tiers
+    loaded = load_settings(compact / "settings.toml")
     line = next(s for s in section.splitlines() if s.startswith("The cheapest setting"))
-    for tier, name in cheapest.items():
+    for tier, name in loaded.tiers.items():
         assert f"{tier}: {name or 'none'}" in line, line
+        if name is not None:
+            within, scenes = loaded.tier_scenes[tier]
+            assert f"{within}/{scenes} scenes" in line, line
     for row in front.to_dict("records"):
         assert f"| {row['train_tier']} | {row['heldout_tier']} |" in section
     page = (tmp_path / "report" / "report.html").read_text()
@@ -323,6 +342,14 @@ def test_the_section_reads_a_compact_search_and_the_page_shows_it(
     data = json.loads(data[data.index(">") + 1 : data.index("</script>")])
     named = {point[0] for trace in data["data"] for point in trace.get("customdata", [])}
     assert set(front["setting"]) <= named
+    settings = [
+        p for trace in data["data"] for p in trace.get("customdata", []) if isinstance(p, list)
+    ]
+    counts = {p[0]: p[11] for p in settings}  # a trial's customdata is its number alone
+    for row in front.to_dict("records"):
+        scenes = row["n_scenes"]
+        said = f"agrees {row['agrees_scenes']}/{scenes}, close {row['close_scenes']}/{scenes}"
+        assert counts[row["setting"]] == said, counts
 
 
 def test_hovering_a_point_of_the_front_names_its_setting(

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping
-from typing import Any
+from typing import Any, TypeVar
 
 from hoopbench.engines.judging.columns import Col
 from hoopbench.engines.judging.tolerances import Tier
@@ -32,7 +32,19 @@ from hoopbench.engines.judging.verdict import (
     number_or_none,
 )
 
-__all__ = ["FLAG_SCORE", "SCORE_CAP", "cost_us_per_s", "error_score", "row_error", "tier_reached"]
+__all__ = [
+    "FLAG_SCORE",
+    "SCORE_CAP",
+    "cheapest_of_most",
+    "cost_us_per_s",
+    "error_score",
+    "row_error",
+    "scenes_within",
+    "tier_reached",
+    "within_tier",
+]
+
+T = TypeVar("T")
 
 SCORE_CAP = 10.0
 """The worst error of a run: ten loose tolerances, or an event missed, invented, or no run."""
@@ -83,17 +95,44 @@ def error_score(rows: Iterable[Mapping[str, Any]]) -> float:
     return sum(errors) / len(errors) if errors else SCORE_CAP
 
 
+def within_tier(row: Mapping[str, Any], tier: Tier) -> bool:
+    """Whether a run's verdict is one the tier admits (TIER_VERDICTS)."""
+    verdict = row.get(Col.VERDICT)
+    return isinstance(verdict, str) and verdict in {str(v) for v in TIER_VERDICTS[tier]}
+
+
+def scenes_within(rows: Iterable[Mapping[str, Any]], tier: Tier) -> int:
+    """How many of a setting's runs (one per scene) are within the tier."""
+    return sum(within_tier(row, tier) for row in rows)
+
+
 def tier_reached(rows: Iterable[Mapping[str, Any]]) -> Tier | None:
     """The finest accuracy tier every run is within (its verdict one of the tier's:
     TIER_VERDICTS); None when some run is within none, or there are no runs."""
-    verdicts = [row.get(Col.VERDICT) for row in rows]
-    if not verdicts:
+    rows = list(rows)
+    if not rows:
         return None
     for tier in Tier:  # finest first: the tolerance table's order
-        admitted = {str(v) for v in TIER_VERDICTS[tier]}
-        if all(isinstance(v, str) and v in admitted for v in verdicts):
+        if all(within_tier(row, tier) for row in rows):
             return tier
     return None
+
+
+def cheapest_of_most(candidates: Iterable[tuple[T, int, float | None]]) -> T | None:
+    """The cheapest setting of an accuracy tier, the one rule of every summary that names
+    one (the report's answer, a settings file's [tiers]): of the candidates (setting, how
+    many of its scenes are within the tier, its cost), those within it on the most scenes
+    (all of them, where one is), and of those the cheapest. A cost not measured (None, nan)
+    comes last; a tie keeps the first. None when no candidate has a scene within the tier."""
+    best: tuple[tuple[int, float], T] | None = None
+    for item, within, cost in candidates:
+        if within <= 0:
+            continue
+        price = math.inf if cost is None or not math.isfinite(cost) else cost
+        key = (-within, price)
+        if best is None or key < best[0]:
+            best = (key, item)
+    return None if best is None else best[1]
 
 
 def cost_us_per_s(rows: Iterable[Mapping[str, Any]]) -> float | None:

@@ -12,6 +12,7 @@ per setting, the most accurate on the training scenes first::
     [tiers]
     agrees = "none"
     close = "trial-7"
+    close_scenes = "13/22"
     [[settings]]
     name = "trial-7"
     timestep = 0.0001
@@ -23,9 +24,12 @@ per setting, the most accurate on the training scenes first::
     iterations = 80
 
 ``[tiers]`` names, per accuracy tier (engines/judging/verdict.TIER_NAMES: ``agrees`` for the
-tight tier, ``close`` for the loose one), the cheapest setting of the file whose every run
-was within it, or "none"; ``FILE#close`` picks it. A file written before the tiers has no
-such table and reads as before (its settings by name only).
+tight tier, ``close`` for the loose one), the cheapest of the settings of the file within it
+on the most scenes (all, where one is), with ``TIER_scenes = "k/n"``: on how many of its n
+scenes, training and held-out, it is within the tier; "none" where no setting is within it on
+any scene. ``FILE#close`` picks it. A file written before the counts names, per tier, the
+cheapest setting within it on every scene, or "none", and reads as it did; one written before
+the tiers has no such table and reads as before (its settings by name only).
 
 An option whose value is None (the engine's own behaviour) is written as the string "none"
 (TOML has no null). Every name and value is checked against the engine's declarations when
@@ -57,6 +61,7 @@ __all__ = [
     "TIER_CHOICES",
     "SettingsFile",
     "SettingsFileError",
+    "TierChoice",
     "TunedSetting",
     "load_choice",
     "load_settings",
@@ -65,6 +70,7 @@ __all__ = [
     "settings_meta",
     "settings_mismatch",
     "settings_text",
+    "tier_note",
     "with_settings",
 ]
 
@@ -105,14 +111,29 @@ class TunedSetting:
 
 
 @dataclass(frozen=True)
+class TierChoice:
+    """The setting ``[tiers]`` names for a tier: the cheapest of those within it on the most
+    scenes."""
+
+    setting: str
+    scenes_within: int
+    """How many of its scenes, training and held-out, are within the tier."""
+    scenes: int
+    """How many scenes it ran, training and held-out."""
+
+
+@dataclass(frozen=True)
 class SettingsFile:
     engine: str
     engine_version: str | None
     settings: tuple[TunedSetting, ...]
     provenance: Mapping[str, Any] = field(default_factory=dict)
     tiers: Mapping[str, str | None] = field(default_factory=dict)
-    """Tier name (TIER_CHOICES) -> the cheapest setting within it, None where none is; empty
-    for a file written before the tiers."""
+    """Tier name (TIER_CHOICES) -> the setting [tiers] names for it, None where it says
+    "none"; empty for a file written before the tiers."""
+    tier_scenes: Mapping[str, tuple[int, int]] = field(default_factory=dict)
+    """Tier name -> (scenes within the tier, scenes) of the setting named for it; empty for a
+    file written before the counts."""
     sha256: str | None = None
     """The file's content hash (what a results folder made with it records)."""
     file_name: str | None = None
@@ -186,31 +207,59 @@ def load_settings(path: str | Path) -> SettingsFile:
         raise _fail(path, "two settings share a name")
     version = data.get("engine_version")
     provenance = data.get("provenance", {})
-    tiers = _tiers(path, data.get("tiers", {}), names)
+    tiers, tier_scenes = _tiers(path, data.get("tiers", {}), names)
     return SettingsFile(
         engine,
         version if isinstance(version, str) else None,
         settings,
         provenance,
         tiers,
+        tier_scenes,
         hashlib.sha256(raw).hexdigest(),
         path.name,
     )
 
 
-def _tiers(path: Path, table: Any, names: Sequence[str]) -> dict[str, str | None]:
-    """The [tiers] table checked: known tiers, each naming a setting of the file or "none"."""
+_SCENES_SUFFIX = "_scenes"
+"""Of a [tiers] key giving the named setting's count: ``close_scenes = "13/22"``."""
+
+
+def _count(path: Path, key: str, value: Any) -> tuple[int, int]:
+    """A [tiers] count "k/n" (0 <= k <= n, n >= 1) checked."""
+    within, _, scenes = str(value).partition("/") if isinstance(value, str) else ("", "", "")
+    if not (within.isdigit() and scenes.isdigit() and int(within) <= int(scenes) > 0):
+        raise _fail(path, f"tiers.{key} must be 'k/n' scenes (0 <= k <= n), got {value!r}")
+    return int(within), int(scenes)
+
+
+def _tiers(
+    path: Path, table: Any, names: Sequence[str]
+) -> tuple[dict[str, str | None], dict[str, tuple[int, int]]]:
+    """The [tiers] table checked: known tiers, each naming a setting of the file or "none",
+    and each count "k/n" of a tier it names a setting for, k at least 1."""
     if not isinstance(table, dict):
         raise _fail(path, "tiers must be a table")
-    unknown = sorted(set(table) - set(TIER_CHOICES))
+    known = {*TIER_CHOICES, *(f"{t}{_SCENES_SUFFIX}" for t in TIER_CHOICES)}
+    unknown = sorted(set(table) - known)
     if unknown:
         raise _fail(path, f"unknown tier(s) {', '.join(map(repr, unknown))} in [tiers]")
     tiers: dict[str, str | None] = {}
-    for tier, name in table.items():
+    for tier in TIER_CHOICES:
+        if tier not in table:
+            continue
+        name = table[tier]
         if name != NONE_TEXT and name not in names:
             raise _fail(path, f"tiers.{tier} must name a setting of the file or be 'none'")
         tiers[tier] = None if name == NONE_TEXT else name
-    return tiers
+    counts: dict[str, tuple[int, int]] = {}
+    for tier in TIER_CHOICES:
+        key = f"{tier}{_SCENES_SUFFIX}"
+        if key not in table:
+            continue
+        counts[tier] = _count(path, key, table[key])
+        if tiers.get(tier) is None or counts[tier][0] == 0:
+            raise _fail(path, f"tiers.{key} counts the scenes of a setting tiers.{tier} names")
+    return tiers, counts
 
 
 def load_choice(text: str | Path) -> tuple[SettingsFile, str | None]:
@@ -248,11 +297,27 @@ def _tier_setting(loaded: SettingsFile, tier: str) -> str:
         )
     chosen = loaded.tiers[tier]
     if chosen is None:
+        # Without counts "none" may be the older rule's (within the tier on every scene).
+        how = "any training or held-out" if loaded.tier_scenes else "every training and held-out"
         raise SettingsFileError(
-            f"no setting of the settings file reaches the tier {tier!r} on every training "
-            "and held-out scene (its [tiers] says none)"
+            f"no setting of the settings file is within the tier {tier!r} on {how} scene (its "
+            "[tiers] says none)"
         )
     return chosen
+
+
+def tier_note(loaded: SettingsFile, name: str | None) -> str | None:
+    """What to tell a user whose ``FILE#TIER`` names a setting within the tier on some of
+    its scenes only (no setting of the file is within it on all); None otherwise."""
+    if name is None or name not in loaded.tier_scenes:
+        return None
+    within, scenes = loaded.tier_scenes[name]
+    if within == scenes:
+        return None
+    return (
+        f"#{name} is {loaded.tiers[name]}, within the tier on only {within}/{scenes} of its "
+        "training and held-out scenes: no setting of the file is within it on all"
+    )
 
 
 def with_settings(suite: Suite, loaded: SettingsFile, name: str | None = None) -> Suite:
@@ -359,10 +424,10 @@ def settings_text(
     engine_version: str | None,
     provenance: Mapping[str, Any],
     settings: Sequence[TunedSetting],
-    tiers: Mapping[str, str | None] | None = None,
+    tiers: Mapping[str, TierChoice | None] | None = None,
 ) -> str:
     """The settings file's text (what :func:`load_settings` reads back); ``tiers``: tier name
-    (TIER_CHOICES) -> the cheapest setting within it, or None where none is."""
+    (TIER_CHOICES) -> the setting named for it, or None where none is."""
     lines = [
         "# Written by `hoopbench tune`: the Pareto set of a search over this engine's settings,",
         "# the most accurate on the training scenes first. docs/tune.md explains the numbers.",
@@ -384,14 +449,20 @@ def settings_text(
     return "\n".join(lines) + "\n"
 
 
-def _tiers_lines(tiers: Mapping[str, str | None]) -> list[str]:
+def _tiers_lines(tiers: Mapping[str, TierChoice | None]) -> list[str]:
     lines = [
-        "# The cheapest setting below whose every run, on the training and on the held-out",
-        "# scenes, is within each accuracy tier (engines/judging/tolerances.toml): agrees =",
-        "# every event within the tight tolerances, close = within the loose ones. Run one",
-        "# with --settings 'FILE#close'. \"none\": no setting of the file reaches that tier.",
+        "# Per accuracy tier (engines/judging/tolerances.toml: agrees = every event within the",
+        "# tight tolerances, close = within the loose ones), the cheapest setting below among",
+        "# those whose runs are within the tier on the most scenes, training and held-out",
+        "# together (on all of them, where one is); TIER_scenes says on how many of how many.",
+        '# "none": no setting is within that tier on any scene. Run one with',
+        "# --settings 'FILE#close'.",
         "[tiers]",
     ]
     for tier in TIER_CHOICES:
-        lines.append(f"{tier} = {_toml_value(tiers.get(tier))}")
+        choice = tiers.get(tier)
+        lines.append(f"{tier} = {_toml_value(None if choice is None else choice.setting)}")
+        if choice is not None:
+            count = f"{choice.scenes_within}/{choice.scenes}"
+            lines.append(f"{tier}{_SCENES_SUFFIX} = {_toml_value(count)}")
     return lines

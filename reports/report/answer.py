@@ -20,13 +20,13 @@ reads as the timestep's limit where a finer run shows it.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import pandas as pd
 
 from hoopbench.engines.judging.columns import Col
+from hoopbench.engines.judging.score import cheapest_of_most
 from hoopbench.engines.judging.tolerances import Tier
 from hoopbench.engines.judging.verdict import TIER_VERDICTS
 from hoopbench.engines.run import RunStatus
@@ -165,14 +165,9 @@ def _choice(key: tuple, group: pd.DataFrame, scenes: Sequence[str], tier: Accura
 
 def _cheapest(rows: pd.DataFrame, scenes: Sequence[str], tier: AccuracyTier) -> Choice | None:
     """Of the settings whose runs meet the tier on the most scenes, the cheapest (a setting
-    whose cost was not measured comes last)."""
+    whose cost was not measured comes last): the judging layer's rule (cheapest_of_most)."""
     choices = [_choice(key, group, scenes, tier) for key, group in rows.groupby(_KEYS)]
-    choices = [c for c in choices if c.scenes_met]
-    return min(
-        choices,
-        key=lambda c: (-c.scenes_met, math.isnan(c.wall_per_sim_s), c.wall_per_sim_s),
-        default=None,
-    )
+    return cheapest_of_most((c, c.scenes_met, c.wall_per_sim_s) for c in choices)
 
 
 def _always_wrong(

@@ -20,6 +20,7 @@ from typing import Any
 
 import pandas as pd
 
+from hoopbench.reports.compare.settings_file import TIER_CHOICES, TierChoice
 from hoopbench.reports.report.escaping import escape_cell, escape_text, file_stem
 from hoopbench.reports.report.palette import engine_colours, profile_style
 from hoopbench.reports.report.plotting import pyplot, save
@@ -32,7 +33,12 @@ from hoopbench.reports.sweep.folder_files import (
 )
 from hoopbench.reports.tune.heldout import FRONT_NAME, TRIALS_NAME
 from hoopbench.reports.tune.search import SPEC_NAME
-from hoopbench.reports.tune.tiers import TIER_COLUMNS, cheapest_by_tier
+from hoopbench.reports.tune.tiers import (
+    SCENES_COLUMN,
+    TIER_COLUMNS,
+    cheapest_by_tier,
+    count_column,
+)
 
 __all__ = [
     "COST_FACTOR",
@@ -77,14 +83,21 @@ class BestSettings:
     """The best held-out error of the Pareto set at no more than tuned's held-out cost."""
     at_ten_times: float | None
     """The same at COST_FACTOR times tuned's held-out cost."""
-    cheapest: dict[str, str | None]
-    """Tier name -> the cheapest Pareto setting within it on the training and held-out scenes
-    (settings.toml's [tiers]); every tier None for a front.csv from before the tiers."""
+    cheapest: dict[str, TierChoice | None]
+    """Tier name -> the cheapest of the Pareto settings within it on the most scenes,
+    training and held-out (settings.toml's [tiers]); every tier None for a front.csv from
+    before the scene counts."""
 
     @property
     def has_tiers(self) -> bool:
         """Whether front.csv labels each setting's tiers (a search from before does not)."""
         return set(TIER_COLUMNS) <= set(self.front.columns)
+
+    @property
+    def has_counts(self) -> bool:
+        """Whether front.csv counts each setting's scenes within each tier (a search from
+        before does not)."""
+        return SCENES_COLUMN in self.front.columns
 
 
 def _best_within(front: pd.DataFrame, cost: float | None) -> float | None:
@@ -149,11 +162,19 @@ def _tier(row: dict[str, Any], column: str) -> str:
     return escape_cell(value) if isinstance(value, str) else "-"
 
 
+def _counts(row: dict[str, Any]) -> str:
+    """The row's cells of scenes within each tier, "k/n" ("-" from before the counts)."""
+    scenes = _number(row.get(SCENES_COLUMN), ".0f")
+    cells = [_number(row.get(count_column(tier)), ".0f") for tier in TIER_CHOICES]
+    return " | ".join("-" if "-" in (c, scenes) else f"{c}/{scenes}" for c in cells)
+
+
 def _table(best: BestSettings) -> list[str]:
+    within = "".join(f" scenes within {tier} |" for tier in TIER_CHOICES)
     lines = [
-        "| setting | kind | timestep (s) | training error | held-out error | "
-        "training cost (us per simulated s) | overfitted | training tier | held-out tier |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| setting | kind | timestep (s) | training error | held-out error | training cost "
+        f"(us per simulated s) | overfitted | training tier | held-out tier |{within}",
+        "|" + "---|" * (9 + len(TIER_CHOICES)),
     ]
     train, heldout = TIER_COLUMNS
     for row in best.front.to_dict("records"):
@@ -163,31 +184,33 @@ def _table(best: BestSettings) -> list[str]:
             f"{_number(row['train_error'])} | {_number(row['heldout_error'])} | "
             f"{_number(row['train_cost_us_per_s'])} | "
             f"{'yes' if row['overfitted'] else 'no'} | "
-            f"{_tier(row, train)} | {_tier(row, heldout)} |"
+            f"{_tier(row, train)} | {_tier(row, heldout)} | {_counts(row)} |"
         )
     return lines
 
 
+def _tier_choice(tier: str, choice: TierChoice | None, costs: pd.Series) -> str:
+    if choice is None:
+        return f"{tier}: none"
+    cost = _number(costs.get(choice.setting))
+    scenes = f"{choice.scenes_within}/{choice.scenes} scenes"
+    within = scenes if choice.scenes_within == choice.scenes else f"only {scenes}"
+    return f"{tier}: {escape_text(choice.setting)} ({within}; {cost} us per simulated s)"
+
+
 def _tiers_line(best: BestSettings) -> str:
     """The cheapest setting of each tier, as the settings file names it."""
-    if not best.has_tiers:
+    if not best.has_counts:
         return (
-            "This search's front.csv is from before the tier labels: resume it "
-            "(`hoopbench tune --resume`, no new trials) to label its settings."
+            "This search's front.csv is from before the tiers' scene counts: resume it "
+            "(`hoopbench tune --resume`, no new trials) to name the cheapest of each tier."
         )
     costs = best.front.set_index("setting")["train_cost_us_per_s"]
-    said = []
-    for tier, name in best.cheapest.items():
-        if name is None:
-            said.append(f"{tier}: none")
-        else:
-            cost = _number(costs.get(name))
-            said.append(f"{tier}: {escape_text(name)} ({cost} us per simulated s)")
+    said = [_tier_choice(tier, choice, costs) for tier, choice in best.cheapest.items()]
     return (
-        "The cheapest setting whose every run, on the training and on the held-out scenes, "
-        "is within each accuracy tier (`--settings 'settings.toml#close'`): "
-        + "; ".join(said)
-        + "."
+        "The cheapest setting whose runs are within each accuracy tier on all scenes, "
+        "training and held-out, or on as many as any setting is "
+        "(`--settings 'settings.toml#close'`): " + "; ".join(said) + "."
     )
 
 

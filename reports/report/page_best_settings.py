@@ -2,7 +2,8 @@
 the same two panels, error against cost on the training scenes and on the held-out ones, from
 the same front.csv and trials.csv (:class:`best_settings.BestSettings`), where a point's hover
 names its setting: timestep, options, both errors and costs, the tier it reaches on each set
-of scenes and whether it is overfitted; a trial's names its number.
+of scenes, on how many scenes it is within each tier and whether it is overfitted; a trial's
+names its number.
 """
 
 from __future__ import annotations
@@ -12,10 +13,11 @@ from typing import Any
 
 import pandas as pd
 
+from hoopbench.reports.compare.settings_file import TIER_CHOICES
 from hoopbench.reports.report.best_settings import SCORE_AXIS, BestSettings
 from hoopbench.reports.report.page_html import rounded, text
 from hoopbench.reports.report.palette import engine_colours, profile_style
-from hoopbench.reports.tune.tiers import TIER_COLUMNS
+from hoopbench.reports.tune.tiers import SCENES_COLUMN, TIER_COLUMNS, count_column
 
 __all__ = ["best_settings_page_figure"]
 
@@ -27,7 +29,8 @@ _SETTING_HOVER = (
     "<b>%{customdata[0]}</b> (%{customdata[1]})<br>dt %{customdata[2]} s<br>"
     "%{customdata[3]}<br>training: error %{customdata[4]}, %{customdata[5]} us/sim s, "
     "tier %{customdata[6]}<br>held-out: error %{customdata[7]}, %{customdata[8]} us/sim s, "
-    "tier %{customdata[9]}<br>overfitted: %{customdata[10]}<extra></extra>"
+    "tier %{customdata[9]}<br>scenes within each tier: %{customdata[11]}<br>"
+    "overfitted: %{customdata[10]}<extra></extra>"
 )
 _TRIAL_HOVER = "trial %{customdata}<br>error %{y:.3g}, %{x:.3g} us/sim s<extra></extra>"
 
@@ -52,6 +55,16 @@ def _tier(value: Any) -> str:
     return text(value) if isinstance(value, str) else "-"  # a front.csv from before the tiers
 
 
+def _counts(row: dict[str, Any]) -> str:
+    """'agrees 15/22, close 21/22' ('-' for a front.csv from before the counts)."""
+    scenes = _number(row.get(SCENES_COLUMN))
+    if scenes == "-":
+        return "-"
+    return ", ".join(
+        f"{tier} {_number(row.get(count_column(tier)))}/{scenes}" for tier in TIER_CHOICES
+    )
+
+
 def _hover_data(rows: pd.DataFrame) -> list[list[str]]:
     train, heldout = TIER_COLUMNS
     return [
@@ -67,6 +80,7 @@ def _hover_data(rows: pd.DataFrame) -> list[list[str]]:
             _number(row["heldout_cost_us_per_s"]),
             _tier(row.get(heldout)),
             "yes" if row["overfitted"] is True or str(row["overfitted"]) == "True" else "no",
+            _counts(row),
         ]
         for row in rows.to_dict("records")
     ]

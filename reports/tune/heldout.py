@@ -40,7 +40,12 @@ from hoopbench.reports.tune.search import (
     setting_tasks,
     trials_frame,
 )
-from hoopbench.reports.tune.tiers import TIER_COLUMNS, cheapest_by_tier, tier_columns
+from hoopbench.reports.tune.tiers import (
+    TIER_COLUMNS,
+    cheapest_by_tier,
+    count_columns,
+    tier_columns,
+)
 
 __all__ = [
     "FRONT_NAME",
@@ -109,6 +114,7 @@ def _line(
         "heldout_cost_us_per_s": cost_us_per_s(rows),
         "overfitted": is_overfitted(setting.train_error, heldout),
         **tier_columns(train_rows, rows),
+        **count_columns(train_rows, rows),
         "heldout_random_error": _part_error(rows, f"{HELDOUT_PREFIX}{RANDOM_PREFIX}"),
         "heldout_near_error": _part_error(rows, f"{HELDOUT_PREFIX}{NEIGHBOUR_PREFIX}"),
     }
