@@ -229,6 +229,18 @@ def test_a_tie_is_said_and_does_not_make_an_order():
     )
 
 
+def test_of_engines_tied_the_cheapest_is_named():
+    """MJX and MuJoCo C give seed-mu's slip onset to the same digits, MJX at 36 times the
+    cost: the closest named is MuJoCo, the one a reader would pick."""
+    runs = frame(
+        seed("mjx", 0.0194, 0.1, us=397.0),
+        seed("mujoco", 0.0194, 0.1, us=11.0),
+        seed("drake", 0.219, 3),
+    )
+    text = findings(runs)[0]
+    assert "closest is mujoco, +0.0194 ms at 11 us/step, tied with mjx; then drake" in text
+
+
 def test_errors_closer_than_one_timestep_tie():
     """+0.0194 ms against +0.119 ms at dt 0.1 ms is one step: a tie, not a ranking; a hop
     height ties within the height one step of lift-off makes (sqrt(2 g h) dt / h)."""

@@ -107,7 +107,8 @@ def _ranking(
     rows: pd.DataFrame, column: str, unit: str, scale: float, resolution: float = 0.0
 ) -> tuple[list[frozenset[str]], str]:
     """The engines with the event, closest first, in groups of those tied, and 'closest is
-    A, err at cost[, tied with B]; then C err; no such event from D' over the given rows;
+    A, err at cost[, tied with B]; then C err; no such event from D' over the given rows (A:
+    the cheapest of those tied with the closest);
     ([], '') when none has it. Two errors tie when they print the same or differ by less than
     ``resolution`` (the column's unit): a group holds the engines within it of its closest."""
     values = pd.to_numeric(rows[column], errors="coerce") if column in rows.columns else None
@@ -125,12 +126,16 @@ def _ranking(
         else:
             groups.append({str(engine)})
             start = i
-    best = good.iloc[0]
+    # Among the tied, the cheapest is named: a tie says the accuracy cannot tell them apart,
+    # so the cost decides which one a reader would pick.
+    first = good[good["engine"].isin(groups[0])]
+    cost = pd.to_numeric(first["us_per_step"], errors="coerce").fillna(float("inf"))
+    best = first.iloc[int(cost.to_numpy().argmin())]
     ties = sorted(groups[0] - {best["engine"]})
     others = ", ".join(
         f"{r.engine} {scale * r.value:+.3g} {unit}"
-        for _, r in good.iloc[1:].iterrows()
-        if r.engine not in ties
+        for _, r in good.iterrows()
+        if r.engine not in groups[0]
     )
     missing = sorted(set(rows["engine"]) - set(good["engine"]))
     text = (
