@@ -332,11 +332,17 @@ _KINDS = {
 }
 
 
+def _spans(modes: list[Mode], last_end: float) -> list[tuple[str, float, float]]:
+    """Each mode as (code, start, end): it ends where the next starts, the last at
+    ``last_end``."""
+    ends = [start for _, start in modes[1:]] + [last_end]
+    return [(code, start, end) for (code, start), end in zip(modes, ends, strict=True)]
+
+
 def _phases(modes: list[Mode], t_end: float) -> tuple[Phase, ...]:
-    ends = [start for _, start in modes[1:]] + [t_end]
     return tuple(
         Phase(_KINDS[code][0], start, max(end, start), _KINDS[code][1])
-        for (code, start), end in zip(modes, ends, strict=True)
+        for code, start, end in _spans(modes, t_end)
     )
 
 
@@ -439,17 +445,15 @@ _STEP_LABELS = (_ROLL, _SLIP_PLUS, _SLIP_MINUS)
 
 def _mode_time(t: NDArray, modes: list[Mode], label: int) -> float:
     """s spent in the modes of ``label`` (the last one lasts to the record's end)."""
-    ends = [m[1] for m in modes[1:]] + [float(t[-1])]
     return sum(
-        end - start for (code, start), end in zip(modes, ends, strict=True) if code == _CODES[label]
+        end - start for code, start, end in _spans(modes, float(t[-1])) if code == _CODES[label]
     )
 
 
 def _in_modes(t: NDArray, modes: list[Mode], codes: tuple[str, ...]) -> NDArray:
     """Samples from the start of a mode of ``codes`` up to the next mode's start."""
-    ends = [m[1] for m in modes[1:]] + [math.inf]
     inside = np.zeros(len(t), dtype=bool)
-    for (code, start), end in zip(modes, ends, strict=True):
+    for code, start, end in _spans(modes, math.inf):
         if code in codes:
             inside |= (t >= start) & (t < end)
     return inside
