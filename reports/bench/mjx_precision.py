@@ -27,20 +27,14 @@ import pandas as pd
 
 from hoopbench.engines.judging.columns import Col
 from hoopbench.reports.compare.suite import batch_key, run_task_batch
-from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT, parse_suite
+from hoopbench.reports.compare.suite_file import (
+    DEFAULT_VARIANT,
+    load_suite,
+    parse_suite,
+    suite_path,
+)
 
 DT = 1e-3
-SCENES = (
-    "seed-mu",
-    "hop-top",
-    "hop-low",
-    "hop-bottom",
-    "high-spin",
-    "low-friction",
-    "slip-reversal",
-    "painleve",
-)
-"""The default suite's catalogue scenes."""
 FLOAT64 = "precision=float64"
 """The variant name of MJX in float64 (the default suite's)."""
 EVENTS: dict[str, str] = {
@@ -122,11 +116,12 @@ def _print(frame: pd.DataFrame, headers: dict[str, str]) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scenes", nargs="+", default=list(SCENES))
+    parser.add_argument("--scenes", nargs="+", help="default: the default suite's scenes")
     parser.add_argument("--dt", type=float, default=DT)
     parser.add_argument("--mjwarp", action="store_true", help="MuJoCo Warp too (float32)")
     args = parser.parse_args(argv)
-    table = event_table(precision_rows(args.scenes, args.dt, args.mjwarp))
+    scenes = args.scenes or [scene.name for scene in load_suite(suite_path("default")).scenes]
+    table = event_table(precision_rows(scenes, args.dt, args.mjwarp))
     print(f"event errors against the exact solution, tuned, dt {args.dt:g} s, canonical reading")
     _print(table, {Col.SCENE: "scene", "setting": "setting", Col.VERDICT: "verdict", **EVENTS})
     print("\nMJX float32 minus float64 (event errors; height in percentage points)")
