@@ -7,7 +7,8 @@ C": https://derthorsten.github.io/pyb2d3/src/differences.html; a ``b2XxxDef`` is
 keyword arguments of the factory, e.g. ``world.create_dynamic_body(position=...)``):
 
 * The world: "Hello Box2D" (https://box2d.org/documentation/hello.html) and "Simulation",
-  World Definition (https://box2d.org/documentation/md_simulation.html): gravity set, the
+  World Definition (the manual's docs/simulation.md,
+  https://github.com/erincatto/box2d/blob/main/docs/simulation.md): gravity set, the
   other members of ``b2DefaultWorldDef()`` kept (contact hertz 30, damping ratio 10, push
   speed 3 m/s, sleep on), stepped at a fixed time step with "the recommended sub-step count
   [of] 4".
@@ -15,7 +16,7 @@ keyword arguments of the factory, e.g. ``world.create_dynamic_body(position=...)
   ``b2MakeOffsetBox``) whose top face is y = 0. The ground body sits at the origin; Hello
   Box2D's places the body 10 m down and the box on it. That is the same floor, but in single
   precision it puts rounding of about 1e-6 m into the contact separation. Measured at dt 1e-4,
-  stock settings: the run then leaves hoopbench's at step 3. The contact-read events move by
+  stock settings: the run then leaves hoopbench's at step 3. Lift-off moves by
   0.1 ms and the hop by 0.1 %, but hop-top's slip onset read from the slip velocity moves from
   -97 to -32 ms, because that reading is noise-sensitive in Box2D (docs/engines.md, Box2D).
 * The hoop: one dynamic body created with its position (the hoop centre), angle and angular
@@ -29,14 +30,14 @@ keyword arguments of the factory, e.g. ``world.create_dynamic_body(position=...)
 * Friction: "Shapes", Friction: the mixed friction is ``sqrtf(frictionA * frictionB)``, so
   both shapes carry mu. Restitution 0 (the default).
 * The contact force: pyb2d3 binds no per-step contact data of a running world, so it is the
-  step's momentum balance, (v1 - v0)/dt - g; Box2D collides at the start of a step (Box2D
-  manual, "Simulation", the step's collide-then-solve loop), so the impulse of the step from
-  row i is row i's.
+  step's momentum balance, (v1 - v0)/dt - g. ``b2World_Step`` collides before it solves
+  (``b2Collide``, then ``b2Solve``, in Box2D's src/world.c), so the contact of a step is that
+  of the state it starts from: the impulse of the step from row i is row i's.
 
 Box2D's angles are counter-clockwise: theta (clockwise from the top) is -angle, unwrapped
 (Box2D keeps a rotation, in (-pi, pi]).
 
-Cost: about 0.5 s per 3 s scene at dt 1e-4 (30,000 steps of 4 substeps).
+Cost: about 0.4 s per 3 s scene at dt 1e-4 (30,000 steps of 4 substeps).
 """
 
 from __future__ import annotations
