@@ -133,6 +133,17 @@ class Box2DEngine(Engine):
     def _check(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> None:
         check_restitution(settings.restitution)
 
+    def _script(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
+        return _SCRIPT.format(
+            spec=self.spec(scene, settings),
+            substeps=int(options["subStepCount"]),
+            hertz=float(options["contactHertz"]),
+            damping_ratio=float(options["contactDampingRatio"]),
+            push_speed=float(options["maxContactPushSpeed"]),
+            sleep=bool(options["enableSleep"]),
+            floor_centre_y=-self.spec(scene, settings).floor_half_height,
+        )
+
     # ----------------------------------------------------------------- model
     def spec(self, scene: Scene, settings: RunSettings | None = None) -> Box2DSpec:
         """The Box2D model of the scene for these settings (plain numbers, inspectable)."""
@@ -233,6 +244,94 @@ def free_flight_residual(
     res_x = v[1:, 0].astype(float) - v[:-1, 0].astype(float)
     res_y = v[1:, 1].astype(float) - free_y.astype(float)
     return res_x, res_y
+
+
+_SCRIPT = '''
+import pyb2d3
+
+
+def build():
+    """The world: one dynamic body (its origin the hoop centre; the scene's mass, its centre
+    of mass lam a from the hoop centre toward the weight, the rotational inertia about that
+    centre), a circle with no density, and a static floor box whose top face is y = 0.
+    Box2D's angles are counter-clockwise: the body rotation is -theta."""
+    world = pyb2d3.World(
+        gravity={spec.gravity!r},
+        contact_hertz={hertz!r},  # Hz, soft contact stiffness (a static pair gets twice it)
+        contact_damping_ratio={damping_ratio!r},
+    )
+    # contactHertz, contactDampingRatio, maxContactPushSpeed (m/s)
+    world.set_contact_tuning({hertz!r}, {damping_ratio!r}, {push_speed!r})
+    world.sleeping_enabled = {sleep!r}
+    floor = world.create_static_body(position=(0.0, 0.0))
+    floor.create_polygon_shape(
+        # Box2D combines friction as sqrt(friction_a * friction_b): both carry MU
+        pyb2d3.shape_def(material=pyb2d3.surface_material(friction={spec.floor_friction!r})),
+        # half width, half height, m: the top face at y = 0
+        pyb2d3.box(
+            {spec.floor_half_width!r}, {spec.floor_half_height!r},
+            center=(0.0, {floor_centre_y!r}), rotation=0.0,
+        ),
+    )
+    body = world.create_dynamic_body(position={spec.position!r}, rotation={spec.angle!r})
+    hoop_material = pyb2d3.surface_material(friction={spec.hoop_friction!r})
+    body.create_circle_shape(
+        # no density: the mass data below are the whole body's
+        pyb2d3.shape_def(density=0.0, material=hoop_material),
+        pyb2d3.circle(radius={spec.hoop_radius!r}),
+    )
+    # After the shape: creating a shape recomputes the body's mass from the shapes.
+    mass = pyb2d3.MassData()
+    mass.mass = {spec.mass!r}  # kg
+    mass.center = {spec.center!r}  # m, in body coordinates
+    mass.rotational_inertia = {spec.rotational_inertia!r}  # kg m^2, about the centre of mass
+    body.mass_data = mass
+    body.linear_velocity = {spec.linear_velocity!r}  # of the centre of mass, m/s
+    body.angular_velocity = {spec.angular_velocity!r}  # rad/s, counter-clockwise
+    return world, body
+
+
+def read(body):
+    p, v = body.position, body.linear_velocity
+    return (p.x, p.y, body.angle, v.x, v.y, body.angular_velocity)
+
+
+SUBSTEPS = {substeps!r}  # b2World_Step's subStepCount
+
+
+def free_flight_residual(velocity, gravity_y):
+    """Per step, the velocity change that is not free flight: the recorded velocity minus
+    the one Box2D reaches without a contact, replayed with its float32 operations (per
+    substep h = DT / SUBSTEPS, v = h*g + v). Exactly 0 where no contact acted."""
+    v = velocity.astype(np.float32)
+    h = np.float32(np.float32(DT) / np.float32(SUBSTEPS))
+    dv = np.float32(h * np.float32(gravity_y))
+    free_y = v[:-1, 1].copy()
+    for _ in range(SUBSTEPS):
+        free_y = (dv + free_y).astype(np.float32)
+    res_x = v[1:, 0].astype(float) - v[:-1, 0].astype(float)  # gravity has no x part
+    res_y = v[1:, 1].astype(float) - free_y.astype(float)
+    return res_x, res_y
+
+
+def simulate():
+    """Step the window and one step more; the contact force of each step from its momentum
+    balance (pyb2d3 binds no contact data of a running world), given to the row the step
+    starts from, where Box2D collided."""
+    world, body = build()
+    values = list(read(body))
+    for _ in range(N_STEPS + 1):
+        world.step(DT, SUBSTEPS)
+        values.extend(read(body))
+    raw = np.array(values).reshape(-1, 6)
+    impulse_x, impulse_y = free_flight_residual(raw[:, 3:5], float(world.gravity[1]))
+    friction, normal = impulse_x / DT, impulse_y / DT
+    raw = raw[:-1]
+    # Box2D keeps the rotation in (-pi, pi]: unwrap it into a turn count
+    state = com_state_ccw(raw[:, 0], raw[:, 1], np.unwrap(raw[:, 2]), *raw[:, 3:6].T)
+    return {{**state, "normal_force": normal, "friction_force": friction}}
+'''
+"""Box2D's part of a standalone script (engines/standalone.py), as a pyb2d3 user writes it."""
 
 
 @dataclass
