@@ -483,6 +483,46 @@ def _cmd_model(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_export(args: argparse.Namespace) -> int:
+    import hoopbench.reports.api as api
+    from hoopbench.models.whole_files import write_whole
+
+    scene = _scene_from_args(args)
+    out = _output_file(args.out, (".py",), args.force)
+    if args.settings is not None:
+        settings = _settings_from_file(args)
+    else:
+        settings = _settings_from_args(args, args.engine)
+    if settings.geometry != "sphere" or settings.restitution or settings.mu is not None:
+        raise UsageError(
+            "export writes the scene's own friction, no restitution and the default geometry: "
+            "drop --mu, --restitution and --geometry"
+        )
+    text = api.export(
+        args.engine,
+        scene,
+        timestep=settings.timestep,
+        profile=settings.profile,
+        options=dict(settings.options),
+        command=sys.argv[1:],
+    )
+    mode = out.stat().st_mode & 0o777 if out.exists() else None
+
+    def write(tmp: Path) -> None:
+        tmp.write_text(text)
+        if mode is not None:
+            tmp.chmod(mode)
+
+    try:
+        write_whole(out, write)
+    except OSError as exc:
+        if not _system_error(exc):
+            raise
+        raise _write_failure(exc, out, "nothing was written") from None
+    print(out)
+    return 0
+
+
 def _cmd_settings(args: argparse.Namespace) -> int:
     from dataclasses import asdict
 
@@ -886,6 +926,27 @@ def _add_simulate(sub: Any, classes: Mapping[str, Any]) -> None:
     p.set_defaults(func=_cmd_simulate)
 
 
+def _add_export(sub: Any, classes: Mapping[str, Any]) -> None:
+    exportable = tuple(name for name, cls in classes.items() if cls.exports())
+    p = sub.add_parser(
+        "export",
+        help="write a standalone script that reproduces one run with the engine's API alone",
+    )
+    _add_scene_options(p)
+    _engine_options(p, exportable)
+    p.add_argument(
+        "--settings",
+        metavar="FILE[#NAME]",
+        help="a settings file of hoopbench tune: its first setting, the one named NAME, or "
+        "the cheapest of a tier (FILE#close, FILE#agrees)",
+    )
+    p.add_argument(
+        "--out", required=True, help="the script to write (.py); run it as: python FILE out.csv"
+    )
+    p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
+    p.set_defaults(func=_cmd_export)
+
+
 def _add_model(sub: Any, classes: Mapping[str, Any]) -> None:
     p = sub.add_parser("model", help="print the engine's native model of a scene")
     _add_scene_options(p)
@@ -1081,6 +1142,7 @@ def _parser() -> _Parser:
         _add_scenes,
         _add_reference,
         _add_simulate,
+        _add_export,
         _add_model,
         _add_settings,
         _add_compare,
