@@ -202,6 +202,24 @@ class DartEngine(Engine):
         )
         return scene_to_planar_urdf(scene, comment=comment)
 
+    def _script(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
+        """A dartpy script of the run: the same URDF, floor, settings and calls as _build and
+        the stepping hooks, in the same order, so that it gives the run bit for bit."""
+        urdf = self._model_text(scene, settings, options)
+        if '"""' in urdf:
+            raise ValueError("the URDF holds a triple quote and cannot be embedded")
+        detector = _DETECTOR_CLASSES[options["collision_detector"]]
+        default = detector == _DETECTOR_CLASSES["fcl"]
+        return _SCRIPT.format(
+            urdf=urdf,
+            side=_floor_side(scene),
+            thickness=_FLOOR_THICKNESS,
+            start_depth=START_DEPTH,
+            detector=detector,
+            detector_note="DART's default" if default else "DART's default is FCL",
+            solver=_solver_script(options),
+        )
+
     # ----------------------------------------------------------------- model
     def _build(
         self, dart: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
@@ -314,7 +332,7 @@ def _floor(dart: ModuleType, scene: Scene, mu: float) -> Any:
     the pair's minimum) and restitution 1 (DART multiplies)."""
     floor = dart.dynamics.Skeleton("floor")
     _, body = floor.createWeldJointAndBodyNodePair()
-    side = 2.0 * max(FLOOR_HALF_SIZE, 10 * scene.a + kinematics.reach(scene))
+    side = _floor_side(scene)
     node = body.createShapeNode(dart.dynamics.BoxShape([side, side, _FLOOR_THICKNESS]))
     node.setRelativeTranslation([0.0, 0.0, -_FLOOR_THICKNESS / 2])
     node.createCollisionAspect()
@@ -323,6 +341,11 @@ def _floor(dart: ModuleType, scene: Scene, mu: float) -> Any:
     node.getDynamicsAspect().setRestitutionCoeff(1.0)
     floor.setMobile(False)
     return floor
+
+
+def _floor_side(scene: Scene) -> float:
+    """Side of the floor box, m: wider than the hoop can travel in the window."""
+    return 2.0 * max(FLOOR_HALF_SIZE, 10 * scene.a + kinematics.reach(scene))
 
 
 def _set_lcp_solver(dart: ModuleType, solver: Any, options: dict[str, Any]) -> None:
@@ -355,6 +378,35 @@ def _set_lcp_solver(dart: ModuleType, solver: Any, options: dict[str, Any]) -> N
         raise RuntimeError("dartpy: the boxed-LCP solver was not set")
 
 
+def _solver_script(options: dict[str, Any]) -> str:
+    """The lines of a script that set the boxed-LCP solvers as _set_lcp_solver does."""
+    name = options["boxed_lcp_solver"]
+    pgs_option = (
+        f"dart.constraint.PgsBoxedLcpSolverOption({int(options['pgs_max_iteration'])!r}, "
+        f"{float(options['pgs_delta_x_threshold'])!r}, "
+        f"{float(options['pgs_relative_delta_x_tolerance'])!r})"
+    )
+    lines = [
+        "# A World comes with Dantzig first and PGS as the fallback for the steps it fails on.",
+        "dantzig, pgs = solver.getBoxedLcpSolver(), solver.getSecondaryBoxedLcpSolver()",
+        "# PGS's options: maximum iterations, delta-x threshold, relative delta-x tolerance",
+        f"pgs.setOption({pgs_option})",
+        "# DART ignores a primary solver equal to the secondary: clear the secondary first.",
+        "solver.setSecondaryBoxedLcpSolver(None)",
+    ]
+    if name in _FRICTION_SOLVER_CLASSES:
+        kind = _FRICTION_SOLVER_CLASSES[name]
+        lines.append(f"solver.setBoxedLcpSolver(dart.constraint.{kind}())  # Coulomb cone")
+    else:
+        lines.append(f"solver.setBoxedLcpSolver({name})")
+    if options["lcp_fallback"]:
+        other = "pgs" if name == "dantzig" else "dantzig"
+        lines.append(f"solver.setSecondaryBoxedLcpSolver({other})  # for the failed steps")
+    else:
+        lines.append("# no fallback: DART zeroes the impulses of a step the solver fails on")
+    return "\n    ".join(lines)
+
+
 def _contact_force(result: Any) -> tuple[float, float]:
     """(x, z) force on the hoop, N, summed over the collision result's contacts. Each
     contact's ``force`` acts on the object its normal points into: its normal part is
@@ -375,3 +427,90 @@ def _com_state(scene: Scene, data: np.ndarray) -> dict[str, np.ndarray]:
     """Centre-of-mass state from joint rows (z, x, theta, zdot, xdot, thetadot)."""
     z, x, theta, zdot, xdot, thetadot = data[:, :6].T
     return kinematics.com_state(scene, x, z, theta, xdot, zdot, thetadot)
+
+
+_SCRIPT = '''
+import dartpy as dart
+
+HOOP_URDF = """{urdf}"""
+"""The hoop: one planar joint (axis +y: DartLoader makes a PlanarJoint in the x-z plane with
+positions centre height z, centre x, theta) and the scene's mass, centre of mass and inertia."""
+
+FLOOR_SIDE = {side!r}  # m, the floor box's side
+FLOOR_THICKNESS = {thickness!r}  # m; its top face is the plane z = 0
+START_DEPTH = {start_depth!r}  # in units of A: placed exactly touching, a tilted start misses
+# its first step's contact (the distance comes out +1e-16 m)
+
+
+def build():
+    """World, hoop: the URDF's hoop, a static floor box, gravity -z, the solvers."""
+    hoop = dart.utils.DartLoader().parseSkeletonString(HOOP_URDF, dart.common.Uri(""))
+    body = hoop.getBodyNode(0)
+    nodes = [body.getShapeNode(i) for i in range(body.getNumShapeNodes())]
+    (shape,) = [node for node in nodes if node.hasCollisionAspect()]  # the sphere of radius A
+    shape.getDynamicsAspect().setFrictionCoeff(MU)  # DART takes the pair's minimum
+    shape.getDynamicsAspect().setRestitutionCoeff(RESTITUTION)  # DART multiplies the pair's
+
+    floor = dart.dynamics.Skeleton("floor")
+    _, floor_body = floor.createWeldJointAndBodyNodePair()
+    node = floor_body.createShapeNode(
+        dart.dynamics.BoxShape([FLOOR_SIDE, FLOOR_SIDE, FLOOR_THICKNESS])
+    )
+    node.setRelativeTranslation([0.0, 0.0, -FLOOR_THICKNESS / 2])
+    node.createCollisionAspect()
+    node.createDynamicsAspect()
+    node.getDynamicsAspect().setFrictionCoeff(MU)
+    node.getDynamicsAspect().setRestitutionCoeff(1.0)
+    floor.setMobile(False)
+
+    world = dart.simulation.World()
+    world.setGravity([0.0, 0.0, -G])
+    world.setTimeStep(DT)
+    world.addSkeleton(floor)
+    world.addSkeleton(hoop)
+    world.setCollisionDetector(dart.collision.{detector}())  # {detector_note}
+    solver = world.getConstraintSolver()
+    {solver}
+
+    x, y, theta, xdot, ydot, thetadot = CENTRE0
+    y -= START_DEPTH * A
+    hoop.setPositions([y, x, theta])  # the planar joint: z, x, theta
+    hoop.setVelocities([ydot, xdot, thetadot])
+    return world, hoop
+
+
+def contact_force(result):
+    """(x, z) force on the hoop, N: each contact's force (impulse / DT, world frame) acts on
+    the object its normal points into; on the flat floor the hoop's is the one pointing up."""
+    fx = fz = 0.0
+    for contact in result.getContacts():
+        x, _, z = contact.force
+        if z < 0.0:
+            x, z = -x, -z
+        fx += x
+        fz += z
+    return fx, fz
+
+
+def simulate():
+    """Step the window (no divergence checks). Row i: the joint state at i*DT and the force
+    of the step from it, read from the world's collision result after that step; one more
+    step gives the last row its force."""
+    world, hoop = build()
+    first = np.concatenate([hoop.getPositions(), hoop.getVelocities()])[None]
+    q, v, f = [], [], []
+    for _ in range(N_STEPS):
+        world.step()
+        q.append(hoop.getPositions())
+        v.append(hoop.getVelocities())
+        f.append(contact_force(world.getLastCollisionResult()))
+    block = np.hstack([np.array(q), np.array(v), np.array(f)])
+    world.step()
+    last = contact_force(world.getLastCollisionResult())
+    states, forces = step_forces(first, [block], last)
+    z, x, theta, zdot, xdot, thetadot = states.T
+    force = forces / M
+    state = com_state(x, z, theta, xdot, zdot, thetadot)
+    return {{**state, "normal_force": force[:, 1], "friction_force": force[:, 0]}}
+'''
+"""DART's part of a standalone script (engines/standalone.py), as a dartpy user writes it."""
