@@ -6,25 +6,25 @@ Written from DART's documentation and Python examples, not from hoopbench's adap
   (https://github.com/dartsim/dart/tree/main/python/tutorials/02_collisions, lesson 1:
   ``Skeleton.createFreeJointAndBodyNodePair``, a ``ShapeNode`` with collision and dynamics
   aspects, ``dart.dynamics.Inertia`` set with ``BodyNode.setInertia``, restitution through
-  ``DynamicsAspect.setRestitutionCoeff``); the ground a box on a ``WeldJoint`` as in the
-  dominoes tutorial (``python/tutorials/03_dominoes``, lesson 2: the floor), made immobile
-  with ``Skeleton.setMobile(False)``;
+  ``DynamicsAspect.setRestitutionCoeff``); the ground as the dominoes tutorial's
+  ``create_floor`` (``python/tutorials/03_dominoes``: a ``BoxShape`` on a ``WeldJoint``, its
+  top face at z = 0), here also ``Skeleton.setMobile(False)``;
 - the initial motion: ``FreeJoint.setTransform``, ``setLinearVelocity`` and
-  ``setAngularVelocity`` (dartpy API docs, https://docs.dartsim.org, dynamics.FreeJoint);
+  ``setAngularVelocity`` (dartpy 6.20's ``dynamics.FreeJoint`` binding and its docstrings);
 - the world and its contact solver: ``dart.simulation.World``, ``World.setTimeStep``,
   ``World.step`` and ``World.getLastCollisionResult`` (each ``Contact.force`` is the contact
   impulse over the step, world frame); the friction-cone solver
   ``dart.constraint.NsgsFrictionSolver`` set with ``BoxedLcpConstraintSolver.setBoxedLcpSolver``
-  after ``setSecondaryBoxedLcpSolver(None)`` (dartpy.constraint docs). DART's default
-  Dantzig solver lets a rolling hoop slip at 32 deg; the Coulomb-cone solver is what a DART
-  user picks for friction that matters.
+  after ``setSecondaryBoxedLcpSolver(None)`` (dartpy 6.20's constraint bindings), as in
+  hoopbench's tuned profile: DART's default Dantzig solver lets a rolling hoop slip at 32 deg
+  (``run(..., solver="dantzig")`` measures it).
 
 The hoop's circle is a sphere of radius a (the plane's section of it is the circle), its body
 a free joint, the weight's mass in the body's inertia (centre of mass lam a from the centre,
 moment M a^2 (1 - lam^2 + lam eps) about it). State read from the body: ``getCOM``,
 ``getCOMLinearVelocity``, the rotation about +y and ``getAngularVelocity``. x right, z up;
 theta is the rotation about +y, which turns the top toward +x: clockwise seen from -y, as the
-scene's theta. Cost: hop-top's 3 s at dt 1e-4, about 0.6 s.
+scene's theta. Cost: hop-top's 3 s at dt 1e-4, 0.9 s of CPU (1.4-2 s on the shared machine).
 
 Run as a script, it prints hop-top's hop height and lift-off time.
 """
@@ -89,7 +89,7 @@ def _hoop(scene: dict, shape: str, joint_type: str) -> tuple:
 
 
 def _ground(mu: float) -> object:
-    """A static box whose top face is z = 0 (dominoes tutorial, lesson 2)."""
+    """A static box whose top face is z = 0 (the dominoes tutorial's create_floor)."""
     ground = dart.dynamics.Skeleton("ground")
     _, body = ground.createWeldJointAndBodyNodePair()
     node = body.createShapeNode(dart.dynamics.BoxShape([100.0, 100.0, 1.0]))
