@@ -124,10 +124,10 @@ class DartEngine(Engine):
             "NSGS (NsgsFrictionSolver, Coulomb cone), dt 1e-4, against the exact solution: "
             "hop-top hops -18.2 % (FBF -18.1 %) with the slip onset 0.2 ms late, hop-low "
             "-85.4 % (FBF -83.7 %; NSGS -44 % at dt 5e-5), hop-bottom -0.0 %, seed-mu and "
-            "slip-reversal slip within 0.1 ms, lowest point -3.5e-9 m before the lift-off (-7.6e-5 "
-            "m at the landing). PGS "
-            "first sinks the hoop 26 mm (hop-top) and 63 mm (hop-low) on the back slip with the "
-            "contact at zero force and hops +43.9 % / +507 %; Dantzig (DART's default) slips "
+            "slip-reversal slip within 0.1 ms, lowest point -3.5e-9 m before the lift-off "
+            "(-7.6e-5 m at the landing). PGS first sinks the hoop 26 mm (hop-top) and 63 mm "
+            "(hop-low) on the back slip with the contact at zero force and hops +43.9 % / "
+            "+507 %; Dantzig (DART's default) slips "
             "at 0.287 s instead of 0.442 s and hops -49.6 % on hop-top and not at all on "
             "hop-low. FBF matches NSGS at 3-6x its cost; NSGS costs about what PGS does",
             stock="dantzig",
