@@ -674,17 +674,22 @@ def _cmd_report(args: argparse.Namespace) -> int:
 def _cmd_findings(args: argparse.Namespace) -> int:
     import pandas as pd
 
+    from hoopbench.reports.report.best_settings import best_settings, is_tune_folder
     from hoopbench.reports.report.build import report_frame
     from hoopbench.reports.report.findings import readme_markdown, update_readme
 
-    for folder in args.results:
+    searches = [folder for folder in args.results if is_tune_folder(folder)]
+    results = [folder for folder in args.results if folder not in searches]
+    for folder in results:
         if not (Path(folder) / "runs").is_dir():
             raise UsageError(f"--results {folder!r} holds no results (no runs/ folder)")
+    if not results:
+        raise UsageError("--results names searches only: give a results folder too")
     if args.update and not Path(args.update).is_file():
         what = "is a folder" if Path(args.update).is_dir() else "does not exist"
         raise UsageError(f"--update {args.update!r} {what}: give a Markdown file with the markers")
-    frame = pd.concat([report_frame(Path(f)) for f in args.results], ignore_index=True)
-    text = readme_markdown(frame)
+    frame = pd.concat([report_frame(Path(f)) for f in results], ignore_index=True)
+    text = readme_markdown(frame, best_settings(searches))
     if not args.update:
         print(text)
         return 0
@@ -1031,7 +1036,13 @@ def _add_findings(sub: Any, classes: Mapping[str, Any]) -> None:
     p = sub.add_parser(
         "findings", help="the answer, the scoreboard and the key findings, as Markdown"
     )
-    p.add_argument("--results", required=True, nargs="+", metavar="DIR", help="results folders")
+    p.add_argument(
+        "--results",
+        required=True,
+        nargs="+",
+        metavar="DIR",
+        help="results folders, and searches of hoopbench tune whose settings the answer weighs",
+    )
     p.add_argument(
         "--update", metavar="README", help="replace the findings block of this Markdown file"
     )
