@@ -18,10 +18,13 @@ Contact values. DART combines the two shapes' friction coefficients as their min
 (``DefaultContactSurfaceHandler::createParams`` in 6.20) and their restitution coefficients as
 the product: both shapes get mu, the hoop gets e and the floor 1. A pair friction below 1e-3
 (DART_FRICTION_COEFF_THRESHOLD) switches friction off altogether, so 0 < mu <= 1e-3 is
-refused. Friction is a pyramid of two boxed rows (primary and secondary directions, both at
-mu from ``DynamicsAspect.setFrictionCoeff``); for the floor's +z normal the rows lie along x
-and y, so the friction along x is bounded by exactly mu n (measured: |f|/n = 0.8000 while
-slipping on seed-mu).
+refused. With the Dantzig and PGS solvers friction is a pyramid of two boxed rows (primary
+and secondary directions, both at mu from ``DynamicsAspect.setFrictionCoeff``; for the
+floor's +z normal along x and y); the NSGS and FBF friction solvers (hoopbench's NSGS) put
+it on the Coulomb cone. Either way the friction along x is bounded by exactly mu n
+(measured: |f|/n = 0.8000 while slipping on seed-mu). The boxed rows are why PGS let the
+hoop sink on hop-top's slip back (26 mm, zero contact force): NSGS with its boxed law sinks
+the same, with the cone it does not (docs/engines.md, DART).
 
 What DART does not expose to Python: ``ContactConstraint``'s error reduction parameter (0.01),
 its maximum error reduction velocity (1e-3 m/s), its constraint force mixing (1e-5) and its
@@ -74,8 +77,13 @@ from hoopbench.models.urdf import FLOOR_HALF_SIZE, PLANAR_JOINT_NAME, scene_to_p
 
 __all__ = ["COLLISION_DETECTORS", "LCP_SOLVERS", "MIN_PAIR_FRICTION", "START_DEPTH", "DartEngine"]
 
-LCP_SOLVERS: tuple[str, ...] = ("dantzig", "pgs")
-"""DART's boxed-LCP solvers (``BoxedLcpConstraintSolver.setBoxedLcpSolver``)."""
+LCP_SOLVERS: tuple[str, ...] = ("dantzig", "pgs", "nsgs", "fbf")
+"""DART's boxed-LCP solvers (``BoxedLcpConstraintSolver.setBoxedLcpSolver``): Dantzig's
+pivoting and projected Gauss-Seidel (the two a World makes), and the friction-cone solvers
+``NsgsFrictionSolver`` (non-smooth Gauss-Seidel) and ``FbfFrictionSolver`` (forward-backward
+splitting), constructed here."""
+
+_FRICTION_SOLVER_CLASSES = {"nsgs": "NsgsFrictionSolver", "fbf": "FbfFrictionSolver"}
 
 COLLISION_DETECTORS: tuple[str, ...] = ("fcl", "dart", "bullet", "ode")
 """DART's collision detectors (``World.setCollisionDetector``); FCL is DART's default."""
@@ -111,12 +119,17 @@ class DartEngine(Engine):
     options = (
         Option(
             "boxed_lcp_solver",
-            "pgs",
+            "nsgs",
             choice(*LCP_SOLVERS),
-            "PGS: seed-mu slips at the exact onset (1 mm/s crossing 0.9932 s) with |f|/n = "
-            "0.8000. DART's Dantzig (its default, PGS as fallback) lets the rolling hoop slip "
-            "at 32 deg (0.507 s) with friction at 0.26 mu n, at every timestep, with every "
-            "collision detector and with a FreeJoint instead of the planar one",
+            "NSGS (NsgsFrictionSolver, Coulomb cone), dt 1e-4, against the exact solution: "
+            "hop-top hops -18.2 % (FBF -18.1 %) with the slip onset 0.2 ms late, hop-low "
+            "-85.4 % (FBF -83.7 %; NSGS -44 % at dt 5e-5), hop-bottom -0.0 %, seed-mu and "
+            "slip-reversal slip within 0.1 ms, lowest point -3.5e-9 m before the lift-off "
+            "(-7.6e-5 m at the landing). PGS first sinks the hoop 26 mm (hop-top) and 63 mm "
+            "(hop-low) on the back slip with the contact at zero force and hops +43.9 % / "
+            "+507 %; Dantzig (DART's default) slips "
+            "at 0.287 s instead of 0.442 s and hops -49.6 % on hop-top and not at all on "
+            "hop-low. FBF matches NSGS at 3-6x its cost; NSGS costs about what PGS does",
             stock="dantzig",
             space=one_of(*LCP_SOLVERS),
         ),
@@ -126,7 +139,9 @@ class DartEngine(Engine):
             choice(*COLLISION_DETECTORS),
             "sphere-box is a primitive pair for all four, one contact below the centre; FCL, "
             "Bullet and ODE give seed-mu's slip to 1e-5 deg, DART's own detector 0.0001 deg "
-            "apart; ODE is the cheapest per step of the three (FCL is DART's default)",
+            "apart (PGS); with NSGS FCL and ODE give the same events on hop-top, hop-low, "
+            "seed-mu, hop-bottom, slip-reversal and painleve; ODE is the cheapest per step "
+            "of the three (FCL is DART's default)",
             stock="fcl",
             space=one_of(*COLLISION_DETECTORS),
         ),
@@ -135,8 +150,10 @@ class DartEngine(Engine):
             1,
             flag(),
             "1: a second solver for the steps the first fails on (DART's default: Dantzig, "
-            "then PGS; with PGS first, Dantzig after it). PGS alone fails on single steps "
-            "(no convergence in its iterations) and DART then zeroes the step's impulses",
+            "then PGS; with PGS, NSGS or FBF first, Dantzig after it). PGS alone fails on "
+            "single steps (no convergence in its iterations) and DART then zeroes the step's "
+            "impulses; NSGS's runs are bit for bit the same with and without it (hop-top, "
+            "hop-low, seed-mu, hop-bottom, slip-reversal, painleve at dt 1e-4)",
             space=one_of(0, 1),
         ),
         Option(
@@ -163,6 +180,7 @@ class DartEngine(Engine):
     )
     variants = (
         Variant("boxed_lcp_solver=dantzig", options={"boxed_lcp_solver": "dantzig"}),
+        Variant("boxed_lcp_solver=pgs", options={"boxed_lcp_solver": "pgs"}),
         Variant("collision_detector=fcl", options={"collision_detector": "fcl"}),
     )
 
@@ -190,6 +208,24 @@ class DartEngine(Engine):
             "hoop e, floor 1), gravity (0, 0, -g), the time step, LCP solver and detector."
         )
         return scene_to_planar_urdf(scene, comment=comment)
+
+    def _script(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
+        """A dartpy script of the run: the same URDF, floor, settings and calls as _build and
+        the stepping hooks, in the same order, so that it gives the run bit for bit."""
+        urdf = self._model_text(scene, settings, options)
+        if '"""' in urdf:
+            raise ValueError("the URDF holds a triple quote and cannot be embedded")
+        detector = _DETECTOR_CLASSES[options["collision_detector"]]
+        default = detector == _DETECTOR_CLASSES["fcl"]
+        return _SCRIPT.format(
+            urdf=urdf,
+            side=_floor_side(scene),
+            thickness=_FLOOR_THICKNESS,
+            start_depth=START_DEPTH,
+            detector=detector,
+            detector_note="DART's default" if default else "DART's default is FCL",
+            solver=_solver_script(options),
+        )
 
     # ----------------------------------------------------------------- model
     def _build(
@@ -303,7 +339,7 @@ def _floor(dart: ModuleType, scene: Scene, mu: float) -> Any:
     the pair's minimum) and restitution 1 (DART multiplies)."""
     floor = dart.dynamics.Skeleton("floor")
     _, body = floor.createWeldJointAndBodyNodePair()
-    side = 2.0 * max(FLOOR_HALF_SIZE, 10 * scene.a + kinematics.reach(scene))
+    side = _floor_side(scene)
     node = body.createShapeNode(dart.dynamics.BoxShape([side, side, _FLOOR_THICKNESS]))
     node.setRelativeTranslation([0.0, 0.0, -_FLOOR_THICKNESS / 2])
     node.createCollisionAspect()
@@ -314,11 +350,17 @@ def _floor(dart: ModuleType, scene: Scene, mu: float) -> Any:
     return floor
 
 
+def _floor_side(scene: Scene) -> float:
+    """Side of the floor box, m: wider than the hoop can travel in the window."""
+    return 2.0 * max(FLOOR_HALF_SIZE, 10 * scene.a + kinematics.reach(scene))
+
+
 def _set_lcp_solver(dart: ModuleType, solver: Any, options: dict[str, Any]) -> None:
     """The primary boxed-LCP solver and the fallback for the steps it fails on: DART's default
-    is Dantzig, then PGS; hoopbench's PGS, then Dantzig. Without a fallback DART zeroes a
-    failed step's impulses."""
-    # dartpy 6.20 binds no constructor for either solver: the world's own two are reordered.
+    is Dantzig, then PGS; hoopbench's NSGS, then Dantzig (PGS or FBF first: Dantzig after
+    it). Without a fallback DART zeroes a failed step's impulses. The PGS options reach the
+    world's PGS solver, which runs only where it is the primary or Dantzig's fallback."""
+    # The world's own Dantzig and PGS solvers are reordered; the friction-cone solvers are made.
     # DART ignores a primary equal to the secondary, so the secondary is cleared first.
     dantzig, pgs = solver.getBoxedLcpSolver(), solver.getSecondaryBoxedLcpSolver()
     types = (dantzig.getType(), None if pgs is None else pgs.getType())
@@ -331,12 +373,45 @@ def _set_lcp_solver(dart: ModuleType, solver: Any, options: dict[str, Any]) -> N
             options["pgs_relative_delta_x_tolerance"],
         )
     )
-    primary, secondary = (pgs, dantzig) if options["boxed_lcp_solver"] == "pgs" else (dantzig, pgs)
+    name = options["boxed_lcp_solver"]
+    if name in _FRICTION_SOLVER_CLASSES:
+        primary, secondary = getattr(dart.constraint, _FRICTION_SOLVER_CLASSES[name])(), dantzig
+    else:
+        primary, secondary = (pgs, dantzig) if name == "pgs" else (dantzig, pgs)
     solver.setSecondaryBoxedLcpSolver(None)
     solver.setBoxedLcpSolver(primary)
     solver.setSecondaryBoxedLcpSolver(secondary if options["lcp_fallback"] else None)
-    if solver.getBoxedLcpSolver() is not primary and solver.getBoxedLcpSolver() != primary:
+    if solver.getBoxedLcpSolver().getType() != primary.getType():
         raise RuntimeError("dartpy: the boxed-LCP solver was not set")
+
+
+def _solver_script(options: dict[str, Any]) -> str:
+    """The lines of a script that set the boxed-LCP solvers as _set_lcp_solver does."""
+    name = options["boxed_lcp_solver"]
+    pgs_option = (
+        f"dart.constraint.PgsBoxedLcpSolverOption({int(options['pgs_max_iteration'])!r}, "
+        f"{float(options['pgs_delta_x_threshold'])!r}, "
+        f"{float(options['pgs_relative_delta_x_tolerance'])!r})"
+    )
+    lines = [
+        "# A World comes with Dantzig first and PGS as the fallback for the steps it fails on.",
+        "dantzig, pgs = solver.getBoxedLcpSolver(), solver.getSecondaryBoxedLcpSolver()",
+        "# PGS's options: maximum iterations, delta-x threshold, relative delta-x tolerance",
+        f"pgs.setOption({pgs_option})",
+        "# DART ignores a primary solver equal to the secondary: clear the secondary first.",
+        "solver.setSecondaryBoxedLcpSolver(None)",
+    ]
+    if name in _FRICTION_SOLVER_CLASSES:
+        kind = _FRICTION_SOLVER_CLASSES[name]
+        lines.append(f"solver.setBoxedLcpSolver(dart.constraint.{kind}())  # Coulomb cone")
+    else:
+        lines.append(f"solver.setBoxedLcpSolver({name})")
+    if options["lcp_fallback"]:
+        other = "pgs" if name == "dantzig" else "dantzig"
+        lines.append(f"solver.setSecondaryBoxedLcpSolver({other})  # for the failed steps")
+    else:
+        lines.append("# no fallback: DART zeroes the impulses of a step the solver fails on")
+    return "\n    ".join(lines)
 
 
 def _contact_force(result: Any) -> tuple[float, float]:
@@ -359,3 +434,90 @@ def _com_state(scene: Scene, data: np.ndarray) -> dict[str, np.ndarray]:
     """Centre-of-mass state from joint rows (z, x, theta, zdot, xdot, thetadot)."""
     z, x, theta, zdot, xdot, thetadot = data[:, :6].T
     return kinematics.com_state(scene, x, z, theta, xdot, zdot, thetadot)
+
+
+_SCRIPT = '''
+import dartpy as dart
+
+HOOP_URDF = """{urdf}"""
+"""The hoop: one planar joint (axis +y: DartLoader makes a PlanarJoint in the x-z plane with
+positions centre height z, centre x, theta) and the scene's mass, centre of mass and inertia."""
+
+FLOOR_SIDE = {side!r}  # m, the floor box's side
+FLOOR_THICKNESS = {thickness!r}  # m; its top face is the plane z = 0
+START_DEPTH = {start_depth!r}  # in units of A: placed exactly touching, a tilted start misses
+# its first step's contact (the distance comes out +1e-16 m)
+
+
+def build():
+    """World, hoop: the URDF's hoop, a static floor box, gravity -z, the solvers."""
+    hoop = dart.utils.DartLoader().parseSkeletonString(HOOP_URDF, dart.common.Uri(""))
+    body = hoop.getBodyNode(0)
+    nodes = [body.getShapeNode(i) for i in range(body.getNumShapeNodes())]
+    (shape,) = [node for node in nodes if node.hasCollisionAspect()]  # the sphere of radius A
+    shape.getDynamicsAspect().setFrictionCoeff(MU)  # DART takes the pair's minimum
+    shape.getDynamicsAspect().setRestitutionCoeff(RESTITUTION)  # DART multiplies the pair's
+
+    floor = dart.dynamics.Skeleton("floor")
+    _, floor_body = floor.createWeldJointAndBodyNodePair()
+    node = floor_body.createShapeNode(
+        dart.dynamics.BoxShape([FLOOR_SIDE, FLOOR_SIDE, FLOOR_THICKNESS])
+    )
+    node.setRelativeTranslation([0.0, 0.0, -FLOOR_THICKNESS / 2])
+    node.createCollisionAspect()
+    node.createDynamicsAspect()
+    node.getDynamicsAspect().setFrictionCoeff(MU)
+    node.getDynamicsAspect().setRestitutionCoeff(1.0)
+    floor.setMobile(False)
+
+    world = dart.simulation.World()
+    world.setGravity([0.0, 0.0, -G])
+    world.setTimeStep(DT)
+    world.addSkeleton(floor)
+    world.addSkeleton(hoop)
+    world.setCollisionDetector(dart.collision.{detector}())  # {detector_note}
+    solver = world.getConstraintSolver()
+    {solver}
+
+    x, y, theta, xdot, ydot, thetadot = CENTRE0
+    y -= START_DEPTH * A
+    hoop.setPositions([y, x, theta])  # the planar joint: z, x, theta
+    hoop.setVelocities([ydot, xdot, thetadot])
+    return world, hoop
+
+
+def contact_force(result):
+    """(x, z) force on the hoop, N: each contact's force (impulse / DT, world frame) acts on
+    the object its normal points into; on the flat floor the hoop's is the one pointing up."""
+    fx = fz = 0.0
+    for contact in result.getContacts():
+        x, _, z = contact.force
+        if z < 0.0:
+            x, z = -x, -z
+        fx += x
+        fz += z
+    return fx, fz
+
+
+def simulate():
+    """Step the window (no divergence checks). Row i: the joint state at i*DT and the force
+    of the step from it, read from the world's collision result after that step; one more
+    step gives the last row its force."""
+    world, hoop = build()
+    first = np.concatenate([hoop.getPositions(), hoop.getVelocities()])[None]
+    q, v, f = [], [], []
+    for _ in range(N_STEPS):
+        world.step()
+        q.append(hoop.getPositions())
+        v.append(hoop.getVelocities())
+        f.append(contact_force(world.getLastCollisionResult()))
+    block = np.hstack([np.array(q), np.array(v), np.array(f)])
+    world.step()
+    last = contact_force(world.getLastCollisionResult())
+    states, forces = step_forces(first, [block], last)
+    z, x, theta, zdot, xdot, thetadot = states.T
+    force = forces / M
+    state = com_state(x, z, theta, xdot, zdot, thetadot)
+    return {{**state, "normal_force": force[:, 1], "friction_force": force[:, 0]}}
+'''
+"""DART's part of a standalone script (engines/standalone.py), as a dartpy user writes it."""

@@ -76,7 +76,8 @@ RMS_TOL = {
     ("pybullet", "hop-top"): (0.05, 0.035),
     ("drake", "seed-mu"): (0.014, 0.011),  # measured 6.9e-3, 5.5e-3
     ("drake", "hop-top"): (0.036, 0.021),  # measured 1.8e-2, 1.05e-2
-    ("dart", "seed-mu"): (0.025, 0.02),  # measured 1.26e-2, 1.00e-2 (PGS, Dantzig fallback)
+    ("dart", "seed-mu"): (0.013, 0.011),  # measured 6.5e-3, 5.2e-3 (NSGS, Dantzig fallback)
+    ("dart", "hop-top"): (0.033, 0.02),  # measured 1.65e-2, 9.6e-3 (NSGS; PGS: 0.52, 0.25)
 }
 RMS_XFAIL = {
     ("mujoco", "seed-mu"): "measured RMS n/g 0.52, f/g 0.42: rolling 1e-6, but while slipping "
@@ -92,8 +93,6 @@ RMS_XFAIL = {
     ("box2d", "hop-top"): "measured RMS n/g 0.22, f/g 0.054: rolling, 23 % of the steps have no "
     "contact force (the speculative contact acts only on a closing gap, and the step's rise "
     "opens it, as in pymunk); seed-mu, where every rolling step has one: 8.8e-3, 6.8e-3",
-    ("dart", "hop-top"): "measured RMS n/g 0.52, f/g 0.25: the contact force ends at 1.045 s, "
-    "126 ms before the exact lift-off (tolerances.toml, [hop.dart.xfail])",
 }
 
 CONVENTION = {
