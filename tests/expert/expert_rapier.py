@@ -27,8 +27,8 @@ default except the timestep. Each construction follows a page of Rapier's user g
   at Rapier's 0. The guide's examples put a large flat cuboid under things instead: measured
   on hop-top at dt 1e-4, that cuboid gives the same hop within 0.5 % (0.3094 m against
   0.3108) but its normal force drops to 0 on some rolling steps (the contact is re-made
-  through another code path, in single precision), which moves the force-read slip onset
-  to 0.035 s; docs/engines.md ("Rapier") has the numbers;
+  through another code path, in single precision), which moves hop-top's force-read slip
+  onset to 0.035 s; docs/engines.md ("Rapier") has the numbers;
 * forces: the normal impulse of each contact point (``ContactData.impulse``, summed over the
   substeps: https://docs.rs/rapier3d/latest/rapier3d/geometry/struct.ContactData.html) from
   ``narrow_phase.contact_pair``; the Simplified friction model exposes no friction impulse, so
