@@ -148,6 +148,8 @@ class DrakeModel:
     log: Any | None
     """VectorLogSink of [q; v; generalized contact forces], or None (a bare model)."""
     discrete: bool
+    start_depth: float = 0.0
+    """m: how far into the floor the hoop starts (the soft contact's equilibrium)."""
 
 
 @register
@@ -299,6 +301,35 @@ class DrakeEngine(Engine):
             comment=comment,
         )
 
+    def _script(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
+        model_text = self._model_text(scene, settings, options)
+        if '"""' in model_text or "\\" in model_text:
+            raise ValueError("drake export: the model text cannot be embedded as a literal")
+        discrete = options["time_step"] is None
+        # The start depth is a root of the built diagram's own step (found with scipy, which
+        # the script does not import): written as its value.
+        depth = self._build(self._import(), scene, settings, options, record=True).start_depth
+        continuous = (
+            ""
+            if discrete
+            else _CONTINUOUS_CONFIG.format(
+                scheme=options["integration_scheme"], accuracy=float(options["accuracy"])
+            )
+        )
+        return _SCRIPT.format(
+            model=model_text,
+            discrete=discrete,
+            depth=depth,
+            time_step=settings.timestep if discrete else 0.0,
+            contact_model=options["contact_model"],
+            approximation=options["discrete_contact_approximation"],
+            allowance=options["penetration_allowance"] or _DRAKE_ALLOWANCE,
+            stiction=options["stiction_tolerance"],
+            near_rigid=options["sap_near_rigid_threshold"],
+            model_name=MODEL_NAME,
+            continuous_config=continuous,
+        )
+
     # ----------------------------------------------------------------- model
     def build(
         self, scene: Scene, settings: RunSettings | None = None, *, record: bool = True
@@ -376,7 +407,8 @@ class DrakeEngine(Engine):
         q = np.array([float(x), float(y) - scene.a, -theta])
         plant.SetPositions(context, q)
         plant.SetVelocities(context, np.array([float(xdot), float(ydot), -thetadot]))
-        q[1] -= _equilibrium_penetration(model, scene.a)
+        model.start_depth = _equilibrium_penetration(model, scene.a)
+        q[1] -= model.start_depth
         plant.SetPositions(context, q)
         if model.log is not None:
             model.log.FindMutableLog(model.simulator.get_mutable_context()).Clear()
@@ -434,6 +466,97 @@ class DrakeEngine(Engine):
     def _step_bare(self, run: _Run, steps: int) -> None:
         """``Simulator.AdvanceTo`` over the steps, no logger: Drake's own cost."""
         run.model.simulator.AdvanceTo((steps + 0.5) * run.timestep)
+
+
+_SCRIPT = '''
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorConfig
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import LogVectorOutput, Multiplexer
+
+MODEL = """{model}"""
+"""The SDFormat model: the hoop link on a planar joint (x, z - A, turn about -y) over a
+half-space floor; mass, centre of mass and inertia from the scene; point-contact values per
+geometry such that Drake's combination rules give the pair the wanted ones."""
+
+DISCRETE = {discrete!r}  # True: a discrete plant stepping at DT; False: a continuous plant
+START_DEPTH = {depth!r}
+"""m: the hoop starts this far into the floor, where one step of the plant holds its centre
+with zero vertical acceleration (found by root finding on this same diagram when exported;
+0: the hoop starts touching)."""
+CHUNK = 1000
+"""Steps per Simulator.AdvanceTo: the run advanced in chunks (a continuous plant's integrator
+stops at each chunk end, so the chunks are kept to reproduce it exactly)."""
+
+
+def build():
+    """The diagram: plant and scene graph, the model parsed, gravity set; one logger of the
+    state [q; v] and the hoop's generalized contact forces, sampled every DT."""
+    config = MultibodyPlantConfig(
+        time_step={time_step!r},  # s; 0: continuous
+        contact_model={contact_model!r},
+        discrete_contact_approximation={approximation!r},
+        penetration_allowance={allowance!r},  # m
+        stiction_tolerance={stiction!r},  # m/s, regularized friction
+        sap_near_rigid_threshold={near_rigid!r},
+    )
+    builder = DiagramBuilder()
+    plant, scene_graph = AddMultibodyPlant(config, builder)
+    Parser(plant).AddModelsFromString(MODEL, "sdf")
+    plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, -G])  # Drake's z is up
+    plant.Finalize()
+    instance = plant.GetModelInstanceByName({model_name!r})
+    forces = plant.get_generalized_contact_forces_output_port(instance)
+    state = plant.get_state_output_port()
+    mux = builder.AddSystem(Multiplexer([state.size(), forces.size()]))
+    builder.Connect(state, mux.get_input_port(0))
+    builder.Connect(forces, mux.get_input_port(1))
+    logger = LogVectorOutput(mux.get_output_port(0), builder, DT)
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+{continuous_config}
+    return simulator, plant, logger
+
+
+def simulate():
+    """Step the window and read the logger: row i the state at i DT and, for a discrete plant,
+    the contact force of the step from it (logged at the next sample: one more step gives the
+    last row its force), for a continuous plant the force at that state."""
+    simulator, plant, logger = build()
+    context = plant.GetMyMutableContextFromRoot(simulator.get_mutable_context())
+    x, y, theta, xdot, ydot, thetadot = CENTRE0
+    q = np.array([x, y - A, -theta])  # the planar joint: x, height above A, turn = -theta
+    plant.SetPositions(context, q)
+    plant.SetVelocities(context, np.array([xdot, ydot, -thetadot]))
+    q[1] -= START_DEPTH
+    plant.SetPositions(context, q)
+    simulator.Initialize()  # the logger's sample at t = 0
+    for done in range(0, N_STEPS, CHUNK):
+        steps = min(CHUNK, N_STEPS - done)
+        extra = 1 if DISCRETE and done + steps == N_STEPS else 0
+        # half a step past the chunk's last sample: a rounded stop time keeps that sample
+        simulator.AdvanceTo((done + steps + extra + 0.5) * DT)
+    rows = np.array(logger.FindLog(simulator.get_context()).data())
+    state, force = rows[:6], rows[6:]
+    if DISCRETE:
+        force = force[:, 1:]
+    state, force = state[:, : N_STEPS + 1], force[:, : N_STEPS + 1]
+    # generalized contact forces of the planar joint: along world x, along world z, turn
+    com = com_state(state[0], A + state[1], -state[2], state[3], state[4], -state[5])
+    return {{**com, "normal_force": force[1] / M, "friction_force": force[0] / M}}
+'''
+"""Drake's part of a standalone script (engines/standalone.py), as a pydrake user writes it."""
+
+_CONTINUOUS_CONFIG = """    ApplySimulatorConfig(
+        SimulatorConfig(
+            integration_scheme={scheme!r},
+            accuracy={accuracy!r},
+            max_step_size=DT,
+            use_error_control=True,
+        ),
+        simulator,
+    )"""
 
 
 @dataclass

@@ -210,6 +210,19 @@ class RapierEngine(Engine):
         hoop = world.rigid_bodies[body].colliders[0]
         return world, body, hoop, floor
 
+    def _script(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
+        frequency, damping = options["static_contact_softness"]
+        return _SCRIPT.format(
+            substeps=int(options["num_solver_iterations"]),
+            pgs=int(options["num_internal_pgs_iterations"]),
+            relax=int(options["num_internal_stabilization_iterations"]),
+            frequency=float(frequency),
+            damping=float(damping),
+            friction_model=str(options["friction_model"]).upper(),
+            recycling=bool(options["contact_recycling"]),
+            bias_friction=bool(options["friction_in_bias_pass"]),
+        )
+
     # ----------------------------------------------------------------- stepping hooks
     @contextmanager
     def _open(
@@ -290,6 +303,143 @@ class RapierEngine(Engine):
 
     def _step_bare(self, run: _Run, steps: int) -> None:
         call_repeatedly(run.world.step, steps)
+
+
+_SCRIPT = '''
+import math
+
+import rapier3d as rp
+
+
+def integration_parameters(world, dt):
+    """The world's IntegrationParameters, set in place."""
+    params = world.integration_parameters
+    params.dt = dt
+    params.num_solver_iterations = {substeps!r}  # substeps per step
+    params.num_internal_pgs_iterations = {pgs!r}  # Gauss-Seidel sweeps per substep
+    params.num_internal_stabilization_iterations = {relax!r}  # relax sweeps per substep
+    # (natural frequency Hz, damping ratio) of the position correction against a fixed body
+    params.static_contact_softness = rp.SpringCoefficients({frequency!r}, {damping!r})
+    params.friction_model = rp.FrictionModel.{friction_model}
+    params.contact_recycling = {recycling!r}  # keep contact points while the pose barely moves
+    params.friction_in_bias_pass = {bias_friction!r}
+
+
+def material(builder, mu, restitution):
+    """Friction and restitution, combined by Max: both colliders carry the pair's value."""
+    return (
+        builder.friction(mu)
+        .restitution(restitution)
+        .friction_combine_rule(rp.CoefficientCombineRule.MAX)
+        .restitution_combine_rule(rp.CoefficientCombineRule.MAX)
+    )
+
+
+def build():
+    """The world: the hoop as a dynamic body whose origin is the hoop centre, turning about +z
+    (counter-clockwise: its angle is -theta), rotations about x and y locked, the scene's mass,
+    centre of mass and inertia given explicitly (the ball collider has density 0); a ball of
+    radius A on the half space y > 0. The hoop starts exactly touching."""
+    world = rp.PhysicsWorld(gravity=(0.0, -G, 0.0))
+    integration_parameters(world, DT)
+    x, y, theta, _, _, thetadot = CENTRE0
+    _, _, _, Xdot, Ydot, _ = COM0
+    mass = rp.MassProperties(
+        local_com=(0.0, COM_OFFSET, 0.0), mass=M, principal_inertia=(I_COM, I_COM, I_COM)
+    )
+    builder = (
+        rp.RigidBody.dynamic()
+        .translation((x, y, 0.0))
+        .rotation((0.0, 0.0, -theta))
+        .linvel((Xdot, Ydot, 0.0))  # the centre of mass's velocity
+        .angvel((0.0, 0.0, -thetadot))
+        # z translation stays free: locking it beside a rotation lock removes all friction
+        # in rapier3d 0.36.1; nothing pushes along z
+        .locked_axes(rp.LockedAxes.ROTATION_LOCKED_X | rp.LockedAxes.ROTATION_LOCKED_Y)
+        .additional_mass_properties(mass)
+        .can_sleep(False)
+    )
+    ball = material(rp.Collider.ball(A).density(0.0), MU, RESTITUTION)
+    body = world.add_body(builder, [ball])
+    floor = world.add_collider(material(rp.Collider.halfspace((0.0, 1.0, 0.0)), MU, RESTITUTION))
+    return world, body, world.rigid_bodies[body].colliders[0], floor
+
+
+def friction_axis():
+    """World +x in a ball-on-floor contact's tangent basis (Rapier builds it from the normal
+    alone): a probe ball slides along +x for one step, its friction points along -x."""
+    world = rp.PhysicsWorld(gravity=(0.0, -10.0, 0.0))
+    integration_parameters(world, 1e-3)
+    world.integration_parameters.friction_model = rp.FrictionModel.COULOMB
+    ball = material(rp.Collider.ball(1.0), 0.5, 0.0)
+    body = world.add_body(
+        rp.RigidBody.dynamic().translation((0.0, 1.0, 0.0)).linvel((1.0, 0.0, 0.0)), [ball]
+    )
+    floor = world.add_collider(material(rp.Collider.halfspace((0.0, 1.0, 0.0)), 0.5, 0.0))
+    world.step()
+    pair = world.narrow_phase.contact_pair(world.rigid_bodies[body].colliders[0], floor)
+    t1, t2 = pair.manifolds[0].points[0].tangent_impulse
+    norm = math.hypot(t1, t2)
+    return -t1 / norm, -t2 / norm
+
+
+def impulses(pair, axis):
+    """(normal impulse up, friction impulse along +x) on the hoop, N s, over the step's
+    substeps, summed over the pair's contact points; friction 0 without an axis."""
+    normal = friction = 0.0
+    if pair is None:
+        return normal, friction
+    for manifold in pair.manifolds:
+        for point in manifold.points:
+            normal += point.impulse
+            if axis is not None:
+                t1, t2 = point.tangent_impulse
+                friction += axis[0] * t1 + axis[1] * t2
+    return normal, friction
+
+
+def simulate():
+    """Step the window, reading the body (f32, widened) and the contact impulses after each
+    step; one more step gives the last row its force. With the Coulomb model the friction is
+    the solver's tangent impulse; with the Simplified model (no friction impulse exposed) it
+    is the step's momentum balance M (vx1 - vx0)."""
+    world, handle, hoop, floor = build()
+    coulomb = world.integration_parameters.friction_model == rp.FrictionModel.COULOMB
+    axis = friction_axis() if coulomb else None
+    body = world.rigid_bodies[handle]
+    x, y, theta, _, _, thetadot = CENTRE0
+    _, _, _, Xdot, Ydot, _ = COM0
+    # x, y, quaternion (k, w), vx, vy, omega_z; then the impulses of the step from that state
+    states = [[x, y, math.sin(-theta / 2), math.cos(-theta / 2), Xdot, Ydot, -thetadot]]
+    impulse = []
+    for _ in range(N_STEPS):
+        world.step()
+        p, q, v, w = body.translation, body.rotation, body.linvel, body.angvel
+        states.append([p.x, p.y, q.k, q.w, v.x, v.y, w.z])
+        impulse.append(impulses(world.narrow_phase.contact_pair(hoop, floor), axis))
+    v0 = body.linvel.x
+    world.step()
+    impulse.append(impulses(world.narrow_phase.contact_pair(hoop, floor), axis))
+    states, impulse = np.array(states), np.array(impulse)
+    angle = 2.0 * np.arctan2(states[:, 2], states[:, 3])  # counter-clockwise, about +z
+    theta = np.unwrap(np.concatenate([[THETA0], -angle]))[1:]
+    if axis is not None:
+        friction = impulse[:, 1]
+    else:
+        friction = np.append(np.diff(states[:, 4]), body.linvel.x - v0) * M
+    scale = M * DT
+    return {{
+        "X": states[:, 0] + COM_OFFSET * np.sin(theta),
+        "Y": states[:, 1] + COM_OFFSET * np.cos(theta),
+        "theta": theta,
+        "Xdot": states[:, 4],
+        "Ydot": states[:, 5],
+        "thetadot": -states[:, 6],
+        "normal_force": impulse[:, 0] / scale,
+        "friction_force": friction / scale,
+    }}
+'''
+"""Rapier's part of a standalone script (engines/standalone.py), as a rapier3d user writes it."""
 
 
 @dataclass
