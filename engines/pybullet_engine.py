@@ -45,6 +45,7 @@ from array import array
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from math import atan2, tau
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -55,6 +56,7 @@ from hoopbench.engines.base import Chunk, Engine, call_repeatedly, states_and_st
 from hoopbench.engines.options import (
     Option,
     Variant,
+    choice,
     flag,
     int_range,
     integer,
@@ -72,6 +74,7 @@ from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.models.urdf import (
     FLOOR_HALF_SIZE,
+    HOOP_BASES,
     HOOP_GEOMETRIES,
     JOINT_NAMES,
     floor_urdf,
@@ -87,11 +90,14 @@ MIN_MASS = 1e-8
 """Smallest total mass, kg, PyBullet reproduces (the slider links then weigh 1e-14 kg): seed-mu
 slipped at 0.98722 s for every M from 1e-8 to 1e6 kg and 0.39 s early at 1e-9 kg."""
 
-_HOOP_LINK = 2
-"""Link index of the hoop in the chain (0: slider_x, 1: slider_z)."""
+_HOOP_LINK = {"free": -1, "chain": 2}
+"""Link index of the hoop: the base of the free body; link 2 of the chain (0: slider_x,
+1: slider_z)."""
 
 _ROW = 8
-"""Recorded per step: x, z, theta, xdot, zdot, thetadot (joints), normal N, friction N."""
+"""Recorded per step: the chain's joints (x, z, theta, xdot, zdot, thetadot: hoop centre) or
+the free base's state (X, Z, theta, Xdot, Zdot, thetadot: centre of mass), then normal N and
+friction N."""
 
 _UNIT = number(low=0.0, high=1.0)
 
@@ -118,6 +124,15 @@ class PybulletEngine(Engine):
     geometries = HOOP_GEOMETRIES
     model_format = "URDF"
     options = (
+        Option(
+            "base",
+            "free",
+            choice(*HOOP_BASES),
+            "free: one floating body, as PyBullet's examples build a ball (hop-top +0.2 %, "
+            "hop-low +1.9 % at dt 1e-4 tuned); the fixed-base chain (prismatic x, prismatic z, "
+            "revolute, two 1e-6 M slider links) gave -18 % and -92 % (docs/engines.md)",
+            space=one_of(*HOOP_BASES),
+        ),
         Option(
             "numSolverIterations",
             50,
@@ -161,6 +176,7 @@ class PybulletEngine(Engine):
         ),
     )
     variants = (
+        Variant("base=chain", options={"base": "chain"}),
         Variant("numSolverIterations=10", options={"numSolverIterations": 10}),
         Variant("geometry=cylinder", geometry="cylinder"),
         Variant("geometry=hull", geometry="hull"),
@@ -189,7 +205,12 @@ class PybulletEngine(Engine):
             )
 
     def _model_text(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
-        return scene_to_urdf(scene, geometry=settings.geometry, mu=self.mu_for(scene, settings))
+        return scene_to_urdf(
+            scene,
+            geometry=settings.geometry,
+            mu=self.mu_for(scene, settings),
+            base=str(options["base"]),
+        )
 
     # ----------------------------------------------------------------- helpers
     def _build(
@@ -223,17 +244,20 @@ class PybulletEngine(Engine):
             contactSlop=float(options["contactSlop"]),
             physicsClientId=cid,
         )
+        base = str(options["base"])
         flags = p.URDF_USE_INERTIA_FROM_FILE
         if settings.geometry == "cylinder":
             flags |= p.URDF_USE_IMPLICIT_CYLINDER
         floor = p.loadURDF(str(floor_file), useFixedBase=True, physicsClientId=cid)
-        hoop = p.loadURDF(str(hoop_file), useFixedBase=True, flags=flags, physicsClientId=cid)
+        hoop = p.loadURDF(
+            str(hoop_file), useFixedBase=base == "chain", flags=flags, physicsClientId=cid
+        )
         names = tuple(
             p.getJointInfo(hoop, j, physicsClientId=cid)[1].decode()
             for j in range(p.getNumJoints(hoop, physicsClientId=cid))
         )
-        if names != JOINT_NAMES:
-            raise RuntimeError(f"unexpected joints {names} in the hoop URDF")
+        if names != (JOINT_NAMES if base == "chain" else ()):
+            raise RuntimeError(f"unexpected joints {names} in the hoop URDF (base {base})")
 
         # The pair's coefficients are the product of the two bodies': floor 1, hoop the run's.
         p.changeDynamics(
@@ -245,7 +269,7 @@ class PybulletEngine(Engine):
             restitution=1.0,
             physicsClientId=cid,
         )
-        for link in range(-1, len(JOINT_NAMES)):
+        for link in range(-1, len(names)):
             # Default damping 0.04 would drain energy from a hoop that should conserve it.
             p.changeDynamics(hoop, link, linearDamping=0.0, angularDamping=0.0, physicsClientId=cid)
         hoop_dynamics: dict[str, Any] = dict(
@@ -258,20 +282,20 @@ class PybulletEngine(Engine):
         if options["contactStiffness"] is not None:
             hoop_dynamics["contactStiffness"] = float(options["contactStiffness"])
             hoop_dynamics["contactDamping"] = float(options["contactDamping"])
-        p.changeDynamics(hoop, _HOOP_LINK, physicsClientId=cid, **hoop_dynamics)
-        for j in range(len(JOINT_NAMES)):
+        p.changeDynamics(hoop, _HOOP_LINK[base], physicsClientId=cid, **hoop_dynamics)
+        for j in range(len(names)):
             # The default velocity motors would hold every joint still.
             p.setJointMotorControl2(hoop, j, p.VELOCITY_CONTROL, force=0.0, physicsClientId=cid)
 
         # The lowest point of the real contact surface (the hull's vertex plus margin, not the
         # circle of radius a) on the floor, rolling; contactSlop deep, where a resting contact
         # stays, so that the contact acts from the first step (see the module doc).
-        shape = _hull_polygon(p, cid, hoop, floor, scene) if settings.geometry == "hull" else None
+        shape = (
+            _hull_polygon(p, cid, hoop, floor, scene, base) if settings.geometry == "hull" else None
+        )
         x, y, theta, xdot, ydot, thetadot = kinematics.rolling_start(scene, shape)
         y -= float(options["contactSlop"])
-        joint_states = ((x, xdot), (y, ydot), (theta, thetadot))
-        for j, (q, v) in enumerate(joint_states):
-            p.resetJointState(hoop, j, q, v, physicsClientId=cid)
+        _place(p, cid, hoop, scene, base, (x, y, theta, xdot, ydot, thetadot))
         return hoop, floor, shape
 
     # ----------------------------------------------------------------- stepping hooks
@@ -286,34 +310,62 @@ class PybulletEngine(Engine):
         record: bool,
     ) -> Iterator[_Run]:
         p = module
+        base = str(options["base"])
         with _client(p) as cid, tempfile.TemporaryDirectory(prefix="hoopbench-pb-") as tmp:
             hoop, floor, shape = self._build(p, cid, Path(tmp), scene, settings, options)
-            run = _Run(p, cid, hoop, floor, shape, scene, settings.timestep)
+            run = _Run(p, cid, hoop, floor, base, shape, scene, settings.timestep)
             if record:
-                run.blocks.append(_joint_rows(p, cid, hoop)[:, :6])
+                if base == "free":
+                    row = _free_row(p, cid, hoop, scene.theta0)
+                    run.theta = row[2]
+                else:
+                    row = _joint_row(p, cid, hoop)
+                run.blocks.append(np.array([row]))
             yield run
 
     def _advance(self, run: _Run, done: int, steps: int, last: bool) -> Chunk:
-        """Step, reading the joints and contact points after each step.
+        """Step, reading the state and contact points after each step.
 
         Row i of the trajectory holds the state at t_i and the contact force that the solver
         applies from that state over [t_i, t_i + dt], i.e. the force that takes the velocity
         from row i to row i + 1: a step's force goes with the state before it (``_trajectory``).
         """
-        p, cid, hoop, floor, link = run.p, run.cid, run.hoop, run.floor, _HOOP_LINK
-        joints = list(range(len(JOINT_NAMES)))
-        step, joint_states, contacts = p.stepSimulation, p.getJointStates, p.getContactPoints
+        p, cid, hoop, floor, link = run.p, run.cid, run.hoop, run.floor, _HOOP_LINK[run.base]
+        step, contacts = p.stepSimulation, p.getContactPoints
         # Plain doubles in an array: keeping PyBullet's nested tuples costs more than
         # unpacking them at once (measured: 1.33x the bare loop against 1.5x).
         buf = array("d")
         record = buf.extend
-        for _ in range(steps):
-            step(cid)
-            (qx, vx, _, _), (qz, vz, _, _), (qt, vt, _, _) = joint_states(hoop, joints, cid)
-            record((qx, qz, qt, vx, vz, vt, *_contact_force(contacts(hoop, floor, link, -1, cid))))
+        if run.base == "free":
+            pose, velocity, theta = p.getBasePositionAndOrientation, p.getBaseVelocity, run.theta
+            for _ in range(steps):
+                step(cid)
+                (qX, _, qZ), (_, qy, _, qw) = pose(hoop, cid)
+                (vX, _, vZ), (_, wy, _) = velocity(hoop, cid)
+                theta = _unwrap(2.0 * atan2(qy, qw), theta)
+                record(
+                    (
+                        qX,
+                        qZ,
+                        theta,
+                        vX,
+                        vZ,
+                        wy,
+                        *_contact_force(contacts(hoop, floor, link, -1, cid)),
+                    )
+                )
+            run.theta = theta
+        else:
+            joints, joint_states = [0, 1, 2], p.getJointStates
+            for _ in range(steps):
+                step(cid)
+                (qx, vx, _, _), (qz, vz, _, _), (qt, vt, _, _) = joint_states(hoop, joints, cid)
+                record(
+                    (qx, qz, qt, vx, vz, vt, *_contact_force(contacts(hoop, floor, link, -1, cid)))
+                )
         block = np.frombuffer(buf).reshape(-1, _ROW)
         run.blocks.append(block)
-        return Chunk(_com_state(run.scene, block), done + steps)
+        return Chunk(_com_state(run.scene, run.base, block), done + steps)
 
     def _contact_shape(self, run: _Run) -> Polygon | None:
         return run.shape
@@ -321,12 +373,12 @@ class PybulletEngine(Engine):
     def _finish(self, run: _Run, ended_early: bool) -> None:
         """One more step, not recorded as a state, gives the last row its force."""
         run.p.stepSimulation(run.cid)
-        points = run.p.getContactPoints(run.hoop, run.floor, _HOOP_LINK, -1, run.cid)
+        points = run.p.getContactPoints(run.hoop, run.floor, _HOOP_LINK[run.base], -1, run.cid)
         run.last_force = _contact_force(points)
 
     def _trajectory(self, run: _Run, done: int, ended_early: bool) -> Trajectory:
         states, forces = states_and_step_forces(run.blocks[0], run.blocks[1:], run.last_force)
-        state = _com_state(run.scene, states)
+        state = _com_state(run.scene, run.base, states)
         force = forces / run.scene.M
         return Trajectory.from_steps(
             run.scene,
@@ -349,21 +401,66 @@ class _Run:
     cid: int
     hoop: int
     floor: int
+    base: str
+    """The option ``base``: "free" or "chain"."""
     shape: Polygon | None
     """The contact polygon (the hull); None for a circle."""
     scene: Scene
     timestep: float
     blocks: list[np.ndarray] = field(default_factory=list)
-    """The initial joint state (6 columns), then a block of _ROW columns per chunk."""
+    """The initial state (6 columns), then a block of _ROW columns per chunk."""
+    theta: float = 0.0
+    """The free base's last theta, rad, continued over whole turns (``_unwrap``)."""
     last_force: tuple[float, float] = (0.0, 0.0)
     """Normal and friction force, N, of the step after the last state (``_finish``)."""
 
 
-def _joint_rows(p: ModuleType, cid: int, hoop: int) -> np.ndarray:
-    """The joints' state as one row: x, z, theta, then their rates."""
-    joints = list(range(len(JOINT_NAMES)))
-    (qx, vx, _, _), (qz, vz, _, _), (qt, vt, _, _) = p.getJointStates(hoop, joints, cid)
-    return np.array([[qx, qz, qt, vx, vz, vt]])
+def _unwrap(angle: float, previous: float) -> float:
+    """The angle, rad, plus the whole turns that bring it nearest ``previous`` (theta of the
+    step before): the quaternion gives the angle only modulo 2 pi, theta counts turns. Exact
+    for steps turning less than half a turn; the same whether a run is read in one piece or
+    in chunks."""
+    return angle + tau * round((previous - angle) / tau)
+
+
+def _free_row(p: ModuleType, cid: int, hoop: int, theta_near: float) -> list[float]:
+    """The free base's state: centre of mass X, Z, theta (unwrapped near ``theta_near``),
+    their rates. PyBullet's base frame is the inertial frame: its position and linear
+    velocity are the centre of mass's (verified in the tests)."""
+    (qX, _, qZ), (_, qy, _, qw) = p.getBasePositionAndOrientation(hoop, cid)
+    (vX, _, vZ), (_, wy, _) = p.getBaseVelocity(hoop, cid)
+    return [qX, qZ, _unwrap(2.0 * atan2(qy, qw), theta_near), vX, vZ, wy]
+
+
+def _joint_row(p: ModuleType, cid: int, hoop: int) -> list[float]:
+    """The chain's joints' state: x, z, theta, then their rates."""
+    (qx, vx, _, _), (qz, vz, _, _), (qt, vt, _, _) = p.getJointStates(hoop, [0, 1, 2], cid)
+    return [qx, qz, qt, vx, vz, vt]
+
+
+def _place(
+    p: ModuleType,
+    cid: int,
+    hoop: int,
+    scene: Scene,
+    base: str,
+    centre: tuple[float, float, float, float, float, float],
+) -> None:
+    """Put the hoop at the hoop-centre state (x, y, theta, xdot, ydot, thetadot): the chain by
+    its joints, the free base by its centre of mass (what ``resetBasePositionAndOrientation``
+    and ``resetBaseVelocity`` set), turned by theta about +y."""
+    if base == "chain":
+        for j, (q, v) in enumerate(zip(centre[:3], centre[3:], strict=True)):
+            p.resetJointState(hoop, j, q, v, physicsClientId=cid)
+        return
+    com = {key: float(value) for key, value in kinematics.com_state(scene, *centre).items()}
+    orientation = p.getQuaternionFromEuler([0.0, com["theta"], 0.0])
+    p.resetBasePositionAndOrientation(
+        hoop, [com["X"], 0.0, com["Y"]], orientation, physicsClientId=cid
+    )
+    p.resetBaseVelocity(
+        hoop, [com["Xdot"], 0.0, com["Ydot"]], [0.0, com["thetadot"], 0.0], physicsClientId=cid
+    )
 
 
 def _contact_force(points: Any) -> tuple[float, float]:
@@ -376,7 +473,9 @@ def _contact_force(points: Any) -> tuple[float, float]:
     return normal, friction
 
 
-def _hull_polygon(p: ModuleType, cid: int, hoop: int, floor: int, scene: Scene) -> Polygon:
+def _hull_polygon(
+    p: ModuleType, cid: int, hoop: int, floor: int, scene: Scene, base: str
+) -> Polygon:
     """The hoop's convex hull in the plane: PyBullet's own vertices, rounded by its margin.
 
     ``getMeshData`` gives the hull's vertices in the link's inertial frame; they are moved to
@@ -384,19 +483,19 @@ def _hull_polygon(p: ModuleType, cid: int, hoop: int, floor: int, scene: Scene) 
     (gUrdfDefaultCollisionMargin, 1 mm in pybullet 3.2.7; no call reports it) is measured as
     the part of ``getClosestPoints``' distance the vertices do not explain, at two poses; they
     must agree, or the hull is not what this function assumes and the run is an error. Leaves
-    the joints at a probe pose: the caller places the hoop.
+    the hoop at a probe pose: the caller places it.
     """
-    _, vertices = p.getMeshData(hoop, _HOOP_LINK, physicsClientId=cid)
-    inertial_pos, inertial_orn = p.getDynamicsInfo(hoop, _HOOP_LINK, physicsClientId=cid)[3:5]
+    link = _HOOP_LINK[base]
+    _, vertices = p.getMeshData(hoop, link, physicsClientId=cid)
+    inertial_pos, inertial_orn = p.getDynamicsInfo(hoop, link, physicsClientId=cid)[3:5]
     rotation = np.array(p.getMatrixFromQuaternion(inertial_orn)).reshape(3, 3)
     local = np.asarray(vertices, dtype=float) @ rotation.T + np.asarray(inertial_pos)
     hull = Polygon.from_points(zip(local[:, 0], local[:, 2], strict=True))
     height = 1.1 * scene.a + 0.01  # any height at which the floor is within reach
     margins = []
     for theta in (scene.theta0, scene.theta0 + 0.1):
-        p.resetJointState(hoop, 1, height, 0.0, physicsClientId=cid)
-        p.resetJointState(hoop, 2, theta, 0.0, physicsClientId=cid)
-        points = p.getClosestPoints(hoop, floor, scene.a, _HOOP_LINK, -1, physicsClientId=cid)
+        _place(p, cid, hoop, scene, base, (0.0, height, theta, 0.0, 0.0, 0.0))
+        points = p.getClosestPoints(hoop, floor, scene.a, link, -1, physicsClientId=cid)
         if not points:
             raise RuntimeError("pybullet: no closest point between the hull and the floor")
         distance = min(point[8] for point in points)
@@ -408,6 +507,11 @@ def _hull_polygon(p: ModuleType, cid: int, hoop: int, floor: int, scene: Scene) 
     return Polygon(hull.vertices, rounding=margins[0])
 
 
-def _com_state(scene: Scene, data: np.ndarray) -> dict[str, np.ndarray]:
-    """Centre-of-mass state from joint rows (hoop-centre x, height, theta, their rates)."""
+def _com_state(scene: Scene, base: str, data: np.ndarray) -> dict[str, np.ndarray]:
+    """Centre-of-mass state from recorded rows: the free base's are it already (X, Z, theta,
+    their rates); the chain's joints are the hoop centre's x, height, theta and rates."""
+    if base == "free":
+        return dict(
+            zip(("X", "Y", "theta", "Xdot", "Ydot", "thetadot"), data[:, :6].T, strict=True)
+        )
     return kinematics.com_state(scene, *data[:, :6].T)
