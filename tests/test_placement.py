@@ -141,9 +141,7 @@ def test_starts_touching_without_an_impulse(engine, geometry, scene):
 
 
 # ----------------------------------------------------------------------------- PyBullet
-def pybullet_start(
-    scene: Scene, geometry: str, base: str = "free"
-) -> tuple[int, int, int, object]:
+def pybullet_start(scene: Scene, geometry: str, base: str = "free") -> tuple[int, int, int, object]:
     """(client, hoop, floor, shape) as a run builds them; the caller disconnects."""
     engine = PybulletEngine()
     settings = RunSettings(timestep=TIMESTEP, geometry=geometry, options={"base": base})
