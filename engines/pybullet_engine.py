@@ -104,8 +104,9 @@ MAX_PAIR_FRICTION = 10.0
 """PyBullet clamps the combined (product) friction of a pair at 10 (btManifoldResult)."""
 
 MIN_MASS = 1e-8
-"""Smallest total mass, kg, PyBullet reproduces (the slider links then weigh 1e-14 kg): seed-mu
-slipped at 0.98722 s for every M from 1e-8 to 1e6 kg and 0.39 s early at 1e-9 kg."""
+"""Smallest total mass, kg, PyBullet's chain reproduces (the slider links then weigh 1e-14 kg):
+seed-mu slipped at 0.98722 s for every M from 1e-8 to 1e6 kg and 0.39 s early at 1e-9 kg. The
+free base slips at 0.9872 s (by the contact force) at 1e-9 kg too; one limit for both bases."""
 
 _HOOP_LINK = {"free": -1, "chain": 2}
 """Link index of the hoop: the base of the free body; link 2 of the chain (0: slider_x,
