@@ -386,39 +386,13 @@ class PybulletEngine(Engine):
         applies from that state over [t_i, t_i + dt], i.e. the force that takes the velocity
         from row i to row i + 1: a step's force goes with the state before it (``_trajectory``).
         """
-        p, cid, hoop, floor, link = run.p, run.cid, run.hoop, run.floor, _HOOP_LINK[run.base]
-        step, contacts = p.stepSimulation, p.getContactPoints
         # Plain doubles in an array: keeping PyBullet's nested tuples costs more than
         # unpacking them at once (measured: 1.33x the bare loop against 1.5x).
         buf = array("d")
-        record = buf.extend
         if run.base == "free":
-            pose, velocity, theta = p.getBasePositionAndOrientation, p.getBaseVelocity, run.theta
-            for _ in range(steps):
-                step(cid)
-                (qX, _, qZ), (_, qy, _, qw) = pose(hoop, cid)
-                (vX, _, vZ), (_, wy, _) = velocity(hoop, cid)
-                theta = _unwrap(2.0 * atan2(qy, qw), theta)
-                record(
-                    (
-                        qX,
-                        qZ,
-                        theta,
-                        vX,
-                        vZ,
-                        wy,
-                        *_contact_force(contacts(hoop, floor, link, -1, cid)),
-                    )
-                )
-            run.theta = theta
+            _record_free(run, steps, buf)
         else:
-            joints, joint_states = [0, 1, 2], p.getJointStates
-            for _ in range(steps):
-                step(cid)
-                (qx, vx, _, _), (qz, vz, _, _), (qt, vt, _, _) = joint_states(hoop, joints, cid)
-                record(
-                    (qx, qz, qt, vx, vz, vt, *_contact_force(contacts(hoop, floor, link, -1, cid)))
-                )
+            _record_chain(run, steps, buf)
         block = np.frombuffer(buf).reshape(-1, _ROW)
         run.blocks.append(block)
         return Chunk(_com_state(run.scene, run.base, block), done + steps)
@@ -475,6 +449,33 @@ class _Run:
     """The free base's last theta, rad, continued over whole turns (``_unwrap``)."""
     last_force: tuple[float, float] = (0.0, 0.0)
     """Normal and friction force, N, of the step after the last state (``_finish``)."""
+
+
+def _record_free(run: _Run, steps: int, buf: array[float]) -> None:
+    """Take ``steps`` steps of the free body, appending a _ROW row after each: the base's
+    state (centre of mass X, Z, theta unwrapped, their rates) and the step's contact force."""
+    p, cid, hoop, floor = run.p, run.cid, run.hoop, run.floor
+    step, contacts, record = p.stepSimulation, p.getContactPoints, buf.extend
+    pose, velocity, theta = p.getBasePositionAndOrientation, p.getBaseVelocity, run.theta
+    for _ in range(steps):
+        step(cid)
+        (qX, _, qZ), (_, qy, _, qw) = pose(hoop, cid)
+        (vX, _, vZ), (_, wy, _) = velocity(hoop, cid)
+        theta = _unwrap(2.0 * atan2(qy, qw), theta)
+        record((qX, qZ, theta, vX, vZ, wy, *_contact_force(contacts(hoop, floor, -1, -1, cid))))
+    run.theta = theta
+
+
+def _record_chain(run: _Run, steps: int, buf: array[float]) -> None:
+    """Take ``steps`` steps of the chain, appending a _ROW row after each: its joints (hoop
+    centre x, z, theta, their rates) and the step's contact force."""
+    p, cid, hoop, floor = run.p, run.cid, run.hoop, run.floor
+    step, contacts, record = p.stepSimulation, p.getContactPoints, buf.extend
+    joints, joint_states, link = [0, 1, 2], p.getJointStates, _HOOP_LINK["chain"]
+    for _ in range(steps):
+        step(cid)
+        (qx, vx, _, _), (qz, vz, _, _), (qt, vt, _, _) = joint_states(hoop, joints, cid)
+        record((qx, qz, qt, vx, vz, vt, *_contact_force(contacts(hoop, floor, link, -1, cid))))
 
 
 def _unwrap(angle: float, previous: float) -> float:
@@ -629,11 +630,11 @@ def _run(cid, hoop_file, floor_file):
     p.setPhysicsEngineParameter(
         fixedTimeStep=DT,
         numSubSteps=0,  # one solver step per stepSimulation: forces are impulse / DT
-        numSolverIterations={iterations!r},
-        contactERP={erp!r},  # PyBullet's default
-        frictionERP={friction_erp!r},  # PyBullet's default
+        numSolverIterations={iterations!r},  # PyBullet's default: 50
+        contactERP={erp!r},  # share of a contact's penetration undone per step (PyBullet: 0.08)
+        frictionERP={friction_erp!r},  # the same for friction anchors (PyBullet: 0.2)
         enableConeFriction={cone!r},  # 1: a friction cone (PyBullet's default)
-        contactSlop={slop!r},  # m a contact may sink before it pushes back
+        contactSlop={slop!r},  # m a contact may sink before it pushes back (PyBullet: 1e-5)
         physicsClientId=cid,
     )
     floor = p.loadURDF(floor_file, useFixedBase=True, physicsClientId=cid)
