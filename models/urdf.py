@@ -1,6 +1,10 @@
 """URDF text for the hoop and the floor, as PyBullet loads them (plain XML, no engine import).
 
-The hoop is a planar chain fixed to the world::
+The hoop is built one of two ways (``HOOP_BASES``). ``free`` (PyBullet's default in hoopbench):
+one link and no joint, a floating base, loaded with ``useFixedBase=False`` as PyBullet's own
+examples load a ball (``sphere2.urdf``). Its link frame is the hoop centre, turned about +y by
+theta; PyBullet's base frame is the link's inertial frame, i.e. the centre of mass, and its
+velocities are the centre of mass's. ``chain``: a planar chain fixed to the world::
 
     world --prismatic x--> slider_x --prismatic z--> slider_z --continuous y--> hoop
 
@@ -37,6 +41,7 @@ __all__ = [
     "CYLINDER_LENGTH_FRACTION",
     "DUMMY_MASS_FRACTION",
     "FLOOR_HALF_SIZE",
+    "HOOP_BASES",
     "HOOP_GEOMETRIES",
     "JOINT_NAMES",
     "PLANAR_JOINT_NAME",
@@ -51,6 +56,10 @@ cylinder and hull: a URDF cylinder with its axis along y. The URDF text is the s
 the loader decides (implicit cylinder, or PyBullet's default 32-vertex convex hull, which
 PyBullet pads with a 1 mm collision margin: it reaches a + 1 mm below the centre with a vertex
 down, and the adapter places it and reads its clearance by that surface)."""
+
+HOOP_BASES: tuple[str, ...] = ("free", "chain")
+"""How the hoop is attached: ``free`` (a floating base, one link) or ``chain`` (three joints to
+the world through two slider links; see the module docstring)."""
 
 JOINT_NAMES: tuple[str, str, str] = ("x_joint", "z_joint", "theta_joint")
 """The three joints in chain order: hoop-centre x (m), hoop-centre height (m), theta (rad)."""
@@ -111,15 +120,20 @@ def _dummy_link(name: str, mass: float) -> str:
     )
 
 
-def scene_to_urdf(scene: Scene, *, geometry: str = "sphere", mu: float | None = None) -> str:
-    """URDF of the hoop of ``scene`` on its planar chain (see the module docstring).
+def scene_to_urdf(
+    scene: Scene, *, geometry: str = "sphere", mu: float | None = None, base: str = "free"
+) -> str:
+    """URDF of the hoop of ``scene``: one floating link (``base="free"``) or the planar chain
+    (``base="chain"``); see the module docstring.
 
     ``geometry`` is one of HOOP_GEOMETRIES; ``mu`` (if given) is written as the hoop link's
     lateral friction in PyBullet's ``<contact>`` extension, with rolling and spinning friction
-    0. Raises ValueError for an unknown geometry, a bad mu, or a scene with I = 0.
+    0. Raises ValueError for an unknown geometry or base, a bad mu, or a scene with I = 0.
     """
     if geometry not in HOOP_GEOMETRIES:
         raise ValueError(f"geometry must be one of {', '.join(HOOP_GEOMETRIES)}, got {geometry!r}")
+    if base not in HOOP_BASES:
+        raise ValueError(f"base must be one of {', '.join(HOOP_BASES)}, got {base!r}")
     mu = None if mu is None else check_real("mu", mu, low=0.0)
     scene.require_inertia("a PyBullet hoop")
     a = scene.a
@@ -138,16 +152,31 @@ def scene_to_urdf(scene: Scene, *, geometry: str = "sphere", mu: float | None = 
     header = (
         f"<!-- hoopbench hoop: written by models.urdf.scene_to_urdf for scene "
         f"{scene.name or '(unnamed)'}: lam={scene.lam!r} eps={scene.eps!r} a={scene.a!r} "
-        f"M={scene.M!r} g={scene.g!r} geometry={geometry} mu={mu!r}. "
-        f"Joint positions: hoop centre x, hoop centre height, theta. -->\n"
+        f"M={scene.M!r} g={scene.g!r} geometry={geometry} mu={mu!r} base={base}. "
+        + (
+            "One floating link: load with useFixedBase=False; the base frame is the centre "
+            "of mass. -->\n"
+            if base == "free"
+            else "Joint positions: hoop centre x, hoop centre height, theta. -->\n"
+        )
+    )
+    chain_links = (
+        '  <link name="world"/>\n' + _dummy_link("slider_x", dummy) + _dummy_link("slider_z", dummy)
+        if base == "chain"
+        else ""
+    )
+    chain_joints = (
+        _joint("x_joint", "prismatic", "world", "slider_x", "1 0 0")
+        + _joint("z_joint", "prismatic", "slider_x", "slider_z", "0 0 1")
+        + _joint("theta_joint", "continuous", "slider_z", "hoop", "0 1 0")
+        if base == "chain"
+        else ""
     )
     return (
         '<?xml version="1.0"?>\n'
         + header
         + '<robot name="hoop">\n'
-        + '  <link name="world"/>\n'
-        + _dummy_link("slider_x", dummy)
-        + _dummy_link("slider_z", dummy)
+        + chain_links
         + '  <link name="hoop">\n'
         + _inertia_xml(scene.M, scene.com_offset, inertia, inertia, inertia)
         + "    <collision>\n"
@@ -164,9 +193,7 @@ def scene_to_urdf(scene: Scene, *, geometry: str = "sphere", mu: float | None = 
         + "    </visual>\n"
         + _contact_xml(mu)
         + "  </link>\n"
-        + _joint("x_joint", "prismatic", "world", "slider_x", "1 0 0")
-        + _joint("z_joint", "prismatic", "slider_x", "slider_z", "0 0 1")
-        + _joint("theta_joint", "continuous", "slider_z", "hoop", "0 1 0")
+        + chain_joints
         + "</robot>\n"
     )
 

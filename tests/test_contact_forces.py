@@ -70,16 +70,18 @@ sample: an engine that cannot meet it is an expected failure, its measured value
 
 RMS_TOL = {
     # (engine, scene): (n/g, f/g), about twice the measured RMS against the exact n(t), f(t).
-    ("pybullet", "seed-mu"): (0.013, 0.011),  # measured 6.5e-3, 5.2e-3
-    # measured 2.4e-2, 1.7e-2: slipping back, 9 % of the steps have n = 0 (the PGS sweeps that
-    # do not converge, engines/pybullet_engine.py)
-    ("pybullet", "hop-top"): (0.05, 0.035),
+    # measured 1.1e-2, 5.9e-3 (the free base; stock 9.9e-3, 5.5e-3; the chain 6.5e-3, 5.2e-3)
+    ("pybullet", "seed-mu"): (0.013, 0.011),
     ("drake", "seed-mu"): (0.014, 0.011),  # measured 6.9e-3, 5.5e-3
     ("drake", "hop-top"): (0.036, 0.021),  # measured 1.8e-2, 1.05e-2
     ("dart", "seed-mu"): (0.013, 0.011),  # measured 6.5e-3, 5.2e-3 (NSGS, Dantzig fallback)
     ("dart", "hop-top"): (0.033, 0.02),  # measured 1.65e-2, 9.6e-3 (NSGS; PGS: 0.52, 0.25)
 }
 RMS_XFAIL = {
+    ("pybullet", "hop-top"): "measured RMS n/g 0.23, f/g 0.043 (the free base at contactSlop "
+    "1e-8 m): rolling before the slip, 35 % of the steps have no contact force and the next "
+    "about twice the exact one (RMS 0.37 g there); at PyBullet's 1e-5 m (stock) none, RMS "
+    "2.4e-2, 1.7e-2, as the chain's",
     ("mujoco", "seed-mu"): "measured RMS n/g 0.52, f/g 0.42: rolling 1e-6, but while slipping "
     "the contact chatters (in contact on ~50 % of the steps, +-0.04 um) and the sensor reads 0 "
     "or about 2.6x the exact force, step by step (its 1 ms average: RMS 0.09 g)",

@@ -17,6 +17,7 @@ distance: PyBullet's getClosestPoints and MuJoCo's contact distances and capsule
 
 from __future__ import annotations
 
+import math
 import tempfile
 from functools import cache
 from pathlib import Path
@@ -140,10 +141,10 @@ def test_starts_touching_without_an_impulse(engine, geometry, scene):
 
 
 # ----------------------------------------------------------------------------- PyBullet
-def pybullet_start(scene: Scene, geometry: str) -> tuple[int, int, int, object]:
+def pybullet_start(scene: Scene, geometry: str, base: str = "free") -> tuple[int, int, int, object]:
     """(client, hoop, floor, shape) as a run builds them; the caller disconnects."""
     engine = PybulletEngine()
-    settings = RunSettings(timestep=TIMESTEP, geometry=geometry)
+    settings = RunSettings(timestep=TIMESTEP, geometry=geometry, options={"base": base})
     cid = pybullet.connect(pybullet.DIRECT)
     try:
         with tempfile.TemporaryDirectory() as tmp:
@@ -156,9 +157,21 @@ def pybullet_start(scene: Scene, geometry: str) -> tuple[int, int, int, object]:
     return cid, hoop, floor, shape
 
 
+def _pybullet_centre(hoop: int, cid: int, base: str, scene: Scene) -> tuple[float, float]:
+    """Hoop-centre height and theta as PyBullet holds them: the chain's joints, or the free
+    base's centre of mass less lam a (sin, cos) of its turn about +y."""
+    if base == "chain":
+        (z, *_), (theta, *_) = pybullet.getJointStates(hoop, [1, 2], physicsClientId=cid)
+        return z, theta
+    (_, _, z_com), (_, qy, _, qw) = pybullet.getBasePositionAndOrientation(hoop, cid)
+    theta = 2.0 * math.atan2(qy, qw)
+    return z_com - scene.com_offset * math.cos(theta), theta
+
+
+@pytest.mark.parametrize("base", ("free", "chain"))
 @pytest.mark.parametrize("scene", SCENES)
 @pytest.mark.parametrize("geometry", PybulletEngine.geometries)
-def test_pybullet_contact_distance_is_the_recorded_clearance(geometry, scene):
+def test_pybullet_contact_distance_is_the_recorded_clearance(geometry, scene, base):
     """PyBullet's own contact distance, stepping from the adapter's start, is the clearance the
     adapter computes from the geometry (y - a, or the hull polygon's lowest point): it starts
     contactSlop deep, where a resting contact stays
@@ -171,14 +184,15 @@ def test_pybullet_contact_distance_is_the_recorded_clearance(geometry, scene):
     (getClosestPoints is no judge: for the hull it sometimes drops the 1 mm margin.)
     """
     sc = SCENES[scene]
-    cid, hoop, floor, shape = pybullet_start(sc, geometry)
+    cid, hoop, floor, shape = pybullet_start(sc, geometry, base)
+    link = 2 if base == "chain" else -1
     ours, engine = [], []
     try:
         for _ in range(3000):
-            (z, *_), (theta, *_) = pybullet.getJointStates(hoop, [1, 2], physicsClientId=cid)
+            z, theta = _pybullet_centre(hoop, cid, base, sc)
             ours.append(z - float(kinematics.contact_depth(sc, theta, shape)))
             pybullet.stepSimulation(physicsClientId=cid)
-            points = pybullet.getContactPoints(hoop, floor, 2, -1, physicsClientId=cid)
+            points = pybullet.getContactPoints(hoop, floor, link, -1, physicsClientId=cid)
             engine.append(min((point[8] for point in points), default=np.nan))
     finally:
         pybullet.disconnect(physicsClientId=cid)

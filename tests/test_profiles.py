@@ -14,7 +14,8 @@ from hoopbench.reports.hop_map.spec import MapSpec
 # The engines' own documented defaults, written out here independently of the declarations.
 STOCK = {
     "mujoco": {"solref": (0.02, 1.0), "cone": "pyramidal", "impratio": 1.0, "integrator": "Euler"},
-    "pybullet": {"contactSlop": 1e-5, "numSolverIterations": 50},
+    # PyBullet's server: contact ERP 0.08 (m_erp2 in PhysicsServerCommandProcessor.cpp)
+    "pybullet": {"contactSlop": 1e-5, "numSolverIterations": 50, "contactERP": 0.08},
     "pymunk": {"iterations": 10, "collision_slop": 0.1, "collision_bias": None},
     # MJX and MuJoCo Warp read MuJoCo's MJCF: MuJoCo's own defaults
     "mjx": {"solref": (0.02, 1.0), "cone": "pyramidal", "impratio": 1.0, "integrator": "Euler"},
