@@ -166,6 +166,8 @@ def hop(out: dict[str, np.ndarray], a: float, lam: float) -> tuple[float, float]
 
 
 if __name__ == "__main__":
+    wp.config.quiet = True  # no start-up banner
+    wp.config.log_level = wp.LOG_WARNING  # no per-module load times
     result = run(HOP_TOP, 1e-4, 3.0)  # the whole window: about 4 min on the CPU
     height, lift_off = hop(result, HOP_TOP["a"], HOP_TOP["lam"])
     print(f"hop-top: hop height {height:.4f} m, lift-off at {lift_off:.4f} s")
