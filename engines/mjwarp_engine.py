@@ -74,6 +74,21 @@ class MjwarpEngine(WorldsEngine, MjcfEngine):
     )
     variants = (Variant("cone=pyramidal", options={"cone": "pyramidal"}),)
 
+    def _script(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
+        device = options["device"]
+        chosen = {
+            "auto": '"cuda:0" if wp.get_cuda_device_count() else "cpu"',
+            "cpu": '"cpu"',
+            "gpu": '"cuda:0"',
+        }[device]
+        return _SCRIPT.format(
+            model=self._script_model(scene, settings, options),
+            device=chosen,
+            device_text="a GPU if Warp sees one, else the CPU" if device == "auto" else device,
+            integrator=options["integrator"],
+            integrate=_SCRIPT_INTEGRATE[options["integrator"]],
+        )
+
     def _import(self) -> ModuleType:
         import_warp()
         return super()._import()
@@ -97,12 +112,7 @@ class MjwarpEngine(WorldsEngine, MjcfEngine):
             for field in ("qpos", "qvel", "qacc_warmstart"):
                 rows = np.array([getattr(d, field) for _, d in built])
                 getattr(data, field).assign(rows.astype(np.float32))
-            integrate = {
-                "Euler": mjw.euler,
-                "RK4": mjw.rungekutta4,
-                "implicit": mjw.implicit,
-                "implicitfast": mjw.implicit,
-            }[options["integrator"]]
+            integrate = getattr(mjw, _SCRIPT_INTEGRATE[options["integrator"]])
             batch = _Batch(mjw, wp, list(scenes), model, data, integrate)
             batch.warm_up(*built[0])
             yield batch
@@ -117,6 +127,53 @@ class MjwarpEngine(WorldsEngine, MjcfEngine):
         )
         # world frame: z is the normal (up), x the friction.
         return states, force[:, :, [2, 0]]
+
+
+_SCRIPT = '''
+import mujoco
+import mujoco_warp as mjw
+import warp as wp
+
+{model}
+
+def simulate():
+    """One world on {device_text}. Each step is mjw.forward (constraint forces at the state
+    before the step), the world-frame contact force of every contact (summed: the force on
+    the hoop), then the integrator ({integrator}): the force at the state the step starts
+    from, as MuJoCo C's sensor gives it (mjw.step would leave the last RK4 stage's forces).
+    One step more gives the last state its force. MuJoCo Warp runs in single precision."""
+    model, data = start(mujoco)
+    with wp.ScopedDevice({device}):
+        m = mjw.put_model(model)
+        d = mjw.put_data(model, data, nworld=1)
+        ids = wp.array(np.arange(d.naconmax, dtype=np.int32), dtype=wp.int32)
+        contact = wp.zeros(d.naconmax, dtype=wp.spatial_vector)  # force, torque per contact
+        qpos, qvel = [d.qpos.numpy()[0].astype(float)], [d.qvel.numpy()[0].astype(float)]
+        force = np.zeros((N_STEPS + 1, 3))
+        for i in range(N_STEPS + 1):
+            mjw.forward(m, d)
+            mjw.contact_force(m, d, ids, True, contact)  # True: in the world frame
+            n = int(d.nacon.numpy()[0])
+            for each in contact.numpy()[:n, :3]:  # float32; summed in float64
+                force[i] += each
+            mjw.{integrate}(m, d)
+            if i < N_STEPS:
+                qpos.append(d.qpos.numpy()[0].astype(float))
+                qvel.append(d.qvel.numpy()[0].astype(float))
+        wp.synchronize()
+    qpos, qvel = np.array(qpos), np.array(qvel)
+    com = com_state(qpos[:, 0], A + qpos[:, 1], qpos[:, 2], *qvel.T)
+    return {{**com, "normal_force": force[:, 2] / M, "friction_force": force[:, 0] / M}}
+'''
+"""MuJoCo Warp's part of a standalone script (engines/standalone.py), as its users write it."""
+
+_SCRIPT_INTEGRATE = {
+    "Euler": "euler",
+    "RK4": "rungekutta4",
+    "implicit": "implicit",
+    "implicitfast": "implicit",
+}
+"""MuJoCo Warp's integrator function of each integrator option (one serves both implicit)."""
 
 
 def _stacked_model(mjw: ModuleType, wp: ModuleType, models: Sequence[Any]) -> Any:

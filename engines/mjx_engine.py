@@ -96,6 +96,22 @@ class MjxEngine(WorldsEngine, MjcfEngine):
         Variant("cone=pyramidal", options={"cone": "pyramidal"}),
     )
 
+    def _script(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
+        # The run's model has no name (see _batch): the same text, the same model.
+        model = self._script_model(scene.with_(name=""), settings, options)
+        device = options["device"]
+        integrate = {"Euler": "euler", "RK4": "rungekutta4", "implicitfast": "implicit"}
+        return _SCRIPT.format(
+            model=model,
+            x64=options["precision"] == "float64",
+            precision=options["precision"],
+            chunk=CHUNK_STEPS,
+            integrator=options["integrator"],
+            integrate=integrate[options["integrator"]],
+            device_text="JAX's default device" if device == "auto" else f"the {device}",
+            device_arg="" if device == "auto" else repr(device),
+        )
+
     def _import(self) -> ModuleType:
         module = super()._import()
         import jax
@@ -190,6 +206,74 @@ class MjxEngine(WorldsEngine, MjcfEngine):
             done += n
         batch.state = states[-1][:, -1]
         return np.concatenate(states, axis=1), np.concatenate(forces, axis=1)
+
+
+_SCRIPT = '''
+import jax
+import mujoco
+from mujoco import mjx
+from mujoco.mjx._src.support import contact_force  # MJX's mj_contactForce (not re-exported)
+
+jax.config.update("jax_enable_x64", {x64})  # precision {precision}: False is JAX's float32
+
+{model}
+
+CHUNK = {chunk}
+"""Steps per call of the compiled loop (its row buffers' length)."""
+
+
+def steps(model, data, n):
+    """n steps (n <= CHUNK, traced: one compile serves every n) from data: each is
+    mjx.forward (constraint forces at the state before the step), the contact force of
+    contact 0 (the hoop-floor pair) in the world frame, then the integrator ({integrator}):
+    the force at the state the step starts from, as MuJoCo C's sensor gives it (mjx.step
+    would leave the last RK4 stage's forces in data)."""
+    rows = (
+        jax.numpy.zeros((CHUNK, model.nq), data.qpos.dtype),
+        jax.numpy.zeros((CHUNK, model.nv), data.qvel.dtype),
+        jax.numpy.zeros((CHUNK, 3), data.qpos.dtype),
+    )
+
+    def step(i, carry):
+        data, qpos, qvel, force = carry
+        data = mjx.forward(model, data)
+        f = contact_force(model, data, 0, to_world_frame=True)[:3]
+        data = mjx.{integrate}(model, data)
+        return data, qpos.at[i].set(data.qpos), qvel.at[i].set(data.qvel), force.at[i].set(f)
+
+    return jax.lax.fori_loop(0, n, step, (data, *rows))
+
+
+def simulate():
+    """One world on {device_text}: the window in compiled chunks of CHUNK steps, one step
+    more for the last state's force."""
+    model, data = start(mujoco)
+    device = jax.devices({device_arg})[0]
+    mx = mjx.put_model(model, device=device, impl="jax")
+    dx = mjx.put_data(model, data, device=device, impl="jax")
+    # put_data's contact indices are int32 where a step makes int64 (x64): the loop's carry
+    # must keep its types, so the data takes a step's types first.
+    like = jax.eval_shape(mjx.forward, mx, dx)
+    dx = jax.tree.map(lambda leaf, typed: leaf.astype(typed.dtype), dx, like)
+    # A batch of one world, as hoopbench steps it: jit of the unbatched loop compiles to other
+    # float32 roundings (measured: the first difference at step 719 of hop-top).
+    run = jax.jit(jax.vmap(steps, in_axes=(0, 0, None)))
+    mx, dx = (jax.tree.map(lambda leaf: leaf[None], tree) for tree in (mx, dx))
+    qpos, qvel, force = [np.array([data.qpos])], [np.array([data.qvel])], []
+    done = 0
+    while done <= N_STEPS:
+        n = min(CHUNK - done % CHUNK, N_STEPS - done) or 1  # 1: the last force's step
+        dx, q, v, f = run(mx, dx, n)
+        force.append(np.asarray(f[0, :n], dtype=float))
+        if done < N_STEPS:
+            qpos.append(np.asarray(q[0, :n], dtype=float))
+            qvel.append(np.asarray(v[0, :n], dtype=float))
+        done += n
+    qpos, qvel, force = (np.concatenate(x)[: N_STEPS + 1] for x in (qpos, qvel, force))
+    com = com_state(qpos[:, 0], A + qpos[:, 1], qpos[:, 2], *qvel.T)
+    return {{**com, "normal_force": force[:, 2] / M, "friction_force": force[:, 0] / M}}
+'''
+"""MJX's part of a standalone script (engines/standalone.py), as an MJX user writes it."""
 
 
 def _device(jax: ModuleType, choice: str) -> Any:

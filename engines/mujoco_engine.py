@@ -98,7 +98,7 @@ from hoopbench.models.mjcf import (
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
 
-__all__ = ["MjcfEngine", "MujocoEngine", "mjcf_text", "model_at_start"]
+__all__ = ["MjcfEngine", "MujocoEngine", "mjcf_text", "model_at_start", "start_sink"]
 
 _BAD_STATE_WARNINGS = ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")
 
@@ -173,6 +173,70 @@ class MjcfEngine(Engine):
         """Model and data at the initial state (equilibrium penetration, see module doc)."""
         text = self._model_text(scene, settings, options)
         return model_at_start(mujoco, text, scene, settings.geometry, options)
+
+    def _script_model(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
+        """A standalone script's model part: the MJCF the run loads, as a string, the sink
+        its start needs (found here with MuJoCo C, module doc) and ``start(mujoco)``, which
+        returns MuJoCo C's model and data at the run's initial state."""
+        import mujoco
+
+        text = self._model_text(scene, settings, options)
+        sink = start_sink(mujoco, text, scene, settings.geometry, options)
+        return _SCRIPT_MODEL.format(mjcf=text.replace("\\", "\\\\"), sink=sink)
+
+
+_SCRIPT_MODEL = '''
+MJCF = """
+{mjcf}"""
+"""The model: one body with slide x, slide z and a hinge about +y at the hoop centre (MuJoCo's
+z is up; the hinge angle is theta, clockwise from the top), the scene's mass and inertia in
+<inertial>, a sphere of radius A against the plane through one explicit <pair> (friction,
+solref, solreffriction, solimp), and every solver setting in <option>."""
+
+SINK = {sink!r}
+"""m: the hoop starts this far into the floor, where the contact holds its centre with zero
+vertical acceleration (hoopbench found it with mj_forward and Brent's method on data.qacc of
+the slide z joint): started exactly touching, MuJoCo's soft contact would give no force in the
+first step and the hoop would sink in and ring."""
+
+
+def start(mujoco):
+    """MuJoCo's model, and its data at the initial state: rolling, SINK into the floor."""
+    model = mujoco.MjModel.from_xml_string(MJCF)
+    data = mujoco.MjData(model)
+    x, y, theta, xdot, ydot, thetadot = CENTRE0
+    data.qpos[:] = (x, y - A, theta)  # slide x, slide z (0 at the height A), hinge theta
+    data.qvel[:] = (xdot, ydot, thetadot)
+    data.qpos[1] -= SINK
+    mujoco.mj_forward(model, data)
+    return model, data
+'''
+"""The model part of an MJCF engine's standalone script (MuJoCo, MJX, MuJoCo Warp)."""
+
+_SCRIPT = '''
+import mujoco
+
+{model}
+
+def simulate():
+    """Step the window with mj_step, reading the model's contact sensor (reduce="netforce":
+    the summed contact force on the hoop, world frame) after each step: MuJoCo evaluates
+    sensors before it integrates (RK4's first stage), so that is the force at the state the
+    step started from. One step more gives the last state its force."""
+    model, data = start(mujoco)
+    qpos, qvel = np.empty((N_STEPS + 1, 3)), np.empty((N_STEPS + 1, 3))
+    force = np.empty((N_STEPS + 1, 3))
+    qpos[0], qvel[0] = data.qpos, data.qvel
+    for i in range(N_STEPS + 1):
+        mujoco.mj_step(model, data)
+        force[i] = data.sensordata[1:4]  # after "found": the force x, y, z
+        if i < N_STEPS:
+            qpos[i + 1], qvel[i + 1] = data.qpos, data.qvel
+    com = com_state(qpos[:, 0], A + qpos[:, 1], qpos[:, 2], *qvel.T)
+    return {{**com, "normal_force": force[:, 2] / M, "friction_force": force[:, 0] / M}}
+'''
+"""MuJoCo's part of a standalone script (engines/standalone.py), as a MuJoCo user writes it:
+a plain mj_step loop (the adapter's chunked rollout gives the same numbers, bit for bit)."""
 
 
 def _narrowed(option: Option, check: Check) -> Any:
@@ -327,6 +391,9 @@ class MujocoEngine(MjcfEngine):
             if option.name not in dropped
             for check in [checks.get(option.name, option.check)]
         )
+
+    def _script(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
+        return _SCRIPT.format(model=self._script_model(scene, settings, options))
 
     # ----------------------------------------------------------------- stepping hooks
     @contextmanager
@@ -492,6 +559,25 @@ def model_at_start(
     """MuJoCo C's model of an MJCF text and its data at the scene's initial state, at the
     equilibrium penetration (module doc): the start of this adapter's runs, and of MJX's
     and MuJoCo Warp's, which put these on their device."""
+    model, data = _model_touching(mujoco, text, scene, geometry, options)
+    data.qpos[1] -= _equilibrium_penetration(mujoco, model, data, scene.a)
+    mujoco.mj_forward(model, data)
+    return model, data
+
+
+def start_sink(
+    mujoco: ModuleType, text: str, scene: Scene, geometry: str, options: dict[str, Any]
+) -> float:
+    """The equilibrium penetration, m, that :func:`model_at_start` sinks the hoop by (module
+    doc): the number a standalone script starts from (it has no root finder)."""
+    model, data = _model_touching(mujoco, text, scene, geometry, options)
+    return _equilibrium_penetration(mujoco, model, data, scene.a)
+
+
+def _model_touching(
+    mujoco: ModuleType, text: str, scene: Scene, geometry: str, options: dict[str, Any]
+) -> tuple[Any, Any]:
+    """MuJoCo C's model of an MJCF text and its data rolling, exactly touching the floor."""
     model = mujoco.MjModel.from_xml_string(text)
     data = mujoco.MjData(model)
     # The lowest point of the contact shape (the ring's vertex) on the floor, rolling.
@@ -499,8 +585,6 @@ def model_at_start(
     x, y, theta, xdot, ydot, thetadot = kinematics.rolling_start(scene, shape)
     data.qpos[:] = (x, y - scene.a, theta)
     data.qvel[:] = (xdot, ydot, thetadot)
-    data.qpos[1] -= _equilibrium_penetration(mujoco, model, data, scene.a)
-    mujoco.mj_forward(model, data)
     return model, data
 
 
