@@ -99,7 +99,7 @@ RESULTS ?= $(lastword $(sort $(wildcard reports/output/*/default)))
 findings: $(REPORT_STAMP)
 	@test -n "$(RESULTS)" || { echo "no report yet: run make report first"; exit 2; }
 	$(BIN)/hoopbench findings --results $(RESULTS) $(wildcard $(dir $(RESULTS))finer) \
-		$(dir $(RESULTS))stability --update README.md
+		$(dir $(RESULTS))stability $(SEARCH_DIRS) --update README.md
 	test ! -f $(dir $(RESULTS))hop-top.gif || cp $(dir $(RESULTS))hop-top.gif reports/img/
 
 # The batched engines' cost per world-step goes to $(BENCH_OUT)/batch_cost.csv too, which

@@ -7,6 +7,7 @@ As a library (``hoopbench.reports.api``; README, "Python API")::
     scene = hb.scene("hop-top")                     # or hb.scene(lam=0.9, chi=1.2, mus=0.5)
     solution = hb.exact(scene)                      # events and a dense trajectory
     run = hb.run("mujoco", scene, timestep=1e-3)    # .trajectory, .row, .verdict, .events
+    text = hb.export("mujoco", scene, timestep=1e-3)  # the same run as a standalone script
     runs = hb.compare("quick", "out/quick")         # a suite's runs table
     points = hb.map("out/map", grid=(3, 3))         # the hop map's table
     path = hb.report(["out/quick"])                 # report.md
@@ -32,6 +33,7 @@ _API = {
     "engine_names": "engine_names",
     "exact": "exact",
     "run": "run",
+    "export": "export",
     "compare": "compare",
     "hop_map": "hop_map",
     "map": "hop_map",

@@ -38,6 +38,7 @@ from hoopbench.engines.judging.judge import judge
 from hoopbench.engines.options import Option, Profile, Variant, choice
 from hoopbench.engines.run import BatchCost, Run, RunInfo, RunResult, RunStatus
 from hoopbench.engines.settings import BYTES_PER_STEP, MAX_STEPS, RunSettings
+from hoopbench.engines.standalone import EXPORT_GEOMETRY, standalone_script
 from hoopbench.engines.stopping import StopMonitor, StopReason, StopRule
 from hoopbench.models import kinematics
 from hoopbench.models.events import Events
@@ -414,6 +415,11 @@ class Engine(ABC):
         note = f": {self.model_note}" if self.model_note else ""
         raise ValueError(f"engine {self.name} reads no model file{note}")
 
+    def _script(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
+        """The engine's part of a standalone script (engines/standalone.py): its imports and a
+        function ``simulate()`` returning the run's states and forces per unit mass."""
+        raise ValueError(f"engine {self.name} has no standalone export")
+
     # ----------------------------------------------------------------- public
     def version(self) -> str | None:
         try:
@@ -440,6 +446,40 @@ class Engine(ABC):
         """The engine's native model of the scene, as a run with these settings loads it."""
         settings = settings or RunSettings()
         return self._model_text(scene, settings, self.check(scene, settings))
+
+    @classmethod
+    def exports(cls) -> bool:
+        """True if the engine writes standalone scripts (implements ``_script``)."""
+        return cls._script is not Engine._script
+
+    def export_script(
+        self, scene: Scene, settings: RunSettings | None = None, *, command: list[str] | None = None
+    ) -> str:
+        """A standalone Python script that reproduces :meth:`simulate`'s run of ``scene`` with
+        the engine's own API alone and writes its trajectory as CSV (engines/standalone.py).
+
+        ValueError for settings :meth:`check` refuses, a geometry other than the hoop's
+        circle, or an engine without an export. ``command``: the command line, for the
+        script's header."""
+        settings = settings or RunSettings()
+        options = self.check(scene, settings)
+        if settings.geometry != EXPORT_GEOMETRY:
+            raise ValueError(
+                f"export writes only the default geometry ({EXPORT_GEOMETRY}), got "
+                f"geometry {settings.geometry!r}"
+            )
+        return standalone_script(
+            engine=self.name,
+            release=self.version(),
+            scene=scene,
+            timestep=settings.timestep,
+            n_steps=n_steps_for(scene, settings.timestep),
+            mu=self.mu_for(scene, settings),
+            restitution=settings.restitution,
+            settings={**settings.to_dict(), **options},
+            engine_part=self._script(scene, settings, options),
+            command=command,
+        )
 
     def simulate(self, scene: Scene, settings: RunSettings | None = None) -> Run:
         """Step the scene. Bad settings raise ValueError; engine failures return a status."""

@@ -135,6 +135,21 @@ class PymunkEngine(Engine):
     def _model_text(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
         return self.spec(scene, settings).to_json(indent=2)
 
+    def _script(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
+        spec = self.spec(scene, settings)
+        bias = options["collision_bias"]
+        bias_line = (
+            "# collision_bias: pymunk's own (0.9**60)"
+            if bias is None
+            else f"space.collision_bias = {float(bias)!r}  # overlap left after 1 s"
+        )
+        return _SCRIPT.format(
+            spec=spec,
+            iterations=int(options["iterations"]),
+            slop=float(options["collision_slop"]),
+            bias_line=bias_line,
+        )
+
     # ----------------------------------------------------------------- model
     def spec(self, scene: Scene, settings: RunSettings | None = None) -> PymunkSpec:
         """The pymunk model of the scene for these settings (plain numbers, inspectable)."""
@@ -211,6 +226,60 @@ class PymunkEngine(Engine):
 
     def _step_bare(self, run: _Run, steps: int) -> None:
         call_repeatedly(run.space.step, steps, run.timestep)
+
+
+_SCRIPT = '''
+import pymunk
+
+
+def build():
+    """The space: one dynamic body (the scene's mass and moment, its centre of gravity lam a
+    from the hoop centre, toward the weight), a massless circle, a static floor segment whose
+    top surface is y = 0. pymunk's angles are counter-clockwise: the body angle is -theta."""
+    space = pymunk.Space()
+    space.gravity = {spec.gravity!r}
+    space.damping = 1.0  # no damping
+    space.iterations = {iterations!r}
+    space.collision_slop = {slop!r}  # m: pymunk's 0.1 is made for pixels
+    {bias_line}
+    body = pymunk.Body({spec.mass!r}, {spec.moment!r})
+    # Order matters: the angle setter turns the body about its centre of gravity, and the
+    # position setter places the body origin (the hoop centre) through that transform.
+    body.center_of_gravity = {spec.center_of_gravity!r}
+    body.angle = {spec.angle!r}
+    body.position = {spec.position!r}  # {spec.start_overlap!r} m into the floor: in contact
+    body.velocity = {spec.velocity!r}  # of the centre of gravity
+    body.angular_velocity = {spec.angular_velocity!r}
+    hoop = pymunk.Circle(body, {spec.hoop_radius!r})  # no mass: the body keeps its own
+    hoop.friction = {spec.hoop_friction!r}  # pymunk multiplies the two shapes' values
+    hoop.elasticity = {spec.hoop_elasticity!r}
+    floor_a, floor_b = {spec.floor_a!r}, {spec.floor_b!r}  # its axis, m
+    floor = pymunk.Segment(space.static_body, floor_a, floor_b, {spec.floor_radius!r})
+    floor.friction = {spec.floor_friction!r}
+    floor.elasticity = {spec.floor_elasticity!r}
+    space.add(body, hoop, floor)
+    return space, body
+
+
+def simulate():
+    """Step the window; the contact force of each step from its momentum balance (with no
+    damping pymunk sets v1 = v0 + g dt + J / M, so this is J / (M dt), exactly 0 without a
+    contact), given to the row the step starts from; row 0 repeats step 1's force."""
+    space, body = build()
+    rows = [(*body.position, body.angle, *body.velocity, body.angular_velocity)]
+    for _ in range(N_STEPS):
+        space.step(DT)
+        rows.append((*body.position, body.angle, *body.velocity, body.angular_velocity))
+    raw = np.array(rows)
+    vx, vy, gy = raw[:, 3], raw[:, 4], float(space.gravity.y)
+    friction, normal = np.empty(len(raw)), np.empty(len(raw))
+    friction[1:] = (vx[1:] - (vx[:-1] + 0.0 * DT)) / DT
+    normal[1:] = (vy[1:] - (vy[:-1] + gy * DT)) / DT
+    friction[0], normal[0] = friction[1], normal[1]
+    state = com_state_ccw(*raw.T)
+    return {{**state, "normal_force": normal, "friction_force": friction}}
+'''
+"""pymunk's part of a standalone script (engines/standalone.py), as a pymunk user writes it."""
 
 
 @dataclass

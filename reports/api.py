@@ -98,6 +98,7 @@ __all__ = [
     "default_jobs",
     "engine_names",
     "exact",
+    "export",
     "hop_map",
     "map_spec",
     "report",
@@ -434,6 +435,39 @@ def run(
     result, row = suite_runs.run_and_row(task)
     frame = None if result.trajectory is None else result.trajectory.to_frame()
     return EngineRun(task=task, result=result, row=row, trajectory=frame)
+
+
+def export(
+    engine: str,
+    scene: Scene | str,
+    *,
+    timestep: float = DEFAULT_TIMESTEP,
+    profile: Profile | str = Profile.TUNED,
+    options: Mapping[str, Any] | None = None,
+    settings: str | Path | None = None,
+    command: list[str] | None = None,
+) -> str:
+    """A standalone Python script that reproduces :func:`run`'s run of ``scene`` in
+    ``engine`` with the engine's own API alone (no hoopbench import) and writes its
+    trajectory, as ``hoopbench simulate --csv`` does, to the CSV path given as its first
+    argument: what to attach to an engine's bug tracker (engines/standalone.py).
+
+    Arguments as :func:`run`'s (``settings``: a ``FILE#NAME`` of ``hoopbench tune``);
+    ``command``: the command line, for the script's header. ValueError for bad settings or
+    an engine without an export."""
+    if settings is not None:
+        if options or timestep != DEFAULT_TIMESTEP or str(profile) != str(Profile.TUNED):
+            raise OptionError(
+                "settings", "{option} gives the timestep, profile and options: set none of them"
+            )
+        chosen = setting_from_file(engine, settings)
+        timestep, profile, options = chosen.timestep, chosen.profile, chosen.options
+    if options is not None and not isinstance(options, Mapping):
+        raise OptionError("options", f"{{option}} must be a mapping of settings, got {options!r}")
+    run_settings = RunSettings(
+        timestep=timestep, options=options or {}, profile=check_profile("profile", profile)
+    )
+    return engine_class(engine)().export_script(_as_scene(scene), run_settings, command=command)
 
 
 def setting_from_file(engine: str, text: str | Path) -> Any:

@@ -483,6 +483,46 @@ def _cmd_model(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_export(args: argparse.Namespace) -> int:
+    import hoopbench.reports.api as api
+    from hoopbench.models.whole_files import write_whole
+
+    scene = _scene_from_args(args)
+    out = _output_file(args.out, (".py",), args.force)
+    if args.settings is not None:
+        settings = _settings_from_file(args)
+    else:
+        settings = _settings_from_args(args, args.engine)
+    if settings.geometry != "sphere" or settings.restitution or settings.mu is not None:
+        raise UsageError(
+            "export writes the scene's own friction, no restitution and the default geometry: "
+            "drop --mu, --restitution and --geometry"
+        )
+    text = api.export(
+        args.engine,
+        scene,
+        timestep=settings.timestep,
+        profile=settings.profile,
+        options=dict(settings.options),
+        command=sys.argv[1:],
+    )
+    mode = out.stat().st_mode & 0o777 if out.exists() else None
+
+    def write(tmp: Path) -> None:
+        tmp.write_text(text)
+        if mode is not None:
+            tmp.chmod(mode)
+
+    try:
+        write_whole(out, write)
+    except OSError as exc:
+        if not _system_error(exc):
+            raise
+        raise _write_failure(exc, out, "nothing was written") from None
+    print(out)
+    return 0
+
+
 def _cmd_settings(args: argparse.Namespace) -> int:
     from dataclasses import asdict
 
@@ -634,17 +674,22 @@ def _cmd_report(args: argparse.Namespace) -> int:
 def _cmd_findings(args: argparse.Namespace) -> int:
     import pandas as pd
 
+    from hoopbench.reports.report.best_settings import best_settings, is_tune_folder
     from hoopbench.reports.report.build import report_frame
     from hoopbench.reports.report.findings import readme_markdown, update_readme
 
-    for folder in args.results:
+    searches = [folder for folder in args.results if is_tune_folder(folder)]
+    results = [folder for folder in args.results if folder not in searches]
+    for folder in results:
         if not (Path(folder) / "runs").is_dir():
             raise UsageError(f"--results {folder!r} holds no results (no runs/ folder)")
+    if not results:
+        raise UsageError("--results names searches only: give a results folder too")
     if args.update and not Path(args.update).is_file():
         what = "is a folder" if Path(args.update).is_dir() else "does not exist"
         raise UsageError(f"--update {args.update!r} {what}: give a Markdown file with the markers")
-    frame = pd.concat([report_frame(Path(f)) for f in args.results], ignore_index=True)
-    text = readme_markdown(frame)
+    frame = pd.concat([report_frame(Path(f)) for f in results], ignore_index=True)
+    text = readme_markdown(frame, best_settings(searches))
     if not args.update:
         print(text)
         return 0
@@ -886,6 +931,27 @@ def _add_simulate(sub: Any, classes: Mapping[str, Any]) -> None:
     p.set_defaults(func=_cmd_simulate)
 
 
+def _add_export(sub: Any, classes: Mapping[str, Any]) -> None:
+    exportable = tuple(name for name, cls in classes.items() if cls.exports())
+    p = sub.add_parser(
+        "export",
+        help="write a standalone script that reproduces one run with the engine's API alone",
+    )
+    _add_scene_options(p)
+    _engine_options(p, exportable)
+    p.add_argument(
+        "--settings",
+        metavar="FILE[#NAME]",
+        help="a settings file of hoopbench tune: its first setting, the one named NAME, or "
+        "the cheapest of a tier (FILE#close, FILE#agrees)",
+    )
+    p.add_argument(
+        "--out", required=True, help="the script to write (.py); run it as: python FILE out.csv"
+    )
+    p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
+    p.set_defaults(func=_cmd_export)
+
+
 def _add_model(sub: Any, classes: Mapping[str, Any]) -> None:
     p = sub.add_parser("model", help="print the engine's native model of a scene")
     _add_scene_options(p)
@@ -970,7 +1036,13 @@ def _add_findings(sub: Any, classes: Mapping[str, Any]) -> None:
     p = sub.add_parser(
         "findings", help="the answer, the scoreboard and the key findings, as Markdown"
     )
-    p.add_argument("--results", required=True, nargs="+", metavar="DIR", help="results folders")
+    p.add_argument(
+        "--results",
+        required=True,
+        nargs="+",
+        metavar="DIR",
+        help="results folders, and searches of hoopbench tune whose settings the answer weighs",
+    )
     p.add_argument(
         "--update", metavar="README", help="replace the findings block of this Markdown file"
     )
@@ -1081,6 +1153,7 @@ def _parser() -> _Parser:
         _add_scenes,
         _add_reference,
         _add_simulate,
+        _add_export,
         _add_model,
         _add_settings,
         _add_compare,

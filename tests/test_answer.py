@@ -11,8 +11,11 @@ from hoopbench.reports.report.answer import (
     ACCURACY_TIERS,
     answer,
     answer_markdown,
+    at_best,
     timestep_limits,
 )
+from hoopbench.reports.report.best_settings import BestSettings
+from hoopbench.reports.tune.tiers import cheapest_by_tier
 
 SCENES = ("seed-mu", "hop-top", "low-friction")
 
@@ -122,3 +125,61 @@ def test_one_scene_is_said_as_one():
     rows = pd.DataFrame([run("mujoco", "seed-mu", "agrees"), run("pybullet", "seed-mu", "close")])
     text = answer_markdown(answer(rows))
     assert "on the 1 catalogue scene (seed-mu)" in text and "all 1" not in text
+
+
+def search(engine, rows, training=("seed-mu", "hop-top")) -> BestSettings:
+    """A search read back, as best_settings gives it: its front rows, with tier counts."""
+    front = pd.DataFrame(rows)
+    return BestSettings(
+        engine=engine,
+        front=front,
+        trials=pd.DataFrame(),
+        training_scenes=training,
+        tuned_heldout=None,
+        at_tuned_cost=None,
+        at_ten_times=None,
+        cheapest=cheapest_by_tier(front),
+    )
+
+
+def front_row(name, agrees, close, *, n=6, cost=5e5, dt=1e-4, heldout_tier="close"):
+    return {
+        "setting": name,
+        "kind": "pareto",
+        "timestep": dt,
+        "train_cost_us_per_s": cost,
+        "heldout_tier": heldout_tier,
+        "agrees_scenes": agrees,
+        "close_scenes": close,
+        "n_scenes": n,
+    }
+
+
+def test_each_engine_at_its_best_weighs_the_shipped_search():
+    """The suite meets the tight tier on 2/3 scenes and the loose on 3/3; the search's setting
+    is within both on 6/6 of its scenes (4 held out), so it is the engine's best for tight;
+    for loose both cover every scene and the suite's is cheaper (0.1 s against 0.5 s per
+    simulated second)."""
+    rows = pd.DataFrame(setting("drake", ["agrees", "close", "agrees"], us=10.0))
+    found = search("drake", [front_row("trial-34", 6, 6, heldout_tier="agrees")])
+    result = answer(rows, [found])
+    tight, loose = at_best(result)
+    assert tight.from_search and tight.search.setting == "trial-34"
+    assert (tight.search.scenes_met, tight.search.scenes, tight.search.heldout) == (6, 6, 4)
+    assert not loose.from_search and loose.suite.scenes_met == 3
+    text = answer_markdown(result)
+    assert (
+        "| drake | tight | trial-34 (dt 0.0001) | 6/6 scenes, 4 of them held out (held-out tier: "
+        "agrees) | 0.5 | search: drake's settings.toml#agrees; the suite's best: 2/3 catalogue "
+        "scenes |" in text
+    )
+    assert "| drake | loose | tuned, default, dt 0.0001 | 3/3 catalogue scenes | 0.1 |" in text
+
+
+def test_an_engine_of_a_search_alone_is_at_its_best_but_not_in_the_suites_table():
+    rows = pd.DataFrame(setting("mujoco", ["agrees"] * 3))
+    found = search("newton", [front_row("trial-7", 0, 2, cost=1.5e6)])
+    text = answer_markdown(answer(rows, [found]))
+    assert "| newton | none |" not in text
+    assert "| newton | loose | trial-7 (dt 0.0001) | 2/6 scenes" in text
+    assert "| newton | tight |" not in text  # no setting of the search agrees anywhere

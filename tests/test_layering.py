@@ -34,6 +34,7 @@ RANKS = {
         "judging": 1,
         "stopping": 2,
         "settings": 3,
+        "standalone": 3,
         "base": 4,
         "registry": 5,
         "adapters": 6,  # every *_engine.py: each registers itself in the registry

@@ -28,24 +28,28 @@ import pandas as pd
 from hoopbench.engines.judging.columns import Col
 from hoopbench.engines.judging.score import cheapest_of_most
 from hoopbench.engines.judging.tolerances import Tier
-from hoopbench.engines.judging.verdict import TIER_VERDICTS
+from hoopbench.engines.judging.verdict import TIER_NAMES, TIER_VERDICTS
 from hoopbench.engines.run import RunStatus
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
 from hoopbench.models.catalogue import scene_names
 from hoopbench.reports.compare.selection import engine_names_of, engine_rows, profile_of
 from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
+from hoopbench.reports.report.best_settings import BestSettings
 from hoopbench.reports.report.escaping import escape_cell, escape_text
 
 __all__ = [
     "ACCURACY_TIERS",
     "AccuracyTier",
     "Answer",
+    "AtBest",
     "Choice",
     "EngineAnswer",
+    "SearchChoice",
     "Setting",
     "TimestepLimit",
     "answer",
     "answer_markdown",
+    "at_best",
     "timestep_limits",
 ]
 
@@ -104,6 +108,52 @@ class Choice:
 
 
 @dataclass(frozen=True)
+class SearchChoice:
+    """The setting a shipped search of ``hoopbench tune`` names for a tier (its settings
+    file's ``[tiers]``), with what the search measured of it."""
+
+    engine: str
+    setting: str
+    """The search's name for it (e.g. ``trial-34``): ``settings.toml#TIER`` runs it."""
+    timestep: float
+    """s (a continuous integrator's is its output step)."""
+    scenes_met: int
+    """How many of the search's scenes, training and held-out, its runs are within the tier."""
+    scenes: int
+    heldout: int
+    """How many of ``scenes`` are held out (scenes the search never trained on)."""
+    heldout_tier: str
+    """The tier its runs reach on every held-out scene: agrees, close or none."""
+    wall_per_sim_s: float
+    """Seconds of wall time per simulated second on the training scenes, as measured by the
+    search (on the machine and load of the search)."""
+
+
+@dataclass(frozen=True)
+class AtBest:
+    """One engine's best for a tier: the suite's setting or the search's, whichever is within
+    the tier on the larger share of its own scenes (the cheaper where they tie)."""
+
+    engine: str
+    tier: str
+    suite: Choice | None
+    suite_scenes: int
+    """The answer's scene count, which ``suite.scenes_met`` is out of."""
+    search: SearchChoice | None
+
+    @property
+    def from_search(self) -> bool:
+        """Whether the search's setting is the better one (class doc)."""
+        if self.search is None:
+            return False
+        if self.suite is None:
+            return True
+        search = (-self.search.scenes_met / self.search.scenes, self.search.wall_per_sim_s)
+        suite = (-self.suite.scenes_met / self.suite_scenes, self.suite.wall_per_sim_s)
+        return search < suite
+
+
+@dataclass(frozen=True)
 class EngineAnswer:
     """One engine's line of the answer."""
 
@@ -116,6 +166,9 @@ class EngineAnswer:
     loose tier."""
     settings_tried: int
     """Settings with at least one judged run."""
+    searched: tuple[SearchChoice | None, ...] = ()
+    """Per tier of ACCURACY_TIERS: the setting the engine's shipped search names for it (None
+    where it names none); empty without a search."""
 
 
 @dataclass(frozen=True)
@@ -211,9 +264,36 @@ def timestep_limits(runs: pd.DataFrame) -> tuple[TimestepLimit, ...]:
     return tuple(limits)
 
 
-def answer(runs: pd.DataFrame) -> Answer:
+def _search_choice(best: BestSettings, tier: AccuracyTier) -> SearchChoice | None:
+    """What ``best``'s settings file names for ``tier`` (its [tiers]), with its front row."""
+    choice = best.cheapest.get(TIER_NAMES[Tier(tier.name)])
+    if choice is None or choice.scenes == 0:
+        return None
+    row = best.front[best.front["setting"] == choice.setting].iloc[0]
+    heldout = row.get("heldout_tier")
+    return SearchChoice(
+        engine=best.engine,
+        setting=choice.setting,
+        timestep=float(row["timestep"]),
+        scenes_met=choice.scenes_within,
+        scenes=choice.scenes,
+        heldout=choice.scenes - len(best.training_scenes),
+        heldout_tier=str(heldout) if isinstance(heldout, str) else "-",
+        wall_per_sim_s=float(row["train_cost_us_per_s"]) * 1e-6,
+    )
+
+
+def _searched(searches: Sequence[BestSettings], engine: str) -> tuple[SearchChoice | None, ...]:
+    mine = [best for best in searches if best.engine == engine]
+    if not mine:
+        return ()
+    return tuple(_search_choice(mine[-1], tier) for tier in ACCURACY_TIERS)
+
+
+def answer(runs: pd.DataFrame, searches: Sequence[BestSettings] = ()) -> Answer:
     """The answer (module doc) from the comparison suites' rows (the stability suite's left
-    out by the caller). The scenes the timestep limits are left out of the settings' scenes:
+    out by the caller) and the shipped searches' settings files (``searches``: each engine's
+    last one counts). The scenes the timestep limits are left out of the settings' scenes:
     every engine fails them at the default timestep and coarser, which says nothing about
     which engine to choose; the answer says so beside the table."""
     rows = _judged(runs)
@@ -221,7 +301,8 @@ def answer(runs: pd.DataFrame) -> Answer:
     limited = {limit.scene for limit in limits}
     scenes = tuple(s for s in dict.fromkeys(rows[Col.SCENE]) if s not in limited)
     engines = []
-    for engine in engine_names_of(rows):
+    names = dict.fromkeys([*engine_names_of(rows), *(best.engine for best in searches)])
+    for engine in names:
         mine = rows[rows[Col.ENGINE] == engine]
         engines.append(
             EngineAnswer(
@@ -229,9 +310,22 @@ def answer(runs: pd.DataFrame) -> Answer:
                 tuple(_cheapest(mine, scenes, tier) for tier in ACCURACY_TIERS),
                 _always_wrong(mine, scenes),
                 mine.groupby(_KEYS).ngroups,
+                _searched(searches, engine),
             )
         )
     return Answer(scenes, tuple(engines), limits)
+
+
+def at_best(result: Answer) -> tuple[AtBest, ...]:
+    """Per engine and tier, its best of the suite's setting and the search's (AtBest), for
+    every engine with either."""
+    best = []
+    for line in result.engines:
+        searched = line.searched or (None,) * len(ACCURACY_TIERS)
+        for tier, suite, search in zip(ACCURACY_TIERS, line.cheapest, searched, strict=True):
+            if suite is not None or search is not None:
+                best.append(AtBest(line.engine, tier.name, suite, len(result.scenes), search))
+    return tuple(best)
 
 
 # --------------------------------------------------------------------------- presenting
@@ -270,6 +364,56 @@ def _scene_count(n: int) -> str:
     return "the 1 catalogue scene" if n == 1 else f"all {n} catalogue scenes"
 
 
+def _best_cells(best: AtBest) -> list[str]:
+    """Setting, scenes within the tier, cost and where the setting comes from."""
+    search, suite = best.search, best.suite
+    if best.from_search and search is not None:
+        tier_file = TIER_NAMES[Tier(best.tier)]
+        other = (
+            ""
+            if suite is None
+            else f"; the suite's best: {suite.scenes_met}/{best.suite_scenes} catalogue scenes"
+        )
+        return [
+            escape_cell(f"{search.setting} (dt {search.timestep:.3g})"),
+            f"{search.scenes_met}/{search.scenes} scenes, {search.heldout} of them held out "
+            f"(held-out tier: {escape_cell(search.heldout_tier)})",
+            f"{search.wall_per_sim_s:.3g}",
+            escape_cell(f"search: {search.engine}'s settings.toml#{tier_file}{other}"),
+        ]
+    assert suite is not None
+    return [
+        escape_cell(suite.setting.label),
+        f"{suite.scenes_met}/{best.suite_scenes} catalogue scenes",
+        f"{suite.wall_per_sim_s:.3g}",
+        "the suites",
+    ]
+
+
+def _at_best_markdown(result: Answer) -> list[str]:
+    """The table of each engine at its best (suite or shipped search), with its note."""
+    rows = at_best(result)
+    if not any(line.searched for line in result.engines):
+        return []
+    lines = [
+        "",
+        "Each engine at its best: per tier, the suites' cheapest setting above or the one the "
+        "engine's shipped search of `hoopbench tune` names for the tier (reports/tune/searches/"
+        "ENGINE/settings.toml, `--settings 'FILE#agrees'` or `#close`), whichever is within "
+        "the tier on the larger share of its scenes (the cheaper where they tie). A search's "
+        "scenes are its training scenes (the catalogue's) and held-out scenes it never "
+        "trained on; its cost was measured by the search, on the machine and load it ran on "
+        "(shipped with the repository, not measured by this report).",
+        "",
+        "| engine | tier | best setting | within the tier on | s per simulated s | found by |",
+        "|---|---|---|---|---|---|",
+    ]
+    for best in rows:
+        cells = [escape_cell(best.engine), best.tier, *_best_cells(best)]
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines
+
+
 def answer_markdown(result: Answer, *, heading: bool = True) -> str:
     """The answer as the report's first section (Markdown, ending in a blank line), its
     heading left out without ``heading`` (the README has its own); empty text when no engine
@@ -282,6 +426,8 @@ def answer_markdown(result: Answer, *, heading: bool = True) -> str:
     headers.append("wrong at every setting tried")
     lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
     for line in result.engines:
+        if not line.settings_tried:  # an engine of the searches alone: at its best below
+            continue
         cells = [escape_cell(line.engine)]
         for choice in line.cheapest:
             cells += _choice_cells(choice, len(result.scenes))
@@ -301,6 +447,7 @@ def answer_markdown(result: Answer, *, heading: bool = True) -> str:
         f"runs' verdicts. Tiers: {tiers}.",
         "",
         *lines,
+        *_at_best_markdown(result),
     ]
     if result.limits:
         parts += [

@@ -112,7 +112,7 @@ def build_report(
             extra.append(best_settings_section(found, out))
         if benches:
             extra.append(batch_cost_section(benches))
-        report = write_markdown(frame, out, generated=generated, extra=extra)
+        report = write_markdown(frame, out, generated=generated, extra=extra, searches=found)
         prefixes = map_prefixes(len(maps))
         write_page(frame, out, maps=maps, map_prefixes=prefixes, searches=found)  # report.html
     return report

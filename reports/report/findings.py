@@ -28,6 +28,7 @@ from hoopbench.reports.compare.selection import (
 )
 from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
 from hoopbench.reports.report.answer import answer, answer_markdown
+from hoopbench.reports.report.best_settings import BestSettings
 from hoopbench.reports.report.escaping import escape_text
 from hoopbench.reports.report.scoreboard import scoreboard, scoreboard_markdown
 from hoopbench.reports.report.stability import Stability, classify
@@ -416,12 +417,12 @@ def findings_markdown(runs: pd.DataFrame, *, key_only: bool = True) -> str:
     return "\n".join([board, "", SCOREBOARD_NOTE, *(["", *lines] if lines else [])])
 
 
-def readme_markdown(runs: pd.DataFrame) -> str:
-    """The README's block (``hoopbench findings``): the answer (reports/report/answer.py)
-    without its heading, then the scoreboard and the key findings, pointing to the report
-    for the rest."""
+def readme_markdown(runs: pd.DataFrame, searches: Sequence[BestSettings] = ()) -> str:
+    """The README's block (``hoopbench findings``): the answer (reports/report/answer.py,
+    with the shipped ``searches``) without its heading, then the scoreboard and the key
+    findings, pointing to the report for the rest."""
     is_stability = runs.get("suite", pd.Series("", index=runs.index)) == "stability"
-    head = answer_markdown(answer(runs[~is_stability]), heading=False).rstrip()
+    head = answer_markdown(answer(runs[~is_stability], searches), heading=False).rstrip()
     text = findings_markdown(runs).replace(
         f'section "{MORE_FINDINGS}" below', f'section "{MORE_FINDINGS}" of the report'
     )

@@ -37,6 +37,7 @@ from hoopbench.reports.compare.suite import ROW_COLUMNS
 from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
 from hoopbench.reports.report import seed_reproduction
 from hoopbench.reports.report.answer import answer, answer_markdown
+from hoopbench.reports.report.best_settings import BestSettings
 from hoopbench.reports.report.escaping import escape_cell, escape_text, file_stem
 from hoopbench.reports.report.figures import events_figure, hoop_figure, paths_figure
 from hoopbench.reports.report.findings import (
@@ -590,9 +591,10 @@ def _all_findings_section(runs: pd.DataFrame) -> str:
     return _section(f"## {MORE_FINDINGS}", "", text) if len(findings(runs)) > KEY_FINDINGS else ""
 
 
-def _answer_section(runs: pd.DataFrame) -> str:
-    """The answer (reports/report/answer.py) of the comparison suites' rows."""
-    return answer_markdown(answer(runs))
+def _answer_section(runs: pd.DataFrame, searches: Sequence[BestSettings]) -> str:
+    """The answer (reports/report/answer.py) of the comparison suites' rows and the shipped
+    searches."""
+    return answer_markdown(answer(runs, searches))
 
 
 def _seed_section(out: Path) -> tuple[str, list[Path]]:
@@ -775,12 +777,18 @@ def _files_section() -> str:
 
 # --------------------------------------------------------------------------- the report
 def write_markdown(
-    frame: pd.DataFrame, out: Path, *, generated: str, extra: Sequence[str] = ()
+    frame: pd.DataFrame,
+    out: Path,
+    *,
+    generated: str,
+    extra: Sequence[str] = (),
+    searches: Sequence[BestSettings] = (),
 ) -> Path:
     """Write out/report.md with tables and PNG figures; return its path. ``frame`` is unchanged.
 
     ``extra``: finished sections of other results (the hop maps', the Best settings), placed
     before the Files section; with an empty ``frame`` the report holds its title and those alone.
+    ``searches``: the shipped searches, whose settings the answer weighs too.
     """
     out = Path(out)
     if frame.empty:  # hop maps alone: no runs table to make sections of
@@ -803,7 +811,7 @@ def write_markdown(
     ]
     drawn = _drawn([*head, *both, *tail])
     (seed, _), (stability, _), (forces, _) = drawn[len(head) : len(head) + 3]
-    sections = [_header(), _answer_section(runs), _findings_section(everything), seed]
+    sections = [_header(), _answer_section(runs, searches), _findings_section(everything), seed]
     figures = ""
     if not runs.empty:
         run_time, _ = drawn[0]

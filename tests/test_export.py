@@ -1,0 +1,149 @@
+"""``hoopbench export``: every engine's standalone script reproduces its run without hoopbench.
+
+The script is run in a fresh interpreter in which importing hoopbench fails, and the CSV it
+writes is compared with ``hoopbench simulate --csv`` of the same run: identical (bit for bit)
+for a deterministic engine, within a stated tolerance otherwise. Both profiles, hop-top (a
+hop) and seed-mu (a slip). A run that hoopbench stopped as diverged is compared over the rows it
+has: the script has no divergence check and steps the whole window.
+"""
+
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hoopbench.engines.registry import engine_classes
+from hoopbench.models.trajectory import COLUMNS, Trajectory
+from hoopbench.reports.cli import main
+
+ENGINES = tuple(name for name in engine_classes() if name != "reference")
+"""Every engine that steps: each must export (the reference is the exact solution)."""
+
+WINDOW = {"mjx": 0.3, "mjwarp": 0.05, "newton": 0.3}
+"""Window, s, for the engines whose CPU steps cost milliseconds (compile included): their
+scripts are checked on the scene's first part; every other engine on the whole 3 s."""
+
+TOLERANCE: dict[str, float] = {}
+"""Largest difference allowed between the script's and simulate's columns, relative to each
+column's scale, for an engine whose runs are not deterministic; absent: identical."""
+
+_RUN_WITHOUT_HOOPBENCH = (
+    "import runpy, sys; sys.modules['hoopbench'] = None; sys.argv = sys.argv[1:]; "
+    "runpy.run_path(sys.argv[0], run_name='__main__')"
+)
+"""Run a script with every import of hoopbench failing (None in sys.modules)."""
+
+
+def _export_and_simulate(tmp_path: Path, engine: str, scene: str, profile: str) -> tuple:
+    common = ["--engine", engine, "--scene", scene, "--dt", "1e-4", "--profile", profile]
+    if engine in WINDOW:
+        common += ["--t-end", str(WINDOW[engine])]
+    script, exported, simulated = (
+        tmp_path / "run.py",
+        tmp_path / "script.csv",
+        tmp_path / "simulate.csv",
+    )
+    assert main(["export", *common, "--out", str(script)]) == 0
+    proc = subprocess.run(
+        [sys.executable, "-c", _RUN_WITHOUT_HOOPBENCH, str(script), str(exported)],
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert main(["simulate", *common, "--csv", str(simulated)]) in (0, 1)
+    return script, Trajectory.read(exported), Trajectory.read(simulated)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("profile", ["tuned", "stock"])
+@pytest.mark.parametrize("scene", ["hop-top", "seed-mu"])
+@pytest.mark.parametrize("engine", ENGINES)
+def test_script_reproduces_the_run(tmp_path, capsys, engine, scene, profile):
+    _, exported, simulated = _export_and_simulate(tmp_path, engine, scene, profile)
+    capsys.readouterr()
+    # A run the divergence check stopped is shorter: the script steps on (module doc).
+    n = len(simulated)
+    assert len(exported) >= n
+    tolerance = TOLERANCE.get(engine, 0.0)
+    for name in COLUMNS:
+        ours, theirs = getattr(exported, name)[:n], getattr(simulated, name)
+        if tolerance == 0.0:
+            assert np.array_equal(ours, theirs), (
+                f"{name}: first difference at row {np.flatnonzero(ours != theirs)[0]}"
+            )
+        elif name != "contact":
+            scale = max(float(np.max(np.abs(theirs))), 1e-12)
+            assert np.max(np.abs(ours - theirs)) <= tolerance * scale, name
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_script_imports_only_the_engine(engine):
+    """The script's imports: the standard library's sys, numpy and the engine's packages."""
+    import hoopbench as hb
+
+    text = hb.export(engine, "seed-mu", timestep=1e-3)
+    compile(text, "run.py", "exec")
+    imported = set()
+    for node in ast.walk(ast.parse(text)):
+        if isinstance(node, ast.Import):
+            imported |= {alias.name.split(".")[0] for alias in node.names}
+        elif isinstance(node, ast.ImportFrom):
+            imported.add((node.module or "").split(".")[0])
+    engine_packages = {module.split(".")[0] for module in engine_classes()[engine].modules}
+    assert "hoopbench" not in imported
+    assert imported <= {"sys", "math", "os", "tempfile", "numpy", *engine_packages}, imported
+
+
+def test_script_states_the_run(tmp_path, capsys):
+    """The header names the engine, its release, the scene and every setting of the run."""
+    out = tmp_path / "run.py"
+    argv = ["export", "--engine", "pymunk", "--scene", "hop-top", "--dt", "2e-4"]
+    assert main([*argv, "--set", "iterations=20", "--out", str(out)]) == 0
+    assert capsys.readouterr().out.strip() == str(out)
+    text = out.read_text()
+    assert "scene 'hop-top', dt 0.0002 s" in text
+    assert "iterations = 20" in text and "space.iterations = 20" in text
+    assert "N_STEPS = 15000" in text and "DT = 0.0002" in text
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--mu", "0.5"], "drop --mu, --restitution and --geometry"),
+        (["--geometry", "ring"], "geometry 'ring' is not available for pymunk"),
+        (["--restitution", "0.5"], "drop --mu, --restitution and --geometry"),
+        (["--set", "bogus=1"], "unknown pymunk setting(s) bogus"),
+        (["--dt", "0"], "timestep must be a number > 0 s, got 0.0"),
+    ],
+)
+def test_bad_export_is_one_line(tmp_path, capsys, extra, message):
+    out = tmp_path / "run.py"
+    argv = ["export", "--engine", "pymunk", "--scene", "seed-mu", "--out", str(out), *extra]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and "\n" not in err
+    assert not out.exists()
+
+
+def test_export_never_overwrites_without_force(tmp_path, capsys):
+    out = tmp_path / "run.py"
+    out.write_text("mine")
+    out.chmod(0o600)
+    argv = ["export", "--engine", "pymunk", "--scene", "seed-mu", "--out", str(out)]
+    assert main(argv) == 2
+    assert "pass --force to overwrite it" in capsys.readouterr().err
+    assert out.read_text() == "mine"
+    assert main([*argv, "--force"]) == 0
+    assert "import pymunk" in out.read_text()
+    assert out.stat().st_mode & 0o777 == 0o600
+
+
+def test_the_reference_has_no_export(capsys):
+    assert main(["export", "--engine", "reference", "--scene", "seed-mu", "--out", "x.py"]) == 2
+    assert "invalid choice: 'reference'" in capsys.readouterr().err
