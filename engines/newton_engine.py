@@ -50,18 +50,20 @@ rounded sum of terms no larger than s = |v| + |omega| |c| (the centre of mass's 
 the spin's lever to it), off by at most u s per rounding (u = 2^-24, float32's unit
 roundoff), and gravity's g dt adds u g dt. A step without contact therefore reads at most
 
-    N u ((s_i + s_{i+1}) / dt + g)    (per unit mass, m/s^2; N = ROUNDINGS = 4)
+    N u ((s_i + s_{i+1}) / dt + g)    (per unit mass, m/s^2; N = ROUNDINGS[solver])
 
 and a normal force within that floor is read as none: both columns 0, the contact column
-False (the trajectory's ``normal_force > 0``). The floor follows dt and the speed: at
-dt 1e-4 and 2 m/s it is 1e-2 m/s^2 (1e-3 g); a normal force above it is kept as balanced,
-a pull beyond it too (negative: no contact). Measured in flight (hop-top, hop-bottom, dt
-1e-3): XPBD and SemiImplicit read at most 0.07-0.15 of u (s_i + s_{i+1}) / dt, below the
-floor with room. ``solver=mujoco`` is not rounding: its free joint integrates the body
-origin, and the centre of mass's velocity it reports turns by a first-order residual of
-about 4e-2 m/s^2 in flight at dt 1e-3 (ω^3 lam a dt / 2 order), far above the floor, so
-its flights still read contact (Newton's own ``contact_f`` observable would not; left out
-for time).
+False (the trajectory's ``normal_force > 0``). N counts the roundings (``ROUNDINGS``): 2
+where the solver integrates the body's velocity itself (XPBD, SemiImplicit), 16 where it
+maps it from joint coordinates (Featherstone, MuJoCo). The floor follows dt and the speed:
+with N 2 at dt 1e-4 and s 2 m/s it is 5e-3 m/s^2 (5e-4 g). A normal force above it is kept
+as balanced, a pull beyond it too (negative: no contact). Measured in flight on hop-top and
+hop-bottom, |balance| / (u (s_i + s_{i+1}) / dt + u g): XPBD at most 0.07 (dt 1e-3) and
+0.12 (dt 1e-4), SemiImplicit 0.15, Featherstone 6.8 (dt 1e-3): below N with room.
+``solver=mujoco`` is not rounding: its free joint integrates the body origin, and the
+centre of mass's velocity it reports turns by a first-order residual of 4-5e-2 m/s^2 in
+flight at dt 1e-3 (of the order omega^3 lam a dt / 2), far above the floor, so its flights
+still read contact (Newton's own ``contact_f`` observable would not; left out for time).
 
 Precision: single (Warp's ``float``). The first step of a new build compiles kernels (tens
 of seconds on 2 CPU cores, kept in Warp's kernel cache, ``HOOPBENCH_CACHE`` or the user's
@@ -80,7 +82,13 @@ from typing import Any
 
 import numpy as np
 
-from hoopbench.engines.base import DEVICE, WorldsEngine, import_warp, warp_device
+from hoopbench.engines.base import (
+    CHUNK_STEPS,
+    DEVICE,
+    WorldsEngine,
+    import_warp,
+    warp_device,
+)
 from hoopbench.engines.options import (
     Option,
     Variant,
@@ -124,9 +132,11 @@ CONTACT_KD = 2.0 * CONTACT_MASS / CONTACT_TIME
 """N s/m: kd = 2 M / tc."""
 UNIT_ROUNDOFF = 2.0**-24
 """float32's unit roundoff u: a rounded result is within u |x| of the exact x."""
-ROUNDINGS = 4
-"""Roundings a velocity Newton stores may carry per step (module doc, Force): the floor's
-count N."""
+ROUNDINGS: dict[str, int] = {"xpbd": 2, "semi_implicit": 2, "featherstone": 16, "mujoco": 16}
+"""Per solver, the roundings N a velocity Newton stores may carry per step (module doc,
+Force): 2 where the solver integrates the body's velocity itself (v + a dt, one rounding per
+component, and one of a dt); 16 where it maps it from joint coordinates (a spatial transform
+of the 6-vector: quaternion rotations and the lever's cross product)."""
 
 
 @register
@@ -135,7 +145,7 @@ class NewtonEngine(WorldsEngine):
 
     name = "newton"
     distribution = "newton"
-    modules = ("newton",)
+    modules = ("newton", "warp")
     model_note = "the worlds are built by calls (newton.ModelBuilder), not read"
     step_cost_bound = 0.2
     """5 times a lone world's step on the CPU with its dearest solver (MuJoCo: 41 ms,
@@ -222,6 +232,29 @@ class NewtonEngine(WorldsEngine):
         if solver != "xpbd"  # the default
     )
 
+    def _script(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
+        solver = options["solver"]
+        args = [] if solver != "xpbd" else [f"iterations={int(options['iterations'])}"]
+        if solver != "mujoco" and options["angular_damping"] is not None:
+            args.append(f"angular_damping={float(options['angular_damping'])!r}")
+        device = {"cpu": '"cpu"', "gpu": '"cuda:0"'}.get(
+            options["device"], '"cuda:0" if wp.get_cuda_device_count() > 0 else "cpu"'
+        )
+        return _SCRIPT.format(
+            ke=float(options["ke"]),
+            kd=float(options["kd"]),
+            kf=float(options["kf"]),
+            mu_rolling=float(options["mu_rolling"]),
+            mu_torsional=float(options["mu_torsional"]),
+            pad=INERTIA_PAD,
+            solver=SOLVERS[solver],
+            solver_args="".join(f", {a}" for a in args),
+            device=device,
+            chunk=CHUNK_STEPS,
+            roundings=ROUNDINGS[solver],
+            unit_roundoff=UNIT_ROUNDOFF,
+        )
+
     def _import(self) -> ModuleType:
         import_warp()
         return super()._import()
@@ -243,7 +276,15 @@ class NewtonEngine(WorldsEngine):
             mus = [self.mu_for(scene, settings) for scene in scenes]
             model = _build(newton, wp, scenes, mus, options)
             solver = _solver(newton, model, options)
-            batch = _Batch(newton, wp, list(scenes), model, solver, settings.timestep)
+            batch = _Batch(
+                newton,
+                wp,
+                list(scenes),
+                model,
+                solver,
+                settings.timestep,
+                ROUNDINGS[options["solver"]],
+            )
             batch.start()
             yield batch
 
@@ -305,6 +346,7 @@ class _Batch:
     model: Any
     solver: Any
     timestep: float
+    roundings: int
     mass: np.ndarray = field(init=False)
     gravity: np.ndarray = field(init=False)
     theta: np.ndarray = field(init=False)
@@ -361,7 +403,7 @@ class _Batch:
                 array.assign(rows.reshape(now.shape))
             raw.append(self.read())
         rows = np.stack(raw, axis=1)  # (W, steps + 1, 7)
-        forces = _step_forces(rows, self.mass, self.gravity, self.timestep)
+        forces = _step_forces(rows, self.mass, self.gravity, self.timestep, self.roundings)
         states = np.stack(
             [_com_rows(s, world[:, :6]) for s, world in zip(self.scenes, rows, strict=True)]
         )
@@ -377,7 +419,9 @@ class _Batch:
         }
 
 
-def _step_forces(rows: np.ndarray, mass: np.ndarray, gravity: np.ndarray, dt: float) -> np.ndarray:
+def _step_forces(
+    rows: np.ndarray, mass: np.ndarray, gravity: np.ndarray, dt: float, roundings: int
+) -> np.ndarray:
     """(W, steps, 2): each step's contact force, N, (normal, friction), from the rows of
     ``_Batch.read`` (W, steps + 1, 7): the momentum balance M dv/dt - M g (module doc,
     Force), and 0 (no contact) where the normal part is within the rounding floor
@@ -386,7 +430,7 @@ def _step_forces(rows: np.ndarray, mass: np.ndarray, gravity: np.ndarray, dt: fl
     g = gravity[:, None]
     normal = dv[..., 1] + g  # per unit mass, m/s^2
     speed = rows[:, :, 6]
-    floor = ROUNDINGS * UNIT_ROUNDOFF * ((speed[:, :-1] + speed[:, 1:]) / dt + g)
+    floor = roundings * UNIT_ROUNDOFF * ((speed[:, :-1] + speed[:, 1:]) / dt + g)
     touching = np.abs(normal) > floor  # a pull beyond the floor stays visible (negative)
     m = mass[:, None]
     return np.stack(
@@ -404,3 +448,118 @@ def _start_velocity(scene: Scene) -> list[float]:
     """Newton's body velocity at t = 0: the centre of mass's (x, z) and the spin about y."""
     _, _, _, Xdot, Ydot, thetadot = scene.initial_state()
     return [Xdot, 0.0, Ydot, 0.0, thetadot, 0.0]
+
+
+_SCRIPT = '''
+import newton
+import warp as wp
+
+wp.config.quiet = True
+
+# Newton's contact settings of both shapes (the sphere and the ground plane).
+SHAPE = dict(
+    density=0.0,  # no mass from the geometry: the body's mass and inertia are set below
+    mu=MU,  # Coulomb friction (Newton averages the two shapes')
+    ke={ke!r},  # contact stiffness, N/m (penalty solvers; MuJoCo maps it to solref)
+    kd={kd!r},  # contact damping, N s/m
+    kf={kf!r},  # penalty solvers' viscous friction slope, N s/m
+    mu_rolling={mu_rolling!r},  # rolling friction, m
+    mu_torsional={mu_torsional!r},  # torsional friction
+)
+CHUNK = {chunk}  # steps between re-reads of the angle, as the run records them
+ROUNDINGS = {roundings}  # the rounding floor's count of float32 roundings per velocity
+UNIT_ROUNDOFF = {unit_roundoff!r}  # float32's unit roundoff, 2**-24
+
+
+def build():
+    """One world: the ground plane and the hoop, a free body with the hoop's mass, centre of
+    mass (0, 0, LAM A) and inertia, and a sphere of radius A (Newton's z is up; the hoop
+    turns about +y, theta clockwise from the top)."""
+    builder = newton.ModelBuilder(gravity=(0.0, 0.0, -G))
+    cfg = newton.ModelBuilder.ShapeConfig(**SHAPE)
+    builder.begin_world(gravity=(0.0, 0.0, -G))
+    builder.add_ground_plane(cfg=cfg)
+    x, y, theta = CENTRE0[0], CENTRE0[1], CENTRE0[2]
+    side = 0.5 * I_COM * (1.0 + {pad!r})  # out-of-plane moments, padded as the MJCF pads them
+    body = builder.add_body(
+        xform=wp.transform((x, 0.0, y), wp.quat_from_axis_angle(wp.vec3(0, 1, 0), theta)),
+        com=(0.0, 0.0, COM_OFFSET),
+        inertia=wp.mat33(side, 0, 0, 0, I_COM, 0, 0, 0, side),
+        mass=M,
+        lock_inertia=True,
+    )
+    builder.add_shape_sphere(body, radius=A, cfg=cfg)
+    builder.end_world()
+    return builder.finalize()
+
+
+def simulate():
+    with wp.ScopedDevice({device}):
+        model = build()
+        solver = newton.solvers.{solver}(model{solver_args})
+        state, nxt, control = model.state(), model.state(), model.control()
+        pipeline = newton.CollisionPipeline(model)
+        contacts = pipeline.contacts()
+        # body_qd: the centre of mass's velocity (x, y, z) and the angular velocity
+        qd0 = [[COM0[3], 0.0, COM0[4], 0.0, COM0[5], 0.0]]
+        state.body_qd.assign(np.array(qd0, dtype=np.float32))
+        newton.eval_ik(model, state, state.joint_q, state.joint_qd)
+        # One step into a scratch state first (the kernels compile here, as in hoopbench's
+        # run, which takes it outside its timing; the solver keeps what it learnt from it).
+        pipeline.collide(state, contacts)
+        solver.step(state, model.state(), control, contacts, DT)
+        wp.synchronize()
+        last_theta = np.array([THETA0])
+        lever = np.array([abs(COM_OFFSET)])
+
+        def read():
+            """(1, 7): centre (x, z), theta unwrapped, velocity (x, z), spin, speed bound."""
+            nonlocal last_theta
+            q = state.body_q.numpy().astype(float)
+            qd = state.body_qd.numpy().astype(float)
+            turn = 2.0 * np.arctan2(q[:, 4], q[:, 6])
+            last_theta = last_theta + (turn - last_theta + np.pi) % (2 * np.pi) - np.pi
+            speed = np.linalg.norm(qd[:, :3], axis=1) + np.linalg.norm(qd[:, 3:], axis=1) * lever
+            return np.stack([q[:, 0], q[:, 2], last_theta, qd[:, 0], qd[:, 2], qd[:, 4], speed], -1)
+
+        def advance(steps):
+            """The rows before and after each of ``steps`` steps, and each step's force, N:
+            the momentum balance, 0 within the float32 rounding floor (no contact)."""
+            nonlocal state, nxt
+            raw = [read()]
+            for _ in range(steps):
+                state.clear_forces()
+                pipeline.collide(state, contacts)
+                solver.step(state, nxt, control, contacts, DT)
+                state, nxt = nxt, state
+                raw.append(read())
+            rows = np.stack(raw, axis=1)  # (1, steps + 1, 7)
+            dv = np.diff(rows[:, :, 3:5], axis=1) / DT
+            g = np.array([G])[:, None]
+            normal = dv[..., 1] + g
+            speed = rows[:, :, 6]
+            floor = ROUNDINGS * UNIT_ROUNDOFF * ((speed[:, :-1] + speed[:, 1:]) / DT + g)
+            touching = np.abs(normal) > floor
+            m = np.array([M])[:, None]
+            forces = np.stack(
+                [np.where(touching, m * normal, 0.0), np.where(touching, m * dv[..., 0], 0.0)], -1
+            )
+            return rows[0], forces[0]
+
+        blocks, forces, done = [], [], 0
+        while done < N_STEPS:  # no divergence checks: the whole window
+            rows, f = advance(min(CHUNK - done % CHUNK, N_STEPS - done))
+            if blocks:  # a chunk's first row restates the last one
+                blocks[-1] = blocks[-1][:-1]
+            blocks.append(rows)
+            forces.append(f)
+            done += len(f)
+        forces.append(advance(1)[1])  # the last state's force: one step more
+    rows = np.concatenate(blocks)
+    force = np.concatenate(forces) / M
+    state_ = com_state(rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 3], rows[:, 4], rows[:, 5])
+    return {{**state_, "Xdot": rows[:, 3], "Ydot": rows[:, 4], "thetadot": rows[:, 5],
+            "normal_force": force[:, 0], "friction_force": force[:, 1]}}
+'''
+"""The engine part of ``hoopbench export`` (engines/standalone.py): the adapter's run of one
+world, the same calls in the same order and the same float expressions."""
