@@ -354,8 +354,10 @@ class _Batch:
 
     def start(self) -> None:
         """The worlds' initial velocities, the joint coordinates the articulated solvers
-        step, and one step of a scratch state: the kernels load (or compile) here, outside
-        the timed loop."""
+        step, and one step of a pair of scratch states: the kernels load (or compile) here,
+        outside the timed loop. The scratch step must not start from the run's state: XPBD
+        writes its state_in (stepping from it moved the run one step on before its first
+        row: every row was the next step's state, until 2026-11-28)."""
         newton, model = self.newton, self.model
         self.state, self.next, self.control = model.state(), model.state(), model.control()
         self.pipeline = newton.CollisionPipeline(model)
@@ -367,9 +369,9 @@ class _Batch:
         self.gravity = np.array([scene.g for scene in self.scenes])
         self.theta = np.array([scene.theta0 for scene in self.scenes])
         self.lever = np.array([abs(scene.com_offset) for scene in self.scenes])
-        scratch = model.state()
-        self.pipeline.collide(self.state, self.contacts)
-        self.solver.step(self.state, scratch, self.control, self.contacts, self.timestep)
+        scratch_in, scratch_out = model.state(), model.state()
+        self.pipeline.collide(scratch_in, self.contacts)
+        self.solver.step(scratch_in, scratch_out, self.control, self.contacts, self.timestep)
         self.wp.synchronize()
 
     def read(self) -> np.ndarray:
@@ -504,11 +506,6 @@ def simulate():
         qd0 = [[COM0[3], 0.0, COM0[4], 0.0, COM0[5], 0.0]]
         state.body_qd.assign(np.array(qd0, dtype=np.float32))
         newton.eval_ik(model, state, state.joint_q, state.joint_qd)
-        # One step into a scratch state first (the kernels compile here, as in hoopbench's
-        # run, which takes it outside its timing; the solver keeps what it learnt from it).
-        pipeline.collide(state, contacts)
-        solver.step(state, model.state(), control, contacts, DT)
-        wp.synchronize()
         last_theta = np.array([THETA0])
         lever = np.array([abs(COM_OFFSET)])
 
