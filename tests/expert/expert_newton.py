@@ -44,7 +44,9 @@ SAME_AS_HOOPBENCH = True
 HOOPBENCH_SETTINGS: dict = {"profile": "tuned", "options": {}}
 DIFFERENCE = ""
 RTOL = 1e-6
-"""The states agree to float32 round-off (measured: see the module's report)."""
+"""Relative to each state's scale. Measured: the same trajectory to the bit on hop-top's first
+10 ms at dt 1e-4 (since the adapter's warm-up step stopped moving its run), and within 1e-6
+over 1.5 s of hop-top and seed-mu (tests/test_expert_builds.py)."""
 
 
 def run(scene: dict, dt: float, t_end: float) -> dict[str, np.ndarray]:
@@ -152,11 +154,10 @@ def main() -> None:
     )
     out = run(scene, 1e-4, 3.0)
     clearance = out["Y"] - scene["lam"] * scene["a"] * np.cos(out["theta"]) - scene["a"]
-    lift = np.flatnonzero(out["normal_force"] <= 0.0)
-    lift = lift[out["t"][lift] > 0.5]
-    print(
-        f"hop height {clearance.max():.4f} m, lift-off {out['t'][lift[0]] if len(lift) else None} s"
-    )
+    peak = int(np.argmax(clearance))
+    touching = np.flatnonzero(out["normal_force"][:peak] > 0.0)
+    lift = out["t"][touching[-1] + 1] if len(touching) else None  # the flight's first row
+    print(f"hop height {clearance[peak]:.4f} m, lift-off {lift} s")
 
 
 if __name__ == "__main__":
