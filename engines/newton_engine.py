@@ -166,7 +166,8 @@ class NewtonEngine(WorldsEngine):
             "contact stiffness M / (zeta tc)^2 for the 1 kg hoop, tc "
             f"{CONTACT_TIME * 1e3:g} ms, zeta {DAMPING_RATIO:g} (module doc, Contact): the "
             "stiffest critically damped contact the explicit penalty solvers hold at dt 1e-3 "
-            "(the hoop's contact mass falls to 0.11 kg). Newton's 2.5e3 with kd 100 is "
+            "(the hoop's contact mass falls to 0.11 kg); at dt 1e-4 the stiffer 1e5 / 100 "
+            "did better for them (docs/engines.md, Newton). Newton's 2.5e3 with kd 100 is "
             "MuJoCo's solref (0.02, 1) and sinks the hoop 4 mm at rest. Read by "
             "semi_implicit, featherstone, mujoco (as solref); XPBD's contact is positional "
             "and reads no ke",
