@@ -20,17 +20,50 @@ XPBD and SemiImplicit to hold it by constraints of their own.
 
 Contact. A sphere of radius a on a ground plane: the hoop's circle in the plane. Each world
 has its own ground plane with the scene's mu on both shapes (Newton averages the two
-shapes' coefficients). The contact law is the solver's: XPBD projects positions (rigid, no
-stiffness); SemiImplicit and Featherstone apply a penalty force ``ke`` depth + ``kd`` rate with
-viscous-regularised friction ``kf`` capped at mu n; MuJoCo (MuJoCo Warp inside Newton) maps
-the shapes' ke/kd to its own soft constraint.
+shapes' coefficients). Newton's rolling (``mu_rolling`` 1e-4 m) and torsional
+(``mu_torsional`` 5e-3) friction are off in tuned (the rigid hoop has neither; stock keeps
+them), and so is SemiImplicit's and Featherstone's ``angular_damping`` (0.05 /s). The contact
+law is the solver's: XPBD projects positions (rigid: it reads no ``ke``/``kd``); SemiImplicit
+and Featherstone apply a penalty force ``ke`` depth + ``kd`` rate with viscous-regularised
+friction ``kf`` capped at mu n; MuJoCo (MuJoCo Warp inside Newton) maps the shapes' ke/kd to
+its solref, timeconst 2 / kd and dampratio kd / (2 sqrt(ke)) (Newton's ``convert_solref``,
+per unit mass). ke and kd come from a contact time constant tc and damping ratio zeta as
+MuJoCo's solref states them, for the hoop's mass M (1 kg):
+
+    ke = M / (zeta tc)^2,    kd = 2 M / tc,
+
+so that the contact of a mass M rings at 1 / (zeta tc) rad/s with damping ratio zeta, and
+``solver=mujoco`` gets solref (tc, zeta) exactly. tc = 10 ms, zeta = 1 (ke 1e4 N/m, kd
+200 N s/m): the penalty solvers integrate the contact force explicitly, stable while
+kd dt / m_c < 2 for the contact's effective mass m_c = M / (1 + lam^2 sin^2 theta / k),
+which falls to M / 9.4 on hop-top and seed-mu (lam 0.95, k 0.107): kd < 212 N s/m at the
+suites' dt 1e-3, i.e. tc > 9.4 ms. Newton's defaults (ke 2.5e3, kd 100) are tc 20 ms,
+zeta 1: MuJoCo's default solref for a 1 kg body. Static sink M g / ke: 1 mm (4 mm stock).
 
 Force. Row i is the step's impulse on the hoop over dt, from the step's own momentum
 balance: M (v_{i+1} - v_i) / dt - M g, normal along z and friction along x. The contact is
 the only force on the body besides gravity, so this is the contact force the solver applied
 over the step from state i, whichever solver it is; SemiImplicit and Featherstone expose no
-contact force of their own (``supported_observables``), and XPBD's and MuJoCo's
-``contact_f`` observable was left out for time.
+contact force of their own (``supported_observables``). The velocities are float32, so
+without contact the balance is not 0 but rounding: a velocity component Newton stores is a
+rounded sum of terms no larger than s = |v| + |omega| |c| (the centre of mass's speed and
+the spin's lever to it), off by at most u s per rounding (u = 2^-24, float32's unit
+roundoff), and gravity's g dt adds u g dt. A step without contact therefore reads at most
+
+    N u ((s_i + s_{i+1}) / dt + g)    (per unit mass, m/s^2; N = ROUNDINGS[solver])
+
+and a normal force within that floor is read as none: both columns 0, the contact column
+False (the trajectory's ``normal_force > 0``). N counts the roundings (``ROUNDINGS``): 2
+where the solver integrates the body's velocity itself (XPBD, SemiImplicit), 16 where it
+maps it from joint coordinates (Featherstone, MuJoCo). The floor follows dt and the speed:
+with N 2 at dt 1e-4 and s 2 m/s it is 5e-3 m/s^2 (5e-4 g). A normal force above it is kept
+as balanced, a pull beyond it too (negative: no contact). Measured in flight on hop-top and
+hop-bottom, |balance| / (u (s_i + s_{i+1}) / dt + u g): XPBD at most 0.07 (dt 1e-3) and
+0.12 (dt 1e-4), SemiImplicit 0.15, Featherstone 6.8 (dt 1e-3): below N with room.
+``solver=mujoco`` is not rounding: its free joint integrates the body origin, and the
+centre of mass's velocity it reports turns by a first-order residual of 4-5e-2 m/s^2 in
+flight at dt 1e-3 (of the order omega^3 lam a dt / 2), far above the floor, so its flights
+still read contact (Newton's own ``contact_f`` observable would not; left out for time).
 
 Precision: single (Warp's ``float``). The first step of a new build compiles kernels (tens
 of seconds on 2 CPU cores, kept in Warp's kernel cache, ``HOOPBENCH_CACHE`` or the user's
@@ -49,7 +82,13 @@ from typing import Any
 
 import numpy as np
 
-from hoopbench.engines.base import DEVICE, WorldsEngine, import_warp, warp_device
+from hoopbench.engines.base import (
+    CHUNK_STEPS,
+    DEVICE,
+    WorldsEngine,
+    import_warp,
+    warp_device,
+)
 from hoopbench.engines.options import (
     Option,
     Variant,
@@ -59,6 +98,7 @@ from hoopbench.engines.options import (
     log_range,
     number,
     one_of,
+    optional,
 )
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
@@ -80,13 +120,32 @@ need a colouring and a rigid-body mode this build refuses without one), Kamino a
 experimental (docs/engines.md, Newton)."""
 
 
+CONTACT_MASS = 1.0
+"""kg: the catalogue hoop's mass, the mass the contact's ke and kd are stated for."""
+CONTACT_TIME = 0.01
+"""s: the contact's time constant tc (as MuJoCo's solref timeconst; module doc, Contact)."""
+DAMPING_RATIO = 1.0
+"""The contact's damping ratio zeta (as MuJoCo's solref dampratio): critical."""
+CONTACT_KE = CONTACT_MASS / (DAMPING_RATIO * CONTACT_TIME) ** 2
+"""N/m: ke = M / (zeta tc)^2."""
+CONTACT_KD = 2.0 * CONTACT_MASS / CONTACT_TIME
+"""N s/m: kd = 2 M / tc."""
+UNIT_ROUNDOFF = 2.0**-24
+"""float32's unit roundoff u: a rounded result is within u |x| of the exact x."""
+ROUNDINGS: dict[str, int] = {"xpbd": 2, "semi_implicit": 2, "featherstone": 16, "mujoco": 16}
+"""Per solver, the roundings N a velocity Newton stores may carry per step (module doc,
+Force): 2 where the solver integrates the body's velocity itself (v + a dt, one rounding per
+component, and one of a dt); 16 where it maps it from joint coordinates (a spatial transform
+of the 6-vector: quaternion rotations and the lever's cross product)."""
+
+
 @register
 class NewtonEngine(WorldsEngine):
     """Newton: one world per scene in one model; XPBD, Featherstone, SemiImplicit, MuJoCo."""
 
     name = "newton"
     distribution = "newton"
-    modules = ("newton",)
+    modules = ("newton", "warp")
     model_note = "the worlds are built by calls (newton.ModelBuilder), not read"
     step_cost_bound = 0.2
     """5 times a lone world's step on the CPU with its dearest solver (MuJoCo: 41 ms,
@@ -102,20 +161,26 @@ class NewtonEngine(WorldsEngine):
         ),
         Option(
             "ke",
-            1.0e5,
+            CONTACT_KE,
             number(low=0.0, low_open=True, unit="N/m"),
-            "contact stiffness for a 1 kg, 1 m hoop: a static sink M g / ke = 0.1 mm; "
-            "Newton's 2.5e3 lets it sink 4 mm at rest (measured 2-47 mm rolling with "
-            "semi_implicit and featherstone). Read by semi_implicit, featherstone, mujoco",
+            "contact stiffness M / (zeta tc)^2 for the 1 kg hoop, tc "
+            f"{CONTACT_TIME * 1e3:g} ms, zeta {DAMPING_RATIO:g} (module doc, Contact): the "
+            "stiffest critically damped contact the explicit penalty solvers hold at dt 1e-3 "
+            "(the hoop's contact mass falls to 0.11 kg); at dt 1e-4 the stiffer 1e5 / 100 "
+            "did better for them (docs/engines.md, Newton). Newton's 2.5e3 with kd 100 is "
+            "MuJoCo's solref (0.02, 1) and sinks the hoop 4 mm at rest. Read by "
+            "semi_implicit, featherstone, mujoco (as solref); XPBD's contact is positional "
+            "and reads no ke",
             stock=2.5e3,
             space=log_range(1e3, 1e7),
         ),
         Option(
             "kd",
-            100.0,
+            CONTACT_KD,
             number(low=0.0, unit="N s/m"),
-            "Newton's: with ke 1e5 a critical damping 2 sqrt(ke M) = 632 N s/m made "
-            "semi_implicit diverge at dt 1e-3 (measured, seed-mu)",
+            f"contact damping 2 M / tc for the 1 kg hoop (tc {CONTACT_TIME * 1e3:g} ms, "
+            "critical with ke). Read by semi_implicit, featherstone, mujoco; not by XPBD",
+            stock=100.0,
             space=log_range(1.0, 1e4),
         ),
         Option(
@@ -124,6 +189,34 @@ class NewtonEngine(WorldsEngine):
             number(low=0.0, unit="N s/m"),
             "Newton's: the slope of the penalty solvers' viscous friction below mu n",
             space=log_range(10.0, 1e5),
+        ),
+        Option(
+            "mu_rolling",
+            0.0,
+            number(low=0.0, unit="m"),
+            "off: the rigid hoop has no rolling resistance. Newton's default 1e-4 m is on in "
+            "stock (hop-top at dt 1e-4, XPBD: hop -46.5 % with it, -43.2 % without)",
+            stock=1e-4,
+            space=log_range(1e-6, 1e-2),
+        ),
+        Option(
+            "mu_torsional",
+            0.0,
+            number(low=0.0),
+            "off: the rigid hoop has no torsional friction. Newton's default 5e-3 is on in "
+            "stock (it resists spin about the contact normal, which the planar hoop never has)",
+            stock=5e-3,
+            space=log_range(1e-5, 1e-1),
+        ),
+        Option(
+            "angular_damping",
+            0.0,
+            optional(number(low=0.0, unit="1/s")),
+            "off: the rigid hoop loses no spin. Stock (None) keeps each solver's own: "
+            "0.05 /s for semi_implicit and featherstone (a tenth of the spin in 2 s), 0 for "
+            "xpbd. Read by semi_implicit, featherstone, xpbd; SolverMuJoCo takes none",
+            stock=None,
+            space=log_range(1e-4, 1.0, or_none=True),
         ),
         Option(
             "iterations",
@@ -139,6 +232,29 @@ class NewtonEngine(WorldsEngine):
         for solver in SOLVERS
         if solver != "xpbd"  # the default
     )
+
+    def _script(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
+        solver = options["solver"]
+        args = [] if solver != "xpbd" else [f"iterations={int(options['iterations'])}"]
+        if solver != "mujoco" and options["angular_damping"] is not None:
+            args.append(f"angular_damping={float(options['angular_damping'])!r}")
+        device = {"cpu": '"cpu"', "gpu": '"cuda:0"'}.get(
+            options["device"], '"cuda:0" if wp.get_cuda_device_count() > 0 else "cpu"'
+        )
+        return _SCRIPT.format(
+            ke=float(options["ke"]),
+            kd=float(options["kd"]),
+            kf=float(options["kf"]),
+            mu_rolling=float(options["mu_rolling"]),
+            mu_torsional=float(options["mu_torsional"]),
+            pad=INERTIA_PAD,
+            solver=SOLVERS[solver],
+            solver_args="".join(f", {a}" for a in args),
+            device=device,
+            chunk=CHUNK_STEPS,
+            roundings=ROUNDINGS[solver],
+            unit_roundoff=UNIT_ROUNDOFF,
+        )
 
     def _import(self) -> ModuleType:
         import_warp()
@@ -161,7 +277,15 @@ class NewtonEngine(WorldsEngine):
             mus = [self.mu_for(scene, settings) for scene in scenes]
             model = _build(newton, wp, scenes, mus, options)
             solver = _solver(newton, model, options)
-            batch = _Batch(newton, wp, list(scenes), model, solver, settings.timestep)
+            batch = _Batch(
+                newton,
+                wp,
+                list(scenes),
+                model,
+                solver,
+                settings.timestep,
+                ROUNDINGS[options["solver"]],
+            )
             batch.start()
             yield batch
 
@@ -179,7 +303,13 @@ def _build(
     builder = newton.ModelBuilder(gravity=(0.0, 0.0, -scenes[0].g))
     for scene, mu in zip(scenes, mus, strict=True):
         cfg = newton.ModelBuilder.ShapeConfig(
-            density=0.0, mu=mu, ke=opts["ke"], kd=opts["kd"], kf=opts["kf"]
+            density=0.0,
+            mu=mu,
+            ke=opts["ke"],
+            kd=opts["kd"],
+            kf=opts["kf"],
+            mu_rolling=opts["mu_rolling"],
+            mu_torsional=opts["mu_torsional"],
         )
         builder.begin_world(gravity=(0.0, 0.0, -scene.g))
         builder.add_ground_plane(cfg=cfg)
@@ -199,9 +329,12 @@ def _build(
 
 def _solver(newton: ModuleType, model: Any, opts: dict) -> Any:
     cls = getattr(newton.solvers, SOLVERS[opts["solver"]])
+    kwargs: dict[str, Any] = {}
     if opts["solver"] == "xpbd":
-        return cls(model, iterations=opts["iterations"])
-    return cls(model)
+        kwargs["iterations"] = opts["iterations"]
+    if opts["solver"] != "mujoco" and opts["angular_damping"] is not None:
+        kwargs["angular_damping"] = opts["angular_damping"]
+    return cls(model, **kwargs)
 
 
 @dataclass
@@ -214,14 +347,18 @@ class _Batch:
     model: Any
     solver: Any
     timestep: float
+    roundings: int
     mass: np.ndarray = field(init=False)
     gravity: np.ndarray = field(init=False)
     theta: np.ndarray = field(init=False)
+    lever: np.ndarray = field(init=False)
 
     def start(self) -> None:
         """The worlds' initial velocities, the joint coordinates the articulated solvers
-        step, and one step of a scratch state: the kernels load (or compile) here, outside
-        the timed loop."""
+        step, and one step of a pair of scratch states: the kernels load (or compile) here,
+        outside the timed loop. The scratch step must not start from the run's state: XPBD
+        writes its state_in (stepping from it moved the run one step on before its first
+        row: every row was the next step's state, until 2026-11-28)."""
         newton, model = self.newton, self.model
         self.state, self.next, self.control = model.state(), model.state(), model.control()
         self.pipeline = newton.CollisionPipeline(model)
@@ -232,19 +369,24 @@ class _Batch:
         self.mass = np.array([scene.M for scene in self.scenes])
         self.gravity = np.array([scene.g for scene in self.scenes])
         self.theta = np.array([scene.theta0 for scene in self.scenes])
-        scratch = model.state()
-        self.pipeline.collide(self.state, self.contacts)
-        self.solver.step(self.state, scratch, self.control, self.contacts, self.timestep)
+        self.lever = np.array([abs(scene.com_offset) for scene in self.scenes])
+        scratch_in, scratch_out = model.state(), model.state()
+        self.pipeline.collide(scratch_in, self.contacts)
+        self.solver.step(scratch_in, scratch_out, self.control, self.contacts, self.timestep)
         self.wp.synchronize()
 
     def read(self) -> np.ndarray:
-        """(W, 6): every world's hoop centre (x, z), theta (unwrapped: the nearest angle to
-        the last one read) and centre-of-mass velocity (x, z) and spin about y, now."""
+        """(W, 7): every world's hoop centre (x, z), theta (unwrapped: the nearest angle to
+        the last one read), centre-of-mass velocity (x, z) and spin about y, now; and the
+        speed bound s = |v| + |omega| |c| (m/s) of its velocity's rounding (module doc, Force)."""
         q = self.state.body_q.numpy().astype(float)
         qd = self.state.body_qd.numpy().astype(float)
         turn = 2.0 * np.arctan2(q[:, 4], q[:, 6])
         self.theta = self.theta + (turn - self.theta + math.pi) % (2 * math.pi) - math.pi
-        return np.stack([q[:, 0], q[:, 2], self.theta, qd[:, 0], qd[:, 2], qd[:, 4]], axis=-1)
+        speed = np.linalg.norm(qd[:, :3], axis=1) + np.linalg.norm(qd[:, 3:], axis=1) * self.lever
+        return np.stack(
+            [q[:, 0], q[:, 2], self.theta, qd[:, 0], qd[:, 2], qd[:, 4], speed], axis=-1
+        )
 
     def advance(self, steps: int, active: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Every world steps (one launch serves all); the inactive ones get their state back
@@ -263,12 +405,11 @@ class _Batch:
                 rows[~active] = before[~active]
                 array.assign(rows.reshape(now.shape))
             raw.append(self.read())
-        rows = np.stack(raw, axis=1)  # (W, steps + 1, 6)
-        # The step's momentum balance (module doc): M dv/dt - M g, per world.
-        dv = np.diff(rows[:, :, 3:5], axis=1) / self.timestep
-        mass = self.mass[:, None]
-        forces = np.stack([mass * (dv[..., 1] + self.gravity[:, None]), mass * dv[..., 0]], -1)
-        states = np.stack([_com_rows(s, world) for s, world in zip(self.scenes, rows, strict=True)])
+        rows = np.stack(raw, axis=1)  # (W, steps + 1, 7)
+        forces = _step_forces(rows, self.mass, self.gravity, self.timestep, self.roundings)
+        states = np.stack(
+            [_com_rows(s, world[:, :6]) for s, world in zip(self.scenes, rows, strict=True)]
+        )
         return states, forces
 
     def _state_arrays(self) -> dict[str, np.ndarray]:
@@ -281,6 +422,25 @@ class _Batch:
         }
 
 
+def _step_forces(
+    rows: np.ndarray, mass: np.ndarray, gravity: np.ndarray, dt: float, roundings: int
+) -> np.ndarray:
+    """(W, steps, 2): each step's contact force, N, (normal, friction), from the rows of
+    ``_Batch.read`` (W, steps + 1, 7): the momentum balance M dv/dt - M g (module doc,
+    Force), and 0 (no contact) where the normal part is within the rounding floor
+    N u (s_i + s_{i+1}) / dt + N u g of float32 velocities."""
+    dv = np.diff(rows[:, :, 3:5], axis=1) / dt
+    g = gravity[:, None]
+    normal = dv[..., 1] + g  # per unit mass, m/s^2
+    speed = rows[:, :, 6]
+    floor = roundings * UNIT_ROUNDOFF * ((speed[:, :-1] + speed[:, 1:]) / dt + g)
+    touching = np.abs(normal) > floor  # a pull beyond the floor stays visible (negative)
+    m = mass[:, None]
+    return np.stack(
+        [np.where(touching, m * normal, 0.0), np.where(touching, m * dv[..., 0], 0.0)], -1
+    )
+
+
 def _com_rows(scene: Scene, rows: np.ndarray) -> np.ndarray:
     """(n, 6) centre-of-mass rows (STATE_KEYS) from (n, 6) rows of ``_Batch.read``."""
     X, Y = kinematics.com_position(scene, rows[:, 0], rows[:, 1], rows[:, 2])
@@ -291,3 +451,113 @@ def _start_velocity(scene: Scene) -> list[float]:
     """Newton's body velocity at t = 0: the centre of mass's (x, z) and the spin about y."""
     _, _, _, Xdot, Ydot, thetadot = scene.initial_state()
     return [Xdot, 0.0, Ydot, 0.0, thetadot, 0.0]
+
+
+_SCRIPT = '''
+import newton
+import warp as wp
+
+wp.config.quiet = True
+
+# Newton's contact settings of both shapes (the sphere and the ground plane).
+SHAPE = dict(
+    density=0.0,  # no mass from the geometry: the body's mass and inertia are set below
+    mu=MU,  # Coulomb friction (Newton averages the two shapes')
+    ke={ke!r},  # contact stiffness, N/m (penalty solvers; MuJoCo maps it to solref)
+    kd={kd!r},  # contact damping, N s/m
+    kf={kf!r},  # penalty solvers' viscous friction slope, N s/m
+    mu_rolling={mu_rolling!r},  # rolling friction, m
+    mu_torsional={mu_torsional!r},  # torsional friction
+)
+CHUNK = {chunk}  # steps between re-reads of the angle, as the run records them
+ROUNDINGS = {roundings}  # the rounding floor's count of float32 roundings per velocity
+UNIT_ROUNDOFF = {unit_roundoff!r}  # float32's unit roundoff, 2**-24
+
+
+def build():
+    """One world: the ground plane and the hoop, a free body with the hoop's mass, centre of
+    mass (0, 0, LAM A) and inertia, and a sphere of radius A (Newton's z is up; the hoop
+    turns about +y, theta clockwise from the top)."""
+    builder = newton.ModelBuilder(gravity=(0.0, 0.0, -G))
+    cfg = newton.ModelBuilder.ShapeConfig(**SHAPE)
+    builder.begin_world(gravity=(0.0, 0.0, -G))
+    builder.add_ground_plane(cfg=cfg)
+    x, y, theta = CENTRE0[0], CENTRE0[1], CENTRE0[2]
+    side = 0.5 * I_COM * (1.0 + {pad!r})  # out-of-plane moments, padded as the MJCF pads them
+    body = builder.add_body(
+        xform=wp.transform((x, 0.0, y), wp.quat_from_axis_angle(wp.vec3(0, 1, 0), theta)),
+        com=(0.0, 0.0, COM_OFFSET),
+        inertia=wp.mat33(side, 0, 0, 0, I_COM, 0, 0, 0, side),
+        mass=M,
+        lock_inertia=True,
+    )
+    builder.add_shape_sphere(body, radius=A, cfg=cfg)
+    builder.end_world()
+    return builder.finalize()
+
+
+def simulate():
+    with wp.ScopedDevice({device}):
+        model = build()
+        solver = newton.solvers.{solver}(model{solver_args})
+        state, nxt, control = model.state(), model.state(), model.control()
+        pipeline = newton.CollisionPipeline(model)
+        contacts = pipeline.contacts()
+        # body_qd: the centre of mass's velocity (x, y, z) and the angular velocity
+        qd0 = [[COM0[3], 0.0, COM0[4], 0.0, COM0[5], 0.0]]
+        state.body_qd.assign(np.array(qd0, dtype=np.float32))
+        newton.eval_ik(model, state, state.joint_q, state.joint_qd)
+        last_theta = np.array([THETA0])
+        lever = np.array([abs(COM_OFFSET)])
+
+        def read():
+            """(1, 7): centre (x, z), theta unwrapped, velocity (x, z), spin, speed bound."""
+            nonlocal last_theta
+            q = state.body_q.numpy().astype(float)
+            qd = state.body_qd.numpy().astype(float)
+            turn = 2.0 * np.arctan2(q[:, 4], q[:, 6])
+            last_theta = last_theta + (turn - last_theta + np.pi) % (2 * np.pi) - np.pi
+            speed = np.linalg.norm(qd[:, :3], axis=1) + np.linalg.norm(qd[:, 3:], axis=1) * lever
+            return np.stack([q[:, 0], q[:, 2], last_theta, qd[:, 0], qd[:, 2], qd[:, 4], speed], -1)
+
+        def advance(steps):
+            """The rows before and after each of ``steps`` steps, and each step's force, N:
+            the momentum balance, 0 within the float32 rounding floor (no contact)."""
+            nonlocal state, nxt
+            raw = [read()]
+            for _ in range(steps):
+                state.clear_forces()
+                pipeline.collide(state, contacts)
+                solver.step(state, nxt, control, contacts, DT)
+                state, nxt = nxt, state
+                raw.append(read())
+            rows = np.stack(raw, axis=1)  # (1, steps + 1, 7)
+            dv = np.diff(rows[:, :, 3:5], axis=1) / DT
+            g = np.array([G])[:, None]
+            normal = dv[..., 1] + g
+            speed = rows[:, :, 6]
+            floor = ROUNDINGS * UNIT_ROUNDOFF * ((speed[:, :-1] + speed[:, 1:]) / DT + g)
+            touching = np.abs(normal) > floor
+            m = np.array([M])[:, None]
+            forces = np.stack(
+                [np.where(touching, m * normal, 0.0), np.where(touching, m * dv[..., 0], 0.0)], -1
+            )
+            return rows[0], forces[0]
+
+        blocks, forces, done = [], [], 0
+        while done < N_STEPS:  # no divergence checks: the whole window
+            rows, f = advance(min(CHUNK - done % CHUNK, N_STEPS - done))
+            if blocks:  # a chunk's first row restates the last one
+                blocks[-1] = blocks[-1][:-1]
+            blocks.append(rows)
+            forces.append(f)
+            done += len(f)
+        forces.append(advance(1)[1])  # the last state's force: one step more
+    rows = np.concatenate(blocks)
+    force = np.concatenate(forces) / M
+    state_ = com_state(rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 3], rows[:, 4], rows[:, 5])
+    return {{**state_, "Xdot": rows[:, 3], "Ydot": rows[:, 4], "thetadot": rows[:, 5],
+            "normal_force": force[:, 0], "friction_force": force[:, 1]}}
+'''
+"""The engine part of ``hoopbench export`` (engines/standalone.py): the adapter's run of one
+world, the same calls in the same order and the same float expressions."""

@@ -1,16 +1,17 @@
 """Newton: its rigid-body solvers on the rolling hoop, and its batches (worlds in one model).
 
 What each solver does with the rolling start of seed-mu (exact: rolls without slipping
-until 0.987 s), dt 1e-3, tuned settings (ke 1e5), over 0.1 s; measured on newton 1.8.0,
-warp-lang 1.19.0, CPU (docs/engines.md, Newton):
+until 0.987 s), dt 1e-3, tuned settings (ke 1e4, kd 200: tc 10 ms, zeta 1; no rolling or
+torsional friction, no angular damping), over 0.1 s; measured on newton 1.8.0, warp-lang
+1.19.0, CPU (docs/engines.md, Newton):
 
 * mujoco (MuJoCo Warp inside Newton, soft constraints, friction solved with the normal):
-  rolls, creeping at 0.66 mm/s by 0.1 s;
-* xpbd (Newton's examples' default; positional contact and friction): creeps at 5.5 mm/s
-  by 0.1 s, a slip velocity that keeps growing (31 mm/s by 0.5 s);
+  rolls, creeping at 0.37 mm/s by 0.1 s;
+* xpbd (Newton's examples' default; positional contact and friction): creeps at 5.4 mm/s
+  by 0.1 s, a slip velocity that keeps growing;
 * featherstone, semi_implicit (penalty contact, friction regularised as viscous,
   kf (v_slip) capped at mu n): no rolling without slip; by 0.1 s the contact point slides at
-  0.13 m/s (featherstone) and 6.6 mm/s (semi_implicit): a rolling contact is a sliding one at
+  0.22 m/s (both): a rolling contact is a sliding one at
   f / kf, and kf cannot be raised much: the
   hoop's small moment of inertia (k = 0.107 on seed-mu) makes the contact's effective mass
   about 0.03 kg, so an explicit friction of gain kf is stable only for kf dt / 0.03 kg < 2.
@@ -22,13 +23,15 @@ import numpy as np
 import pytest
 from worlds_runs import DT, STATE_COLUMNS, run_ok, skip_without_a_warp_gpu
 
+from hoopbench.engines.judging.contact import canonical_events, read_run
+from hoopbench.engines.newton_engine import ROUNDINGS
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.run import RunStatus
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene
 
 SEED = get_scene("seed-mu").with_(t_end=0.1)
-SLIP_AT_0_1_S = {"mujoco": 6.6e-4, "xpbd": 5.5e-3, "featherstone": 0.13, "semi_implicit": 6.6e-3}
+SLIP_AT_0_1_S = {"mujoco": 3.7e-4, "xpbd": 5.4e-3, "featherstone": 0.22, "semi_implicit": 0.22}
 """|slip velocity|, m/s, at 0.1 s, measured (module doc)."""
 
 
@@ -44,13 +47,52 @@ def test_what_each_solver_does_with_rolling(solver):
     assert np.all(np.isfinite(traj.normal_force))
 
 
-def test_forces_are_each_steps_momentum_change():
-    """Row i's force is the step from state i's momentum balance: M dXdot/dt = f,
-    M dYdot/dt = n - M g (per unit mass: the columns)."""
+def _balance_and_floor(traj, scene, roundings):
+    """Each step's momentum balance per unit mass (normal, friction), m/s^2, and the rounding
+    floor N u ((s_i + s_{i+1}) / dt + g) of the adapter's doc (s from the in-plane state)."""
+    normal = np.diff(traj.Ydot) / DT + scene.g
+    friction = np.diff(traj.Xdot) / DT
+    speed = np.hypot(traj.Xdot, traj.Ydot) + np.abs(traj.thetadot) * abs(scene.com_offset)
+    floor = roundings * 2.0**-24 * ((speed[:-1] + speed[1:]) / DT + scene.g)
+    return normal, friction, floor
+
+
+def test_forces_are_each_steps_momentum_change_above_the_rounding_floor():
+    """Row i's force is the step from state i's momentum balance, M dXdot/dt = f,
+    M dYdot/dt = n - M g (per unit mass: the columns), where it stands above the float32
+    rounding floor; within the floor both columns are 0 (no contact)."""
     traj = _run().trajectory
-    g = SEED.g
-    np.testing.assert_allclose(np.diff(traj.Xdot) / DT, traj.friction_force[:-1], atol=1e-9)
-    np.testing.assert_allclose(np.diff(traj.Ydot) / DT, traj.normal_force[:-1] - g, atol=1e-9)
+    normal, friction, floor = _balance_and_floor(traj, SEED, ROUNDINGS["xpbd"])
+    read = traj.normal_force[:-1] != 0.0
+    np.testing.assert_allclose(traj.normal_force[:-1][read], normal[read], atol=1e-9)
+    np.testing.assert_allclose(traj.friction_force[:-1][read], friction[read], atol=1e-9)
+    assert np.all(np.abs(normal[~read]) <= floor[~read] * (1 + 1e-6))
+    assert np.all(traj.friction_force[:-1][~read] == 0.0)
+
+
+HOP_BOTTOM = get_scene("hop-bottom")
+"""Hops 0.434 m (exact): a flight of 0.7 s, cheap at dt 1e-3 (1,100 steps, seconds)."""
+
+
+def test_a_flight_reads_no_contact_and_its_hop_is_its_own_peak():
+    """In flight the momentum balance is rounding (2e-4 to 1.4e-3 m/s^2 at dt 1e-4, far
+    above the judge's 1e-6 g): read raw, the judge saw contact in mid-air and cut the flight
+    short (hop-bottom, dt 1e-3: 0.265 m reported of a 0.425 m flight). Above the floor, no
+    step that starts and ends more than 1 mm above the floor has a contact (a step that
+    lands has: row i is the step from state i), and the judge's hop is the flight's own
+    peak clearance."""
+    traj = _run(HOP_BOTTOM).trajectory
+    in_the_air = (traj.clearance[:-1] > 1e-3) & (traj.clearance[1:] > 1e-3)
+    assert np.any(in_the_air)
+    assert not np.any(traj.contact[:-1] & in_the_air)
+    events = read_events(traj, HOP_BOTTOM)
+    assert events["hop_height"] == pytest.approx(float(np.max(traj.clearance)), rel=0.02)
+
+
+def read_events(traj, scene):
+    """The judge's events of a run (the canonical contact reading, as simulate --json)."""
+    reading = read_run(traj, scene, scene.mus, window_end=scene.t_end)
+    return canonical_events(traj, reading, painleve=False).to_dict()
 
 
 def test_batch_rows_are_the_single_runs():

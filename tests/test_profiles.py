@@ -20,8 +20,17 @@ STOCK = {
     # MJX and MuJoCo Warp read MuJoCo's MJCF: MuJoCo's own defaults
     "mjx": {"solref": (0.02, 1.0), "cone": "pyramidal", "impratio": 1.0, "integrator": "Euler"},
     "mjwarp": {"solref": (0.02, 1.0), "cone": "pyramidal", "integrator": "Euler"},
-    # Newton's ShapeConfig and the solver of its examples
-    "newton": {"solver": "xpbd", "ke": 2.5e3, "kd": 100.0, "kf": 1000.0, "iterations": 2},
+    # Newton's ShapeConfig and the solver of its examples; None: each solver's own damping
+    "newton": {
+        "solver": "xpbd",
+        "ke": 2.5e3,
+        "kd": 100.0,
+        "kf": 1000.0,
+        "mu_rolling": 1e-4,
+        "mu_torsional": 5e-3,
+        "angular_damping": None,
+        "iterations": 2,
+    },
 }
 
 
