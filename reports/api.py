@@ -424,11 +424,7 @@ def run(
     before the run.
     """
     if settings is not None:
-        if options or timestep != DEFAULT_TIMESTEP or str(profile) != str(Profile.TUNED):
-            raise OptionError(
-                "settings", "{option} gives the timestep, profile and options: set none of them"
-            )
-        chosen = setting_from_file(engine, settings)
+        chosen = _setting_instead(engine, settings, timestep, profile, options)
         timestep, profile, options = chosen.timestep, chosen.profile, chosen.options
         variant = chosen.name if variant is None else variant
     task = _run_task(engine, _as_scene(scene), timestep, profile, geometry, options, variant)
@@ -456,11 +452,7 @@ def export(
     ``command``: the command line, for the script's header. ValueError for bad settings or
     an engine without an export."""
     if settings is not None:
-        if options or timestep != DEFAULT_TIMESTEP or str(profile) != str(Profile.TUNED):
-            raise OptionError(
-                "settings", "{option} gives the timestep, profile and options: set none of them"
-            )
-        chosen = setting_from_file(engine, settings)
+        chosen = _setting_instead(engine, settings, timestep, profile, options)
         timestep, profile, options = chosen.timestep, chosen.profile, chosen.options
     if options is not None and not isinstance(options, Mapping):
         raise OptionError("options", f"{{option}} must be a mapping of settings, got {options!r}")
@@ -468,6 +460,22 @@ def export(
         timestep=timestep, options=options or {}, profile=check_profile("profile", profile)
     )
     return engine_class(engine)().export_script(_as_scene(scene), run_settings, command=command)
+
+
+def _setting_instead(
+    engine: str,
+    settings: str | Path,
+    timestep: float,
+    profile: Profile | str,
+    options: Mapping[str, Any] | None,
+) -> Any:
+    """The setting ``settings`` names, which takes the place of the timestep, profile and
+    options: OptionError if any of them was given too."""
+    if options or timestep != DEFAULT_TIMESTEP or str(profile) != str(Profile.TUNED):
+        raise OptionError(
+            "settings", "{option} gives the timestep, profile and options: set none of them"
+        )
+    return setting_from_file(engine, settings)
 
 
 def setting_from_file(engine: str, text: str | Path) -> Any:

@@ -147,3 +147,19 @@ def test_export_never_overwrites_without_force(tmp_path, capsys):
 def test_the_reference_has_no_export(capsys):
     assert main(["export", "--engine", "reference", "--scene", "seed-mu", "--out", "x.py"]) == 2
     assert "invalid choice: 'reference'" in capsys.readouterr().err
+
+
+def test_export_takes_a_setting_of_a_settings_file(tmp_path, capsys):
+    """--settings FILE#NAME gives the script the setting's timestep and options."""
+    from hoopbench.reports.compare.settings_file import load_choice
+
+    found = Path(__file__).parents[1] / "reports/tune/searches/pymunk/settings.toml"
+    chosen = next(s for s in load_choice(str(found))[0].settings)
+    out = tmp_path / "run.py"
+    argv = ["export", "--engine", "pymunk", "--scene", "seed-mu", "--out", str(out)]
+    assert main([*argv, "--settings", f"{found}#{chosen.name}"]) == 0
+    text = out.read_text()
+    assert f"DT = {chosen.timestep!r}" in text
+    assert f"space.iterations = {int(chosen.options['iterations'])!r}" in text
+    assert main([*argv, "--force", "--settings", str(found), "--dt", "1e-3"]) == 2
+    assert "--settings gives the timestep and the options" in capsys.readouterr().err
