@@ -397,6 +397,10 @@ class PybulletEngine(Engine):
         run.blocks.append(block)
         return Chunk(_com_state(run.scene, run.base, block), done + steps)
 
+    def _diverged(self, run: _Run) -> str | None:
+        """The free body out of the x-z plane: the run is no longer of the planar model."""
+        return _out_of_plane(run) if run.base == "free" else None
+
     def _contact_shape(self, run: _Run) -> Polygon | None:
         return run.shape
 
@@ -476,6 +480,27 @@ def _record_chain(run: _Run, steps: int, buf: array[float]) -> None:
         step(cid)
         (qx, vx, _, _), (qz, vz, _, _), (qt, vt, _, _) = joint_states(hoop, joints, cid)
         record((qx, qz, qt, vx, vz, vt, *_contact_force(contacts(hoop, floor, link, -1, cid))))
+
+
+OUT_OF_PLANE = 1e-3
+"""The free body's largest out-of-plane offset (y, over a) and tilt (rad) a planar run may
+have. A symmetric body's stay at round-off (the sphere: 1e-12 over hop-top). At a tilt of
+1e-3 rad the flat end of the cylinder (0.05 a from its middle) moves the lowest point by
+5e-5 a, half the detectors' hop clearance (1e-4 a), and theta's reading by 5e-7 rad; beyond
+it the planar model and its readings no longer apply. Measured at dt 1e-4: the cylinder
+tilts 1e-4 rad by 1.4 s of seed-mu and 8 ms of hop-top; the hull tips over an edge of its
+facets once it slips (seed-mu: 1.5e-3 rad by 1.2 s, 0.9 rad by 2.7 s, where its penetration
+stopped the run before this check)."""
+
+
+def _out_of_plane(run: _Run) -> str | None:
+    """Why the free body has left the plane, or None."""
+    p = run.p
+    (_, y, _), (qx, _, qz, _) = p.getBasePositionAndOrientation(run.hoop, run.cid)
+    tilt = 2.0 * max(abs(qx), abs(qz))
+    if abs(y) > OUT_OF_PLANE * run.scene.a or tilt > OUT_OF_PLANE:
+        return f"the free body left the x-z plane (y {y:.3g} m, tilt {tilt:.3g} rad)"
+    return None
 
 
 def _unwrap(angle: float, previous: float) -> float:
