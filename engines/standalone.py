@@ -162,7 +162,7 @@ def standalone_script(
             "import sys\n\nimport numpy as np\n",
             _constants(scene, timestep, n_steps, mu, restitution),
             _HELPERS,
-            "# ---------------------------------------------------------------- the engine",
+            "\n# ---------------------------------------------------------------- the engine",
             textwrap.dedent(engine_part).strip("\n") + "\n",
             _TAIL.format(columns=COLUMNS, version=FORMAT_VERSION),
         ]
