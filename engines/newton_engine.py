@@ -197,7 +197,7 @@ class NewtonEngine(WorldsEngine):
             "off: the rigid hoop has no rolling resistance. Newton's default 1e-4 m is on in "
             "stock (hop-top at dt 1e-4, XPBD: hop -46.5 % with it, -43.2 % without)",
             stock=1e-4,
-            space=log_range(1e-6, 1e-2),
+            space=one_of(0.0, 1e-5, 1e-4, 1e-3),
         ),
         Option(
             "mu_torsional",
@@ -206,7 +206,7 @@ class NewtonEngine(WorldsEngine):
             "off: the rigid hoop has no torsional friction. Newton's default 5e-3 is on in "
             "stock (it resists spin about the contact normal, which the planar hoop never has)",
             stock=5e-3,
-            space=log_range(1e-5, 1e-1),
+            space=one_of(0.0, 5e-4, 5e-3, 5e-2),
         ),
         Option(
             "angular_damping",
@@ -216,7 +216,7 @@ class NewtonEngine(WorldsEngine):
             "0.05 /s for semi_implicit and featherstone (a tenth of the spin in 2 s), 0 for "
             "xpbd. Read by semi_implicit, featherstone, xpbd; SolverMuJoCo takes none",
             stock=None,
-            space=log_range(1e-4, 1.0, or_none=True),
+            space=one_of(0.0, None, 5e-3, 5e-2, 0.5),
         ),
         Option(
             "iterations",
