@@ -74,6 +74,16 @@ def test_seed_runs_clean(engine):
     assert result.info.mu == SEED_MU
 
 
+def _expected_failures(reasons: dict[str, str]) -> list:
+    """ENGINES as parameters, those in ``reasons`` marked as strict expected failures."""
+    return [
+        pytest.param(e, marks=pytest.mark.xfail(strict=True, reason=reasons[e]))
+        if e in reasons
+        else e
+        for e in ENGINES
+    ]
+
+
 _KINEMATIC_LAG = {
     "pybullet": "the free base's rolling creep, about lam a thetadot^2 |sin theta| dt at the "
     "recorded pose (engines/pybullet_engine.py), reaches the 1 mm/s slip threshold early: "
@@ -82,15 +92,7 @@ _KINEMATIC_LAG = {
 }
 
 
-@pytest.mark.parametrize(
-    "engine",
-    [
-        pytest.param(e, marks=pytest.mark.xfail(strict=True, reason=_KINEMATIC_LAG[e]))
-        if e in _KINEMATIC_LAG
-        else e
-        for e in ENGINES
-    ],
-)
+@pytest.mark.parametrize("engine", _expected_failures(_KINEMATIC_LAG))
 def test_seed_slip_onset(engine):
     """Refined slip onset within [loose] t_slip_s and [slip] theta_deg of the exact onset for
     the same mu."""
@@ -133,15 +135,7 @@ _CONTACT_FLICKER = {
 }
 
 
-@pytest.mark.parametrize(
-    "engine",
-    [
-        pytest.param(e, marks=pytest.mark.xfail(strict=True, reason=_CONTACT_FLICKER[e]))
-        if e in _CONTACT_FLICKER
-        else e
-        for e in ENGINES
-    ],
-)
+@pytest.mark.parametrize("engine", _expected_failures(_CONTACT_FLICKER))
 def test_contact_force_at_every_rolling_step(engine):
     """Rolling on the floor: the engine reports a contact force at every step."""
     traj = run(engine, "seed").trajectory
