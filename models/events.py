@@ -34,10 +34,6 @@ class PhaseKind(StrEnum):
     ROLL = "roll"
     SLIP = "slip"
     FLIGHT = "flight"
-    CHATTER = "chatter"
-    """Friction at the Coulomb cone on alternate steps and inside it on average: an engine's
-    chattering contact (engines/judging/contact.py), neither a roll nor a slip. The exact
-    solution never has it."""
 
 
 @dataclass(frozen=True)
@@ -54,12 +50,11 @@ class Phase:
 
     @property
     def code(self) -> str:
-        """Short label: R (roll), S+ / S- (slip with its sigma), F (flight), C (chatter)."""
+        """Short label: R (roll), S+ / S- (slip with its sigma), F (flight)."""
         letter = {
             PhaseKind.ROLL: "R",
             PhaseKind.SLIP: "S",
             PhaseKind.FLIGHT: "F",
-            PhaseKind.CHATTER: "C",
         }[self.kind]
         return letter + {1: "+", -1: "-"}.get(self.sigma or 0, "")
 

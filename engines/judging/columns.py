@@ -112,7 +112,15 @@ class Col(StrEnum):
     CONE_STICK_TIME_S = "cone_stick_time_s"
     """s: the longest stick outside the Coulomb cone (verdict cone-violation)."""
     CHATTERING_TIME_S = "chattering_time_s"
-    """s: time in chattering modes (phase code C)."""
+    """s: time the contact chatters (friction at the cone on some steps, inside it on
+    average) outside the slips: a property of the phases, not a phase."""
+    CHATTER_CONE_SHARE = "chatter_cone_share"
+    """Share of the chattering samples whose own friction is at the cone."""
+    MU_EFFECTIVE = "mu_effective"
+    """The engine's effective sliding friction coefficient: the median |f| / n over its slip
+    phases' samples that slide faster than the slip threshold."""
+    MU_EFFECTIVE_RATIO = "mu_effective_ratio"
+    """mu_effective over the pair's mu (1 for Coulomb friction at the cone)."""
     # The whole run, whatever the reading.
     ENERGY_RISE_BEFORE_SLIP = "energy_rise_before_slip"
     ENERGY_CHANGE_END = "energy_change_end"
@@ -216,6 +224,9 @@ EVENT_COLUMNS = (
     Col.CREEP_DISTANCE_M,
     Col.CONE_STICK_TIME_S,
     Col.CHATTERING_TIME_S,
+    Col.CHATTER_CONE_SHARE,
+    Col.MU_EFFECTIVE,
+    Col.MU_EFFECTIVE_RATIO,
 )
 """The canonical reading's columns (:func:`comparison.event_columns`), in every judged row
 of a suite and a map."""

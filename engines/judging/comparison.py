@@ -165,7 +165,8 @@ def event_columns(
     pair's ``mu``, and their errors against ``exact`` (the row's exact columns); with
     ``painleve``, the outcome is the reference's ``painleve``."""
     window_end = number_or_none(exact.get(Col.EXACT_T_IMPACT))
-    reading = read_run(traj, scene, mu, window_end=window_end)
+    exact_lift = number_or_none(exact.get(Col.EXACT_T_LIFT))
+    reading = read_run(traj, scene, mu, window_end=window_end, exact_lift=exact_lift)
     events = canonical_events(traj, reading, painleve=painleve)
     errors = _errors(events, exact)
     return {
@@ -191,6 +192,11 @@ def event_columns(
         Col.CREEP_DISTANCE_M: reading.creep_distance,
         Col.CONE_STICK_TIME_S: reading.cone_stick_time,
         Col.CHATTERING_TIME_S: reading.chattering_time,
+        Col.CHATTER_CONE_SHARE: reading.chatter_cone_share,
+        Col.MU_EFFECTIVE: None
+        if reading.slip_friction_ratio is None
+        else reading.slip_friction_ratio * mu,
+        Col.MU_EFFECTIVE_RATIO: reading.slip_friction_ratio,
         **_energy_columns(events.t_slip, traj),
         Col.MAX_PENETRATION_M: float(max(0.0, -traj.clearance.min())),
         Col.MAX_CLEARANCE: float(traj.clearance.max()),
@@ -252,7 +258,8 @@ def _floor(scene: Scene, mu: float, timestep: float) -> dict[str, Any]:
     if sampled is None:
         return {}
     window_end = number_or_none(exact.get(Col.EXACT_T_IMPACT))
-    reading = read_run(sampled, solution.scene, mu, window_end=window_end)
+    exact_lift = number_or_none(exact.get(Col.EXACT_T_LIFT))
+    reading = read_run(sampled, solution.scene, mu, window_end=window_end, exact_lift=exact_lift)
     errors = _errors(canonical_events(sampled, reading), exact)
     return {
         Col.FLOOR_PHASES: reading.phases,
