@@ -4,42 +4,64 @@ kinematic reading (engines/judging/detectors.py, the ``kin_`` columns) is kept o
 set beside it. docs/report.md ("The canonical reading") states the same definitions.
 
 With W the averaging window (4 ms on the 1 m hoop) and every mean taken over the samples
-whose time lies within W/2 of a sample's (a sample without contact force counts with n = f = 0):
+whose time lies within W/2 of a sample's (a sample without contact force counts with n = f = 0,
+and so does its rolling demand):
 
 - **in contact** while the normal force n > ``contact_level`` g;
-- **flight**: a stretch without contact. A flight that lasts ``sustain`` and rises above
-  ``hop_clearance`` is a **hop**; the others are chatter, counted and sized. The hop of the
-  run is the highest one that starts inside the exact window; lift-off is its start, impact
-  its end (the contact returns), hop height its largest clearance;
-- **at the cone**: |mean f| >= (1 - ``cone_tolerance``) mu mean n; **outside the cone**:
-  |mean f| > (1 + ``cone_tolerance``) mu mean n;
+- **flight**: a stretch without contact (its start and end interpolated where n crosses the
+  contact level). A flight that lasts ``sustain`` and rises above ``hop_clearance`` is a
+  **hop**; the others are chatter, counted and sized. The hop of the run is the highest one
+  that starts no later than the exact window's end (the exact impact); lift-off is its
+  start, impact its end (the contact returns), hop height its largest clearance;
+- **the rolling demand**: the friction F_roll and normal force N_roll the rigid model's
+  rolling constraint needs at the run's own state (theta, thetadot). Rolling cannot go on
+  where |F_roll| >= mu N_roll (or N_roll <= 0). An engine's friction may follow the demand
+  of the state a step away (a step's force acts over the step it is taken from), so each
+  comparison with the demand allows its change over one step;
 - **sliding against friction**: mean slip velocity s and mean f of opposite signs, |mean s|
   above ``slip_floor`` (the contact point moves, beyond round-off);
-- **the slip law**: friction follows the slip law rather than the rolling constraint where
-  |mean f| is at the cone (within ``cone_hold``), or where rolling cannot go on: the friction
-  the rigid model's rolling constraint needs at the run's own state (theta, thetadot),
-  mean F_roll, reaches the cone mu mean N_roll, or |mean f| lies nearer the cone than that
-  demand (a regularised friction sliding at 0.98 mu n obeys the slip law; a soft contact
-  creeping at the rolling demand, 0.95 mu n, obeys the rolling one);
-- **slip**: a stretch of samples sliding against friction under the slip law, entered where
-  a sample's own friction reaches the cone (within ``cone_tolerance``) or the rolling demand
-  reaches it, in which |mean s| exceeds ``slip_threshold`` somewhere; its direction is
-  opposite the friction;
-- **creep**: |s| above the slip threshold against friction inside the cone, not under the
-  slip law and outside the slip phases (a slip's edges are the slip's): never a slip
-  (``creep_time``, ``creep_max_speed``, ``creep_distance``);
-- **stick outside the cone**: outside the cone and not sliding above the slip threshold: a
-  Coulomb violation, never a slip (``cone_stick_time``: its longest stretch);
-- **chattering**: not a slip, averaged friction inside the cone, but at least
-  ``chatter_share`` of the window's samples with a force have their own friction at the cone
-  (friction touches the cone on alternate steps): its own mode, code ``C``;
-- **roll**: in contact otherwise.
+- **the slip law**: the friction cannot give what rolling needs, or the slide is fast: |mean
+  f| at or beyond the cone (within ``cone_hold``), rolling cannot go on, |mean f| short of
+  the demand along it by more than ``demand_tolerance`` of the cone mu mean n (a friction
+  law that saturates below mu, as DART stock's does at 0.74-0.83 mu n), or |mean s| above
+  ``creep_speed`` (fast sliding is never creep). A friction away from the demand on the
+  other side (above it) keeps a slide going (it brakes it), but starts none;
+- **slip**: a stretch sliding against friction under the slip law, one way (a reversal is a
+  new slip), in which |mean s| exceeds ``slip_threshold`` somewhere after its entry. It is
+  entered where the window's friction is at the cone, rolling cannot go on, or the slide is
+  fast, or where the friction is short of the demand once |mean s| exceeds the slip
+  threshold (a soft friction lags a demand that ramps up: short of it while the rim barely
+  moves is no slip), at a sample whose own contact cannot roll or slides fast. Its
+  direction is opposite the friction: S+ where mean f < 0;
+- **creep**: outside the slips, in contact before the exact lift-off (after it the exact hoop
+  has no contact to creep on), |s| above the slip threshold and at most ``creep_speed``
+  against a friction inside the cone by more than ``cone_hold``: sliding while the friction
+  follows the rolling demand, never a slip (``creep_time``, ``creep_max_speed``,
+  ``creep_distance``);
+- **stick outside the cone**: |mean f| > (1 + ``cone_tolerance``) mu mean n and |mean s|
+  not above the slip threshold: a Coulomb violation, never a slip (``cone_stick_time``: its
+  longest stretch);
+- **chattering**: outside the slips, |mean f| inside the cone by more than
+  ``cone_tolerance`` while at least ``chatter_share`` of the window's samples with a force
+  have their own friction at the cone (friction touches the cone on alternate steps): a
+  property of the phase it happens in, never a phase (``chattering_time``, and
+  ``chatter_cone_share``: the share of those samples at the cone);
+- **roll**: in contact otherwise;
+- **effective friction coefficient**: the median |f| / n over the slip phases' samples that
+  slide faster than the slip threshold (``mu_effective``; over mu, 1 for Coulomb friction).
 
-A mode (roll, slip +/-, chattering, flight inside a hop) starts at its first sample once it
-gathers ``sustain`` of time before a stretch of another mode lasts ``sustain`` on its own; a
-shorter stretch belongs to the mode around it. A sample without contact force outside a hop
-takes the mode it interrupts. A roll or slip mode's start is refined, by at most W/2, to
-where the samples' own friction changes (the centred mean sees a sharp change early).
+A mode (roll, slip +/-, flight inside a hop; a flight wins over a slip, a slip over a roll)
+starts at its first sample once it gathers ``sustain`` of time before a stretch of another
+mode lasts ``sustain`` on its own; a shorter stretch belongs to the mode around it. A sample
+without contact force outside a hop takes the mode it interrupts. A roll or slip mode's
+start (not the first mode's, nor one right after a flight) is refined, by at most W/2, to
+where the samples' own contact changes: back over the samples just before it whose own
+label is already the new mode's, else forward over those whose own label is not yet; never
+to or before the previous mode's start. A sample's own label is a slip where its friction is
+at the cone within ``cone_tolerance`` either side, beyond it while sliding, or short of the
+demand by ``cone_tolerance`` of the cone, or it slides faster than ``creep_speed`` (one onset
+rule with the slip's); a roll where its friction is inside the cone by ``cone_hold`` and it
+is no slip.
 
 On the exact solution sampled at any timestep this gives the exact events within the
 detection floor measured in tests/test_contact_reading.py; shorter phases are absorbed.
@@ -90,9 +112,11 @@ class ContactSettings:
     short beside the phases the exact solutions have (the shortest catalogue phase that
     counts lasts 5 ms)."""
     cone_tolerance: float = 1e-3
-    """A slip starts where |mean f| >= (1 - cone_tolerance) mu mean n (dimensionless). The
-    exact |f| / (mu n) rises to 1 at a slip onset at 1-2 per second, so a looser level reads
-    a creeping engine's onset early by this over that rate (1e-2: 5-10 ms)."""
+    """A sample's own friction is at the cone within this share of it, either side
+    (dimensionless): where a slip's first sample may lie, and the chattering and
+    outside-the-cone levels. The exact |f| / (mu n) rises to 1 at a slip onset at 1-2 per
+    second, so a looser level reads a creeping engine's onset early by this over that rate
+    (1e-2: 5-10 ms)."""
     cone_hold: float = 1e-2
     """Once slipping, the slip lasts while |mean f| >= (1 - cone_hold) mu mean n and the
     contact point slides against the friction (dimensionless). An exact re-stick drops far
