@@ -14,7 +14,7 @@ endif
 PACKAGE_FILES := $(sort $(wildcard about/*.py models/*.py reference/*.py engines/*.py \
 	engines/*/*.py engines/*/*.toml reports/*.py reports/*/*.py reports/compare/suites/*.toml))
 
-.PHONY: test report tune searches findings lint format clean bench FORCE
+.PHONY: test report tune searches findings docs lint format clean bench FORCE
 
 # The strict editable install is a tree of links, one per file, installed as `hoopbench.*`:
 # type checkers resolve it, and `import models` stays an error. A new or removed file needs a
@@ -112,6 +112,12 @@ bench: $(REPORT_STAMP)
 	$(BIN)/python -m hoopbench.reports.bench.overhead
 	$(BIN)/python -m hoopbench.reports.bench.batch
 	$(BIN)/python -m hoopbench.reports.bench.batched_engines --out $(BENCH_OUT) --force
+
+# docs/report.md's generated blocks (the canonical reading's thresholds and definitions, the
+# columns, the verdicts, the tolerances) rewritten from the code's docstrings and tables
+# (reports/report/docs.py); tests/test_docs_generated.py fails until this has run.
+docs: $(STAMP)
+	$(BIN)/python -m hoopbench.reports.report.docs docs/report.md
 
 # mypy checks the package as installed, `hoopbench.*`: from the editable install's tree of
 # links (build/__editable__.*/), which the installed package itself points to, so that the

@@ -72,45 +72,80 @@ class Col(StrEnum):
     REGIME = "regime"
     N_SLIPS = "n_slips"
     EXACT_OUTCOME = "exact_outcome"
+    """The exact solution's outcome: ``rolls``, ``slips``, ``hops``, ``lifts-at-start``,
+    ``painleve``, ``degenerate`` or ``error``."""
     EXACT_T_SLIP = "exact_t_slip"
+    """s: the exact first slip onset."""
     EXACT_THETA_SLIP_DEG = "exact_theta_slip_deg"
+    """deg: the angle theta at the exact first slip onset."""
     EXACT_T_LIFT = "exact_t_lift"
+    """s: the exact lift-off."""
     EXACT_HOP_HEIGHT = "exact_hop_height"
+    """m: the exact hop's largest clearance."""
     EXACT_T_IMPACT = "exact_t_impact"
+    """s: the exact first impact (the exact solution ends there)."""
     EXACT_T_PAINLEVE = "exact_t_painleve"
+    """s: when a ``painleve`` exact solution reaches its Painlevé point (empty otherwise)."""
     EXACT_PHASES = "exact_phases"
+    """The exact phases as codes, e.g. ``R S+ R S- F``: R roll, S+ and S- slip (the rim
+    sliding towards +x and -x), F flight."""
     EXACT_T_LAST_PHASE = "exact_t_last_phase"
+    """s: the start of the exact last phase."""
     EXACT_MAX_SLIP_SPEED = "exact_max_slip_speed"
+    """m/s: the largest exact |slip velocity| before any lift-off (empty: no slip). Where it
+    stays below the slip threshold the row has no verdict."""
     EXACT_T_SETTLED = "exact_t_settled"
     # The engine's events by the canonical reading (engines/judging/contact.py), and their
     # errors against the exact ones.
     OUTCOME = "outcome"
+    """``hops`` with a hop, else ``slips`` with a slip, else ``rolls`` (``painleve``: the
+    reference's own row of a Painlevé scene)."""
     T_SLIP = "t_slip"
+    """s: the first slip onset (the first slip mode's start)."""
     THETA_SLIP_DEG = "theta_slip_deg"
+    """deg: the angle theta at the first slip onset (interpolated)."""
     T_RESTICK = "t_restick"
+    """s: the first re-stick, the start of the first roll after the first slip."""
     T_LIFT = "t_lift"
+    """s: the lift-off, where the hop's contact force ends."""
     HOP_HEIGHT = "hop_height"
+    """m: the hop's largest clearance."""
     T_IMPACT = "t_impact"
+    """s: the impact, where the hop's contact force returns."""
     ERR_T_SLIP_MS = "err_t_slip_ms"
+    """ms: ``(t_slip - exact_t_slip) * 1000``; positive: the engine slips late."""
     ERR_THETA_SLIP_DEG = "err_theta_slip_deg"
+    """deg: ``theta_slip_deg - exact_theta_slip_deg``; positive: the engine slips at a
+    larger theta, later in the roll."""
     ERR_T_LIFT_MS = "err_t_lift_ms"
+    """ms: ``(t_lift - exact_t_lift) * 1000``; positive: the engine lifts off late."""
     ERR_T_IMPACT_MS = "err_t_impact_ms"
+    """ms: ``(t_impact - exact_t_impact) * 1000``; positive: the engine lands late."""
     ERR_HOP_HEIGHT_REL = "err_hop_height_rel"
+    """``hop_height / exact_hop_height - 1``; positive: the engine hops higher."""
     PHASES = "phases"
+    """The modes as codes, ending at the hop's impact, e.g. ``R S+ R S- F`` (``C``:
+    chattering)."""
     T_LAST_PHASE = "t_last_phase"
+    """s: the start of the last mode."""
     PHASES_AGREE = "phases_agree"
+    """The phase codes agree with the exact ones as read at the run's timestep
+    (``floor_phases``), one last phase at the window's end aside (the verdict's rule)."""
     N_FLIGHTS = "n_flights"
     """Stretches without contact force, hops and chatter together."""
     CHATTER_COUNT = "chatter_count"
+    """Flights that are not hops (too short or too low)."""
     CHATTER_MAX_CLEARANCE = "chatter_max_clearance"
-    """m."""
+    """m: the highest clearance inside those flights (negative: the force dropped out while
+    the hoop stayed in the floor)."""
     CREEP_TIME_S = "creep_time_s"
+    """s: the time spent creeping."""
     CREEP_MAX_SPEED = "creep_max_speed"
-    """m/s."""
+    """m/s: the largest |slip velocity| while creeping."""
     CREEP_DISTANCE_M = "creep_distance_m"
-    """m: how far the rim slides while creeping (verdict creeps)."""
+    """m: how far the rim slides while creeping (verdict ``creeps``)."""
     CONE_STICK_TIME_S = "cone_stick_time_s"
-    """s: the longest stick outside the Coulomb cone (verdict cone-violation)."""
+    """s: the longest stick outside the Coulomb cone (verdict ``cone-violation``)."""
     CHATTERING_TIME_S = "chattering_time_s"
     """s: time the contact chatters (friction at the cone on some steps, inside it on
     average) outside the slips: a property of the phases, not a phase."""
@@ -151,21 +186,45 @@ class Col(StrEnum):
     # The exact solution read by the canonical reading at the run's timestep: the detection
     # floor, what the reading can see at that step.
     FLOOR_PHASES = "floor_phases"
-    """The exact phases as read at the run's timestep (shorter ones absorbed)."""
+    """The exact phases as read at the run's timestep: a phase shorter than the reading
+    resolves is absorbed. The verdict compares the engine's phases with these."""
     FLOOR_T_LAST_PHASE = "floor_t_last_phase"
+    """s: the start of the last of those phases."""
     FLOOR_ERR_T_SLIP_MS = "floor_err_t_slip_ms"
+    """ms: the reading's own error on the exact first slip onset at the run's timestep;
+    the verdict adds its size to the slip onset's tolerance."""
     FLOOR_ERR_T_LIFT_MS = "floor_err_t_lift_ms"
+    """ms: the reading's own error on the exact lift-off at the run's timestep; the
+    verdict adds its size to the lift-off's tolerance."""
     FLOOR_ERR_T_IMPACT_MS = "floor_err_t_impact_ms"
+    """ms: the reading's own error on the exact impact at the run's timestep; the
+    verdict adds its size to the impact's tolerance."""
     FLOOR_ERR_HOP_HEIGHT_REL = "floor_err_hop_height_rel"
+    """The reading's own relative error on the exact hop height at the run's timestep;
+    the verdict adds its size to the hop height's tolerance."""
     # The contact force against the exact one (engines/judging/forces.py); suite rows only.
     FORCE_RMS_N_G = "force_rms_n_g"
+    """RMS of ``(n - n_exact) / g`` over the window (the exact contact phases the engine's
+    phases agree with: engines/judging/forces.py); empty when the window holds no sample."""
     FORCE_RMS_F_G = "force_rms_f_g"
+    """RMS of ``(f - f_exact) / g`` over the window; empty when the window holds no
+    sample."""
     CONE_VIOLATION = "cone_violation"
-    """(|f| - mu n)/g at its largest over the samples with a contact force; 0 if never above."""
+    """The largest ``(|f| - mu n) / g`` over the samples with a contact force (n > 0), whole
+    run; 0 when never above. Above 0 (beyond round-off, ~1e-14): friction outside the Coulomb
+    cone."""
     DISSIPATION_VIOLATION = "dissipation_violation"
-    """Fraction of the slipping samples whose friction does not oppose the slip."""
+    """The fraction of the window's slipping samples (an exact slip phase, the engine's
+    n > 0) whose friction does not oppose the slip velocity (``f * slip_velocity > 0``):
+    maximum dissipation says it always opposes. Empty without such samples."""
     MAX_PENETRATION_IN_CONTACT_M = "max_penetration_in_contact_m"
+    """m: the deepest penetration, ``-clearance``, over the samples with a contact force,
+    whole run (0 when none penetrates; empty when none has a force). Unlike
+    ``max_penetration_m``, a sample that sinks without a force does not count."""
     ENERGY_CHANGE_BEFORE_SLIP = "energy_change_before_slip"
+    """``(E(t) - E(0)) / E(0)`` at the exact first slip onset (the window's end when the
+    exact solution never slips; E interpolated between samples): rolling conserves energy, so
+    any change is the engine's. Empty when that time is past the run."""
     # The verdict.
     VERDICT = "verdict"
     OUTCOME_AGREES = "outcome_agrees"

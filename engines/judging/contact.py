@@ -1,7 +1,8 @@
 """The canonical reading of a run: its events read from the contact force, as the rigid
 model's laws define them. Every verdict, table, figure and finding reads these events; the
 kinematic reading (engines/judging/detectors.py, the ``kin_`` columns) is kept only to be
-set beside it. docs/report.md ("The canonical reading") states the same definitions.
+set beside it. docs/report.md ("The canonical reading") is written from this docstring after
+this paragraph and from ContactSettings' field docstrings (``make docs``).
 
 With W the averaging window (4 ms on the 1 m hoop) and every mean taken over the samples
 whose time lies within W/2 of a sample's (a sample without contact force counts with n = f = 0,
@@ -123,8 +124,9 @@ class ContactSettings:
     below it at once (to the rolling demand); a regularised friction (Drake stock) that
     sags to 0.996-0.9999 mu n while sliding stays one slip."""
     slip_floor: float = 1e-5
-    """m/s: |mean slip velocity| above which the contact point moves at all (the exact
-    rolling solution has |s| ~ 1e-12; DART's sticks outside the cone stay below 2e-7)."""
+    """m/s: the contact point moves at all where |mean slip velocity| exceeds this (the exact
+    rolling solution has |s| ~ 1e-12 m/s; DART's sticks outside the cone stay below 2e-7
+    m/s)."""
     chatter_share: float = 0.25
     """A contact chatters where friction is inside the cone on average but at least this
     share of the window's samples with a force have their own friction at the cone
@@ -134,7 +136,8 @@ class ContactSettings:
     """s: how long a new contact mode must last to count (the detectors' restick_sustain and
     lift_sustain on the 1 m hoop)."""
     hop_clearance: float = DetectorSettings().hop_clearance
-    """m: the hop threshold (its one home, DetectorSettings.hop_clearance)."""
+    """m: a hop rises above this clearance (the hop threshold; its one home is
+    ``DetectorSettings.hop_clearance``, which the kinematic reading reads too)."""
     slip_threshold: float = DetectorSettings().slip_threshold
     """m/s: a slip must slide faster than this somewhere; sliding this fast inside the cone,
     at the rolling demand, is creep."""

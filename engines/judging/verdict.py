@@ -115,7 +115,7 @@ class Verdict(StrEnum):
     """No check fails, but some event is outside its tight tolerance (inside the loose)."""
     FALSE_HOP = "false-hop"
     """A hop above the threshold where the reference has none (or, on a Painlevé scene, one
-    that leaves more than PHASE_END_TOLERANCE before the Painlevé point)."""
+    that leaves more than ``PHASE_END_TOLERANCE`` before the Painlevé point)."""
     MISSED_HOP = "missed-hop"
     """The reference hops and the engine has no hop above the threshold inside the exact
     window."""
@@ -129,15 +129,22 @@ class Verdict(StrEnum):
     HOP_TOO_HIGH = "hop-too-high"
     """Both hop; the engine's hop is higher than the loose tolerance allows."""
     EARLY_LIFT_OFF = "early-lift-off"
+    """Both hop; the engine lifts off earlier than the loose tolerance allows."""
     LATE_LIFT_OFF = "late-lift-off"
+    """Both hop; the engine lifts off later than the loose tolerance allows."""
     EARLY_IMPACT = "early-impact"
+    """Both hop; the engine lands earlier than the loose tolerance allows."""
     LATE_IMPACT = "late-impact"
     """Both hop; the engine lands later than the loose tolerance allows (or is still in the
     air that long after the exact impact when its run ends)."""
     EARLY_SLIP = "early-slip"
+    """Both slip (the reference as read at the run's timestep, and short of a Painlevé point);
+    the engine's first slip onset is earlier than the loose tolerance allows."""
     LATE_SLIP = "late-slip"
+    """Both slip; the engine's first slip onset is later than the loose tolerance allows."""
     WRONG_PHASES = "wrong-phases"
-    """The phase sequence differs from the exact one read at the run's timestep."""
+    """The phase sequence differs from the exact one read at the run's timestep
+    (``floor_phases``); the reason names the first phase that differs."""
     CREEPS = "creeps"
     """The rim slides, with its friction inside the cone at what rolling needs (creep),
     farther than the loose tolerance, where the exact solution rolls without sliding."""
@@ -145,9 +152,11 @@ class Verdict(StrEnum):
     """The contact sticks with friction outside the Coulomb cone (|mean f| above mu mean n)
     for at least the table's ``[cone] stick_s``."""
     DIVERGED = "diverged"
-    """The run stopped early: NaN, runaway energy or deep penetration."""
+    """Status ``diverged``: the run stopped early (NaN, runaway energy or deep penetration).
+    No other check runs."""
     FAILED = "failed"
-    """The run gave no result: error, timeout, crashed or unavailable."""
+    """The run gave no result: status ``error``, ``timeout``, ``crashed`` or ``unavailable``
+    (or ``ok`` without events). No other check runs."""
 
 
 OUTCOME_FAILURES = frozenset(
