@@ -124,8 +124,8 @@ class Col(StrEnum):
     ERR_HOP_HEIGHT_REL = "err_hop_height_rel"
     """``hop_height / exact_hop_height - 1``; positive: the engine hops higher."""
     PHASES = "phases"
-    """The modes as codes, ending at the hop's impact, e.g. ``R S+ R S- F`` (``C``:
-    chattering)."""
+    """The modes as codes, ending at the hop's impact, e.g. ``R S+ R S- F`` (chattering is
+    no phase: ``chattering_time_s``)."""
     T_LAST_PHASE = "t_last_phase"
     """s: the start of the last mode."""
     PHASES_AGREE = "phases_agree"
