@@ -611,7 +611,11 @@ def _slipping(
     # the rim creeping at 0.1-0.4 mm/s, in the 7 ms before its friction reaches the cone).
     averaged = _averaged(means)
     at_cone = averaged.cannot_roll(mu, cfg.cone_hold, math.inf)
-    short = averaged.cannot_roll(mu, cfg.cone_hold, cfg.demand_tolerance) & fast
+    # A chattering window's mean friction is no law's level (at the cone on some steps, the
+    # demand on others): PyBullet's cylinder, creeping at 1.0-1.1 mm/s, sits 4 % short of the
+    # demand on average for 5 ms before its slip, its slide flat.
+    steady = means.cone_share < cfg.chatter_share
+    short = averaged.cannot_roll(mu, cfg.cone_hold, cfg.demand_tolerance) & fast & steady
     starts = at_cone | short | (np.abs(means.slip) > cfg.creep_speed)
     enter = hold & starts & touching & (demand_short | fast_own)
     out = np.zeros(len(touching), dtype=bool)
