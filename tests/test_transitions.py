@@ -126,30 +126,53 @@ def test_the_reference_run_times_every_transition_to_within_a_step():
     assert abs(row["max_transition_err_ms"]) <= 1.0 and row["max_transition_ratio"] < 0.1
 
 
-def _friction_share(trajectory: Trajectory, t: float, mu: float) -> float:
-    """|f| / (mu n) at the sample nearest ``t``, read from the trajectory alone."""
-    k = int(np.argmin(np.abs(trajectory.t - t)))
-    return abs(trajectory.friction_force[k]) / (mu * trajectory.normal_force[k])
+def _stops_sliding(trajectory: Trajectory, after: float, speed: float = 1e-3) -> float:
+    """The first time after ``after`` (s) from which the contact point's slip speed stays
+    below ``speed`` (m/s) for 5 ms: a re-stick read from the trajectory's kinematics alone."""
+    t, slip = trajectory.t, np.abs(trajectory.slip_velocity)
+    for i in np.flatnonzero((t > after) & (slip < speed)):
+        if np.all(slip[(t >= t[i]) & (t <= t[i] + 5e-3)] < speed):
+            return float(t[i])
+    raise AssertionError(f"still sliding after {after} s")
 
 
-def test_mujoco_stock_ends_the_second_slip_of_seed_mu_early_at_1_ms():
-    """At dt 1e-3 MuJoCo's stock slip back slows too fast (first order in the step): its
-    friction leaves the cone about 40 ms before the exact re-stick, where the exact hoop
-    still slides at half a metre a second; the phase codes alone called that agreement. The
-    re-stick the row times is where the trajectory's own friction leaves the cone."""
+def test_a_restick_34_ms_early_no_longer_agrees():
+    """pymunk (tuned) on seed-mu at dt 1e-3 slides back twice as fast as the exact hoop and
+    stops 34 ms before it: its phase codes are the exact ones, and the row agreed. The
+    re-stick the row times is where the trajectory's contact point stops (within a step),
+    while the exact hoop still slides at over 0.3 m/s."""
+    run = hb.run("pymunk", "seed-mu", timestep=1e-3)
+    row = run.row
+    assert row["phases"] == row["floor_phases"] == "R S+ R S- R"
+    assert row["verdict"] == "early-transition"
+    assert row["verdict_reason"].startswith("re-stick 2 (S- -> R)")
+    assert row["max_transition"] == "re-stick 2" and row["max_transition_ratio"] > 2
+    restick, exact = _phase_times(row)[4], parse_times(row["exact_phase_times"])[4]
+    assert restick == pytest.approx(exact + 1e-3 * row["max_transition_err_ms"], abs=1e-9)
+    assert run.result.trajectory is not None
+    stopped = _stops_sliding(run.result.trajectory, _phase_times(row)[3] + 0.05)
+    assert stopped == pytest.approx(restick, abs=2e-3)
+    exact_slip = hb.exact("seed-mu").sample(np.array([restick])).slip_velocity[0]
+    assert abs(exact_slip) > 0.3  # m/s: the exact hoop is far from re-sticking
+
+
+def test_the_columns_of_a_mujoco_stock_run_hold_together():
+    """MuJoCo stock on seed-mu at dt 1e-3: every transition timed, the worst of them in the
+    columns as the verdict judged it (its ratio beyond 1 exactly where a check failed)."""
     run = hb.run("mujoco", "seed-mu", timestep=1e-3, profile="stock")
     if run.row["status"] == "unavailable":
         engine_unavailable("mujoco", run.row["message"])
     row = run.row
-    assert row["phases"] == row["floor_phases"] == "R S+ R S- R"
-    assert Verdict.EARLY_TRANSITION in row["verdict_flags"].split()
-    assert row["max_transition"] == "re-stick 2"
-    assert -60.0 < row["max_transition_err_ms"] < -20.0
-    restick, exact = _phase_times(row)[4], parse_times(row["exact_phase_times"])[4]
-    assert restick == pytest.approx(exact + 1e-3 * row["max_transition_err_ms"], abs=1e-9)
-    trajectory, mu = run.result.trajectory, run.task.scene.mus
-    assert trajectory is not None
-    assert _friction_share(trajectory, restick - 5e-3, mu) > 0.99  # slipping at the cone
-    assert _friction_share(trajectory, restick + 5e-3, mu) < 0.9  # inside it: rolling
-    exact_slip = hb.exact("seed-mu").sample(np.array([restick])).slip_velocity[0]
-    assert abs(exact_slip) > 0.3  # m/s: the exact hoop is far from re-sticking
+    judgement = classify(row)
+    assert [event.name for event in judgement.timed] == [
+        "slip onset",
+        "re-stick 1",
+        "slip onset 2",
+        "re-stick 2",
+    ]
+    worst = judgement.worst
+    assert worst is not None and row["max_transition"] == worst.name
+    assert row["max_transition_err_ms"] == pytest.approx(1e3 * worst.error)
+    assert row["max_transition_ratio"] == pytest.approx(abs(worst.error) / worst.loose)
+    failed = {"early-transition", "late-transition", "early-slip", "late-slip"}
+    assert bool(failed & set(row["verdict_flags"].split())) is (worst.ratio > 1)

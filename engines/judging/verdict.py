@@ -220,6 +220,8 @@ class TimedEvent:
     """'slip onset', 'lift-off', 'impact', 're-stick 1', ..."""
     error: float
     """Run minus exact (negative: early)."""
+    tight: float
+    """Its tight tolerance, the row's detection floor of it included (> 0)."""
     loose: float
     """Its loose tolerance, the row's detection floor of it included (> 0)."""
 
@@ -227,6 +229,12 @@ class TimedEvent:
     def ratio(self) -> float:
         """|error| over the loose tolerance: above 1 the check fails."""
         return abs(self.error) / self.loose
+
+    @property
+    def later(self) -> bool:
+        """A later transition (a re-stick, a later slip onset, a reversal), not one of the
+        events with their own checks (the first slip onset, the lift-off, the impact)."""
+        return self.name not in _OWN_CHECKS
 
 
 @dataclass(frozen=True)
@@ -536,7 +544,7 @@ def _timing(
     if t is None or t0 is None:
         return
     error = t - t0
-    checks.timed.append(TimedEvent(name, error, loose))
+    checks.timed.append(TimedEvent(name, error, tight, loose))
     text = f"{label or name} {_ms_text(error)} ({t:.6g} s against {t0:.6g} s"
     if abs(error) > loose:
         checks.failures.append(
@@ -617,12 +625,16 @@ def _phase_checks(row: Mapping[str, Any], checks: _Checks) -> None:
         checks.failures.append((Verdict.WRONG_PHASES, text))
 
 
+_OWN_CHECKS = ("slip onset", "lift-off", "impact")
+"""The events with their own checks (and verdicts), as the transitions name them."""
+
+
 def _transition_checks(row: Mapping[str, Any], checks: _Checks) -> None:
     """Every later transition the run shares with the exact phases (module docstring): the
     first slip onset and the lift-off have their own checks."""
     limits = _row_thresholds(row)
     for transition in row_transitions(row):
-        if transition.name in ("slip onset", "lift-off"):
+        if transition.name in _OWN_CHECKS:
             continue
         _timing(
             checks,
