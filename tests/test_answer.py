@@ -60,7 +60,39 @@ def test_the_cheapest_setting_meeting_a_tier_on_every_scene_and_its_cost():
     assert (loose.setting.timestep, loose.wall_per_sim_s) == (2e-3, pytest.approx(0.01))
     assert line.always_wrong == ()
     text = answer_markdown(answer(rows))
-    assert "| mujoco | tuned, default, dt 0.001 | 20 | 0.02 | tuned, default, dt 0.002 |" in text
+    assert (
+        "| mujoco | tuned, default, dt 0.001 | 20 | 0.02 | - | tuned, default, dt 0.002 |" in text
+    )
+
+
+def test_each_tier_says_how_near_its_edge_the_setting_is():
+    """The cheapest loose setting's runs: a re-stick 6 ms late on seed-mu (0.6 of loose),
+    a slip onset 3 ms early on low-friction (0.3): the worst is the farthest against its
+    loose tolerance; a scene outside the answer's (not judged) does not count."""
+    worst = {"max_transition": "re-stick 2", "max_transition_err_ms": 6.0}
+    rows = pd.DataFrame(
+        [
+            {**run("mujoco", "seed-mu", "close"), **worst, "max_transition_ratio": 0.6},
+            {**run("mujoco", "hop-top", "agrees")},
+            {
+                **run("mujoco", "low-friction", "agrees"),
+                "max_transition": "slip onset",
+                "max_transition_err_ms": -3.0,
+                "max_transition_ratio": 0.3,
+            },
+            {**run("mujoco", "not-a-catalogue-scene", "close"), **worst, "max_transition_ratio": 5},
+        ]
+    )
+    (line,) = answer(rows).engines
+    tight, loose = line.cheapest
+    assert tight.scenes_met == 2 and loose.worst is not None
+    assert (loose.worst.scene, loose.worst.name, loose.worst.ratio) == (
+        "seed-mu",
+        "re-stick 2",
+        0.6,
+    )
+    text = answer_markdown(answer(rows))
+    assert "| re-stick 2 on seed-mu, +6 ms (0.6 of loose) |" in text
 
 
 def test_an_engine_meeting_no_tier_everywhere_shows_its_best_and_what_it_always_misses():
