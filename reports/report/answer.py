@@ -11,9 +11,10 @@ tier (:data:`ACCURACY_TIERS`). Its cost is the median over those runs of the ste
 per step, and the same as seconds of wall time per simulated second (``us_per_step`` / dt):
 the number that says whether an engine keeps up with real time. The cheapest is the one with
 the fewest seconds per simulated second. Beside its cost, the setting's **worst transition**:
-of every transition its runs' verdicts timed (the first slip onset, the lift-off, the impact,
-each re-stick, later slip onset and reversal), the one farthest from the exact one against its
-loose tolerance (the rows' ``max_transition``): how near the tier's edge the setting is.
+of every transition the verdicts of its runs that meet the tier timed (the first slip onset,
+the lift-off, the impact, each re-stick, later slip onset and reversal), the one farthest from
+the exact one against its loose tolerance (the rows' ``max_transition``): how near the tier's
+edge the setting is.
 
 A scene's failure is the engine's, not the timestep's, only if some timestep lets an engine
 meet the tier there: :func:`timestep_limits` says, per scene, the coarsest timestep at which
@@ -125,8 +126,8 @@ class Choice:
     """Seconds of wall time per simulated second: us_per_step / dt (below 1: faster than
     real time)."""
     worst: WorstTransition | None = None
-    """Its runs' worst transition on the answer's scenes (None where none was timed, or the
-    rows were stored without it)."""
+    """The worst transition of its runs that meet the tier on the answer's scenes (None where
+    none was timed, or the rows were stored without it)."""
 
 
 @dataclass(frozen=True)
@@ -231,12 +232,14 @@ def _judged(runs: pd.DataFrame) -> pd.DataFrame:
 _KEYS = [Col.ENGINE, Col.PROFILE, Col.VARIANT, Col.TIMESTEP]
 
 
-def _worst_transition(group: pd.DataFrame, scenes: Sequence[str]) -> WorstTransition | None:
-    """The worst transition of a setting's runs on ``scenes`` (the largest
-    max_transition_ratio)."""
+def _worst_transition(
+    group: pd.DataFrame, scenes: Sequence[str], tier: AccuracyTier
+) -> WorstTransition | None:
+    """The worst transition (the largest max_transition_ratio) of a setting's runs on
+    ``scenes`` that meet ``tier``: how near the tier's edge they are."""
     if Col.MAX_TRANSITION_RATIO not in group.columns:
         return None
-    mine = group[group[Col.SCENE].isin(scenes)]
+    mine = group[group[Col.SCENE].isin(scenes) & group[Col.VERDICT].isin(tier.verdicts)]
     ratio = pd.to_numeric(mine[Col.MAX_TRANSITION_RATIO], errors="coerce")
     if ratio.isna().all():
         return None
@@ -259,7 +262,7 @@ def _choice(key: tuple, group: pd.DataFrame, scenes: Sequence[str], tier: Accura
         len(set(met) & set(scenes)),
         us,
         us * 1e-6 / setting.timestep,
-        _worst_transition(group, scenes),
+        _worst_transition(group, scenes, tier),
     )
 
 
@@ -509,8 +512,9 @@ def answer_markdown(result: Answer, *, heading: bool = True) -> str:
         f"each accuracy tier on {_scene_count(len(result.scenes))} "
         f"({escape_text(', '.join(result.scenes))}), or on as many as any setting does; its "
         "cost (stepping time per step, and wall seconds per simulated second: below 1 is "
-        "faster than real time); its runs' worst transition (of every event time the verdict "
-        "compares, the farthest from the exact one against its loose tolerance); the scenes "
+        "faster than real time); the worst transition of its runs that meet the tier (of every "
+        "event time the verdict compares, the farthest from the exact one against its loose "
+        "tolerance); the scenes "
         f"it gets wrong at every setting tried, with those runs' verdicts. Tiers: {tiers}.",
         "",
         *lines,
