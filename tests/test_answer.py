@@ -60,7 +60,49 @@ def test_the_cheapest_setting_meeting_a_tier_on_every_scene_and_its_cost():
     assert (loose.setting.timestep, loose.wall_per_sim_s) == (2e-3, pytest.approx(0.01))
     assert line.always_wrong == ()
     text = answer_markdown(answer(rows))
-    assert "| mujoco | tuned, default, dt 0.001 | 20 | 0.02 | tuned, default, dt 0.002 |" in text
+    assert (
+        "| mujoco | tuned, default, dt 0.001 | 20 | 0.02 | - | tuned, default, dt 0.002 |" in text
+    )
+
+
+def test_each_tier_says_how_near_its_edge_the_setting_is():
+    """The loose tier's setting: a re-stick 6 ms late on seed-mu (0.6 of loose, close), a
+    slip onset 3 ms early on hop-top (0.3, agrees): the worst is the farthest against its
+    loose tolerance; for the tight tier, of its runs that agree, hop-top's. low-friction,
+    which the timestep limits (left out of the answer's scenes), does not count, however far
+    off."""
+
+    def timed(scene, verdict, name, error, ratio, **kwargs):
+        row = run("mujoco", scene, verdict, **kwargs)
+        return {**row, "max_transition": name, "max_transition_err_ms": error} | {
+            "max_transition_ratio": ratio
+        }
+
+    rows = pd.DataFrame(
+        [
+            timed("seed-mu", "close", "re-stick 2", 6.0, 0.6),
+            timed("hop-top", "agrees", "slip onset", -3.0, 0.3),
+            timed("low-friction", "late-transition", "re-stick 1", 50.0, 5.0),
+            run("pybullet", "low-friction", "agrees", dt=2.5e-5),
+        ]
+    )
+    result = answer(rows)
+    assert result.scenes == ("seed-mu", "hop-top")
+    mujoco = next(line for line in result.engines if line.engine == "mujoco")
+    tight, loose = mujoco.cheapest
+    assert tight.scenes_met == 1 and tight.worst is not None and loose.worst is not None
+    assert (loose.worst.scene, loose.worst.name, loose.worst.ratio) == (
+        "seed-mu",
+        "re-stick 2",
+        0.6,
+    )
+    assert (tight.worst.scene, tight.worst.name, tight.worst.ratio) == (
+        "hop-top",
+        "slip onset",
+        0.3,
+    )
+    text = answer_markdown(result)
+    assert "| re-stick 2 on seed-mu, +6 ms (0.6 of loose) |" in text
 
 
 def test_an_engine_meeting_no_tier_everywhere_shows_its_best_and_what_it_always_misses():

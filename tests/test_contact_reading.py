@@ -412,8 +412,8 @@ def test_a_friction_that_saturates_below_mu_slips_where_it_stops_giving_the_dema
     """Issue 33, rule 3: DART stock's friction saturates at 0.74-0.83 mu n. The demand rises
     through 0.8 mu n at 0.15 s; the friction stays there and the rim slides, faster and
     faster (up to 2 m/s). One slip from where the friction falls short of the demand by the
-    demand tolerance, never roll phases inside it, no creep beyond that lag, the effective coefficient
-    0.8 mu. (A back-walk to where the deficit starts was tried: it runs back through the
+    demand tolerance, never roll phases inside it, no creep beyond that lag, the effective
+    coefficient 0.8 mu. (A back-walk to where the deficit starts was tried: it runs back through the
     rolling creep of Box2D, PyBullet and Rapier at dt 5e-4 and 1e-3, 28-114 ms.)"""
     n, f, clear, slip = _window()
     t = np.arange(len(n)) * DT

@@ -5,6 +5,7 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
+from hoopbench.engines.judging.verdict import verdict_columns
 from hoopbench.reports.report.findings import (
     README_BEGIN,
     README_END,
@@ -269,3 +270,60 @@ def test_an_event_error_is_read_as_the_verdict_reads_it():
     assert event_error(row) == "-10 %"
     slip = {"exact_t_lift": None, "exact_t_slip": 0.987, "kin_err_t_slip_ms": -914.0}
     assert event_error({**slip, "err_t_slip_ms": 1.32}) == "+1.32 ms"
+
+
+def timed_row(engine: str, restick: float, slip: float = 0.4, **values):
+    """A run of a scene that slips, re-sticks, slips back and re-sticks (exact slip at 0.4 s,
+    re-sticks at 0.861 s and 1.5 s, the floor on them), its first slip at ``slip`` s and its
+    second re-stick at ``restick`` s, judged as the verdict judges it."""
+    columns = {
+        "status": "ok",
+        "exact_outcome": "slips",
+        "exact_t_slip": 0.4,
+        "exact_phases": "R S+ R S- R",
+        "floor_phases": "R S+ R S- R",
+        "outcome": "slips",
+        "t_slip": slip,
+        "max_clearance": 0.0,
+        "phases": "R S+ R S- R",
+        "phase_times": f"0.0 {slip!r} 0.861 1.3 {restick!r}",
+        "floor_phase_times": "0.0 0.4 0.861 1.3 1.5",
+        "exact_phase_times": "0.0 0.4 0.861 1.3 1.5",
+        **values,
+    }
+    columns |= verdict_columns(columns)
+    return row(engine, err_t_slip_ms=1e3 * (slip - 0.4), **columns)
+
+
+def test_the_later_transitions_off_are_named_beyond_loose_and_counted_beyond_tight():
+    """A re-stick 34 ms early (beyond loose: named), one 6 ms late and one 4 ms early
+    (beyond tight only: counted, the largest named), one 1 ms late (within tight) in a run
+    whose first slip onset is 5 ms late (close, but not a later transition)."""
+    runs = frame(
+        timed_row("pymunk", 1.466),
+        timed_row("drake", 1.506),
+        timed_row("dart", 1.496),
+        timed_row("rapier", 1.501, slip=0.405),
+    )
+    assert list(runs["verdict"]) == ["early-transition", "close", "close", "close"]
+    sentence = next(s for s in findings(runs) if s.startswith("Later transitions"))
+    assert sentence == (
+        "Later transitions (re-sticks, later slip onsets, slip reversals; dt 0.0001, tuned), "
+        "timed on 4 runs: beyond the loose tolerance on 1 (pymunk on seed-mu, re-stick 2 "
+        "-34 ms), beyond the tight one only on 2 (the largest: drake on seed-mu, re-stick 2 "
+        "+6 ms)."
+    )
+    calm = next(s for s in findings(runs.iloc[3:]) if s.startswith("Later transitions"))
+    assert calm.endswith(
+        "timed on 1 runs: every one within the tight tolerance (the largest: rapier on "
+        "seed-mu, re-stick 2 +1 ms)."
+    )
+
+
+def test_a_transition_verdict_is_said_with_its_transition():
+    """Where the verdict is a later transition's, the run's error is that transition's, not
+    its first slip onset's (on time)."""
+    from hoopbench.reports.report.findings import event_error
+
+    assert event_error(timed_row("pymunk", 1.466)) == "re-stick 2 -34 ms"
+    assert event_error(timed_row("drake", 1.506)) == "+0 ms"  # close: the slip onset

@@ -21,8 +21,10 @@ from hoopbench.engines.judging.columns import (
     FORCE_COLUMNS,
     RENAMED_FROM_CONTACT,
     RENAMED_TO_KIN,
+    TRANSITION_COLUMNS,
     Col,
 )
+from hoopbench.engines.judging.verdict import verdict_columns
 from hoopbench.models.formats import FileFormat, FormatVersionError
 from hoopbench.models.trajectory import FORMAT_VERSION as TRAJECTORY_VERSION
 from hoopbench.models.trajectory import Trajectory
@@ -58,6 +60,22 @@ NEW_IN_7 = [
 BATCHES_VERSION = 8
 """Issue 27: the batch cost columns (BATCH_COLUMNS); a table stored before reads each run as a
 batch of one."""
+BATCHES_MAP_VERSION = 5
+"""The same in a map's table."""
+TRANSITIONS_VERSION = 9
+"""Issue 33: every transition timed; a table stored before reads NEW_IN_9 empty."""
+NEW_IN_9 = [Col.PHASE_TIMES, Col.FLOOR_PHASE_TIMES, Col.EXACT_PHASE_TIMES, *TRANSITION_COLUMNS]
+VERDICT_COLUMNS = [Col.VERDICT, Col.OUTCOME_AGREES, Col.VERDICT_FLAGS, Col.VERDICT_REASON]
+
+
+def untimed(frame: pd.DataFrame) -> pd.DataFrame:
+    """The verdict columns of ``frame``'s rows judged again without NEW_IN_9, as a table
+    stored before format 9 is judged when a migration judges it again: its later transitions
+    untimed (pymunk's seed-mu at 1 ms re-sticks 34 ms early: early-transition with them,
+    agrees without)."""
+    rows = frame.drop(columns=NEW_IN_9).to_dict("records")
+    judged = pd.DataFrame([verdict_columns(row) for row in rows], index=frame.index)
+    return judged[VERDICT_COLUMNS]
 
 
 def before_7(rows: pd.DataFrame) -> pd.DataFrame:
@@ -105,6 +123,8 @@ def older(
     rows = results.read_runs(current)
     if layout is None:
         layout = 2 if version is None else version
+    if layout < TRANSITIONS_VERSION:
+        rows = rows.drop(columns=NEW_IN_9)
     if layout < ONE_READING_VERSION:
         rows = before_7(rows)
     if layout < BATCHES_VERSION:
@@ -149,7 +169,8 @@ def test_an_early_version_2_table_is_read_migrated(current, tmp_path, version):
     assert frame[[*NEW_IN_3, "verdict", *NEW_IN_4]].isna().all().all()
     assert set(ROW_COLUMNS) <= set(frame.columns)
     assert frame[[*NEW_IN_7, *RENAMED_FROM_CONTACT.values()]].isna().all().all()
-    skip = {*VERSION_2, *NEW_IN_7, *RENAMED_FROM_CONTACT.values(), "seq", "kin_t_last_phase"}
+    skip = {*VERSION_2, *NEW_IN_7, *NEW_IN_9, *RENAMED_FROM_CONTACT.values(), "seq"}
+    skip |= {"kin_t_last_phase"}
     skip |= {Col.VERDICT_FLAGS, Col.VERDICT_REASON, Col.OUTCOME, Col.ERR_HOP_HEIGHT_REL}
     skip |= {Col.PHASES_AGREE}
     kept = [c for c in results.read_runs(current).columns if c not in skip]
@@ -171,9 +192,11 @@ def test_a_version_5_table_reads_the_force_columns_empty(current, tmp_path):
     frame = runs_frame(old)
     assert frame[list(FORCE_COLUMNS)].isna().all().all()
     assert runs_frame(current)[list(FORCE_COLUMNS)].notna().all().all()
-    skip = {*FORCE_COLUMNS, *NEW_IN_7, "seq"}
+    skip = {*FORCE_COLUMNS, *NEW_IN_7, *NEW_IN_9, *VERDICT_COLUMNS, "seq"}
     kept = [c for c in results.read_runs(current).columns if c not in skip]
     pd.testing.assert_frame_equal(frame[kept], runs_frame(current)[kept], check_dtype=False)
+    expected = untimed(runs_frame(current))
+    pd.testing.assert_frame_equal(frame[VERDICT_COLUMNS], expected, check_dtype=False)
 
 
 def test_a_version_6_table_is_read_with_one_reading(current, tmp_path):
@@ -184,9 +207,11 @@ def test_a_version_6_table_is_read_with_one_reading(current, tmp_path):
     assert "contact_phases" in results.read_runs(old).columns
     frame = runs_frame(old)
     assert not any(c.startswith("contact_") for c in frame.columns)
-    skip = {*NEW_IN_7, "seq"}
+    skip = {*NEW_IN_7, *NEW_IN_9, *VERDICT_COLUMNS, "seq"}
     kept = [c for c in results.read_runs(current).columns if c not in skip]
     pd.testing.assert_frame_equal(frame[kept], runs_frame(current)[kept], check_dtype=False)
+    expected = untimed(runs_frame(current))
+    pd.testing.assert_frame_equal(frame[VERDICT_COLUMNS], expected, check_dtype=False)
 
 
 def test_a_version_7_table_reads_each_run_as_a_batch_of_one(current, tmp_path):
@@ -198,7 +223,22 @@ def test_a_version_7_table_reads_each_run_as_a_batch_of_one(current, tmp_path):
     frame = runs_frame(old)
     assert list(frame[Col.BATCH_SIZE]) == [1, 1]
     assert frame[Col.US_PER_WORLD_STEP].tolist() == pytest.approx(frame[Col.US_PER_STEP].tolist())
-    kept = [c for c in results.read_runs(current).columns if c != "seq"]
+    kept = [c for c in results.read_runs(current).columns if c not in {*NEW_IN_9, "seq"}]
+    pd.testing.assert_frame_equal(frame[kept], runs_frame(current)[kept], check_dtype=False)
+
+
+def test_a_version_8_table_reads_the_transition_columns_empty_and_keeps_its_verdict(
+    current, tmp_path
+):
+    """Format 9 (issue 33): a version-8 table's runs were judged before every transition was
+    timed; the phases' start times and the worst transition read empty, the rest of each row
+    (its verdict too) as stored."""
+    old = older(current, tmp_path, drop=[], version=8)
+    assert not set(NEW_IN_9) & set(results.read_runs(old).columns)
+    frame = runs_frame(old)
+    assert frame[NEW_IN_9].isna().all().all()
+    assert runs_frame(current)[NEW_IN_9].notna().all().all()
+    kept = [c for c in results.read_runs(current).columns if c not in {*NEW_IN_9, "seq"}]
     pd.testing.assert_frame_equal(frame[kept], runs_frame(current)[kept], check_dtype=False)
 
 
@@ -302,12 +342,19 @@ def test_a_map_table_is_read_at_its_version_or_without_one(tmp_path, version):
     assert list(frame["run_id"]) == ["r000-000-reference", "r000-001-pymunk"]
 
 
-@pytest.mark.parametrize("version", [MAP_VERSION - 1, ONE_READING_MAP_VERSION - 1, None])
+@pytest.mark.parametrize("version", [BATCHES_MAP_VERSION - 1, ONE_READING_MAP_VERSION - 1, None])
 def test_a_map_table_from_before_batches_reads_each_run_as_a_batch_of_one(tmp_path, version):
     """Map format 5 (issue 27), after one reading (4) or with it (3, or no meta.json)."""
     frame = map_frame(map_folder(tmp_path, version)).set_index("engine")
     assert frame.loc["pymunk", [*BATCH_COLUMNS]].tolist() == [1, 250.0, 4000.0]
     assert frame.loc["reference", [*BATCH_COLUMNS]].isna().all()  # no steps: no batch
+
+
+def test_a_map_table_from_before_transitions_reads_their_columns_empty(tmp_path):
+    """Map format 6 (issue 33): a version-5 map's rows lack the phases' start times and the
+    worst transition; they read empty."""
+    frame = map_frame(map_folder(tmp_path, MAP_VERSION - 1))
+    assert set(NEW_IN_9) <= set(frame.columns) and frame[NEW_IN_9].isna().all().all()
 
 
 def test_a_current_map_table_is_not_patched(tmp_path):

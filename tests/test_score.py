@@ -50,6 +50,14 @@ def test_the_detection_floor_widens_the_tolerance_as_the_verdict_does() -> None:
     assert row_error(row) == pytest.approx(1.0)
 
 
+def test_every_timed_transition_counts() -> None:
+    """A re-stick 30 ms early on a row whose first slip, lift-off and impact are on time:
+    beyond loose by its own ratio, as the verdict (early-transition) says."""
+    row = _row(**{Col.VERDICT: "early-transition", Col.ERR_T_SLIP_MS: 0.1})
+    assert row_error({**row, Col.MAX_TRANSITION_RATIO: 3.0}) == pytest.approx(3.0)
+    assert row_error(row) < 1.0  # stored before the transitions were timed: as then
+
+
 @pytest.mark.parametrize(
     "verdict", ["missed-hop", "false-hop", "missed-slip", "false-slip", "diverged", "failed"]
 )

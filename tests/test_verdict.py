@@ -86,6 +86,25 @@ PAINLEVE_ROW: dict[str, Any] = {
 """A sliding start that reaches a Painlevé point at 0.18 s; the engine hops at 0.19 s."""
 
 
+TWO_SLIPS_ROW: dict[str, Any] = {
+    **SLIP_ROW,
+    "exact_phases": "R S+ R S- R",
+    "floor_phases": "R S+ R S- R",
+    "phases": "R S+ R S- R",
+    "exact_phase_times": "0.0 0.4 0.861 1.3 1.5",
+    "floor_phase_times": "0.0 0.4 0.862 1.3 1.5",
+    "phase_times": "0.0 0.4 0.861 1.3 1.5",
+}
+"""Slips, re-sticks, slips back and re-sticks as the reference does, every transition on
+time; the reading at the run's timestep sees the first re-stick 1 ms late (its floor): a
+re-stick's tolerances are 3 ms tight and 11 ms loose."""
+
+
+def _late_restick(seconds: float) -> dict[str, Any]:
+    """TWO_SLIPS_ROW with the run's first re-stick ``seconds`` after the exact one."""
+    return {**TWO_SLIPS_ROW, "phase_times": f"0.0 0.4 {0.861 + seconds!r} 1.3 1.5"}
+
+
 def _verdict(row: dict[str, Any]) -> tuple[Verdict | None, bool | None]:
     judgement = classify(row)
     return judgement.verdict, judgement.outcome_agrees
@@ -200,6 +219,15 @@ CASES: list[tuple[str, dict[str, Any], Verdict, bool]] = [
         Verdict.CLOSE,
         True,
     ),
+    ("late-transition: re-stick 373 ms late", _late_restick(0.373), Verdict.LATE_TRANSITION, True),
+    (
+        "early-transition: re-stick 50 ms early",
+        _late_restick(-0.05),
+        Verdict.EARLY_TRANSITION,
+        True,
+    ),
+    ("close: re-stick 6 ms late", _late_restick(0.006), Verdict.CLOSE, True),
+    ("agrees: re-stick 2.5 ms late", _late_restick(0.0025), Verdict.AGREES, True),
     ("early-slip: 20 ms", {**SLIP_ROW, "t_slip": 0.38}, Verdict.EARLY_SLIP, True),
     ("late-slip: 20 ms", {**SLIP_ROW, "t_slip": 0.42}, Verdict.LATE_SLIP, True),
     ("diverged", {**HOP_ROW, "status": "diverged"}, Verdict.DIVERGED, False),
@@ -288,6 +316,102 @@ def test_outcome_agrees_exactly_where_no_outcome_check_failed():
     for _, row, _, _ in CASES:
         verdict, agrees = _verdict(row)
         assert agrees is (verdict not in (*OUTCOME_FAILURES, Verdict.DIVERGED, Verdict.FAILED))
+
+
+# --------------------------------------------------------------------------- every transition
+def test_a_late_restick_is_named_and_timed():
+    """The issue's row: agrees before, its re-stick 373 ms late; the reason names the
+    transition, and the row's worst transition is it."""
+    row = _late_restick(0.373)
+    judgement = classify(row)
+    assert judgement.flags == (Verdict.LATE_TRANSITION,)
+    assert judgement.reason == (
+        "re-stick 1 (S+ -> R) 373 ms late (1.234 s against 0.861 s, loose 11 ms)"
+    )
+    columns = verdict_columns(row)
+    assert columns["max_transition"] == "re-stick 1"
+    assert columns["max_transition_err_ms"] == pytest.approx(373.0)
+    assert columns["max_transition_ratio"] == pytest.approx(373.0 / 11.0)
+
+
+def test_a_restick_beyond_tight_makes_the_row_close_and_says_so():
+    judgement = classify(_late_restick(0.006))
+    assert (
+        judgement.reason == "re-stick 1 (S+ -> R) 6 ms late (0.867 s against 0.861 s, tight 3 ms)"
+    )
+
+
+def test_every_timed_event_is_a_transition_of_the_row():
+    """The worst transition is the largest error against its own loose tolerance, signed: a
+    slip onset 8 ms early (loose 10 ms) outweighs a re-stick 8.5 ms late (loose 11 ms)."""
+    row = {**_late_restick(0.0085), "t_slip": 0.392}
+    row["phase_times"] = row["phase_times"].replace(" 0.4 ", " 0.392 ")
+    judgement = classify(row)
+    assert [event.name for event in judgement.timed] == [
+        "slip onset",
+        "re-stick 1",
+        "slip onset 2",
+        "re-stick 2",
+    ]
+    columns = verdict_columns(row)
+    assert (columns["verdict"], columns["max_transition"]) == ("close", "slip onset")
+    assert columns["max_transition_err_ms"] == pytest.approx(-8.0)
+    assert columns["max_transition_ratio"] == pytest.approx(0.8)
+    assert verdict_columns(ROLL_ROW)["max_transition"] is None  # nothing to time
+
+
+def test_the_first_slip_and_the_lift_off_are_flagged_once():
+    """They have their own checks (early-slip, late-lift-off): the transitions do not flag
+    them again."""
+    late = {**TWO_SLIPS_ROW, "t_slip": 0.42, "phase_times": "0.0 0.42 0.861 1.3 1.5"}
+    assert classify(late).flags == (Verdict.LATE_SLIP,)
+    hop = {**HOP_ROW, "t_lift": 1.06, "floor_phases": "R S+ F", "phase_times": "0.0 0.4 1.06"}
+    hop |= {"floor_phase_times": "0.0 0.4 1.0", "exact_phase_times": "0.0 0.4 1.0"}
+    assert classify(hop).flags == (Verdict.LATE_LIFT_OFF,)
+
+
+def test_a_last_phase_at_the_window_end_is_not_timed():
+    """The run slips again 10 ms before its window ends, where the exact solution (as read
+    at the run's timestep) rolls on: the phases agree by the window-end rule, and that slip
+    onset, which the exact solution does not have, is timed against nothing (the first slip
+    onset is not its match)."""
+    row = {**SLIP_ROW, "floor_phases": "R S+ R", "phases": "R S+ R S+", "t_final": 3.0}
+    row |= {"phase_times": "0.0 0.4 0.861 2.99", "t_last_phase": 2.99}
+    row |= {"floor_phase_times": "0.0 0.4 0.861", "exact_phase_times": "0.0 0.4 0.861"}
+    judgement = classify(row)
+    assert judgement.verdict is Verdict.AGREES
+    assert [event.name for event in judgement.timed] == ["slip onset", "re-stick 1"]
+
+
+def test_where_the_phases_differ_the_common_prefix_is_timed():
+    """The run misses the second slip: wrong-phases first, and its first re-stick, which
+    both sequences have, is still timed (here 50 ms late)."""
+    row = {**_late_restick(0.05), "phases": "R S+ R", "phase_times": "0.0 0.4 0.911"}
+    judgement = classify(row)
+    assert judgement.flags == (Verdict.WRONG_PHASES, Verdict.LATE_TRANSITION)
+    assert verdict_columns(row)["max_transition"] == "re-stick 1"
+
+
+def test_painleve_transitions_are_timed_up_to_the_point_only():
+    """The exact solution re-sticks, slips back and reaches a Painlevé point in that slip;
+    the engine hops after it. Its re-stick (before the point) is timed; its lift-off (after
+    it) is not, nor its first slip onset (as before)."""
+    row = {**PAINLEVE_ROW, "exact_phases": "R S+ R S-", "floor_phases": "R S+ R S-"}
+    row |= {"exact_t_slip": 0.05, "t_slip": 0.08, "exact_t_painleve": 0.3, "t_lift": 0.31}
+    row |= {"exact_phase_times": "0.0 0.05 0.1 0.2", "floor_phase_times": "0.0 0.05 0.1 0.2"}
+    row |= {"phases": "R S+ R S- F", "phase_times": "0.0 0.08 0.1 0.2 0.31"}
+    assert [event.name for event in classify(row).timed] == ["re-stick 1", "slip onset 2"]
+    assert classify(row).verdict is Verdict.AGREES
+    late = {**row, "phase_times": "0.0 0.08 0.15 0.2 0.31"}
+    assert classify(late).verdict is Verdict.LATE_TRANSITION
+
+
+def test_a_row_stored_without_phase_times_is_judged_as_before():
+    """Its later transitions cannot be timed, so its worst is not known: left empty rather
+    than named from the first slip onset alone."""
+    row = {k: v for k, v in _late_restick(0.373).items() if k != "phase_times"}
+    columns = verdict_columns(row)
+    assert columns["verdict"] == "agrees" and columns["max_transition"] is None
 
 
 # --------------------------------------------------------------------------- hop rules

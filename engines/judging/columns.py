@@ -21,6 +21,7 @@ __all__ = [
     "KIN_COLUMNS",
     "RENAMED_FROM_CONTACT",
     "RENAMED_TO_KIN",
+    "TRANSITION_COLUMNS",
     "Col",
 ]
 
@@ -126,6 +127,9 @@ class Col(StrEnum):
     PHASES = "phases"
     """The modes as codes, ending at the hop's impact, e.g. ``R S+ R S- F`` (chattering is
     no phase: ``chattering_time_s``)."""
+    PHASE_TIMES = "phase_times"
+    """s: the start of each of the run's phases (``phases``), space-separated, repr's
+    precision: the transition into phase k starts it (engines/judging/transitions.py)."""
     T_LAST_PHASE = "t_last_phase"
     """s: the start of the last mode."""
     PHASES_AGREE = "phases_agree"
@@ -188,6 +192,14 @@ class Col(StrEnum):
     FLOOR_PHASES = "floor_phases"
     """The exact phases as read at the run's timestep: a phase shorter than the reading
     resolves is absorbed. The verdict compares the engine's phases with these."""
+    FLOOR_PHASE_TIMES = "floor_phase_times"
+    """s: the start of each floor phase (``floor_phases``), as ``phase_times``."""
+    EXACT_PHASE_TIMES = "exact_phase_times"
+    """s: the exact solver's (true) start of each floor phase, as ``phase_times`` ('nan' where
+    the exact solution has no transition of that kind there): the floor's transitions matched
+    to the exact ones by kind and nearest time (engines/judging/transitions.py). A floor
+    column despite its name: it holds the exact phases after the floor's absorption, so it
+    depends on the run's timestep."""
     FLOOR_T_LAST_PHASE = "floor_t_last_phase"
     """s: the start of the last of those phases."""
     FLOOR_ERR_T_SLIP_MS = "floor_err_t_slip_ms"
@@ -232,6 +244,15 @@ class Col(StrEnum):
     """Every check the run failed, space-separated verdict values, the primary one first."""
     VERDICT_REASON = "verdict_reason"
     """The line that says why, for the primary verdict (which way and by how much)."""
+    MAX_TRANSITION_ERR_MS = "max_transition_err_ms"
+    """ms, signed (run minus exact: negative is early): the error of ``max_transition``."""
+    MAX_TRANSITION = "max_transition"
+    """The timed transition whose error is largest against its loose tolerance, of every one
+    the verdict timed (the first slip onset, the lift-off, the impact and every later
+    transition: 're-stick 1'); empty where none was timed."""
+    MAX_TRANSITION_RATIO = "max_transition_ratio"
+    """|max_transition_err_ms| over that transition's loose tolerance (the row's detection
+    floor of it included): above 1 the verdict fails it."""
     HOP_HEIGHT_ERROR = "hop_height_error"
     # Where the run's trajectory is stored.
     TRAJECTORY_FILE = "trajectory_file"
@@ -273,6 +294,7 @@ EVENT_COLUMNS = (
     Col.ERR_T_IMPACT_MS,
     Col.ERR_HOP_HEIGHT_REL,
     Col.PHASES,
+    Col.PHASE_TIMES,
     Col.T_LAST_PHASE,
     Col.PHASES_AGREE,
     Col.N_FLIGHTS,
@@ -314,6 +336,8 @@ compares the two readings shows them."""
 
 FLOOR_COLUMNS = (
     Col.FLOOR_PHASES,
+    Col.FLOOR_PHASE_TIMES,
+    Col.EXACT_PHASE_TIMES,
     Col.FLOOR_T_LAST_PHASE,
     Col.FLOOR_ERR_T_SLIP_MS,
     Col.FLOOR_ERR_T_LIFT_MS,
@@ -322,6 +346,10 @@ FLOOR_COLUMNS = (
 )
 """The exact solution read at the run's timestep (:func:`comparison.floor_columns`): what
 the verdict absorbs."""
+
+TRANSITION_COLUMNS = (Col.MAX_TRANSITION_ERR_MS, Col.MAX_TRANSITION, Col.MAX_TRANSITION_RATIO)
+"""The verdict's largest transition error (:func:`verdict.verdict_columns`), in every judged
+row of a suite and a map."""
 
 RENAMED_TO_KIN = {
     "outcome": Col.KIN_OUTCOME,

@@ -19,6 +19,7 @@ import numpy as np
 from hoopbench.engines.judging.columns import Col
 from hoopbench.engines.judging.contact import canonical_events, read_run
 from hoopbench.engines.judging.forces import force_columns
+from hoopbench.engines.judging.transitions import exact_transition_times, times_text
 from hoopbench.engines.judging.verdict import (
     number_or_none,
     painleve_time,
@@ -183,6 +184,7 @@ def event_columns(
         Col.ERR_T_IMPACT_MS: errors["t_impact"],
         Col.ERR_HOP_HEIGHT_REL: errors["hop"],
         Col.PHASES: reading.phases,
+        Col.PHASE_TIMES: times_text([mode.t_start for mode in reading.modes]),
         Col.T_LAST_PHASE: reading.t_last_phase,
         Col.N_FLIGHTS: len(reading.flights),
         Col.CHATTER_COUNT: reading.chatter_count,
@@ -261,8 +263,11 @@ def _floor(scene: Scene, mu: float, timestep: float) -> dict[str, Any]:
     exact_lift = number_or_none(exact.get(Col.EXACT_T_LIFT))
     reading = read_run(sampled, solution.scene, mu, window_end=window_end, exact_lift=exact_lift)
     errors = _errors(canonical_events(sampled, reading), exact)
+    exact_times = exact_transition_times(reading.modes, solution.events.phases)
     return {
         Col.FLOOR_PHASES: reading.phases,
+        Col.FLOOR_PHASE_TIMES: times_text([mode.t_start for mode in reading.modes]),
+        Col.EXACT_PHASE_TIMES: times_text(exact_times),
         Col.FLOOR_T_LAST_PHASE: reading.t_last_phase,
         Col.FLOOR_ERR_T_SLIP_MS: errors["t_slip"],
         Col.FLOOR_ERR_T_LIFT_MS: errors["t_lift"],
@@ -274,7 +279,9 @@ def _floor(scene: Scene, mu: float, timestep: float) -> dict[str, Any]:
 def floor_columns(scene: Scene, mu: float, timestep: float | None) -> dict[str, Any]:
     """The detection floor of a run (docs/report.md): the exact solution of ``scene`` with
     ``mu``, sampled at the run's ``timestep`` and read by the canonical reading, its phases
-    and its errors against the exact events. Empty without a timestep."""
+    and their start times, the exact solver's start times of those phases (the floor's
+    transitions matched to the exact ones: engines/judging/transitions.py), and its errors
+    against the exact events. Empty without a timestep."""
     if timestep is None or not timestep > 0:
         return {}
     return dict(_floor(scene, mu, float(timestep)))

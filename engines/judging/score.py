@@ -6,7 +6,8 @@ verdict.py), continuous so that a search can tell "nearly close" from "far off":
 
 - each judged event's error over its LOOSE tolerance (as the verdict sets it: carried to the
   hoop and timestep, plus the row's detection floor), the largest of them: at most 1 means
-  every event is within the loose tier (``close`` or ``agrees``);
+  every event is within the loose tier (``close`` or ``agrees``); every transition the
+  verdict timed counts (its worst, ``max_transition_ratio``: a re-stick 30 ms early is 3);
 - at least FLAG_SCORE when the verdict flags a failure no event error measures (wrong phases,
   creep, a stick outside the Coulomb cone);
 - SCORE_CAP, the worst, for an event missed or invented (false or missed hop or slip), a run
@@ -83,6 +84,7 @@ def row_error(row: Mapping[str, Any]) -> float:
     if not flags or flags & {str(v) for v in _WORST}:
         return SCORE_CAP  # no verdict (unjudged), or an outcome nothing can time
     ratios = [event_error_ratio(row, event, Tier.LOOSE) for event in Event]
+    ratios.append(number_or_none(row.get(Col.MAX_TRANSITION_RATIO)))
     error = max((r for r in ratios if r is not None), default=0.0)
     if flags & {str(v) for v in _UNMEASURED}:
         error = max(error, FLAG_SCORE)

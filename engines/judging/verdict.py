@@ -31,6 +31,11 @@ every failed check is a flag (``verdict_flags``):
   impact (``early-impact``, ``late-impact``);
 - where both slip: the first slip onset (``early-slip``, ``late-slip``);
 - the phase sequence (``wrong-phases``; the reason names the first phase that differs);
+- every later transition (``early-transition``, ``late-transition``; the reason names it):
+  each re-stick, later slip onset and slip reversal of the run paired with the exact one
+  (engines/judging/transitions.py: where the run's phase codes equal the floor's, or their
+  common prefix where they differ; a last phase only one of them has at the window's end is
+  not timed), with the t_slip tolerances plus that transition's own detection floor;
 - a stick outside the Coulomb cone lasting the table's ``[cone] stick_s``
   (``cone-violation``).
 
@@ -39,12 +44,19 @@ reason names the events outside tight). ``outcome_agrees`` is true when none of 
 failures (class, hop height, lift-off, impact) is flagged. A row without ``a`` (or ``g``)
 is judged for a = 1 m (g = 9.8 m/s^2).
 
+**The worst transition.** Every event time the checks compare (the first slip onset, the
+lift-off, the impact, every later transition) is timed; the one whose error is largest
+against its loose tolerance is the row's ``max_transition``, with its signed error
+``max_transition_err_ms`` and that ratio ``max_transition_ratio`` (above 1: it fails), so a
+reader can sort the rows by it (:func:`verdict_columns`).
+
 - **Painlevé.** The exact solution reaches a point where no consistent contact force exists
   (D = 0 while slipping) at ``exact_t_painleve``, and the rigid model says nothing after it.
   So the engine agrees unless it contradicts the part the model does predict: a lift-off
   more than PHASE_END_TOLERANCE before the Painlevé point is a false hop, and a run that
   never slips where the exact one slipped first is a missed slip. Its phases are compared up
-  to that point: the engine's sequence must begin with the exact one.
+  to that point: the engine's sequence must begin with the exact one, and its later
+  transitions in it are timed (its first slip onset is not, as before).
 - **lifts-at-start** (the normal force is negative at t = 0) is a hop whose lift-off is at
   t = 0.
 - ``degenerate`` and ``error`` exact outcomes, exact hops below the hop threshold and exact
@@ -68,6 +80,7 @@ from hoopbench.engines.judging.tolerances import (
     event_tolerances,
     tolerances,
 )
+from hoopbench.engines.judging.transitions import row_transitions
 from hoopbench.engines.run import RunStatus
 from hoopbench.models.events import Events, Outcome
 
@@ -82,6 +95,7 @@ __all__ = [
     "Event",
     "HoopThresholds",
     "Judgement",
+    "TimedEvent",
     "Verdict",
     "classify",
     "event_error_ratio",
@@ -145,6 +159,11 @@ class Verdict(StrEnum):
     WRONG_PHASES = "wrong-phases"
     """The phase sequence differs from the exact one read at the run's timestep
     (``floor_phases``); the reason names the first phase that differs."""
+    EARLY_TRANSITION = "early-transition"
+    """A later transition (a re-stick, a later slip onset, a slip reversal) earlier than the
+    loose tolerance allows."""
+    LATE_TRANSITION = "late-transition"
+    """A later transition later than the loose tolerance allows."""
     CREEPS = "creeps"
     """The rim slides, with its friction inside the cone at what rolling needs (creep),
     farther than the loose tolerance, where the exact solution rolls without sliding."""
@@ -203,6 +222,31 @@ _NO_ANSWER = (str(Outcome.DEGENERATE), str(Outcome.ERROR))
 
 
 @dataclass(frozen=True)
+class TimedEvent:
+    """An event time the verdict compared with the exact one. Times in s."""
+
+    name: str
+    """'slip onset', 'lift-off', 'impact', 're-stick 1', ..."""
+    error: float
+    """Run minus exact (negative: early)."""
+    tight: float
+    """Its tight tolerance, the row's detection floor of it included (> 0)."""
+    loose: float
+    """Its loose tolerance, the row's detection floor of it included (> 0)."""
+
+    @property
+    def ratio(self) -> float:
+        """|error| over the loose tolerance: above 1 the check fails."""
+        return abs(self.error) / self.loose
+
+    @property
+    def later(self) -> bool:
+        """A later transition (a re-stick, a later slip onset, a reversal), not one of the
+        events with their own checks (the first slip onset, the lift-off, the impact)."""
+        return self.name not in _OWN_CHECKS
+
+
+@dataclass(frozen=True)
 class Judgement:
     """A run's verdict, whether its outcome agrees, and a line saying why."""
 
@@ -211,6 +255,14 @@ class Judgement:
     reason: str
     flags: tuple[Verdict, ...] = ()
     """Every check that failed, the primary verdict first (empty for agrees and close)."""
+    timed: tuple[TimedEvent, ...] = ()
+    """Every event time the checks compared, in the order they did."""
+
+    @property
+    def worst(self) -> TimedEvent | None:
+        """The timed event with the largest error against its loose tolerance (the first of
+        those tied); None where none was timed."""
+        return max(self.timed, key=lambda event: event.ratio, default=None)
 
 
 def number_or_none(value: Any) -> float | None:
@@ -438,6 +490,7 @@ class _Checks:
 
     failures: list[Failure]
     close: list[str]
+    timed: list[TimedEvent]
 
 
 def _outcome(row: Mapping[str, Any], engine: _Class, exact: _Class) -> Failure | None:
@@ -492,13 +545,16 @@ def _timing(
     t0: float | None,
     tight: float,
     loose: float,
+    label: str | None = None,
 ) -> None:
     """One event time against the exact one: within ``tight`` (s) agrees, within ``loose``
-    close, beyond it the early or late failure of ``kinds``."""
+    close, beyond it the early or late failure of ``kinds``; the reason says ``label`` (the
+    name where None). Recorded as timed under ``name``."""
     if t is None or t0 is None:
         return
     error = t - t0
-    text = f"{name} {_ms_text(error)} ({t:.6g} s against {t0:.6g} s"
+    checks.timed.append(TimedEvent(name, error, tight, loose))
+    text = f"{label or name} {_ms_text(error)} ({t:.6g} s against {t0:.6g} s"
     if abs(error) > loose:
         checks.failures.append(
             (kinds[0] if error < 0 else kinds[1], f"{text}, loose {1e3 * loose:.3g} ms)")
@@ -576,6 +632,29 @@ def _phase_checks(row: Mapping[str, Any], checks: _Checks) -> None:
         exact, _ = _exact_phases(row)
         text = _phase_difference(_text(row.get(Col.PHASES)) or "", exact or "")
         checks.failures.append((Verdict.WRONG_PHASES, text))
+
+
+_OWN_CHECKS = ("slip onset", "lift-off", "impact")
+"""The events with their own checks (and verdicts), as the transitions name them."""
+
+
+def _transition_checks(row: Mapping[str, Any], checks: _Checks) -> None:
+    """Every later transition the run shares with the exact phases (module docstring): the
+    first slip onset and the lift-off have their own checks."""
+    limits = _row_thresholds(row)
+    for transition in row_transitions(row):
+        if transition.name in _OWN_CHECKS:
+            continue
+        _timing(
+            checks,
+            transition.name,
+            (Verdict.EARLY_TRANSITION, Verdict.LATE_TRANSITION),
+            transition.t,
+            transition.t_exact,
+            limits.tight.t_slip + transition.floor,
+            limits.loose.t_slip + transition.floor,
+            transition.label,
+        )
 
 
 def _cone_checks(row: Mapping[str, Any], checks: _Checks) -> None:
@@ -665,13 +744,14 @@ def _creep_checks(row: Mapping[str, Any], checks: _Checks) -> None:
 
 _EVENT_CHECKS: tuple[Callable[[Mapping[str, Any], _Checks], None], ...] = (
     _phase_checks,
+    _transition_checks,
     _creep_checks,
     _cone_checks,
 )
 
 
 def _judged(row: Mapping[str, Any], engine: _Class, exact: _Class) -> Judgement:
-    checks = _Checks([], [])
+    checks = _Checks([], [], [])
     failure = _outcome(row, engine, exact)
     if failure is not None:
         checks.failures.append(failure)
@@ -683,24 +763,35 @@ def _judged(row: Mapping[str, Any], engine: _Class, exact: _Class) -> Judgement:
         check(row, checks)
     flags = tuple(dict.fromkeys(kind for kind, _ in checks.failures))
     agrees = not any(kind in OUTCOME_FAILURES for kind in flags)
+    timed = tuple(checks.timed)
     if flags:
-        return Judgement(flags[0], agrees, checks.failures[0][1], flags)
+        return Judgement(flags[0], agrees, checks.failures[0][1], flags, timed)
     if checks.close:
-        return Judgement(Verdict.CLOSE, True, "; ".join(checks.close))
+        return Judgement(Verdict.CLOSE, True, "; ".join(checks.close), timed=timed)
     return Judgement(
-        Verdict.AGREES, True, f"{exact}s as the reference does, every event within tight"
+        Verdict.AGREES,
+        True,
+        f"{exact}s as the reference does, every event within tight",
+        timed=timed,
     )
 
 
 def verdict_columns(row: Mapping[str, Any]) -> dict[str, Any]:
     """The row's ``verdict`` (a string, None without an exact answer), ``outcome_agrees``,
-    ``verdict_flags`` (every failed check) and ``verdict_reason`` (the primary one's line, or
-    for ``close`` the events outside tight)."""
+    ``verdict_flags`` (every failed check), ``verdict_reason`` (the primary one's line, or
+    for ``close`` the events outside tight), and its worst timed transition
+    (:attr:`Judgement.worst`: ``max_transition``, its signed error ``max_transition_err_ms``
+    and ``max_transition_ratio``; None where nothing was timed, or where the row has no
+    ``phase_times``: stored before every transition was timed, its worst is not known)."""
     judgement = classify(row)
     verdict = None if judgement.verdict is None else str(judgement.verdict)
+    worst = judgement.worst if isinstance(row.get(Col.PHASE_TIMES), str) else None
     return {
         Col.VERDICT: verdict,
         Col.OUTCOME_AGREES: judgement.outcome_agrees,
         Col.VERDICT_FLAGS: " ".join(str(flag) for flag in judgement.flags),
         Col.VERDICT_REASON: judgement.reason,
+        Col.MAX_TRANSITION_ERR_MS: None if worst is None else 1e3 * worst.error,
+        Col.MAX_TRANSITION: None if worst is None else worst.name,
+        Col.MAX_TRANSITION_RATIO: None if worst is None else worst.ratio,
     }

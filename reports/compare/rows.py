@@ -19,6 +19,7 @@ from hoopbench.engines.judging.columns import (
     KIN_COLUMNS,
     RENAMED_FROM_CONTACT,
     RENAMED_TO_KIN,
+    TRANSITION_COLUMNS,
     Col,
 )
 from hoopbench.engines.judging.verdict import number_or_none, row_phases_agree, verdict_columns
@@ -34,9 +35,10 @@ __all__ = [
     "before_one_reading",
     "one_reading",
     "with_batch_columns",
+    "with_transition_columns",
 ]
 
-FORMAT_VERSION = 8
+FORMAT_VERSION = 9
 """Version of the runs table layout (1: runs.parquet and runs.json, before the runs/ dataset;
 2: run_id and the runner's bookkeeping columns; 3: the verdict, max_clearance, consistent,
 event_flags and exact_t_painleve columns; 4: g, and the last phases' start times and the run's
@@ -46,7 +48,8 @@ CONTACT_COLUMNS, and the verdict's flags and reason; 6: the contact force agains
 one, FORCE_COLUMNS; 7, issue 24: one reading, the unprefixed event columns are the canonical
 (contact) reading, the clearance reading is kin_*, the detection floor floor_*, and the
 verdict has one meaning: :func:`one_reading`; 8, issue 27: the batch's cost, BATCH_COLUMNS,
-:func:`with_batch_columns`). Columns also arrived between bumps
+:func:`with_batch_columns`; 9, issue 33: every transition timed, the phases' start times and
+the verdict's worst transition, :func:`with_transition_columns`). Columns also arrived between bumps
 (profile and a late in 2, rms_position_m with 3, g late in 3, exact_max_slip_speed early in
 4): a table may lack one its version lists, and reads it empty."""
 
@@ -67,6 +70,12 @@ _ADDED_IN = {
     5: (*RENAMED_FROM_CONTACT, Col.VERDICT_FLAGS, Col.VERDICT_REASON),
     6: FORCE_COLUMNS,
     8: BATCH_COLUMNS,  # filled for older runs: each was a batch of one
+    9: (
+        Col.PHASE_TIMES,
+        Col.FLOOR_PHASE_TIMES,
+        Col.EXACT_PHASE_TIMES,
+        *TRANSITION_COLUMNS,
+    ),
 }
 """The columns each version added (or, for g and exact_max_slip_speed, came with it): an
 older table's rows have them empty."""
@@ -126,7 +135,13 @@ def one_reading(frame: pd.DataFrame) -> pd.DataFrame:
         frame = frame.drop(columns=[c for c in RENAMED_FROM_CONTACT if c in frame.columns])
         return results.with_columns(frame, (*EVENT_COLUMNS, *KIN_COLUMNS, *FLOOR_COLUMNS))
     frame = frame.rename(columns={**RENAMED_TO_KIN, **RENAMED_FROM_CONTACT})
-    needed = (*EVENT_COLUMNS, *KIN_COLUMNS, *FLOOR_COLUMNS, Col.EXACT_HOP_HEIGHT)
+    needed = (
+        *EVENT_COLUMNS,
+        *KIN_COLUMNS,
+        *FLOOR_COLUMNS,
+        *TRANSITION_COLUMNS,
+        Col.EXACT_HOP_HEIGHT,
+    )
     frame = results.with_columns(frame, needed)
     if frame.empty:
         return frame
@@ -167,11 +182,27 @@ def with_batch_columns(frame: pd.DataFrame) -> pd.DataFrame:
     )
 
 
+def with_transition_columns(frame: pd.DataFrame) -> pd.DataFrame:
+    """Issue 33's migration of a runs table (a suite's, version 8, or a map's, version 5): the
+    phases' start times and the worst transition read empty, and the stored verdict stays:
+    judged before every transition was timed, it timed the first slip onset, the lift-off
+    and the impact alone (engines/judging/verdict.py, ``verdict_columns``)."""
+    return results.with_columns(frame, _ADDED_IN[9])
+
+
 RUNS_TABLE = FileFormat(
     "runs table",
     FORMAT_VERSION,
     oldest=2,
-    migrations={2: _to_3, 3: _to_4, 4: _to_5, 5: _to_6, 6: _to_7, 7: with_batch_columns},
+    migrations={
+        2: _to_3,
+        3: _to_4,
+        4: _to_5,
+        5: _to_6,
+        6: _to_7,
+        7: with_batch_columns,
+        8: with_transition_columns,
+    },
 )
 """A compare folder's runs table; a folder that records no version counts as 2, the first
 runs/ dataset (version 1 folders have no runs/ and are not read)."""

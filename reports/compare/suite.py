@@ -29,6 +29,7 @@ from hoopbench.engines.judging.columns import (
     FLOOR_COLUMNS,
     FORCE_COLUMNS,
     KIN_COLUMNS,
+    TRANSITION_COLUMNS,
     Col,
 )
 from hoopbench.engines.judging.comparison import (
@@ -115,6 +116,7 @@ ROW_COLUMNS = (
     Col.OUTCOME_AGREES,
     Col.VERDICT_FLAGS,
     Col.VERDICT_REASON,
+    *TRANSITION_COLUMNS,
     *FLOOR_COLUMNS,
     *FORCE_COLUMNS,
     *KIN_COLUMNS,

@@ -37,6 +37,7 @@ from hoopbench.engines.judging.columns import (
     FLOOR_COLUMNS,
     FORCE_COLUMNS,
     KIN_COLUMNS,
+    TRANSITION_COLUMNS,
     Col,
 )
 from hoopbench.engines.judging.comparison import (
@@ -98,12 +99,13 @@ __all__ = [
 
 
 # --------------------------------------------------------------------------- points, tasks
-ROWS_FORMAT_VERSION = 5
+ROWS_FORMAT_VERSION = 6
 """Version of the map's runs table (meta.json; map.toml has its own, FORMAT_VERSION): 2 adds
 the contact reading's columns and the verdict's flags and reason, 3 the contact force
 against the exact one (FORCE_COLUMNS), as a suite's rows have them; 4 one reading (issue 24:
 reports/compare/rows.one_reading); 5 the batch's cost (issue 27: BATCH_COLUMNS,
-reports/compare/rows.with_batch_columns)."""
+reports/compare/rows.with_batch_columns); 6 every transition timed (issue 33:
+reports/compare/rows.with_transition_columns)."""
 
 ONE_READING_MAP_VERSION = 4
 """The first map table format with one reading: a map folder stored before it is read
@@ -228,6 +230,7 @@ MAP_COLUMNS = (
     Col.OUTCOME_AGREES,
     Col.VERDICT_FLAGS,
     Col.VERDICT_REASON,
+    *TRANSITION_COLUMNS,
     Col.HOP_HEIGHT_ERROR,
     Col.ENERGY_RISE_BEFORE_SLIP,
     Col.ENERGY_CHANGE_END,

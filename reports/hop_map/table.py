@@ -12,7 +12,11 @@ import pandas as pd
 from hoopbench.engines.judging.columns import FORCE_COLUMNS, RENAMED_FROM_CONTACT, Col
 from hoopbench.models.formats import FileFormat
 from hoopbench.reference.regimes import Regime
-from hoopbench.reports.compare.rows import one_reading, with_batch_columns
+from hoopbench.reports.compare.rows import (
+    one_reading,
+    with_batch_columns,
+    with_transition_columns,
+)
 from hoopbench.reports.compare.selection import engine_rows
 from hoopbench.reports.hop_map.spec import REFERENCE, check_stored_points, load_spec
 from hoopbench.reports.hop_map.stages import MAP_COLUMNS, ROWS_FORMAT_VERSION
@@ -57,7 +61,13 @@ MAP_TABLE = FileFormat(
     "hop map runs table",
     ROWS_FORMAT_VERSION,
     oldest=1,
-    migrations={1: _to_2, 2: _to_3, 3: _to_4, 4: with_batch_columns},
+    migrations={
+        1: _to_2,
+        2: _to_3,
+        3: _to_4,
+        4: with_batch_columns,
+        5: with_transition_columns,
+    },
 )
 """A map folder's runs table (its version in meta.json, as a compare folder's)."""
 

@@ -10,7 +10,11 @@ that have an exact answer to judge against) and every one of those runs has a ve
 tier (:data:`ACCURACY_TIERS`). Its cost is the median over those runs of the stepping time
 per step, and the same as seconds of wall time per simulated second (``us_per_step`` / dt):
 the number that says whether an engine keeps up with real time. The cheapest is the one with
-the fewest seconds per simulated second.
+the fewest seconds per simulated second. Beside its cost, the setting's **worst transition**:
+of every transition the verdicts of its runs that meet the tier timed (the first slip onset,
+the lift-off, the impact, each re-stick, later slip onset and reversal), the one farthest from
+the exact one against its loose tolerance (the rows' ``max_transition``): how near the tier's
+edge the setting is.
 
 A scene's failure is the engine's, not the timestep's, only if some timestep lets an engine
 meet the tier there: :func:`timestep_limits` says, per scene, the coarsest timestep at which
@@ -20,6 +24,7 @@ reads as the timestep's limit where a finer run shows it.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -28,7 +33,7 @@ import pandas as pd
 from hoopbench.engines.judging.columns import Col
 from hoopbench.engines.judging.score import cheapest_of_most
 from hoopbench.engines.judging.tolerances import Tier
-from hoopbench.engines.judging.verdict import TIER_NAMES, TIER_VERDICTS
+from hoopbench.engines.judging.verdict import TIER_NAMES, TIER_VERDICTS, number_or_none
 from hoopbench.engines.run import RunStatus
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
 from hoopbench.models.catalogue import scene_names
@@ -47,6 +52,7 @@ __all__ = [
     "SearchChoice",
     "Setting",
     "TimestepLimit",
+    "WorstTransition",
     "answer",
     "answer_markdown",
     "at_best",
@@ -94,6 +100,20 @@ class Setting:
 
 
 @dataclass(frozen=True)
+class WorstTransition:
+    """The transition of a setting's runs farthest from the exact one, against its loose
+    tolerance (the rows' max_transition columns)."""
+
+    scene: str
+    name: str
+    """'re-stick 2', 'slip onset', 'impact', ..."""
+    error_ms: float
+    """Run minus exact, ms."""
+    ratio: float
+    """|error| over the loose tolerance."""
+
+
+@dataclass(frozen=True)
 class Choice:
     """A setting with its cost."""
 
@@ -105,6 +125,9 @@ class Choice:
     wall_per_sim_s: float
     """Seconds of wall time per simulated second: us_per_step / dt (below 1: faster than
     real time)."""
+    worst: WorstTransition | None = None
+    """The worst transition of its runs that meet the tier on the answer's scenes (None where
+    none was timed, or the rows were stored without it)."""
 
 
 @dataclass(frozen=True)
@@ -209,11 +232,38 @@ def _judged(runs: pd.DataFrame) -> pd.DataFrame:
 _KEYS = [Col.ENGINE, Col.PROFILE, Col.VARIANT, Col.TIMESTEP]
 
 
+def _worst_transition(
+    group: pd.DataFrame, scenes: Sequence[str], tier: AccuracyTier
+) -> WorstTransition | None:
+    """The worst transition (the largest max_transition_ratio) of a setting's runs on
+    ``scenes`` that meet ``tier``: how near the tier's edge they are."""
+    if Col.MAX_TRANSITION_RATIO not in group.columns:
+        return None
+    mine = group[group[Col.SCENE].isin(scenes) & group[Col.VERDICT].isin(tier.verdicts)]
+    ratio = pd.to_numeric(mine[Col.MAX_TRANSITION_RATIO], errors="coerce")
+    if ratio.isna().all():
+        return None
+    row = mine.iloc[int(ratio.fillna(-math.inf).to_numpy().argmax())]
+    error = number_or_none(row.get(Col.MAX_TRANSITION_ERR_MS))
+    return WorstTransition(
+        str(row[Col.SCENE]),
+        str(row[Col.MAX_TRANSITION]),
+        math.nan if error is None else error,
+        float(ratio.max()),
+    )
+
+
 def _choice(key: tuple, group: pd.DataFrame, scenes: Sequence[str], tier: AccuracyTier) -> Choice:
     setting = Setting(str(key[0]), str(key[1]), str(key[2]), float(key[3]))
     met = group[group[Col.VERDICT].isin(tier.verdicts)][Col.SCENE]
     us = float(pd.to_numeric(group[Col.US_PER_STEP], errors="coerce").median())
-    return Choice(setting, len(set(met) & set(scenes)), us, us * 1e-6 / setting.timestep)
+    return Choice(
+        setting,
+        len(set(met) & set(scenes)),
+        us,
+        us * 1e-6 / setting.timestep,
+        _worst_transition(group, scenes, tier),
+    )
 
 
 def _cheapest(rows: pd.DataFrame, scenes: Sequence[str], tier: AccuracyTier) -> Choice | None:
@@ -329,13 +379,27 @@ def at_best(result: Answer) -> tuple[AtBest, ...]:
 
 
 # --------------------------------------------------------------------------- presenting
+def _worst_cell(worst: WorstTransition | None) -> str:
+    """'re-stick 2 on seed-mu, -6.07 ms (0.61 of loose)'."""
+    if worst is None:
+        return "-"
+    return escape_cell(
+        f"{worst.name} on {worst.scene}, {worst.error_ms:+.3g} ms ({worst.ratio:.2g} of loose)"
+    )
+
+
 def _choice_cells(choice: Choice | None, scenes: int) -> list[str]:
     if choice is None:
-        return ["none", "-", "-"]
+        return ["none", "-", "-", "-"]
     label = escape_cell(choice.setting.label)
     if choice.scenes_met < scenes:
         label += f" (only {choice.scenes_met}/{scenes} scenes)"
-    return [label, f"{choice.us_per_step:.3g}", f"{choice.wall_per_sim_s:.3g}"]
+    return [
+        label,
+        f"{choice.us_per_step:.3g}",
+        f"{choice.wall_per_sim_s:.3g}",
+        _worst_cell(choice.worst),
+    ]
 
 
 def _wrong_cell(line: EngineAnswer) -> str:
@@ -422,7 +486,12 @@ def answer_markdown(result: Answer, *, heading: bool = True) -> str:
         return ""
     headers = ["engine"]
     for tier in ACCURACY_TIERS:
-        headers += [f"{tier.name}: cheapest setting", "us/step", "s per simulated s"]
+        headers += [
+            f"{tier.name}: cheapest setting",
+            "us/step",
+            "s per simulated s",
+            "worst transition",
+        ]
     headers.append("wrong at every setting tried")
     lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
     for line in result.engines:
@@ -443,8 +512,10 @@ def answer_markdown(result: Answer, *, heading: bool = True) -> str:
         f"each accuracy tier on {_scene_count(len(result.scenes))} "
         f"({escape_text(', '.join(result.scenes))}), or on as many as any setting does; its "
         "cost (stepping time per step, and wall seconds per simulated second: below 1 is "
-        "faster than real time); the scenes it gets wrong at every setting tried, with those "
-        f"runs' verdicts. Tiers: {tiers}.",
+        "faster than real time); the worst transition of its runs that meet the tier (of every "
+        "event time the verdict compares, the farthest from the exact one against its loose "
+        "tolerance); the scenes "
+        f"it gets wrong at every setting tried, with those runs' verdicts. Tiers: {tiers}.",
         "",
         *lines,
         *_at_best_markdown(result),

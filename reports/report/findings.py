@@ -10,13 +10,20 @@ from __future__ import annotations
 import json
 import re
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
 from hoopbench.engines.judging.columns import Col
-from hoopbench.engines.judging.verdict import LOOSE_TIER, TIGHT_TIER, number_or_none
+from hoopbench.engines.judging.verdict import (
+    LOOSE_TIER,
+    TIGHT_TIER,
+    Verdict,
+    number_or_none,
+)
+from hoopbench.engines.judging.verdict import classify as judge_row
 from hoopbench.engines.options import Profile
 from hoopbench.engines.registry import engine_class
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
@@ -40,11 +47,14 @@ __all__ = [
     "MORE_FINDINGS",
     "README_BEGIN",
     "README_END",
+    "LaterTransitions",
+    "OffTransition",
     "all_findings_markdown",
     "event_error",
     "findings",
     "findings_markdown",
     "findings_scoreboard",
+    "later_transitions",
     "off_tuned",
     "option_text",
     "readme_markdown",
@@ -262,9 +272,19 @@ def _coarsest_sentence(runs: pd.DataFrame, engine: str, profile: str) -> str:
     return f"{engine} ({profile}) outcome right, by timestep (s): {parts}."
 
 
+_TRANSITION_VERDICTS = (str(Verdict.EARLY_TRANSITION), str(Verdict.LATE_TRANSITION))
+
+
 def event_error(row: Mapping[str, Any]) -> str | None:
     """A run's hop-height error (its scene hops) or slip-onset error by the canonical
-    reading, as the verdict reads it, as text; None where either side lacks the event."""
+    reading, as the verdict reads it, as text; None where either side lacks the event. A
+    run whose verdict is a later transition's (early-transition, late-transition) gives
+    that: its worst transition and its error ('re-stick 2 -34.8 ms')."""
+    if row.get(Col.VERDICT) in _TRANSITION_VERDICTS:
+        worst = number_or_none(row.get(Col.MAX_TRANSITION_ERR_MS))
+        name = row.get(Col.MAX_TRANSITION)
+        if worst is not None and isinstance(name, str):
+            return f"{name} {worst:+.3g} ms"
     if pd.notna(row.get(Col.EXACT_T_LIFT)):
         error = number_or_none(row.get(Col.ERR_HOP_HEIGHT_REL))
         return None if error is None else f"{100 * error:+.3g} %"
@@ -276,6 +296,93 @@ def _event_text(row: pd.Series) -> str:
     """A run's verdict with its hop-height or slip-onset error (:func:`event_error`)."""
     error = event_error(row)
     return str(row["verdict"]) if error is None else f"{row['verdict']}, {error}"
+
+
+@dataclass(frozen=True)
+class OffTransition:
+    """A run's worst later transition (a re-stick, a later slip onset, a slip reversal),
+    outside its tight tolerance."""
+
+    engine: str
+    scene: str
+    name: str
+    """'re-stick 2'."""
+    error_ms: float
+    """Run minus exact, ms."""
+    beyond_loose: bool
+    """Beyond the loose tolerance too (the verdict's early- or late-transition)."""
+
+
+@dataclass(frozen=True)
+class LaterTransitions:
+    """The later transitions of a set of runs, as the verdict times them."""
+
+    runs: int
+    """Runs with at least one later transition timed."""
+    off: tuple[OffTransition, ...]
+    """Each run's worst later transition outside its tight tolerance, the farthest (against
+    its loose tolerance) first."""
+    largest: OffTransition | None
+    """The largest later-transition error of all, against its loose tolerance (None without
+    any)."""
+
+
+def later_transitions(rows: pd.DataFrame) -> LaterTransitions:
+    """The later transitions of ``rows``' runs (engines/judging/verdict.py times them from
+    each row's columns: ``classify(row).timed``; a row stored without ``phase_times`` has
+    none)."""
+    worst: list[tuple[float, OffTransition, bool]] = []
+    for _, series in rows.iterrows():
+        row = series.to_dict()
+        later = [event for event in judge_row(row).timed if event.later]
+        if not later:
+            continue
+        event = max(later, key=lambda e: e.ratio)
+        off = OffTransition(
+            str(row[Col.ENGINE]),
+            str(row[Col.SCENE]),
+            event.name,
+            1e3 * event.error,
+            event.ratio > 1,
+        )
+        worst.append((event.ratio, off, abs(event.error) > event.tight))
+    worst.sort(key=lambda item: -item[0])
+    return LaterTransitions(
+        len(worst),
+        tuple(off for _, off, outside in worst if outside),
+        worst[0][1] if worst else None,
+    )
+
+
+def _transition_text(off: OffTransition) -> str:
+    return f"{off.engine} on {off.scene}, {off.name} {off.error_ms:+.3g} ms"
+
+
+def _transitions_sentence(rows: pd.DataFrame, label: str) -> str:
+    """'Later transitions (...), timed on N runs: beyond the loose tolerance on k (A on
+    seed-mu, re-stick 2 -34.8 ms; every one), beyond the tight one only on m (the largest:
+    ...).'"""
+    found = later_transitions(rows)
+    if not found.runs or found.largest is None:
+        return ""
+    head = (
+        f"Later transitions (re-sticks, later slip onsets, slip reversals; {label}), "
+        f"timed on {found.runs} runs"
+    )
+    loose = [off for off in found.off if off.beyond_loose]
+    tight = [off for off in found.off if not off.beyond_loose]
+    if not found.off:
+        largest = _transition_text(found.largest)
+        return f"{head}: every one within the tight tolerance (the largest: {largest})."
+    parts = []
+    if loose:
+        listed = "; ".join(_transition_text(off) for off in loose)
+        parts.append(f"beyond the loose tolerance on {len(loose)} ({listed})")
+    if tight:
+        parts.append(
+            f"beyond the tight one only on {len(tight)} (the largest: {_transition_text(tight[0])})"
+        )
+    return f"{head}: {', '.join(parts)}."
 
 
 def _knob_sentence(runs: pd.DataFrame, engine: str) -> str:
@@ -336,6 +443,7 @@ def findings(runs: pd.DataFrame) -> list[str]:
     is_stability = runs.get("suite", pd.Series("", index=runs.index)) == "stability"
     main, stability = runs[~is_stability], runs[is_stability]
     closest: list[str] = []
+    transitions: list[str] = []
     agreement: list[str] = []
     at_default = _at_default(main)
     for profile in _profiles(at_default):
@@ -359,11 +467,12 @@ def findings(runs: pd.DataFrame) -> list[str]:
             closest.append(
                 _closest_sentence(hop, _HOP_READINGS, what, "%", 100, _height_resolution(hop))
             )
+        transitions.append(_transitions_sentence(rows, label))
         agreement += [_agreement_sentence(rows, e, label) for e in _engines(rows)]
     knobs = [_knob_sentence(main, engine) for engine in _engines(main)]
-    # The order of importance (KEY_FINDINGS come first): the closest engine per event, then
-    # the stock knobs that break an outcome, then the rest.
-    out = [*closest, *[k for k in knobs if _BREAKS in k], *agreement]
+    # The order of importance (KEY_FINDINGS come first): the closest engine per event and
+    # the later transitions off, then the stock knobs that break an outcome, then the rest.
+    out = [*closest, *transitions, *[k for k in knobs if _BREAKS in k], *agreement]
     out += [k for k in knobs if _BREAKS not in k]
     for engine in _engines(main):
         for profile in _profiles(main):

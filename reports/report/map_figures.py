@@ -83,6 +83,8 @@ VERDICT_COLOURS: dict[Verdict, str] = {
     Verdict.EARLY_SLIP: "#009E73",  # the slip-onset pair: greens
     Verdict.LATE_SLIP: "#66C2A4",
     Verdict.WRONG_PHASES: "#F0E442",
+    Verdict.EARLY_TRANSITION: "#80CDC1",  # a later transition: teals, beside the slip onset
+    Verdict.LATE_TRANSITION: "#01665E",
     Verdict.CREEPS: "#1B7837",  # a dark green: sliding, as the slip family
     Verdict.CONE_VIOLATION: "#762A83",
     Verdict.DIVERGED: "#000000",
@@ -90,7 +92,8 @@ VERDICT_COLOURS: dict[Verdict, str] = {
 }
 """One colour per verdict (every member of Verdict; the categorical map reads them in
 Verdict's order, whatever the order here): Okabe-Ito, with browns for the hop's size and
-times and greens for the slip onset; ``agrees`` faint grey, ``close`` a darker one."""
+times, greens for the slip onset and teals for the later transitions; ``agrees`` faint grey,
+``close`` a darker one."""
 
 NOT_JUDGED = "#FFFFFF"
 """Cells with no verdict: the reference has no answer (degenerate, error), or the engine

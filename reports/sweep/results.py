@@ -314,7 +314,11 @@ def read_runs(
 
 def with_columns(frame: pd.DataFrame, names: Iterable[str]) -> pd.DataFrame:
     """A new frame: ``frame`` with each of ``names`` it lacks added at the end, all empty."""
-    return frame.assign(**dict.fromkeys([n for n in names if n not in frame.columns], None))
+    missing = [n for n in dict.fromkeys(names) if n not in frame.columns]
+    # In one block: a column at a time fragments the frame (pandas' PerformanceWarning past
+    # a hundred, as a map's few stored columns grow to MAP_COLUMNS).
+    empty = pd.DataFrame(dict.fromkeys(missing, None), index=frame.index, dtype=object)
+    return pd.concat([frame, empty], axis=1) if missing else frame.copy()
 
 
 def recorded_format_version(out_dir: str | os.PathLike[str]) -> object:
