@@ -457,6 +457,7 @@ _READING_EXTRAS = (
     "creep_max_speed",
     "cone_stick_time",
     "chattering_time",
+    "slip_friction_ratio",
 )
 
 
@@ -467,7 +468,8 @@ def _reading_lines(reading: dict[str, Any], kin: dict[str, Any]) -> list[str]:
         f"creep {_fmt(reading['creep_time'], ' s')} "
         f"(up to {_fmt(reading['creep_max_speed'], ' m/s')}); stick outside the cone "
         f"{_fmt(reading['cone_stick_time'], ' s')}; "
-        f"chattering {_fmt(reading['chattering_time'], ' s')}",
+        f"chattering {_fmt(reading['chattering_time'], ' s')}; sliding friction "
+        f"{_fmt(reading['slip_friction_ratio'], digits=3)} of mu",
         "to compare, the kinematic reading (clearance and slip velocity; the kin_ columns): "
         f"slip t = {_fmt(kin.get('t_slip'), ' s')}, lift-off t = {_fmt(kin.get('t_lift'), ' s')}, "
         f"hop height {_fmt(kin.get('hop_height'), ' m')}",
