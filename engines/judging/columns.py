@@ -155,6 +155,9 @@ class Col(StrEnum):
     average) outside the slips: a property of the phases, not a phase."""
     CHATTER_CONE_SHARE = "chatter_cone_share"
     """Share of the chattering samples whose own friction is at the cone."""
+    CHATTERS = "chatters"
+    """The chattering flag: the contact chatters for at least the reading's ``sustain`` (5 ms
+    on the 1 m hoop) in all."""
     MU_EFFECTIVE = "mu_effective"
     """The engine's effective sliding friction coefficient: the median |f| / n over its slip
     phases' samples that slide faster than the slip threshold."""
@@ -306,6 +309,7 @@ EVENT_COLUMNS = (
     Col.CONE_STICK_TIME_S,
     Col.CHATTERING_TIME_S,
     Col.CHATTER_CONE_SHARE,
+    Col.CHATTERS,
     Col.MU_EFFECTIVE,
     Col.MU_EFFECTIVE_RATIO,
 )

@@ -195,6 +195,7 @@ def event_columns(
         Col.CONE_STICK_TIME_S: reading.cone_stick_time,
         Col.CHATTERING_TIME_S: reading.chattering_time,
         Col.CHATTER_CONE_SHARE: reading.chatter_cone_share,
+        Col.CHATTERS: reading.chatters,
         Col.MU_EFFECTIVE: None
         if reading.slip_friction_ratio is None
         else reading.slip_friction_ratio * mu,

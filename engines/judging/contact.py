@@ -225,6 +225,8 @@ class ContactReading:
     chatter_cone_share: float | None = None
     """Share of the chattering time's samples whose own friction is at the cone (None
     without chattering)."""
+    chatters: bool = False
+    """The flag: the contact chatters for at least ``sustain`` in all."""
     slip_friction_ratio: float | None = None
     """The engine's effective sliding friction coefficient over the pair's mu: the median
     |f| / (mu n) over the samples of its slip phases that slide faster than the slip
@@ -332,6 +334,7 @@ def read_contact(
         creep_distance=rest.time(creep, np.abs(traj.slip_velocity)),
         cone_stick_time=rest.longest(_outside_cone(means, mu, cfg) & judged),
         chattering_time=rest.time(_chattering(means, mu, cfg) & rest.mask),
+        chatters=rest.time(_chattering(means, mu, cfg) & rest.mask) >= cfg.sustain,
         chatter_cone_share=_cone_share(own, rest.mask & _chattering(means, mu, cfg), mu, cfg),
         slip_friction_ratio=_slip_friction_ratio(own, modes, t, touching, mu, cfg),
         modes=_phases(modes, float(t[-1]) if hop_end == math.inf else hop_end),

@@ -49,9 +49,11 @@ one, FORCE_COLUMNS; 7, issue 24: one reading, the unprefixed event columns are t
 (contact) reading, the clearance reading is kin_*, the detection floor floor_*, and the
 verdict has one meaning: :func:`one_reading`; 8, issue 27: the batch's cost, BATCH_COLUMNS,
 :func:`with_batch_columns`; 9, issue 33: every transition timed, the phases' start times and
-the verdict's worst transition, :func:`with_transition_columns`). Columns also arrived between bumps
-(profile and a late in 2, rms_position_m with 3, g late in 3, exact_max_slip_speed early in
-4): a table may lack one its version lists, and reads it empty."""
+the verdict's worst transition, :func:`with_transition_columns`, and the reading from the laws:
+chattering as columns, not a phase C, and the effective friction coefficient). Columns also
+arrived between bumps (profile and a late in 2, rms_position_m with 3, g late in 3,
+exact_max_slip_speed early in 4): a table may lack one its version lists, and reads it
+empty."""
 
 ONE_READING_VERSION = 7
 """The first format with one reading (issue 24): a folder stored before it is read migrated
@@ -75,6 +77,10 @@ _ADDED_IN = {
         Col.FLOOR_PHASE_TIMES,
         Col.EXACT_PHASE_TIMES,
         *TRANSITION_COLUMNS,
+        Col.CHATTER_CONE_SHARE,
+        Col.CHATTERS,
+        Col.MU_EFFECTIVE,
+        Col.MU_EFFECTIVE_RATIO,
     ),
 }
 """The columns each version added (or, for g and exact_max_slip_speed, came with it): an
