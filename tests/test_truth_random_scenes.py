@@ -477,3 +477,39 @@ def test_the_checker_reads_a_slow_slide_at_the_demand_as_creep(near_drawn, near_
         labels, t_slip=t0, phases=("R", code, "R"), verdict="false-slip", flags=frozenset()
     )
     assert Kind.CREEP_AS_SLIP in _kinds(creep, said_slip, near_exact[scene.name], mu, hoop)
+
+
+def test_the_checker_counts_creep_only_before_the_exact_lift_off(near_drawn, near_exact):
+    """A near-slip roll made to slide 10 mm (0.1 m/s for 0.1 s) after an exact lift-off put
+    at 0.3 s: a row that counts those 10 mm as creep is contradicted (the exact hoop has no
+    contact to creep on), one that counts none is not."""
+    scene = _first(near_drawn, Regime.ROLLS)
+    e = dataclasses.replace(near_exact[scene.name], contact_end=0.3)
+    frame, labels, mu, hoop = _truth(scene, e, NEAR_TIMESTEP)
+    t = frame["t"].to_numpy()
+    later = (t >= 0.4) & (t < 0.5)
+    slide = frame.copy()
+    slide.loc[later, "slip_velocity"] = -np.sign(slide.loc[later, "friction_force"]) * 0.1
+    crept = dataclasses.replace(labels, creep_distance=0.01, creep_max_speed=0.1)
+    assert Kind.CREEP_LABEL in _kinds(slide, crept, e, mu, hoop)
+    assert Kind.CREEP_LABEL not in _kinds(slide, labels, e, mu, hoop)
+
+
+@pytest.mark.parametrize(
+    ("regime", "phases", "kind"),
+    [
+        (Regime.SLIPS, ("R", "S+", "C", "R"), Kind.CHATTER_PHASE),
+        (Regime.SLIPS, ("R", "S+", "R", "S+", "R", "S+", "R", "S+", "R"), Kind.SLIP_PHASES),
+        (Regime.SLIP_REVERSAL, ("R", "S-", "R", "S-"), Kind.SLIP_LABEL),
+    ],
+    ids=["chattering as a phase", "rolls inside one slip", "a reversal read as a roll"],
+)
+def test_the_checker_reads_the_phase_codes(near_drawn, near_exact, regime, phases, kind):
+    """The row's phase codes against the exact run: no C; no more slips one way than the
+    run can hold; no fewer than it clearly has (the reversal scene's clear S+ read as none)."""
+    scene = _timed(near_drawn, near_exact, regime)
+    e = near_exact[scene.name]
+    frame, labels, mu, hoop = _truth(scene, e, NEAR_TIMESTEP)
+    assert kind not in _kinds(frame, labels, e, mu, hoop)
+    lied = dataclasses.replace(labels, phases=phases, verdict="wrong-phases")
+    assert kind in _kinds(frame, lied, e, mu, hoop)
