@@ -89,13 +89,13 @@ FAST_SLIDE = 0.1 * math.sqrt(9.8)
 """m/s: a tenth of sqrt(g a) (0.31 m/s): sliding faster than this is never creep."""
 DEMAND_TOLERANCE = 3e-2
 """Fraction of the cone mu n: friction follows the rolling demand while |mean f| stays within
-this of |mean F_roll| ("a few %" of the definitions; issue 33's lead states 3 %)."""
+this of |mean F_roll| (issue 33's "a few %", 3 % as the canonical reading states it)."""
 STILL = 5e-6
 """m/s: a rim whose averaged slip velocity stays below this does not slide at all (round-off:
 the exact roll holds 1e-12, DART's sticks 2e-7), so it is in no slip, whatever its friction."""
 PHASE_END = 0.05
 """s: two phase sequences that differ by one last phase starting this close to the record's
-end agree (docs/report.md's phase rule): no transition is timed within it."""
+end agree (the verdict's phase rule, 1 m hoop): no transition is timed within it."""
 WINDOW = 5e-3
 """s: the averaging window of the slip reading ("a few ms"; the issue's own check averaged
 over 5 ms)."""
