@@ -11,23 +11,34 @@ engine's events against or an event no engine can time:
 - regimes without an answer (painleve, degenerate, error) or outside the wanted set
   (lifts-at-start: the normal force is negative at t = 0, so there is no lift-off to time);
 - a first phase that is a slip from t = 0: its onset is the start itself, where every
-  engine's contact force is still building up over its first steps.
+  engine's contact force is still building up over its first steps;
+- a scene whose exact solution does not meet its regime's condition, where the draw asks for
+  one (``conditions``): e.g. :func:`near_slip`, a roll whose friction comes near the cone.
 """
 
 from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from hoopbench.models.events import PhaseKind
 from hoopbench.models.scene import Scene
-from hoopbench.reference.regimes import Regime, classify
+from hoopbench.reference.exact import ExactSolution
+from hoopbench.reference.regimes import Regime, classify_solved
 
-__all__ = ["RANDOM_PREFIX", "RANGES", "Draw", "draw"]
+__all__ = [
+    "RANDOM_PREFIX",
+    "RANGES",
+    "Condition",
+    "Draw",
+    "draw",
+    "near_slip",
+    "peak_rolling_share",
+]
 
 RANDOM_PREFIX = "random-"
 """A drawn scene's name: random-<its draw's index>."""
@@ -68,6 +79,51 @@ def _scene(rng: np.random.Generator, index: int, t_end: float) -> Scene:
     )
 
 
+Condition = Callable[[ExactSolution], str | None]
+"""What a regime's scenes must also show: why a scene's exact solution does not (None: it
+does)."""
+
+PEAK_SAMPLES = 4001
+"""Samples of the exact roll phases scanned for the friction's peak share of the cone (the
+share changes over tens of ms; the window holds a few seconds at most)."""
+
+
+def peak_rolling_share(solution: ExactSolution) -> float:
+    """The largest |f| / (mus n) of the exact solution's roll phases inside the record
+    (t <= scene.t_end) and before any lift-off: how near the cone the friction that rolling
+    needs comes (1 at a slip onset; 0 without a roll phase).
+
+    A solve stopped once settled has rolled a full turn of theta since its last event, so
+    its roll phases show every state the rest of the window repeats."""
+    scene = solution.scene
+    end = min(solution.t_final, scene.t_end)
+    peak = 0.0
+    for phase in solution.events.phases:
+        if phase.kind is PhaseKind.FLIGHT or phase.t_start >= end:
+            break
+        if phase.kind is not PhaseKind.ROLL:
+            continue
+        t = np.linspace(phase.t_start, min(phase.t_end, end), PEAK_SAMPLES)
+        sampled = solution.sample(t)
+        n, f = sampled.normal_force, sampled.friction_force
+        with np.errstate(divide="ignore", invalid="ignore"):
+            share = np.where(n > 0.0, np.abs(f) / (scene.mus * n), math.inf)
+        peak = max(peak, float(np.max(share)))
+    return peak
+
+
+def near_slip(share: float = 0.9) -> Condition:
+    """A roll whose friction comes within ``share`` of the cone (:func:`peak_rolling_share`
+    above it) without reaching it: a near-slip roll, where an engine whose friction law
+    saturates below mu slides and a soft friction creeps near the cone."""
+
+    def condition(solution: ExactSolution) -> str | None:
+        peak = peak_rolling_share(solution)
+        return None if peak > share else f"rolling friction peaks at {peak:.3g} of the cone"
+
+    return condition
+
+
 def _skip_reason(regime: Regime, phases: tuple, wanted: Mapping[Regime, int]) -> str | None:
     if regime not in wanted:
         return f"regime {regime}"
@@ -77,10 +133,16 @@ def _skip_reason(regime: Regime, phases: tuple, wanted: Mapping[Regime, int]) ->
 
 
 def draw(
-    seed: int, quota: Mapping[Regime, int], *, t_end: float = 1.5, max_draws: int = 2000
+    seed: int,
+    quota: Mapping[Regime, int],
+    *,
+    t_end: float = 1.5,
+    max_draws: int = 2000,
+    conditions: Mapping[Regime, Condition] | None = None,
 ) -> Draw:
     """Draw scenes until each regime of ``quota`` has its number of scenes (each with a
-    window of ``t_end`` s). Raises RuntimeError if ``max_draws`` draws do not fill it."""
+    window of ``t_end`` s), those of a regime in ``conditions`` meeting its condition too.
+    Raises RuntimeError if ``max_draws`` draws do not fill it."""
     rng = np.random.default_rng(seed)
     need = dict(quota)
     kept: list[tuple[Scene, Regime]] = []
@@ -89,8 +151,11 @@ def draw(
         scene = _scene(rng, index, t_end)
         with warnings.catch_warnings():  # a Painlevé point evaluates n = num / 0
             warnings.simplefilter("ignore", RuntimeWarning)
-            point = classify(scene)
+            point, solution = classify_solved(scene)
         reason = _skip_reason(point.regime, point.events.phases, quota)
+        condition = (conditions or {}).get(point.regime)
+        if reason is None and need[point.regime] > 0 and condition is not None:
+            reason = condition(solution)
         if reason is None and need[point.regime] == 0:
             reason = f"quota of {point.regime} met"
         if reason is not None:

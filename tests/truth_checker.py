@@ -1,5 +1,6 @@
 """An independent check of a judged run's labels against the run's own trajectory and
-contact force (issue 24, item 6). A helper module for tests/test_truth_random_scenes.py.
+contact force (issue 24, item 6; issue 33, item 7). A helper module for
+tests/test_truth_random_scenes.py.
 
 It reads the canonical events from their definitions (docs/report.md; the rigid model's
 laws) and never calls the judging code (hoopbench.engines.judging, hoopbench.reports.report):
@@ -9,26 +10,42 @@ margin on the side of the label, stated where it is made, so that a borderline
 disagreement (an onset 1 ms off, friction at 0.998 of the cone) is never a contradiction:
 only a label a reader checking it against the trajectory would call false is.
 
-The definitions, for the 1 m hoop under g = 9.8 m/s^2 (lengths scale with a, times with
-sqrt(a / g), speeds with sqrt(g a), as the project's thresholds do):
+The definitions (issue 33's), for the 1 m hoop under g = 9.8 m/s^2 (lengths scale with a,
+times with sqrt(a / g), speeds with sqrt(g a), as the project's thresholds do):
 
 - **in contact** while n > 1e-6 g (forces per unit mass, as trajectories store them);
 - **flight**: a stretch without contact; a **hop** is a flight lasting >= 5 ms whose peak
   clearance is above 1 mm; lift-off is its start, impact its end, hop height its peak;
 - **slip**: over a window of WINDOW (5 ms), the rim slides against the friction (mean slip
-  velocity above the slip threshold, 1 mm/s, and opposite to the mean friction) *and* the
-  friction follows the slip law, not the rolling constraint: the friction impulse is at the
-  cone, |mean f| >= (1 - eps) mu mean n, or the friction the rolling constraint would need
-  at the run's own state (theta, thetadot: the rigid model's rolling forces F_roll, N_roll)
-  is at or beyond the cone, or |mean f| lies nearer the cone than that demand;
-- **creep** (sliding while friction follows the rolling demand inside the cone),
-  **chattering** (friction at the cone on some steps, at the rolling demand on average) and
-  **stick outside the cone** (|mean f| above the cone without sliding: the flag
-  ``cone-violation``) are never slips.
+  velocity above the slip threshold, 1 mm/s, somewhere in the stretch, and opposite to the
+  mean friction) *and* the friction follows the slip law, not the rolling demand: |mean f|
+  at or beyond the cone (|mean f| >= (1 - eps) mu mean n), or rolling cannot go on at the
+  run's own state (the rigid model's rolling forces F_roll, N_roll at theta, thetadot:
+  |F_roll| >= mu N_roll, or N_roll <= 0), or |mean f| departs from |mean F_roll| by more
+  than DEMAND_TOLERANCE (3 %) of mu n on either side (short of it: a friction that saturates
+  below mu, as DART stock's at 0.65-0.83 mu n; above it while sliding: a decelerating
+  slide), or the rim slides faster than FAST_SLIDE = 0.1 sqrt(g a) (0.31 m/s: fast sliding
+  is never creep). The **slip onset** is where the slip starts sliding under that law,
+  samples beyond the cone included;
+- **creep**: slow sliding (above the slip threshold, below FAST_SLIDE) against a friction that
+  follows the rolling demand inside the cone: never a slip, counted only in contact and
+  before the exact solution's lift-off. **Stick outside the cone** (|mean f| above the cone
+  without sliding: the flag ``cone-violation``) is never a slip either;
+- **chattering** (friction at the cone on some steps, inside it on average) is a property,
+  never a phase: the phases are the motion's, R, S+, S- and F;
+- **every transition is timed**: an agrees or close row has each of its phases' transitions
+  (slip onsets, re-sticks, reversals, lift-off, impact) within the loose tolerance of the
+  exact one it matches (re-sticks and reversals with the slip onset's).
+
+Before issue 33 a slip's friction also followed the slip law where it lay "nearer the cone
+than the demand" (no more: MuJoCo stock's creep at 0.97-0.98 mu n against a demand of
+0.94-0.96 is creep), fast sliding inside the cone was creep, chattering was a phase (C), and
+only the first slip onset was timed.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 import tomllib
 from collections.abc import Mapping
@@ -42,7 +59,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from hoopbench.models.events import Outcome, PhaseKind
+from hoopbench.models.events import Outcome, Phase, PhaseKind
 from hoopbench.reference.dynamics import rolling_forces
 from hoopbench.reference.exact import ExactSolution
 
@@ -68,6 +85,17 @@ HOP_CLEARANCE = 1e-3
 """m: a hop's peak clearance exceeds this."""
 SLIP_THRESHOLD = 1e-3
 """m/s: the rim slides when its averaged slip velocity exceeds this."""
+FAST_SLIDE = 0.1 * math.sqrt(9.8)
+"""m/s: a tenth of sqrt(g a) (0.31 m/s): sliding faster than this is never creep."""
+DEMAND_TOLERANCE = 3e-2
+"""Fraction of the cone mu n: friction follows the rolling demand while |mean f| stays within
+this of |mean F_roll| (issue 33's "a few %", 3 % as the canonical reading states it)."""
+STILL = 5e-6
+"""m/s: a rim whose averaged slip velocity stays below this does not slide at all (round-off:
+the exact roll holds 1e-12, DART's sticks 2e-7), so it is in no slip, whatever its friction."""
+PHASE_END = 0.05
+"""s: two phase sequences that differ by one last phase starting this close to the record's
+end agree (the verdict's phase rule, 1 m hoop): no transition is timed within it."""
 WINDOW = 5e-3
 """s: the averaging window of the slip reading ("a few ms"; the issue's own check averaged
 over 5 ms)."""
@@ -105,9 +133,19 @@ still below the threshold (the exact solution of a drawn scene: 0.41 mm/s 3 ms a
 onset, 1.2 mm/s after 6 ms). A rim that has not slid at half the threshold within two
 windows (10 ms) of the windows near a read onset is still."""
 DEMAND_MARGIN = 2.5e-2
-"""Fraction of the cone: the rolling demand (or the friction's place between the demand and
-the cone) is clearly on one side only beyond this margin, as CONE_INSIDE is for the
-friction itself."""
+"""Fraction of the cone: the rolling demand is clearly inside or beyond the cone only beyond
+this margin, as CONE_INSIDE is for the friction itself."""
+FOLLOW_MARGIN = 1e-2
+"""Fraction of the cone: friction clearly follows the rolling demand within DEMAND_TOLERANCE -
+FOLLOW_MARGIN of it (2 %), clearly departs from it beyond DEMAND_TOLERANCE + FOLLOW_MARGIN
+(4 %). The two window means (ours over 5 ms ahead, a reading's over a few ms around) differ
+by far less: the demand moves by a few % of the cone over tens of ms."""
+NOISE_SIGMAS = 2.0
+"""A window's mean friction is clearly away from the demand only beyond this many standard
+errors of its scatter (see Windows.noise)."""
+FAST_CLEAR = 1.5
+"""Clearly fast is FAST_CLEAR x FAST_SLIDE (0.47 m/s), clearly slow below FAST_SLIDE /
+FAST_CLEAR (0.21 m/s): a slide's speed changes little over a window beside that factor."""
 CHATTER_SHARE = 0.2
 """A window with this share of its contact steps at the cone, and its average inside it, is
 a chattering contact (only names the kind of a contradiction; decides none)."""
@@ -212,7 +250,8 @@ class Kind(StrEnum):
     HOP_VERDICT = "hop-verdict"
     """A hop verdict (missed-hop, false-hop, too low/high, early/late) the flights deny."""
     CREEP_AS_SLIP = "creep-read-as-slip"
-    """A slip read where the rim slides with averaged friction inside the cone."""
+    """A slip read where the rim creeps: it slides, slowly, with its friction at the rolling
+    demand inside the cone."""
     CHATTER_AS_SLIP = "chatter-read-as-slip"
     """A slip read where friction touches the cone on some steps, inside it on average."""
     STICK_AS_SLIP = "stick-at-or-outside-cone-read-as-slip"
@@ -221,7 +260,24 @@ class Kind(StrEnum):
     NO_SLIP_AS_SLIP = "slip-read-without-slip"
     """A slip read where friction is inside the cone and the rim does not slide."""
     SLIP_LABEL = "slip-label"
-    """No slip (or a late first slip) read where the run clearly slips."""
+    """No slip (or a late first slip, or fewer slip phases) read where the run clearly
+    slips with its friction at the cone."""
+    SLIDE_AS_ROLL = "slide-read-as-roll"
+    """No slip (or a late first slip, or fewer slip phases) read where the run clearly slips
+    inside the cone: it slides fast, or its friction is away from the rolling demand (a
+    friction law that saturates below mu)."""
+    SLIP_PHASES = "slip-phases-beyond-the-run"
+    """More slip phases (of a direction) read than the run can hold: a roll read inside one
+    clear slide, or a slip where the rim does not slip."""
+    CREEP_LABEL = "creep-label"
+    """Creep read faster than FAST_SLIDE (fast sliding is never creep), or farther than the
+    rim slides in contact before the exact lift-off."""
+    CHATTER_PHASE = "chattering-read-as-a-phase"
+    """A phase code other than R, S+, S-, F: chattering is a property, never a phase."""
+    TRANSITION = "transition-beyond-loose"
+    """agrees or close, but the run is clearly in another phase than the exact solution far
+    from every exact transition: some transition (a slip onset, re-stick, reversal,
+    lift-off or impact) is clearly beyond its loose tolerance."""
     SLIP_VERDICT = "slip-verdict"
     """false-slip, missed-slip, early-slip or late-slip the averaged friction denies."""
     TOLERANCE = "agrees-beyond-tolerance"
@@ -249,6 +305,9 @@ CANONICAL_NAMES: Mapping[str, str] = {
     "t_lift": "t_lift",
     "t_impact": "t_impact",
     "hop_height": "hop_height",
+    "phases": "phases",
+    "creep_distance": "creep_distance_m",
+    "creep_max_speed": "creep_max_speed",
 }
 """Which column of a runs table holds each label (the canonical, unprefixed names)."""
 
@@ -281,13 +340,20 @@ class Labels:
     t_lift: float | None
     t_impact: float | None
     hop_height: float | None
+    phases: tuple[str, ...] | None = None
+    """The phase codes, in order (None: not read)."""
+    creep_distance: float | None = None
+    """m: how far the row says the rim creeps."""
+    creep_max_speed: float | None = None
+    """m/s: the fastest creep the row reads."""
 
     @classmethod
     def from_row(cls, row: Mapping[str, Any], names: Mapping[str, str] = CANONICAL_NAMES) -> Labels:
         def get(key: str) -> Any:
-            return row.get(names[key])
+            return row.get(names[key]) if key in names else None
 
         flags = _text(get("verdict_flags")) or ""
+        phases = _text(get("phases"))
         return cls(
             engine=str(get("engine")),
             status=str(get("status")),
@@ -297,11 +363,51 @@ class Labels:
             t_lift=_number(get("t_lift")),
             t_impact=_number(get("t_impact")),
             hop_height=_number(get("hop_height")),
+            phases=None if phases is None else tuple(phases.split()),
+            creep_distance=_number(get("creep_distance")),
+            creep_max_speed=_number(get("creep_max_speed")),
         )
 
     def says(self, label: str) -> bool:
         """Whether the verdict or a flag is ``label``."""
         return self.verdict == label or label in self.flags
+
+
+class Tolerance(StrEnum):
+    """Which loose tolerance times a transition (the table's; re-sticks and reversals take
+    the slip onset's)."""
+
+    SLIP = "slip"
+    LIFT = "lift-off"
+    IMPACT = "impact"
+
+
+@dataclass(frozen=True)
+class ExactPhase:
+    """One phase of the exact solution inside the record."""
+
+    code: str
+    """R, S+, S- or F (S+: the rim slides towards +x)."""
+    t_start: float
+    """s."""
+    t_end: float
+    """s (the record's end or the impact for the last one)."""
+    seen: bool = True
+    """A reading can see it: not a slip shorter than two windows or slower than CLEAR slip
+    thresholds. The motion inside an unseen slip is left out of the transition check."""
+
+
+def _code(phase: Phase) -> str:
+    if phase.kind is PhaseKind.SLIP:
+        return "S+" if (phase.sigma or 0) > 0 else "S-"
+    return "F" if phase.kind is PhaseKind.FLIGHT else "R"
+
+
+def _tolerance_into(code: str, previous: str) -> Tolerance:
+    """The loose tolerance of the transition from ``previous`` into ``code``."""
+    if code == "F":
+        return Tolerance.LIFT
+    return Tolerance.IMPACT if previous == "F" else Tolerance.SLIP
 
 
 @dataclass(frozen=True)
@@ -324,6 +430,26 @@ class Exact:
     peak_after_record: bool = False
     """The exact hop reaches its peak after the record's end: no run sampled up to scene.t_end
     shows its height, so only a hop too high can be told."""
+    phases: tuple[ExactPhase, ...] = ()
+    """The phases inside the record, for timing every transition (none: no timing)."""
+    contact_end: float = math.inf
+    """s: where the exact hoop leaves the floor (its lift-off; inf without one): no creep
+    after it."""
+
+    def transitions(self) -> list[tuple[float, Tolerance]]:
+        """Every transition between the phases, and the impact that ends a last flight."""
+        out = [
+            (q.t_start, _tolerance_into(q.code, p.code)) for p, q in itertools.pairwise(self.phases)
+        ]
+        if self.phases and self.phases[-1].code == "F" and self.t_impact is not None:
+            out.append((self.t_impact, Tolerance.IMPACT))
+        return out
+
+    def codes(self) -> tuple[str, ...]:
+        """The phase codes a reading sees: unseen slips left out (absorbed), and a phase the
+        same as the one before merged with it."""
+        seen = [p.code for p in self.phases if p.seen]
+        return tuple(c for k, c in enumerate(seen) if k == 0 or c != seen[k - 1])
 
     @classmethod
     def from_solution(cls, solution: ExactSolution, hoop: Hoop) -> Exact:
@@ -334,19 +460,23 @@ class Exact:
         clear hop (none of its checks)."""
         events, record_end = solution.events, solution.scene.t_end
         slips = [p for p in events.phases if p.kind is PhaseKind.SLIP and p.t_start < record_end]
-        t_slip = None
-        if slips:
-            first = slips[0]
-            end = min(first.t_end, solution.t_final, record_end)
-            sampled = solution.sample(np.linspace(first.t_start, end, 201))
-            speed = float(np.max(np.abs(sampled.slip_velocity)))
-            long_enough = end - first.t_start >= 2 * WINDOW * hoop.duration
-            if long_enough and speed >= CLEAR * SLIP_THRESHOLD * hoop.speed:
-                t_slip = first.t_start
+        t_slip = slips[0].t_start if slips and _seen(solution, slips[0], hoop) else None
         hops = events.outcome is Outcome.HOPS and events.t_lift is not None
         unresolved = hops and not _clear_in_record(solution, hoop)
         keep = hops and not unresolved
+        phases = tuple(
+            ExactPhase(
+                _code(p),
+                p.t_start,
+                min(p.t_end, solution.t_final, record_end),
+                p.kind is not PhaseKind.SLIP or _seen(solution, p, hoop),
+            )
+            for p in events.phases
+            if p.t_start < min(record_end, solution.t_final)
+        )
         return cls(
+            phases=phases,
+            contact_end=math.inf if events.t_lift is None else events.t_lift,
             peak_after_record=keep and _peak_after_record(solution),
             window_end=solution.t_final,
             slips=bool(slips),
@@ -356,6 +486,16 @@ class Exact:
             hop_height=events.hop_height if keep else None,
             hop_unresolved=unresolved,
         )
+
+
+def _seen(solution: ExactSolution, slip: Phase, hoop: Hoop) -> bool:
+    """Whether a reading can see an exact slip inside the record: it lasts two windows and
+    slides faster than CLEAR slip thresholds."""
+    end = min(slip.t_end, solution.t_final, solution.scene.t_end)
+    if end - slip.t_start < 2 * WINDOW * hoop.duration:
+        return False
+    sampled = solution.sample(np.linspace(slip.t_start, end, 201))
+    return float(np.max(np.abs(sampled.slip_velocity))) >= CLEAR * SLIP_THRESHOLD * hoop.speed
 
 
 def _peak_after_record(solution: ExactSolution) -> bool:
@@ -478,6 +618,8 @@ class Windows:
     """m/s, mean slip velocity."""
     opposes: NDArray
     """mean slip velocity and mean friction of opposite signs."""
+    friction_sign: NDArray
+    """sign(mean f): a slip's direction is the opposite one."""
     all_touching: NDArray
     steps_at_cone: NDArray
     """Share of the window's contact samples with |f| >= (1 - CONE_CLEAR) mu n."""
@@ -487,6 +629,20 @@ class Windows:
     """m, samples per window."""
     demand: NDArray | None = None
     """|mean F_roll| / (mu mean N_roll) (inf where rolling needs a pull); None without it."""
+    follow: NDArray | None = None
+    """|mean f - mean F_roll| / (mu mean n): how far the friction is from what rolling needs,
+    as a share of the run's cone (F_roll counted on the samples in contact, as f is)."""
+    depart: NDArray | None = None
+    """| |mean f| - |mean F_roll| | / (mu mean n): the same without the signs (no larger)."""
+    lag: NDArray | None = None
+    """The mean change of F_roll over one step, either side, / (mu mean n): how far the
+    demand a friction follows may be from ours by the step convention alone (row i holds
+    the force of the step taken from it, SAMPLE_SLACK; Rapier's and Box2D's rolling friction
+    lag the demand by a step, 3 % of the cone on a fast-changing demand at dt 1e-3)."""
+    noise: NDArray | None = None
+    """NOISE_SIGMAS standard errors of the window's mean of f - F_roll, / (mu mean n): how
+    far a noisy friction's mean may be from the demand it follows by its scatter alone (Box2D
+    at dt 1e-3 scatters 0.1 mu n from step to step at a low normal force)."""
 
     @classmethod
     def of(cls, run: Run, region_end: float) -> Windows:
@@ -500,39 +656,79 @@ class Windows:
         mean_f, mean_n, mean_s = mean(run.f), mean(run.n), mean(run.s)
         loaded = (mean_n > LOADED * run.hoop.g) | (np.abs(mean_f) > LOADED * run.hoop.g)
         with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = np.where(loaded, np.abs(mean_f) / (run.mu * mean_n), np.nan)
+            cone = np.where(loaded, run.mu * mean_n, np.nan)
+            ratio = np.abs(mean_f) / cone
             at_cone = run.touching & (np.abs(run.f) >= (1 - CONE_CLEAR) * run.mu * run.n)
             share = mean(at_cone.astype(float)) / mean(run.touching.astype(float))
         ends = run.t[m - 1 :]
-        demand = None
+        demand = follow = depart = lag = noise = None
         if run.demand is not None:
-            cone = run.mu * mean(run.demand[1])
+            need = mean(np.where(run.touching, run.demand[0], 0.0))
+            change = np.abs(np.diff(run.demand[0]))
+            step = np.maximum(np.append(change, 0.0), np.insert(change, 0, 0.0))
+            rolling_cone = run.mu * mean(run.demand[1])
             with np.errstate(divide="ignore", invalid="ignore"):
-                demand = np.where(cone > 0, np.abs(mean(run.demand[0])) / cone, np.inf)
+                demand = np.where(
+                    rolling_cone > 0, np.abs(mean(run.demand[0])) / rolling_cone, np.inf
+                )
+                follow = np.abs(mean_f - need) / cone
+                depart = np.abs(np.abs(mean_f) - np.abs(need)) / cone
+                lag = mean(np.where(np.isfinite(step), step, np.inf)) / cone
+                gap = run.f - np.where(run.touching, run.demand[0], 0.0)
+                spread = np.sqrt(np.maximum(mean(gap**2) - mean(gap) ** 2, 0.0))
+                noise = NOISE_SIGMAS * spread / math.sqrt(m) / cone
         return cls(
             start=run.t[: len(ratio)],
             ratio=ratio,
             mean_s=mean_s,
             opposes=mean_s * mean_f < 0,
+            friction_sign=np.sign(mean_f),
             all_touching=mean(run.touching.astype(float)) >= 1.0,
             steps_at_cone=np.nan_to_num(share),
             in_region=ends <= region_end,
             length=m,
             demand=demand,
+            follow=follow,
+            depart=depart,
+            lag=lag,
+            noise=noise,
         )
 
-    def slip_law(self, *, clearly: bool) -> NDArray:
+    def slip_law(self, hoop: Hoop, *, clearly: bool) -> NDArray:
         """Windows whose friction follows the slip law, not the rolling constraint (clearly,
-        or not clearly not): at the cone, or rolling would need the cone or more, or the
-        friction lies nearer the cone than the rolling demand."""
-        margin = -DEMAND_MARGIN if not clearly else DEMAND_MARGIN
+        or not clearly not): at or beyond the cone, or rolling cannot go on at the run's
+        state (the demand at or beyond its cone), or the friction away from the rolling
+        demand by more than DEMAND_TOLERANCE of the cone (either side), or the rim sliding
+        faster than FAST_SLIDE (fast sliding is never creep)."""
         cone = 1 - (CONE_CLEAR if clearly else CONE_INSIDE)
+        fast = FAST_SLIDE * hoop.speed * (FAST_CLEAR if clearly else 1 / FAST_CLEAR)
         with np.errstate(invalid="ignore"):
-            law = self.ratio >= cone
+            law = (self.ratio >= cone) | (np.abs(self.mean_s) >= fast)
             if self.demand is not None:
-                law |= self.demand >= 1 + margin
-                law |= self.ratio >= 0.5 * (1 + self.demand) + margin
+                law |= self.demand >= 1 + (DEMAND_MARGIN if clearly else -DEMAND_MARGIN)
+            if self.follow is not None and self.depart is not None:
+                # Clearly away from the demand even without the signs, a step's lag and the
+                # friction's scatter; not clearly near it even with them.
+                if clearly and self.lag is not None and self.noise is not None:
+                    slack = FOLLOW_MARGIN + self.lag + self.noise
+                    law |= self.depart >= DEMAND_TOLERANCE + slack
+                else:
+                    law |= self.follow >= DEMAND_TOLERANCE - FOLLOW_MARGIN
         return law
+
+    def follows_demand(self, hoop: Hoop) -> NDArray:
+        """Clearly not under the slip law: friction clearly inside the cone and near the
+        rolling demand, which is clearly inside its cone, and the rim clearly slow. Without
+        the demand, no window is (the rolling demand is half the definition)."""
+        if self.demand is None or self.follow is None:
+            return np.zeros(len(self.ratio), dtype=bool)
+        with np.errstate(invalid="ignore"):
+            return (
+                (self.ratio <= 1 - CONE_INSIDE)
+                & (self.demand <= 1 - DEMAND_MARGIN)
+                & (self.follow <= DEMAND_TOLERANCE - FOLLOW_MARGIN)
+                & (np.abs(self.mean_s) <= FAST_SLIDE * hoop.speed / FAST_CLEAR)
+            )
 
     def sliding(self, hoop: Hoop) -> NDArray:
         """The rim is not clearly still: it slides at half the slip threshold against the
@@ -547,22 +743,32 @@ class Windows:
         return (c[stop] - c[k]) > 0
 
     def maybe_slip(self, hoop: Hoop, *, soon: bool = False) -> NDArray:
-        """Not clearly no slip: averaged friction not clearly inside the cone, and the rim
-        not clearly still (:meth:`sliding`, or with ``soon`` :meth:`slides_soon`)."""
+        """Not clearly no slip: the friction not clearly off the slip law, and the rim not
+        clearly still (:meth:`sliding`, or with ``soon`` :meth:`slides_soon`)."""
         slides = self.slides_soon(hoop) if soon else self.sliding(hoop)
         with np.errstate(invalid="ignore"):
-            return self.in_region & self.slip_law(clearly=False) & slides
+            return self.in_region & self.slip_law(hoop, clearly=False) & slides
 
     def clear_slip(self, hoop: Hoop) -> NDArray:
         """Clearly a slip, sustained: WINDOW of consecutive windows each in contact
-        throughout, at the cone and sliding clearly against the friction. "At the cone" is
-        the definition's |mean f| >= (1 - eps) mu mean n, one-sided: a rim sliding against a
-        friction above the cone slips (DART stock slides at 1 m/s with friction at 1.1 mu n,
-        Drake stock at 2 mm/s with 1.01-1.04 mu n); the excess is a Coulomb violation
-        besides, which the cone-violation flag is for only where the rim does not slide."""
+        throughout, clearly under the slip law and sliding clearly against the friction. At
+        the cone is the definition's |mean f| >= (1 - eps) mu mean n, one-sided: a rim
+        sliding against a friction above the cone slips (DART stock slides at 1 m/s with
+        friction at 1.1 mu n, Drake stock at 2 mm/s with 1.01-1.04 mu n); the excess is a
+        Coulomb violation besides, which the cone-violation flag is for only where the rim
+        does not slide."""
         sliding = (np.abs(self.mean_s) >= CLEAR * SLIP_THRESHOLD * hoop.speed) & self.opposes
         with np.errstate(invalid="ignore"):
-            each = self.in_region & self.all_touching & self.slip_law(clearly=True) & sliding
+            law = self.slip_law(hoop, clearly=True)
+            each = self.in_region & self.all_touching & law & sliding
+        return _sustained(each, self.length)
+
+    def clear_roll(self, hoop: Hoop) -> NDArray:
+        """Clearly in no slip, sustained as :meth:`clear_slip`: in contact throughout, and the
+        rim still (below STILL) or its friction clearly following the rolling demand
+        (:meth:`follows_demand`: a creep at most)."""
+        still = np.abs(self.mean_s) < STILL * hoop.speed
+        each = self.in_region & self.all_touching & (still | self.follows_demand(hoop))
         return _sustained(each, self.length)
 
     def stick_outside(self, hoop: Hoop) -> NDArray:
@@ -573,10 +779,16 @@ class Windows:
         return _sustained(each, self.length)
 
     def describe(self, k: int) -> str:
+        demand = ""
+        if self.demand is not None and self.follow is not None:
+            demand = (
+                f", rolling demand {self.demand[k]:.3f} of its cone, friction "
+                f"{self.follow[k]:.3f} mu n from it"
+            )
         return (
             f"|mean f| = {self.ratio[k]:.3f} mu n, mean slip velocity {1e3 * self.mean_s[k]:.3g} "
             f"mm/s{'' if self.opposes[k] else ' (not against the friction)'}, "
-            f"{100 * self.steps_at_cone[k]:.0f} % of the steps at the cone"
+            f"{100 * self.steps_at_cone[k]:.0f} % of the steps at the cone{demand}"
         )
 
 
@@ -621,12 +833,16 @@ def contradictions(
     region_end = exact.window_end if hop is None else min(exact.window_end, hop.t_start)
     windows = Windows.of(run, region_end)
     out += _slip_labels(run, windows, labels)
+    out += _slip_phases(run, windows, labels)
+    out += _chattering_phase(labels)
+    out += _creep_labels(run, labels, exact)
     out += _cone_flag(run, windows, labels)
     if labels.verdict is None:  # no exact answer to judge against: the events only
         return out
     out += _hop_verdict(run, labels, exact, hop)
     out += _slip_verdict(run, windows, labels, exact)
     out += _beyond_loose(run, windows, labels, exact, hop, loose)
+    out += _transitions(run, windows, labels, exact, loose)
     return out
 
 
@@ -777,25 +993,28 @@ def _slip_labels(run: Run, windows: Windows, labels: Labels) -> list[Contradicti
         if t_clear is None:
             return []
         k = int(np.searchsorted(windows.start, t_clear))
-        return [
-            Contradiction(
-                Kind.SLIP_LABEL, f"no slip read, but from {t_clear:.4g} s {windows.describe(k)}"
-            )
-        ]
+        return [_unread_slip(run, windows, k, f"no slip read, but from {t_clear:.4g} s")]
     near = np.abs(windows.start - labels.t_slip) <= reach
     if near.any() and not (maybe & near).any():
         k = min(int(np.searchsorted(windows.start, labels.t_slip)), len(windows.start) - 1)
         return [_not_a_slip(run, windows, k, labels.t_slip)]
     if t_clear is not None and labels.t_slip > t_clear + reach:
         k = int(np.searchsorted(windows.start, t_clear))
-        return [
-            Contradiction(
-                Kind.SLIP_LABEL,
-                f"first slip read at {labels.t_slip:.4g} s, but from {t_clear:.4g} s "
-                f"{windows.describe(k)}",
-            )
-        ]
+        text = f"first slip read at {labels.t_slip:.4g} s, but from {t_clear:.4g} s"
+        return [_unread_slip(run, windows, k, text)]
     return []
+
+
+def _unread_slip(run: Run, windows: Windows, k: int, text: str) -> Contradiction:
+    """A clear slip from window k that the row does not read: at the cone (or where rolling
+    cannot go on) it is a slip-label contradiction; inside the cone (fast, or friction away
+    from the rolling demand) a slide read as roll."""
+    with np.errstate(invalid="ignore"):
+        at_cone = windows.ratio[k] >= 1 - CONE_CLEAR or (
+            windows.demand is not None and windows.demand[k] >= 1 + DEMAND_MARGIN
+        )
+    kind = Kind.SLIP_LABEL if at_cone else Kind.SLIDE_AS_ROLL
+    return Contradiction(kind, f"{text} {windows.describe(k)}")
 
 
 def _not_a_slip(run: Run, windows: Windows, k: int, t_slip: float) -> Contradiction:
@@ -806,9 +1025,217 @@ def _not_a_slip(run: Run, windows: Windows, k: int, t_slip: float) -> Contradict
     chatter = windows.steps_at_cone[k] >= CHATTER_SHARE
     if not windows.slides_soon(run.hoop)[k]:
         kind = Kind.STICK_AS_SLIP if windows.ratio[k] >= 1.0 else Kind.NO_SLIP_AS_SLIP
+    elif chatter:
+        kind = Kind.CHATTER_AS_SLIP
     else:
-        kind = Kind.CHATTER_AS_SLIP if chatter else Kind.CREEP_AS_SLIP
+        kind = Kind.CREEP_AS_SLIP if windows.follows_demand(run.hoop)[k] else Kind.NO_SLIP_AS_SLIP
     return Contradiction(kind, text)
+
+
+# ----------------------------------------------------------------------------- the phases
+MOTION_CODES = frozenset({"R", "S+", "S-", "F"})
+"""The phase codes of the motion: chattering is a property of a phase, never one."""
+
+
+def _chattering_phase(labels: Labels) -> list[Contradiction]:
+    other = sorted({c for c in labels.phases or () if c not in MOTION_CODES})
+    if not other:
+        return []
+    phases = " ".join(labels.phases or ())
+    return [Contradiction(Kind.CHATTER_PHASE, f"phases {phases} hold {' '.join(other)}")]
+
+
+def _direction(windows: Windows) -> NDArray:
+    """+1 or -1 per window: the direction a slip there would slide (opposite the friction)."""
+    return -windows.friction_sign.astype(int)
+
+
+def _stretches(mask: NDArray, sign: NDArray) -> list[tuple[int, int, int]]:
+    """(first, stop, direction) of each run of ``mask`` with one direction."""
+    out = []
+    for start, stop in _runs(mask):
+        edges = np.nonzero(np.diff(sign[start:stop]))[0] + 1 + start
+        bounds = [start, *edges.tolist(), stop]
+        out += [(int(i), int(j), int(sign[i])) for i, j in itertools.pairwise(bounds)]
+    return out
+
+
+def _clear_slips(run: Run, windows: Windows) -> list[tuple[int, int, int]]:
+    """The run's clear slips: stretches of clear slip windows of one direction, joined
+    across any gap that holds no clear roll, clear flight or clear slip the other way (the
+    reading may hold one slip across it). Each needs a slip phase of its own."""
+    clear = windows.clear_slip(run.hoop)
+    split = windows.clear_roll(run.hoop) | _clear_flight(run, windows)
+    joined: list[tuple[int, int, int]] = []
+    for first, stop, sign in _stretches(clear, _direction(windows)):
+        if joined and joined[-1][2] == sign and not split[joined[-1][1] : first].any():
+            joined[-1] = (joined[-1][0], stop, sign)
+        else:
+            joined.append((first, stop, sign))
+    return joined
+
+
+def _most_slips(run: Run, windows: Windows) -> dict[int, int]:
+    """How many slip phases of each direction the run can hold at most. A slip phase needs a
+    stretch that may be a slip (not clearly still, friction not clearly off the slip law:
+    :meth:`Windows.maybe_slip` with ``soon``, over the whole record), and two slips one way
+    need a phase between them that is no slip: a window that clearly is none, or a part of
+    one such stretch that is not clearly a slip (each such part, however short, counted as
+    room for one more slip)."""
+    hoop = run.hoop
+    law = windows.slip_law(hoop, clearly=False) & windows.slides_soon(hoop)
+    clear = windows.clear_slip(hoop)
+    most = {1: 0, -1: 0}
+    for first, stop, sign in _stretches(law, _direction(windows)):
+        if sign:  # no mean friction: no direction to slide against
+            most[sign] += 1 + len(_runs(~clear[first:stop]))
+    return most
+
+
+def _slip_phases(run: Run, windows: Windows, labels: Labels) -> list[Contradiction]:
+    """The row's slip phases of each direction against the run's: no more than the run can
+    hold (:func:`_most_slips`), no fewer than it has clear slips (:func:`_clear_slips`). A
+    row that reads no slip at all is :func:`_slip_labels`'s."""
+    if labels.phases is None or labels.t_slip is None:
+        return []
+    slips_read = {1: labels.phases.count("S+"), -1: labels.phases.count("S-")}
+    most = _most_slips(run, windows)
+    out = []
+    phases = " ".join(labels.phases)
+    for sign, read in slips_read.items():
+        at_most = most[sign]
+        if read > at_most:
+            text = (
+                f"phases {phases} read {read} slips towards {sign:+d}, but the run can hold at "
+                f"most {at_most} that way"
+            )
+            out.append(Contradiction(Kind.SLIP_PHASES, text))
+    for sign, read in slips_read.items():
+        clear = [first for first, _, d in _clear_slips(run, windows) if d == sign]
+        if len(clear) > read:
+            k = clear[read] if read < len(clear) else clear[-1]
+            starts = ", ".join(f"{windows.start[i]:.4g}" for i in clear)
+            text = (
+                f"phases {phases} read {read} slips towards {sign:+d}, but the run clearly slips "
+                f"that way {len(clear)} times, from {starts} s; from {windows.start[k]:.4g} s"
+            )
+            out.append(_unread_slip(run, windows, k, text))
+    return out
+
+
+def _clear_flight(run: Run, windows: Windows) -> NDArray:
+    """Windows inside a clear hop's flight throughout."""
+    inside = np.zeros(len(run.t), dtype=bool)
+    for flight in run.flights:
+        if flight.clear_hop(run.hoop):
+            end = math.inf if flight.t_end is None else flight.t_end
+            inside |= (run.t >= flight.t_start) & (run.t < end) & ~run.touching
+    c = np.concatenate(([0], np.cumsum(inside)))
+    m = windows.length
+    return (c[m:] - c[:-m])[: len(windows.start)] == m
+
+
+def _creep_labels(run: Run, labels: Labels, exact: Exact) -> list[Contradiction]:
+    """Creep read faster than FAST_SLIDE (clearly: FAST_CLEAR times it), or farther than the
+    rim slides in all its contact before the exact lift-off (and inside the exact window)."""
+    out = []
+    speed = labels.creep_max_speed
+    fast = FAST_CLEAR * FAST_SLIDE * run.hoop.speed
+    if speed is not None and speed > fast:
+        text = f"creep read up to {speed:.3g} m/s: faster than {fast:.3g} m/s is never creep"
+        out.append(Contradiction(Kind.CREEP_LABEL, text))
+    distance = labels.creep_distance
+    if distance is None or distance <= 0:
+        return out
+    step = np.diff(run.t, append=run.t[-1])
+    end = min(exact.contact_end, exact.window_end) + run.slack
+    where = run.touching & (run.t <= end)
+    slid = float(np.sum((step * np.abs(run.s))[where]))
+    # 5 % and 0.1 mm: the row sums the same samples' steps, maybe with a few more at an edge.
+    if distance > 1.05 * slid + 1e-4 * run.hoop.length:
+        text = (
+            f"creep read over {_mm(distance)}, but the rim slides {_mm(slid)} in all its "
+            f"contact up to {end:.4g} s (the exact lift-off or window end)"
+        )
+        out.append(Contradiction(Kind.CREEP_LABEL, text))
+    return out
+
+
+# ----------------------------------------------------------------------------- transitions
+def _run_modes(run: Run, windows: Windows) -> NDArray:
+    """Per window, the phase the run is clearly in over it and the windows after it (the
+    masks are sustained: WINDOW of windows, 2 x WINDOW of samples): R, S+, S-, F, or ""."""
+    modes = np.full(len(windows.start), "", dtype=object)
+    modes[windows.clear_roll(run.hoop)] = "R"
+    slip = windows.clear_slip(run.hoop)
+    direction = _direction(windows)
+    modes[slip & (direction > 0)] = "S+"
+    modes[slip & (direction < 0)] = "S-"
+    modes[_sustained(_clear_flight(run, windows), windows.length)] = "F"
+    return modes
+
+
+def _transitions(
+    run: Run, windows: Windows, labels: Labels, exact: Exact, loose: LooseTolerances
+) -> list[Contradiction]:
+    """An agrees or close row claims the run's phases are the exact ones (as read at its
+    timestep) with every transition within its loose tolerance. Then wherever the exact
+    solution is inside one phase, farther than the loose tolerance from each of its
+    transitions, the run is in that same phase: were it in another, the transition into the
+    exact phase would be late (the run's phase an earlier one) or the one out of it early (a
+    later one) by more than the tolerance. So a stretch where the run is clearly in another
+    phase (:func:`_run_modes`, two windows long, all of it inside that part of the exact
+    phase) contradicts the row. The last PHASE_END of the record is left out (the phase
+    rule lets a last phase differ there); so is an unseen exact slip (a reading absorbs it).
+    """
+    if labels.verdict not in AGREEING or not exact.phases:
+        return []
+    tolerance = {
+        Tolerance.SLIP: _time_tolerance(run, loose.slip_s, loose),
+        Tolerance.LIFT: _time_tolerance(run, loose.lift_s, loose),
+        Tolerance.IMPACT: _time_tolerance(run, loose.impact_s, loose),
+    }
+    transitions = exact.transitions()
+    modes = _run_modes(run, windows)
+    span = run.t[np.minimum(np.arange(len(modes)) + 2 * windows.length - 2, len(run.t) - 1)]
+    record_end = float(run.t[-1]) - PHASE_END * run.hoop.duration
+    out = []
+    for k, phase in enumerate(exact.phases):
+        if not phase.seen:
+            continue
+        lo = phase.t_start + (tolerance[transitions[k - 1][1]] if k else 0.0)
+        later = [tolerance[kind] for t, kind in transitions[k:] if t > phase.t_start]
+        hi = min(phase.t_end - max(later, default=0.0), record_end)
+        inside = (windows.start >= lo) & (span <= hi)
+        other = inside & (modes != "") & (modes != phase.code)
+        if other.any():
+            i = int(np.nonzero(other)[0][0])
+            out.append(_transition_text(exact, k, windows, i, str(modes[i]), labels, lo, hi))
+    return out
+
+
+def _transition_text(
+    exact: Exact, k: int, windows: Windows, i: int, mode: str, labels: Labels, lo: float, hi: float
+) -> Contradiction:
+    phase, t = exact.phases[k], float(windows.start[i])
+    before = exact.phases[k - 1].code if k else None
+    after = exact.phases[k + 1].code if k + 1 < len(exact.phases) else None
+    if mode == before:
+        which = f"the transition into {phase.code} at {phase.t_start:.4g} s is over " + (
+            f"{1e3 * (t - phase.t_start):.0f} ms late"
+        )
+    elif mode == after:
+        which = f"the transition into {mode} at {phase.t_end:.4g} s is over " + (
+            f"{1e3 * (phase.t_end - t):.0f} ms early"
+        )
+    else:
+        which = "the phases differ"
+    return Contradiction(
+        Kind.TRANSITION,
+        f"{labels.verdict}, but from {t:.4g} s the run is clearly {mode} ({windows.describe(i)}) "
+        f"inside the exact {phase.code} phase {phase.t_start:.4g}-{phase.t_end:.4g} s "
+        f"(timed {lo:.4g}-{hi:.4g} s): {which}",
+    )
 
 
 def _cone_flag(run: Run, windows: Windows, labels: Labels) -> list[Contradiction]:
