@@ -327,3 +327,19 @@ def test_a_transition_verdict_is_said_with_its_transition():
 
     assert event_error(timed_row("pymunk", 1.466)) == "re-stick 2 -34 ms"
     assert event_error(timed_row("drake", 1.506)) == "+0 ms"  # close: the slip onset
+
+
+def test_an_engine_sliding_off_mu_is_named_with_its_effective_coefficient():
+    """Issue 33: DART stock's friction saturates below mu (0.73-0.87): a finding names the
+    engine and its mu_effective_ratio; engines at mu (within 2 %) are not named."""
+    runs = frame(
+        row("dart", mu_effective_ratio=0.81),
+        row("dart", scene="slip-reversal", mu_effective_ratio=0.74),
+        row("drake", mu_effective_ratio=0.985),
+        row("pymunk", mu_effective_ratio=1.0),
+    )
+    sentence = next(s for s in findings(runs) if s.startswith("Sliding friction off mu"))
+    assert "dart slides at 0.78 mu (0.74-0.81, 2 runs that slip)" in sentence
+    assert "drake" not in sentence and "pymunk" not in sentence
+    calm = frame(row("drake", mu_effective_ratio=0.985))
+    assert not [s for s in findings(calm) if s.startswith("Sliding friction")]

@@ -385,6 +385,65 @@ def _transitions_sentence(rows: pd.DataFrame, label: str) -> str:
     return f"{head}: {', '.join(parts)}."
 
 
+COULOMB_BAND = 0.02
+"""An engine's sliding friction is mu's (Coulomb's law, friction at the cone) when its
+effective coefficient is within this share of mu: Drake's regularised friction slides at
+0.98-0.9999 mu n."""
+
+
+@dataclass(frozen=True)
+class SlidingFriction:
+    """An engine's friction while it slides, over the pair's mu (``mu_effective_ratio``)."""
+
+    engine: str
+    median: float
+    """The median over its runs that slip."""
+    low: float
+    high: float
+    """The lowest and highest of those runs."""
+    runs: int
+
+
+def sliding_friction(rows: pd.DataFrame) -> list[SlidingFriction]:
+    """Each engine whose runs slip with an effective friction coefficient off mu by more than
+    COULOMB_BAND (the median over its runs), the farthest first."""
+    if Col.MU_EFFECTIVE_RATIO not in rows:
+        return []
+    out = []
+    for engine, group in rows.groupby(Col.ENGINE, sort=False):
+        ratio = pd.to_numeric(group[Col.MU_EFFECTIVE_RATIO], errors="coerce").dropna()
+        if ratio.empty or abs(float(ratio.median()) - 1.0) <= COULOMB_BAND:
+            continue
+        out.append(
+            SlidingFriction(
+                str(engine),
+                float(ratio.median()),
+                float(ratio.min()),
+                float(ratio.max()),
+                len(ratio),
+            )
+        )
+    return sorted(out, key=lambda f: -abs(f.median - 1.0))
+
+
+def _sliding_sentence(rows: pd.DataFrame, label: str) -> str:
+    """'Sliding friction off mu (dt 1e-4, stock): dart slides at 0.81 mu (0.73-0.87, 6 runs
+    that slip); ...' (empty where every engine slides at mu)."""
+    found = sliding_friction(rows)
+    if not found:
+        return ""
+    listed = "; ".join(
+        f"{f.engine} slides at {f.median:.2f} mu ({f.low:.2f}-{f.high:.2f}, {f.runs} runs "
+        "that slip)"
+        for f in found
+    )
+    return (
+        f"Sliding friction off mu ({label}; mu_effective_ratio, the median |f| / (mu n) while "
+        f"the rim slides): {listed}. Its slips start where the friction stops giving what "
+        "rolling needs, not at the cone."
+    )
+
+
 def _knob_sentence(runs: pd.DataFrame, engine: str) -> str:
     """Which of the engine's stock knob values, each alone on its tuned settings, turns an
     outcome the tuned run gets right into a wrong one (the contact-settings runs)."""
@@ -468,6 +527,7 @@ def findings(runs: pd.DataFrame) -> list[str]:
                 _closest_sentence(hop, _HOP_READINGS, what, "%", 100, _height_resolution(hop))
             )
         transitions.append(_transitions_sentence(rows, label))
+        transitions.append(_sliding_sentence(rows, label))
         agreement += [_agreement_sentence(rows, e, label) for e in _engines(rows)]
     knobs = [_knob_sentence(main, engine) for engine in _engines(main)]
     # The order of importance (KEY_FINDINGS come first): the closest engine per event and
