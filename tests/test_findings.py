@@ -330,7 +330,7 @@ def test_a_transition_verdict_is_said_with_its_transition():
 
 
 def test_an_engine_sliding_off_mu_is_named_with_its_effective_coefficient():
-    """Issue 33: DART stock's friction saturates below mu (0.73-0.87): a finding names the
+    """Issue 33: DART stock's sliding friction is not mu (0.56-2.43): a finding names the
     engine and its mu_effective_ratio; engines at mu (within 2 %) are not named."""
     runs = frame(
         row("dart", mu_effective_ratio=0.81),

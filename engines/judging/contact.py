@@ -24,7 +24,7 @@ and so does its rolling demand):
 - **the slip law**: the friction cannot give what rolling needs, or the slide is fast: |mean
   f| at or beyond the cone (within ``cone_hold``), rolling cannot go on, |mean f| short of
   the demand along it by more than ``demand_tolerance`` of the cone mu mean n (a friction
-  law that saturates below mu, as DART stock's does at 0.74-0.83 mu n), or |mean s| above
+  law that saturates below mu, as DART stock's does at 0.56-0.87 mu n), or |mean s| above
   ``creep_speed`` (fast sliding is never creep). A friction away from the demand on the
   other side (above it) keeps a slide going (it brakes it), but starts none;
 - **slip**: a stretch sliding against friction under the slip law, one way (a reversal is a

@@ -427,7 +427,7 @@ def sliding_friction(rows: pd.DataFrame) -> list[SlidingFriction]:
 
 
 def _sliding_sentence(rows: pd.DataFrame, label: str) -> str:
-    """'Sliding friction off mu (dt 1e-4, stock): dart slides at 0.81 mu (0.73-0.87, 6 runs
+    """'Sliding friction off mu (dt 1e-4, stock): dart slides at 1.16 mu (0.56-2.43, 8 runs
     that slip); ...' (empty where every engine slides at mu)."""
     found = sliding_friction(rows)
     if not found:
@@ -437,9 +437,10 @@ def _sliding_sentence(rows: pd.DataFrame, label: str) -> str:
         "that slip)"
         for f in found
     )
+    whose = "Its" if len(found) == 1 else "Their"
     return (
         f"Sliding friction off mu ({label}; mu_effective_ratio, the median |f| / (mu n) while "
-        f"the rim slides): {listed}. Its slips start where the friction stops giving what "
+        f"the rim slides): {listed}. {whose} slips start where the friction stops giving what "
         "rolling needs, not at the cone."
     )
 
