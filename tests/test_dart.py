@@ -109,6 +109,35 @@ def test_contact_force_is_the_step_impulse_per_unit_mass():
     assert spike == int(np.argmax(np.abs(dv_x)))
 
 
+@pytest.mark.parametrize("profile", [Profile.TUNED, Profile.STOCK])
+def test_contact_force_is_each_steps_joint_momentum_balance(profile):
+    """The run's force (the hoop's constraint forces, turned back by each step's rotation) is
+    the step's generalized momentum balance M(q) (qdot1 - qdot0) / dt + C(q, qdot) + g at the
+    state it starts from, whose z and x parts are the world force on the hoop (measured within
+    5e-11 N). hop-top's first second holds rolls, slips and the stock solver's steps with
+    friction but a normal force of exactly 0, where the contact walk's sign rule (the hoop's
+    force points up) read the friction reversed (319 steps here, up to 0.23 g)."""
+    scene = get_scene("hop-top").with_(t_end=1.0)
+    settings = RunSettings(timestep=TIMESTEP, profile=profile)
+    result = get_engine("dart").run(scene, settings)
+    assert result.info.status is RunStatus.OK, result.info.message
+    traj = result.trajectory
+    world, hoop = built(scene, profile)
+    balance = []
+    for _ in range(len(traj)):
+        mass, bias, before = (
+            hoop.getMassMatrix(),
+            hoop.getCoriolisAndGravityForces(),
+            hoop.getVelocities(),
+        )
+        world.step()
+        balance.append(mass @ (hoop.getVelocities() - before) / TIMESTEP + bias)
+    world.removeAllSkeletons()
+    z, x = np.array(balance)[:, :2].T / scene.M
+    assert np.max(np.abs(traj.normal_force - z)) < 1e-9 * scene.g
+    assert np.max(np.abs(traj.friction_force - x)) < 1e-9 * scene.g
+
+
 def test_stock_dantzig_slips_early_and_nsgs_at_the_exact_onset():
     """Measured finding, not a tolerance: DART's default Dantzig solver lets seed-mu slip at
     about 32 deg (0.50 s) with friction far inside the cone; NSGS (the tuned default) slips
