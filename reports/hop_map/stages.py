@@ -33,6 +33,7 @@ from typing import Any, TextIO
 from hoopbench.engines.base import n_steps_for
 from hoopbench.engines.judging.columns import (
     BATCH_COLUMNS,
+    CPU_COLUMNS,
     EVENT_COLUMNS,
     FLOOR_COLUMNS,
     FORCE_COLUMNS,
@@ -105,7 +106,8 @@ the contact reading's columns and the verdict's flags and reason, 3 the contact 
 against the exact one (FORCE_COLUMNS), as a suite's rows have them; 4 one reading (issue 24:
 reports/compare/rows.one_reading); 5 the batch's cost (issue 27: BATCH_COLUMNS,
 reports/compare/rows.with_batch_columns); 6 every transition timed (issue 33:
-reports/compare/rows.with_transition_columns)."""
+reports/compare/rows.with_transition_columns) and, with issue 34, the process's CPU time
+(CPU_COLUMNS: a table stored before reads them empty)."""
 
 ONE_READING_MAP_VERSION = 4
 """The first map table format with one reading: a map folder stored before it is read
@@ -223,6 +225,7 @@ MAP_COLUMNS = (
     Col.SIM_TIME_S,
     Col.STOP_REASON,
     *BATCH_COLUMNS,
+    *CPU_COLUMNS,
     *EXACT_CARRIED,
     *EVENT_COLUMNS,
     Col.MAX_CLEARANCE,
