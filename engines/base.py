@@ -186,7 +186,8 @@ class Engine(ABC):
     after each chunk it checks divergence (the engine's own reason, then ``check_divergence``)
     and feeds the run's ``StopMonitor`` (``settings.stop``; the monitor skips rows it has
     seen), and ends at the first chunk that diverges or stops; it times the stepping (chunks
-    and finishing step, with the checks) with the garbage collector off, and returns the
+    and finishing step, with the checks), by the wall clock and by the process's CPU time,
+    with the garbage collector off, and returns the
     ``Simulation`` (``n_steps``: the trajectory's rows less one). :meth:`bare_loop_time` is
     the class's too. An adapter implements only these hooks. They act on a per-run object of
     the adapter's own (``run``: the model and what it has recorded), as the engine instance

@@ -130,8 +130,12 @@ between two runs of the same thing on one machine. Measured on the project's 2-c
 scaled every cost by 1.8-3.9x between the two, and, that common factor aside, one setting's
 cost against another's of the same engine moved by a factor of 1.12 in the median, 1.33 at
 the 90th percentile, 1.42 at the 95th and 1.95 at worst. 1.5 covers 96 % of those pairs.
-The process's CPU time (Col.CPU_US_PER_STEP), which the answer ranks by, moves less than
-that wall time."""
+The process's CPU time (Col.CPU_US_PER_STEP), which the answer ranks by, moves far less:
+on the same machine at a load average of 8-9, one hop-top run at dt 1e-4 s repeated four
+times, then four times more beside three busy processes, moved its wall time by 1.9-2.0x
+(MuJoCo, pymunk, Box2D) and its CPU time by 0.94-1.01x, each engine's four CPU times
+within 1.06x of each other but Box2D's first (1.36x, a cold start). The factor is kept at
+the wall time's spread: no two full reports have yet been measured by their CPU times."""
 
 
 def costs_equal(a: float, b: float) -> bool:

@@ -541,6 +541,7 @@ def _run_map(
     version = _recorded_version(out, resume)
     _prepare(out, spec, resume)
     started_at = datetime.now(UTC)
+    load_start = results.load_average()
     meta = {"map": spec.to_dict(), results.FORMAT_KEY: version}
     common: dict[str, Any] = dict(  # run_tasks' keywords, the same for both stages
         failure_row=map_failure_row,
@@ -569,7 +570,7 @@ def _run_map(
     second = run_tasks(tasks, run_map_task, out, batching=batching, **common)
     summary = _summary(spec, out, [first, second], n_refs)
     if second.interrupted is None and not finished:
-        _complete_meta(out, started_at, resume, summary)
+        _complete_meta(out, started_at, resume, summary, load_start)
     return summary
 
 
@@ -627,14 +628,26 @@ def _summary(spec: MapSpec, out: Path, stages: Sequence[RunSummary], n_refs: int
     )
 
 
-def _complete_meta(out: Path, started_at: datetime, resume: bool, summary: RunSummary) -> None:
-    """meta.json of both stages (the runner wrote stage 2's, and always resumes here)."""
+def _complete_meta(
+    out: Path,
+    started_at: datetime,
+    resume: bool,
+    summary: RunSummary,
+    load_start: list[float] | None,
+) -> None:
+    """meta.json of both stages (the runner wrote stage 2's, and always resumes here), with
+    the load average at the map's start (``load_start``) and end."""
     path = out / results.META_NAME
     meta = json.loads(read_folder_text(out, results.META_NAME) or "{}")
     meta.update(
         started_at=started_at.isoformat(),
         wall_time_s=round(summary.wall_time_s, 3),
         resumed=resume,
-        session={"ran": summary.total, "skipped": summary.skipped},
+        session={
+            "ran": summary.total,
+            "skipped": summary.skipped,
+            "load_average_start": load_start,
+            "load_average_end": results.load_average(),
+        },
     )
     results.write_meta(meta, path)
