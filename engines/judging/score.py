@@ -125,8 +125,9 @@ def tier_reached(rows: Iterable[Mapping[str, Any]]) -> Tier | None:
 COST_NOISE_FACTOR = 1.5
 """Two costs within this factor of each other are one cost: the spread of a measured cost
 between two runs of the same thing on one machine. Measured on the project's 2-core machine
-(AMD EPYC, shared) between two ``make report`` runs of one commit (2026-11-28 16:42 and
-18:55; 99 engine settings, each its median wall-time us/step over its scenes): the load
+(AMD EPYC, shared) between two ``make report`` runs (2026-11-28 16:42 and 18:55, commits
+83d1310 and dbe3afe, whose engine adapters differ in 3 lines of Newton's; 99 engine
+settings, each its median wall-time us/step over its scenes): the load
 scaled every cost by 1.8-3.9x between the two, and, that common factor aside, one setting's
 cost against another's of the same engine moved by a factor of 1.12 in the median, 1.33 at
 the 90th percentile, 1.42 at the 95th and 1.95 at worst. 1.5 covers 96 % of those pairs.
@@ -135,7 +136,10 @@ on the same machine at a load average of 8-9, one hop-top run at dt 1e-4 s repea
 times, then four times more beside three busy processes, moved its wall time by 1.9-2.0x
 (MuJoCo, pymunk, Box2D) and its CPU time by 0.94-1.01x, each engine's four CPU times
 within 1.06x of each other but Box2D's first (1.36x, a cold start). The factor is kept at
-the wall time's spread: no two full reports have yet been measured by their CPU times."""
+the wall time's spread: no two full reports have yet been measured by their CPU times.
+With the second report's verdicts and each report's wall times in turn, the answer's
+cheapest settings differed in 3 of 20 choices (Box2D loose, Rapier tight and loose: stock
+against tuned) by the clock alone, and in none with this factor and the answer's tie rule."""
 
 
 def costs_equal(a: float, b: float) -> bool:
