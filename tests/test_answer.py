@@ -263,7 +263,7 @@ def test_costs_within_the_noise_choose_the_same_settings_whichever_measured_less
     assert chosen["mjx"][1] == "tuned, default, dt 0.001"  # the larger timestep
     assert chosen["dart"][0] == "tuned, default, dt 0.0001"  # 3x: outside the noise
     text = answer_markdown(one)
-    assert "CPU us/step" in text and "within a factor 1.5 of the cheapest are equal" in text
+    assert "CPU us/step" in text and "within a factor 1.5 of the cheapest count as equal" in text
 
 
 def test_the_cost_is_the_cpu_time_where_the_rows_carry_it():

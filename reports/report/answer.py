@@ -512,17 +512,17 @@ def _limit_sentence(limit: TimestepLimit) -> str:
 def _cost_words(clock: str) -> str:
     """What the answer's cost is, and how equal costs are ordered."""
     what = (
-        "the process's CPU time of the stepping per step, which the machine's load moves far "
-        "less than the wall time, and CPU seconds per simulated second"
+        "The stepping time is the process's CPU time, which the machine's load moves far less "
+        "than the wall time."
         if clock == "CPU"
-        else "wall time of the stepping per step, and wall seconds per simulated second (the "
-        "runs were stored without their CPU time: these move with the machine's load)"
+        else "The stepping time is the wall time: these runs were stored without their CPU "
+        "time, and their costs move with the machine's load."
     )
     return (
-        f"{what}: below 1 is faster than real time. Costs within a factor "
-        f"{COST_NOISE_FACTOR:g} of the cheapest are equal, the spread measured between two "
-        "runs of the same suites on one machine: of those, the larger timestep is named, then "
-        "the stock profile before the tuned one, then the fewer options changed"
+        f"{what} Costs within a factor {COST_NOISE_FACTOR:g} of the cheapest count as equal "
+        "(the spread measured between two runs of the same suites on one machine); of those, "
+        "the larger timestep is named, then the stock profile before the tuned one, then the "
+        "fewer options changed."
     )
 
 
@@ -625,10 +625,12 @@ def answer_markdown(result: Answer, *, heading: bool = True) -> str:
         "Per engine: the cheapest setting tried (profile, settings, timestep) whose runs meet "
         f"each accuracy tier on {_scene_count(len(result.scenes))} "
         f"({escape_text(', '.join(result.scenes))}), or on as many as any setting does; its "
-        f"cost ({_cost_words(result.clock)}); the worst transition of its runs that meet "
+        "cost (stepping time per step, and seconds of stepping time per simulated second: "
+        "below 1 is faster than real time); the worst transition of its runs that meet "
         "the tier (of every event time the verdict compares, the farthest from the exact one "
         "against its loose tolerance); the scenes "
-        f"it gets wrong at every setting tried, with those runs' verdicts. Tiers: {tiers}.",
+        f"it gets wrong at every setting tried, with those runs' verdicts. Tiers: {tiers}. "
+        + _cost_words(result.clock),
         "",
         *lines,
         *_at_best_markdown(result),

@@ -170,12 +170,15 @@ def machine_text(machines: Sequence[SuiteMachine]) -> str:
         for m in machines
     )
     loads = "; ".join(
-        f"{m.suite} {_load_text(m.load_start)} to {_load_text(m.load_end)}" for m in machines
+        f"{m.suite} not recorded"
+        if m.load_start is None and m.load_end is None
+        else f"{m.suite} {_load_text(m.load_start)} to {_load_text(m.load_end)}"
+        for m in machines
     )
     return escape_text(
         f"Machine: {', and '.join(cpus)}. Load average (runnable processes over 1/5/15 min, "
-        f"all users') at the start and end of each suite: {loads}. The wall times grow with "
-        "the load; the costs the answer ranks by are CPU times, which move far less."
+        f"all users') at the start and end of each suite: {loads}. The runs' wall times grow "
+        "with the load, their CPU times (cpu_us_per_step) far less."
     )
 
 
@@ -366,11 +369,10 @@ def _run_time_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[Path]]:
     """Error against wall time per event, with the Pareto front and the cheapest runs."""
     figure = precision_figure(runs, out / "error_vs_time.png")
     cheapest = cheapest_runs(runs)
-    cost = (
-        engine_rows(runs)
-        .groupby(["engine", "profile", "timestep"], as_index=False)[["us_per_step", "wall_time_s"]]
-        .median()
-    )
+    columns = ["us_per_step", "cpu_us_per_step", "wall_time_s"]
+    rows = engine_rows(runs)
+    rows = rows.assign(**{c: pd.to_numeric(rows[c], errors="coerce") for c in columns})
+    cost = rows.groupby(["engine", "profile", "timestep"], as_index=False)[columns].median()
     solve = reference_rows(runs).groupby("scene", as_index=False)["wall_time_s"]
     return (
         _section(
@@ -401,7 +403,9 @@ def _run_time_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[Path]]:
             if len(cheapest)
             else "None.",
             "",
-            "Cost per engine and timestep (median over the scenes):",
+            "Cost per engine and timestep (median over the scenes): wall time per step, the "
+            "process's CPU time per step (which the machine's load moves far less; empty for "
+            "runs stored without it) and wall time per run:",
             "",
             _table(
                 cost,
@@ -410,6 +414,7 @@ def _run_time_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[Path]]:
                     "profile": "profile",
                     "timestep": "dt",
                     "us_per_step": "us/step",
+                    "cpu_us_per_step": "CPU us/step",
                     "wall_time_s": "wall s",
                 },
             ),
