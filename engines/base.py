@@ -160,6 +160,11 @@ class Simulation:
     n_steps: int
     wall_time_s: float
     """Wall time of the stepping loop alone (model building excluded), s."""
+    cpu_time_s: float | None = None
+    """The process's CPU time over the same loop (``time.process_time``: every thread of
+    the process, user and system), s: unlike the wall time it does not grow when other
+    processes share the cores (the reference solver's: over its solve and sampling). None:
+    not measured."""
     diverged: str | None = None
     """Reason, if the run was stopped for divergence."""
     exact_events: Events | None = None
@@ -181,7 +186,8 @@ class Engine(ABC):
     after each chunk it checks divergence (the engine's own reason, then ``check_divergence``)
     and feeds the run's ``StopMonitor`` (``settings.stop``; the monitor skips rows it has
     seen), and ends at the first chunk that diverges or stops; it times the stepping (chunks
-    and finishing step, with the checks) with the garbage collector off, and returns the
+    and finishing step, with the checks), by the wall clock and by the process's CPU time,
+    with the garbage collector off, and returns the
     ``Simulation`` (``n_steps``: the trajectory's rows less one). :meth:`bare_loop_time` is
     the class's too. An adapter implements only these hooks. They act on a per-run object of
     the adapter's own (``run``: the model and what it has recorded), as the engine instance
@@ -589,6 +595,7 @@ class Engine(ABC):
             status=status,
             message=message,
             wall_time_s=sim.wall_time_s,
+            cpu_time_s=sim.cpu_time_s,
             n_steps=sim.n_steps,
             stop_reason=None if sim.stop_reason is None else str(sim.stop_reason),
             batch=batch,
@@ -636,16 +643,18 @@ class Engine(ABC):
         until it diverges or its monitor stops it: the loop of the class docstring."""
         with self._open(module, scene, settings, options, record=True) as run:
             with _collector_paused():
-                start = time.perf_counter()
+                start, cpu_start = time.perf_counter(), time.process_time()
                 done, diverged, stopped = self._step_chunks(run, scene, settings)
                 ended_early = diverged is not None or stopped is not None
                 self._finish(run, ended_early)
                 wall = time.perf_counter() - start
+                cpu = time.process_time() - cpu_start
             trajectory = self._trajectory(run, done, ended_early)
         return Simulation(
             trajectory=trajectory,
             n_steps=len(trajectory) - 1,
             wall_time_s=wall,
+            cpu_time_s=cpu,
             diverged=diverged,
             stop_reason=stopped,
         )
@@ -688,7 +697,7 @@ class Engine(ABC):
         with self._open_batch(module, scenes, settings[0], options) as batch:
             worlds = _Worlds(scenes, settings, self._batch_shapes(batch), self.detectors)
             with _collector_paused():
-                start = time.perf_counter()
+                start, cpu_start = time.perf_counter(), time.process_time()
                 while (active := worlds.active).any():
                     steps = worlds.chunk_steps()
                     worlds.record(*self._batch_advance(batch, active, steps))
@@ -699,7 +708,8 @@ class Engine(ABC):
                         _, forces = self._batch_advance(batch, finishing, 1)
                         worlds.finish(finishing, forces[:, 0])
                 wall = time.perf_counter() - start
-        return worlds.simulations(wall)
+                cpu = time.process_time() - cpu_start
+        return worlds.simulations(wall, cpu)
 
 
 class _Worlds:
@@ -781,18 +791,19 @@ class _Worlds:
         for i in np.flatnonzero(finishing):
             self.forces[i].append(forces[i : i + 1])
 
-    def simulations(self, wall: float) -> tuple[list[Simulation], BatchCost]:
-        """Each world's Simulation (its wall time: its share of the batch's, by steps), and
-        the batch's cost."""
+    def simulations(self, wall: float, cpu: float) -> tuple[list[Simulation], BatchCost]:
+        """Each world's Simulation (its wall and CPU times: its shares of the batch's, by
+        steps), and the batch's cost."""
         trajectories = [self._trajectory(i) for i in range(len(self.scenes))]
         steps = np.array([len(t) - 1 for t in trajectories])
         total = int(steps.sum())
-        cost = BatchCost(size=len(self.scenes), wall_time_s=wall, world_steps=total)
+        cost = BatchCost(size=len(self.scenes), wall_time_s=wall, world_steps=total, cpu_time_s=cpu)
         sims = [
             Simulation(
                 trajectory=trajectory,
                 n_steps=int(n),
                 wall_time_s=wall * n / total if total else 0.0,
+                cpu_time_s=cpu * n / total if total else 0.0,
                 diverged=self.diverged[i],
                 stop_reason=self.stopped[i],
             )

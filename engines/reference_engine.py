@@ -61,7 +61,7 @@ class ReferenceEngine(Engine):
     ) -> Simulation:
         mu = self.mu_for(scene, settings)
         scene = scene.with_(mus=mu, muk=mu)
-        start = time.perf_counter()
+        start, cpu_start = time.perf_counter(), time.process_time()
         solution = module.solve_exact(scene, rtol=options["rtol"], atol=options["atol"])
         # The engine time grid, plus the window's last instant (the impact, for a hop), so
         # that the detectors see the landing.
@@ -75,6 +75,7 @@ class ReferenceEngine(Engine):
         if not finite[-1] and finite[:-1].all() and len(finite) > 2:
             trajectory = Trajectory.from_frame(trajectory.to_frame().iloc[:-1])
         wall = time.perf_counter() - start
+        cpu = time.process_time() - cpu_start
         events = solution.events
         failed = None
         if events.outcome in _NO_RESULT or str(events.outcome) == "error":
@@ -83,6 +84,7 @@ class ReferenceEngine(Engine):
             trajectory=trajectory,
             n_steps=len(trajectory) - 1,
             wall_time_s=wall,
+            cpu_time_s=cpu,
             exact_events=events,
             failed=failed,
         )

@@ -47,11 +47,20 @@ class BatchCost:
     """Wall time of stepping the whole batch (model building excluded), s."""
     world_steps: int
     """Steps taken, summed over the batch's worlds (each world's ``n_steps``)."""
+    cpu_time_s: float | None = None
+    """The process's CPU time over the same stepping, s (None: not measured)."""
 
     @property
     def s_per_world_step(self) -> float | None:
         """s per world-step: the batch's wall time over its world-steps."""
         return self.wall_time_s / self.world_steps if self.world_steps else None
+
+    @property
+    def cpu_s_per_world_step(self) -> float | None:
+        """CPU s per world-step: the batch's CPU time over its world-steps."""
+        if self.cpu_time_s is None or not self.world_steps:
+            return None
+        return self.cpu_time_s / self.world_steps
 
     @property
     def world_steps_per_s(self) -> float | None:
@@ -63,6 +72,7 @@ class BatchCost:
             "batch_size": self.size,
             "batch_wall_time_s": self.wall_time_s,
             "batch_world_steps": self.world_steps,
+            "batch_cpu_time_s": self.cpu_time_s,
         }
 
 
@@ -74,6 +84,8 @@ class RunInfo:
     message: str = ""
     wall_time_s: float | None = None
     """Wall time of the stepping, s."""
+    cpu_time_s: float | None = None
+    """The process's CPU time over the stepping, s (``Simulation.cpu_time_s``)."""
     n_steps: int | None = None
     mu: float | None = None
     """The pair's friction coefficient actually used."""
@@ -84,8 +96,8 @@ class RunInfo:
     """A StopReason value if the run ended early by its stop rule; None: the window's end
     (or a failure). ``n_steps`` counts the steps recorded either way."""
     batch: BatchCost | None = None
-    """The batch the run was stepped in (None: stepped alone). ``wall_time_s`` is then the
-    run's share of the batch's wall time, in proportion to its steps."""
+    """The batch the run was stepped in (None: stepped alone). ``wall_time_s`` and
+    ``cpu_time_s`` are then the run's shares of the batch's, in proportion to its steps."""
 
     def to_dict(self) -> dict[str, Any]:
         out = {
@@ -94,6 +106,7 @@ class RunInfo:
             "status": str(self.status),
             "message": self.message,
             "wall_time_s": self.wall_time_s,
+            "cpu_time_s": self.cpu_time_s,
             "n_steps": self.n_steps,
             "mu": self.mu,
             "timestep": self.timestep,
@@ -135,7 +148,7 @@ class RunResult:
         out: dict[str, Any] = {} if self.events is None else self.events.to_dict()
         info = self.info.to_dict()
         out.update({k: info[k] for k in ("engine", "engine_version", "status")})
-        out.update({k: info[k] for k in ("wall_time_s", "n_steps", "mu", "timestep")})
+        out.update({k: info[k] for k in ("wall_time_s", "cpu_time_s", "n_steps", "mu", "timestep")})
         if info["message"]:
             out["status_message"] = info["message"]
         out["settings"] = info["settings"]

@@ -19,7 +19,7 @@ import pandas as pd
 import pytest
 
 from hoopbench.engines.judging.columns import COST_COLUMNS
-from hoopbench.reports.compare.suite import run_timeout
+from hoopbench.reports.compare.suite import TIMEOUT_NOTE, run_timeout
 from hoopbench.reports.sweep.results import TIMING_COLUMNS, read_runs
 
 TESTS = Path(__file__).resolve().parent
@@ -77,6 +77,10 @@ def test_a_crash_a_hang_and_a_nan_each_cost_one_row(tmp_path):
     assert rows.loc["test-crash", "status"] == "crashed"
     assert rows.loc["test-crash", "attempts"] == 2  # retried once
     assert rows.loc["test-hang", "status"] == "timeout"
+    # The time limit is the machine's: no verdict, and the row says so (issue 34).
+    assert pd.isna(rows.loc["test-hang", "verdict"])
+    assert rows.loc["test-hang", "verdict_reason"] == TIMEOUT_NOTE
+    assert rows.loc["test-crash", "verdict"] == "failed"
     assert rows.loc["test-nan", "status"] == "diverged"
     assert rows.loc["test-nan", "message"] == "non-finite theta"
     csv = pd.read_csv(tmp_path / "out" / "runs.csv")

@@ -53,6 +53,20 @@ def test_the_closest_engine_is_the_one_with_the_smallest_error():
     assert "reference" not in text  # the reference is what the engines are measured against
 
 
+def test_engines_tied_on_the_error_are_ranked_by_their_cpu_time_where_measured():
+    """Issue 34: of two engines within the error's resolution, the one named is the cheaper
+    by the process's CPU time (pybullet), not by the wall time, which the load moves
+    (mujoco's is lower here)."""
+    runs = frame(
+        row("mujoco", err_t_slip_ms=0.1, us_per_step=30.0, cpu_us_per_step=20.0),
+        row("pybullet", err_t_slip_ms=0.1, us_per_step=80.0, cpu_us_per_step=8.0),
+    )
+    text = findings(runs)[0]
+    assert "closest is pybullet, +0.1 ms at 8 CPU us/step, tied with mujoco" in text
+    wall = findings(runs.drop(columns=["cpu_us_per_step"]))[0]  # a table stored before
+    assert "closest is mujoco, +0.1 ms at 30 us/step, tied with pybullet" in wall
+
+
 def test_agreement_names_every_scene_that_went_wrong():
     """The phase sequence counts phases_agree (as the scoreboard does), not the verdict: a
     hop too low has the right phases and a wrong event."""

@@ -272,7 +272,10 @@ def test_the_map_has_a_row_per_point_and_engine(tiny):
     assert list(csv["run_id"][:2]) == ["r000-000-reference", "r000-000-pymunk"]
     meta = json.loads((tiny / results.META_NAME).read_text())
     assert meta["runs"] == 12 and meta["resumed"] is False
-    assert meta["session"] == {"ran": 12, "skipped": 0}
+    session = meta["session"]
+    assert {k: session[k] for k in ("ran", "skipped")} == {"ran": 12, "skipped": 0}
+    for load in (session["load_average_start"], session["load_average_end"]):  # 1, 5, 15 min
+        assert len(load) == 3 and all(x >= 0 for x in load)
     assert MapSpec.from_dict(meta["map"]) == TINY
 
 

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import json
 import re
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -276,3 +278,23 @@ def test_figures_drawn_side_by_side_come_back_in_order():
 
     assert _drawn([(pow, (2, k)) for k in range(6)]) == [1, 2, 4, 8, 16, 32]
     assert _drawn([(pow, (3, 2))]) == [9]  # one call: drawn here
+
+
+@pytest.mark.slow  # the quick suite, about 10 s once per module
+def test_the_platform_section_names_the_machine_and_its_load(quick_report):
+    """Issue 34: the CPU model, the cores, and the load average at the suite's start and end
+    (meta.json's session), and every run that stepped carries its CPU time beside its wall
+    time."""
+    out, report = quick_report
+    meta = json.loads((out / "meta.json").read_text())
+    session = meta["session"]
+    platform = report.read_text().split("## Platform and runs")[1]
+    start = "/".join(f"{x:g}" for x in session["load_average_start"])
+    end = "/".join(f"{x:g}" for x in session["load_average_end"])
+    assert f"Machine: {meta['cpu_model']}, {meta['cpu_count']} cores." in platform
+    assert f"quick {start} to {end}." in platform
+    runs = pd.read_parquet(out / "runs")
+    stepped = runs[runs["n_steps"] > 0]
+    assert (stepped["cpu_time_s"] > 0).all()
+    per_step = 1e6 * stepped["cpu_time_s"] / stepped["n_steps"]
+    assert np.allclose(stepped["cpu_us_per_step"], per_step)

@@ -25,7 +25,7 @@ from hoopbench.engines.run import Run, RunInfo, RunStatus
 from hoopbench.models import kinematics
 from hoopbench.models.events import Events, Outcome, Phase, PhaseKind
 from hoopbench.models.trajectory import Trajectory
-from hoopbench.reports.compare.suite import ROW_COLUMNS, failure_row
+from hoopbench.reports.compare.suite import ROW_COLUMNS, TIMEOUT_NOTE, failure_row
 from hoopbench.reports.compare.suite_file import parse_suite
 
 HOP_ROW: dict[str, Any] = {
@@ -639,8 +639,13 @@ def test_the_row_of_a_blip_against_a_real_hop():
 
 
 def test_the_row_of_a_run_that_produced_nothing():
-    row = failure_row(_task(), RunStatus.TIMEOUT, "over 60 s")
+    """A crash is the engine's run failing; a timeout is the machine's time limit (issue 34):
+    no verdict, its reason saying so."""
+    row = failure_row(_task(), RunStatus.CRASHED, "worker died")
     assert (row["verdict"], row["outcome_agrees"]) == ("failed", False)
+    row = failure_row(_task(), RunStatus.TIMEOUT, "over 60 s")
+    assert "verdict" not in row and "outcome_agrees" not in row
+    assert row["verdict_reason"] == TIMEOUT_NOTE and set(row) <= set(ROW_COLUMNS)
 
 
 def test_the_hop_rules_scale_with_the_hoop():

@@ -14,6 +14,7 @@ from enum import StrEnum
 __all__ = [
     "BATCH_COLUMNS",
     "COST_COLUMNS",
+    "CPU_COLUMNS",
     "EVENT_COLUMNS",
     "EXACT_COLUMNS",
     "FLOOR_COLUMNS",
@@ -65,8 +66,17 @@ class Col(StrEnum):
     MESSAGE = "message"
     ENGINE_VERSION = "engine_version"
     WALL_TIME_S = "wall_time_s"
+    """s: wall time of the run's stepping (model building excluded); a batched run's share
+    of its batch's, by steps. Grows with the machine's load."""
     N_STEPS = "n_steps"
     US_PER_STEP = "us_per_step"
+    """us: ``wall_time_s`` per step."""
+    CPU_TIME_S = "cpu_time_s"
+    """s: the process's CPU time over the same stepping (every thread, user and system); a
+    batched run's share of its batch's, by steps. Moves far less with the load than the wall
+    time: the cost the answer and the findings rank by."""
+    CPU_US_PER_STEP = "cpu_us_per_step"
+    """us: ``cpu_time_s`` per step."""
     SIM_TIME_S = "sim_time_s"
     STOP_REASON = "stop_reason"
     # The exact solution of the row's scene and mu.
@@ -267,6 +277,8 @@ class Col(StrEnum):
     """The batch's wall time over its world-steps (the steps of all its runs), us."""
     WORLD_STEPS_PER_S = "world_steps_per_s"
     """The batch's throughput: world-steps per second of its wall time."""
+    CPU_US_PER_WORLD_STEP = "cpu_us_per_world_step"
+    """The batch's CPU time over its world-steps, us."""
 
 
 EXACT_COLUMNS = (
@@ -404,12 +416,17 @@ BATCH_COLUMNS = (Col.BATCH_SIZE, Col.US_PER_WORLD_STEP, Col.WORLD_STEPS_PER_S)
 """A run's batch cost (:func:`comparison.cost_columns`), in every row of a suite and a map
 beside the run's own cost (wall_time_s, us_per_step)."""
 
+CPU_COLUMNS = (Col.CPU_TIME_S, Col.CPU_US_PER_STEP, Col.CPU_US_PER_WORLD_STEP)
+"""The process's CPU time over a run's stepping, and over its batch's (issue 34): in every
+row of a suite and a map beside the wall-time ones."""
+
 COST_COLUMNS = (
     Col.WALL_TIME_S,
     Col.US_PER_STEP,
     Col.BATCH_SIZE,
     Col.US_PER_WORLD_STEP,
     Col.WORLD_STEPS_PER_S,
+    *CPU_COLUMNS,
 )
 """What a run cost, and the batch it was stepped in: the only columns that differ between two
 runs of the same task (alone or in a batch, on one machine or a cluster)."""

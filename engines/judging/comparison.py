@@ -61,17 +61,24 @@ def _exact_max_slip_speed(scene: Scene, mu: float) -> float | None:
 
 
 def cost_columns(info: RunInfo) -> dict[str, Any]:
-    """The cost of the batch a run was stepped in (Col.BATCH_SIZE and after; empty for a run
-    that produced nothing): a run stepped alone is a batch of one, its own wall time and
-    steps. A batched run's wall_time_s is its share of the batch's, by steps."""
+    """What a run cost beside its wall time: the process's CPU time over its stepping
+    (Col.CPU_TIME_S, Col.CPU_US_PER_STEP) and the cost of the batch it was stepped in
+    (Col.BATCH_SIZE and after; empty for a run that produced nothing): a run stepped alone
+    is a batch of one, its own times and steps. A batched run's wall_time_s and cpu_time_s
+    are its shares of the batch's, by steps."""
     if info.wall_time_s is None or info.n_steps is None:
         return {}
-    batch = info.batch or BatchCost(1, info.wall_time_s, info.n_steps)
+    batch = info.batch or BatchCost(1, info.wall_time_s, info.n_steps, info.cpu_time_s)
     per_step = batch.s_per_world_step
+    cpu_per_step = batch.cpu_s_per_world_step
+    cpu = info.cpu_time_s
     return {
+        Col.CPU_TIME_S: cpu,
+        Col.CPU_US_PER_STEP: None if cpu is None or not info.n_steps else 1e6 * cpu / info.n_steps,
         Col.BATCH_SIZE: batch.size,
         Col.US_PER_WORLD_STEP: None if per_step is None else 1e6 * per_step,
         Col.WORLD_STEPS_PER_S: batch.world_steps_per_s,
+        Col.CPU_US_PER_WORLD_STEP: None if cpu_per_step is None else 1e6 * cpu_per_step,
     }
 
 

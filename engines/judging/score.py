@@ -20,7 +20,7 @@ the runs' wall time per simulated second, in microseconds. docs/tune.md explains
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from typing import Any, TypeVar
 
 from hoopbench.engines.judging.columns import Col
@@ -34,10 +34,12 @@ from hoopbench.engines.judging.verdict import (
 )
 
 __all__ = [
+    "COST_NOISE_FACTOR",
     "FLAG_SCORE",
     "SCORE_CAP",
     "cheapest_of_most",
     "cost_us_per_s",
+    "costs_equal",
     "error_score",
     "row_error",
     "scenes_within",
@@ -120,21 +122,64 @@ def tier_reached(rows: Iterable[Mapping[str, Any]]) -> Tier | None:
     return None
 
 
-def cheapest_of_most(candidates: Iterable[tuple[T, int, float | None]]) -> T | None:
+COST_NOISE_FACTOR = 1.5
+"""Two costs within this factor of each other are one cost: the spread of a measured cost
+between two runs of the same thing on one machine. Measured on the project's 2-core machine
+(AMD EPYC, shared) between two ``make report`` runs (2026-11-28 16:42 and 18:55, commits
+83d1310 and dbe3afe, whose engine adapters differ in 3 lines of Newton's; 99 engine
+settings, each its median wall-time us/step over its scenes): the load
+scaled every cost by 1.8-3.9x between the two, and, that common factor aside, one setting's
+cost against another's of the same engine moved by a factor of 1.12 in the median, 1.33 at
+the 90th percentile, 1.42 at the 95th and 1.95 at worst. 1.5 covers 96 % of those pairs.
+The process's CPU time (Col.CPU_US_PER_STEP), which the answer ranks by, moves far less:
+on the same machine at a load average of 8-9, one hop-top run at dt 1e-4 s repeated four
+times, then four times more beside three busy processes, moved its wall time by 1.9-2.0x
+(MuJoCo, pymunk, Box2D) and its CPU time by 0.94-1.01x, each engine's four CPU times
+within 1.06x of each other but Box2D's first (1.36x, a cold start). The factor is kept at
+the wall time's spread: no two full reports have yet been measured by their CPU times.
+With the second report's verdicts and each report's wall times in turn, the answer's
+cheapest settings differed in 3 of 20 choices (Box2D loose, Rapier tight and loose: stock
+against tuned) by the clock alone, and in none with this factor and the answer's tie rule."""
+
+
+def costs_equal(a: float, b: float) -> bool:
+    """Whether two costs (> 0) are within the noise of each other (COST_NOISE_FACTOR)."""
+    if not (math.isfinite(a) and math.isfinite(b)):
+        return a == b
+    return max(a, b) <= COST_NOISE_FACTOR * min(a, b)
+
+
+def cheapest_of_most(
+    candidates: Iterable[tuple[T, int, float | None]],
+    tie_key: Callable[[T], Any] | None = None,
+) -> T | None:
     """The cheapest setting of an accuracy tier, the one rule of every summary that names
     one (the report's answer, a settings file's [tiers]): of the candidates (setting, how
     many of its scenes are within the tier, its cost), those within it on the most scenes
     (all of them, where one is), and of those the cheapest. A cost not measured (None, nan)
-    comes last; a tie keeps the first. None when no candidate has a scene within the tier."""
-    best: tuple[tuple[int, float], T] | None = None
+    comes last. None when no candidate has a scene within the tier.
+
+    Without ``tie_key`` a tie in cost keeps the first. With it, the costs within the noise
+    of the cheapest (at most COST_NOISE_FACTOR times it) count as equal and the least
+    ``tie_key`` of those is chosen: a stable rule instead of the clock, so that two runs on
+    one machine, or one under load, name the same setting."""
+    best: list[tuple[int, float, T]] = []
     for item, within, cost in candidates:
         if within <= 0:
             continue
         price = math.inf if cost is None or not math.isfinite(cost) else cost
-        key = (-within, price)
-        if best is None or key < best[0]:
-            best = (key, item)
-    return None if best is None else best[1]
+        if best and within < best[0][0]:
+            continue
+        if best and within > best[0][0]:
+            best = []
+        best.append((within, price, item))
+    if not best:
+        return None
+    cheapest = min(price for _, price, _ in best)
+    if tie_key is None:
+        return next(item for _, price, item in best if price == cheapest)
+    equal = [item for _, price, item in best if costs_equal(price, cheapest)]
+    return min(equal, key=tie_key)
 
 
 def cost_us_per_s(rows: Iterable[Mapping[str, Any]]) -> float | None:

@@ -174,8 +174,9 @@ class Verdict(StrEnum):
     """Status ``diverged``: the run stopped early (NaN, runaway energy or deep penetration).
     No other check runs."""
     FAILED = "failed"
-    """The run gave no result: status ``error``, ``timeout``, ``crashed`` or ``unavailable``
-    (or ``ok`` without events). No other check runs."""
+    """The run gave no result: status ``error``, ``crashed`` or ``unavailable`` (or ``ok``
+    without events). No other check runs. A run the sweep's time limit ended (status
+    ``timeout``) has no verdict in a suite's table: the machine's failure, not the engine's."""
 
 
 OUTCOME_FAILURES = frozenset(

@@ -13,6 +13,7 @@ import pandas as pd
 
 from hoopbench.engines.judging.columns import (
     BATCH_COLUMNS,
+    CPU_COLUMNS,
     EVENT_COLUMNS,
     FLOOR_COLUMNS,
     FORCE_COLUMNS,
@@ -50,7 +51,8 @@ one, FORCE_COLUMNS; 7, issue 24: one reading, the unprefixed event columns are t
 verdict has one meaning: :func:`one_reading`; 8, issue 27: the batch's cost, BATCH_COLUMNS,
 :func:`with_batch_columns`; 9, issue 33: every transition timed, the phases' start times and
 the verdict's worst transition, :func:`with_transition_columns`, and the reading from the laws:
-chattering as columns, not a phase C, and the effective friction coefficient). Columns also
+chattering as columns, not a phase C, and the effective friction coefficient; with issue 34,
+the process's CPU time over the stepping, CPU_COLUMNS). Columns also
 arrived between bumps (profile and a late in 2, rms_position_m with 3, g late in 3,
 exact_max_slip_speed early in 4): a table may lack one its version lists, and reads it
 empty."""
@@ -81,6 +83,7 @@ _ADDED_IN = {
         Col.CHATTERS,
         Col.MU_EFFECTIVE,
         Col.MU_EFFECTIVE_RATIO,
+        *CPU_COLUMNS,  # issue 34: a run's CPU time, empty for runs stored without it
     ),
 }
 """The columns each version added (or, for g and exact_max_slip_speed, came with it): an

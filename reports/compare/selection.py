@@ -20,6 +20,7 @@ __all__ = [
     "ok_rows",
     "profile_of",
     "reference_rows",
+    "step_cost_column",
 ]
 
 
@@ -54,3 +55,14 @@ def profile_of(frame: pd.DataFrame) -> pd.Series:
     if Col.PROFILE not in frame.columns:
         return pd.Series(str(Profile.TUNED), index=frame.index)
     return frame[Col.PROFILE].fillna(str(Profile.TUNED))
+
+
+def step_cost_column(frame: pd.DataFrame) -> Col:
+    """The column a summary ranks runs by cost with: the process's CPU time per step
+    (Col.CPU_US_PER_STEP, which the machine's load moves far less than the wall time) where
+    the rows carry it, else the wall time per step (Col.US_PER_STEP: a table stored before
+    issue 34)."""
+    if Col.CPU_US_PER_STEP not in frame.columns:
+        return Col.US_PER_STEP
+    measured = pd.to_numeric(frame[Col.CPU_US_PER_STEP], errors="coerce").notna().any()
+    return Col.CPU_US_PER_STEP if measured else Col.US_PER_STEP

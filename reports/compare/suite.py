@@ -24,6 +24,7 @@ import pandas as pd
 
 from hoopbench.engines.judging.columns import (
     BATCH_COLUMNS,
+    CPU_COLUMNS,
     EVENT_COLUMNS,
     EXACT_COLUMNS,
     FLOOR_COLUMNS,
@@ -75,6 +76,7 @@ from hoopbench.reports.sweep.runner import (
 
 __all__ = [
     "FORMAT_VERSION",
+    "TIMEOUT_NOTE",
     "TrajectoryChoice",
     "batch_key",
     "compare",
@@ -104,6 +106,7 @@ ROW_COLUMNS = (
     Col.N_STEPS,
     Col.US_PER_STEP,
     *BATCH_COLUMNS,
+    *CPU_COLUMNS,
     *EXACT_COLUMNS,
     *EVENT_COLUMNS,
     Col.ENERGY_RISE_BEFORE_SLIP,
@@ -226,8 +229,24 @@ def run_and_row(task: RunTask) -> tuple[RunResult, dict[str, Any]]:
     return result, _row(task, result)
 
 
+TIMEOUT_NOTE = "the sweep's time limit: the machine's failure, not the engine's; not judged"
+"""A timeout row's verdict_reason, in place of a verdict (issue 34): a run the time limit
+ended says nothing of the engine, only that this machine, at its load, did not finish it in
+time."""
+
+
 def failure_row(task: RunTask, status: RunStatus, message: str) -> dict[str, Any]:
-    """The row of a run that produced nothing (timeout, crash, an exception)."""
+    """The row of a run that produced nothing (timeout, crash, an exception): verdict
+    ``failed``, but for a timeout, which has none (its verdict_reason says why: TIMEOUT_NOTE):
+    the summaries that count verdicts leave it out instead of counting it as the engine
+    getting the scene wrong."""
+    if status is RunStatus.TIMEOUT:
+        return {
+            **_task_columns(task),
+            Col.STATUS: str(status),
+            Col.MESSAGE: message,
+            Col.VERDICT_REASON: TIMEOUT_NOTE,
+        }
     return {
         **_task_columns(task),
         Col.STATUS: str(status),

@@ -33,6 +33,7 @@ from typing import Any, TextIO
 from hoopbench.engines.base import n_steps_for
 from hoopbench.engines.judging.columns import (
     BATCH_COLUMNS,
+    CPU_COLUMNS,
     EVENT_COLUMNS,
     FLOOR_COLUMNS,
     FORCE_COLUMNS,
@@ -105,7 +106,8 @@ the contact reading's columns and the verdict's flags and reason, 3 the contact 
 against the exact one (FORCE_COLUMNS), as a suite's rows have them; 4 one reading (issue 24:
 reports/compare/rows.one_reading); 5 the batch's cost (issue 27: BATCH_COLUMNS,
 reports/compare/rows.with_batch_columns); 6 every transition timed (issue 33:
-reports/compare/rows.with_transition_columns)."""
+reports/compare/rows.with_transition_columns) and, with issue 34, the process's CPU time
+(CPU_COLUMNS: a table stored before reads them empty)."""
 
 ONE_READING_MAP_VERSION = 4
 """The first map table format with one reading: a map folder stored before it is read
@@ -223,6 +225,7 @@ MAP_COLUMNS = (
     Col.SIM_TIME_S,
     Col.STOP_REASON,
     *BATCH_COLUMNS,
+    *CPU_COLUMNS,
     *EXACT_CARRIED,
     *EVENT_COLUMNS,
     Col.MAX_CLEARANCE,
@@ -538,6 +541,7 @@ def _run_map(
     version = _recorded_version(out, resume)
     _prepare(out, spec, resume)
     started_at = datetime.now(UTC)
+    load_start = results.load_average()
     meta = {"map": spec.to_dict(), results.FORMAT_KEY: version}
     common: dict[str, Any] = dict(  # run_tasks' keywords, the same for both stages
         failure_row=map_failure_row,
@@ -566,7 +570,7 @@ def _run_map(
     second = run_tasks(tasks, run_map_task, out, batching=batching, **common)
     summary = _summary(spec, out, [first, second], n_refs)
     if second.interrupted is None and not finished:
-        _complete_meta(out, started_at, resume, summary)
+        _complete_meta(out, started_at, resume, summary, load_start)
     return summary
 
 
@@ -624,14 +628,26 @@ def _summary(spec: MapSpec, out: Path, stages: Sequence[RunSummary], n_refs: int
     )
 
 
-def _complete_meta(out: Path, started_at: datetime, resume: bool, summary: RunSummary) -> None:
-    """meta.json of both stages (the runner wrote stage 2's, and always resumes here)."""
+def _complete_meta(
+    out: Path,
+    started_at: datetime,
+    resume: bool,
+    summary: RunSummary,
+    load_start: list[float] | None,
+) -> None:
+    """meta.json of both stages (the runner wrote stage 2's, and always resumes here), with
+    the load average at the map's start (``load_start``) and end."""
     path = out / results.META_NAME
     meta = json.loads(read_folder_text(out, results.META_NAME) or "{}")
     meta.update(
         started_at=started_at.isoformat(),
         wall_time_s=round(summary.wall_time_s, 3),
         resumed=resume,
-        session={"ran": summary.total, "skipped": summary.skipped},
+        session={
+            "ran": summary.total,
+            "skipped": summary.skipped,
+            "load_average_start": load_start,
+            "load_average_end": results.load_average(),
+        },
     )
     results.write_meta(meta, path)

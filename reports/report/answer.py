@@ -8,13 +8,22 @@ A **setting** is what a user chooses: engine, profile, variant and timestep. A s
 tier when it ran every scene the answer covers (the catalogue scenes of the comparison suites
 that have an exact answer to judge against) and every one of those runs has a verdict of the
 tier (:data:`ACCURACY_TIERS`). Its cost is the median over those runs of the stepping time
-per step, and the same as seconds of wall time per simulated second (``us_per_step`` / dt):
-the number that says whether an engine keeps up with real time. The cheapest is the one with
-the fewest seconds per simulated second. Beside its cost, the setting's **worst transition**:
+per step, and the same as seconds per simulated second (us per step / dt): the number that
+says whether an engine keeps up with real time. The stepping time is the process's CPU time
+(``cpu_us_per_step``), which moves far less with the machine's load than the wall time; a
+table stored without it (before issue 34) is ranked by its wall time (``us_per_step``), and
+the answer says which (:attr:`Answer.clock`). The cheapest is the one with the fewest seconds
+per simulated second; costs within the measured noise of the cheapest (score.COST_NOISE_FACTOR)
+count as equal, and of those :func:`tie_order` chooses, not the clock. Beside its cost, the
+setting's **worst transition**:
 of every transition the verdicts of its runs that meet the tier timed (the first slip onset,
 the lift-off, the impact, each re-stick, later slip onset and reversal), the one farthest from
 the exact one against its loose tolerance (the rows' ``max_transition``): how near the tier's
 edge the setting is.
+
+A run ended by the sweep's time limit (status ``timeout``) is the machine's failure, not the
+engine's: it is left out of the tiers (its setting lacks that scene, as if it had not run it)
+and out of what the engine always gets wrong, and the answer names it (:attr:`Answer.timed_out`).
 
 A scene's failure is the engine's, not the timestep's, only if some timestep lets an engine
 meet the tier there: :func:`timestep_limits` says, per scene, the coarsest timestep at which
@@ -24,6 +33,7 @@ reads as the timestep's limit where a finer run shows it.
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -31,13 +41,19 @@ from dataclasses import dataclass
 import pandas as pd
 
 from hoopbench.engines.judging.columns import Col
-from hoopbench.engines.judging.score import cheapest_of_most
+from hoopbench.engines.judging.score import COST_NOISE_FACTOR, cheapest_of_most
 from hoopbench.engines.judging.tolerances import Tier
 from hoopbench.engines.judging.verdict import TIER_NAMES, TIER_VERDICTS, number_or_none
+from hoopbench.engines.options import Profile
 from hoopbench.engines.run import RunStatus
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
 from hoopbench.models.catalogue import scene_names
-from hoopbench.reports.compare.selection import engine_names_of, engine_rows, profile_of
+from hoopbench.reports.compare.selection import (
+    engine_names_of,
+    engine_rows,
+    profile_of,
+    step_cost_column,
+)
 from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
 from hoopbench.reports.report.best_settings import BestSettings
 from hoopbench.reports.report.escaping import escape_cell, escape_text
@@ -56,6 +72,7 @@ __all__ = [
     "answer",
     "answer_markdown",
     "at_best",
+    "tie_order",
     "timestep_limits",
 ]
 
@@ -121,13 +138,18 @@ class Choice:
     scenes_met: int
     """How many of the answer's scenes its runs meet the tier on."""
     us_per_step: float
-    """Median stepping time per step over the setting's runs, microseconds."""
-    wall_per_sim_s: float
-    """Seconds of wall time per simulated second: us_per_step / dt (below 1: faster than
-    real time)."""
+    """Median stepping time per step over the setting's runs (by ``clock``), microseconds."""
+    cost_per_sim_s: float
+    """Seconds of stepping time (by ``clock``) per simulated second: us_per_step / dt (below
+    1: faster than real time)."""
     worst: WorstTransition | None = None
     """The worst transition of its runs that meet the tier on the answer's scenes (None where
     none was timed, or the rows were stored without it)."""
+    changed_options: int = 0
+    """How many options its runs change from their profile's values (Col.OPTIONS)."""
+    clock: str = "CPU"
+    """Whose time the cost is: ``CPU`` (the process's) or ``wall`` (a table stored without
+    the CPU time)."""
 
 
 @dataclass(frozen=True)
@@ -172,7 +194,7 @@ class AtBest:
         if self.suite is None:
             return True
         search = (-self.search.scenes_met / self.search.scenes, self.search.wall_per_sim_s)
-        suite = (-self.suite.scenes_met / self.suite_scenes, self.suite.wall_per_sim_s)
+        suite = (-self.suite.scenes_met / self.suite_scenes, self.suite.cost_per_sim_s)
         return search < suite
 
 
@@ -217,6 +239,12 @@ class Answer:
     timestep limits (``limits``)."""
     engines: tuple[EngineAnswer, ...]
     limits: tuple[TimestepLimit, ...]
+    clock: str = "CPU"
+    """Whose time the costs are: ``CPU`` (the process's, Col.CPU_US_PER_STEP) where the runs
+    carry it, else ``wall`` (Col.US_PER_STEP: a table stored before issue 34)."""
+    timed_out: tuple[tuple[str, str], ...] = ()
+    """(setting name, scene) of each run the sweep's time limit ended: left out (module
+    doc)."""
 
 
 # --------------------------------------------------------------------------- computing
@@ -224,9 +252,27 @@ def _judged(runs: pd.DataFrame) -> pd.DataFrame:
     """Engine runs that can say something about a setting: available, on a catalogue scene,
     with a verdict (a failed or diverged run has one: it counts against its setting)."""
     rows = engine_rows(runs)
-    rows = rows[rows[Col.STATUS] != RunStatus.UNAVAILABLE]
+    rows = rows[~rows[Col.STATUS].isin([RunStatus.UNAVAILABLE, RunStatus.TIMEOUT])]
     rows = rows[rows[Col.SCENE].isin(scene_names()) & rows[Col.VERDICT].notna()]
     return rows.assign(profile=profile_of(rows))
+
+
+def _timed_out(runs: pd.DataFrame) -> tuple[tuple[str, str], ...]:
+    """(setting name, scene) of the engine runs on catalogue scenes that the sweep's time
+    limit ended (whatever verdict a table stored before issue 34 gave them)."""
+    rows = engine_rows(runs)
+    rows = rows[(rows[Col.STATUS] == RunStatus.TIMEOUT) & rows[Col.SCENE].isin(scene_names())]
+    rows = rows.assign(profile=profile_of(rows))
+    return tuple(
+        (f"{_setting_name(r.engine, r.profile, r.variant)} dt {float(r.timestep):g}", r.scene)
+        for r in rows.itertuples()
+    )
+
+
+def _clock(rows: pd.DataFrame) -> str:
+    """Whose time the answer's costs are (Answer.clock): the CPU time where the rows carry
+    it, else the wall time (selection.step_cost_column)."""
+    return "CPU" if step_cost_column(rows) == Col.CPU_US_PER_STEP else "wall"
 
 
 _KEYS = [Col.ENGINE, Col.PROFILE, Col.VARIANT, Col.TIMESTEP]
@@ -253,24 +299,63 @@ def _worst_transition(
     )
 
 
-def _choice(key: tuple, group: pd.DataFrame, scenes: Sequence[str], tier: AccuracyTier) -> Choice:
+def _changed_options(group: pd.DataFrame) -> int:
+    """How many options a setting's runs change from their profile's values: the most any of
+    its rows records (Col.OPTIONS, JSON); a row without it counts its variant (0 for the
+    default variant, else 1)."""
+    counts = [0 if str(v) == DEFAULT_VARIANT else 1 for v in group[Col.VARIANT]]
+    if Col.OPTIONS in group.columns:
+        for text in group[Col.OPTIONS]:
+            try:
+                counts.append(len(json.loads(text)))
+            except (TypeError, ValueError):
+                continue
+    return max(counts, default=0)
+
+
+def _choice(
+    key: tuple, group: pd.DataFrame, scenes: Sequence[str], tier: AccuracyTier, clock: str
+) -> Choice:
     setting = Setting(str(key[0]), str(key[1]), str(key[2]), float(key[3]))
     met = group[group[Col.VERDICT].isin(tier.verdicts)][Col.SCENE]
-    us = float(pd.to_numeric(group[Col.US_PER_STEP], errors="coerce").median())
+    column = Col.CPU_US_PER_STEP if clock == "CPU" else Col.US_PER_STEP
+    cost = group[column] if column in group.columns else pd.Series(dtype=float)
+    us = float(pd.to_numeric(cost, errors="coerce").median())
     return Choice(
         setting,
         len(set(met) & set(scenes)),
         us,
         us * 1e-6 / setting.timestep,
         _worst_transition(group, scenes, tier),
+        _changed_options(group),
+        clock,
     )
 
 
-def _cheapest(rows: pd.DataFrame, scenes: Sequence[str], tier: AccuracyTier) -> Choice | None:
+def tie_order(choice: Choice) -> tuple[float, bool, int, str, str]:
+    """The order of settings whose costs are equal within the noise (score.COST_NOISE_FACTOR),
+    first chosen first: the larger timestep (the same accuracy from fewer steps), then the
+    stock profile before the tuned one (the engine as its users get it), then fewer options
+    changed from the profile's values, then the variant's and the profile's names. Nothing
+    measured enters it, so two runs of the same suites order alike."""
+    setting = choice.setting
+    return (
+        -setting.timestep,
+        setting.profile != str(Profile.STOCK),
+        choice.changed_options,
+        setting.variant,
+        setting.profile,
+    )
+
+
+def _cheapest(
+    rows: pd.DataFrame, scenes: Sequence[str], tier: AccuracyTier, clock: str
+) -> Choice | None:
     """Of the settings whose runs meet the tier on the most scenes, the cheapest (a setting
-    whose cost was not measured comes last): the judging layer's rule (cheapest_of_most)."""
-    choices = [_choice(key, group, scenes, tier) for key, group in rows.groupby(_KEYS)]
-    return cheapest_of_most((c, c.scenes_met, c.wall_per_sim_s) for c in choices)
+    whose cost was not measured comes last), costs within the noise ordered by tie_order:
+    the judging layer's rule (cheapest_of_most)."""
+    choices = [_choice(key, group, scenes, tier, clock) for key, group in rows.groupby(_KEYS)]
+    return cheapest_of_most(((c, c.scenes_met, c.cost_per_sim_s) for c in choices), tie_order)
 
 
 def _always_wrong(
@@ -347,6 +432,7 @@ def answer(runs: pd.DataFrame, searches: Sequence[BestSettings] = ()) -> Answer:
     every engine fails them at the default timestep and coarser, which says nothing about
     which engine to choose; the answer says so beside the table."""
     rows = _judged(runs)
+    clock = _clock(rows)
     limits = timestep_limits(runs)
     limited = {limit.scene for limit in limits}
     scenes = tuple(s for s in dict.fromkeys(rows[Col.SCENE]) if s not in limited)
@@ -357,13 +443,13 @@ def answer(runs: pd.DataFrame, searches: Sequence[BestSettings] = ()) -> Answer:
         engines.append(
             EngineAnswer(
                 engine,
-                tuple(_cheapest(mine, scenes, tier) for tier in ACCURACY_TIERS),
+                tuple(_cheapest(mine, scenes, tier, clock) for tier in ACCURACY_TIERS),
                 _always_wrong(mine, scenes),
                 mine.groupby(_KEYS).ngroups,
                 _searched(searches, engine),
             )
         )
-    return Answer(scenes, tuple(engines), limits)
+    return Answer(scenes, tuple(engines), limits, clock, _timed_out(runs))
 
 
 def at_best(result: Answer) -> tuple[AtBest, ...]:
@@ -397,7 +483,7 @@ def _choice_cells(choice: Choice | None, scenes: int) -> list[str]:
     return [
         label,
         f"{choice.us_per_step:.3g}",
-        f"{choice.wall_per_sim_s:.3g}",
+        f"{choice.cost_per_sim_s:.3g}",
         _worst_cell(choice.worst),
     ]
 
@@ -420,6 +506,33 @@ def _limit_sentence(limit: TimestepLimit) -> str:
         f"{limit.scene}: no engine meets the loose tier at dt {DEFAULT_TIMESTEP:g} s or "
         f"coarser; at {limit.agreeing_timestep:g} s {', '.join(limit.agreeing)} do. The "
         "timestep limits this scene, not the engines."
+    )
+
+
+def _cost_words(clock: str) -> str:
+    """What the answer's cost is, and how equal costs are ordered."""
+    what = (
+        "The stepping time is the process's CPU time, which the machine's load moves far less "
+        "than the wall time."
+        if clock == "CPU"
+        else "The stepping time is the wall time: these runs were stored without their CPU "
+        "time, and their costs move with the machine's load."
+    )
+    return (
+        f"{what} Costs within a factor {COST_NOISE_FACTOR:g} of the cheapest count as equal "
+        "(the spread measured between two runs of the same suites on one machine); of those, "
+        "the larger timestep is named, then the stock profile before the tuned one, then the "
+        "fewer options changed."
+    )
+
+
+def _timed_out_sentence(timed_out: Sequence[tuple[str, str]]) -> str:
+    """The runs the sweep's time limit ended, named as the machine's failure."""
+    runs = "; ".join(f"{name} on {scene}" for name, scene in timed_out)
+    return escape_text(
+        f"Left out of the tiers: {len(timed_out)} run(s) ended by the sweep's time limit, the "
+        f"machine's failure (its load or speed), not the engine's: {runs}. Their settings "
+        "count those scenes as not run; run them again on an idle machine."
     )
 
 
@@ -449,7 +562,7 @@ def _best_cells(best: AtBest) -> list[str]:
     return [
         escape_cell(suite.setting.label),
         f"{suite.scenes_met}/{best.suite_scenes} catalogue scenes",
-        f"{suite.wall_per_sim_s:.3g}",
+        f"{suite.cost_per_sim_s:.3g}",
         "the suites",
     ]
 
@@ -484,12 +597,13 @@ def answer_markdown(result: Answer, *, heading: bool = True) -> str:
     run was judged."""
     if not result.engines:
         return ""
+    clock = "CPU " if result.clock == "CPU" else ""
     headers = ["engine"]
     for tier in ACCURACY_TIERS:
         headers += [
             f"{tier.name}: cheapest setting",
-            "us/step",
-            "s per simulated s",
+            f"{clock}us/step",
+            f"{clock}s per simulated s",
             "worst transition",
         ]
     headers.append("wrong at every setting tried")
@@ -511,15 +625,18 @@ def answer_markdown(result: Answer, *, heading: bool = True) -> str:
         "Per engine: the cheapest setting tried (profile, settings, timestep) whose runs meet "
         f"each accuracy tier on {_scene_count(len(result.scenes))} "
         f"({escape_text(', '.join(result.scenes))}), or on as many as any setting does; its "
-        "cost (stepping time per step, and wall seconds per simulated second: below 1 is "
-        "faster than real time); the worst transition of its runs that meet the tier (of every "
-        "event time the verdict compares, the farthest from the exact one against its loose "
-        "tolerance); the scenes "
-        f"it gets wrong at every setting tried, with those runs' verdicts. Tiers: {tiers}.",
+        "cost (stepping time per step, and seconds of stepping time per simulated second: "
+        "below 1 is faster than real time); the worst transition of its runs that meet "
+        "the tier (of every event time the verdict compares, the farthest from the exact one "
+        "against its loose tolerance); the scenes "
+        f"it gets wrong at every setting tried, with those runs' verdicts. Tiers: {tiers}. "
+        + _cost_words(result.clock),
         "",
         *lines,
         *_at_best_markdown(result),
     ]
+    if result.timed_out:
+        parts += ["", _timed_out_sentence(result.timed_out)]
     if result.limits:
         parts += [
             "",

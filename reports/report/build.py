@@ -26,7 +26,7 @@ from hoopbench.reports.report.best_settings import (
     is_tune_folder,
 )
 from hoopbench.reports.report.map_section import is_map_folder, map_prefixes, map_sections
-from hoopbench.reports.report.markdown import write_markdown
+from hoopbench.reports.report.markdown import SuiteMachine, write_markdown
 from hoopbench.reports.report.page import write_page
 from hoopbench.reports.report.plotting import plain_text
 from hoopbench.reports.sweep import results
@@ -112,7 +112,10 @@ def build_report(
             extra.append(best_settings_section(found, out))
         if benches:
             extra.append(batch_cost_section(benches))
-        report = write_markdown(frame, out, generated=generated, extra=extra, searches=found)
+        machines = [_suite_machine(d) for d in plain]
+        report = write_markdown(
+            frame, out, generated=generated, extra=extra, searches=found, machines=machines
+        )
         prefixes = map_prefixes(len(maps))
         write_page(frame, out, maps=maps, map_prefixes=prefixes, searches=found)  # report.html
     return report
@@ -191,6 +194,41 @@ def _suite_name(results_dir: Path) -> str:
         return str(json.loads(text)["suite"]) if text is not None else results_dir.name
     except (ValueError, KeyError, TypeError):
         return results_dir.name
+
+
+def _meta(results_dir: Path) -> dict:
+    """A results folder's meta.json (empty where it is missing or unreadable)."""
+    text = read_folder_text(results_dir, results.META_NAME)  # FolderFileError: not a file
+    try:
+        meta = json.loads(text) if text is not None else {}
+    except ValueError:
+        return {}
+    return meta if isinstance(meta, dict) else {}
+
+
+def _load(value: object) -> tuple[float, ...] | None:
+    """A stored load average (1, 5 and 15 min); None where it is not one."""
+    if not isinstance(value, list) or not value:
+        return None
+    if not all(isinstance(x, int | float) and not isinstance(x, bool) for x in value):
+        return None
+    return tuple(float(x) for x in value)
+
+
+def _suite_machine(results_dir: Path) -> SuiteMachine:
+    """The machine and load a results folder's sweep ran with (its meta.json: cpu_model,
+    cpu_count, and the session's load averages at its start and end)."""
+    meta = _meta(results_dir)
+    session = meta.get("session")
+    session = session if isinstance(session, dict) else {}
+    model, count = meta.get("cpu_model"), meta.get("cpu_count")
+    return SuiteMachine(
+        suite=_suite_name(results_dir),
+        cpu_model=model if isinstance(model, str) else None,
+        cpu_count=count if isinstance(count, int) and not isinstance(count, bool) else None,
+        load_start=_load(session.get("load_average_start")),
+        load_end=_load(session.get("load_average_end")),
+    )
 
 
 def _suite_order(suite_file: Path) -> dict[str, int]:

@@ -32,6 +32,7 @@ from hoopbench.reports.compare.selection import (
     engine_names_of,
     engine_rows,
     profile_of,
+    step_cost_column,
 )
 from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
 from hoopbench.reports.report.answer import answer, answer_markdown
@@ -140,7 +141,8 @@ def _ranking(
     # Among the tied, the cheapest is named: a tie says the accuracy cannot tell them apart,
     # so the cost decides which one a reader would pick.
     first = good[good["engine"].isin(groups[0])]
-    cost = pd.to_numeric(first["us_per_step"], errors="coerce").fillna(float("inf"))
+    cost_column = step_cost_column(first)  # the CPU time where the rows carry it
+    cost = pd.to_numeric(first[cost_column], errors="coerce").fillna(float("inf"))
     best = first.iloc[int(cost.to_numpy().argmin())]
     ties = sorted(groups[0] - {best["engine"]})
     others = ", ".join(
@@ -151,7 +153,8 @@ def _ranking(
     missing = sorted(set(rows["engine"]) - set(good["engine"]))
     text = (
         f"closest is {best['engine']}, {scale * best['value']:+.3g} {unit} "
-        f"at {best['us_per_step']:.3g} us/step"
+        f"at {best[cost_column]:.3g} {'CPU ' if cost_column == Col.CPU_US_PER_STEP else ''}"
+        "us/step"
     )
     text += f", tied with {', '.join(ties)}" if ties else ""
     text += f"; then {others}" if others else ""

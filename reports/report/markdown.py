@@ -14,6 +14,7 @@ import os
 import platform
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -62,7 +63,7 @@ from hoopbench.reports.report.stability import (
 )
 from hoopbench.reports.sweep import results
 
-__all__ = ["markdown_table", "write_markdown"]
+__all__ = ["SuiteMachine", "machine_text", "markdown_table", "write_markdown"]
 
 _REPORT_COLUMNS = (*ROW_COLUMNS, "suite")
 """Every column the sections read: a stored run's (runs_frame has them all, an old table
@@ -139,14 +140,61 @@ def _header() -> str:
     )
 
 
-def _platform_section(runs: pd.DataFrame, generated: str) -> str:
-    """Where and when the report was made, with what, and how its runs ended."""
+@dataclass(frozen=True)
+class SuiteMachine:
+    """The machine a results folder's sweep ran on, and its load (its meta.json)."""
+
+    suite: str
+    cpu_model: str | None
+    cpu_count: int | None
+    """Logical cores (``os.cpu_count``)."""
+    load_start: tuple[float, ...] | None
+    """The load average over 1, 5 and 15 minutes at the sweep's start (None: not recorded,
+    a folder stored before issue 34)."""
+    load_end: tuple[float, ...] | None
+    """The same at its end."""
+
+
+def _load_text(load: tuple[float, ...] | None) -> str:
+    return "not recorded" if not load else "/".join(f"{x:g}" for x in load)
+
+
+def machine_text(machines: Sequence[SuiteMachine]) -> str:
+    """'Machine: AMD EPYC, 2 cores. Load average (1/5/15 min) at the start and end of each
+    suite: default 10.2/8/6 to 12.1/11/8; ...' (empty without machines)."""
+    if not machines:
+        return ""
+    cpus = dict.fromkeys(
+        f"{m.cpu_model or 'CPU model not recorded'}, "
+        f"{m.cpu_count if m.cpu_count is not None else '?'} cores"
+        for m in machines
+    )
+    loads = "; ".join(
+        f"{m.suite} not recorded"
+        if m.load_start is None and m.load_end is None
+        else f"{m.suite} {_load_text(m.load_start)} to {_load_text(m.load_end)}"
+        for m in machines
+    )
+    return escape_text(
+        f"Machine: {', and '.join(cpus)}. Load average (runnable processes over 1/5/15 min, "
+        f"all users') at the start and end of each suite: {loads}. The runs' wall times grow "
+        "with the load, their CPU times (cpu_us_per_step) far less."
+    )
+
+
+def _platform_section(
+    runs: pd.DataFrame, generated: str, machines: Sequence[SuiteMachine] = ()
+) -> str:
+    """Where and when the report was made, with what, on which machine under what load, and
+    how its runs ended."""
     tol = tolerances()
+    machine = machine_text(machines)
     return _section(
         "## Platform and runs",
         "",
         f"Generated {generated} on {platform.platform()} ({platform.python_version()}). "
         f"Engines: {_versions(runs)}.",
+        *(["", machine] if machine else []),
         "",
         "Every engine event is read off its trajectory and contact force by one reading, "
         "the canonical one (`engines/judging/contact.py`, docs/report.md); every section "
@@ -321,11 +369,10 @@ def _run_time_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[Path]]:
     """Error against wall time per event, with the Pareto front and the cheapest runs."""
     figure = precision_figure(runs, out / "error_vs_time.png")
     cheapest = cheapest_runs(runs)
-    cost = (
-        engine_rows(runs)
-        .groupby(["engine", "profile", "timestep"], as_index=False)[["us_per_step", "wall_time_s"]]
-        .median()
-    )
+    columns = ["us_per_step", "cpu_us_per_step", "wall_time_s"]
+    rows = engine_rows(runs)
+    rows = rows.assign(**{c: pd.to_numeric(rows[c], errors="coerce") for c in columns})
+    cost = rows.groupby(["engine", "profile", "timestep"], as_index=False)[columns].median()
     solve = reference_rows(runs).groupby("scene", as_index=False)["wall_time_s"]
     return (
         _section(
@@ -356,7 +403,9 @@ def _run_time_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[Path]]:
             if len(cheapest)
             else "None.",
             "",
-            "Cost per engine and timestep (median over the scenes):",
+            "Cost per engine and timestep (median over the scenes): wall time per step, the "
+            "process's CPU time per step (which the machine's load moves far less; empty for "
+            "runs stored without it) and wall time per run:",
             "",
             _table(
                 cost,
@@ -365,6 +414,7 @@ def _run_time_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[Path]]:
                     "profile": "profile",
                     "timestep": "dt",
                     "us_per_step": "us/step",
+                    "cpu_us_per_step": "CPU us/step",
                     "wall_time_s": "wall s",
                 },
             ),
@@ -783,8 +833,10 @@ def write_markdown(
     generated: str,
     extra: Sequence[str] = (),
     searches: Sequence[BestSettings] = (),
+    machines: Sequence[SuiteMachine] = (),
 ) -> Path:
     """Write out/report.md with tables and PNG figures; return its path. ``frame`` is unchanged.
+    ``machines``: the machine and load of each results folder's sweep (Platform and runs).
 
     ``extra``: finished sections of other results (the hop maps', the Best settings), placed
     before the Files section; with an empty ``frame`` the report holds its title and those alone.
@@ -830,7 +882,7 @@ def write_markdown(
         figures,
         *extra,
         _all_findings_section(everything),
-        _platform_section(everything, generated),
+        _platform_section(everything, generated, machines),
         _files_section(),
     ]
     text = "\n".join(section for section in sections if section)

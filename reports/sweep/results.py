@@ -62,6 +62,7 @@ __all__ = [
     "atomic_write",
     "environment_meta",
     "leftover_temp_files",
+    "load_average",
     "read_runs",
     "read_table",
     "recorded_format_version",
@@ -408,6 +409,17 @@ def _hoopbench_version() -> str | None:
     try:
         return package_version("hoopbench")
     except PackageNotFoundError:
+        return None
+
+
+def load_average() -> list[float] | None:
+    """The machine's load average over the last 1, 5 and 15 minutes (``os.getloadavg``:
+    runnable processes, all users'), kept in meta.json's ``session`` at the sweep's start and
+    end: the wall times of its runs grow with it, their CPU times far less. None where the
+    system gives none."""
+    try:
+        return [round(x, 2) for x in os.getloadavg()]
+    except (AttributeError, OSError):
         return None
 
 

@@ -1167,7 +1167,7 @@ def _finalize(
         resumed=resumed,
         runs=len(frame),
         status_counts=counts,
-        session=dict(session),
+        session=dict(session, load_average_end=results.load_average()),
     )
     results.write_meta(full, out / results.META_NAME)
 
@@ -1400,7 +1400,11 @@ def run_tasks(
         stored = _resumed_statuses(out, note) if resume else {}
         todo = [t for t in tasks if not is_final_status(stored.get(t.run_id))]
         skipped = len(tasks) - len(todo)
-        session = {"ran": len(todo), "skipped": skipped}
+        session: dict[str, Any] = {
+            "ran": len(todo),
+            "skipped": skipped,
+            "load_average_start": results.load_average(),
+        }
         task_order = [t.run_id for t in tasks]
         if resume and not todo and tasks:
             note(f"resume: nothing to run, all {len(tasks)} runs are stored with a final status")
