@@ -55,10 +55,16 @@ SEARCH_FILES := tune.json front.csv trials.csv settings.toml
 
 # The default suite, the scenes its timesteps cannot resolve at a finer one (finer.toml),
 # and the stiff and extreme scenes; then one report of all three and the shipped searches.
+# Each step says on stderr which it is (suite k of 3, then the report); each suite's lines
+# then count its runs with an ETA from their expected costs, the report's say what it draws.
 report: $(REPORT_STAMP)
+	@echo "make report: suite 1 of 3 (default) -> $(OUT)/default" >&2
 	$(BIN)/hoopbench compare --suite default --out $(OUT)/default --trajectories default
+	@echo "make report: suite 2 of 3 (finer) -> $(OUT)/finer" >&2
 	$(BIN)/hoopbench compare --suite finer --out $(OUT)/finer
+	@echo "make report: suite 3 of 3 (stability) -> $(OUT)/stability" >&2
 	$(BIN)/hoopbench compare --suite stability --out $(OUT)/stability
+	@echo "make report: the report of the 3 suites -> $(OUT)" >&2
 	$(BIN)/hoopbench report --results $(OUT)/default $(OUT)/finer $(OUT)/stability \
 		$(SEARCH_DIRS) $(or $(wildcard $(BENCH_OUT)),$(BENCH_SHIPPED)) --out $(OUT)
 
@@ -108,10 +114,11 @@ findings: $(REPORT_STAMP)
 # (reports/bench/measured/: the CPU, no GPU, a loaded machine).
 BENCH_OUT := reports/output/bench
 BENCH_SHIPPED := reports/bench/measured
+# `hoopbench bench` (docs/cli.md): the adapters' overhead, MuJoCo's batches and hop map, and
+# the batched engines' costs; BENCH_ARGS narrows it (e.g. BENCH_ARGS="--parts batched").
+BENCH_ARGS ?=
 bench: $(REPORT_STAMP)
-	$(BIN)/python -m hoopbench.reports.bench.overhead
-	$(BIN)/python -m hoopbench.reports.bench.batch
-	$(BIN)/python -m hoopbench.reports.bench.batched_engines --out $(BENCH_OUT) --force
+	$(BIN)/hoopbench bench --out $(BENCH_OUT) --force $(BENCH_ARGS)
 
 # docs/report.md's generated blocks (the canonical reading's thresholds and definitions, the
 # columns, the verdicts, the tolerances) rewritten from the code's docstrings and tables

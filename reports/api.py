@@ -19,7 +19,7 @@ import math
 import numbers
 import os
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from enum import Enum
@@ -826,11 +826,13 @@ def report(
     out: str | Path | None = None,
     *,
     force: bool = False,
+    say: Callable[[str], None] | None = None,
 ) -> Path:
     """report.md and its figures from result folders (of ``compare``, ``hop_map`` or
     ``tune``; no simulation), into ``out`` (default: the first folder); the path of report.md.
 
-    An existing report.md is replaced only with ``force=True``.
+    An existing report.md is replaced only with ``force=True``. ``say`` hears what the
+    report is doing, a line a step (the command line prints them on stderr).
     """
     folders = _check_folders("results", results)
     if not folders:
@@ -869,7 +871,7 @@ def report(
             f"{str(held[0])!r} exists; pass {{option}} to replace it{more}",
             shown="force=True",
         )
-    return build_report(folders, target, force=force)
+    return build_report(folders, target, force=force, say=say)
 
 
 # --------------------------------------------------------------------------- tune

@@ -1,7 +1,7 @@
 """The ``hoopbench`` command line.
 
 Sub-commands: ``scenes``, ``reference``, ``simulate``, ``model``, ``settings``, ``compare``,
-``map``, ``report``, ``findings``, ``figure``, ``tune``.
+``map``, ``report``, ``findings``, ``figure``, ``tune``, ``bench``.
 Bad arguments give a one-line error on stderr and exit status 2. JSON goes to stdout only.
 """
 
@@ -14,7 +14,7 @@ import os
 import re
 import signal
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
 
@@ -655,7 +655,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
     out = args.out if args.out is not None else args.results[0]
     try:
-        path = api.report(args.results, args.out, force=args.force)
+        path = api.report(args.results, args.out, force=args.force, say=_report_steps())
     except RunnerError as exc:  # another report (or a sweep) is writing into the folder
         raise UsageError(str(exc)) from None
     except KeyboardInterrupt:
@@ -671,6 +671,23 @@ def _cmd_report(args: argparse.Namespace) -> int:
         raise _write_failure(exc, out, kept) from None
     print(path)
     return 0
+
+
+def _report_steps() -> Callable[[str], None]:
+    """The report's progress: what it is doing, a line a step on stderr with the time since
+    it began, as a suite's progress lines."""
+    import time
+
+    from hoopbench.reports.sweep.control_chars import terminal_text
+
+    start = time.monotonic()
+
+    def say(text: str) -> None:
+        elapsed = round(time.monotonic() - start)
+        when = f"{elapsed // 60}m{elapsed % 60:02d}s" if elapsed >= 60 else f"{elapsed}s"
+        print(f"report: {terminal_text(text)}; elapsed {when}", file=sys.stderr, flush=True)
+
+    return say
 
 
 def _cmd_findings(args: argparse.Namespace) -> int:
@@ -1142,6 +1159,56 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     return 0
 
 
+def _add_bench(sub: Any, classes: Mapping[str, Any]) -> None:
+    from hoopbench.reports.bench.command import PARTS, BenchPlan
+
+    plain = BenchPlan()
+    p = sub.add_parser(
+        "bench", help="measure adapters' overhead and batch costs (make bench; no test)"
+    )
+    p.add_argument("--parts", nargs="+", choices=PARTS, default=list(PARTS),
+                   help="what to measure (default: all, in this order)")  # fmt: skip
+    p.add_argument("--engines", nargs="+", metavar="ENGINE", help="only these engines")
+    p.add_argument("--sizes", type=_positive_int, nargs="+", metavar="N",
+                   default=list(plain.sizes), help="worlds per batch (batch, batched)")  # fmt: skip
+    p.add_argument("--steps", type=_positive_int, metavar="N",
+                   help="steps per world (default 1000 for batch, 100 for batched)")  # fmt: skip
+    p.add_argument("--repeat", type=_positive_int, default=plain.repeat, metavar="N",
+                   help="best of N (overhead, batch)")  # fmt: skip
+    p.add_argument("--grid", type=_grid, default="x".join(map(str, plain.grid)),
+                   help="the hop map's grid (map)")  # fmt: skip
+    p.add_argument("--jobs", type=_workers, default=plain.jobs, help="the hop map's workers")
+    p.add_argument("--scene", default=plain.scene, help="the overhead part's scene")
+    p.add_argument("--dt", type=_seconds, default=plain.dt, help="the overhead part's timestep, s")
+    p.add_argument("--out", type=_folder, help="folder for batch_cost.csv (batched), the report's")
+    p.add_argument("--force", action="store_true", help="replace an existing batch_cost.csv")
+    p.set_defaults(func=_cmd_bench)
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    from hoopbench.reports.bench.command import BenchPlan, check_plan, run_bench
+
+    plan = BenchPlan(
+        parts=tuple(dict.fromkeys(args.parts)),
+        engines=None if args.engines is None else tuple(args.engines),
+        sizes=tuple(args.sizes),
+        steps=args.steps,
+        repeat=args.repeat,
+        grid=args.grid,
+        jobs=args.jobs,
+        scene=args.scene,
+        dt=args.dt,
+        out=None if args.out is None else Path(args.out),
+        force=args.force,
+    )
+    try:
+        check_plan(plan)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    run_bench(plan)
+    return 0
+
+
 def _parser() -> _Parser:
     parser = _Parser(
         prog="hoopbench",
@@ -1164,6 +1231,7 @@ def _parser() -> _Parser:
         _add_findings,
         _add_figure,
         _add_tune,
+        _add_bench,
     ):
         add(sub, classes)
     return parser

@@ -298,3 +298,35 @@ def test_the_platform_section_names_the_machine_and_its_load(quick_report):
     assert (stepped["cpu_time_s"] > 0).all()
     per_step = 1e6 * stepped["cpu_time_s"] / stepped["n_steps"]
     assert np.allclose(stepped["cpu_us_per_step"], per_step)
+
+
+@pytest.mark.slow  # the quick suite, about 10 s once per module; the report drawn again
+def test_the_report_says_what_it_is_doing(quick_report, tmp_path, capsys):
+    """A line a step, on stderr from the command line: the folders read, each figure group
+    as it is drawn (k of n, every one of them), the tables, the page."""
+    from hoopbench.reports.cli import main
+
+    out, _ = quick_report
+    assert main(["report", "--results", str(out), "--out", str(tmp_path)]) == 0
+    lines = capsys.readouterr().err.splitlines()
+    assert lines and all(re.fullmatch(r"report: .+; elapsed (\d+m)?\d+s", line) for line in lines)
+    assert lines[0].startswith("report: reading 1 results folder(s)")
+    drawing = re.fullmatch(r"report: drawing (\d+) figure groups in \d process\(es\).*", lines[1])
+    assert drawing, lines[1]
+    groups = int(drawing[1])
+    counted = [re.match(r"report: figures (\d+)/(\d+): (.+);", line) for line in lines[2:]]
+    counted = [m for m in counted if m]
+    assert [int(m[1]) for m in counted] == list(range(1, groups + 1))
+    named = {m[3] for m in counted}
+    assert {"contact forces", "seed reproduction", "paths and events of seed-mu"} <= named
+    assert any(line.startswith("report: tables:") for line in lines)
+    assert any(line.startswith("report: report.html:") for line in lines)
+
+
+def test_figures_drawn_say_each_group_as_it_ends():
+    from hoopbench.reports.report.markdown import _drawn
+
+    said: list[str] = []
+    assert _drawn([(pow, (2, k)) for k in range(3)], said.append) == [1, 2, 4]
+    assert said[0] == "drawing 3 figure groups in 2 process(es)"
+    assert sorted(said[1:]) == ["figures 1/3: pow", "figures 2/3: pow", "figures 3/3: pow"]

@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from collections.abc import Sequence
 from typing import Any
 
 from hoopbench.engines.registry import get_engine
@@ -68,27 +69,33 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--engines", nargs="*", default=list(ENGINES))
     args = parser.parse_args(argv)
-    print(f"scene {args.scene}, dt {args.dt:g} s, best of {args.repeat}")
+    print_overheads(args.engines, args.scene, args.dt, args.repeat)
+    return 0
+
+
+def print_overheads(engines: Sequence[str], scene: str, dt: float, repeat: int) -> None:
+    """The table of :func:`measure`, one engine a line as it comes."""
+    print(f"scene {scene}, dt {dt:g} s, best of {repeat}")
     header = (
         f"{'engine':<10}{'steps':>8}{'run s':>9}{'bare s':>9}{'ratio':>7}"
         f"{'us/step':>9}{'bare us':>9}{'total s':>9}"
     )
     print(header)
-    for name in args.engines:
-        row = measure(name, args.scene, args.dt, args.repeat)
+    for name in engines:
+        row = measure(name, scene, dt, repeat)
         if row["status"] != "ok":
-            print(f"{name:<10} {row['status']}: {row['message']}")
+            print(f"{name:<10} {row['status']}: {row['message']}", flush=True)
             continue
         print(
             f"{name:<10}{row['n_steps']:>8}{row['run_s']:>9.3f}{row['bare_s']:>9.3f}"
             f"{row['ratio']:>7.2f}{row['us_per_step']:>9.2f}{row['bare_us_per_step']:>9.2f}"
-            f"{row['run_total_s']:>9.3f}"
+            f"{row['run_total_s']:>9.3f}",
+            flush=True,
         )
     print(
         "ratio = adapter stepping (recording, forces, divergence checks) / bare loop; "
         "total = whole run() including model building and event detection"
     )
-    return 0
 
 
 if __name__ == "__main__":

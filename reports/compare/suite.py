@@ -45,6 +45,7 @@ from hoopbench.engines.judging.verdict import (
 from hoopbench.engines.registry import engine_class, get_engine
 from hoopbench.engines.run import RunResult, RunStatus
 from hoopbench.engines.settings import DEFAULT_BATCH_SIZE
+from hoopbench.reports.compare.costs import COSTING
 from hoopbench.reports.compare.rows import (
     FORMAT_VERSION,
     ONE_READING_VERSION,
@@ -352,6 +353,7 @@ def compare(
             meta=meta,
             quiet=quiet,
             batching=Batching(run_task_batch, batch_key, batch_size) if batch_size > 1 else None,
+            costing=COSTING,
         )
         copy = out / "suite.toml"
         if Path(suite_file).is_file() and not copy.exists():

@@ -26,7 +26,7 @@ from hoopbench.reports.report.best_settings import (
     is_tune_folder,
 )
 from hoopbench.reports.report.map_section import is_map_folder, map_prefixes, map_sections
-from hoopbench.reports.report.markdown import SuiteMachine, write_markdown
+from hoopbench.reports.report.markdown import Say, SuiteMachine, write_markdown
 from hoopbench.reports.report.page import write_page
 from hoopbench.reports.report.plotting import plain_text
 from hoopbench.reports.sweep import results
@@ -82,6 +82,7 @@ def build_report(
     out: str | Path | None = None,
     *,
     force: bool = False,
+    say: Say | None = None,
 ) -> Path:
     """report.md and its figures, and report.html, from stored results alone (no simulation).
 
@@ -89,7 +90,7 @@ def build_report(
     each row keeps the name of its suite in the column ``suite``. A hop map folder (it holds
     map.toml) adds its own section (reports/report/map_section.py), and so does a folder of the
     batched engines' bench (batch_cost.csv: reports/report/batch_cost.py). ``out`` defaults to
-    the first folder.
+    the first folder. ``say`` hears what it is doing, a line a step (markdown.Say).
     """
     given = [results_dirs] if isinstance(results_dirs, str | os.PathLike) else results_dirs
     dirs = [Path(d) for d in given]
@@ -99,6 +100,9 @@ def build_report(
     benches = [d for d in dirs if is_batch_cost_folder(d)]  # make bench's batch costs
     found = best_settings(tunes)
     plain = [d for d in dirs if d not in maps and d not in tunes and d not in benches]
+    if say is not None:
+        say(f"reading {len(plain)} results folder(s), {len(tunes)} search(es), "
+            f"{len(maps)} map(s), {len(benches)} bench folder(s)")  # fmt: skip
     runs = [report_frame(d) for d in plain]
     _refuse_shared_runs(plain, runs)
     frame = pd.concat(runs, ignore_index=True) if runs else pd.DataFrame()
@@ -107,17 +111,27 @@ def build_report(
     # Two reports into one folder would mix their figures: the sweeps' lock serves.
     with sweep_lock(out), plain_text():  # names from the results are drawn as written
         _check_out(out, dirs, force)  # again, under the lock: one may have just finished
+        if maps and say is not None:
+            say(f"the hop map section(s) of {len(maps)} map(s)")
         extra = map_sections(maps, out)
         if found:
+            if say is not None:
+                say(f"the Best settings section of {len(found)} search(es)")
             extra.append(best_settings_section(found, out))
         if benches:
             extra.append(batch_cost_section(benches))
         machines = [_suite_machine(d) for d in plain]
         report = write_markdown(
-            frame, out, generated=generated, extra=extra, searches=found, machines=machines
+            frame,
+            out,
+            generated=generated,
+            extra=extra,
+            searches=found,
+            machines=machines,
+            say=say,
         )
         prefixes = map_prefixes(len(maps))
-        write_page(frame, out, maps=maps, map_prefixes=prefixes, searches=found)  # report.html
+        write_page(frame, out, maps=maps, map_prefixes=prefixes, searches=found, say=say)
     return report
 
 

@@ -13,7 +13,7 @@ import multiprocessing
 import os
 import platform
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -63,7 +63,7 @@ from hoopbench.reports.report.stability import (
 )
 from hoopbench.reports.sweep import results
 
-__all__ = ["SuiteMachine", "machine_text", "markdown_table", "write_markdown"]
+__all__ = ["Say", "SuiteMachine", "machine_text", "markdown_table", "write_markdown"]
 
 _REPORT_COLUMNS = (*ROW_COLUMNS, "suite")
 """Every column the sections read: a stored run's (runs_frame has them all, an old table
@@ -790,18 +790,53 @@ _Job = tuple[Callable[..., Any], tuple[Any, ...]]
 """A figure-drawing call: the function and its arguments."""
 
 
-def _drawn(jobs: Sequence[_Job]) -> list[Any]:
+Say = Callable[[str], None]
+"""Where the report says what it is doing: a line a step (the command line: stderr)."""
+
+_JOB_NAMES = {
+    "_run_time_section": "event errors against run time",
+    "_seed_section": "seed reproduction",
+    "_stability_matrix_section": "stability matrix",
+    "_force_section": "contact forces",
+    "_trajectory_figures": "paths and events of {}",
+    "_exact_path_figure": "exact path of {}",
+}
+"""What each figure-drawing call draws, for the progress lines (its scene, if it takes one)."""
+
+
+def _job_name(job: _Job) -> str:
+    function, args = job
+    name = _JOB_NAMES.get(function.__name__, function.__name__.strip("_").replace("_", " "))
+    scene = next((arg for arg in args if isinstance(arg, str)), "")
+    return name.format(scene)
+
+
+def _drawn(jobs: Sequence[_Job], say: Say | None = None) -> list[Any]:
     """The results of independent figure-drawing calls, in order. Drawing is most of a
     report's time and one process draws on one core: the calls run in FIGURE_WORKERS
     processes from a fork server (not forked from here: the report has read Parquet with
     Arrow's threads, which a fork would copy mid-flight), or here when there are too few to
-    gain from it. Measured on a 3-engine default report: 20.0 s drawn here, 12.8 s so."""
+    gain from it. Measured on a 3-engine default report: 20.0 s drawn here, 12.8 s so.
+    ``say`` hears of each call as it ends ("figures 3/14: contact forces")."""
     workers = min(FIGURE_WORKERS, os.cpu_count() or 1, len(jobs))
+    if say is not None:
+        say(f"drawing {len(jobs)} figure groups in {max(workers, 1)} process(es)")
+
+    def done(k: int, job: _Job) -> None:
+        if say is not None:
+            say(f"figures {k}/{len(jobs)}: {_job_name(job)}")
+
     if workers < 2:
-        return [_draw_plain(function, *args) for function, args in jobs]
+        drawn = []
+        for k, (function, args) in enumerate(jobs, start=1):
+            drawn.append(_draw_plain(function, *args))
+            done(k, (function, args))
+        return drawn
     context = multiprocessing.get_context("forkserver")
     with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-        futures = [pool.submit(_draw_plain, function, *args) for function, args in jobs]
+        futures = {pool.submit(_draw_plain, f, *args): (f, args) for f, args in jobs}
+        for k, future in enumerate(as_completed(futures), start=1):
+            done(k, futures[future])
         return [future.result() for future in futures]
 
 
@@ -834,13 +869,15 @@ def write_markdown(
     extra: Sequence[str] = (),
     searches: Sequence[BestSettings] = (),
     machines: Sequence[SuiteMachine] = (),
+    say: Say | None = None,
 ) -> Path:
     """Write out/report.md with tables and PNG figures; return its path. ``frame`` is unchanged.
     ``machines``: the machine and load of each results folder's sweep (Platform and runs).
 
     ``extra``: finished sections of other results (the hop maps', the Best settings), placed
     before the Files section; with an empty ``frame`` the report holds its title and those alone.
-    ``searches``: the shipped searches, whose settings the answer weighs too.
+    ``searches``: the shipped searches, whose settings the answer weighs too. ``say`` hears
+    what it is doing, a line a step (:data:`Say`).
     """
     out = Path(out)
     if frame.empty:  # hop maps alone: no runs table to make sections of
@@ -861,8 +898,10 @@ def write_markdown(
         (_stability_matrix_section, (everything[is_stability], out)),
         (_force_section, (runs, out)),
     ]
-    drawn = _drawn([*head, *both, *tail])
+    drawn = _drawn([*head, *both, *tail], say)
     (seed, _), (stability, _), (forces, _) = drawn[len(head) : len(head) + 3]
+    if say is not None:
+        say("tables: the answer, the findings and the sections of report.md")
     sections = [_header(), _answer_section(runs, searches), _findings_section(everything), seed]
     figures = ""
     if not runs.empty:

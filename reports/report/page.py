@@ -30,6 +30,7 @@ from hoopbench.reports.report.findings import MORE_FINDINGS
 from hoopbench.reports.report.hoop_gif import GIF_SCENE, hoop_gif
 from hoopbench.reports.report.markdown import (
     STABILITY_SUITE,
+    Say,
     force_panels,
     stored_trajectories,
     with_optional_columns,
@@ -203,7 +204,7 @@ def render_page(markdown_text: str, out: Path, fragments: Fragments) -> str:
     )
 
 
-def write_gif(frame: pd.DataFrame, out: Path) -> Path | None:
+def write_gif(frame: pd.DataFrame, out: Path, say: Say | None = None) -> Path | None:
     """out/hop-top.gif (hoop_gif.py), when the report has hop-top's exact and engine
     trajectories; `make findings` copies it to reports/img/ for the README."""
     if frame.empty or GIF_SCENE not in scene_names():
@@ -212,6 +213,8 @@ def write_gif(frame: pd.DataFrame, out: Path) -> Path | None:
     trajectories = stored_trajectories(runs, GIF_SCENE)
     if REFERENCE_ENGINE not in trajectories or len(trajectories) < 2:
         return None
+    if say is not None:
+        say(f"the animation {GIF_SCENE}.gif")
     scene = get_scene(GIF_SCENE)
     motions = hoop_motions(scene, trajectories, _scene_rows(runs, GIF_SCENE))
     return hoop_gif(scene, motions, out / f"{GIF_SCENE}.gif")
@@ -224,15 +227,18 @@ def write_page(
     maps: Sequence[Path] = (),
     map_prefixes: Sequence[str] = (),
     searches: Sequence[BestSettings] = (),
+    say: Say | None = None,
 ) -> Path:
     """Write out/report.html from out/report.md (written first) and the rows it was made of
     (and the searches read back, whose fronts it draws), and the README's animation
-    (:func:`write_gif`)."""
+    (:func:`write_gif`). ``say`` hears what it is doing, a line a step."""
     out = Path(out)
     markdown_text = (out / "report.md").read_text(encoding="utf-8")
+    if say is not None:
+        say(f"{PAGE_NAME}: its interactive figures and animations")
     fragments = page_fragments(frame, maps, map_prefixes, searches)
     page = render_page(markdown_text, out, fragments)
     path = out / PAGE_NAME
     results.atomic_write(path, lambda tmp: tmp.write_text(page, encoding="utf-8"))
-    write_gif(frame, out)
+    write_gif(frame, out, say)
     return path

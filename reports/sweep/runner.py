@@ -73,12 +73,14 @@ from tqdm import tqdm
 from hoopbench.engines.run import RunStatus
 from hoopbench.reports.sweep import results
 from hoopbench.reports.sweep.control_chars import terminal_text
+from hoopbench.reports.sweep.eta import CallCost, Costing, Took, remaining_seconds
 from hoopbench.reports.sweep.folder_files import read_folder_text
 
 __all__ = [
     "IDENTITY_NAME",
     "LOCK_NAME",
     "Batching",
+    "Costing",
     "ExecutorBrokenError",
     "FolderInUseError",
     "OtherSweepError",
@@ -689,10 +691,30 @@ class _Progress:
         self.start = time.monotonic()
         self.min_interval = min_interval
         self.last_line = -float("inf")
+        self.estimate: Callable[[], float | None] | None = None
+        """Seconds left from the calls' expected costs (run_tasks sets it given a Costing);
+        without it, or while it knows no cost, the ETA assumes every run costs the same."""
         isatty = getattr(stream, "isatty", None)
         self.bar = None
         if not quiet and total and isatty is not None and isatty():
             self.bar = tqdm(total=total, file=stream, unit="run", dynamic_ncols=True)
+
+    def use_estimate(self, estimate: Callable[[], float | None]) -> None:
+        """The ETA from ``estimate`` (seconds left); the bar then shows it, not tqdm's own."""
+        self.estimate = estimate
+        if self.bar is not None:
+            self.bar.bar_format = "{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}{postfix}]"
+
+    def eta(self, elapsed: float) -> str:
+        """The time left: from the calls' expected costs when known, else by count."""
+        left = self.total - self.done
+        if not left:
+            return "0s"
+        seconds = None
+        if self.estimate is not None:
+            with contextlib.suppress(Exception):  # a cost model's bug must not stop a sweep
+                seconds = self.estimate()
+        return _duration(elapsed / self.done * left if seconds is None else seconds)
 
     def note(self, text: str) -> None:
         if self.quiet:
@@ -722,7 +744,11 @@ class _Progress:
             return
         if self.bar is not None:
             self.bar.update(1)
-            if status is not RunStatus.OK:
+            if self.estimate is not None:  # tqdm's own ETA is the count's
+                elapsed = time.monotonic() - self.start
+                text = f"{self._failures_text()}, eta {self.eta(elapsed)}"
+                self.bar.set_postfix_str(text, refresh=False)
+            elif status is not RunStatus.OK:
                 self.bar.set_postfix_str(self._failures_text(), refresh=False)
             return
         now = time.monotonic()
@@ -731,11 +757,9 @@ class _Progress:
             return
         self.last_line = now
         elapsed = now - self.start
-        left = self.total - self.done
-        eta = _duration(elapsed / self.done * left) if left else "0s"
         print(
             f"[{self.done}/{self.total}] {terminal_text(label)}: {status.value}; "
-            f"{self._failures_text()}; elapsed {_duration(elapsed)}, eta {eta}",
+            f"{self._failures_text()}; elapsed {_duration(elapsed)}, eta {self.eta(elapsed)}",
             file=self.stream,
             flush=True,
         )
@@ -1230,6 +1254,54 @@ class _Calls:
         self.in_flight: dict[Future, _Attempt] = {}
         self.limit = limit
         """Calls submitted at once, at most."""
+        self.costing: Costing | None = None
+        """Set (with ``workers``) to estimate the time left (:meth:`remaining`)."""
+        self.workers = limit
+        """Calls that run at once (the pool's workers)."""
+        self.finished: list[Took] = []
+        """Each finished call's kinds, steps and the seconds it took (with a Costing)."""
+        self._costs: dict[int, CallCost] = {}
+        self._warm: set[tuple[int | None, Hashable]] = set()
+        """(worker pid, most specific kind) of the calls run: a worker's next is warm."""
+
+    def _cost(self, unit: Any) -> CallCost:
+        """A call's kinds and steps (the Costing's), worked out once per call."""
+        assert self.costing is not None
+        found = self._costs.get(id(unit))
+        if found is None:
+            found = self._costs[id(unit)] = self.costing.cost(_tasks_of(unit))
+        return found
+
+    def _took(self, future: Future, attempt: _Attempt, start: float | None) -> None:
+        """A call has ended after running since ``start``: a sample of its kind's cost,
+        cold if its worker (known on a local pool) had run none of its kind before."""
+        if self.costing is None or start is None:
+            return
+        try:
+            call = self._cost(attempt.task)
+        except Exception:  # a cost model's bug must not stop a sweep: the ETA counts runs
+            return
+        worker = (getattr(future, "worker_pid", None), call.kinds[0] if call.kinds else None)
+        cold = worker not in self._warm
+        self._warm.add(worker)
+        self.finished.append(Took(call, time.monotonic() - start, cold))
+
+    def remaining(self) -> float | None:
+        """Seconds left (eta.remaining_seconds): the calls in flight that have started, then
+        the others in the order they are submitted. None without a Costing."""
+        if self.costing is None:
+            return None
+        now = time.monotonic()
+        running, waiting = [], []
+        for future, attempt in self.in_flight.items():
+            start = self._started(future, attempt)
+            if start is None:
+                waiting.append(self._cost(attempt.task))
+            else:
+                running.append((self._cost(attempt.task), now - start))
+        pending = waiting + [self._cost(attempt.task) for attempt in self.queue]
+        prior = self.costing.prior
+        return remaining_seconds(pending, running, self.finished, self.workers, prior)
 
     @property
     def unfinished(self) -> int:
@@ -1303,6 +1375,7 @@ class _Calls:
             else:
                 future.cancel()  # a running call cannot be cancelled: abandoned
             text = f"no result after {attempt.limit:g} s; the call was stopped"
+            self._took(future, attempt, start)
             self.sweep.record_failure(attempt, RunStatus.TIMEOUT, text, start)
 
     @staticmethod
@@ -1325,6 +1398,7 @@ class _Calls:
             return
         exc = future.exception()
         if exc is None:
+            self._took(future, attempt, self._started(future, attempt))
             self.sweep.record_value(attempt, future.result(), self._started(future, attempt))
         elif stopping:
             return
@@ -1358,10 +1432,13 @@ def run_tasks(
     flush_rows: int = 500,
     handle_signals: bool = True,
     batching: Batching | None = None,
+    costing: Costing | None = None,
 ) -> RunSummary:
     """Run ``worker(task)`` for every task and store the rows in ``out_dir``.
 
     ``batching``: tasks of one key run as batches (:class:`Batching`, module docstring).
+    ``costing``: what each call is expected to cost, for the progress lines' ETA
+    (:mod:`hoopbench.reports.sweep.eta`); without it the ETA assumes equal runs.
 
     ``worker`` must be an importable module-level function returning a small row dict with a
     ``status`` (:class:`RunStatus` value) and ideally a ``message``; ``failure_row(task,
@@ -1423,6 +1500,10 @@ def run_tasks(
         units = batching.units(todo, in_flight_limit) if batching is not None else todo
         batch_worker = batching.worker if batching is not None else None
         calls = _Calls(sweep, pool, executor is None, units, in_flight_limit, batch_worker)
+        if costing is not None:
+            calls.costing = costing
+            calls.workers = getattr(pool, "max_workers", None) or in_flight_limit
+            progress.use_estimate(calls.remaining)
         stopped_by = _drive(calls, handle_signals, tick=0.1 if timeout is not None else 0.25)
         if stopped_by is None:
             _finalize(out, task_order, meta, started_at, wall_start, resume, session)
