@@ -51,9 +51,19 @@ from hoopbench.engines.settings import RunSettings
 from hoopbench.models.mjcf import com_rows
 from hoopbench.models.scene import Scene
 
-__all__ = ["PRECISIONS", "MjxEngine"]
+__all__ = ["PRECISIONS", "WORLDS_PER_CALL", "MjxEngine"]
 
 PRECISIONS: tuple[str, ...] = ("float32", "float64")
+
+WORLDS_PER_CALL = 8
+"""Worlds in every call of the compiled chunk: a batch is cut into calls of this many worlds,
+the last padded with copies of its first world that never step. XLA compiles each batch
+shape to its own float32 (and float64) roundings: in batches of 1, 2, 3 and 4 worlds hop-top
+took four different trajectories (the first difference at step 202, dt 1e-3, float32), while
+at one shape a world's trajectory was the same bit for bit whatever its neighbours and its
+place. One shape for every call makes a row independent of the batch it ran in, and one
+trace and compile per process serve every batch. 8: a call of 8 worlds cost about 1.3 times
+a call of one on 2 loaded CPU cores (3.0 against 2.3 ms per step, RK4, float32)."""
 
 _MJX_INTEGRATORS = ("Euler", "RK4", "implicitfast")
 """MJX's integrators (``mjx.IntegratorType``): no implicit, no discrete."""
@@ -81,6 +91,7 @@ class MjxEngine(WorldsEngine, MjcfEngine):
     geometries = ("sphere",)
     contact_sensor = False
     step_cost_bound = 0.02
+    worlds_per_call = WORLDS_PER_CALL
     """5 times a lone world's float32 step on the CPU (3.7 ms, docs/engines.md)."""
     options = (
         *MujocoEngine.options_except(
@@ -106,6 +117,7 @@ class MjxEngine(WorldsEngine, MjcfEngine):
             x64=options["precision"] == "float64",
             precision=options["precision"],
             chunk=CHUNK_STEPS,
+            worlds=WORLDS_PER_CALL,
             integrator=options["integrator"],
             integrate=integrate[options["integrator"]],
             device_text="JAX's default device" if device == "auto" else f"the {device}",
@@ -139,6 +151,8 @@ class MjxEngine(WorldsEngine, MjcfEngine):
             # that changes precision starts its traces anew (a trace takes about 5 s).
             jax.clear_caches()
             _chunk_function.cache_clear()
+            _keep_function.cache_clear()
+            _typed_function.cache_clear()
         _precision_used.append(precision)
         with jax.enable_x64(precision == "float64"):
             yield self._batch(module, scenes, settings, options)
@@ -165,15 +179,20 @@ class MjxEngine(WorldsEngine, MjcfEngine):
         # heightfield, so the first world's stand for all (scenes of different sizes stack).
         hfield = models[0]._impl.geom_rbound_hfield
         models = [m.replace(_impl=m._impl.replace(geom_rbound_hfield=hfield)) for m in models]
-        try:
-            model = jax.tree.map(lambda *leaves: jnp.stack(leaves), *models)
-        except ValueError as exc:
-            raise ValueError(f"the scenes' MJX models differ in more than arrays: {exc}") from None
-        data = jax.tree.map(lambda *leaves: jnp.stack(leaves), *datas)
-        # put_data's contact indices are int32 where a step makes int64 (x64): the loop's
-        # carry must keep its types, so the data takes a step's types first.
-        stepped = jax.eval_shape(jax.vmap(_forward().forward), model, data)
-        data = jax.tree.map(lambda leaf, like: leaf.astype(like.dtype), data, stepped)
+        # Every call steps WORLDS_PER_CALL worlds: the last call's free places hold copies
+        # of its first world, never active (a world's neighbours do not change its steps).
+        calls = []
+        for first in range(0, len(scenes), WORLDS_PER_CALL):
+            call = list(zip(models, datas, strict=True))[first : first + WORLDS_PER_CALL]
+            call += [call[0]] * (WORLDS_PER_CALL - len(call))
+            try:
+                model = jax.tree.map(lambda *leaves: jnp.stack(leaves), *(m for m, _ in call))
+            except ValueError as exc:
+                raise ValueError(
+                    f"the scenes' MJX models differ in more than arrays: {exc}"
+                ) from None
+            data = jax.tree.map(lambda *leaves: jnp.stack(leaves), *(d for _, d in call))
+            calls.append(_Call(model=model, data=_typed_function(jax)(model, data)))
         start = np.array(
             [
                 com_rows(scene, d.qpos, d.qvel)[0]
@@ -181,31 +200,56 @@ class MjxEngine(WorldsEngine, MjcfEngine):
             ]
         )
         chunk = _chunk_function(jax, options["integrator"])
-        # Compiled here, outside the timed loop: zero steps (a cached compile takes ~1 s).
-        jax.block_until_ready(chunk(model, data, 0, np.ones(len(scenes), dtype=bool)))
-        return _Batch(scenes=list(scenes), model=model, data=data, chunk=chunk, state=start)
+        # Compiled here, outside the timed loop: zero steps (a cached compile takes ~1 s);
+        # every call has this shape, so this is the batch's only compile.
+        jax.block_until_ready(chunk(calls[0].model, calls[0].data, 0))
+        keep = _keep_function(jax)
+        jax.block_until_ready(keep(np.ones(WORLDS_PER_CALL, dtype=bool), *[calls[0].data] * 2))
+        return _Batch(scenes=list(scenes), calls=calls, chunk=chunk, keep=keep, state=start)
 
     def _batch_advance(
         self, batch: _Batch, active: np.ndarray, steps: int
     ) -> tuple[np.ndarray, np.ndarray]:
         """The active worlds step (vmap; the others keep their state: a world still running
         must not move while the finishing ones take their last step); chunks longer than the
-        compiled buffer are split."""
+        compiled buffer are split. A call whose worlds are all inactive is not made."""
         states, forces = [batch.state[:, None]], []
         done = 0
         while done < steps:
             n = min(CHUNK_STEPS, steps - done)
-            batch.data, qpos, qvel, force = batch.chunk(batch.model, batch.data, n, active)
-            qpos, qvel, force = (np.asarray(x[:, :n], dtype=float) for x in (qpos, qvel, force))
-            rows = np.stack(
-                [com_rows(s, q, v) for s, q, v in zip(batch.scenes, qpos, qvel, strict=True)]
-            )
+            rows, force = self._advance_calls(batch, active, n)
             states.append(rows)
-            # world frame: z is the normal (up), x the friction.
-            forces.append(force[:, :, [2, 0]])
+            forces.append(force)
+            batch.state = rows[:, -1]
             done += n
-        batch.state = states[-1][:, -1]
         return np.concatenate(states, axis=1), np.concatenate(forces, axis=1)
+
+    def _advance_calls(
+        self, batch: _Batch, active: np.ndarray, n: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``n`` steps of every call that has an active world: the worlds' states (W, n, 6)
+        and forces (W, n, 2); a world not stepped repeats its state, with no force."""
+        worlds = len(batch.scenes)
+        rows = np.repeat(batch.state[:, None], n, axis=1)
+        force = np.zeros((worlds, n, 2))
+        mask = np.zeros(len(batch.calls) * WORLDS_PER_CALL, dtype=bool)
+        mask[:worlds] = active
+        launched = []
+        for k, call in enumerate(batch.calls):  # every call launched before any is read
+            first = k * WORLDS_PER_CALL
+            here = mask[first : first + WORLDS_PER_CALL]
+            if not here.any():
+                continue
+            stepped, *out = batch.chunk(call.model, call.data, n)
+            call.data = stepped if here.all() else batch.keep(here, stepped, call.data)
+            launched.append((first, out))
+        for first, out in launched:
+            qpos, qvel, f = (np.asarray(x[:, :n], dtype=float) for x in out)
+            for k in map(int, np.flatnonzero(mask[first : first + WORLDS_PER_CALL])):
+                i = first + k  # an active world (a padding copy never is)
+                rows[i] = com_rows(batch.scenes[i], qpos[k], qvel[k])
+                force[i] = f[k][:, [2, 0]]  # world frame: z is the normal (up), x the friction
+        return rows, force
 
 
 _SCRIPT = '''
@@ -220,6 +264,8 @@ jax.config.update("jax_enable_x64", {x64})  # precision {precision}: False is JA
 
 CHUNK = {chunk}
 """Steps per call of the compiled loop (its row buffers' length)."""
+WORLDS = {worlds}
+"""Worlds per call of the compiled loop."""
 
 
 def steps(model, data, n):
@@ -255,10 +301,11 @@ def simulate():
     # must keep its types, so the data takes a step's types first.
     like = jax.eval_shape(mjx.forward, mx, dx)
     dx = jax.tree.map(lambda leaf, typed: leaf.astype(typed.dtype), dx, like)
-    # A batch of one world, as hoopbench steps it: jit of the unbatched loop compiles to other
-    # float32 roundings (measured: the first difference at step 719 of hop-top).
+    # A call of WORLDS worlds (this one and copies of it), as hoopbench steps it: XLA
+    # compiles each batch shape to its own float32 roundings (measured on hop-top: the
+    # unbatched loop first differs at step 719, batches of 1, 2, 3 and 4 worlds at step 202).
     run = jax.jit(jax.vmap(steps, in_axes=(0, 0, None)))
-    mx, dx = (jax.tree.map(lambda leaf: leaf[None], tree) for tree in (mx, dx))
+    mx, dx = (jax.tree.map(lambda leaf: jax.numpy.stack([leaf] * WORLDS), t) for t in (mx, dx))
     qpos, qvel, force = [np.array([data.qpos])], [np.array([data.qvel])], []
     done = 0
     while done <= N_STEPS:
@@ -295,12 +342,29 @@ def _forward() -> ModuleType:
 
 
 @cache
+def _typed_function(jax: ModuleType) -> Any:
+    """(model, data) -> data with a step's dtypes, compiled once per process: put_data's
+    contact indices are int32 where a step makes int64 (x64), and the loop's carry must keep
+    its types. Traced in a jit that lives as long as the process (tracing ``forward`` anew
+    for every batch cost 1.4-2 s of each repeated call)."""
+
+    def typed(model: Any, data: Any) -> Any:
+        like = jax.eval_shape(_forward().forward, model, data)
+        return jax.tree.map(lambda leaf, t: leaf.astype(t.dtype), data, like)
+
+    return jax.jit(jax.vmap(typed))
+
+
+@cache
 def _chunk_function(jax: ModuleType, integrator: str) -> Any:
     """The compiled chunk, one per process and integrator (JAX keeps a trace per shape and
-    precision; tracing RK4 takes about 5 s): (model, data, steps, active) -> (data, qpos,
-    qvel, force). The inactive worlds' data is left as it was; each world's rows after each
-    step fill buffers of CHUNK_STEPS rows (``steps`` is traced, so one compile serves every
-    chunk length), with the world-frame contact force of each step."""
+    precision; tracing RK4 takes about 5 s): (model, data, steps) -> (data, qpos, qvel,
+    force), every world stepped; each world's rows after each step fill buffers of
+    CHUNK_STEPS rows (``steps`` is traced, so one compile serves every chunk length), with
+    the world-frame contact force of each step. The loop is the standalone script's
+    (``_SCRIPT``): a mask inside it (``where(active, ...)`` per step) compiled a batch of 8
+    worlds to other roundings than the script's loop (hop-top's Y from row 55 at dt 1e-4),
+    so the inactive worlds are put back after the call (:func:`_keep_function`)."""
     import jax.numpy as jnp
     from mujoco.mjx._src import forward, support
 
@@ -310,7 +374,7 @@ def _chunk_function(jax: ModuleType, integrator: str) -> Any:
         "implicitfast": forward.implicit,
     }[integrator]
 
-    def world(model: Any, data: Any, steps: Any, active: Any) -> tuple[Any, Any, Any, Any]:
+    def world(model: Any, data: Any, steps: Any) -> tuple[Any, Any, Any, Any]:
         rows = (
             jnp.zeros((CHUNK_STEPS, model.nq), data.qpos.dtype),
             jnp.zeros((CHUNK_STEPS, model.nv), data.qvel.dtype),
@@ -319,25 +383,43 @@ def _chunk_function(jax: ModuleType, integrator: str) -> Any:
 
         def step(i: Any, carry: tuple[Any, ...]) -> tuple[Any, ...]:
             data, qpos, qvel, force = carry
-            before = data
             data = forward.forward(model, data)
             f = support.contact_force(model, data, 0, to_world_frame=True)[:3]
             data = integrate(model, data)
-            data = jax.tree.map(lambda new, old: jnp.where(active, new, old), data, before)
             return data, qpos.at[i].set(data.qpos), qvel.at[i].set(data.qvel), force.at[i].set(f)
 
         return jax.lax.fori_loop(0, steps, step, (data, *rows))
 
-    return jax.jit(jax.vmap(world, in_axes=(0, 0, None, 0)))
+    return jax.jit(jax.vmap(world, in_axes=(0, 0, None)))
+
+
+@cache
+def _keep_function(jax: ModuleType) -> Any:
+    """(active, stepped, before) -> the data of the active worlds from ``stepped``, of the
+    others from ``before``, compiled once per process."""
+    import jax.numpy as jnp
+
+    def keep(active: Any, stepped: Any, before: Any) -> Any:
+        return jax.tree.map(lambda new, old: jnp.where(active, new, old), stepped, before)
+
+    return jax.jit(jax.vmap(keep))
+
+
+@dataclass
+class _Call:
+    """WORLDS_PER_CALL worlds on the device: their stacked model and data."""
+
+    model: Any
+    data: Any
 
 
 @dataclass
 class _Batch:
-    """The worlds on the device: stacked model and data, the compiled chunk, and every
+    """The worlds on the device in calls of WORLDS_PER_CALL, the compiled chunk, and every
     world's last centre-of-mass state (W, 6)."""
 
     scenes: list[Scene]
-    model: Any
-    data: Any
+    calls: list[_Call]
     chunk: Any
+    keep: Any
     state: np.ndarray

@@ -310,7 +310,7 @@ def test_the_report_says_what_it_is_doing(quick_report, tmp_path, capsys):
     assert main(["report", "--results", str(out), "--out", str(tmp_path)]) == 0
     lines = capsys.readouterr().err.splitlines()
     assert lines and all(re.fullmatch(r"report: .+; elapsed (\d+m)?\d+s", line) for line in lines)
-    assert lines[0].startswith("report: reading 1 results folder(s)")
+    assert lines[0].startswith("report: read 1 results folder(s)")
     drawing = re.fullmatch(r"report: drawing (\d+) figure groups in \d process\(es\).*", lines[1])
     assert drawing, lines[1]
     groups = int(drawing[1])

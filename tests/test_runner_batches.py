@@ -11,7 +11,11 @@ from pathlib import Path
 import pytest
 from test_runner import Job, by_run_id, calls, job_failure_row, job_worker
 
+from hoopbench.engines.base import Engine
+from hoopbench.engines.mjx_engine import WORLDS_PER_CALL
+from hoopbench.engines.registry import engine_class
 from hoopbench.engines.run import RunStatus
+from hoopbench.reports.compare.suite import batch_least
 from hoopbench.reports.sweep.runner import Batching, RunSummary, TaskBatch, run_tasks
 
 
@@ -68,6 +72,23 @@ def test_tasks_group_by_key_up_to_the_size_in_order():
     assert sizes == [1, 0, 1, 1, 1, 1, 0, 1]
     with pytest.raises(ValueError, match="batch size"):
         Batching(job_batch_worker, job_key, 0)
+
+
+def test_a_key_is_not_cut_below_its_least_batch():
+    """An engine that pads every call to a fixed number of worlds (MJX: 8) gains nothing
+    from smaller batches: its tasks are not spread below that, but still up to the size."""
+    jobs = [Job(name) for name in ("bx-1", "a-1", "bx-2", "bx-3", "bx-4", "bx-5", "a-2")]
+
+    def least(key):
+        return 3 if key == "bx" else 1
+
+    units = Batching(job_batch_worker, job_key, 4, least).units(jobs, parallel=4)
+    sizes = [len(u.tasks) if isinstance(u, TaskBatch) else 0 for u in units]
+    assert sizes == [3, 0, 2, 0]  # without the least: [2, 0, 2, 1, 0]
+    assert Engine.worlds_per_call == 1
+    assert engine_class("mjx").worlds_per_call == WORLDS_PER_CALL
+    assert batch_least(("mjx", "{}")) == WORLDS_PER_CALL
+    assert batch_least(("mujoco", "{}")) == 1
 
 
 def test_a_batched_sweep_writes_the_rows_of_an_unbatched_one(tmp_path, scratch):

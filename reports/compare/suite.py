@@ -80,6 +80,7 @@ __all__ = [
     "TIMEOUT_NOTE",
     "TrajectoryChoice",
     "batch_key",
+    "batch_least",
     "compare",
     "failure_row",
     "run_and_row",
@@ -190,6 +191,13 @@ def batch_key(task: RunTask) -> Hashable | None:
     if not engine_class(task.engine).batches:
         return None
     return (task.engine, json.dumps(task.settings().to_dict(), sort_keys=True, default=repr))
+
+
+def batch_least(key: Hashable) -> int:
+    """The fewest runs a batch of ``key`` (:func:`batch_key`'s, or the map's: the engine
+    first) is cut to: the engine's ``worlds_per_call``."""
+    assert isinstance(key, tuple)
+    return engine_class(key[0]).worlds_per_call
 
 
 def run_task_batch(tasks: list[RunTask]) -> list[dict[str, Any]]:
@@ -352,7 +360,9 @@ def compare(
             resume=resume,
             meta=meta,
             quiet=quiet,
-            batching=Batching(run_task_batch, batch_key, batch_size) if batch_size > 1 else None,
+            batching=Batching(run_task_batch, batch_key, batch_size, batch_least)
+            if batch_size > 1
+            else None,
             costing=COSTING,
         )
         copy = out / "suite.toml"

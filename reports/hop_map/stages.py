@@ -56,7 +56,7 @@ from hoopbench.engines.stopping import StopRule
 from hoopbench.models.events import Outcome
 from hoopbench.models.scene import DegenerateSceneError
 from hoopbench.reference.regimes import classify_solved
-from hoopbench.reports.compare.suite import run_timeout
+from hoopbench.reports.compare.suite import batch_least, run_timeout
 from hoopbench.reports.hop_map.display import write_display, write_exact_display
 from hoopbench.reports.hop_map.spec import (
     MAP_FILE,
@@ -566,7 +566,9 @@ def _run_map(
         # end of stage 2 with every row, as a map's must be, and never stand for it meanwhile.
         for name in (results.CSV_NAME, results.META_NAME):
             (out / name).unlink(missing_ok=True)
-    batching = Batching(run_map_batch, map_batch_key, batch_size) if batch_size > 1 else None
+    batching = (
+        Batching(run_map_batch, map_batch_key, batch_size, batch_least) if batch_size > 1 else None
+    )
     second = run_tasks(tasks, run_map_task, out, batching=batching, **common)
     summary = _summary(spec, out, [first, second], n_refs)
     if second.interrupted is None and not finished:

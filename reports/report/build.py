@@ -100,13 +100,14 @@ def build_report(
     benches = [d for d in dirs if is_batch_cost_folder(d)]  # make bench's batch costs
     found = best_settings(tunes)
     plain = [d for d in dirs if d not in maps and d not in tunes and d not in benches]
-    if say is not None:
-        say(f"reading {len(plain)} results folder(s), {len(tunes)} search(es), "
-            f"{len(maps)} map(s), {len(benches)} bench folder(s)")  # fmt: skip
     runs = [report_frame(d) for d in plain]
     _refuse_shared_runs(plain, runs)
     frame = pd.concat(runs, ignore_index=True) if runs else pd.DataFrame()
     _check_out(out, dirs, force)
+    # Said once the inputs are read and checked: a refused input is the one line of stderr.
+    if say is not None:
+        say(f"read {len(plain)} results folder(s), {len(tunes)} search(es), "
+            f"{len(maps)} map(s), {len(benches)} bench folder(s)")  # fmt: skip
     generated = datetime.now(UTC).isoformat(timespec="seconds")
     # Two reports into one folder would mix their figures: the sweeps' lock serves.
     with sweep_lock(out), plain_text():  # names from the results are drawn as written

@@ -587,6 +587,10 @@ class Batching:
     """Tasks with equal keys may share a batch; None: the task runs alone. Called here."""
     size: int
     """Tasks per batch at most (>= 1)."""
+    least: Callable[[Hashable], int] = lambda key: 1
+    """The fewest tasks of a key that a batch is cut to when the key's tasks are spread
+    over the calls in flight (an engine that pads every call to a fixed number of worlds
+    gains nothing from smaller batches). Called here."""
 
     def __post_init__(self) -> None:
         if isinstance(self.size, bool) or not isinstance(self.size, int) or self.size < 1:
@@ -599,7 +603,10 @@ class Batching:
         idle while one of them steps the rest."""
         keys = [self.key(task) for task in tasks]
         counts = Counter(key for key in keys if key is not None)
-        sizes = {key: min(self.size, -(-n // max(parallel, 1))) for key, n in counts.items()}
+        sizes = {
+            key: min(self.size, max(self.least(key), -(-n // max(parallel, 1))))
+            for key, n in counts.items()
+        }
         units: list[Any] = []
         open_batches: dict[Hashable, list[Any]] = {}
         for task, key in zip(tasks, keys, strict=True):

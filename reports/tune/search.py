@@ -37,6 +37,7 @@ from hoopbench.models.scene import Scene
 from hoopbench.reports.compare.rows import FORMAT_VERSION
 from hoopbench.reports.compare.suite import (
     batch_key,
+    batch_least,
     failure_row,
     run_task,
     run_task_batch,
@@ -211,7 +212,7 @@ def run_settings(
         "engine_versions": {runner.engine: engine_class(runner.engine)().version()},
     }
     limit = run_timeout if runner.run_timeout_s is None else runner.run_timeout_s
-    batching = Batching(run_task_batch, batch_key, runner.batch_size)
+    batching = Batching(run_task_batch, batch_key, runner.batch_size, batch_least)
     summary = run_tasks(
         tasks,
         run_task,
