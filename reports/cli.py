@@ -673,13 +673,17 @@ def _cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
-def _report_steps() -> Callable[[str], None]:
+def _report_steps() -> Callable[[str], None] | None:
     """The report's progress: what it is doing, a line a step on stderr with the time since
-    it began, as a suite's progress lines."""
+    it began, as a suite's progress lines; on a terminal only (None elsewhere), so that a
+    refused input stays the one line a script or a log reads."""
     import time
 
     from hoopbench.reports.sweep.control_chars import terminal_text
 
+    isatty = getattr(sys.stderr, "isatty", None)
+    if isatty is None or not isatty():
+        return None
     start = time.monotonic()
 
     def say(text: str) -> None:

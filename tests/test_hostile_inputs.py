@@ -383,7 +383,7 @@ def test_ctrl_c_in_a_report_says_what_was_kept(results, tmp_path, monkeypatch, c
     """It said 'before anything ran' after nine figures were written."""
     from hoopbench.reports import api
 
-    def interrupted(folders, target, force=False):
+    def interrupted(folders, target, force=False, say=None):
         raise KeyboardInterrupt
 
     monkeypatch.setattr(api, "build_report", interrupted)

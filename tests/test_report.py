@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import re
+import sys
 
 import numpy as np
 import pandas as pd
@@ -301,14 +302,18 @@ def test_the_platform_section_names_the_machine_and_its_load(quick_report):
 
 
 @pytest.mark.slow  # the quick suite, about 10 s once per module; the report drawn again
-def test_the_report_says_what_it_is_doing(quick_report, tmp_path, capsys):
+def test_the_report_says_what_it_is_doing(quick_report, tmp_path, capsys, monkeypatch):
     """A line a step, on stderr from the command line: the folders read, each figure group
     as it is drawn (k of n, every one of them), the tables, the page."""
     from hoopbench.reports.cli import main
 
     out, _ = quick_report
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)  # the lines are a terminal's
     assert main(["report", "--results", str(out), "--out", str(tmp_path)]) == 0
     lines = capsys.readouterr().err.splitlines()
+    monkeypatch.undo()
+    assert main(["report", "--results", str(out), "--out", str(tmp_path / "log")]) == 0
+    assert not capsys.readouterr().err  # not a terminal: nothing between a script's lines
     assert lines and all(re.fullmatch(r"report: .+; elapsed (\d+m)?\d+s", line) for line in lines)
     assert lines[0].startswith("report: read 1 results folder(s)")
     drawing = re.fullmatch(r"report: drawing (\d+) figure groups in \d process\(es\).*", lines[1])
