@@ -316,6 +316,8 @@ def read_contact(
     judged = touching & (t <= min(end, hop_end))
     rest = _Rest(t, judged & ~slipping & ~_in_modes(t, modes, _SLIP_CODES))
     creep = rest.creep(traj, means, mu, cfg, exact_lift)
+    chattering = _chattering(means, mu, cfg) & rest.mask
+    chattering_time = rest.time(chattering)
     chatter = [fl for fl in flights if fl not in hops]
     t_slip, t_restick = _slip_events(modes)
     return ContactReading(
@@ -333,9 +335,9 @@ def read_contact(
         creep_max_speed=float(np.max(np.abs(traj.slip_velocity[creep]))) if creep.any() else None,
         creep_distance=rest.time(creep, np.abs(traj.slip_velocity)),
         cone_stick_time=rest.longest(_outside_cone(means, mu, cfg) & judged),
-        chattering_time=rest.time(_chattering(means, mu, cfg) & rest.mask),
-        chatters=rest.time(_chattering(means, mu, cfg) & rest.mask) >= cfg.sustain,
-        chatter_cone_share=_cone_share(own, rest.mask & _chattering(means, mu, cfg), mu, cfg),
+        chattering_time=chattering_time,
+        chatters=chattering_time >= cfg.sustain,
+        chatter_cone_share=_cone_share(own, chattering, mu, cfg),
         slip_friction_ratio=_slip_friction_ratio(own, modes, t, touching, mu, cfg),
         modes=_phases(modes, float(t[-1]) if hop_end == math.inf else hop_end),
     )
