@@ -124,10 +124,16 @@ def events_figure(
 
 
 def paths_figure(
-    scene: Scene, runs: Mapping[str, Trajectory], out: str | Path, *, n_frames: int = 24
+    scene: Scene,
+    runs: Mapping[str, Trajectory],
+    out: str | Path,
+    *,
+    n_frames: int = 24,
+    note: str = "",
 ) -> Path:
     """Each engine's centre-of-mass path with its hoop centre and weight at equal time steps
-    (the seed's Figure 3 kind), over the reference's path (grey), one panel per engine."""
+    (the seed's Figure 3 kind), over the reference's path (black, dashed), one panel per
+    engine; ``note`` (the runs' timesteps) ends the title."""
     plt = pyplot()
     reference = runs.get("reference")
     engines = [name for name in runs if name != REFERENCE_ENGINE] or list(runs)
@@ -154,6 +160,8 @@ def paths_figure(
         ax.legend(loc="upper right", fontsize=7)
     axes[-1, 0].set_xlabel("x (m)")
     axes[0, 0].set_title(
-        f"{scene.name}: paths at equal time steps (circle: weight, dot: hoop centre)", fontsize=9
+        f"{scene.name}: paths at equal time steps (circle: weight, dot: hoop centre)"
+        + (f"\n{note}" if note else ""),
+        fontsize=9,
     )
     return save(fig, out, dpi=100)

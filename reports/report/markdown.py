@@ -23,7 +23,6 @@ import pandas as pd
 from hoopbench.engines.judging.columns import FORCE_COLUMNS
 from hoopbench.engines.judging.tolerances import tolerances
 from hoopbench.engines.judging.verdict import OUTCOME_FAILURES, Verdict
-from hoopbench.engines.options import Profile
 from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
 from hoopbench.models.catalogue import get_scene, scene_names
@@ -39,6 +38,7 @@ from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
 from hoopbench.reports.report import seed_reproduction
 from hoopbench.reports.report.answer import answer, answer_markdown
 from hoopbench.reports.report.best_settings import BestSettings
+from hoopbench.reports.report.drawn import drawn_rows, drawn_trajectories, timestep_note
 from hoopbench.reports.report.escaping import escape_cell, escape_text, file_stem
 from hoopbench.reports.report.figures import events_figure, hoop_figure, paths_figure
 from hoopbench.reports.report.findings import (
@@ -587,8 +587,10 @@ def _force_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[Path]]:
             "",
             f"![contact forces]({figure.name})",
             "",
-            "Tuned, default settings: n/g (top) and |f|/(mu n) (bottom) of every engine over "
-            "the exact curves (dashed). Look for where a curve leaves the dashed one: spikes "
+            "Tuned, default settings, "
+            + timestep_note(pd.concat([drawn_rows(runs, p.name) for p in panels]))
+            + ": n/g (top) and |f|/(mu n) (bottom) of every engine with a stored trajectory "
+            "over the exact curves (dashed). Look for where a curve leaves the dashed one: spikes "
             "and gaps (n = 0 while the exact hoop rolls or slips) are a contact that chatters, "
             "|f|/(mu n) above 1 is friction outside the cone, and below 1 while the exact "
             "one is on 1 a slip the engine sticks through.",
@@ -710,15 +712,9 @@ def _stability_matrix_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[
 
 
 def stored_trajectories(runs: pd.DataFrame, scene_name: str) -> dict[str, Trajectory]:
-    """The recorded default-timestep, tuned default-settings trajectories of one scene."""
-    rows = _default(runs)
-    rows = rows[(rows["scene"] == scene_name) & (rows["timestep"] == DEFAULT_TIMESTEP)]
-    rows = rows[profile_of(rows) == str(Profile.TUNED)]
-    return {
-        row["engine"]: Trajectory.read(row["trajectory_file"])
-        for _, row in rows.iterrows()
-        if isinstance(row.get("trajectory_file"), str)
-    }
+    """The recorded tuned default-settings trajectories of one scene, one per engine that
+    ran it: at the default timestep, else at its finest stored one (drawn.drawn_rows)."""
+    return drawn_trajectories(runs, scene_name)
 
 
 def _event_window(row: pd.Series) -> tuple[float, float] | None:
@@ -740,17 +736,18 @@ def _trajectory_figures(runs: pd.DataFrame, scene_name: str, out: Path) -> list[
     row = runs[runs["scene"] == scene_name].iloc[0]
     # The name comes from the results folder: a file name from it must stay in ``out``.
     stem = file_stem(scene_name)
+    note = timestep_note(drawn_rows(runs, scene_name))
     events = events_figure(
         trajectories,
         out / f"events_{stem}.png",
-        title=f"{scene_name}: clearance and slip velocity around its events, dt = "
-        f"{DEFAULT_TIMESTEP:g}",
+        title=f"{scene_name}: clearance and slip velocity around its events\n{note}",
         t_window=_event_window(row),
     )
     scene = get_scene(scene_name) if scene_name in scene_names() else None
     if scene is None:
         return [events]
-    return [paths_figure(scene, trajectories, out / f"paths_{stem}.png"), events]
+    paths = paths_figure(scene, trajectories, out / f"paths_{stem}.png", note=note)
+    return [paths, events]
 
 
 def _exact_path_figure(scene_name: str, out: Path) -> list[Path]:
@@ -774,8 +771,10 @@ def _figures_section(figures: Sequence[Path]) -> str:
     lines = [
         "## Trajectories",
         "",
-        f"Default settings, tuned, dt = {DEFAULT_TIMESTEP:g} s (stored with "
-        "`--trajectories default`).",
+        f"Default settings, tuned, every engine that ran the scene with its trajectory stored "
+        f"(`--trajectories default`): at dt = {DEFAULT_TIMESTEP:g} s, or where an engine has "
+        "no run stored there (the batched engines run 1e-3 s only) at its finest stored "
+        "timestep, which each figure's title names.",
         "",
     ]
     for figure in figures:

@@ -20,12 +20,10 @@ import pandas as pd
 from markdown_it import MarkdownIt
 from plotly.offline import get_plotlyjs
 
-from hoopbench.engines.options import Profile
 from hoopbench.engines.run import REFERENCE_ENGINE
-from hoopbench.engines.settings import DEFAULT_TIMESTEP
 from hoopbench.models.catalogue import get_scene, scene_names
-from hoopbench.reports.compare.selection import default_rows, profile_of
 from hoopbench.reports.report.best_settings import BestSettings, figure_name
+from hoopbench.reports.report.drawn import drawn_rows, timestep_note
 from hoopbench.reports.report.findings import MORE_FINDINGS
 from hoopbench.reports.report.hoop_gif import GIF_SCENE, hoop_gif
 from hoopbench.reports.report.markdown import (
@@ -65,9 +63,7 @@ def _figure(figure_id: str, make: Callable[[], dict | None]) -> Callable[[], str
 
 def _scene_rows(runs: pd.DataFrame, scene: str) -> pd.DataFrame:
     """The rows whose trajectories the report draws (markdown.stored_trajectories')."""
-    rows = default_rows(runs)
-    rows = rows[(rows["scene"] == scene) & (rows["timestep"] == DEFAULT_TIMESTEP)]
-    return rows[profile_of(rows) == str(Profile.TUNED)]
+    return drawn_rows(runs, scene)
 
 
 def _animation(runs: pd.DataFrame, scene: str, figure_id: str) -> Callable[[], str]:
@@ -75,9 +71,16 @@ def _animation(runs: pd.DataFrame, scene: str, figure_id: str) -> Callable[[], s
         trajectories = stored_trajectories(runs, scene)
         if not trajectories:
             return ""
-        motions = hoop_motions(get_scene(scene), trajectories, _scene_rows(runs, scene))
+        rows = _scene_rows(runs, scene)
+        motions = hoop_motions(get_scene(scene), trajectories, rows)
         animation = figure_fragment(figure_id, animation_figure(get_scene(scene), motions))
-        return f"<p>{text(scene)} in motion (tuned, dt = {DEFAULT_TIMESTEP:g} s):</p>{animation}"
+        caption = (
+            f"{text(scene)} in motion, every engine that ran it (tuned, default settings, "
+            f"{text(timestep_note(rows))}), the exact hoop first. Each panel marks its run's "
+            "events in the run's colour where its centre of mass was: slip x, lift-off "
+            "triangle, impact square (the key below the strip):"
+        )
+        return f"<p>{caption}</p>{animation}"
 
     return fragment
 

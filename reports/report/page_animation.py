@@ -20,6 +20,7 @@ import pandas as pd
 
 from hoopbench.engines.judging.columns import Col
 from hoopbench.engines.run import REFERENCE_ENGINE
+from hoopbench.engines.settings import DEFAULT_TIMESTEP
 from hoopbench.models import kinematics
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import Trajectory
@@ -73,6 +74,14 @@ class HoopMotion:
     """m."""
     events: tuple[tuple[str, float, str], ...]
     """(event, time in s, marker), in time order."""
+    timestep: float | None = None
+    """s; the run's, where it is not the default (the label names it), else None."""
+
+    @property
+    def label(self) -> str:
+        """The run's name as its panel shows it, with its timestep where it is not the
+        default (drawn.drawn_rows: an engine with no run stored there is drawn at another)."""
+        return self.name if self.timestep is None else f"{self.name} (dt {self.timestep:g} s)"
 
     def at(self, t: float) -> int:
         """The sample shown at time t (the last one after the run's end)."""
@@ -116,9 +125,18 @@ def hoop_motions(
                 Y=traj.Y,
                 clearance=traj.clearance,
                 events=_event_times(by_engine.get(name), exact),
+                timestep=_other_timestep(by_engine.get(name)),
             )
         )
     return motions
+
+
+def _other_timestep(row: pd.Series | None) -> float | None:
+    """The row's timestep where it is not the default (s), else None."""
+    value = None if row is None else pd.to_numeric(row.get(Col.TIMESTEP), errors="coerce")
+    if value is None or pd.isna(value) or float(value) == DEFAULT_TIMESTEP:
+        return None
+    return float(value)
 
 
 def _colour(motion: HoopMotion) -> str:
@@ -163,7 +181,7 @@ def _dynamic(motion: HoopMotion, t: float, a: float, frame_times: np.ndarray) ->
         },
         {
             "text": [
-                f"<b>{text(motion.name)}</b>  t = {t:.3f} s" + (f"<br>{label}" if label else "")
+                f"<b>{text(motion.label)}</b>  t = {t:.3f} s" + (f"<br>{label}" if label else "")
             ]
         },
     ]
@@ -190,7 +208,30 @@ def _static(motions: list[HoopMotion], bounds: dict[str, float], n_rows: int) ->
              "line": {"dash": "dash", "color": REFERENCE_COLOUR} if motion is exact
              else {"color": _colour(motion)}}
         )  # fmt: skip
-    return traces
+    return [*traces, *marker_key(n_rows - 1)]
+
+
+KEY_COLOUR = "#555555"
+"""The marker key's neutral colour: a panel draws the marks in its run's colour."""
+
+
+def marker_key(k: int) -> list[dict]:
+    """The key of what a panel draws (nothing drawn: legend entries on the strip's axes ``k``):
+    each event's marker, the exact path, the path so far, the weight."""
+    entry = {"type": "scatter", "x": [None], "y": [None], "hoverinfo": "skip",
+             "legend": "legend2", **_axes(k)}  # fmt: skip
+    events = [
+        {**entry, "mode": "markers", "name": name,
+         "marker": {"symbol": marker, "size": 11, "color": KEY_COLOUR}}
+        for name, _, _, marker in EVENTS
+    ]  # fmt: skip
+    return [
+        *events,
+        {**entry, "mode": "lines", "name": "exact path", "line": {"color": "#bbb", "width": 3}},
+        {**entry, "mode": "lines", "name": "path so far", "line": {"color": KEY_COLOUR}},
+        {**entry, "mode": "markers", "name": "weight",
+         "marker": {"color": WEIGHT_COLOUR, "size": 12}},
+    ]  # fmt: skip
 
 
 def _moving_templates(motions: list[HoopMotion], n_rows: int) -> list[dict]:
@@ -204,7 +245,7 @@ def _moving_templates(motions: list[HoopMotion], n_rows: int) -> list[dict]:
         {
             "mode": "text",
             "textposition": "bottom right",
-            "textfont": {"size": 10},
+            "textfont": {"size": 12},
             "x": [0],
             "y": [0],
         },
@@ -235,12 +276,7 @@ def animation_figure(scene: Scene, motions: list[HoopMotion]) -> dict[str, Any]:
     a = scene.a
     end = max(float(m.t[-1]) for m in motions)
     times = np.linspace(0.0, end, FRAMES)
-    bounds = {
-        "x0": min(float(m.x.min()) for m in motions) - 1.15 * a,
-        "x1": max(float(m.x.max()) for m in motions) + 1.15 * a,
-        "y1": max(float(m.y.max()) for m in motions) + 1.25 * a,
-    }
-    bounds["top"] = bounds["y1"] * 1.25  # room for the label
+    bounds = panel_bounds(motions, a, min(GRID_COLUMNS, len(motions)))
     n_rows = len(motions) + 1
     static = _static(motions, bounds, n_rows)
     clear = np.concatenate([m.clearance for m in motions]) * 1e3
@@ -266,14 +302,42 @@ def animation_figure(scene: Scene, motions: list[HoopMotion]) -> dict[str, Any]:
     }
 
 
-GRID_COLUMNS = 4
-"""Panels per row of the animation's grid (eight runs: two rows, so the page shows them all
-with the clearance strip below, and the controls above)."""
-_FIGURE_PX = 1100
-"""About the width the page gives a figure: a panel's height follows its width and the
-drawing's aspect (the axes keep metres square)."""
-_STRIP_PX = 230
+GRID_COLUMNS = 3
+"""Panels per row of the animation's grid (eleven runs: four rows, a panel wide enough that a
+label of three events reads at the page's size)."""
+_FIGURE_PX = 1090
+"""About the width of the plot area the page gives a figure (its 1200 px body less padding
+and the margins): a panel's height follows its width and the drawing's aspect (the axes
+keep metres square). The key lies below the strip, so that the panels have the width."""
+LABEL_PX = 50
+"""Room above a panel's drawing for its label (three lines of 12 px text): the label stays
+above the hoop, the paths and the floor."""
+_MIN_DRAWING_PX = 80
+_PANEL_GAP_PX = 12
+_STRIP_PX = 200
+_STRIP_GAP_PX = 45
 _CONTROLS_PX = 90
+_KEY_PX = 150
+"""Below the strip: its time axis and the key (the runs' clearance lines, the panels'
+marks), laid out in rows."""
+
+
+def panel_bounds(motions: list[HoopMotion], a: float, columns: int) -> dict[str, float]:
+    """A panel's ranges, m: x0 to x1 across, y0 (below the floor) to y1 (above every hoop)
+    the drawing, y1 to top the label's room (LABEL_PX at the panel's size); ``px`` the
+    drawing's height in pixels at _FIGURE_PX."""
+    bounds = {
+        "x0": min(float(m.x.min()) for m in motions) - 1.15 * a,
+        "x1": max(float(m.x.max()) for m in motions) + 1.15 * a,
+        "y1": max(float(m.y.max()) for m in motions) + 1.1 * a,
+    }
+    bounds["y0"] = -0.05 * bounds["y1"]
+    height = bounds["y1"] - bounds["y0"]
+    width = _FIGURE_PX / columns - _PANEL_GAP_PX
+    drawing_px = max(_MIN_DRAWING_PX, width * height / (bounds["x1"] - bounds["x0"]))
+    bounds["px"] = drawing_px
+    bounds["top"] = bounds["y1"] + height * LABEL_PX / drawing_px
+    return bounds
 
 
 def _layout(motions: list[HoopMotion], bounds: dict[str, float], n_rows: int, times) -> dict:
@@ -281,18 +345,22 @@ def _layout(motions: list[HoopMotion], bounds: dict[str, float], n_rows: int, ti
     buttons and the time slider on top. ``n_rows``: the panels and the strip (axes)."""
     columns = min(GRID_COLUMNS, len(motions))
     grid_rows = -(-len(motions) // columns)
-    aspect = (bounds["top"] + 0.05 * bounds["y1"]) / (bounds["x1"] - bounds["x0"])
-    panel_px = min(320, max(120, _FIGURE_PX / columns * aspect + 10))
-    height = round(grid_rows * panel_px + _STRIP_PX + _CONTROLS_PX)
-    strip_top = _STRIP_PX / height - 0.02
-    panels_top = 1.0 - _CONTROLS_PX / height
-    row_height = (panels_top - strip_top - 0.06) / grid_rows
+    panel_px = bounds["px"] + LABEL_PX + _PANEL_GAP_PX
+    plot_px = grid_rows * panel_px + _STRIP_GAP_PX + _STRIP_PX  # the plot area's height
+    strip_top = _STRIP_PX / plot_px
+    panels_top = 1.0
+    row_height = panel_px / plot_px
+    gap = _PANEL_GAP_PX / plot_px
     layout: dict[str, Any] = {
-        "height": height,
-        "margin": {"t": _CONTROLS_PX, "b": 40},
+        "height": round(plot_px + _CONTROLS_PX + _KEY_PX),
+        "margin": {"t": _CONTROLS_PX, "b": _KEY_PX, "l": 60, "r": 20},
         "shapes": [],
-        "legend": {"x": 1.01, "y": 0, "yanchor": "bottom", "title": {"text": "clearance"}},
-    }
+        # two rows of keys below the strip's time axis: its lines, then the panels' marks
+        "legend": {"orientation": "h", "x": 0, "y": -55 / plot_px, "yanchor": "top",
+                   "title": {"text": "clearance:"}},
+        "legend2": {"orientation": "h", "x": 0, "y": -(55 + 50) / plot_px, "yanchor": "top",
+                    "title": {"text": "panels (marks in the run's colour):"}},
+    }  # fmt: skip
     for k in range(len(motions)):
         x, y = _axes(k)["xaxis"], _axes(k)["yaxis"]
         row, column = divmod(k, columns)
@@ -301,14 +369,18 @@ def _layout(motions: list[HoopMotion], bounds: dict[str, float], n_rows: int, ti
             "domain": [column / columns + 0.005, (column + 1) / columns - 0.005],
             "range": [bounds["x0"], bounds["x1"]],
             "showticklabels": False,
+            "showgrid": False,  # no line through the label or the hoop
+            "zeroline": False,
             "constrain": "domain",
             "anchor": y,
         }
         layout[f"yaxis{k + 1 if k else ''}"] = {
-            "domain": [top - row_height + 0.01, top],
-            "range": [-0.05 * bounds["y1"], bounds["top"]],
+            "domain": [top - row_height + gap, top],
+            "range": [bounds["y0"], bounds["top"]],
             "scaleanchor": x,
             "showticklabels": False,
+            "showgrid": False,
+            "zeroline": False,
             "anchor": x,
         }
         layout["shapes"].append(
@@ -353,5 +425,5 @@ def _slider(times: np.ndarray) -> dict:
     steps = [
         {"label": f"{t:.2f}", "method": "animate", "args": [[f"{t:.3f}"], still]} for t in times
     ]
-    return {"active": 0, "steps": steps, "x": 0.12, "len": 0.88, "y": 1, "yanchor": "bottom",
+    return {"active": 0, "steps": steps, "x": 0.15, "len": 0.85, "y": 1, "yanchor": "bottom",
             "currentvalue": {"prefix": "t = ", "suffix": " s"}, "pad": {"b": 10}}  # fmt: skip
