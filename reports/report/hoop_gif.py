@@ -1,7 +1,8 @@
 """The README's top figure: hop-top in motion, every engine's hoop beside the exact one, as a
 GIF (matplotlib's animation with its Pillow writer). The same runs and events as the page's
 animation (:func:`page_animation.hoop_motions`): a panel per run, the exact one first, the
-centre-of-mass path so far over the exact path, and each event written in as it happens.
+centre-of-mass path so far over the exact path, and each event written in as it happens,
+its label above it, and a key of the marks below the panels.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ import numpy as np
 
 from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.models.scene import Scene
-from hoopbench.reports.report.page_animation import EXACT_LABEL, HoopMotion
+from hoopbench.reports.report.page_animation import EVENTS, EXACT_LABEL, HoopMotion
 from hoopbench.reports.report.palette import (
     ENDED_COLOUR,
     HOOP_COLOUR,
@@ -21,17 +22,26 @@ from hoopbench.reports.report.palette import (
 )
 from hoopbench.reports.report.plotting import pyplot, written_whole
 
-__all__ = ["GIF_FRAMES", "GIF_SCENE", "hoop_gif"]
+__all__ = ["GIF_FRAMES", "GIF_SCENE", "hoop_gif", "key_handles"]
 
 GIF_SCENE = "hop-top"
 """The scene of the README's animation: the catalogue's clearest hop (0.38 m at 1.17 s)."""
 GIF_FRAMES = 60
-"""Frames, 80 ms apart: the whole window in about 5 s, and the file well under 1 MB."""
+"""Frames, 80 ms apart: the whole window in about 5 s (eleven runs of hop-top: 1.7 MB)."""
 _FRAME_MS = 80
 GIF_COLUMNS = 2
-"""Panels per row: eight runs in four rows, wide enough to read at a README's width."""
+"""Panels per row: eleven runs in six rows, each panel about 350 px wide at the README's
+width (hop-top's window is eleven metres of floor: a third of that would be 60 px high)."""
+_PANEL_WIDTH_IN = 4.4
+_LABEL_IN = 0.36
+"""Above each panel: its two lines of label (name and time; its events)."""
+_KEY_IN = 0.42
+"""Below the panels: the key of the marks and lines."""
+_DPI = 80
 _EVENT_MARKERS = {"x": "x", "triangle-up": "^", "square": "s"}
 """The page's marker names as matplotlib's."""
+KEY_COLOUR = "#555555"
+"""The key's neutral colour: a panel draws its marks in its run's colour."""
 
 
 def _panel(ax, motion: HoopMotion, exact: HoopMotion, scene: Scene, limits: tuple) -> dict:
@@ -45,13 +55,15 @@ def _panel(ax, motion: HoopMotion, exact: HoopMotion, scene: Scene, limits: tupl
     hoop = ax.add_patch(pyplot().Circle((0, 0), scene.a, fill=False, color=HOOP_COLOUR, lw=1.5))
     name = REFERENCE_ENGINE if motion.name == EXACT_LABEL else motion.name
     colour = engine_colours([name])[name]
+    # Above the drawing, not on it: nothing runs through the label.
+    label = ax.text(0.0, 1.03, "", fontsize=9, va="bottom", transform=ax.transAxes)
     return {
         "hoop": hoop,
         "spoke": ax.plot([], [], color=HOOP_COLOUR, lw=1)[0],
         "weight": ax.plot([], [], "o", color=WEIGHT_COLOUR, ms=6)[0],
         "path": ax.plot([], [], color=colour, lw=1.4)[0],
         "colour": colour,
-        "label": ax.text(limits[0][0], limits[1][1], "", fontsize=8, va="top"),
+        "label": label,
         "marks": [],
         "ax": ax,
     }
@@ -76,9 +88,27 @@ def _update(artists: dict, motion: HoopMotion, t: float, times: np.ndarray) -> N
     ended = t > end + 1e-9  # drawn where it stopped, faded, and said
     artists["hoop"].set_edgecolor(ENDED_COLOUR if ended else HOOP_COLOUR)
     artists["spoke"].set_color(ENDED_COLOUR if ended else HOOP_COLOUR)
+    title = f"{motion.label}   t = {t:.2f} s"
     if ended:
-        events += f"\nended at {end:.2f} s" + (" (impact)" if motion.name == EXACT_LABEL else "")
-    artists["label"].set_text(f"{motion.name}   t = {t:.2f} s\n{events}")
+        title += f"   ended at {end:.2f} s" + (" (impact)" if motion.name == EXACT_LABEL else "")
+    artists["label"].set_text(f"{title}\n{events}")
+
+
+def key_handles() -> list:
+    """The key of what a panel draws: each event's mark, the exact path, the path so far,
+    the weight (the marks and the path in a neutral grey: a panel's are its run's colour)."""
+    from matplotlib.lines import Line2D
+
+    marks = [
+        Line2D([], [], ls="", marker=_EVENT_MARKERS[marker], color=KEY_COLOUR, ms=7, label=name)
+        for name, _, _, marker in EVENTS
+    ]
+    return [
+        *marks,
+        Line2D([], [], color="0.8", lw=2.5, label="exact path"),
+        Line2D([], [], color=KEY_COLOUR, lw=1.4, label="path so far (run's colour)"),
+        Line2D([], [], ls="", marker="o", color=WEIGHT_COLOUR, ms=6, label="weight"),
+    ]
 
 
 def hoop_gif(scene: Scene, motions: list[HoopMotion], out: str | Path) -> Path:
@@ -89,20 +119,33 @@ def hoop_gif(scene: Scene, motions: list[HoopMotion], out: str | Path) -> Path:
     a = scene.a
     x0 = min(float(m.x.min()) for m in motions) - 1.1 * a
     x1 = max(float(m.x.max()) for m in motions) + 1.1 * a
-    y1 = max(float(m.y.max()) for m in motions) + 2.0 * a
+    y1 = max(float(m.y.max()) for m in motions) + 1.1 * a
     limits = ((x0, x1), (-0.05 * a, y1))
     columns = min(GIF_COLUMNS, len(motions))
     rows = -(-len(motions) // columns)
-    width = 3.6 * columns
-    height = rows * 3.6 * (y1 + 0.05 * a) / (x1 - x0)
-    fig, axes = plt.subplots(rows, columns, figsize=(width, height), squeeze=False)
-    fig.subplots_adjust(left=0.01, right=0.99, top=0.99, bottom=0.01, hspace=0.04, wspace=0.02)
+    panel_in = _PANEL_WIDTH_IN * (y1 + 0.05 * a) / (x1 - x0)
+    height = rows * (panel_in + _LABEL_IN) + _KEY_IN
+    fig, axes = plt.subplots(
+        rows, columns, figsize=(_PANEL_WIDTH_IN * columns, height), squeeze=False
+    )
+    fig.subplots_adjust(
+        left=0.01,
+        right=0.99,
+        top=1.0 - _LABEL_IN / height,
+        bottom=_KEY_IN / height,
+        hspace=_LABEL_IN / panel_in,
+        wspace=0.04,
+    )
     panels = [
         _panel(ax, motion, motions[0], scene, limits)
         for ax, motion in zip(axes.ravel(), motions, strict=False)
     ]
     for ax in axes.ravel()[len(motions) :]:
         ax.set_axis_off()
+    fig.legend(
+        handles=key_handles(), loc="lower center", ncols=6, fontsize=8, frameon=False,
+        title="marks in each run's colour", title_fontsize=8, alignment="left",
+    )  # fmt: skip
     times = np.linspace(0.0, max(float(m.t[-1]) for m in motions), GIF_FRAMES)
 
     def frame(k: int) -> list:
@@ -113,6 +156,6 @@ def hoop_gif(scene: Scene, motions: list[HoopMotion], out: str | Path) -> Path:
     animation = FuncAnimation(fig, frame, frames=len(times), interval=_FRAME_MS, blit=False)
     out = Path(out)
     writer = PillowWriter(fps=1000 // _FRAME_MS)
-    written_whole(out, lambda tmp: animation.save(tmp, writer=writer, dpi=80))
+    written_whole(out, lambda tmp: animation.save(tmp, writer=writer, dpi=_DPI))
     plt.close(fig)
     return out

@@ -29,7 +29,15 @@ from hoopbench.reports.report.precision import (
     metric_runs,
     pareto_front,
 )
-from hoopbench.reports.report.stability import _COLOURS, Stability, stability_matrix
+from hoopbench.reports.report.stability import (
+    _COLOURS,
+    MatrixPanels,
+    Stability,
+    matrix_panels,
+    present_classes,
+    stability_matrix,
+    timestep_label,
+)
 
 __all__ = ["force_page_figure", "precision_page_figure", "stability_page_figure"]
 
@@ -211,54 +219,120 @@ def _target_line(target: float, k: int) -> dict:
 
 
 # --------------------------------------------------------------------------- stability
+_STABILITY_CELL_PX = (46, 21)
+"""A matrix cell on the page, (width, height) in pixels."""
+_STABILITY_TOP_PX = 58
+"""Above each panel: its scene, then its timesteps."""
+
+
 def stability_page_figure(runs: pd.DataFrame) -> Figure | None:
-    """The stability matrix (stability.png): a cell per (scene, engine) and timestep, coloured
-    by its class, with its text (class: figure) on hover."""
+    """The stability matrix (stability.png): the same panels, a heat map per scene, each
+    cell coloured by its class, with its text (class: figure) on hover; the timesteps on top
+    of every panel, the engines on the left of each row of panels."""
     table = stability_matrix(runs)
     if table.empty:
         return None
+    panels = matrix_panels(table)
     kinds = list(Stability)
-    cells = table.astype(object).where(table.notna(), "")
-    codes = cells.map(lambda c: kinds.index(Stability(str(c).split(":")[0])) if c else None)
     n = len(kinds)
     scale = []
     for k, kind in enumerate(kinds):  # a step per class: code k fills [k, k + 1) / n
         scale += [[k / n, _COLOURS[kind]], [(k + 1) / n, _COLOURS[kind]]]
-    labels = [f"{text(scene)} | {text(engine)}" for scene, engine in table.index]
-    hover = [[text(c) or "not run" for c in row] for row in cells.to_numpy()]
-    heatmap = {
-        "type": "heatmap",
-        "z": [[None if pd.isna(c) else int(c) for c in row] for row in codes.to_numpy()],
-        "x": [f"{dt:g}" for dt in table.columns],
-        "y": labels,
-        "text": hover,
-        "hovertemplate": "%{y}<br>dt %{x} s<br><b>%{text}</b><extra></extra>",
-        "colorscale": scale,
-        "zmin": 0,
-        "zmax": n,
-        "showscale": False,
-        "xgap": 1,
-        "ygap": 1,
+    n_rows = -(-len(panels.scenes) // panels.columns)
+    cell_w, cell_h = _STABILITY_CELL_PX
+    panel_w = cell_w * len(panels.timesteps)
+    panel_h = cell_h * len(panels.engines)
+    gap_w, row_px = 18, panel_h + _STABILITY_TOP_PX
+    plot_w = panels.columns * panel_w + (panels.columns - 1) * gap_w
+    plot_h = n_rows * row_px
+    engines = [text(e) for e in panels.engines]
+    steps = [timestep_label(dt) for dt in panels.timesteps]
+    data: list[dict] = []
+    layout: dict[str, Any] = {
+        # the page's width: the panels' fractions stretch the cells to it
+        "height": plot_h + 40,
+        "margin": {"t": 30, "b": 10, "l": 110, "r": 20},
+        "legend": {
+            "x": 1.0,
+            "y": 1,
+            "xanchor": "left",
+            "yanchor": "top",
+            "title": {"text": "class"},
+        },
+        "annotations": [],
+        "plot_bgcolor": "white",
     }
-    present = sorted({int(c) for c in codes.to_numpy().ravel() if pd.notna(c)})
-    legend = [  # a legend of the classes present: invisible points, one per class
+    for k, scene in enumerate(panels.scenes):
+        row, column = divmod(k, panels.columns)
+        x0 = column * (panel_w + gap_w) / plot_w
+        top = 1.0 - (row * row_px + _STABILITY_TOP_PX) / plot_h
+        x, y = _axis_name("x", k), _axis_name("y", k)
+        codes = panels.codes[scene]
+        data.append(
+            {
+                "type": "heatmap",
+                "z": [[None if c != c else int(c) for c in line] for line in codes],
+                "x": steps,
+                "y": engines,
+                "text": [[text(c) or "not run" for c in line] for line in panels.cells[scene]],
+                "hovertemplate": f"{text(scene)} | %{{y}}<br>dt %{{x}} s<br><b>%{{text}}</b>"
+                "<extra></extra>",
+                "colorscale": scale,
+                "zmin": 0,
+                "zmax": n,
+                "showscale": False,
+                "xgap": 1,
+                "ygap": 1,
+                "xaxis": x,
+                "yaxis": y,
+            }
+        )
+        layout[_axis_name("xaxis", k)] = {
+            "type": "category",
+            "side": "top",  # every panel's timesteps above it: no column unlabelled on screen
+            "domain": [x0, x0 + panel_w / plot_w],
+            "anchor": y,
+            "tickfont": {"size": 11},
+            "ticks": "",
+            "showgrid": False,
+        }
+        layout[_axis_name("yaxis", k)] = {
+            "type": "category",
+            "autorange": "reversed",
+            "domain": [top - panel_h / plot_h, top],
+            "anchor": x,
+            "showticklabels": column == 0,
+            "ticks": "",
+            "tickfont": {"size": 11},
+            "showgrid": False,
+        }
+        layout["annotations"].append(
+            {"text": f"<b>{text(scene)}</b>", "xref": "paper", "yref": "paper",
+             "x": x0 + panel_w / plot_w / 2, "y": top + 24 / plot_h, "yanchor": "bottom",
+             "showarrow": False, "font": {"size": 12}}
+        )  # fmt: skip
+    return {"data": [*data, *_stability_key(panels)], "layout": layout}
+
+
+def _stability_key(panels: MatrixPanels) -> list[dict]:
+    """A legend of the classes present and of a blank cell: invisible points, one each."""
+    present, blank = present_classes(panels)
+    colours = [(kind.value, _COLOURS[kind]) for kind in present]
+    if blank:
+        colours.append(("not run", "#ffffff"))
+    edge = {"color": "#999", "width": 1}
+    return [
         {
             "type": "scatter",
             "x": [None],
             "y": [None],
             "mode": "markers",
-            "marker": {"symbol": "square", "size": 12, "color": _COLOURS[kinds[c]]},
-            "name": kinds[c].value,
+            "marker": {"symbol": "square", "size": 12, "color": colour, "line": edge},
+            "name": name,
+            "hoverinfo": "skip",
         }
-        for c in present
+        for name, colour in colours
     ]
-    layout = {
-        "height": 120 + 22 * len(table),
-        "xaxis": {"type": "category", "title": {"text": "timestep (s)"}},
-        "yaxis": {"autorange": "reversed", "automargin": True, "type": "category"},
-        "margin": {"t": 30},
-    }
-    return {"data": [heatmap, *legend], "layout": layout}
 
 
 # --------------------------------------------------------------------------- contact forces

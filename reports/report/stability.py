@@ -6,9 +6,12 @@ limits are stated here once; the report's table and heat map read them from this
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from hoopbench.engines.judging.verdict import number_or_none
@@ -19,10 +22,14 @@ from hoopbench.reports.report.plotting import pyplot, save
 __all__ = [
     "ENERGY_GAIN_LIMIT",
     "PENETRATION_LIMIT",
+    "MatrixPanels",
     "Stability",
     "classify",
+    "matrix_panels",
+    "present_classes",
     "stability_figure",
     "stability_matrix",
+    "timestep_label",
 ]
 
 ENERGY_GAIN_LIMIT = 0.01
@@ -124,8 +131,67 @@ def _cell(kind: Stability, figure: str) -> str:
     return kind.value if not figure else f"{kind.value}: {figure}"
 
 
+def timestep_label(dt: float) -> str:
+    """A timestep as a column label short enough for a cell: 0.01, 0.001, 1e-4, 2.5e-5 (s)."""
+    if dt >= 1e-3:
+        return f"{dt:g}"
+    mantissa, exponent = f"{dt:.6e}".split("e")
+    return f"{mantissa.rstrip('0').rstrip('.')}e{int(exponent)}"
+
+
+@dataclass(frozen=True)
+class MatrixPanels:
+    """The matrix as small multiples, the PNG's and the page's: a panel per scene, each with
+    the same rows (every engine of the matrix, in its order) and columns (timesteps, coarse
+    to fine), so that a row or a column reads the same across panels."""
+
+    scenes: tuple[str, ...]
+    engines: tuple[str, ...]
+    timesteps: tuple[float, ...]
+    codes: Mapping[str, np.ndarray]
+    """Per scene, (engines x timesteps) index into list(Stability); NaN where not run."""
+    cells: Mapping[str, tuple[tuple[str, ...], ...]]
+    """Per scene, each cell's text ('class: figure'; '' where not run)."""
+    columns: int
+    """Panels per row."""
+
+
+PANEL_CELLS_PER_ROW = 20
+"""Timestep columns across the figure (all panels of a row): four timesteps, five panels."""
+
+
+def matrix_panels(table: pd.DataFrame) -> MatrixPanels:
+    """The panels of a :func:`stability_matrix` table (non-empty)."""
+    kinds = list(Stability)
+    scenes = tuple(dict.fromkeys(str(s) for s, _ in table.index))
+    engines = tuple(dict.fromkeys(str(e) for _, e in table.index))
+    timesteps = tuple(float(dt) for dt in table.columns)
+    codes: dict[str, np.ndarray] = {}
+    cells: dict[str, tuple[tuple[str, ...], ...]] = {}
+    for scene in scenes:
+        rows = table.xs(scene, level=0).reindex(list(engines))
+        text = rows.astype(object).where(rows.notna(), "")
+        cells[scene] = tuple(tuple(str(c) for c in row) for row in text.to_numpy())
+        codes[scene] = np.array(
+            [[kinds.index(Stability(c.split(":")[0])) if c else np.nan for c in row]
+             for row in cells[scene]],
+            dtype=float,
+        )  # fmt: skip
+    columns = max(1, min(len(scenes), PANEL_CELLS_PER_ROW // max(1, len(timesteps))))
+    return MatrixPanels(scenes, engines, timesteps, codes, cells, columns)
+
+
+def present_classes(panels: MatrixPanels) -> tuple[list[Stability], bool]:
+    """The classes the panels show, worst first, and whether a cell is blank (not run)."""
+    kinds = list(Stability)
+    values = np.concatenate([c.ravel() for c in panels.codes.values()])
+    present = sorted({kinds[int(c)] for c in values if c == c}, key=kinds.index)
+    return present, bool(np.isnan(values).any())
+
+
 def stability_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
-    """A heat map of the matrix (rows scene x engine, columns timestep), coloured by class."""
+    """The matrix (:func:`matrix_panels`) as a heat map per scene, coloured by class, each
+    panel's timesteps on top, the engines on the left of each row of panels."""
     plt = pyplot()
     from matplotlib.colors import ListedColormap
     from matplotlib.patches import Patch
@@ -133,33 +199,54 @@ def stability_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
     table = stability_matrix(runs)
     if table.empty:
         return None
+    panels = matrix_panels(table)
     kinds = list(Stability)
-    # An engine that runs only some of the suite's timesteps (the batched ones run 1e-3)
-    # leaves cells empty: drawn blank, "not run" in the legend.
-    codes = table.map(
-        lambda cell: kinds.index(Stability(cell.split(":")[0])) if isinstance(cell, str) else None
-    ).astype(float)
-    fig, ax = plt.subplots(figsize=(2.2 + 1.1 * len(table.columns), 1.0 + 0.28 * len(table)))
+    n_rows = -(-len(panels.scenes) // panels.columns)
+    cell_w, cell_h = 0.34, 0.2  # inches
+    width = 1.3 + panels.columns * (cell_w * len(panels.timesteps) + 0.15) + 1.7
+    panel_h = cell_h * len(panels.engines)
+    height = 0.5 + n_rows * (panel_h + 0.75)
+    fig, axes = plt.subplots(
+        n_rows, panels.columns, figsize=(width, height), squeeze=False, sharey=True
+    )
+    fig.subplots_adjust(
+        left=1.3 / width,
+        right=1.0 - 1.7 / width,
+        top=1.0 - 0.95 / height,
+        bottom=0.15 / height,
+        wspace=0.15 / (cell_w * len(panels.timesteps)),
+        hspace=0.75 / panel_h,
+    )
     cmap = ListedColormap([_COLOURS[k] for k in kinds])
     cmap.set_bad(_NOT_RUN)
-    ax.imshow(
-        codes.to_numpy(dtype=float), cmap=cmap, vmin=-0.5, vmax=len(kinds) - 0.5, aspect="auto"
-    )
-    ax.set_xticks(range(len(table.columns)), [f"{dt:g}" for dt in table.columns])
-    ax.set_yticks(range(len(table)), [f"{scene} | {engine}" for scene, engine in table.index])
-    ax.set_xlabel("timestep (s)")
-    ax.tick_params(labelsize=7)
-    values = codes.to_numpy().ravel()
-    present = sorted({kinds[int(c)] for c in values if c == c}, key=kinds.index)
+    labels = [timestep_label(dt) for dt in panels.timesteps]
+    for ax, scene in zip(axes.ravel(), panels.scenes, strict=False):
+        ax.imshow(
+            np.ma.masked_invalid(panels.codes[scene]), cmap=cmap, vmin=-0.5,
+            vmax=len(kinds) - 0.5, aspect="auto",
+        )  # fmt: skip
+        # The timesteps on top of every panel: a column reads on screen without scrolling.
+        ax.xaxis.tick_top()
+        ax.set_xticks(range(len(labels)), labels, fontsize=7)
+        ax.set_yticks(range(len(panels.engines)), panels.engines, fontsize=7)
+        ax.tick_params(length=0)
+        ax.set_xticks(np.arange(len(labels) + 1) - 0.5, minor=True)
+        ax.set_yticks(np.arange(len(panels.engines) + 1) - 0.5, minor=True)
+        ax.grid(which="minor", color="white", lw=0.8)
+        ax.tick_params(which="minor", length=0)
+        ax.set_title(scene, fontsize=9, pad=14)
+    for ax in axes.ravel()[len(panels.scenes) :]:
+        ax.set_visible(False)
+    present, blank = present_classes(panels)
     handles = [Patch(color=_COLOURS[k], label=k.value) for k in present]
-    if (values != values).any():
+    if blank:
         handles.append(Patch(facecolor=_NOT_RUN, edgecolor="#999999", label="not run"))
-    ax.legend(
-        handles=handles,
-        loc="upper left",
-        bbox_to_anchor=(1.01, 1.0),
-        fontsize=7,
+    fig.legend(handles=handles, loc="upper right", fontsize=8, frameon=False)
+    fig.suptitle(
+        "Stability on stiff and extreme scenes (default settings): a panel per scene, "
+        "timestep (s) across the top",
+        fontsize=10,
+        x=1.3 / width,
+        ha="left",
     )
-    ax.set_title("Stability on stiff and extreme scenes (default settings)", fontsize=9)
-    fig.tight_layout()
     return save(fig, out, dpi=110)
