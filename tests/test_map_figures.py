@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import re
 import shutil
 from collections import Counter
@@ -237,6 +238,41 @@ def test_every_verdict_and_regime_has_its_own_colour():
     assert len(set(map_figures.VERDICT_COLOURS.values())) == len(Verdict)
     assert set(map_figures.REGIME_COLOURS) == set(Regime)
     assert len(set(map_figures.REGIME_COLOURS.values())) == len(Regime)
+
+
+def _lab(colour: str) -> np.ndarray:
+    """CIELAB (D65) of an sRGB hex colour."""
+    rgb = np.array([int(colour[i : i + 2], 16) / 255 for i in (1, 3, 5)])
+    linear = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+    to_xyz = np.array(
+        [[0.4124564, 0.3575761, 0.1804375],
+         [0.2126729, 0.7151522, 0.0721750],
+         [0.0193339, 0.1191920, 0.9503041]]
+    )  # fmt: skip
+    xyz = to_xyz @ linear / np.array([0.95047, 1.0, 1.08883])
+    f = np.where(xyz > (6 / 29) ** 3, np.cbrt(xyz), xyz / (3 * (6 / 29) ** 2) + 4 / 29)
+    return np.array([116 * f[1] - 16, 500 * (f[0] - f[1]), 200 * (f[1] - f[2])])
+
+
+def delta_e(one: str, other: str) -> float:
+    """CIE76 colour difference: about 2.3 is just noticeable, 10 and more reads as another
+    colour at a glance."""
+    return float(np.linalg.norm(_lab(one) - _lab(other)))
+
+
+def test_the_verdict_colours_are_told_apart():
+    """Issue 35: hop-too-low's brown (#8C510A, delta E 32 from it, 8 from late-lift-off) read
+    as the regime "hops" vermillion, which the page's key lists beside it. Every two verdicts
+    at delta E 15 or more (the two greys of agrees and close: 14, on purpose), hop-too-low 50
+    or more from hops."""
+    assert delta_e(map_figures.VERDICT_COLOURS[Verdict.HOP_TOO_LOW],
+                   map_figures.REGIME_COLOURS[Regime.HOPS]) >= 50  # fmt: skip
+    greys = {Verdict.AGREES, Verdict.CLOSE}
+    for one, other in itertools.combinations(Verdict, 2):
+        if {one, other} == greys:
+            continue
+        distance = delta_e(map_figures.VERDICT_COLOURS[one], map_figures.VERDICT_COLOURS[other])
+        assert distance >= 15, (one, other, distance)
 
 
 def test_each_verdict_cell_is_drawn_in_its_verdicts_colour(tmp_path, monkeypatch):

@@ -74,16 +74,17 @@ VERDICT_COLOURS: dict[Verdict, str] = {
     Verdict.MISSED_HOP: "#E69F00",
     Verdict.MISSED_SLIP: "#0072B2",
     Verdict.FALSE_SLIP: "#56B4E9",
-    Verdict.HOP_TOO_LOW: "#8C510A",  # the hop family: oranges and browns
+    # the hop family: oranges and browns, a dark purple for the last of them
+    Verdict.HOP_TOO_LOW: "#543005",  # dark: far from the regime "hops" vermillion
     Verdict.HOP_TOO_HIGH: "#BF812D",
     Verdict.EARLY_LIFT_OFF: "#DFC27D",
-    Verdict.LATE_LIFT_OFF: "#A6611A",
+    Verdict.LATE_LIFT_OFF: "#7F3B08",
     Verdict.EARLY_IMPACT: "#F6E8C3",
-    Verdict.LATE_IMPACT: "#543005",
+    Verdict.LATE_IMPACT: "#3D1F4F",
     Verdict.EARLY_SLIP: "#009E73",  # the slip-onset pair: greens
     Verdict.LATE_SLIP: "#66C2A4",
     Verdict.WRONG_PHASES: "#F0E442",
-    Verdict.EARLY_TRANSITION: "#80CDC1",  # a later transition: teals, beside the slip onset
+    Verdict.EARLY_TRANSITION: "#35978F",  # a later transition: teals, beside the slip onset
     Verdict.LATE_TRANSITION: "#01665E",
     Verdict.CREEPS: "#1B7837",  # a dark green: sliding, as the slip family
     Verdict.CONE_VIOLATION: "#762A83",
@@ -92,8 +93,11 @@ VERDICT_COLOURS: dict[Verdict, str] = {
 }
 """One colour per verdict (every member of Verdict; the categorical map reads them in
 Verdict's order, whatever the order here): Okabe-Ito, with browns for the hop's size and
-times, greens for the slip onset and teals for the later transitions; ``agrees`` faint grey,
-``close`` a darker one."""
+times (and a dark purple: a seventh brown would be too near another), greens for the slip
+onset and teals for the later transitions; ``agrees`` faint grey, ``close`` a darker one.
+Any two differ by CIE76 delta E 15 or more (the two greys by 14), and ``hop-too-low`` is
+over 50 from the regime ``hops`` the page's key lists beside it
+(tests/test_map_figures.py)."""
 
 NOT_JUDGED = "#FFFFFF"
 """Cells with no verdict: the reference has no answer (degenerate, error), or the engine

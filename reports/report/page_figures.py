@@ -22,9 +22,17 @@ from hoopbench.reference.exact import solve_exact
 from hoopbench.reports.compare.selection import default_rows, engine_rows, reference_rows
 from hoopbench.reports.report.force_figures import CONE_YLIM, ForcePanel
 from hoopbench.reports.report.page_html import rounded, text
-from hoopbench.reports.report.palette import REFERENCE_COLOUR, engine_colours, profile_style
+from hoopbench.reports.report.palette import (
+    FRONT_ALPHA,
+    FRONT_COLOUR,
+    FRONT_WIDTH,
+    REFERENCE_COLOUR,
+    engine_colours,
+    profile_style,
+)
 from hoopbench.reports.report.precision import (
-    FLOOR,
+    ZERO_LABEL,
+    error_floor,
     figure_panels,
     metric_runs,
     pareto_front,
@@ -71,7 +79,7 @@ def _point_data(group: pd.DataFrame, unit: str) -> list[list[str]]:
     ]
 
 
-def _family_traces(points: pd.DataFrame, unit: str, k: int, shown: set[str]) -> list:
+def _family_traces(points: pd.DataFrame, unit: str, k: int, shown: set[str], floor: float) -> list:
     """One line per settings family of one panel, grouped in the legend by engine: the
     engine's colour (palette.py), the profile's dash and symbol; a family's legend entry is
     the first panel's (``shown``: the families with one)."""
@@ -88,7 +96,7 @@ def _family_traces(points: pd.DataFrame, unit: str, k: int, shown: set[str]) -> 
                 "type": "scatter",
                 "mode": "lines+markers",
                 "x": rounded(group["wall_time_s"]),
-                "y": rounded(group["error"].clip(lower=FLOOR)),
+                "y": rounded(group["error"].clip(lower=floor)),  # a zero on the edge
                 "customdata": _point_data(group, unit),
                 "hovertemplate": _HOVER,
                 "name": text(family),
@@ -105,17 +113,21 @@ def _family_traces(points: pd.DataFrame, unit: str, k: int, shown: set[str]) -> 
     return traces
 
 
-def _panel_extras(runs: pd.DataFrame, points: pd.DataFrame, scene: str, k: int) -> list[dict]:
-    """The Pareto front and the exact reference's star of one panel."""
+def _panel_extras(
+    runs: pd.DataFrame, points: pd.DataFrame, scene: str, k: int, floor: float
+) -> list[dict]:
+    """The Pareto front (palette.FRONT_COLOUR's band, under the runs) and the exact
+    reference's star (error 0: on the panel's bottom edge, ``floor``) of one panel."""
     front = pareto_front(engine_rows(points))
     axes = {"xaxis": _axis_name("x", k), "yaxis": _axis_name("y", k)}
     traces = [
         {
             "type": "scatter",
             "mode": "lines",
-            "line": {"shape": "hv", "dash": "dash", "color": "black"},
+            "line": {"shape": "hv", "color": FRONT_COLOUR, "width": FRONT_WIDTH},
+            "opacity": FRONT_ALPHA,
             "x": rounded(front["wall_time_s"]),
-            "y": rounded(front["error"].clip(lower=FLOOR)),
+            "y": rounded(front["error"].clip(lower=floor)),
             "name": "Pareto front",
             "legendgroup": "front",
             "showlegend": k == 0,
@@ -128,11 +140,14 @@ def _panel_extras(runs: pd.DataFrame, points: pd.DataFrame, scene: str, k: int) 
         traces.append(
             {
                 "type": "scatter",
-                "mode": "markers",
+                "mode": "markers+text",
                 "marker": {"symbol": "star", "size": 12, "color": REFERENCE_COLOUR},
+                "text": [ZERO_LABEL],
+                "textposition": "top right",
+                "cliponaxis": False,  # on the edge, whole
                 "x": [float(reference["wall_time_s"].min())],
-                "y": [FLOOR],
-                "name": "exact reference",
+                "y": [floor],
+                "name": "exact reference (error 0: on the bottom edge)",
                 "legendgroup": "reference",
                 "showlegend": k == 0,
                 "hovertemplate": "exact reference: solve %{x:.3g} s<extra></extra>",
@@ -173,13 +188,17 @@ def precision_page_figure(runs: pd.DataFrame) -> Figure | None:
     shown: set[str] = set()
     for k, (metric, scene) in enumerate(panels):
         points = metric_runs(runs, metric, scene)
-        traces += _family_traces(points, metric.unit, k, shown)
-        traces += _panel_extras(runs, points, scene, k)
+        floor = error_floor(engine_rows(points)["error"])
+        # the front first: drawn under the runs
+        traces += _panel_extras(runs, points, scene, k, floor)
+        traces += _family_traces(points, metric.unit, k, shown, floor)
         x, y = _axis_name("xaxis", k), _axis_name("yaxis", k)
         # powers of ten, as the PNG's axes (plotly's default writes 1µ for 1e-6)
         log = {"type": "log", "exponentformat": "power"}
         layout[x] = {**log, "title": {"text": "wall time of the run (s)"}}
-        layout[y] = {**log, "title": {"text": f"|error| ({metric.unit})"}}
+        top = max(float(points["error"].max()), metric.target, floor) * 3.0
+        layout[y] = {**log, "title": {"text": f"|error| ({metric.unit})"},
+                     "range": [float(np.log10(floor)), float(np.log10(top))]}  # fmt: skip
         layout["annotations"].append(_panel_title(f"{scene}: {metric.label}", k))
         layout["shapes"].append(_target_line(metric.target, k))
     layout["updatemenus"] = [

@@ -4,7 +4,8 @@ A figure never colours a line by its position among the traces: an engine's colo
 up here by its name (:func:`engine_colours`), so MuJoCo is the same blue in the error-against-
 time plot, the clearance plot, the contact forces and the animation. The profile is the line
 style and marker (:data:`PROFILE_STYLES`); the exact reference is always black and dashed
-(:data:`REFERENCE_COLOUR`, :data:`REFERENCE_DASH`).
+(:data:`REFERENCE_COLOUR`, :data:`REFERENCE_DASH`), and nothing else is; a Pareto front is a
+wide translucent grey band under the runs (:data:`FRONT_COLOUR`).
 
 The ten engines hoopbench ships have fixed colours (mostly matplotlib's and plotly's own
 categorical ten, so a reader who knows them reads them). An engine from a plugin, or a name in
@@ -25,6 +26,9 @@ from hoopbench.engines.run import REFERENCE_ENGINE
 __all__ = [
     "ENDED_COLOUR",
     "ENGINE_COLOURS",
+    "FRONT_ALPHA",
+    "FRONT_COLOUR",
+    "FRONT_WIDTH",
     "HOOP_COLOUR",
     "PROFILE_STYLES",
     "REFERENCE_COLOUR",
@@ -41,6 +45,13 @@ REFERENCE_COLOUR = "#000000"
 
 REFERENCE_DASH = (0, (5, 2))
 """The exact reference's line: dashed (matplotlib's dash pattern; the page's is 'dash')."""
+
+FRONT_COLOUR = "#7f7f7f"
+FRONT_ALPHA = 0.4
+FRONT_WIDTH = 6.0
+"""A Pareto front: a solid grey band this wide (points in matplotlib, pixels in plotly), this
+opaque, drawn under the runs' lines: unlike the exact reference's black dashes and unlike any
+engine's thin coloured line, and the runs it joins still show through it."""
 
 HOOP_COLOUR = "#555555"
 """A hoop and its spoke in the animations: a neutral grey, so that the only colour of a panel

@@ -3,7 +3,8 @@
 One curve per settings family (engine, profile, variant) with the timesteps along it, the
 Pareto front over all runs (no cheaper run is as accurate), and the cheapest run that meets
 each stated accuracy. The reference is one point at its own solve time: its error is zero
-against itself, drawn at the bottom of the axis.
+against itself, which a log axis cannot show, so it is drawn on the panel's bottom edge
+(:func:`error_floor`, a decade below the smallest error drawn) and labelled "error 0".
 """
 
 from __future__ import annotations
@@ -23,14 +24,23 @@ from hoopbench.reports.compare.selection import (
     profile_of,
     reference_rows,
 )
-from hoopbench.reports.report.palette import REFERENCE_COLOUR, engine_colours, profile_style
+from hoopbench.reports.report.palette import (
+    FRONT_ALPHA,
+    FRONT_COLOUR,
+    FRONT_WIDTH,
+    REFERENCE_COLOUR,
+    engine_colours,
+    profile_style,
+)
 from hoopbench.reports.report.plotting import pyplot, save
 
 __all__ = [
     "FLOOR",
     "METRICS",
+    "ZERO_LABEL",
     "Metric",
     "cheapest_runs",
+    "error_floor",
     "figure_panels",
     "metric_runs",
     "pareto_front",
@@ -70,7 +80,21 @@ FIGURE_SCENES = ("seed-mu", "hop-top", "hop-bottom")
 """Scenes the figure prefers, in order, for each metric."""
 
 FLOOR = 1e-6
-"""Where an error of exactly zero (the reference against itself) is drawn on log axes."""
+"""A panel's bottom edge when it has no error above zero (:func:`error_floor`)."""
+
+ZERO_LABEL = "error 0"
+"""Beside a point drawn on a panel's bottom edge: its error is zero, not the edge's value."""
+
+
+def error_floor(errors: pd.Series) -> float:
+    """A log panel's bottom edge: the power of ten a decade below its smallest error above
+    zero (FLOOR if there is none). An error of zero (the reference's against itself) is drawn
+    there, on the edge, labelled; no error above zero is below it."""
+    positive = pd.to_numeric(errors, errors="coerce")
+    positive = positive[positive > 0]
+    if positive.empty:
+        return FLOOR
+    return float(10.0 ** (np.floor(np.log10(float(positive.min()))) - 1))
 
 
 def _family(frame: pd.DataFrame) -> pd.Series:
@@ -164,13 +188,14 @@ def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
     for ax, (metric, scene) in zip(axes.ravel(), panels, strict=False):
         points = _metric_runs(runs, metric, scene)
         engines = engine_rows(points)
+        floor = error_floor(engines["error"])
         profiles |= set(engines["profile"].astype(str))
         for family, group in engines.groupby("family", sort=True):
             group = group.sort_values("wall_time_s")
             style = profile_style(str(group["profile"].iloc[0]))
             ax.plot(
                 group["wall_time_s"],
-                group["error"].clip(lower=FLOOR),
+                group["error"].clip(lower=floor),  # a zero on the edge: none is below
                 color=colours[str(group["engine"].iloc[0])],
                 ls=style.matplotlib_dash,
                 marker=style.marker,
@@ -180,26 +205,23 @@ def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
             )
         reference = reference_rows(runs[runs["scene"] == scene])
         if len(reference):
-            ax.plot(
-                reference["wall_time_s"].min(),
-                FLOOR,
-                "*",
-                color=REFERENCE_COLOUR,
-                ms=10,
-                label="exact reference",
-            )
+            _zero_point(ax, float(reference["wall_time_s"].min()), floor)
         front = pareto_front(engines)
         ax.step(
             front["wall_time_s"],
-            front["error"].clip(lower=FLOOR),
-            "k--",
+            front["error"].clip(lower=floor),
             where="post",
-            lw=1.2,
+            color=FRONT_COLOUR,
+            alpha=FRONT_ALPHA,
+            lw=FRONT_WIDTH,
+            solid_capstyle="butt",
+            zorder=1,  # under the runs it joins
             label="Pareto front",
         )
         ax.axhline(metric.target, color="grey", lw=0.8, ls=":")
         ax.set_xscale("log")
         ax.set_yscale("log")
+        ax.set_ylim(bottom=floor)
         # A narrow range labels its minor ticks too, and they overlap: majors only.
         ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel("wall time of the run (s)")
@@ -216,6 +238,14 @@ def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
     return save(fig, out, dpi=100)
 
 
+def _zero_point(ax, wall_time_s: float, floor: float) -> None:
+    """The exact reference's star: error zero, on the panel's bottom edge (``floor``), not
+    clipped by it, and labelled so (a log axis has no zero)."""
+    ax.plot(wall_time_s, floor, "*", color=REFERENCE_COLOUR, ms=11, clip_on=False, zorder=5)
+    ax.annotate(ZERO_LABEL, (wall_time_s, floor), xytext=(7, 4), textcoords="offset points",
+                fontsize=7, va="bottom")  # fmt: skip
+
+
 def _legend_handles(colours: dict[str, str], profiles: list[str]) -> list:
     """One legend for the figure: an entry per engine (its colour), per profile (its line
     style and marker), the reference, the front and the target."""
@@ -229,8 +259,23 @@ def _legend_handles(colours: dict[str, str], profiles: list[str]) -> list:
                    label=profile)
         )  # fmt: skip
     handles += [
-        Line2D([], [], color=REFERENCE_COLOUR, marker="*", ls="", ms=9, label="exact reference"),
-        Line2D([], [], color="k", ls="--", label="Pareto front (no cheaper run as accurate)"),
+        Line2D(
+            [],
+            [],
+            color=REFERENCE_COLOUR,
+            marker="*",
+            ls="",
+            ms=9,
+            label="exact reference (error 0: on the bottom edge)",
+        ),
+        Line2D(
+            [],
+            [],
+            color=FRONT_COLOUR,
+            alpha=FRONT_ALPHA,
+            lw=FRONT_WIDTH,
+            label="Pareto front (no cheaper run as accurate)",
+        ),
         Line2D([], [], color="grey", ls=":", lw=0.8, label="target of the cheapest-run table"),
     ]
     return handles

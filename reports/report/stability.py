@@ -217,8 +217,7 @@ def stability_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
         wspace=0.15 / (cell_w * len(panels.timesteps)),
         hspace=0.75 / panel_h,
     )
-    cmap = ListedColormap([_COLOURS[k] for k in kinds])
-    cmap.set_bad(_NOT_RUN)
+    cmap = ListedColormap([_COLOURS[k] for k in kinds]).with_extremes(bad=_NOT_RUN)
     labels = [timestep_label(dt) for dt in panels.timesteps]
     for ax, scene in zip(axes.ravel(), panels.scenes, strict=False):
         ax.imshow(
