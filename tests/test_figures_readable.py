@@ -76,6 +76,7 @@ def test_the_animation_and_the_force_figure_draw_every_engine_that_ran(suite):
     assert names == ["exact", *ONE_WORLD, *(f"{e} (dt 0.001 s)" for e in BATCHED)]
     (panel,) = [p for p in force_panels(suite) if p.name == "hop-top"]
     assert set(panel.runs) == {*ONE_WORLD, *BATCHED}  # the exact curve is drawn on its own
+    assert [panel.label(e) for e in ("mujoco", "mjx")] == ["mujoco", "mjx (dt 0.001 s)"]
 
 
 def _motions(suite):

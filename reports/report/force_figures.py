@@ -9,7 +9,7 @@ solver's for the scene and the runs' mu.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +35,13 @@ class ForcePanel:
     scene: Scene
     mu: float
     runs: Mapping[str, Trajectory]
+    timesteps: Mapping[str, float] = field(default_factory=dict)
+    """s, by engine: the runs drawn at another timestep than the default (the legend says)."""
+
+    def label(self, engine: str) -> str:
+        """An engine's legend entry: its name, and its timestep where it is not the default."""
+        dt = self.timesteps.get(engine)
+        return engine if dt is None else f"{engine} (dt {dt:g} s)"
 
 
 def _cone_share(n: NDArray, f: NDArray, mu: float) -> NDArray:
@@ -54,9 +61,10 @@ def _draw_panel(top, bottom, panel: ForcePanel) -> None:
     for label, traj in panel.runs.items():
         keep = traj.t <= t_end
         t, n, f = traj.t[keep], traj.normal_force[keep], traj.friction_force[keep]
-        top.plot(t, n / g, label=label, lw=0.8, alpha=0.8, color=colours[label])
+        name = panel.label(label)
+        top.plot(t, n / g, label=name, lw=0.8, alpha=0.8, color=colours[label])
         share = _cone_share(n, f, panel.mu)
-        bottom.plot(t, share, label=label, lw=0.8, alpha=0.8, color=colours[label])
+        bottom.plot(t, share, label=name, lw=0.8, alpha=0.8, color=colours[label])
     exact_style = {"color": REFERENCE_COLOUR, "ls": REFERENCE_DASH}
     top.plot(exact.t, exact.normal_force / g, **exact_style, lw=1.2, label="exact")
     bottom.plot(

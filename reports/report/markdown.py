@@ -522,9 +522,11 @@ def force_panels(runs: pd.DataFrame) -> list[ForcePanel]:
             continue
         scene = get_scene(name)
         mu = pd.to_numeric(rows["mu"], errors="coerce").dropna()
-        panels.append(
-            ForcePanel(name, scene, float(mu.iloc[0]) if len(mu) else scene.mus, trajectories)
-        )
+        drawn = drawn_rows(runs, name)
+        other = drawn[drawn["timestep"] != DEFAULT_TIMESTEP]
+        timesteps = dict(zip(other["engine"], other["timestep"].astype(float), strict=True))
+        mu_drawn = float(mu.iloc[0]) if len(mu) else scene.mus
+        panels.append(ForcePanel(name, scene, mu_drawn, trajectories, timesteps))
     return panels
 
 

@@ -404,7 +404,7 @@ def _force_traces(panel: ForcePanel, column: int, columns: int, colours: dict[st
             "type": "scatter",
             "mode": "lines",
             "line": line,
-            "name": text(name),
+            "name": text(name if is_exact else panel.label(name)),
         }
         common |= {"legendgroup": text(name), "x": rounded(t[index])}
         traces.append({**common, **top, "y": rounded(n[index] / g), "showlegend": column == 0})
