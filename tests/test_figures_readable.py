@@ -63,6 +63,7 @@ def test_every_engine_that_ran_is_drawn_at_the_default_timestep_where_it_ran_the
     assert set(drawn_trajectories(suite, "hop-top")) == set(chosen)
     note = timestep_note(rows)
     assert note == "dt = 0.0001 s; mjx, mjwarp, newton at 0.001 s (none stored at 0.0001 s)"
+    assert timestep_note(pd.concat([rows, rows])) == note  # two scenes' rows: each name once
 
 
 def test_the_animation_and_the_force_figure_draw_every_engine_that_ran(suite):

@@ -45,15 +45,15 @@ def drawn_trajectories(runs: pd.DataFrame, scene_name: str) -> dict[str, Traject
 
 
 def timestep_note(rows: pd.DataFrame) -> str:
-    """Which timestep the drawn ``rows`` ran at: ``dt = 0.0001 s`` when every run ran at the
+    """Which timestep the drawn ``rows`` (of one scene or several) ran at: ``dt = 0.0001 s`` when every run ran at the
     default, else also the others' (``dt = 0.0001 s; mjx, newton at 0.001 s (none stored at
     0.0001 s)``)."""
     timestep = pd.to_numeric(rows["timestep"], errors="coerce")
     others = rows[timestep != DEFAULT_TIMESTEP]
     note = f"dt = {DEFAULT_TIMESTEP:g} s"
-    by_step: dict[float, list[str]] = {}
+    by_step: dict[float, dict[str, None]] = {}  # rows of several scenes name an engine once
     for _, row in others.iterrows():
-        by_step.setdefault(float(row["timestep"]), []).append(str(row["engine"]))
+        by_step.setdefault(float(row["timestep"]), {})[str(row["engine"])] = None
     for step, engines in sorted(by_step.items()):
         note += f"; {', '.join(engines)} at {step:g} s (none stored at {DEFAULT_TIMESTEP:g} s)"
     return note
