@@ -45,9 +45,9 @@ def drawn_trajectories(runs: pd.DataFrame, scene_name: str) -> dict[str, Traject
 
 
 def timestep_note(rows: pd.DataFrame) -> str:
-    """Which timestep the drawn ``rows`` (of one scene or several) ran at: ``dt = 0.0001 s`` when every run ran at the
-    default, else also the others' (``dt = 0.0001 s; mjx, newton at 0.001 s (none stored at
-    0.0001 s)``)."""
+    """Which timestep the drawn ``rows`` (of one scene or several) ran at: ``dt = 0.0001 s``
+    when every run ran at the default, else also the others' (``dt = 0.0001 s; mjx, newton
+    at 0.001 s (none stored at 0.0001 s)``)."""
     timestep = pd.to_numeric(rows["timestep"], errors="coerce")
     others = rows[timestep != DEFAULT_TIMESTEP]
     note = f"dt = {DEFAULT_TIMESTEP:g} s"
