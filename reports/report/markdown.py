@@ -380,8 +380,9 @@ def _run_time_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[Path]]:
             "",
             "Each event's |error| against the run's wall time (log axes): one curve per "
             "settings family with its timesteps along it, the Pareto front (no cheaper run is "
-            "as accurate, dashed), the target of the table below (dotted), and the exact "
-            "reference as a star at its own solve time.",
+            "as accurate: the wide grey band), the target of the table below (dotted), and the "
+            "exact reference as a star at its own solve time, on the panel's bottom edge: its "
+            'error is zero, which a log axis cannot show ("error 0").',
             "",
             f"![event errors against run time]({figure.name})" if figure else "",
             "",
@@ -704,7 +705,9 @@ def _stability_matrix_section(runs: pd.DataFrame, out: Path) -> tuple[str, list[
         f"Each cell is the worst of: diverged (NaN, or stopped by the divergence check), "
         f"energy gain (over {100 * ENERGY_GAIN_LIMIT:g} % before the first slip), deep "
         f"penetration (over {100 * PENETRATION_LIMIT:g} % of the radius), wrong outcome "
-        "(against the exact reference), timeout, crashed; ok otherwise. Default settings.",
+        "(against the exact reference), timeout, crashed; ok otherwise. Default settings. "
+        "The figure: a panel per scene, its timesteps (s) along the top, coarse to fine, the "
+        "engines down the side; a blank cell: that engine did not run at that timestep.",
         "",
         f"![stability matrix]({figure.name})" if figure else "",
         "",
@@ -775,8 +778,8 @@ def _figures_section(figures: Sequence[Path]) -> str:
         "",
         f"Default settings, tuned, every engine that ran the scene with its trajectory stored "
         f"(`--trajectories default`): at dt = {DEFAULT_TIMESTEP:g} s, or where an engine has "
-        "no run stored there (the batched engines run 1e-3 s only) at its finest stored "
-        "timestep, which each figure's title names.",
+        "no run stored there at its finest stored timestep, which each figure's title "
+        "names.",
         "",
     ]
     for figure in figures:
