@@ -21,6 +21,8 @@ __all__ = ["drawn_rows", "drawn_trajectories", "timestep_note"]
 def drawn_rows(runs: pd.DataFrame, scene_name: str) -> pd.DataFrame:
     """The tuned default-settings rows of ``scene_name`` with a stored trajectory, one per
     engine: its row at DEFAULT_TIMESTEP if it has one, else its row at its finest timestep."""
+    if "trajectory_file" not in runs.columns:  # a hand-made table: nothing stored to draw
+        return runs.iloc[0:0]
     rows = default_rows(runs)
     rows = rows[(rows["scene"] == scene_name) & (profile_of(rows) == str(Profile.TUNED))]
     stored = rows["trajectory_file"].map(lambda p: isinstance(p, str) and bool(p))
