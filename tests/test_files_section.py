@@ -79,3 +79,10 @@ def test_no_trajectories_no_note(folder):
     text = files_section(out, [suite])
     assert "The trajectories" not in text
     assert "trajectories/" not in text
+
+
+def test_a_report_written_into_its_results_folder_says_its_trajectories_share(folder):
+    _, suite, _ = folder
+    text = files_section(suite, [suite])  # `hoopbench report --results DIR`: out is DIR
+    assert "[trajectories/](trajectories/) (3 files, 3.0 MB)" in text
+    assert "The trajectories (trajectories/) are 3.0 MB of the folder's 3.0 MB" in text

@@ -178,5 +178,6 @@ def files_section(out: Path, results: Sequence[Path] = ()) -> str:
             _link(os.path.relpath(r, out) + "/", os.path.relpath(r, out) + "/") for r in outer
         )
         lines += ["", f"Results read from outside this folder: {links}."]
-    lines += _trajectory_note(out, inner)
+    own = [r for r in results if r.resolve() == out.resolve()]  # a report into its results
+    lines += _trajectory_note(out, [*own[:1], *inner])
     return "\n".join(lines) + "\n"
