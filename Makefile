@@ -53,10 +53,20 @@ SEARCHES ?= reports/tune/searches
 SEARCH_DIRS = $(patsubst %/tune.json,%,$(sort $(wildcard $(SEARCHES)/*/tune.json)))
 SEARCH_FILES := tune.json front.csv trials.csv settings.toml
 
+# A small hop map (docs/map.md): where each engine's verdict departs from the exact one
+# across the lam-chi plane, the one figure that shows where engines fail between the suites'
+# named scenes. The default 10 x 10 grid of the three engines that step it cheapest per point
+# (MuJoCo, PyBullet, pymunk at 1e-4 s; MJX and Newton, in `hoopbench map`'s default list,
+# would add about 90 s on a CPU): its cost is in the README. MAP_ARGS= with no value leaves
+# the map out; MAP_ARGS="--grid 40x40" draws a finer one (about 10 minutes).
+MAP_ARGS ?= --grid 10x10 --engines mujoco pybullet pymunk
+
 # The default suite, the scenes its timesteps cannot resolve at a finer one (finer.toml),
-# and the stiff and extreme scenes; then one report of all three and the shipped searches.
-# Each step says on stderr which it is (suite k of 3, then the report); each suite's lines
-# then count its runs with an ETA from their expected costs, the report's say what it draws.
+# the stiff and extreme scenes and the small hop map; then one report of them all and the
+# shipped searches. Each step says on stderr which it is (suite k of 3, the map, then the
+# report); each suite's lines then count its runs with an ETA from their expected costs, the
+# map's its runs, the report's say what it draws.
+MAP_DIR = $(if $(strip $(MAP_ARGS)),$(OUT)/map)
 report: $(REPORT_STAMP)
 	@echo "make report: suite 1 of 3 (default) -> $(OUT)/default" >&2
 	$(BIN)/hoopbench compare --suite default --out $(OUT)/default --trajectories default
@@ -64,8 +74,10 @@ report: $(REPORT_STAMP)
 	$(BIN)/hoopbench compare --suite finer --out $(OUT)/finer
 	@echo "make report: suite 3 of 3 (stability) -> $(OUT)/stability" >&2
 	$(BIN)/hoopbench compare --suite stability --out $(OUT)/stability
-	@echo "make report: the report of the 3 suites -> $(OUT)" >&2
-	$(BIN)/hoopbench report --results $(OUT)/default $(OUT)/finer $(OUT)/stability \
+	$(if $(MAP_DIR),@echo "make report: the hop map ($(MAP_ARGS)) -> $(MAP_DIR)" >&2)
+	$(if $(MAP_DIR),$(BIN)/hoopbench map $(MAP_ARGS) --out $(MAP_DIR))
+	@echo "make report: the report of the 3 suites$(if $(MAP_DIR), and the map) -> $(OUT)" >&2
+	$(BIN)/hoopbench report --results $(OUT)/default $(OUT)/finer $(OUT)/stability $(MAP_DIR) \
 		$(SEARCH_DIRS) $(or $(wildcard $(BENCH_OUT)),$(BENCH_SHIPPED)) --out $(OUT)
 
 # A search of each engine's settings (docs/tune.md), into $(OUT)/tune/<engine>: each may

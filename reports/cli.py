@@ -814,10 +814,17 @@ _TRAJECTORY_SUFFIXES = (".csv", ".parquet")
 
 def _engine_options(p: argparse.ArgumentParser, engines: Sequence[str]) -> None:
     geometries = sorted({g for cls in engine_classes().values() for g in cls.geometries})
-    p.add_argument("--engine", required=True, choices=engines)
+    p.add_argument("--engine", required=True, choices=engines, help="the engine to run")
     p.add_argument("--dt", type=_number, help=f"engine timestep, s (default {DEFAULT_TIMESTEP:g})")
     p.add_argument("--mu", type=_number, help="pair friction coefficient (default: mus)")
-    p.add_argument("--restitution", type=_number, default=0.0)
+    p.add_argument(
+        "--restitution",
+        type=_number,
+        default=0.0,
+        help="coefficient of restitution of the hoop-floor pair, 0 to 1 (default 0, every "
+        "suite's; MuJoCo, MJX, MuJoCo Warp, Drake and Box2D refuse any other value; the "
+        "reference, whose window ends at the first impact, and Newton's adapter ignore it)",
+    )
     p.add_argument(
         "--geometry", default="sphere", help=f"contact geometry: {', '.join(geometries)}"
     )
@@ -918,16 +925,26 @@ def _add_map_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress output")
 
 
+METHODS = ("exact", "seed-euler")
+METHOD_HELP = (
+    "exact: the exact solution (default); seed-euler: the seed document's fixed-step scheme "
+    "for the slipping phase (docs/reference.md)"
+)
+"""The reference's two solvers: `reference` and `figure` offer both."""
+
+
 def _add_scenes(sub: Any, classes: Mapping[str, Any]) -> None:
     p = sub.add_parser("scenes", help="list the scene catalogue")
-    p.add_argument("--json", action="store_true")
+    p.add_argument(
+        "--json", action="store_true", help="print one JSON object: each scene's parameters"
+    )
     p.set_defaults(func=_cmd_scenes)
 
 
 def _add_reference(sub: Any, classes: Mapping[str, Any]) -> None:
     p = sub.add_parser("reference", help="solve a scene with the reference solver")
     _add_scene_options(p)
-    p.add_argument("--method", choices=("exact", "seed-euler"), default="exact")
+    p.add_argument("--method", choices=METHODS, default="exact", help=METHOD_HELP)
     p.add_argument("--dt", type=_seconds, help="seed-euler step (default 0.002 s); CSV sampling")
     p.add_argument("--delta", type=_number, default=1e-4, help="seed-euler contact tolerance, m")
     p.add_argument("--rtol", type=_number, default=DEFAULT_RTOL, help="exact: integrator rtol")
@@ -985,8 +1002,8 @@ def _add_model(sub: Any, classes: Mapping[str, Any]) -> None:
 
 def _add_settings(sub: Any, classes: Mapping[str, Any]) -> None:
     p = sub.add_parser("settings", help="print the default contact and detector settings")
-    p.add_argument("--engine", choices=tuple(classes))
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--engine", choices=tuple(classes), help="this engine's alone (default: all)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=_cmd_settings)
 
 
@@ -1075,7 +1092,7 @@ def _add_findings(sub: Any, classes: Mapping[str, Any]) -> None:
 def _add_figure(sub: Any, classes: Mapping[str, Any]) -> None:
     p = sub.add_parser("figure", help="draw a hoop trajectory (weight and hoop positions)")
     _add_scene_options(p)
-    p.add_argument("--method", choices=("exact", "seed-euler"), default="exact")
+    p.add_argument("--method", choices=METHODS, default="exact", help=METHOD_HELP)
     p.add_argument("--out", default="hoop.png", help="image file (.png, .pdf or .svg)")
     p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
     p.set_defaults(func=_cmd_figure)
@@ -1087,7 +1104,12 @@ def _add_tune(sub: Any, classes: Mapping[str, Any]) -> None:
     p = sub.add_parser(
         "tune", help="search an engine's settings, error against cost (needs the tune extra)"
     )
-    p.add_argument("--engine", required=True, choices=[n for n in classes if n != "reference"])
+    p.add_argument(
+        "--engine",
+        required=True,
+        choices=[n for n in classes if n != "reference"],
+        help="the engine whose settings to search",
+    )
     p.add_argument("--out", required=True, type=_folder, help="search folder (new, or --resume)")
     p.add_argument(
         "--scenes", nargs="+", metavar="NAME", help="training scenes (default: the catalogue's)"

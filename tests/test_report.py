@@ -335,3 +335,15 @@ def test_figures_drawn_say_each_group_as_it_ends():
     assert _drawn([(pow, (2, k)) for k in range(3)], said.append) == [1, 2, 4]
     assert said[0] == "drawing 3 figure groups in 2 process(es)"
     assert sorted(said[1:]) == ["figures 1/3: pow", "figures 2/3: pow", "figures 3/3: pow"]
+
+
+@pytest.mark.slow  # the quick suite, about 10 s once per module
+def test_the_files_section_links_every_file_the_report_folder_holds(quick_report):
+    """Written last, report.html included: every link of the Files section leads to a file,
+    and every file of the folder (here the results folder itself) has its link."""
+    out, report = quick_report
+    files = report.read_text().split("\n## Files\n", 1)[1]
+    targets = {m.rstrip("/") for m in re.findall(r"\]\(([^)]+)\)", files)}
+    assert all((out / t).exists() for t in targets), targets
+    present = {p.name for p in out.iterdir() if not p.name.startswith(".")}
+    assert present <= targets

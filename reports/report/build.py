@@ -27,7 +27,7 @@ from hoopbench.reports.report.best_settings import (
 )
 from hoopbench.reports.report.map_section import is_map_folder, map_prefixes, map_sections
 from hoopbench.reports.report.markdown import Say, SuiteMachine, write_markdown
-from hoopbench.reports.report.page import write_page
+from hoopbench.reports.report.page import write_gif, write_page
 from hoopbench.reports.report.plotting import plain_text
 from hoopbench.reports.sweep import results
 from hoopbench.reports.sweep.folder_files import (
@@ -122,6 +122,8 @@ def build_report(
         if benches:
             extra.append(batch_cost_section(benches))
         machines = [_suite_machine(d) for d in plain]
+        # The animation before report.md, whose Files section lists what the folder holds.
+        write_gif(frame, out, say)
         report = write_markdown(
             frame,
             out,
@@ -129,6 +131,7 @@ def build_report(
             extra=extra,
             searches=found,
             machines=machines,
+            results_dirs=dirs,
             say=say,
         )
         prefixes = map_prefixes(len(maps))

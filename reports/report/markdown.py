@@ -41,6 +41,7 @@ from hoopbench.reports.report.best_settings import BestSettings
 from hoopbench.reports.report.drawn import drawn_rows, drawn_trajectories, timestep_note
 from hoopbench.reports.report.escaping import escape_cell, escape_text, file_stem
 from hoopbench.reports.report.figures import events_figure, hoop_figure, paths_figure
+from hoopbench.reports.report.files_section import files_section
 from hoopbench.reports.report.findings import (
     KEY_FINDINGS,
     MORE_FINDINGS,
@@ -855,15 +856,6 @@ FIGURE_WORKERS = 2
 """Processes that draw a report's figures (the machines this runs on have 2 cores)."""
 
 
-def _files_section() -> str:
-    return _section(
-        "## Files",
-        "",
-        "- `runs.csv`, `runs.parquet`: one row per run, one column per variable.",
-        "- `trajectories/`: the default-setting trajectories (Parquet, normalised columns).",
-    )
-
-
 # --------------------------------------------------------------------------- the report
 def write_markdown(
     frame: pd.DataFrame,
@@ -873,6 +865,7 @@ def write_markdown(
     extra: Sequence[str] = (),
     searches: Sequence[BestSettings] = (),
     machines: Sequence[SuiteMachine] = (),
+    results_dirs: Sequence[Path] = (),
     say: Say | None = None,
 ) -> Path:
     """Write out/report.md with tables and PNG figures; return its path. ``frame`` is unchanged.
@@ -880,8 +873,10 @@ def write_markdown(
 
     ``extra``: finished sections of other results (the hop maps', the Best settings), placed
     before the Files section; with an empty ``frame`` the report holds its title and those alone.
-    ``searches``: the shipped searches, whose settings the answer weighs too. ``say`` hears
-    what it is doing, a line a step (:data:`Say`).
+    ``searches``: the shipped searches, whose settings the answer weighs too.
+    ``results_dirs``: the folders the report reads, listed in its Files section with what
+    ``out`` holds once the figures are drawn. ``say`` hears what it is doing, a line a step
+    (:data:`Say`).
     """
     out = Path(out)
     if frame.empty:  # hop maps alone: no runs table to make sections of
@@ -926,7 +921,7 @@ def write_markdown(
         *extra,
         _all_findings_section(everything),
         _platform_section(everything, generated, machines),
-        _files_section(),
+        files_section(out, results_dirs),
     ]
     text = "\n".join(section for section in sections if section)
     # Whole or not at all: a full disk keeps the report.md before (--force) as it was.

@@ -24,6 +24,7 @@ from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.models.catalogue import get_scene, scene_names
 from hoopbench.reports.report.best_settings import BestSettings, figure_name
 from hoopbench.reports.report.drawn import drawn_rows, timestep_note
+from hoopbench.reports.report.files_section import PAGE_NAME
 from hoopbench.reports.report.findings import MORE_FINDINGS
 from hoopbench.reports.report.hoop_gif import GIF_SCENE, hoop_gif
 from hoopbench.reports.report.markdown import (
@@ -46,8 +47,6 @@ from hoopbench.reports.report.page_script import FILTER_COLUMNS, PAGE_SCRIPT, PA
 from hoopbench.reports.sweep import results
 
 __all__ = ["PAGE_NAME", "page_fragments", "render_page", "write_gif", "write_page"]
-
-PAGE_NAME = "report.html"
 
 Fragments = dict[str, Callable[[], str]]
 """A figure file's name in report.md -> what the page shows in its place (made when needed)."""
@@ -233,8 +232,9 @@ def write_page(
     say: Say | None = None,
 ) -> Path:
     """Write out/report.html from out/report.md (written first) and the rows it was made of
-    (and the searches read back, whose fronts it draws), and the README's animation
-    (:func:`write_gif`). ``say`` hears what it is doing, a line a step."""
+    (and the searches read back, whose fronts it draws). The README's animation is
+    :func:`write_gif`'s, written before report.md (build.py), whose Files section lists it.
+    ``say`` hears what it is doing, a line a step."""
     out = Path(out)
     markdown_text = (out / "report.md").read_text(encoding="utf-8")
     if say is not None:
@@ -243,5 +243,4 @@ def write_page(
     page = render_page(markdown_text, out, fragments)
     path = out / PAGE_NAME
     results.atomic_write(path, lambda tmp: tmp.write_text(page, encoding="utf-8"))
-    write_gif(frame, out, say)
     return path
