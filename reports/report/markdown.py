@@ -22,7 +22,7 @@ import pandas as pd
 
 from hoopbench.engines.judging.columns import FORCE_COLUMNS
 from hoopbench.engines.judging.tolerances import tolerances
-from hoopbench.engines.judging.verdict import OUTCOME_FAILURES, Verdict
+from hoopbench.engines.judging.verdict import Verdict
 from hoopbench.engines.options import Profile
 from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
@@ -308,16 +308,9 @@ def _event_cell(row: pd.Series | None) -> str:
     verdict = row["verdict"] if isinstance(row["verdict"], str) else row["status"]
     if error is None:
         return str(verdict)
-    # Where the outcome is right (agrees, or a phase or slip-onset error) the number says it.
-    return error if verdict in _OUTCOME_RIGHT else f"{error} ({verdict})"
-
-
-_OUTCOME_RIGHT = {
-    str(v)
-    for v in Verdict
-    if v not in OUTCOME_FAILURES and v not in (Verdict.DIVERGED, Verdict.FAILED)
-}
-"""The verdicts whose outcome is right: ``outcome_agrees`` is true for them."""
+    # As the caption says: any verdict but agrees follows the number, a close or a creep too
+    # (the number alone reads as a pass where another event failed the run).
+    return error if verdict == Verdict.AGREES else f"{error} ({verdict})"
 
 
 def _timestep_section(runs: pd.DataFrame) -> str:
