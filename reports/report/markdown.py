@@ -37,7 +37,9 @@ from hoopbench.reports.compare.selection import (
 from hoopbench.reports.compare.suite import ROW_COLUMNS
 from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
 from hoopbench.reports.report import seed_reproduction
-from hoopbench.reports.report.answer import answer, answer_markdown
+from hoopbench.reports.report.answer import answer
+from hoopbench.reports.report.answer_files import write_answer_files
+from hoopbench.reports.report.answer_words import answer_section
 from hoopbench.reports.report.best_settings import BestSettings
 from hoopbench.reports.report.escaping import escape_cell, escape_text, file_stem
 from hoopbench.reports.report.figures import events_figure, hoop_figure, paths_figure
@@ -634,10 +636,13 @@ def _all_findings_section(runs: pd.DataFrame) -> str:
     return _section(f"## {MORE_FINDINGS}", "", text) if len(findings(runs)) > KEY_FINDINGS else ""
 
 
-def _answer_section(runs: pd.DataFrame, searches: Sequence[BestSettings]) -> str:
+def _answer_section(runs: pd.DataFrame, searches: Sequence[BestSettings], out: Path) -> str:
     """The answer (reports/report/answer.py) of the comparison suites' rows and the shipped
-    searches."""
-    return answer_markdown(answer(runs, searches))
+    searches, in words and as a table; the same rows as answer.csv and answer.json in
+    ``out`` (reports/report/answer_files.py)."""
+    result = answer(runs, searches)
+    write_answer_files(result, out)
+    return answer_section(result)
 
 
 def _seed_section(out: Path) -> tuple[str, list[Path]]:
@@ -895,7 +900,12 @@ def write_markdown(
     (seed, _), (stability, _), (forces, _) = drawn[len(head) : len(head) + 3]
     if say is not None:
         say("tables: the answer, the findings and the sections of report.md")
-    sections = [_header(), _answer_section(runs, searches), _findings_section(everything), seed]
+    sections = [
+        _header(),
+        _answer_section(runs, searches, out),
+        _findings_section(everything),
+        seed,
+    ]
     figures = ""
     if not runs.empty:
         run_time, _ = drawn[0]
