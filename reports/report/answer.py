@@ -181,6 +181,9 @@ class SearchChoice:
     wall_per_sim_s: float
     """Seconds of wall time per simulated second on the training scenes, as measured by the
     search (on the machine and load of the search)."""
+    tuned_wall_per_sim_s: float | None = None
+    """The same of the engine's tuned profile, the search's baseline (None where its front
+    has none): a cost ratio within one clock, where the search's and the suites' differ."""
 
 
 @dataclass(frozen=True)
@@ -452,7 +455,15 @@ def _search_choice(best: BestSettings, tier: AccuracyTier) -> SearchChoice | Non
         heldout=choice.scenes - len(best.training_scenes),
         heldout_tier=str(heldout) if isinstance(heldout, str) else "-",
         wall_per_sim_s=float(row["train_cost_us_per_s"]) * 1e-6,
+        tuned_wall_per_sim_s=_tuned_cost(best.front),
     )
+
+
+def _tuned_cost(front: pd.DataFrame) -> float | None:
+    """The search's wall cost of its ``tuned`` baseline, s per simulated s (None: none)."""
+    tuned = pd.to_numeric(front[front["setting"] == "tuned"]["train_cost_us_per_s"])
+    cost = float(tuned.iloc[0]) * 1e-6 if len(tuned) else math.nan
+    return cost if math.isfinite(cost) and cost > 0 else None
 
 
 def _searched(searches: Sequence[BestSettings], engine: str) -> tuple[SearchChoice | None, ...]:
