@@ -62,7 +62,10 @@ def test_the_sentences_name_the_engines_the_rows_say(good, hopper):
     sentences = answer_sentences(answer(rows(good, hopper)))
     tight, loose, nobody = sentences
     # Tight: 2 scenes each; the cheaper (good) is named, and what it misses, in words.
-    assert tight.startswith("Tight (every event within the tight tolerances): at the suites'")
+    assert tight.startswith(
+        "Tight (every event within the tight tolerances): no engine meets it on all 4 scenes "
+        f"at the suites' settings; the most, 2/4, {good}"
+    )
     assert f"the most, 2/4, {good} (tuned, default, dt 0.0001 s) at 0.1 CPU s per" in tight
     assert f"{good} (tuned, default, dt 0.0001 s) at 0.1 CPU s per simulated s" in tight
     assert "short on hop-top (within the loose tolerances only), hop-low (misses the hop)" in tight
@@ -70,7 +73,7 @@ def test_the_sentences_name_the_engines_the_rows_say(good, hopper):
     assert f"on the 2 scenes that slip, {good} (tuned, default, dt 0.0001 s) on all 2" in tight
     assert f"on the 2 scenes that hop, {hopper} (tuned, default, dt 0.0001 s) on all 2" in loose
     assert "at 0.3 CPU s per simulated s" in loose
-    assert f"no engine meets it on all 4 scenes: the most, 3/4, {good}" in loose
+    assert f"on all 4 scenes at the suites' settings; the most, 3/4, {good}" in loose
     assert f"hop-low by {hopper} alone" in nobody and "seed-mu by" in nobody
 
 
@@ -85,7 +88,7 @@ def test_a_setting_meeting_every_scene_is_the_one_to_use_and_a_scene_no_one_meet
     )
     tight, loose, nobody = answer_sentences(answer(frame))
     # hop-low, which no run meets, is the timestep's limit: out of the table's scenes.
-    assert "use box2d (tuned, default, dt 0.0001 s): of the suites' settings, box2d" in tight
+    assert "use box2d (tuned, default, dt 0.0001 s), the cheapest of the suites' settings" in tight
     assert "use rapier (tuned, default, dt 0.0001 s)" in loose and "at 0.05 CPU" in loose
     assert nobody == (
         "What no engine gets right: no setting of any engine meets the loose tier on hop-low, "
@@ -97,8 +100,10 @@ def test_a_setting_meeting_every_scene_is_the_one_to_use_and_a_scene_no_one_meet
     assert "no engine meets the loose tier on hop-low but at dt 2.5e-05 s, finer" in nobody
     every = pd.DataFrame([run("box2d", s, "agrees") for s in ("seed-mu", "hop-top")])
     tight = answer_sentences(answer(every))[0]
-    assert "use box2d (tuned, default, dt 0.0001 s): of the suites' settings, box2d" in tight
-    assert "is the cheapest meeting it on all 2 scenes, at 0.1 CPU s per simulated s" in tight
+    assert (
+        "use box2d (tuned, default, dt 0.0001 s), the cheapest of the suites' settings meeting "
+        "it on all 2 scenes, at 0.1 CPU s per simulated s." in tight
+    )
 
 
 def test_a_search_within_the_tier_on_more_of_its_scenes_is_the_one_to_use():
@@ -107,10 +112,11 @@ def test_a_search_within_the_tier_on_more_of_its_scenes_is_the_one_to_use():
     tight = answer_sentences(answer(rows("pymunk", "mujoco"), [found]))[0]
     assert tight.startswith(
         "Tight (every event within the tight tolerances): use drake's searched setting trial-34 "
-        "(dt 0.0001 s; --settings 'reports/tune/searches/drake/settings.toml#agrees'), within "
-        "it on all 6 of its search's scenes, 4 of them held out, at 0.75 wall s per simulated "
-        "s as the search measured it (0.5 times the tuned profile's cost in the same search); "
-        "at the suites' settings no engine meets it"
+        "(dt 0.0001 s), within it on all 6 of its search's scenes, 4 of them held out, at 0.75 "
+        "wall s per simulated s as the search measured it (0.5 times the tuned profile's cost "
+        "in the same search). Run it with --settings "
+        "'reports/tune/searches/drake/settings.toml#agrees'. No engine meets it on all 4 "
+        "scenes at the suites' settings"
     )
 
 
@@ -148,7 +154,8 @@ def test_the_table_is_ranked_by_its_stated_rule_and_the_files_hold_its_rows(tmp_
 
 def test_the_section_puts_the_words_above_the_table_and_every_verdict_has_words():
     section = answer_section(answer(rows("pymunk", "drake")))
-    assert section.index("- Tight (") < section.index("- Loose (") < section.index("| rank |")
+    assert section.index("- **Tight (") < section.index("- **Loose (") < section.index("| rank")
+    assert "\n  - Run it with" not in section  # no search: no setting of one to run
     assert "| hop-low (misses the hop) |" in section  # the last column in words
     assert set(PLAIN_VERDICTS) == {str(v) for v in Verdict}
     assert answer_section(answer(pd.DataFrame([run("x", "seed-mu", "agrees")]).iloc[:0])) == ""

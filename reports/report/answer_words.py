@@ -15,6 +15,7 @@ the loose tier, and the scenes that one or two engines alone get there
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 from hoopbench.engines.judging.tolerances import Tier
 from hoopbench.engines.judging.verdict import TIER_NAMES
@@ -30,7 +31,7 @@ from hoopbench.reports.report.answer import (
 from hoopbench.reports.report.escaping import escape_text
 from hoopbench.reports.report.verdict_words import plain_verdicts
 
-__all__ = ["FEW_ENGINES", "answer_section", "answer_sentences"]
+__all__ = ["FEW_ENGINES", "AnswerLine", "answer_lines", "answer_section", "answer_sentences"]
 
 FEW_ENGINES = 2
 """A scene within the loose tier for at most this many engines is named as one that few get
@@ -65,37 +66,57 @@ def _missed(choice: Choice) -> str:
     return f", short on {', '.join(said)}"
 
 
-def _suite_clause(choice: Choice | None, scenes: int) -> str:
-    """What the suites' best setting of a tier does on the answer's scenes."""
-    if choice is None:
-        return "no run of the suites meets it"
+def _capital(text: str) -> str:
+    return text[:1].upper() + text[1:]
+
+
+@dataclass(frozen=True)
+class AnswerLine:
+    """One line of the answer in words: a lead sentence (which setting, at what cost) and
+    the sentences that back it."""
+
+    lead: str
+    details: tuple[str, ...] = ()
+
+    @property
+    def text(self) -> str:
+        return " ".join([self.lead, *self.details])
+
+
+def _suite_lead(choice: Choice, scenes: int) -> str:
+    """The suites' best setting of a tier, as the one to use or the nearest there is."""
     if choice.scenes_met == scenes:
         return (
-            f"of the suites' settings, {_suite_setting(choice)} is the cheapest meeting it on "
-            f"all {scenes} scenes, at {_cost(choice)}"
+            f"use {_suite_setting(choice)}, the cheapest of the suites' settings meeting it on "
+            f"all {scenes} scenes, at {_cost(choice)}."
         )
     return (
-        f"at the suites' settings no engine meets it on all {scenes} scenes: the most, "
+        f"no engine meets it on all {scenes} scenes at the suites' settings; the most, "
         f"{choice.scenes_met}/{scenes}, {_suite_setting(choice)} at {_cost(choice)}"
         + _missed(choice)
+        + "."
     )
 
 
-def _search_clause(search: SearchChoice, tier: int) -> str:
-    """What the searches' best setting of a tier does on its search's scenes."""
-    name = TIER_NAMES[Tier(ACCURACY_TIERS[tier].name)]
+def _search_lead(search: SearchChoice) -> str:
+    """The searches' best setting of a tier: what it is, on how many scenes, its cost."""
     share = (
         f"all {search.scenes}"
         if search.scenes_met == search.scenes
         else f"{search.scenes_met}/{search.scenes}"
     )
     return (
-        f"{search.engine}'s searched setting {search.setting} (dt {search.timestep:.3g} s; "
-        f"--settings 'reports/tune/searches/{search.engine}/settings.toml#{name}'), within "
-        f"it on {share} of its search's scenes, {search.heldout} of them held out, at "
+        f"{search.engine}'s searched setting {search.setting} (dt {search.timestep:.3g} s), "
+        f"within it on {share} of its search's scenes, {search.heldout} of them held out, at "
         f"{search.wall_per_sim_s:.3g} wall s per simulated s as the search measured it"
         + _tuned_ratio(search)
+        + "."
     )
+
+
+def _run_it(search: SearchChoice, tier: int) -> str:
+    name = TIER_NAMES[Tier(ACCURACY_TIERS[tier].name)]
+    return f"Run it with --settings 'reports/tune/searches/{search.engine}/settings.toml#{name}'."
 
 
 def _tuned_ratio(search: SearchChoice) -> str:
@@ -117,32 +138,35 @@ def _regime_clause(regime: Regime, tier: int) -> str:
     return f"{what}, {_suite_setting(choice)} on {met} at {_cost(choice)}"
 
 
-def _tier_sentence(result: Answer, tier: int) -> str:
-    """One tier: the setting to use, its cost, and the other source's best."""
+def _tier_line(result: Answer, tier: int) -> AnswerLine:
+    """One tier: the setting to use and its cost; then the other source's best, and the
+    suites' best per exact outcome."""
     name = ACCURACY_TIERS[tier]
     suite = result.overall[tier] if result.overall else None
     search = best_search(result, tier)
     n = len(result.scenes)
     suite_share = 0.0 if suite is None else suite.scenes_met / n
-    head = f"{name.name.capitalize()} ({name.meaning}): "
+    head = f"{_capital(name.name)} ({name.meaning}): "
+    details: list[str] = []
     if search is not None and search.scenes_met / search.scenes > suite_share:
-        text = f"{head}use {_search_clause(search, tier)}; {_suite_clause(suite, n)}."
-    elif suite is not None:
-        use = "" if suite.scenes_met < n else f"use {_suite_setting(suite)}: "
-        text = f"{head}{use}{_suite_clause(suite, n)}."
-        if search is not None:
-            text += f" The shipped searches' best: {_search_clause(search, tier)}."
-    else:
-        text = f"{head}no run meets it."
-    if result.regimes:
-        text += " By exact outcome: " + "; ".join(
-            _regime_clause(regime, tier) for regime in result.regimes
+        lead = f"{head}use {_search_lead(search)}"
+        details.append(_run_it(search, tier))
+        details.append(
+            "No run of the suites meets it." if suite is None else _capital(_suite_lead(suite, n))
         )
-        text += "."
-    return text
+    elif suite is not None:
+        lead = f"{head}{_suite_lead(suite, n)}"
+        if search is not None:
+            details.append(f"The shipped searches' best: {_search_lead(search)}")
+    else:
+        lead = f"{head}no run meets it."
+    if result.regimes:
+        clauses = "; ".join(_regime_clause(regime, tier) for regime in result.regimes)
+        details.append(f"By exact outcome, at the suites' settings: {clauses}.")
+    return AnswerLine(lead, tuple(details))
 
 
-def _nobody_sentence(result: Answer) -> str:
+def _nobody_line(result: Answer) -> AnswerLine:
     """What no engine gets within the loose tier (at any setting tried, or at the suites'
     timesteps), and what few do."""
     never = [limit.scene for limit in result.limits if limit.agreeing_timestep is None]
@@ -165,39 +189,47 @@ def _nobody_sentence(result: Answer) -> str:
             f"no one setting of the suites meets the loose tier on all {len(result.scenes)} "
             "scenes of the table, though each is met by some engine"
         )
-    text = "What no engine gets right: " + ("; ".join(said) if said else "nothing") + "."
+    lead = "What no engine gets right: " + ("; ".join(said) if said else "nothing") + "."
     few = [(s, engines) for s, engines in result.met_by if 0 < len(engines) <= FEW_ENGINES]
-    if few:
-        text += " Met within loose by few engines: " + "; ".join(
-            f"{scene} by {' and '.join(engines)} alone" for scene, engines in few
-        )
-        text += "."
-    return text
+    if not few:
+        return AnswerLine(lead)
+    met = "; ".join(f"{scene} by {' and '.join(engines)} alone" for scene, engines in few)
+    return AnswerLine(lead, (f"Met within loose by few engines: {met}.",))
 
 
-def answer_sentences(result: Answer) -> list[str]:
-    """The answer in plain words (module doc), one sentence or two per tier and one on what
-    no engine gets right, as plain text (the report escapes it); empty when no engine run was
+def answer_lines(result: Answer) -> list[AnswerLine]:
+    """The answer in plain words (module doc): a line per tier and one on what no engine
+    gets right, as plain text (the report escapes it); empty when no engine run was
     judged."""
     if not result.engines or not result.scenes:
         return []
     return [
-        *(_tier_sentence(result, tier) for tier in range(len(ACCURACY_TIERS))),
-        _nobody_sentence(result),
+        *(_tier_line(result, tier) for tier in range(len(ACCURACY_TIERS))),
+        _nobody_line(result),
     ]
 
 
-def _bullets(sentences: Sequence[str]) -> list[str]:
-    return [f"- {escape_text(sentence)}" for sentence in sentences]
+def answer_sentences(result: Answer) -> list[str]:
+    """Each of :func:`answer_lines` as one text: its lead, then its details."""
+    return [line.text for line in answer_lines(result)]
+
+
+def _bullets(lines: Sequence[AnswerLine]) -> list[str]:
+    """A bullet per line, its lead in bold, its details a nested bullet each."""
+    out = []
+    for line in lines:
+        out.append(f"- **{escape_text(line.lead)}**")
+        out += [f"  - {escape_text(detail)}" for detail in line.details]
+    return out
 
 
 def answer_section(result: Answer, *, heading: bool = True) -> str:
-    """The answer's section (Markdown, ending in a blank line): the sentences, then the
-    table and its notes (answer_markdown); its heading left out without ``heading`` (the
-    README has its own); empty text when no engine run was judged."""
+    """The answer's section (Markdown, ending in a blank line): the lines in words, then
+    the table and its notes (answer_markdown); its heading left out without ``heading``
+    (the README has its own); empty text when no engine run was judged."""
     table = answer_markdown(result, heading=False)
     if not table:
         return ""
     title = ["## The answer: which engine, which settings, at what cost", ""] if heading else []
-    words = _bullets(answer_sentences(result))
+    words = _bullets(answer_lines(result))
     return "\n".join([*title, *words, *([""] if words else []), table])
