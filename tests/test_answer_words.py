@@ -178,3 +178,14 @@ def test_best_settings_say_their_costs_in_the_one_unit_and_that_they_were_shippe
     row = next(line for line in text.splitlines() if line.startswith("| tuned |"))
     assert f" | {tuned * 1e-6:.3g} | " in row
     assert "wall s per simulated s)" in text and "us per simulated s" not in text
+
+
+def test_a_report_never_replaces_answer_files_unasked(tmp_path):
+    """answer.csv and answer.json are the report's files: refused without --force, as
+    report.md is (build.files_to_replace), in the order the report writes them."""
+    from hoopbench.reports.report.build import files_to_replace
+
+    for name in ("answer.json", "answer.csv", "report.md", "mine.txt"):
+        (tmp_path / name).write_text("")
+    names = [path.name for path in files_to_replace(tmp_path, [])]
+    assert names == ["report.md", "answer.csv", "answer.json"]
