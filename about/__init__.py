@@ -33,6 +33,8 @@ _API = {
     "engine_names": "engine_names",
     "exact": "exact",
     "run": "run",
+    "run_settings": "run_settings",
+    "judgement": "judgement",
     "export": "export",
     "compare": "compare",
     "hop_map": "hop_map",

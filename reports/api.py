@@ -29,9 +29,15 @@ from typing import Any, TypeVar
 import numpy as np
 import pandas as pd
 
-from hoopbench.engines.judging.columns import Col
+from hoopbench.engines.judging.columns import EXACT_COLUMNS, TRANSITION_COLUMNS, Col
 from hoopbench.engines.judging.contact import canonical_events, read_run
-from hoopbench.engines.judging.verdict import number_or_none
+from hoopbench.engines.judging.tolerances import Tier
+from hoopbench.engines.judging.verdict import (
+    Event,
+    classify,
+    event_tolerance,
+    number_or_none,
+)
 from hoopbench.engines.options import Profile, check_profile
 from hoopbench.engines.registry import engine_class, engine_names
 from hoopbench.engines.run import REFERENCE_ENGINE, RunResult, RunStatus
@@ -100,10 +106,12 @@ __all__ = [
     "exact",
     "export",
     "hop_map",
+    "judgement",
     "map_spec",
     "report",
     "run",
     "run_hop_map",
+    "run_settings",
     "run_suite",
     "run_tune",
     "scene",
@@ -399,6 +407,73 @@ class EngineRun:
         """agrees, early-slip, ... or failed (engines/judging/verdict.py)."""
         return str(self.row["verdict"])
 
+    @property
+    def judgement(self) -> dict[str, Any]:
+        """What the verdict says of the run, JSON-ready (:func:`judgement`): what
+        ``hoopbench simulate`` prints."""
+        return judgement(self.row)
+
+
+JUDGEMENT_COLUMNS: tuple[str, ...] = (
+    Col.VERDICT,
+    Col.OUTCOME_AGREES,
+    Col.VERDICT_FLAGS,
+    Col.VERDICT_REASON,
+    Col.EVENT_FLAGS,
+    *EXACT_COLUMNS,
+    Col.ERR_T_SLIP_MS,
+    Col.ERR_THETA_SLIP_DEG,
+    Col.ERR_T_LIFT_MS,
+    Col.ERR_T_IMPACT_MS,
+    Col.ERR_HOP_HEIGHT_REL,
+    Col.PHASES_AGREE,
+    *TRANSITION_COLUMNS,
+)
+"""The columns of a run's row that judge it (their meanings: engines/judging/columns.py)."""
+
+
+def judgement(row: Mapping[str, Any]) -> dict[str, Any]:
+    """A judged row's verdict, flags, exact events and errors (JUDGEMENT_COLUMNS, values as
+    the row holds them, a missing one None), and ``events``: every event the verdict
+    compared with the exact one, in the order it did, each
+    ``{event, error, unit, tight, loose, within}`` (run minus exact; ``unit`` ms for a time,
+    ``relative`` for the hop height; ``tight`` and ``loose`` the tolerances the verdict
+    applied, the row's detection floor included; ``within``: ``tight``, ``loose`` or
+    ``neither``)."""
+    fields = {column: _json_value(row.get(column)) for column in JUDGEMENT_COLUMNS}
+    timed = [
+        _event_error(event.name, 1e3 * event.error, "ms", 1e3 * event.tight, 1e3 * event.loose)
+        for event in classify(row).timed
+    ]
+    hop = number_or_none(row.get(Col.ERR_HOP_HEIGHT_REL))
+    if hop is not None:
+        tight, loose = (event_tolerance(row, Event.HOP_HEIGHT, tier) for tier in Tier)
+        timed.append(_event_error(str(Event.HOP_HEIGHT), hop, "relative", tight, loose))
+    return {**fields, "events": timed}
+
+
+def _event_error(name: str, error: float, unit: str, tight: float, loose: float) -> dict:
+    within = "tight" if abs(error) <= tight else "loose" if abs(error) <= loose else "neither"
+    return {
+        "event": name,
+        "error": error,
+        "unit": unit,
+        "tight": tight,
+        "loose": loose,
+        "within": within,
+    }
+
+
+def _json_value(value: Any) -> Any:
+    """A row's value as JSON writes it: NaN and pandas' NA as None, numpy's as Python's."""
+    if value is None or isinstance(value, str | bool):
+        return value
+    if hasattr(value, "item"):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
 
 def run(
     engine: str,
@@ -428,7 +503,32 @@ def run(
         timestep, profile, options = chosen.timestep, chosen.profile, chosen.options
         variant = chosen.name if variant is None else variant
     task = _run_task(engine, _as_scene(scene), timestep, profile, geometry, options, variant)
-    result, row = suite_runs.run_and_row(task)
+    return _engine_run(task, None)
+
+
+def run_settings(engine: str, scene: Scene, settings: RunSettings) -> EngineRun:
+    """``hoopbench simulate``'s run: ``scene`` in ``engine`` with any RunSettings (a pair
+    friction, restitution and step limit too), judged as :func:`run` judges (its row, its
+    ``judgement``) against the exact solution of the run's friction. The scene is taken as
+    given, a catalogue name with other parameters too (nothing is stored under its name).
+    The exact solution has no restitution: a run with some is judged against a hoop that
+    does not bounce (``judgement`` says what differs; the CLI says so)."""
+    engine_class(engine)().check(scene, settings)
+    task = _run_task(
+        engine,
+        scene,
+        settings.timestep,
+        settings.profile,
+        settings.geometry,
+        dict(settings.options),
+        None,
+        check_name=False,
+    )
+    return _engine_run(task, settings)
+
+
+def _engine_run(task: RunTask, settings: RunSettings | None) -> EngineRun:
+    result, row = suite_runs.run_and_row(task, settings)
     frame = None if result.trajectory is None else result.trajectory.to_frame()
     return EngineRun(task=task, result=result, row=row, trajectory=frame)
 
@@ -495,11 +595,16 @@ def _run_task(
     geometry: str,
     options: Mapping[str, Any] | None,
     variant: str | None,
+    *,
+    check_name: bool = True,
 ) -> RunTask:
-    """The run as a one-task suite builds it, so that its run_id and row are a suite's."""
+    """The run as a one-task suite builds it, so that its run_id and row are a suite's
+    (``check_name``: refuse a catalogue scene's name with other parameters, as a suite
+    does)."""
     if options is not None and not isinstance(options, Mapping):
         raise OptionError("options", f"{{option}} must be a mapping of settings, got {options!r}")
-    check_catalogue_name(scene, "scene")  # as a suite file's [[scene]]: one meaning per name
+    if check_name:
+        check_catalogue_name(scene, "scene")  # as a suite file's [[scene]]: one meaning per name
     settings = RunSettings(
         timestep=timestep,
         geometry=geometry,

@@ -302,6 +302,12 @@ def _summary(payload: dict[str, Any]) -> str:
         lines.append(f"scheme steps   {payload['n_steps']}")
     if payload.get("message"):
         lines.append(f"note           {payload['message']}")
+    return "\n".join(lines + _phase_and_judgement_lines(payload))
+
+
+def _phase_and_judgement_lines(payload: dict[str, Any]) -> list[str]:
+    """The phases, the contact reading and the judgement of a payload that has them."""
+    lines = []
     phases = payload.get("phases") or []
     if phases:
         lines.append("phases")
@@ -310,7 +316,9 @@ def _summary(payload: dict[str, Any]) -> str:
             lines.append(f"  {p['kind']:<7}{p['t_start']:>12.6f} .. {p['t_end']:.6f} s{sigma}")
     if payload.get("reading"):
         lines += _reading_lines(payload["reading"], payload.get("kin") or {})
-    return "\n".join(lines)
+    if payload.get("judgement"):
+        lines += _judgement_lines(payload["judgement"], payload.get("judgement_note"))
+    return lines
 
 
 def _emit(args: argparse.Namespace, payload: dict[str, Any]) -> None:
@@ -415,15 +423,57 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     else:
         settings = _settings_from_args(args, args.engine)
     csv = None if args.csv is None else _output_file(args.csv, _TRAJECTORY_SUFFIXES, args.force)
-    result = get_engine(args.engine).run(scene, settings)
+    import hoopbench.reports.api as api
+
+    run = api.run_settings(args.engine, scene, settings)  # judged as hb.run judges
+    result = run.result
     payload = {**result.to_dict(), "scene": scene.to_dict()}
     if result.events is not None and result.trajectory is not None and result.info.mu:
         payload = {**_canonical(result, scene, result.info.mu), "scene": scene.to_dict()}
+    payload["judgement"] = run.judgement
+    if settings.restitution:
+        payload["judgement_note"] = _BOUNCE_NOTE
     if csv and result.trajectory is not None:
         _write_trajectory(result.trajectory, csv)
         payload["trajectory_file"] = str(csv)
     _emit(args, payload)
     return 0 if result.info.status.value in ("ok", "diverged") else 1
+
+
+_BOUNCE_NOTE = (
+    "the exact solution has no restitution: this run is judged against a hoop that does not bounce"
+)
+
+
+def _judgement_lines(judged: dict[str, Any], note: str | None) -> list[str]:
+    """The verdict, its flags, the exact events and each event's error (api.judgement)."""
+    verdict = judged.get("verdict")
+    if verdict is None:
+        return [f"verdict        none: {judged.get('verdict_reason') or 'no exact answer'}"]
+    lines = [f"verdict        {verdict}: {judged.get('verdict_reason') or ''}"]
+    if note:
+        lines.append(f"  ({note})")
+    flags = " ".join(str(x) for x in (judged.get("verdict_flags"), judged.get("event_flags")) if x)
+    lines.append(f"flags          {flags or '-'}")
+    lines.append(
+        f"exact          {judged.get('exact_outcome')}: "
+        f"slip onset t = {_fmt(judged.get('exact_t_slip'), ' s')}, "
+        f"lift-off t = {_fmt(judged.get('exact_t_lift'), ' s')}, "
+        f"hop height {_fmt(judged.get('exact_hop_height'), ' m')}, "
+        f"impact t = {_fmt(judged.get('exact_t_impact'), ' s')}; "
+        f"phases {judged.get('exact_phases') or '-'}"
+    )
+    events = judged.get("events") or []
+    if events:
+        lines.append("errors         run - exact (tight / loose tolerance): within")
+    for event in events:
+        scale, unit = (100.0, " %") if event["unit"] == "relative" else (1.0, " ms")
+        lines.append(
+            f"  {event['event']:<15}{scale * event['error']:+.3g}{unit} "
+            f"({scale * event['tight']:.3g} / {scale * event['loose']:.3g}{unit}): "
+            f"{event['within']}"
+        )
+    return lines
 
 
 def _canonical(result: Any, scene: Any, mu: float) -> dict[str, Any]:

@@ -61,7 +61,8 @@ def test_the_cheapest_setting_meeting_a_tier_on_every_scene_and_its_cost():
     assert line.always_wrong == ()
     text = answer_markdown(answer(rows))
     assert (
-        "| mujoco | tuned, default, dt 0.001 | 20 | 0.02 | - | tuned, default, dt 0.002 |" in text
+        "| 1 | mujoco | tuned, default, dt 0.001 | 0.02 | 20 | - | tuned, default, dt 0.002 |"
+        in text
     )
 
 
@@ -121,7 +122,7 @@ def test_an_engine_meeting_no_tier_everywhere_shows_its_best_and_what_it_always_
     assert pymunk.always_wrong == (("hop-top", ("diverged", "missed-hop")),)
     assert pymunk.settings_tried == 3
     assert "tuned, default, dt 0.0001 (only 2/3 scenes)" in answer_markdown(result)
-    assert "hop-top (diverged, missed-hop)" in answer_markdown(result)
+    assert "hop-top (blows up, misses the hop)" in answer_markdown(result)
 
 
 def test_a_scene_every_engine_fails_until_a_finer_timestep_is_the_timesteps_limit():
@@ -212,10 +213,13 @@ def test_each_engine_at_its_best_weighs_the_shipped_search():
     text = answer_markdown(result)
     assert (
         "| drake | tight | trial-34 (dt 0.0001) | 6/6 scenes, 4 of them held out (held-out tier: "
-        "agrees) | 0.5 | search: drake's settings.toml#agrees; the suite's best: 2/3 catalogue "
+        "agrees) | 0.5 (wall, the search's) | search: drake's settings.toml#agrees; the suite's "
+        "best: 2/3 catalogue "
         "scenes |" in text
     )
-    assert "| drake | loose | tuned, default, dt 0.0001 | 3/3 catalogue scenes | 0.1 |" in text
+    assert (
+        "| drake | loose | tuned, default, dt 0.0001 | 3/3 catalogue scenes | 0.1 (wall) |" in text
+    )
 
 
 def test_an_engine_of_a_search_alone_is_at_its_best_but_not_in_the_suites_table():

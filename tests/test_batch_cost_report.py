@@ -72,9 +72,11 @@ def test_the_section_shows_every_figure(bench_dir):
     text = batch_cost_section([bench_dir])
     assert text.startswith("## Cost per world-step by batch size\n")
     assert "| engine, settings | 1 world | 64 worlds | 1,024 worlds | 1 / 1,024 |" in text
-    assert "| mujoco | 502 | 132 | 80 | 6.28x |" in text
-    assert "| mjx precision=float64 | 1,446 | 202 | 174 | 8.31x |" in text
-    assert "| newton | 1,801 | 27 | - | - |" in text
+    # Seconds per simulated second of one world: us per world-step x 1e-6 / dt (1 ms).
+    assert "| mujoco | 0.502 | 0.132 | 0.08 | 6.28x |" in text
+    assert "| mjx precision=float64 | 1.45 | 0.202 | 0.174 | 8.31x |" in text
+    assert "| newton | 1.8 | 0.027 | - | - |" in text
+    assert "read, not measured, by this report" in text
     assert "dt 0.001 s, 100 steps per world, device cpu, measured from 2026-11-26T13" in text
 
 
@@ -82,7 +84,7 @@ def test_the_report_of_a_bench_folder_has_the_section(bench_dir, tmp_path, capsy
     out = tmp_path / "report"
     assert main(["report", "--results", str(bench_dir), "--out", str(out)]) == 0
     text = (out / "report.md").read_text()
-    assert "## Cost per world-step by batch size" in text and "| mujoco | 502 |" in text
+    assert "## Cost per world-step by batch size" in text and "| mujoco | 0.502 |" in text
 
 
 @pytest.mark.parametrize(

@@ -278,6 +278,41 @@ def test_simulate_gives_the_canonical_reading_and_the_kinematic_one_to_compare(c
     assert out["t_slip"] == pytest.approx(0.98708, abs=2e-3)
 
 
+def test_simulate_judges_as_hb_run_does_in_json_and_in_text(capsys):
+    """`simulate` prints the verdict, its flags, the exact events and each event's error:
+    the same judgement as hb.run's for the same run (issue 35). pymunk on hop-top at dt
+    1e-4 (0.1 s a run, two runs and a third in text) hops too high, lifts off early and
+    lands late."""
+    import hoopbench.reports.api as hb
+
+    argv = ("simulate", "--scene", "hop-top", "--engine", "pymunk", "--dt", "1e-4")
+    judged = run_json(capsys, *argv)["judgement"]
+    assert judged == hb.run("pymunk", "hop-top", timestep=1e-4).judgement
+    assert judged["verdict"] == "hop-too-high"
+    assert judged["verdict_flags"].split() == ["hop-too-high", "early-lift-off", "late-impact"]
+    assert judged["exact_hop_height"] == pytest.approx(0.380, abs=1e-3)
+    events = {event["event"]: event for event in judged["events"]}
+    assert set(events) >= {"slip onset", "lift-off", "impact", "hop height"}
+    assert events["lift-off"]["within"] == "neither" and events["lift-off"]["unit"] == "ms"
+    assert events["lift-off"]["error"] == pytest.approx(judged["err_t_lift_ms"])
+    assert events["slip onset"]["within"] == "tight"
+    assert events["hop height"]["error"] == pytest.approx(judged["err_hop_height_rel"])
+    # The tolerance table's 2 % and 5 %, plus the row's detection floor (3e-8).
+    hop = events["hop height"]
+    assert (hop["tight"], hop["loose"]) == pytest.approx((0.02, 0.05), abs=1e-6)
+    # Between the tolerances (a row's error set by hand): within loose, not tight.
+    row = hb.run("pymunk", "hop-top", timestep=1e-4).row | {"err_hop_height_rel": -0.03}
+    hop = hb.judgement(row)["events"][-1]
+    assert (hop["event"], hop["error"], hop["within"]) == ("hop height", -0.03, "loose")
+    assert main(list(argv)) == 0
+    text = capsys.readouterr().out
+    assert "verdict        hop-too-high: hop " in text
+    assert "flags          hop-too-high early-lift-off late-impact" in text
+    assert "exact          hops: slip onset t = 0.442027 s" in text
+    assert "  lift-off       -120 ms (" in text and "): neither" in text
+    assert "  hop height     +28.7 % (" in text
+
+
 def test_version(capsys):
     with pytest.raises(SystemExit) as stop:
         main(["--version"])

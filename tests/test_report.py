@@ -261,6 +261,35 @@ def test_the_contact_settings_table_names_each_knob_its_values_and_what_it_moves
     assert "| collision_bias | 1e-40 | None (stock) | +3.9 ms |" in pymunk
 
 
+def test_the_contact_settings_table_shows_every_verdict_but_agrees_beside_its_number():
+    """As its caption says: a close or a creeping run (the outcome right, some event off)
+    shows its verdict after the number, not the number alone (issue 35)."""
+    from hoopbench.reports.report.markdown import _settings_section, with_optional_columns
+
+    rows = [
+        _knob_row("mujoco", "tuned", "default", "{}", "seed-mu", slip=2.4),
+        _knob_row("mujoco", "tuned", "default", "{}", "hop-top", hop=-0.011, verdict="close"),
+        _knob_row("mujoco", "stock", "default", "{}", "seed-mu", slip=1.32, verdict="creeps"),
+        _knob_row("mujoco", "stock", "default", "{}", "hop-top", hop=-0.02),
+        _knob_row(
+            "mujoco", "tuned", "cone=pyramidal", '{"cone": "pyramidal"}', "seed-mu", slip=-1.17
+        ),
+        _knob_row(
+            "mujoco",
+            "tuned",
+            "cone=pyramidal",
+            '{"cone": "pyramidal"}',
+            "hop-top",
+            hop=-0.05,
+            verdict="close",
+        ),
+    ]
+    mujoco = _settings_section(with_optional_columns(pd.DataFrame(rows)))
+    assert "| (all tuned) |  |  | +2.4 ms | -1.1 % (close) |" in mujoco
+    assert "| (all stock) |  |  | +1.32 ms (creeps) | -2 % |" in mujoco
+    assert "| cone | elliptic | pyramidal (stock) | -1.17 ms | -5 % (close) |" in mujoco
+
+
 def test_the_timestep_table_keeps_stock_and_tuned_apart():
     from hoopbench.reports.report.markdown import _timestep_section, with_optional_columns
 

@@ -99,6 +99,7 @@ __all__ = [
     "Verdict",
     "classify",
     "event_error_ratio",
+    "event_tolerance",
     "event_within",
     "hoop_thresholds",
     "number_or_none",
@@ -347,16 +348,23 @@ def event_within(row: Mapping[str, Any], event: Event, tier: Tier) -> bool | Non
 def event_error_ratio(row: Mapping[str, Any], event: Event, tier: Tier) -> float | None:
     """The row's error of ``event`` over ``tier``'s tolerance as the verdict sets it (so at
     most 1 within it); None where the row has no such error."""
-    error_column, floor_column, field = _EVENT_COLUMNS[event]
-    error = number_or_none(row.get(error_column))
+    error = number_or_none(row.get(_EVENT_COLUMNS[event][0]))
     if error is None:
         return None
+    return abs(error) / event_tolerance(row, event, tier)
+
+
+def event_tolerance(row: Mapping[str, Any], event: Event, tier: Tier) -> float:
+    """``tier``'s tolerance of ``event`` as the verdict sets it for the row (the table's,
+    carried to the row's hoop and timestep, plus the row's detection floor), in the unit of
+    the row's error column: ms for a time, relative for the hop height."""
+    _, floor_column, field = _EVENT_COLUMNS[event]
     limits = _row_thresholds(row)
     tolerance = getattr(limits.tight if tier is Tier.TIGHT else limits.loose, field)
     floor = abs(number_or_none(row.get(floor_column)) or 0.0)
     if event is not Event.HOP_HEIGHT:
         tolerance *= 1e3  # the time errors are in ms
-    return abs(error) / (tolerance + floor)
+    return float(tolerance + floor)
 
 
 def painleve_time(exact: Events) -> float | None:

@@ -44,7 +44,7 @@ from hoopbench.engines.judging.verdict import (
 )
 from hoopbench.engines.registry import engine_class, get_engine
 from hoopbench.engines.run import RunResult, RunStatus
-from hoopbench.engines.settings import DEFAULT_BATCH_SIZE
+from hoopbench.engines.settings import DEFAULT_BATCH_SIZE, RunSettings
 from hoopbench.reports.compare.costs import COSTING
 from hoopbench.reports.compare.rows import (
     FORMAT_VERSION,
@@ -231,10 +231,15 @@ def _stored(task: RunTask, result: RunResult, row: dict[str, Any]) -> dict[str, 
     return row
 
 
-def run_and_row(task: RunTask) -> tuple[RunResult, dict[str, Any]]:
+def run_and_row(
+    task: RunTask, settings: RunSettings | None = None
+) -> tuple[RunResult, dict[str, Any]]:
     """Run one task and judge it against the exact solution: the judged run and its row
-    (nothing stored). Engine failures are statuses in both; bad settings raise ValueError."""
-    result = get_engine(task.engine).run(task.scene, task.settings())
+    (nothing stored). Engine failures are statuses in both; bad settings raise ValueError.
+    ``settings``: the task's with what a suite does not vary over them (a pair friction, a
+    step limit: ``hoopbench simulate``'s ``--mu``, ``--max-steps``); the exact solution is
+    the one of the run's friction (its ``mu``)."""
+    result = get_engine(task.engine).run(task.scene, settings or task.settings())
     return result, _row(task, result)
 
 

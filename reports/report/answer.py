@@ -57,14 +57,17 @@ from hoopbench.reports.compare.selection import (
 from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
 from hoopbench.reports.report.best_settings import BestSettings
 from hoopbench.reports.report.escaping import escape_cell, escape_text
+from hoopbench.reports.report.verdict_words import plain_verdicts
 
 __all__ = [
     "ACCURACY_TIERS",
+    "RANK_RULE",
     "AccuracyTier",
     "Answer",
     "AtBest",
     "Choice",
     "EngineAnswer",
+    "Regime",
     "SearchChoice",
     "Setting",
     "TimestepLimit",
@@ -72,6 +75,9 @@ __all__ = [
     "answer",
     "answer_markdown",
     "at_best",
+    "best_search",
+    "rank_key",
+    "ranked",
     "tie_order",
     "timestep_limits",
 ]
@@ -150,6 +156,9 @@ class Choice:
     clock: str = "CPU"
     """Whose time the cost is: ``CPU`` (the process's) or ``wall`` (a table stored without
     the CPU time)."""
+    missed: tuple[tuple[str, tuple[str, ...]], ...] = ()
+    """(scene, its runs' verdicts; empty: not run) for each of the scenes it was chosen on
+    that its runs do not meet the tier on."""
 
 
 @dataclass(frozen=True)
@@ -172,6 +181,9 @@ class SearchChoice:
     wall_per_sim_s: float
     """Seconds of wall time per simulated second on the training scenes, as measured by the
     search (on the machine and load of the search)."""
+    tuned_wall_per_sim_s: float | None = None
+    """The same of the engine's tuned profile, the search's baseline (None where its front
+    has none): a cost ratio within one clock, where the search's and the suites' differ."""
 
 
 @dataclass(frozen=True)
@@ -230,6 +242,18 @@ class TimestepLimit:
 
 
 @dataclass(frozen=True)
+class Regime:
+    """The answer's scenes of one exact outcome (those that hop, those that slip, ...), and
+    per tier the cheapest setting of any engine meeting it on the most of them."""
+
+    outcome: str
+    """The exact solution's outcome: hops, slips, rolls, painleve."""
+    scenes: tuple[str, ...]
+    best: tuple[Choice | None, ...]
+    """Per tier of ACCURACY_TIERS (same order); None where no run meets it."""
+
+
+@dataclass(frozen=True)
 class Answer:
     """The report's answer: the scenes it holds settings to, a line per engine, and the
     scenes the timestep limits."""
@@ -245,6 +269,16 @@ class Answer:
     timed_out: tuple[tuple[str, str], ...] = ()
     """(setting name, scene) of each run the sweep's time limit ended: left out (module
     doc)."""
+    overall: tuple[Choice | None, ...] = ()
+    """Per tier of ACCURACY_TIERS: of every engine's setting in the suites, the cheapest of
+    those meeting it on the most scenes (the same rule as an engine's); empty without
+    engines."""
+    regimes: tuple[Regime, ...] = ()
+    """The answer's scenes by their exact outcome, where the rows carry it and there are
+    two outcomes or more."""
+    met_by: tuple[tuple[str, tuple[str, ...]], ...] = ()
+    """(scene, the engines some setting of which meets the loose tier on it) per scene of
+    ``scenes``."""
 
 
 # --------------------------------------------------------------------------- computing
@@ -318,6 +352,11 @@ def _choice(
 ) -> Choice:
     setting = Setting(str(key[0]), str(key[1]), str(key[2]), float(key[3]))
     met = group[group[Col.VERDICT].isin(tier.verdicts)][Col.SCENE]
+    missed = tuple(
+        (scene, tuple(sorted(set(group[group[Col.SCENE] == scene][Col.VERDICT].astype(str)))))
+        for scene in scenes
+        if scene not in set(met)
+    )
     column = Col.CPU_US_PER_STEP if clock == "CPU" else Col.US_PER_STEP
     cost = group[column] if column in group.columns else pd.Series(dtype=float)
     us = float(pd.to_numeric(cost, errors="coerce").median())
@@ -329,6 +368,7 @@ def _choice(
         _worst_transition(group, scenes, tier),
         _changed_options(group),
         clock,
+        missed,
     )
 
 
@@ -415,7 +455,15 @@ def _search_choice(best: BestSettings, tier: AccuracyTier) -> SearchChoice | Non
         heldout=choice.scenes - len(best.training_scenes),
         heldout_tier=str(heldout) if isinstance(heldout, str) else "-",
         wall_per_sim_s=float(row["train_cost_us_per_s"]) * 1e-6,
+        tuned_wall_per_sim_s=_tuned_cost(best.front),
     )
+
+
+def _tuned_cost(front: pd.DataFrame) -> float | None:
+    """The search's wall cost of its ``tuned`` baseline, s per simulated s (None: none)."""
+    tuned = pd.to_numeric(front[front["setting"] == "tuned"]["train_cost_us_per_s"])
+    cost = float(tuned.iloc[0]) * 1e-6 if len(tuned) else math.nan
+    return cost if math.isfinite(cost) and cost > 0 else None
 
 
 def _searched(searches: Sequence[BestSettings], engine: str) -> tuple[SearchChoice | None, ...]:
@@ -449,14 +497,96 @@ def answer(runs: pd.DataFrame, searches: Sequence[BestSettings] = ()) -> Answer:
                 _searched(searches, engine),
             )
         )
-    return Answer(scenes, tuple(engines), limits, clock, _timed_out(runs))
+    overall = tuple(
+        cheapest_of_most(
+            ((c, c.scenes_met, c.cost_per_sim_s) for c in choices if c is not None), tie_order
+        )
+        for choices in zip(*(line.cheapest for line in engines), strict=True)
+    )
+    return Answer(
+        scenes,
+        tuple(engines),
+        limits,
+        clock,
+        _timed_out(runs),
+        overall,
+        _regimes(rows, scenes, clock),
+        _met_by(rows, scenes),
+    )
+
+
+def _met_by(rows: pd.DataFrame, scenes: Sequence[str]) -> tuple[tuple[str, tuple[str, ...]], ...]:
+    """Per scene, the engines with a run on it that meets the loose tier, in the rows' order."""
+    good = rows[rows[Col.VERDICT].isin(ACCURACY_TIERS[-1].verdicts)]
+    return tuple(
+        (scene, tuple(dict.fromkeys(good[good[Col.SCENE] == scene][Col.ENGINE].astype(str))))
+        for scene in scenes
+    )
+
+
+RANK_RULE = (
+    "engines ranked by how many scenes their loose-tier setting meets (most first), then "
+    "their tight-tier setting, then the loose setting's cost (cheapest first); an engine of "
+    "the searches alone last"
+)
+"""How the answer's table orders its engines (:func:`rank_key`), in words."""
+
+
+def rank_key(line: EngineAnswer) -> tuple[bool, tuple[int, ...], float, str]:
+    """The answer table's order (RANK_RULE): the engines with runs first; then the scenes
+    met per tier, the loosest tier first; then the loosest tier's cost; then the name."""
+    met = tuple(-(c.scenes_met if c is not None else 0) for c in reversed(line.cheapest))
+    loosest = line.cheapest[-1] if line.cheapest else None
+    cost = loosest.cost_per_sim_s if loosest is not None else math.inf
+    return (line.settings_tried == 0, met, cost if math.isfinite(cost) else math.inf, line.engine)
+
+
+def _regimes(rows: pd.DataFrame, scenes: Sequence[str], clock: str) -> tuple[Regime, ...]:
+    """The answer's scenes grouped by their exact outcome, each with its cheapest settings
+    (none where the rows carry no exact outcome, or every scene has the same one)."""
+    if Col.EXACT_OUTCOME not in rows.columns:
+        return ()
+    mine = rows[rows[Col.SCENE].isin(scenes)]
+    outcome = mine.groupby(Col.SCENE, sort=False)[Col.EXACT_OUTCOME].first().dropna()
+    groups: dict[str, list[str]] = {}
+    for scene in scenes:
+        if scene in outcome.index:
+            groups.setdefault(str(outcome[scene]), []).append(scene)
+    if len(groups) < 2:
+        return ()
+    return tuple(
+        Regime(kind, tuple(names), tuple(_cheapest(mine, names, t, clock) for t in ACCURACY_TIERS))
+        for kind, names in groups.items()
+    )
+
+
+def best_search(result: Answer, tier: int) -> SearchChoice | None:
+    """Of every engine's shipped search, the setting it names for ``ACCURACY_TIERS[tier]``
+    that is within the tier on the largest share of its search's scenes, the cheapest (by
+    the searches' own wall costs) of those: the searches' answer."""
+    found = [
+        line.searched[tier]
+        for line in result.engines
+        if line.searched and line.searched[tier] is not None
+    ]
+    return min(
+        (s for s in found if s is not None),
+        key=lambda s: (-s.scenes_met / s.scenes, s.wall_per_sim_s, s.engine),
+        default=None,
+    )
+
+
+def ranked(result: Answer) -> tuple[EngineAnswer, ...]:
+    """The engines of the answer's table, in its order (RANK_RULE): those with runs in the
+    suites (an engine of the searches alone is at its best only)."""
+    return tuple(line for line in sorted(result.engines, key=rank_key) if line.settings_tried)
 
 
 def at_best(result: Answer) -> tuple[AtBest, ...]:
     """Per engine and tier, its best of the suite's setting and the search's (AtBest), for
     every engine with either."""
     best = []
-    for line in result.engines:
+    for line in sorted(result.engines, key=rank_key):
         searched = line.searched or (None,) * len(ACCURACY_TIERS)
         for tier, suite, search in zip(ACCURACY_TIERS, line.cheapest, searched, strict=True):
             if suite is not None or search is not None:
@@ -482,17 +612,18 @@ def _choice_cells(choice: Choice | None, scenes: int) -> list[str]:
         label += f" (only {choice.scenes_met}/{scenes} scenes)"
     return [
         label,
-        f"{choice.us_per_step:.3g}",
         f"{choice.cost_per_sim_s:.3g}",
+        f"{choice.us_per_step:.3g}",
         _worst_cell(choice.worst),
     ]
 
 
 def _wrong_cell(line: EngineAnswer) -> str:
+    """The scenes no setting gets within loose, each with what its runs did, in words."""
     if not line.always_wrong:
         return "nothing"
     return escape_cell(
-        "; ".join(f"{scene} ({', '.join(verdicts)})" for scene, verdicts in line.always_wrong)
+        "; ".join(f"{scene} ({plain_verdicts(verdicts)})" for scene, verdicts in line.always_wrong)
     )
 
 
@@ -555,14 +686,14 @@ def _best_cells(best: AtBest) -> list[str]:
             escape_cell(f"{search.setting} (dt {search.timestep:.3g})"),
             f"{search.scenes_met}/{search.scenes} scenes, {search.heldout} of them held out "
             f"(held-out tier: {escape_cell(search.heldout_tier)})",
-            f"{search.wall_per_sim_s:.3g}",
+            f"{search.wall_per_sim_s:.3g} (wall, the search's)",
             escape_cell(f"search: {search.engine}'s settings.toml#{tier_file}{other}"),
         ]
     assert suite is not None
     return [
         escape_cell(suite.setting.label),
         f"{suite.scenes_met}/{best.suite_scenes} catalogue scenes",
-        f"{suite.cost_per_sim_s:.3g}",
+        f"{suite.cost_per_sim_s:.3g} ({suite.clock})",
         "the suites",
     ]
 
@@ -580,7 +711,9 @@ def _at_best_markdown(result: Answer) -> list[str]:
         "the tier on the larger share of its scenes (the cheaper where they tie). A search's "
         "scenes are its training scenes (the catalogue's) and held-out scenes it never "
         "trained on; its cost was measured by the search, on the machine and load it ran on "
-        "(shipped with the repository, not measured by this report).",
+        "(shipped with the repository, not measured by this report): the wall time of its "
+        "runs' stepping per simulated second, which grows with that machine's load, where the "
+        "suites' is the CPU time of the same stepping (each cell says whose).",
         "",
         "| engine | tier | best setting | within the tier on | s per simulated s | found by |",
         "|---|---|---|---|---|---|",
@@ -598,20 +731,18 @@ def answer_markdown(result: Answer, *, heading: bool = True) -> str:
     if not result.engines:
         return ""
     clock = "CPU " if result.clock == "CPU" else ""
-    headers = ["engine"]
+    headers = ["rank", "engine"]
     for tier in ACCURACY_TIERS:
         headers += [
             f"{tier.name}: cheapest setting",
-            f"{clock}us/step",
             f"{clock}s per simulated s",
+            f"{clock}us/step",
             "worst transition",
         ]
     headers.append("wrong at every setting tried")
     lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
-    for line in result.engines:
-        if not line.settings_tried:  # an engine of the searches alone: at its best below
-            continue
-        cells = [escape_cell(line.engine)]
+    for rank, line in enumerate(ranked(result), start=1):
+        cells = [str(rank), escape_cell(line.engine)]
         for choice in line.cheapest:
             cells += _choice_cells(choice, len(result.scenes))
         lines.append("| " + " | ".join([*cells, _wrong_cell(line)]) + " |")
@@ -625,12 +756,14 @@ def answer_markdown(result: Answer, *, heading: bool = True) -> str:
         "Per engine: the cheapest setting tried (profile, settings, timestep) whose runs meet "
         f"each accuracy tier on {_scene_count(len(result.scenes))} "
         f"({escape_text(', '.join(result.scenes))}), or on as many as any setting does; its "
-        "cost (stepping time per step, and seconds of stepping time per simulated second: "
-        "below 1 is faster than real time); the worst transition of its runs that meet "
-        "the tier (of every event time the verdict compares, the farthest from the exact one "
-        "against its loose tolerance); the scenes "
-        f"it gets wrong at every setting tried, with those runs' verdicts. Tiers: {tiers}. "
-        + _cost_words(result.clock),
+        "cost (seconds of stepping time per simulated second, the report's one cost unit: "
+        "below 1 is faster than real time, and settings of different timesteps compare "
+        "directly; beside it the stepping time per step); the worst transition of its runs "
+        "that meet the tier (of every event time the verdict compares, the farthest from the "
+        "exact one against its loose tolerance); the scenes "
+        "it gets wrong at every setting tried, with what those runs did (answer.csv and "
+        f"answer.json beside this report give the verdicts' names). Tiers: {tiers}. "
+        f"The rows: {RANK_RULE}. " + _cost_words(result.clock),
         "",
         *lines,
         *_at_best_markdown(result),

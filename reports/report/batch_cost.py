@@ -134,23 +134,30 @@ def _conditions(frame: pd.DataFrame) -> str:
 
 
 def batch_cost_section(folders: Sequence[Path]) -> str:
-    """The report's section of the bench folders (Markdown, ending in a blank line)."""
+    """The report's section of the bench folders (Markdown, ending in a blank line): each
+    world-step's cost in the report's one cost unit, seconds of stepping per simulated
+    second of one world (us per world-step x 1e-6 / its timestep)."""
     lines = ["## Cost per world-step by batch size", ""]
     for folder in folders:
         frame = read_batch_cost(folder)
         table = batch_cost_table(frame)
+        timestep = frame.groupby(SETTING, sort=False)[Col.TIMESTEP].first()
         sizes = [c for c in table.columns if c != "gain"]
         head = ["engine, settings", *(f"{s:,} world{'s' if s > 1 else ''}" for s in sizes)]
         if "gain" in table.columns:
             head.append(f"{sizes[0]:,} / {sizes[-1]:,}")
         lines += [
             f"From `{escape_cell(str(folder.name))}/{BATCH_COST_FILE}` "
-            "(`python -m hoopbench.reports.bench.batched_engines --out DIR`, `make bench`): "
-            f"µs per world-step, tuned, {escape_cell(_conditions(frame))} (device auto: a "
+            "(`python -m hoopbench.reports.bench.batched_engines --out DIR`, `make bench`), "
+            "read, not measured, by this report: `make report` shows the file shipped with "
+            "the repository (reports/bench/measured) until `make bench` writes one here. "
+            "Seconds of stepping per simulated second of one world (the report's one cost "
+            "unit: µs per world-step x 1e-6 / dt), tuned, "
+            f"{escape_cell(_conditions(frame))} (device auto: a "
             "GPU if the engine sees one, else the CPU; MuJoCo C runs on the CPU). The "
             "stepping loop of `Engine.simulate_batch` over the batch's world-steps (compile "
-            "and model building excluded); the last column is how many times cheaper a "
-            "world-step is "
+            "and model building excluded), wall time; the last column is how many times "
+            "cheaper a world-step is "
             "in the largest batch than alone. A machine shared with other work makes these "
             "upper bounds.",
             "",
@@ -158,7 +165,8 @@ def batch_cost_section(folders: Sequence[Path]) -> str:
             "|---|" + "---:|" * (len(head) - 1),
         ]
         for setting, row in table.iterrows():
-            cells = [_number(float(row[s])) for s in sizes]
+            per_sim_s = 1e-6 / float(timestep[setting])
+            cells = [_number(float(row[s]) * per_sim_s) for s in sizes]
             if "gain" in table.columns:
                 gain = float(row["gain"])
                 cells.append(f"{gain:.3g}x" if math.isfinite(gain) else "-")

@@ -87,6 +87,9 @@ class BestSettings:
     """Tier name -> the cheapest of the Pareto settings within it on the most scenes,
     training and held-out (settings.toml's [tiers]); every tier None for a front.csv from
     before the scene counts."""
+    created: str | None = None
+    """When the search started (tune.json's ``created``, ISO 8601); None where it is not
+    recorded."""
 
     @property
     def has_tiers(self) -> bool:
@@ -134,6 +137,7 @@ def _read(folder: Path) -> BestSettings:
         at_tuned_cost=_best_within(front, cost),
         at_ten_times=_best_within(front, None if cost is None else COST_FACTOR * cost),
         cheapest=cheapest_by_tier(front),
+        created=spec["created"] if isinstance(spec.get("created"), str) else None,
     )
 
 
@@ -173,7 +177,7 @@ def _table(best: BestSettings) -> list[str]:
     within = "".join(f" scenes within {tier} |" for tier in TIER_CHOICES)
     lines = [
         "| setting | kind | timestep (s) | training error | held-out error | training cost "
-        f"(us per simulated s) | overfitted | training tier | held-out tier |{within}",
+        f"(wall s per simulated s) | overfitted | training tier | held-out tier |{within}",
         "|" + "---|" * (9 + len(TIER_CHOICES)),
     ]
     train, heldout = TIER_COLUMNS
@@ -182,20 +186,29 @@ def _table(best: BestSettings) -> list[str]:
             f"| {escape_cell(row['setting'])} | {escape_cell(row['kind'])} | "
             f"{_number(row['timestep'])} | "
             f"{_number(row['train_error'])} | {_number(row['heldout_error'])} | "
-            f"{_number(row['train_cost_us_per_s'])} | "
+            f"{_per_sim_s(row['train_cost_us_per_s'])} | "
             f"{'yes' if row['overfitted'] else 'no'} | "
             f"{_tier(row, train)} | {_tier(row, heldout)} | {_counts(row)} |"
         )
     return lines
 
 
+def _per_sim_s(us_per_s: Any) -> str:
+    """A search's cost, us per simulated s as front.csv stores it, in the report's one cost
+    unit: seconds per simulated second."""
+    try:
+        return _number(float(us_per_s) * 1e-6)
+    except (TypeError, ValueError):
+        return "-"
+
+
 def _tier_choice(tier: str, choice: TierChoice | None, costs: pd.Series) -> str:
     if choice is None:
         return f"{tier}: none"
-    cost = _number(costs.get(choice.setting))
+    cost = _per_sim_s(costs.get(choice.setting))
     scenes = f"{choice.scenes_within}/{choice.scenes} scenes"
     within = scenes if choice.scenes_within == choice.scenes else f"only {scenes}"
-    return f"{tier}: {escape_text(choice.setting)} ({within}; {cost} us per simulated s)"
+    return f"{tier}: {escape_text(choice.setting)} ({within}; {cost} wall s per simulated s)"
 
 
 def _tiers_line(best: BestSettings) -> str:
@@ -288,7 +301,13 @@ def best_settings_section(found: Sequence[BestSettings], out: str | Path) -> str
         "scenes drawn at random from a seed the search never saw. A setting is overfitted when "
         "its held-out error is more than twice its training error plus 0.5. Its tier on a set "
         "of scenes is the finest every one of its runs there is within: agrees (every event "
-        "within the tight tolerances), close (within the loose ones) or none.",
+        "within the tight tolerances), close (within the loose ones) or none. The searches' "
+        "files were shipped with the repository (reports/tune/searches, `make searches`): "
+        "this report reads them and measures nothing of them again. A cost is the wall time "
+        "of a setting's runs' stepping per simulated second (the report's one cost unit, "
+        "seconds per simulated second; the answer's are CPU time), measured by the search on "
+        "the machine and under the load it ran with, which its files do not name; each "
+        "engine's part says when its search started.",
     ]
     for best in found:
         name = figure_name(best.engine)
@@ -298,6 +317,7 @@ def best_settings_section(found: Sequence[BestSettings], out: str | Path) -> str
             "",
             f"### {engine}",
             "",
+            f"Search started {escape_text(best.created or 'at a time not recorded')}. "
             f"Training scenes: {escape_text(', '.join(best.training_scenes))}; "
             f"{len(best.trials)} trials. {_summary(best)}",
             "",

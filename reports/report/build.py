@@ -19,6 +19,7 @@ from hoopbench.engines.judging.columns import Col
 from hoopbench.reports.compare.suite import runs_frame
 from hoopbench.reports.compare.suite_file import CatalogueNameError, load_suite
 from hoopbench.reports.hop_map.spec import MAP_FILE
+from hoopbench.reports.report.answer_files import ANSWER_CSV, ANSWER_JSON
 from hoopbench.reports.report.batch_cost import batch_cost_section, is_batch_cost_folder
 from hoopbench.reports.report.best_settings import (
     best_settings,
@@ -45,14 +46,15 @@ class ReportFilesExistError(ValueError):
     """The report's folder holds files the report would write: nothing is replaced."""
 
 
-REPORT_FILES = ("report.md", "report.html")
+REPORT_FILES = ("report.md", "report.html", ANSWER_CSV, ANSWER_JSON)
 FIGURE_SUFFIXES = (".png", ".gif")
-"""What a report writes: these two and its figures (their names depend on the results)."""
+"""What a report writes: these files and its figures (their names depend on the results)."""
 
 
 def files_to_replace(out: Path, dirs: Sequence[Path]) -> list[Path]:
-    """The files of ``out`` a report would write over: report.md, report.html and (unless
-    ``out`` is one of the results folders, whose own figures a map redraws) any figure."""
+    """The files of ``out`` a report would write over: report.md, report.html, answer.csv,
+    answer.json and (unless ``out`` is one of the results folders, whose own figures a map
+    redraws) any figure."""
     if not out.is_dir():
         return []
     own = any(out.resolve() == d.resolve() for d in dirs)
@@ -62,7 +64,10 @@ def files_to_replace(out: Path, dirs: Sequence[Path]) -> list[Path]:
             for p in out.iterdir()
             if p.name in REPORT_FILES or (not own and p.suffix in FIGURE_SUFFIXES)
         ),
-        key=lambda p: (REPORT_FILES.index(p.name) if p.name in REPORT_FILES else 2, p.name),
+        key=lambda p: (
+            REPORT_FILES.index(p.name) if p.name in REPORT_FILES else len(REPORT_FILES),
+            p.name,
+        ),
     )
 
 

@@ -21,7 +21,8 @@ The blocks (:func:`blocks`):
   (engines/judging/columns.py) with its ``Col`` docstring;
 - ``verdicts``: one row per ``Verdict`` member, in the enum's order, with its docstring;
 - ``tolerances``: the tolerance table's tiers (engines/judging/tolerances.toml) key by key,
-  and its ``[cone]``.
+  and its ``[cone]``;
+- ``answer-columns``: the columns of the report's answer.csv (answer_files.ANSWER_COLUMNS).
 
 The docstrings' reST becomes Markdown (``code`` and :role:`name` become `code`; **bold**
 stays). A field, member or column without a docstring is an error that names it: an entry
@@ -53,6 +54,7 @@ from hoopbench.engines.judging.contact import ContactSettings
 from hoopbench.engines.judging.detectors import hoop_scale
 from hoopbench.engines.judging.tolerances import Tier, tolerances
 from hoopbench.engines.judging.verdict import PHASE_END_TOLERANCE, TIER_NAMES, Verdict
+from hoopbench.reports.report.answer_files import ANSWER_COLUMNS
 
 __all__ = [
     "BlockError",
@@ -304,7 +306,14 @@ def blocks() -> dict[str, str]:
         "force-columns": column_table(FORCE_COLUMNS),
         "verdicts": verdict_table(),
         "tolerances": tolerance_table(),
+        "answer-columns": answer_columns(),
     }
+
+
+def answer_columns() -> str:
+    """answer.csv's columns (answer.json's rows' keys), with their meanings
+    (answer_files.ANSWER_COLUMNS)."""
+    return _table(("column", "meaning"), ([f"`{n}`", cell(m)] for n, m in ANSWER_COLUMNS))
 
 
 # ------------------------------------------------------------------------------- the page

@@ -35,7 +35,8 @@ from hoopbench.reports.compare.selection import (
     step_cost_column,
 )
 from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
-from hoopbench.reports.report.answer import answer, answer_markdown
+from hoopbench.reports.report.answer import answer
+from hoopbench.reports.report.answer_words import answer_section
 from hoopbench.reports.report.best_settings import BestSettings
 from hoopbench.reports.report.escaping import escape_text
 from hoopbench.reports.report.scoreboard import scoreboard, scoreboard_markdown
@@ -595,7 +596,7 @@ def readme_markdown(runs: pd.DataFrame, searches: Sequence[BestSettings] = ()) -
     with the shipped ``searches``) without its heading, then the scoreboard and the key
     findings, pointing to the report for the rest."""
     is_stability = runs.get("suite", pd.Series("", index=runs.index)) == "stability"
-    head = answer_markdown(answer(runs[~is_stability], searches), heading=False).rstrip()
+    head = answer_section(answer(runs[~is_stability], searches), heading=False).rstrip()
     text = findings_markdown(runs).replace(
         f'section "{MORE_FINDINGS}" below', f'section "{MORE_FINDINGS}" of the report'
     )

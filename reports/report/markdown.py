@@ -22,7 +22,7 @@ import pandas as pd
 
 from hoopbench.engines.judging.columns import FORCE_COLUMNS
 from hoopbench.engines.judging.tolerances import tolerances
-from hoopbench.engines.judging.verdict import OUTCOME_FAILURES, Verdict
+from hoopbench.engines.judging.verdict import Verdict
 from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
 from hoopbench.models.catalogue import get_scene, scene_names
@@ -36,7 +36,9 @@ from hoopbench.reports.compare.selection import (
 from hoopbench.reports.compare.suite import ROW_COLUMNS
 from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
 from hoopbench.reports.report import seed_reproduction
-from hoopbench.reports.report.answer import answer, answer_markdown
+from hoopbench.reports.report.answer import answer
+from hoopbench.reports.report.answer_files import write_answer_files
+from hoopbench.reports.report.answer_words import answer_section
 from hoopbench.reports.report.best_settings import BestSettings
 from hoopbench.reports.report.drawn import drawn_rows, drawn_trajectories, timestep_note
 from hoopbench.reports.report.escaping import escape_cell, escape_text, file_stem
@@ -309,16 +311,9 @@ def _event_cell(row: pd.Series | None) -> str:
     verdict = row["verdict"] if isinstance(row["verdict"], str) else row["status"]
     if error is None:
         return str(verdict)
-    # Where the outcome is right (agrees, or a phase or slip-onset error) the number says it.
-    return error if verdict in _OUTCOME_RIGHT else f"{error} ({verdict})"
-
-
-_OUTCOME_RIGHT = {
-    str(v)
-    for v in Verdict
-    if v not in OUTCOME_FAILURES and v not in (Verdict.DIVERGED, Verdict.FAILED)
-}
-"""The verdicts whose outcome is right: ``outcome_agrees`` is true for them."""
+    # As the caption says: any verdict but agrees follows the number, a close or a creep too
+    # (the number alone reads as a pass where another event failed the run).
+    return error if verdict == Verdict.AGREES else f"{error} ({verdict})"
 
 
 def _timestep_section(runs: pd.DataFrame) -> str:
@@ -647,10 +642,13 @@ def _all_findings_section(runs: pd.DataFrame) -> str:
     return _section(f"## {MORE_FINDINGS}", "", text) if len(findings(runs)) > KEY_FINDINGS else ""
 
 
-def _answer_section(runs: pd.DataFrame, searches: Sequence[BestSettings]) -> str:
+def _answer_section(runs: pd.DataFrame, searches: Sequence[BestSettings], out: Path) -> str:
     """The answer (reports/report/answer.py) of the comparison suites' rows and the shipped
-    searches."""
-    return answer_markdown(answer(runs, searches))
+    searches, in words and as a table; the same rows as answer.csv and answer.json in
+    ``out`` (reports/report/answer_files.py)."""
+    result = answer(runs, searches)
+    write_answer_files(result, out)
+    return answer_section(result)
 
 
 def _seed_section(out: Path) -> tuple[str, list[Path]]:
@@ -901,7 +899,12 @@ def write_markdown(
     (seed, _), (stability, _), (forces, _) = drawn[len(head) : len(head) + 3]
     if say is not None:
         say("tables: the answer, the findings and the sections of report.md")
-    sections = [_header(), _answer_section(runs, searches), _findings_section(everything), seed]
+    sections = [
+        _header(),
+        _answer_section(runs, searches, out),
+        _findings_section(everything),
+        seed,
+    ]
     figures = ""
     if not runs.empty:
         run_time, _ = drawn[0]
