@@ -122,3 +122,21 @@ def test_a_report_of_a_suite_that_left_nothing_out_says_nothing_of_it(tmp_path):
     machine = _suite_machine(tmp_path)
     assert machine.left_out == ()
     assert "GPU" not in machine_text([machine])
+
+
+def test_newtons_runs_of_one_settings_go_in_one_batch_of_up_to_eight():
+    """On a CPU a Newton step costs its kernel launches whatever the worlds (3.53 s of CPU
+    for 1 world, 3.82 s for 8): the finer suite's 8 Newton runs at 1e-4 s are one batch, not
+    four of 2 (110 of the suite's 190 s of stepping in four batches of 2, 2026-11-28)."""
+    from hoopbench.engines.settings import DEFAULT_BATCH_SIZE
+    from hoopbench.reports.compare.suite import batch_key, batch_least
+    from hoopbench.reports.sweep.runner import Batching, TaskBatch
+
+    tasks = load_suite(builtin_suite("finer")).tasks()
+    units = Batching(suite_module.run_task_batch, batch_key, DEFAULT_BATCH_SIZE, batch_least)
+    sizes = [
+        len(unit.tasks)
+        for unit in units.units(tasks, parallel=4)
+        if isinstance(unit, TaskBatch) and unit.tasks[0].engine == "newton"
+    ]
+    assert sizes == [8]
