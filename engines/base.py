@@ -289,9 +289,10 @@ class Engine(ABC):
     """True: the engine steps many worlds in one call (the batch hooks), and the runner
     groups a suite's or a map's runs of one settings into batches for it."""
     worlds_per_call: ClassVar[int] = 1
-    """Worlds a batching engine steps in each call whatever the batch's size (MJX pads to
-    it): the runner splits no settings' runs into batches smaller than this, as a smaller
-    batch costs as much as a full one."""
+    """Worlds a batching engine's call costs the same for, whatever the batch's size (MJX pads
+    every call to it; a Newton step on a CPU is its kernel launches): the runner splits no
+    settings' runs into batches smaller than this, as a smaller batch costs as much as a
+    full one."""
     step_cost_bound: ClassVar[float] = 5e-4
     """The most a step of a run may cost on a loaded CPU (s): a suite's or a map's time limit
     allows it for every step of the run. 0.5 ms is 50 times the dearest step of the engines
