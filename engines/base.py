@@ -16,6 +16,7 @@ detectors.
 
 from __future__ import annotations
 
+import ctypes
 import gc
 import math
 import os
@@ -23,7 +24,7 @@ import sys
 import time
 import traceback
 from abc import ABC
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import AbstractContextManager, contextmanager
 from dataclasses import dataclass
 from importlib.metadata import PackageNotFoundError, version
@@ -288,13 +289,19 @@ class Engine(ABC):
     """True: the engine steps many worlds in one call (the batch hooks), and the runner
     groups a suite's or a map's runs of one settings into batches for it."""
     worlds_per_call: ClassVar[int] = 1
-    """Worlds a batching engine steps in each call whatever the batch's size (MJX pads to
-    it): the runner splits no settings' runs into batches smaller than this, as a smaller
-    batch costs as much as a full one."""
+    """Worlds a batching engine's call costs the same for, whatever the batch's size (MJX pads
+    every call to it; a Newton step on a CPU is its kernel launches): the runner splits no
+    settings' runs into batches smaller than this, as a smaller batch costs as much as a
+    full one."""
     step_cost_bound: ClassVar[float] = 5e-4
     """The most a step of a run may cost on a loaded CPU (s): a suite's or a map's time limit
     allows it for every step of the run. 0.5 ms is 50 times the dearest step of the engines
     that step one world in C or Rust (about 10 us: MuJoCo RK4, PyBullet)."""
+    gpu_only: ClassVar[str | None] = None
+    """Why the engine's runs pay off only on a GPU (None: they pay off on a CPU too): a suite
+    sized to the machine (``sized_to_machine``) runs them only where a GPU is present, and
+    leaves them to the suites that run everything (full) otherwise, saying so. An engine
+    with one such setting says it in :meth:`gpu_only_reason` instead."""
 
     def __init__(
         self,
@@ -328,6 +335,12 @@ class Engine(ABC):
             raise ValueError(f"unknown {cls.name} setting(s) {', '.join(unknown)}; known: {known}")
         values = {**cls.defaults(settings.profile), **settings.options}
         return {name: declared[name].check(name, value) for name, value in values.items()}
+
+    @classmethod
+    def gpu_only_reason(cls, options: Mapping[str, Any]) -> str | None:
+        """Why runs with these full option values (:meth:`resolve`'s) pay off only on a GPU,
+        or None: the engine's ``gpu_only`` unless it overrides this for one setting."""
+        return cls.gpu_only
 
     # ----------------------------------------------------------------- hooks
     def _import(self) -> ModuleType:
@@ -1016,6 +1029,32 @@ def warp_device(wp: ModuleType, choice: str) -> str:
     if gpus == 0:
         raise RuntimeError("device gpu: NVIDIA Warp sees no CUDA device")
     return "cuda:0"
+
+
+_CUDA_DRIVERS = ("libcuda.so", "libcuda.so.1", "nvcuda.dll")
+"""The CUDA driver library, as NVIDIA Warp loads it first (its cuda_util.cpp): without it
+Warp sees no GPU."""
+
+
+def warp_sees_gpu() -> bool:
+    """Whether NVIDIA Warp, which steps MuJoCo Warp and Newton, sees a CUDA device: the GPU
+    their ``device`` auto picks (:func:`warp_device`). Without the CUDA driver library there
+    is none, said without importing Warp (seconds, and a warning line on stderr)."""
+    if not any(_loads(name) for name in _CUDA_DRIVERS):
+        return False
+    try:
+        wp = import_warp()
+    except EngineUnavailableError:
+        return False
+    return bool(wp.get_cuda_device_count() > 0)
+
+
+def _loads(library: str) -> bool:
+    try:
+        ctypes.CDLL(library)
+    except OSError:
+        return False
+    return True
 
 
 def import_warp() -> ModuleType:

@@ -68,6 +68,11 @@ class MjwarpEngine(WorldsEngine, MjcfEngine):
     geometries = ("sphere",)
     step_cost_bound = 0.2
     """6 times a lone world's step on the CPU (34 ms, docs/engines.md)."""
+    gpu_only = (
+        "Warp kernels launched from Python at every step: on a CPU 4-15 ms a step for a "
+        "lone world (a 3 s run at 1e-3 s stepped 12 s stock, 40-45 s tuned, 2 cores, "
+        "2026-11-28), for MuJoCo C's model"
+    )
     options = (
         *MujocoEngine.options_except("ring_segments", integrator=choice(*_MJWARP_INTEGRATORS)),
         DEVICE,

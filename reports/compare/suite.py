@@ -13,7 +13,7 @@ import hashlib
 import json
 import shutil
 import sys
-from collections.abc import Hashable
+from collections.abc import Hashable, Sequence
 from concurrent.futures import Executor
 from dataclasses import replace
 from functools import partial
@@ -22,6 +22,7 @@ from typing import Any, Protocol
 
 import pandas as pd
 
+from hoopbench.engines.base import warp_sees_gpu
 from hoopbench.engines.judging.columns import (
     BATCH_COLUMNS,
     CPU_COLUMNS,
@@ -60,6 +61,7 @@ from hoopbench.reports.compare.settings_file import (
 )
 from hoopbench.reports.compare.suite_file import (
     DEFAULT_VARIANT,
+    LeftOut,
     RunTask,
     Suite,
     TrajectoryChoice,
@@ -77,12 +79,14 @@ from hoopbench.reports.sweep.runner import (
 
 __all__ = [
     "FORMAT_VERSION",
+    "LEFT_OUT_KEY",
     "TIMEOUT_NOTE",
     "TrajectoryChoice",
     "batch_key",
     "batch_least",
     "compare",
     "failure_row",
+    "left_out_text",
     "run_and_row",
     "run_task",
     "run_task_batch",
@@ -243,6 +247,26 @@ def run_and_row(
     return result, _row(task, result)
 
 
+LEFT_OUT_KEY = "left_out_without_gpu"
+"""meta.json's list of the runs a suite sized to the machine left out for want of a GPU
+(LeftOut.to_dict each): the report says so (Platform and runs)."""
+
+
+def left_out_text(left_out: Sequence[LeftOut]) -> str:
+    """One sentence: what a machine without a GPU left out of a suite, and why."""
+    runs = sum(item.runs for item in left_out)
+    parts = "; ".join(
+        f"{item.label} ({item.runs} run{'s' if item.runs != 1 else ''}): {item.reason}"
+        for item in left_out
+    )
+    many = runs != 1
+    return (
+        f"no GPU here (NVIDIA Warp sees none), so {runs} run{'s' if many else ''} that "
+        f"{'pay' if many else 'pays'} off only on a GPU {'were' if many else 'was'} left out, "
+        f"to the full suite: {parts}."
+    )
+
+
 TIMEOUT_NOTE = "the sweep's time limit: the machine's failure, not the engine's; not judged"
 """A timeout row's verdict_reason, in place of a verdict (issue 34): a run the time limit
 ended says nothing of the engine, only that this machine, at its load, did not finish it in
@@ -332,6 +356,7 @@ def compare(
     out = Path(out)
     traj_dir = out / TRAJECTORY_DIR
     tasks = suite.tasks(str(traj_dir) if trajectories != TrajectoryChoice.NONE else None)
+    tasks, left_out = suite.for_machine(tasks, warp_sees_gpu)
     if trajectories == TrajectoryChoice.DEFAULT:
         tasks = [t if t.variant == DEFAULT_VARIANT else _without_trajectory(t) for t in tasks]
     timeout = run_timeout if run_timeout_s is None else run_timeout_s
@@ -350,8 +375,11 @@ def compare(
         "units": {"times": "s", "angles": "deg", "lengths": "m", "*_ms": "ms"},
         "engine_versions": _engine_versions(suite.engines),
         **settings_meta(*(settings or (None,))),
+        **({LEFT_OUT_KEY: [item.to_dict() for item in left_out]} if left_out else {}),
     }
     say = None if quiet else (lambda text: print(text, file=sys.stderr, flush=True))
+    if say is not None and left_out:
+        say(f"{suite.name}: {left_out_text(left_out)}")
     identity = suite_identity(suite, suite_file) | settings_identity(*(settings or (None,)))
     with claim_folder(out, resume, identity, say, settings_mismatch):
         summary = run_tasks(

@@ -35,6 +35,7 @@ __all__ = [
     "MAX_SUITE_RUNS",
     "SUITES_DIR",
     "CatalogueNameError",
+    "LeftOut",
     "RunTask",
     "Suite",
     "SuiteError",
@@ -71,6 +72,7 @@ _TOP_KEYS = (
     "scenes",
     "scene",
     "variant",
+    "sized_to_machine",
 )
 _SCENE_KEYS = (
     "name",
@@ -180,6 +182,34 @@ class Suite:
     """An engine's own scenes (names of the suite's), in place of all of them: an engine
     too slow to run every scene (``[engine_scenes]``)."""
 
+    sized_to_machine: bool = False
+    """Whether the runs that pay off only on a GPU (``Engine.gpu_only_reason``) run only on
+    a machine with one (``sized_to_machine = true``: the suites of ``make report``); else,
+    as in the full suite, every run runs everywhere."""
+
+    def for_machine(
+        self, tasks: Sequence[RunTask], gpu: Callable[[], bool]
+    ) -> tuple[list[RunTask], tuple[LeftOut, ...]]:
+        """The tasks this machine runs, and what it leaves out: a suite sized to the machine
+        leaves out the runs that pay off only on a GPU where ``gpu()`` (asked only if the
+        suite has such runs) says there is none. Nothing of a run it keeps changes."""
+        reasons = {}
+        if self.sized_to_machine:
+            for task in tasks:
+                reason = engine_class(task.engine).gpu_only_reason(dict(task.options))
+                if reason is not None:
+                    reasons[task.run_id] = reason
+        if not reasons or gpu():
+            return list(tasks), ()
+        left: dict[tuple[str, str], int] = {}
+        for task in tasks:
+            if task.run_id in reasons:
+                key = (task.engine, task.variant)
+                left[key] = left.get(key, 0) + 1
+        why = {(t.engine, t.variant): reasons[t.run_id] for t in tasks if t.run_id in reasons}
+        kept = [task for task in tasks if task.run_id not in reasons]
+        return kept, tuple(LeftOut(e, v, n, why[e, v]) for (e, v), n in left.items())
+
     def _timesteps_of(self, variant: VariantSpec) -> tuple[float, ...]:
         return variant.timesteps or self.engine_timesteps.get(variant.engine) or self.timesteps
 
@@ -240,7 +270,47 @@ class Suite:
             self.profiles,
             own,
             scenes,
+            self.sized_to_machine,
         )
+
+
+@dataclass(frozen=True)
+class LeftOut:
+    """Runs of one engine's variant that a suite sized to the machine left out on a machine
+    without a GPU (:meth:`Suite.for_machine`), and why they pay off only on one."""
+
+    engine: str
+    variant: str
+    runs: int
+    reason: str
+
+    @property
+    def label(self) -> str:
+        """'mjwarp' for an engine's defaults, 'newton solver=mujoco' for a variant."""
+        return self.engine if self.variant == DEFAULT_VARIANT else f"{self.engine} {self.variant}"
+
+    def to_dict(self) -> dict[str, Any]:
+        """The results folder's meta.json entry (the report reads it back: from_dict)."""
+        return {
+            "engine": self.engine,
+            "variant": self.variant,
+            "runs": self.runs,
+            "reason": self.reason,
+        }
+
+    @classmethod
+    def from_dict(cls, value: Any) -> LeftOut | None:
+        """A stored entry, or None where it is not one (a hand-edited meta.json)."""
+        if not isinstance(value, Mapping):
+            return None
+        engine, variant, runs, reason = (
+            value.get(k) for k in ("engine", "variant", "runs", "reason")
+        )
+        if not (isinstance(engine, str) and isinstance(variant, str) and isinstance(reason, str)):
+            return None
+        if not isinstance(runs, int) or isinstance(runs, bool) or runs < 1:
+            return None
+        return cls(engine, variant, runs, reason)
 
 
 def _distinct_profiles(engine: str, profiles: tuple[Profile, ...]) -> list[Profile]:
@@ -355,7 +425,10 @@ def parse_suite(data: Mapping[str, Any], announce: Announce | None = None) -> Su
     profiles = _profiles(data.get("profiles", ["tuned"]), "profiles")
     own = _engine_timesteps(data.get("engine_timesteps", {}), engines)
     only = _engine_scenes(data.get("engine_scenes", {}), engines, names)
-    suite = Suite(name, engines, timesteps, tuple(scenes), variants, profiles, own, only)
+    sized = data.get("sized_to_machine", False)
+    if not isinstance(sized, bool):
+        raise SuiteError(f"sized_to_machine must be true or false, got {sized!r}")
+    suite = Suite(name, engines, timesteps, tuple(scenes), variants, profiles, own, only, sized)
     count = suite.run_count
     if count > MAX_SUITE_RUNS:
         raise SuiteError(

@@ -56,7 +56,7 @@ from hoopbench.engines.stopping import StopRule
 from hoopbench.models.events import Outcome
 from hoopbench.models.scene import DegenerateSceneError
 from hoopbench.reference.regimes import classify_solved
-from hoopbench.reports.compare.suite import batch_least, run_timeout
+from hoopbench.reports.compare.suite import TIMEOUT_NOTE, batch_least, run_timeout
 from hoopbench.reports.hop_map.display import write_display, write_exact_display
 from hoopbench.reports.hop_map.spec import (
     MAP_FILE,
@@ -414,10 +414,16 @@ def _map_row(task: MapTask) -> dict[str, Any]:
 
 
 def map_failure_row(task: MapTask, status: RunStatus, message: str) -> dict[str, Any]:
-    """The row of a run that produced nothing (timeout, crash, an exception)."""
+    """The row of a run that produced nothing (timeout, crash, an exception): an engine's is
+    ``failed``, but for a timeout, which has no verdict (as in a suite, ``failure_row``): the
+    sweep's time limit is the machine's failure, not the engine's, and the map's agreement
+    counts only judged points."""
     row = {**_task_columns(task), **dict(task.exact), Col.STATUS: str(status), Col.MESSAGE: message}
     if task.engine != REFERENCE:
-        row.update(verdict_columns(row))
+        if status is RunStatus.TIMEOUT:
+            row[Col.VERDICT_REASON] = TIMEOUT_NOTE
+        else:
+            row.update(verdict_columns(row))
     return _ordered(row)
 
 

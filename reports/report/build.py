@@ -11,13 +11,14 @@ import os
 from collections.abc import Sequence
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
 
 from hoopbench.engines.judging.columns import Col
-from hoopbench.reports.compare.suite import runs_frame
-from hoopbench.reports.compare.suite_file import CatalogueNameError, load_suite
+from hoopbench.reports.compare.suite import LEFT_OUT_KEY, runs_frame
+from hoopbench.reports.compare.suite_file import CatalogueNameError, LeftOut, load_suite
 from hoopbench.reports.hop_map.spec import MAP_FILE
 from hoopbench.reports.report.answer_files import ANSWER_CSV, ANSWER_JSON
 from hoopbench.reports.report.batch_cost import batch_cost_section, is_batch_cost_folder
@@ -251,7 +252,17 @@ def _suite_machine(results_dir: Path) -> SuiteMachine:
         cpu_count=count if isinstance(count, int) and not isinstance(count, bool) else None,
         load_start=_load(session.get("load_average_start")),
         load_end=_load(session.get("load_average_end")),
+        left_out=_left_out(meta.get(LEFT_OUT_KEY)),
     )
+
+
+def _left_out(value: Any) -> tuple[LeftOut, ...]:
+    """The stored runs a suite left out for want of a GPU (none where the entry is not a
+    list of them)."""
+    if not isinstance(value, list):
+        return ()
+    items = [LeftOut.from_dict(item) for item in value]
+    return tuple(item for item in items if item is not None)
 
 
 def _suite_order(suite_file: Path) -> dict[str, int]:

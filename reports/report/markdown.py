@@ -33,8 +33,8 @@ from hoopbench.reports.compare.selection import (
     profile_of,
     reference_rows,
 )
-from hoopbench.reports.compare.suite import ROW_COLUMNS
-from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
+from hoopbench.reports.compare.suite import ROW_COLUMNS, left_out_text
+from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT, LeftOut
 from hoopbench.reports.report import seed_reproduction
 from hoopbench.reports.report.answer import answer
 from hoopbench.reports.report.answer_files import write_answer_files
@@ -156,6 +156,8 @@ class SuiteMachine:
     a folder stored before issue 34)."""
     load_end: tuple[float, ...] | None
     """The same at its end."""
+    left_out: tuple[LeftOut, ...] = ()
+    """The runs its suite, sized to the machine, left out for want of a GPU."""
 
 
 def _load_text(load: tuple[float, ...] | None) -> str:
@@ -178,10 +180,13 @@ def machine_text(machines: Sequence[SuiteMachine]) -> str:
         else f"{m.suite} {_load_text(m.load_start)} to {_load_text(m.load_end)}"
         for m in machines
     )
+    moved = "".join(
+        f" In the {m.suite} suite, {left_out_text(m.left_out)}" for m in machines if m.left_out
+    )
     return escape_text(
         f"Machine: {', and '.join(cpus)}. Load average (runnable processes over 1/5/15 min, "
         f"all users') at the start and end of each suite: {loads}. The runs' wall times grow "
-        "with the load, their CPU times (cpu_us_per_step) far less."
+        f"with the load, their CPU times (cpu_us_per_step) far less.{moved}"
     )
 
 

@@ -1,0 +1,142 @@
+"""Suites sized to the machine (issue 34): the runs that pay off only on a GPU (MuJoCo Warp,
+Newton's solver=mujoco) run in a suite sized to the machine only where there is a GPU; the
+report says which were left out, and why."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from hoopbench.engines.registry import engine_class
+from hoopbench.reports.compare import suite as suite_module
+from hoopbench.reports.compare.suite import LEFT_OUT_KEY, compare, runs_frame
+from hoopbench.reports.compare.suite_file import (
+    LeftOut,
+    SuiteError,
+    builtin_suite,
+    load_suite,
+    parse_suite,
+)
+from hoopbench.reports.report.build import _suite_machine
+from hoopbench.reports.report.markdown import machine_text
+
+SIZED = {
+    "name": "sized",
+    "engines": ["reference", "mjwarp", "newton"],
+    "timesteps": [1e-3],
+    "scenes": ["seed-mu", "hop-top"],
+    "sized_to_machine": True,
+    "variant": [
+        {"engine": "newton", "name": "solver=mujoco", "options": {"solver": "mujoco"}},
+        {"engine": "newton", "name": "solver=featherstone", "options": {"solver": "featherstone"}},
+    ],
+}
+
+
+def _no_question() -> bool:
+    raise AssertionError("a suite that runs everything everywhere asks for no GPU")
+
+
+def test_the_engines_declare_what_pays_off_only_on_a_gpu():
+    assert engine_class("mjwarp").gpu_only_reason(engine_class("mjwarp").defaults())
+    newton = engine_class("newton")
+    assert newton.gpu_only_reason({**newton.defaults(), "solver": "mujoco"})
+    for solver in ("xpbd", "featherstone", "semi_implicit"):
+        assert newton.gpu_only_reason({**newton.defaults(), "solver": solver}) is None
+    for name in ("reference", "mujoco", "mjx", "drake"):
+        assert engine_class(name).gpu_only_reason(engine_class(name).defaults()) is None
+
+
+def test_without_a_gpu_a_sized_suite_leaves_the_gpu_only_runs_out():
+    suite = parse_suite(SIZED)
+    tasks = suite.tasks()
+    kept, left_out = suite.for_machine(tasks, lambda: False)
+    assert {(t.engine, t.variant) for t in kept} == {
+        ("reference", "default"),
+        ("newton", "default"),
+        ("newton", "solver=featherstone"),
+    }
+    assert [(item.label, item.runs) for item in left_out] == [
+        ("mjwarp", 2),  # 2 scenes, tuned (the suite's profile)
+        ("newton solver=mujoco", 2),
+    ]
+    assert all(item.reason for item in left_out)
+    assert kept == [t for t in tasks if t in kept]  # the same runs, in the same order
+
+
+def test_with_a_gpu_or_unsized_every_run_runs():
+    suite = parse_suite(SIZED)
+    tasks = suite.tasks()
+    assert suite.for_machine(tasks, lambda: True) == (tasks, ())
+    unsized = parse_suite({**SIZED, "sized_to_machine": False})
+    assert unsized.for_machine(unsized.tasks(), _no_question) == (unsized.tasks(), ())
+    assert suite.with_engines(["reference", "mjwarp"]).sized_to_machine
+    with pytest.raises(SuiteError, match="sized_to_machine must be true or false"):
+        parse_suite({**SIZED, "sized_to_machine": "yes"})
+
+
+def test_the_shipped_suites_leave_out_what_make_report_cannot_afford_without_a_gpu():
+    """The default and stability suites are sized to the machine; the full suite runs every
+    run everywhere (the GPU-only runs' home on a machine without one)."""
+    expected = {
+        "default": [("mjwarp", 4), ("newton solver=mujoco", 2)],
+        "stability": [("mjwarp", 2)],
+    }
+    for name, left in expected.items():
+        suite = load_suite(builtin_suite(name))
+        _, left_out = suite.for_machine(suite.tasks(), lambda: False)
+        assert [(item.label, item.runs) for item in left_out] == left
+    full = load_suite(builtin_suite("full"))
+    assert full.for_machine(full.tasks(), _no_question) == (full.tasks(), ())
+
+
+def test_compare_without_a_gpu_records_and_the_report_says_what_it_left_out(tmp_path, monkeypatch):
+    """The detection monkeypatched: the left-out runs are not run, meta.json lists them, and
+    the report's Platform and runs section says so in a sentence (about 5 s: one reference
+    run)."""
+    suite_file = tmp_path / "sized.toml"
+    suite_file.write_text(
+        'name = "sized"\nengines = ["reference", "mjwarp"]\ntimesteps = [1e-3]\n'
+        'scenes = ["seed-mu"]\nsized_to_machine = true\n'
+    )
+    monkeypatch.setattr(suite_module, "warp_sees_gpu", lambda: False)
+    out = tmp_path / "out"
+    compare(suite_file, out, jobs=1, quiet=True)
+    assert set(runs_frame(out)["engine"]) == {"reference"}
+    meta = json.loads((out / "meta.json").read_text())
+    (stored,) = meta[LEFT_OUT_KEY]
+    assert LeftOut.from_dict(stored) == LeftOut(
+        "mjwarp", "default", 1, engine_class("mjwarp").gpu_only_reason({}) or ""
+    )
+    text = machine_text([_suite_machine(out)])
+    assert (
+        "In the sized suite, no GPU here (NVIDIA Warp sees none), so 1 run that pays off only "
+        "on a GPU was left out, to the full suite: mjwarp (1 run): Warp kernels" in text
+    )
+
+
+def test_a_report_of_a_suite_that_left_nothing_out_says_nothing_of_it(tmp_path):
+    bad = [{"engine": "mjwarp", "variant": "default", "runs": "2", "reason": "slow"}]
+    (tmp_path / "meta.json").write_text(json.dumps({"suite": "quick", LEFT_OUT_KEY: bad}))
+    machine = _suite_machine(tmp_path)
+    assert machine.left_out == ()
+    assert "GPU" not in machine_text([machine])
+
+
+def test_newtons_runs_of_one_settings_go_in_one_batch_of_up_to_eight():
+    """On a CPU a Newton step costs its kernel launches whatever the worlds (3.53 s of CPU
+    for 1 world, 3.82 s for 8): the finer suite's 8 Newton runs at 1e-4 s are one batch, not
+    four of 2 (110 of the suite's 190 s of stepping in four batches of 2, 2026-11-28)."""
+    from hoopbench.engines.settings import DEFAULT_BATCH_SIZE
+    from hoopbench.reports.compare.suite import batch_key, batch_least
+    from hoopbench.reports.sweep.runner import Batching, TaskBatch
+
+    tasks = load_suite(builtin_suite("finer")).tasks()
+    units = Batching(suite_module.run_task_batch, batch_key, DEFAULT_BATCH_SIZE, batch_least)
+    sizes = [
+        len(unit.tasks)
+        for unit in units.units(tasks, parallel=4)
+        if isinstance(unit, TaskBatch) and unit.tasks[0].engine == "newton"
+    ]
+    assert sizes == [8]
