@@ -18,7 +18,6 @@ from __future__ import annotations
 import math
 import numbers
 import os
-import sys
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
@@ -73,6 +72,7 @@ from hoopbench.reports.hop_map.table import map_frame
 from hoopbench.reports.report.batch_cost import is_batch_cost_folder
 from hoopbench.reports.report.best_settings import is_tune_folder
 from hoopbench.reports.report.build import build_report, files_to_replace
+from hoopbench.reports.sweep import control_chars
 from hoopbench.reports.sweep.runner import RunSummary
 from hoopbench.reports.tune.heldout import validate
 from hoopbench.reports.tune.search import (
@@ -947,7 +947,7 @@ def run_tune(
     then ignored); ``batch_size``: runs per batch for an engine that steps many worlds."""
     workers = default_jobs() if jobs is None else _checked("jobs", check_workers, jobs)
     batch_size = _checked("batch_size", check_batch_size, batch_size)
-    say = None if quiet else (lambda text: print(text, file=sys.stderr, flush=True))
+    say = None if quiet else control_chars.say
     front: list[pd.DataFrame | None] = [None]
 
     def then(result: SearchResult, runner: Runner) -> None:

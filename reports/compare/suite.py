@@ -12,7 +12,6 @@ from __future__ import annotations
 import hashlib
 import json
 import shutil
-import sys
 from collections.abc import Hashable
 from concurrent.futures import Executor
 from dataclasses import replace
@@ -65,7 +64,7 @@ from hoopbench.reports.compare.suite_file import (
     TrajectoryChoice,
     load_suite,
 )
-from hoopbench.reports.sweep import results
+from hoopbench.reports.sweep import control_chars, results
 from hoopbench.reports.sweep.runner import (
     Batching,
     RunnerError,
@@ -346,7 +345,7 @@ def compare(
         "engine_versions": _engine_versions(suite.engines),
         **settings_meta(*(settings or (None,))),
     }
-    say = None if quiet else (lambda text: print(text, file=sys.stderr, flush=True))
+    say = None if quiet else control_chars.say
     identity = suite_identity(suite, suite_file) | settings_identity(*(settings or (None,)))
     with claim_folder(out, resume, identity, say, settings_mismatch):
         summary = run_tasks(
