@@ -218,6 +218,17 @@ def _check_out(option: str, value: Any) -> Path:
     return Path(value)
 
 
+def _check_executor(value: Any) -> None:
+    """None, or an executor-like backend (``submit`` returning futures): checked before the
+    folder is made (it failed with an AttributeError after sweep.json was written)."""
+    if value is not None and not callable(getattr(value, "submit", None)):
+        raise OptionError(
+            "executor",
+            f"{{option}} must be an executor (with submit(), as Dask's Client.get_executor() "
+            f"or a concurrent.futures pool), got {value!r}",
+        )
+
+
 def _check_names(option: str, value: Any) -> list[str] | None:
     """A list of names (a string would be read letter by letter)."""
     if value is None:
@@ -588,6 +599,7 @@ def run_suite(
     resume, quiet = _check_flag("resume", resume), _check_flag("quiet", quiet)
     workers = default_jobs() if jobs is None else _checked("jobs", check_workers, jobs)
     batch_size = _checked("batch_size", check_batch_size, batch_size)
+    _check_executor(executor)
     return suite_runs.compare(
         job.path,
         out,
@@ -756,6 +768,7 @@ def run_hop_map(
     resume, quiet = _check_flag("resume", resume), _check_flag("quiet", quiet)
     workers = default_jobs() if jobs is None else _checked("jobs", check_workers, jobs)
     batch_size = _checked("batch_size", check_batch_size, batch_size)
+    _check_executor(executor)
     return run_map(
         spec,
         out,
@@ -947,6 +960,7 @@ def run_tune(
     then ignored); ``batch_size``: runs per batch for an engine that steps many worlds."""
     workers = default_jobs() if jobs is None else _checked("jobs", check_workers, jobs)
     batch_size = _checked("batch_size", check_batch_size, batch_size)
+    _check_executor(executor)
     say = None if quiet else control_chars.say
     front: list[pd.DataFrame | None] = [None]
 
