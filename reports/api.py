@@ -45,6 +45,7 @@ from hoopbench.reports.compare.settings_file import (
     SettingsFile,
     load_choice,
     pick_setting,
+    split_choice,
     with_settings,
 )
 from hoopbench.reports.compare.suite_file import (
@@ -493,7 +494,7 @@ def setting_from_file(engine: str, text: str | Path) -> Any:
     """The setting a ``FILE`` or ``FILE#NAME`` names, for ``engine`` (ValueError otherwise)."""
     loaded, name = load_choice(text)
     if loaded.engine != engine:
-        path = str(text).partition("#")[0]
+        path = split_choice(text)[0]
         raise OptionError("settings", f"{{option}} {path!r} is for {loaded.engine}, not {engine}")
     return pick_setting(loaded, name)
 

@@ -347,3 +347,15 @@ def test_a_journal_line_optuna_cannot_read_is_refused_and_the_journal_kept(tmp_p
     with pytest.raises(ValueError, match=r"journal\.log: .*not a journal Optuna can replay"):
         _open_study(spec, tmp_path, resume=True)
     assert path.read_bytes() == before
+
+
+# =========================================================================== unclear
+def test_a_settings_file_whose_name_holds_a_hash_can_be_named(tmp_path, capsys):
+    """``a#b.toml`` was read as the file ``a`` and the setting ``b.toml``: "does not exist"."""
+    path = tmp_path / "a#b.toml"
+    path.write_text(f'engine = "reference"\n{SETTING}')
+    argv = ["simulate", "--engine", "reference", "--scene", "seed", "--t-end", "0.1"]
+    assert main([*argv, "--settings", str(path)]) == 0
+    assert main([*argv, "--settings", f"{path}#a"]) == 0
+    assert main([*argv, "--settings", f"{path}#zz"]) == 2
+    assert "no setting named 'zz'" in capsys.readouterr().err

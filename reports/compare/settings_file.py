@@ -70,6 +70,7 @@ __all__ = [
     "settings_meta",
     "settings_mismatch",
     "settings_text",
+    "split_choice",
     "tier_note",
     "with_settings",
 ]
@@ -275,11 +276,21 @@ def _tiers(
     return tiers, counts
 
 
+def split_choice(text: str | Path) -> tuple[str, str]:
+    """``FILE#NAME`` -> (FILE, NAME), NAME "" without one. A text that names a file as it is
+    is that file (``a#b.toml``); otherwise NAME is what follows the last ``#``."""
+    text = str(text)
+    if "#" not in text or Path(text).exists():
+        return text, ""
+    path, _, name = text.rpartition("#")
+    return path, name
+
+
 def load_choice(text: str | Path) -> tuple[SettingsFile, str | None]:
     """A ``FILE`` or ``FILE#NAME`` (NAME a setting's name or a tier, TIER_CHOICES): the file,
     checked, and the name (None without one). SettingsFileError for a NAME the file does not
     have (pick_setting)."""
-    path, _, name = str(text).partition("#")
+    path, name = split_choice(text)
     loaded = load_settings(path)
     if name:
         pick_setting(loaded, name)
