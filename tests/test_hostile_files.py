@@ -221,6 +221,7 @@ TABLE_CASES = {
         _count_inf,
         "close_scenes must be a whole number of scenes, got inf",
     ),
+    "front-empty": ("front.csv", lambda table: table.iloc[:0], "front.csv holds no settings"),
 }
 
 
@@ -248,6 +249,16 @@ def test_a_hostile_front_or_trials_table_is_one_line(tmp_path, capsys, case):
     assert main(["report", "--results", str(folder), "--out", str(tmp_path / "r")]) == 2
     line = one_line(capsys)
     assert str(folder / name) in line and needle in line
+
+
+def test_a_front_with_nothing_to_draw_still_makes_the_report(tmp_path, capsys):
+    """No Pareto row and no stock or tuned row (kind and setting edited): matplotlib's "Data
+    cannot be log-scaled" ended the report in a line naming nothing."""
+    folder = _hostile_search(tmp_path)
+    front = pd.read_csv(folder / "front.csv").assign(kind="edited", setting="edited")
+    front.to_csv(folder / "front.csv", index=False)
+    assert main(["report", "--results", str(folder), "--out", str(tmp_path / "r")]) == 0
+    assert (tmp_path / "r" / "report.md").is_file()
 
 
 def test_an_engine_module_raising_anything_is_one_line(tmp_path):

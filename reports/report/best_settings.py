@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from hoopbench.reports.compare.settings_file import TIER_CHOICES, TierChoice
@@ -138,6 +139,8 @@ def _table_file(folder: Path, name: str, columns: Sequence[str]) -> pd.DataFrame
     missing = [column for column in columns if column not in table.columns]
     if missing:
         raise FolderFileError(f"{folder / name} lacks the column(s) {', '.join(missing)}")
+    if table.empty and name == FRONT_NAME:
+        raise FolderFileError(f"{folder / name} holds no settings")
     for column in (c for c in _NUMBER_COLUMNS if c in table.columns):
         numbers = pd.to_numeric(table[column], errors="coerce")
         table[column] = numbers.where(numbers.abs() != math.inf)
@@ -302,6 +305,12 @@ def _plain_log_axis(axis: Any) -> None:
     axis.set_minor_formatter(FuncFormatter(lambda v, _: ""))
 
 
+def _positive(values: Any) -> bool:
+    """Whether any of the values is a finite number > 0 (a point a log axis can show)."""
+    numbers = pd.to_numeric(pd.Series(np.asarray(values, dtype=object)), errors="coerce")
+    return bool(((numbers > 0) & (numbers < math.inf)).any())
+
+
 def _panel(ax: Any, best: BestSettings, which: str) -> None:
     front = best.front
     colour = engine_colours([best.engine])[best.engine]  # the engine's colour in every figure
@@ -330,8 +339,11 @@ def _panel(ax: Any, best: BestSettings, which: str) -> None:
             label=name,
             zorder=3,
         )
-    ax.set_xscale("log")
-    _plain_log_axis(ax.xaxis)
+    if any(_positive(line.get_xdata()) for line in ax.lines) or any(
+        _positive(points.get_offsets()[:, 0]) for points in ax.collections
+    ):  # a log axis of nothing drawn fails ("Data cannot be log-scaled")
+        ax.set_xscale("log")
+        _plain_log_axis(ax.xaxis)
     ax.set_xlabel("cost, us per simulated second")
     ax.set_ylabel(SCORE_AXIS)
     ax.set_title("training scenes" if which == "train" else "held-out scenes")
