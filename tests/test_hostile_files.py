@@ -370,3 +370,16 @@ def test_a_settings_file_whose_name_holds_a_hash_can_be_named(tmp_path, capsys):
     assert main([*argv, "--settings", f"{path}#a"]) == 0
     assert main([*argv, "--settings", f"{path}#zz"]) == 2
     assert "no setting named 'zz'" in capsys.readouterr().err
+
+
+def test_a_training_scene_given_twice_is_refused_before_the_folder_is_made(tmp_path, capsys):
+    """It was refused after tune.json, sweep.json and journal.log were written, as
+    "run_id '58bd4b1a7059a809' appears twice"."""
+    pytest.importorskip("optuna")
+    out = tmp_path / "t"
+    argv = ["tune", "--engine", "pymunk", "--out", str(out), "--scenes", "seed", "seed-mu"]
+    assert main([*argv, "seed", "--trials", "2", "--quiet"]) == 2
+    assert "scenes: 'seed' given twice" in one_line(capsys)
+    assert not out.exists()
+    with pytest.raises(ValueError, match="the same scene given twice"):
+        api.tune_job("pymunk", scenes=[api.scene(lam=0.9, chi=0.1, mus=0.5)] * 2, trials=2)

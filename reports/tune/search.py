@@ -135,6 +135,16 @@ class TuneSpec:
     """Held-out neighbours drawn per training scene (heldout.py): a search folder made before
     they existed has no such key and resumes with any value."""
 
+    def __post_init__(self) -> None:
+        # Checked when the search is described, before its folder is made: two equal
+        # scenes were refused only after tune.json, sweep.json and journal.log were
+        # written, as "run_id '58bd...' appears twice".
+        names = [s.name for s in self.scenes if s.name]
+        twice = sorted({n for n in names if names.count(n) > 1})
+        if twice or len(set(self.scenes)) < len(self.scenes):
+            shown = ", ".join(map(repr, twice)) or "the same scene"
+            raise ValueError(f"scenes: {shown} given twice: give each training scene once")
+
     def identity(self) -> dict[str, Any]:
         return {
             "kind": "tune",
