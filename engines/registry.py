@@ -54,9 +54,22 @@ dropped silently after its first error."""
 E = TypeVar("E", bound=type[Engine])
 
 
+def _check_name(name: object) -> None:
+    """An engine's name is shown in --help, progress lines, file and column names: a
+    non-empty printable string without spaces (no escape sequence reaches a terminal)."""
+    if (
+        not isinstance(name, str)
+        or not name
+        or not name.isprintable()
+        or name != "".join(name.split())
+    ):
+        raise ValueError(f"engine name {name!r} must be a non-empty printable name without spaces")
+
+
 def register(cls: E) -> E:
     """Class decorator: make the engine known by its ``name``."""
     name = cls.name
+    _check_name(name)
     if name in _ENGINES and _ENGINES[name] is not cls:
         raise ValueError(f"engine name {name!r} is registered twice")
     _ENGINES[name] = cls
@@ -98,11 +111,17 @@ def _load_engines() -> None:
         if name.strip():
             try:
                 import_module(name.strip())
-            except ImportError as exc:
+            except Exception as exc:  # a module's import may raise anything: name it, in one line
                 raise ValueError(
                     f"{ENGINE_MODULES_VARIABLE}: cannot import engine module {name.strip()!r}: "
-                    f"{exc}"
+                    f"{exc if isinstance(exc, ImportError) else _first_line(exc)}"
                 ) from None
+
+
+def _first_line(exc: Exception) -> str:
+    """``Kind: first line`` of an error a module raised on import."""
+    first = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+    return f"{type(exc).__name__}: {first}"
 
 
 def _load_plugin(entry: EntryPoint) -> None:
@@ -113,9 +132,8 @@ def _load_plugin(entry: EntryPoint) -> None:
     try:
         loaded = entry.load()
     except Exception as exc:  # a plugin's import may raise anything: name it, in one line
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
         raise ValueError(
-            f"{where} cannot be loaded: {type(exc).__name__}: {first} "
+            f"{where} cannot be loaded: {_first_line(exc)} "
             f"(uninstall it, or set {DISABLE_PLUGINS_VARIABLE}=1)"
         ) from None
     if isinstance(loaded, type) and issubclass(loaded, Engine):

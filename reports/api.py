@@ -18,7 +18,6 @@ from __future__ import annotations
 import math
 import numbers
 import os
-import sys
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
@@ -52,6 +51,7 @@ from hoopbench.reports.compare.settings_file import (
     SettingsFile,
     load_choice,
     pick_setting,
+    split_choice,
     with_settings,
 )
 from hoopbench.reports.compare.suite_file import (
@@ -79,6 +79,7 @@ from hoopbench.reports.hop_map.table import map_frame
 from hoopbench.reports.report.batch_cost import is_batch_cost_folder
 from hoopbench.reports.report.best_settings import is_tune_folder
 from hoopbench.reports.report.build import build_report, files_to_replace
+from hoopbench.reports.sweep import control_chars
 from hoopbench.reports.sweep.runner import RunSummary
 from hoopbench.reports.tune.heldout import validate
 from hoopbench.reports.tune.search import (
@@ -224,6 +225,17 @@ def _check_out(option: str, value: Any) -> Path:
     if not isinstance(value, str | os.PathLike) or not str(value).strip():
         raise OptionError(option, f"{{option}} must name a folder, got {value!r}")
     return Path(value)
+
+
+def _check_executor(value: Any) -> None:
+    """None, or an executor-like backend (``submit`` returning futures): checked before the
+    folder is made (it failed with an AttributeError after sweep.json was written)."""
+    if value is not None and not callable(getattr(value, "submit", None)):
+        raise OptionError(
+            "executor",
+            f"{{option}} must be an executor (with submit(), as Dask's Client.get_executor() "
+            f"or a concurrent.futures pool), got {value!r}",
+        )
 
 
 def _check_names(option: str, value: Any) -> list[str] | None:
@@ -582,7 +594,7 @@ def setting_from_file(engine: str, text: str | Path) -> Any:
     """The setting a ``FILE`` or ``FILE#NAME`` names, for ``engine`` (ValueError otherwise)."""
     loaded, name = load_choice(text)
     if loaded.engine != engine:
-        path = str(text).partition("#")[0]
+        path = split_choice(text)[0]
         raise OptionError("settings", f"{{option}} {path!r} is for {loaded.engine}, not {engine}")
     return pick_setting(loaded, name)
 
@@ -693,6 +705,7 @@ def run_suite(
     resume, quiet = _check_flag("resume", resume), _check_flag("quiet", quiet)
     workers = default_jobs() if jobs is None else _checked("jobs", check_workers, jobs)
     batch_size = _checked("batch_size", check_batch_size, batch_size)
+    _check_executor(executor)
     return suite_runs.compare(
         job.path,
         out,
@@ -861,6 +874,7 @@ def run_hop_map(
     resume, quiet = _check_flag("resume", resume), _check_flag("quiet", quiet)
     workers = default_jobs() if jobs is None else _checked("jobs", check_workers, jobs)
     batch_size = _checked("batch_size", check_batch_size, batch_size)
+    _check_executor(executor)
     return run_map(
         spec,
         out,
@@ -1052,7 +1066,8 @@ def run_tune(
     then ignored); ``batch_size``: runs per batch for an engine that steps many worlds."""
     workers = default_jobs() if jobs is None else _checked("jobs", check_workers, jobs)
     batch_size = _checked("batch_size", check_batch_size, batch_size)
-    say = None if quiet else (lambda text: print(text, file=sys.stderr, flush=True))
+    _check_executor(executor)
+    say = None if quiet else control_chars.say
     front: list[pd.DataFrame | None] = [None]
 
     def then(result: SearchResult, runner: Runner) -> None:

@@ -325,7 +325,9 @@ def _emit(args: argparse.Namespace, payload: dict[str, Any]) -> None:
     if args.json:
         _print_json(payload)
     else:
-        print(_summary(payload))
+        from hoopbench.reports.sweep.control_chars import terminal_text
+
+        print(terminal_text(_summary(payload)))  # a plugin's message, a settings file's name
 
 
 # --------------------------------------------------------------------------- commands
@@ -397,7 +399,7 @@ def _say_tier_note(loaded: Any, name: str | None) -> None:
 
     note = tier_note(loaded, name)
     if note is not None:
-        print(f"hoopbench: note: settings file {loaded.file_name}{note}", file=sys.stderr)
+        _say(f"note: settings file {loaded.file_name}{note}")
 
 
 def _settings_from_file(args: argparse.Namespace) -> RunSettings:
@@ -682,21 +684,19 @@ LARGE_SUITE_RUNS = 10_000
 
 def _announce_suite(name: str, runs: int) -> None:
     if runs >= LARGE_SUITE_RUNS:
-        print(f"hoopbench: suite {name}: {runs:,} runs; checking each run's settings first",
-              file=sys.stderr, flush=True)  # fmt: skip
+        _say(f"suite {name}: {runs:,} runs; checking each run's settings first")
 
 
 def _say_how_the_sweep_ended(summary: RunSummary, out: str, resume: str, quiet: bool) -> None:
     """On stderr: how to resume an interrupted sweep, else (unless quiet) its status counts."""
     if summary.interrupted is not None:
-        print(
-            f"hoopbench: interrupted by {summary.interrupted.name}; {summary.total} run(s) "
-            f"stored, {summary.unfinished} left. Resume with: {resume}",
-            file=sys.stderr,
+        _say(
+            f"interrupted by {summary.interrupted.name}; {summary.total} run(s) "
+            f"stored, {summary.unfinished} left. Resume with: {resume}"
         )
     elif not quiet:
         counts = ", ".join(f"{n} {s}" for s, n in sorted(summary.counts.items()) if n)
-        print(f"hoopbench: {counts or 'nothing to run'} -> {out}", file=sys.stderr)
+        _say(f"{counts or 'nothing to run'} -> {out}")
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
@@ -841,10 +841,9 @@ def _cmd_map(args: argparse.Namespace) -> int:
     if summary.interrupted is not None:
         return summary.exit_code
     if not args.quiet and summary.unfinished:
-        print(
-            f"hoopbench: {summary.unfinished} run(s) still to do (a point's reference "
-            f"timed out or crashed): hoopbench map --out {args.out} --resume",
-            file=sys.stderr,
+        _say(
+            f"{summary.unfinished} run(s) still to do (a point's reference "
+            f"timed out or crashed): hoopbench map --out {args.out} --resume"
         )
     try:
         paths = write_map_outputs(args.out)
@@ -1222,16 +1221,15 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     except (RunnerError, TuneUnavailableError) as exc:
         raise UsageError(str(exc)) from None
     if result.interrupted or front is None:
-        print(
-            f"hoopbench: interrupted; every finished trial is kept. Resume with: hoopbench tune "
-            f"--engine {args.engine} --out {args.out} --resume --trials N",
-            file=sys.stderr,
+        _say(
+            f"interrupted; every finished trial is kept. Resume with: hoopbench tune "
+            f"--engine {args.engine} --out {args.out} --resume --trials N"
         )
         return EXIT_INTERRUPTED
     columns = ["setting", "kind", "timestep", "train_error", "heldout_error"]
     columns += ["train_cost_us_per_s", "overfitted"]
     print(front[columns].to_string(index=False, float_format=lambda v: f"{v:.4g}"))
-    print(f"hoopbench: settings -> {Path(args.out) / 'settings.toml'}", file=sys.stderr)
+    _say(f"settings -> {Path(args.out) / 'settings.toml'}")
     return 0
 
 
@@ -1350,9 +1348,15 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _error(text: str) -> None:
     """One line on stderr; whatever it quotes from files or names shown, never obeyed."""
-    from hoopbench.reports.sweep.control_chars import terminal_text
+    _say(text)
 
-    print(f"hoopbench: {terminal_text(text)}", file=sys.stderr)
+
+def _say(text: str) -> None:
+    """A line of ours on stderr, ``hoopbench: `` first; whatever it quotes from files, names
+    or arguments shown, never obeyed (control_chars.say)."""
+    from hoopbench.reports.sweep.control_chars import say
+
+    say(f"hoopbench: {text}")
 
 
 def _message(exc: Exception) -> str:

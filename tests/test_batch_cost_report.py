@@ -93,7 +93,15 @@ def test_the_report_of_a_bench_folder_has_the_section(bench_dir, tmp_path, capsy
         (lambda f: f.drop(columns=[Col.BATCH_SIZE]), "has no column(s) batch_size"),
         (lambda f: f.iloc[:0], "holds no rows"),
         (lambda f: f.assign(us_per_world_step=-1.0), "us_per_world_step must be a number > 0"),
-        (lambda f: f.assign(batch_size="many"), "batch_size must be a number > 0, got 'many'"),
+        (
+            lambda f: f.assign(batch_size="many"),
+            "batch_size must be a whole number > 0, got 'many'",
+        ),
+        # issue 36: inf passed "> 0" and ended in int()'s OverflowError; 0.4 in a pandas error
+        (lambda f: f.assign(batch_size=math.inf), "batch_size must be a whole number > 0, got inf"),
+        (lambda f: f.assign(batch_size=0.4), "batch_size must be a whole number > 0, got 0.4"),
+        (lambda f: f.assign(steps_per_world=1.5), "steps_per_world must be a whole number > 0"),
+        (lambda f: f.assign(us_per_world_step=math.inf), "us_per_world_step must be a number > 0"),
     ],
 )
 def test_a_bad_file_is_refused_by_name(tmp_path, change, needle):
@@ -107,8 +115,7 @@ def test_a_bad_file_is_refused_by_name(tmp_path, change, needle):
 
 def test_the_bench_never_replaces_its_file_unasked(bench_dir, capsys):
     before = (bench_dir / BATCH_COST_FILE).read_text()
-    with pytest.raises(SystemExit) as info:
-        bench_main(["--engines", "none", "--out", str(bench_dir)])
-    assert info.value.code == 2
+    # refused before anything is measured (it named no engine, "none", before issue 36)
+    assert bench_main(["--engines", "mujoco", "--out", str(bench_dir)]) == 2
     assert "exists; pass --force" in capsys.readouterr().err
     assert (bench_dir / BATCH_COST_FILE).read_text() == before

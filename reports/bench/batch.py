@@ -29,6 +29,7 @@ import math
 import sys
 import tempfile
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -37,10 +38,10 @@ import pandas as pd
 from hoopbench.engines.judging.columns import COST_COLUMNS, Col
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.run import Run
-from hoopbench.engines.settings import DEFAULT_BATCH_SIZE, RunSettings
+from hoopbench.engines.settings import DEFAULT_BATCH_SIZE, MAX_STEPS, RunSettings
 from hoopbench.models.scene import Scene
 from hoopbench.reports.bench.map import CpuMeter
-from hoopbench.reports.hop_map.spec import MapSpec, check_grid
+from hoopbench.reports.hop_map.spec import MAX_GRID, MapSpec, check_grid
 from hoopbench.reports.hop_map.stages import run_map
 from hoopbench.reports.hop_map.table import map_frame
 from hoopbench.reports.sweep.results import TIMING_COLUMNS
@@ -49,6 +50,22 @@ DT = 1e-4
 COST = {*TIMING_COLUMNS, *COST_COLUMNS}
 """Columns that differ between a batched and a lone run."""
 FULL_MAP = 40 * 40
+
+
+MAX_WORLDS = MAX_GRID**2
+"""Worlds per batch at most: world_scenes takes them from a square map of at most MAX_GRID
+points a side."""
+
+
+def check_counts(sizes: Sequence[int], steps: int | None) -> None:
+    """ValueError, one line naming the option and the value, for worlds per batch or steps
+    per world that no batch can have (0 or less; more than MAX_WORLDS worlds, or more steps
+    than a run may take: engines/settings.MAX_STEPS)."""
+    for size in sizes:
+        if not 1 <= size <= MAX_WORLDS:
+            raise ValueError(f"--sizes: worlds per batch must be 1 to {MAX_WORLDS}, got {size}")
+    if steps is not None and not 1 <= steps <= MAX_STEPS:
+        raise ValueError(f"--steps: steps per world must be 1 to {MAX_STEPS}, got {steps}")
 
 
 def world_scenes(size: int, steps: int) -> list[Scene]:

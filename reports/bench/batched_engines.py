@@ -30,7 +30,7 @@ from hoopbench.engines.judging.columns import Col
 from hoopbench.engines.registry import engine_class, get_engine
 from hoopbench.engines.run import RunStatus
 from hoopbench.engines.settings import RunSettings
-from hoopbench.reports.bench.batch import world_scenes
+from hoopbench.reports.bench.batch import check_counts, world_scenes
 from hoopbench.reports.report.batch_cost import (
     BATCH_COST_FILE,
     DEVICE,
@@ -39,6 +39,7 @@ from hoopbench.reports.report.batch_cost import (
     STEPS_PER_WORLD,
     write_batch_cost,
 )
+from hoopbench.reports.sweep.control_chars import terminal_text
 
 DT = 1e-3
 CASES: tuple[tuple[str, dict[str, Any]], ...] = (
@@ -108,6 +109,23 @@ def measure(
     return pd.DataFrame(rows)
 
 
+def _check(args: argparse.Namespace) -> None:
+    """ValueError, one line naming the option and the value, before anything is measured
+    (a bad --out used to fail after the measurements, losing them)."""
+    check_counts(args.sizes, args.steps)
+    measured = list(dict.fromkeys(engine for engine, _ in CASES))
+    for engine in args.engines or ():
+        if engine not in measured:
+            raise ValueError(f"--engines: {engine!r} is not measured here ({', '.join(measured)})")
+    if args.out is not None:
+        if args.out.exists() and not args.out.is_dir():
+            raise ValueError(f"--out {str(args.out)!r} is a file, not a folder")
+        if (args.out / BATCH_COST_FILE).exists() and not args.force:
+            raise ValueError(
+                f"{str(args.out / BATCH_COST_FILE)!r} exists; pass --force to replace it"
+            )
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[1, 64, 1024])
@@ -118,8 +136,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--force", action="store_true", help=f"replace an existing {BATCH_COST_FILE}"
     )
     args = parser.parse_args(argv)
-    if args.out is not None and (args.out / BATCH_COST_FILE).exists() and not args.force:
-        parser.error(f"{args.out / BATCH_COST_FILE} exists; pass --force to replace it")
+    try:
+        _check(args)
+    except ValueError as exc:
+        print(f"{parser.prog}: error: {terminal_text(exc)}", file=sys.stderr)
+        return 2
     cases = [c for c in CASES if args.engines is None or c[0] in args.engines]
     frame = measure(cases, args.sizes, args.steps)
     if args.out is not None:

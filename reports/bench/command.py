@@ -88,6 +88,7 @@ def check_plan(plan: BenchPlan) -> None:
             f"--engines {' '.join(plan.engines)}: no part asked for measures them "
             f"(--parts {' '.join(plan.parts)} measure {', '.join(measured)})"
         )
+    batch.check_counts(plan.sizes, plan.steps)
     if plan.scene not in scene_names():
         raise ValueError(f"--scene: unknown scene {plan.scene!r} ({', '.join(scene_names())})")
     if plan.out is not None and "batched" in plan.parts:

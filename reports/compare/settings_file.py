@@ -70,6 +70,7 @@ __all__ = [
     "settings_meta",
     "settings_mismatch",
     "settings_text",
+    "split_choice",
     "tier_note",
     "with_settings",
 ]
@@ -186,12 +187,15 @@ def load_settings(path: str | Path) -> SettingsFile:
     """Read and check a settings file. SettingsFileError (a ValueError) for a bad one;
     OSError for a file that cannot be read."""
     path = Path(path)
+    # a FIFO, a device or a huge file is refused (FolderFileError, a ValueError)
+    raw = read_input_file(path)
     try:
-        # a FIFO, a device or a huge file is refused (FolderFileError, a ValueError)
-        raw = read_input_file(path)
+        # ValueError: not UTF-8, not TOML, or an integer past int()'s 4300 digits
         data = tomllib.loads(raw.decode("utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+    except ValueError as exc:
         raise _fail(path, f"not TOML: {exc}") from None
+    except RecursionError:  # tomllib parses nested arrays recursively
+        raise _fail(path, "not a settings file: its arrays or tables nest too deep") from None
     unknown = sorted(set(data) - set(_TOP_KEYS))
     if unknown:
         raise _fail(path, f"unknown key(s) {', '.join(map(repr, unknown))}")
@@ -224,10 +228,20 @@ _SCENES_SUFFIX = "_scenes"
 """Of a [tiers] key giving the named setting's count: ``close_scenes = "13/22"``."""
 
 
+def _count_text(text: str) -> bool:
+    """A whole number of scenes as ASCII digits, short enough for int() ("²" is a digit to
+    str.isdigit, and int() refuses more than 4300 digits)."""
+    return 0 < len(text) <= _COUNT_DIGITS and text.isascii() and text.isdigit()
+
+
+_COUNT_DIGITS = 9
+"""At most this many digits in a [tiers] count: no search runs a billion scenes."""
+
+
 def _count(path: Path, key: str, value: Any) -> tuple[int, int]:
     """A [tiers] count "k/n" (0 <= k <= n, n >= 1) checked."""
     within, _, scenes = str(value).partition("/") if isinstance(value, str) else ("", "", "")
-    if not (within.isdigit() and scenes.isdigit() and int(within) <= int(scenes) > 0):
+    if not (_count_text(within) and _count_text(scenes) and int(within) <= int(scenes) > 0):
         raise _fail(path, f"tiers.{key} must be 'k/n' scenes (0 <= k <= n), got {value!r}")
     return int(within), int(scenes)
 
@@ -262,11 +276,21 @@ def _tiers(
     return tiers, counts
 
 
+def split_choice(text: str | Path) -> tuple[str, str]:
+    """``FILE#NAME`` -> (FILE, NAME), NAME "" without one. A text that names a file as it is
+    is that file (``a#b.toml``); otherwise NAME is what follows the last ``#``."""
+    text = str(text)
+    if "#" not in text or Path(text).exists():
+        return text, ""
+    path, _, name = text.rpartition("#")
+    return path, name
+
+
 def load_choice(text: str | Path) -> tuple[SettingsFile, str | None]:
     """A ``FILE`` or ``FILE#NAME`` (NAME a setting's name or a tier, TIER_CHOICES): the file,
     checked, and the name (None without one). SettingsFileError for a NAME the file does not
     have (pick_setting)."""
-    path, _, name = str(text).partition("#")
+    path, name = split_choice(text)
     loaded = load_settings(path)
     if name:
         pick_setting(loaded, name)

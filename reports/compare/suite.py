@@ -12,7 +12,6 @@ from __future__ import annotations
 import hashlib
 import json
 import shutil
-import sys
 from collections.abc import Hashable, Sequence
 from concurrent.futures import Executor
 from dataclasses import replace
@@ -67,7 +66,7 @@ from hoopbench.reports.compare.suite_file import (
     TrajectoryChoice,
     load_suite,
 )
-from hoopbench.reports.sweep import results
+from hoopbench.reports.sweep import control_chars, results
 from hoopbench.reports.sweep.runner import (
     Batching,
     RunnerError,
@@ -377,7 +376,7 @@ def compare(
         **settings_meta(*(settings or (None,))),
         **({LEFT_OUT_KEY: [item.to_dict() for item in left_out]} if left_out else {}),
     }
-    say = None if quiet else (lambda text: print(text, file=sys.stderr, flush=True))
+    say = None if quiet else control_chars.say
     if say is not None and left_out:
         say(f"{suite.name}: {left_out_text(left_out)}")
     identity = suite_identity(suite, suite_file) | settings_identity(*(settings or (None,)))

@@ -369,7 +369,7 @@ def load_suite(path: str | Path, announce: Announce | None = None) -> Suite:
         ) from None
     try:
         data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
+    except ValueError as exc:  # not TOML, or an integer past int()'s 4300 digits
         raise SuiteError(f"{path.name}: not valid TOML: {exc}") from None
     except RecursionError:  # tomllib parses nested arrays recursively
         raise SuiteError(f"{path.name}: not a suite: its arrays or tables nest too deep") from None

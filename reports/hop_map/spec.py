@@ -431,9 +431,12 @@ class MapSpec:
     @classmethod
     def from_toml(cls, text: str) -> MapSpec:
         try:
-            return cls.from_dict(tomllib.loads(text))
-        except tomllib.TOMLDecodeError as exc:
+            data = tomllib.loads(text)
+        except ValueError as exc:  # not TOML, or an integer past int()'s 4300 digits
             raise ValueError(f"{MAP_FILE} is not valid TOML: {exc}") from None
+        except RecursionError:  # tomllib parses nested arrays recursively
+            raise ValueError(f"{MAP_FILE}: its arrays or tables nest too deep") from None
+        return cls.from_dict(data)
 
     def differences(self, other: MapSpec) -> list[str]:
         """'name value (other: value)' for every field that differs."""

@@ -55,6 +55,8 @@ BATCH_COST_COLUMNS = (
 )
 """The file's columns: timestep in s, cost in us per world-step and world-steps per s."""
 _NUMERIC = (Col.TIMESTEP, STEPS_PER_WORLD, Col.BATCH_SIZE, Col.US_PER_WORLD_STEP)
+_COUNTS = (STEPS_PER_WORLD, Col.BATCH_SIZE)
+"""Of _NUMERIC, the whole numbers (batch_cost_table takes the sizes as ints)."""
 
 
 def write_batch_cost(frame: pd.DataFrame, out: str | Path) -> Path:
@@ -87,13 +89,18 @@ def read_batch_cost(folder: str | Path) -> pd.DataFrame:
         raise ValueError(f"{where} {what}: not a batch-cost file of the bench")
     for column in _NUMERIC:
         values = pd.to_numeric(frame[column], errors="coerce")
-        bad = ~(values > 0)  # NaN included: text, inf - inf, an empty cell
+        bad = ~((values > 0) & (values < math.inf))  # NaN included: text, an empty cell
+        whole = column in _COUNTS
+        if whole:
+            bad |= values % 1 != 0
         if column == Col.US_PER_WORLD_STEP:  # a failed measurement leaves its cost empty
             bad &= frame[column].notna()
         if bad.any():
             shown = frame[column][bad].iloc[0]
-            raise ValueError(f"{where}: {column} must be a number > 0, got {shown!r}")
-        frame[column] = values
+            shown = shown.item() if hasattr(shown, "item") else shown  # inf, not np.float64(inf)
+            kind = "a whole number > 0" if whole else "a number > 0"
+            raise ValueError(f"{where}: {column} must be {kind}, got {shown!r}")
+        frame[column] = values.astype(int) if whole else values
     return frame
 
 

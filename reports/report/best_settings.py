@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from hoopbench.reports.compare.settings_file import TIER_CHOICES, TierChoice
@@ -110,34 +111,110 @@ def _best_within(front: pd.DataFrame, cost: float | None) -> float | None:
     return None if pareto.empty else float(pareto["heldout_error"].min())
 
 
-def _table_file(folder: Path, name: str) -> pd.DataFrame:
+_FRONT_COLUMNS = (
+    "setting",
+    "kind",
+    "timestep",
+    "train_error",
+    "heldout_error",
+    "train_cost_us_per_s",
+    "heldout_cost_us_per_s",
+    "overfitted",
+)
+"""front.csv's columns the section reads (the tiers' and counts' are newer: optional)."""
+_TRIALS_COLUMNS = ("trial", "state", "train_error", "train_cost_us_per_s")
+_NUMBER_COLUMNS: tuple[str, ...] = ("timestep", "train_error", "heldout_error")
+_NUMBER_COLUMNS += ("train_cost_us_per_s", "heldout_cost_us_per_s")
+"""Numbers (NaN for a run that failed; inf read as NaN: never a cost or an error)."""
+
+
+def _table_file(folder: Path, name: str, columns: Sequence[str]) -> pd.DataFrame:
     """A CSV file of the folder, read through folder_files (a link out of the folder, a FIFO
-    or a huge file is refused)."""
+    or a huge file is refused); FolderFileError naming the file if it is not a table with
+    ``columns``."""
     data = read_folder_bytes(folder, name, MAX_DATA_BYTES)
     if data is None:
         raise FolderFileError(f"{folder / name} is missing")
-    return pd.read_csv(io.BytesIO(data))
+    try:
+        table = pd.read_csv(io.BytesIO(data))
+    except (ValueError, pd.errors.ParserError) as exc:  # EmptyDataError is a ValueError
+        raise FolderFileError(f"{folder / name} is not a CSV table: {_one_line(exc)}") from None
+    missing = [column for column in columns if column not in table.columns]
+    if missing:
+        raise FolderFileError(f"{folder / name} lacks the column(s) {', '.join(missing)}")
+    if table.empty and name == FRONT_NAME:
+        raise FolderFileError(f"{folder / name} holds no settings")
+    for column in (c for c in _NUMBER_COLUMNS if c in table.columns):
+        numbers = pd.to_numeric(table[column], errors="coerce")
+        table[column] = numbers.where(numbers.abs() != math.inf)
+    return table
+
+
+def _one_line(exc: Exception) -> str:
+    return " ".join(str(exc).split())
+
+
+def _counts_checked(path: Path, front: pd.DataFrame) -> None:
+    """The tiers' counts of scenes (where front.csv has them): whole numbers, 0 <= k <= n
+    (cheapest_by_tier takes them as ints)."""
+    columns = [count_column(tier) for tier in TIER_CHOICES] + [SCENES_COLUMN]
+    for column in (c for c in columns if c in front.columns):
+        counts = pd.to_numeric(front[column], errors="coerce")
+        whole = counts.notna() & counts.abs().lt(math.inf) & (counts >= 0) & (counts % 1 == 0)
+        if not whole.all():
+            bad = front[column][~whole].iloc[0]
+            raise FolderFileError(f"{path}: {column} must be a whole number of scenes, got {bad}")
+        front[column] = counts.astype(int)
+    if SCENES_COLUMN in front.columns:
+        for column in (c for c in columns[:-1] if c in front.columns):
+            if (front[column] > front[SCENES_COLUMN]).any():
+                raise FolderFileError(f"{path}: {column} counts more scenes than {SCENES_COLUMN}")
+
+
+def _spec(folder: Path) -> tuple[str, tuple[str, ...], str | None]:
+    """tune.json's engine, training scenes' names and start time (None if not a string);
+    FolderFileError naming the file and the field for anything else."""
+    path = folder / SPEC_NAME
+    text = read_folder_text(folder, SPEC_NAME)
+    if text is None:
+        raise FolderFileError(f"{path} is missing")
+    try:
+        spec = json.loads(text)
+    except (ValueError, RecursionError) as exc:
+        raise FolderFileError(f"{path} is not JSON: {_one_line(exc)}") from None
+    if not isinstance(spec, dict):
+        raise FolderFileError(f"{path} must hold a JSON object, got {type(spec).__name__}")
+    engine, scenes = spec.get("engine"), spec.get("scenes")
+    if not isinstance(engine, str) or not engine:
+        raise FolderFileError(f"{path}: engine must be an engine's name, got {engine!r}")
+    if not isinstance(scenes, list) or not all(
+        isinstance(s, dict) and isinstance(s.get("name"), str) for s in scenes
+    ):
+        shown = "nothing" if scenes is None else type(scenes).__name__
+        raise FolderFileError(
+            f"{path}: scenes must be a list of scenes, each with a name, got {shown}"
+        )
+    created = spec.get("created")
+    return engine, tuple(s["name"] for s in scenes), created if isinstance(created, str) else None
 
 
 def _read(folder: Path) -> BestSettings:
-    text = read_folder_text(folder, SPEC_NAME)
-    if text is None:
-        raise FolderFileError(f"{folder / SPEC_NAME} is missing")
-    spec = json.loads(text)
-    front = _table_file(folder, FRONT_NAME)
-    trials = _table_file(folder, TRIALS_NAME)
+    engine, scenes, created = _spec(folder)
+    front = _table_file(folder, FRONT_NAME, _FRONT_COLUMNS)
+    _counts_checked(folder / FRONT_NAME, front)
+    trials = _table_file(folder, TRIALS_NAME, _TRIALS_COLUMNS)
     tuned = front[front["setting"] == "tuned"]
     cost = float(tuned["heldout_cost_us_per_s"].iloc[0]) if len(tuned) else None
     return BestSettings(
-        engine=str(spec["engine"]),
+        engine=engine,
         front=front,
         trials=trials,
-        training_scenes=tuple(str(s["name"]) for s in spec["scenes"]),
+        training_scenes=scenes,
         tuned_heldout=float(tuned["heldout_error"].iloc[0]) if len(tuned) else None,
         at_tuned_cost=_best_within(front, cost),
         at_ten_times=_best_within(front, None if cost is None else COST_FACTOR * cost),
         cheapest=cheapest_by_tier(front),
-        created=spec["created"] if isinstance(spec.get("created"), str) else None,
+        created=created,
     )
 
 
@@ -242,6 +319,12 @@ def _plain_log_axis(axis: Any) -> None:
     axis.set_minor_formatter(FuncFormatter(lambda v, _: ""))
 
 
+def _positive(values: Any) -> bool:
+    """Whether any of the values is a finite number > 0 (a point a log axis can show)."""
+    numbers = pd.to_numeric(pd.Series(np.asarray(values, dtype=object)), errors="coerce")
+    return bool(((numbers > 0) & (numbers < math.inf)).any())
+
+
 def _panel(ax: Any, best: BestSettings, which: str) -> None:
     front = best.front
     colour = engine_colours([best.engine])[best.engine]  # the engine's colour in every figure
@@ -270,8 +353,11 @@ def _panel(ax: Any, best: BestSettings, which: str) -> None:
             label=name,
             zorder=3,
         )
-    ax.set_xscale("log")
-    _plain_log_axis(ax.xaxis)
+    if any(_positive(line.get_xdata()) for line in ax.lines) or any(
+        _positive(points.get_offsets()[:, 0]) for points in ax.collections
+    ):  # a log axis of nothing drawn fails ("Data cannot be log-scaled")
+        ax.set_xscale("log")
+        _plain_log_axis(ax.xaxis)
     ax.set_xlabel("cost, us per simulated second")
     ax.set_ylabel(SCORE_AXIS)
     ax.set_title("training scenes" if which == "train" else "held-out scenes")

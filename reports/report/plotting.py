@@ -27,6 +27,7 @@ from types import ModuleType
 from typing import Any
 
 from hoopbench.models.whole_files import write_whole
+from hoopbench.reports.sweep.control_chars import visible_controls
 
 __all__ = ["plain_text", "plain_tick_label", "pyplot", "save", "written_whole"]
 
@@ -96,7 +97,14 @@ def written_whole(path: str | os.PathLike[str], write: Callable[[Path], object])
 def save(fig: Any, out: str | os.PathLike[str], *, dpi: int) -> Path:
     """Write ``fig`` to ``out`` whole (:func:`written_whole`) and close it. Every tick label
     drawn as math (a log or symlog axis's, a log colour bar's) is written as plain text first:
-    under :func:`plain_text` matplotlib would show ``$\\mathdefault{10^{2}}$`` as written."""
+    under :func:`plain_text` matplotlib would show ``$\\mathdefault{10^{2}}$`` as written.
+    Every text's control characters (a scene's or a setting's name from a file) are drawn as
+    their codes (visible_controls): matplotlib has no glyph for them and its "Glyph missing"
+    warning would carry them to the terminal raw."""
+    from matplotlib.text import Text
+
+    for text in fig.findobj(Text):
+        text.set_text(visible_controls(text.get_text()))
     for ax in fig.axes:
         for axis in (ax.xaxis, ax.yaxis):
             axis.set_major_formatter(_plain_formatter(axis.get_major_formatter()))

@@ -5,7 +5,8 @@ retitles or clears a terminal, or paints a fake line), a bell, a NUL, or a bidir
 override (U+202E turns the rest of a line around). Every string that came from a file, a name
 or an error message goes through one of:
 
-- :func:`terminal_text` before it is printed (stderr, stdout);
+- :func:`terminal_text` before it is printed (stderr, stdout); :func:`say` prints a line
+  through it;
 - :func:`visible_controls`, which the report's escaping (reports/report/escaping.py) applies
   to every string of report.md and report.html.
 
@@ -16,8 +17,10 @@ something was there, and nothing acts on it.
 from __future__ import annotations
 
 import re
+import sys
+from typing import TextIO
 
-__all__ = ["CONTROLS", "terminal_text", "visible_controls"]
+__all__ = ["CONTROLS", "say", "terminal_text", "visible_controls"]
 
 CONTROLS = re.compile(
     "[\x00-\x08\x0b-\x1f\x7f-\x9f\u061c\u200e\u200f\u202a-\u202e\u2066-\u2069\ufff9-\ufffb]"
@@ -39,3 +42,9 @@ def visible_controls(value: object) -> str:
 def terminal_text(value: object) -> str:
     """``value`` as text safe to print on a terminal (:func:`visible_controls`)."""
     return visible_controls(value)
+
+
+def say(text: object, stream: TextIO | None = None) -> None:
+    """Print ``text`` on stderr (or ``stream``) through :func:`terminal_text`, flushed: every
+    line of ours that may quote a file, a name or an argument."""
+    print(terminal_text(text), file=sys.stderr if stream is None else stream, flush=True)

@@ -46,7 +46,11 @@ from hoopbench.reports.compare.suite import (
 )
 from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT, RunTask, Suite, VariantSpec
 from hoopbench.reports.sweep import results
-from hoopbench.reports.sweep.folder_files import MAX_DATA_BYTES, folder_file, read_folder_text
+from hoopbench.reports.sweep.folder_files import (
+    MAX_DATA_BYTES,
+    read_folder_bytes,
+    read_folder_text,
+)
 from hoopbench.reports.sweep.runner import (
     Batching,
     RunSummary,
@@ -130,6 +134,16 @@ class TuneSpec:
     heldout_neighbours: int = 1
     """Held-out neighbours drawn per training scene (heldout.py): a search folder made before
     they existed has no such key and resumes with any value."""
+
+    def __post_init__(self) -> None:
+        # Checked when the search is described, before its folder is made: two equal
+        # scenes were refused only after tune.json, sweep.json and journal.log were
+        # written, as "run_id '58bd...' appears twice".
+        names = [s.name for s in self.scenes if s.name]
+        twice = sorted({n for n in names if names.count(n) > 1})
+        if twice or len(set(self.scenes)) < len(self.scenes):
+            shown = ", ".join(map(repr, twice)) or "the same scene"
+            raise ValueError(f"scenes: {shown} given twice: give each training scene once")
 
     def identity(self) -> dict[str, Any]:
         return {
@@ -256,14 +270,42 @@ def _finished(study: optuna.Study) -> int:
     )
 
 
+def _journal_lines_checked(out: Path) -> None:
+    """Every line of the journal a whole JSON object (Optuna's own replay skips a broken last
+    line, then appends after it and can never read the journal again). Read through
+    folder_files: a regular file inside the folder (a link out of it, a FIFO or a huge file is
+    refused, FolderFileError), or not there yet."""
+    data = read_folder_bytes(out, JOURNAL_NAME, MAX_DATA_BYTES)
+    for number, line in enumerate((data or b"").splitlines(keepends=True), start=1):
+        try:
+            entry = json.loads(line) if line.endswith(b"\n") else None
+        except ValueError:  # not JSON, not UTF-8
+            entry = None
+        if not isinstance(entry, dict):
+            raise _unreadable_journal(out, f"line {number} is not a whole JSON object")
+
+
+def _unreadable_journal(out: Path, why: str) -> ValueError:
+    return ValueError(
+        f"{out / JOURNAL_NAME}: {why}: not a journal Optuna can replay; the search is not "
+        "resumed from it and it is unchanged (restore it, or start a new search in another "
+        "folder)"
+    )
+
+
 def _open_study(spec: TuneSpec, out: Path, resume: bool) -> optuna.Study:
     optuna = _optuna()
     TrialState = optuna.trial.TrialState
-    # Optuna opens the journal itself: it must be a regular file inside the folder (a link out
-    # of it, a FIFO or a huge file is refused, FolderFileError) or not be there yet.
-    folder_file(out, JOURNAL_NAME, MAX_DATA_BYTES)
+    _journal_lines_checked(out)
     backend = optuna.storages.journal.JournalFileBackend(str(out / JOURNAL_NAME))
-    storage = optuna.storages.JournalStorage(backend)
+    try:  # Optuna replays the whole journal here, reading only: an entry it cannot apply fails
+        storage = optuna.storages.JournalStorage(backend)
+        storage.get_all_studies()
+    except (ValueError, KeyError, TypeError, IndexError, AssertionError) as exc:
+        # a missing key, an unknown op code (AssertionError "Should not reach.")
+        raise _unreadable_journal(
+            out, f"{type(exc).__name__}: {' '.join(str(exc).split())}"
+        ) from None
     sampler = optuna.samplers.TPESampler(seed=spec.seed, n_startup_trials=5)
     study = optuna.create_study(
         study_name=STUDY_NAME,
