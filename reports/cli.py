@@ -508,15 +508,8 @@ def _cmd_export(args: argparse.Namespace) -> int:
         options=dict(settings.options),
         command=sys.argv[1:],
     )
-    mode = out.stat().st_mode & 0o777 if out.exists() else None
-
-    def write(tmp: Path) -> None:
-        tmp.write_text(text)
-        if mode is not None:
-            tmp.chmod(mode)
-
     try:
-        write_whole(out, write)
+        write_whole(out, lambda tmp: tmp.write_text(text))  # keeps an existing file's mode
     except OSError as exc:
         if not _system_error(exc):
             raise
