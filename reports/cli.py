@@ -749,8 +749,24 @@ def _map_spec(args: argparse.Namespace) -> Any:
         engines=args.engines,
         timestep=args.dt,
         profile=args.profile,
-        engine_timesteps=dict(args.engine_dt) if args.engine_dt else None,
+        engine_timesteps=_engine_steps(args.engine_dt),
     )
+
+
+def _engine_steps(pairs: Sequence[tuple[str, float]] | None) -> dict[str, float] | None:
+    """--engine-dt's pairs as a mapping; an engine given twice is refused (one would be
+    dropped without a word)."""
+    if not pairs:
+        return None
+    steps: dict[str, float] = {}
+    for name, step in pairs:
+        if name in steps:
+            raise UsageError(
+                f"--engine-dt gives {name} twice ({steps[name]:g} and {step:g}): give each "
+                "engine one step"
+            )
+        steps[name] = step
+    return steps
 
 
 def _cmd_map(args: argparse.Namespace) -> int:

@@ -13,13 +13,16 @@ wrong. One section per class of the issue; each test failed against the code bef
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import stat
 from pathlib import Path
+from typing import Any
 
 import pytest
 
+import hoopbench as hb
 from hoopbench.reports.cli import main
 
 TINY = 'name = "tiny"\nengines = ["reference"]\ntimesteps = [1e-3]\nscenes = ["seed"]\n'
@@ -103,3 +106,199 @@ def test_a_trajectory_written_with_force_keeps_the_files_mode(command: str, tmp_
     assert main([*argv, "--force"]) == 0
     assert csv.read_text() != "mine\n"
     assert stat.S_IMODE(csv.stat().st_mode) == 0o600
+
+
+# --------------------------------------------------------------------------- searches
+def tune_argv(out: Path, *more: str) -> list[str]:
+    """A resume of `search` (below) as it was made; ``more`` changes it."""
+    argv = ["tune", "--engine", "pymunk", "--out", str(out), "--scenes", "hop-bottom"]
+    return [*argv, "--heldout-per-regime", "0", "--trials", "1", "--resume", "--quiet", *more]
+
+
+def contents(folder: Path) -> dict[str, bytes]:
+    """Every file under ``folder`` (links not followed), by path."""
+    return {
+        str(p.relative_to(folder)): p.read_bytes()
+        for p in sorted(folder.rglob("*"))
+        if p.is_file() and not p.is_symlink()
+    }
+
+
+@pytest.fixture(scope="module")
+def search(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A finished search of one trial (pymunk on hop-bottom, one held-out neighbour): ~20 s."""
+    pytest.importorskip("optuna")
+    out = tmp_path_factory.mktemp("search") / "pymunk"
+    argv = tune_argv(out)
+    argv.remove("--resume")
+    assert main(argv) == 0
+    return out
+
+
+def test_a_compact_search_copy_is_not_resumed_from_nothing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--resume on a shipped search (tune.json, front.csv, trials.csv, settings.toml) ran a new
+    search and replaced its three result files; with another --seed too."""
+    folder = copy_of(SHIPPED, tmp_path)
+    before = contents(folder)
+    for more in ([], ["--seed", "3"], ["--engine", "box2d"]):
+        assert main([*tune_argv(folder), *more]) == 2
+        assert f"{folder} holds no journal.log" in one_line(capsys)
+    assert contents(folder) == before
+    assert sorted(p.name for p in folder.iterdir()) == sorted(before)  # not even a lock
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sweep_json", ["deleted", "corrupt", "fifo"])
+@pytest.mark.parametrize(
+    ("more", "said"),
+    [(["--seed", "3"], "seed 0 (asked: 3)"), (["--engine", "box2d"], "engine 'pymunk' (asked")],
+)
+def test_a_resume_with_other_options_is_refused_whatever_sweep_json_says(
+    sweep_json: str,
+    more: list[str],
+    said: str,
+    search: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """With sweep.json deleted, corrupt or a FIFO, another --seed went on (tune.json kept seed
+    0) and another --engine wrote box2d rows into the pymunk search's trials/."""
+    folder = copy_of(search, tmp_path)
+    (folder / "sweep.json").unlink()
+    if sweep_json == "corrupt":
+        (folder / "sweep.json").write_text("{not json")
+    elif sweep_json == "fifo":
+        os.mkfifo(folder / "sweep.json")
+    before = contents(folder)
+    argv = tune_argv(folder, *more)
+    if "--engine" in more:
+        argv[argv.index("pymunk")] = "box2d"
+    assert main(argv) == 2
+    line = one_line(capsys)
+    assert f"{folder} holds another search" in line and said in line, line
+    assert contents(folder) == before
+
+
+@pytest.mark.slow
+def test_a_trials_folder_linked_elsewhere_is_not_written(
+    search: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """tune --resume wrote into the folder trials/ linked to, replacing its runs.csv."""
+    folder = copy_of(search, tmp_path)
+    elsewhere = tmp_path / "elsewhere"
+    shutil.move(folder / "trials", elsewhere)
+    (folder / "trials").symlink_to(elsewhere)
+    before = contents(elsewhere)
+    assert main(tune_argv(folder, "--trials", "2")) == 2
+    assert f"{folder / 'trials'} is not a folder of the search" in one_line(capsys)
+    assert contents(elsewhere) == before
+
+
+@pytest.mark.slow
+def test_a_settings_file_the_user_edited_is_not_replaced_without_a_word(
+    search: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """docs/tune.md says "edit freely"; a resume replaced the edited file without a word."""
+    folder = copy_of(search, tmp_path)
+    edited = (folder / "settings.toml").read_text() + "# my note\n"
+    (folder / "settings.toml").write_text(edited)
+    before = contents(folder)
+    assert main(tune_argv(folder)) == 2
+    assert f"{folder / 'settings.toml'} was edited after the search wrote it" in one_line(capsys)
+    assert contents(folder) == before
+
+
+@pytest.mark.slow
+def test_a_journal_line_with_a_tampered_timestep_is_refused(
+    search: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A told trial's timestep edited to 5 s in journal.log ended in settings.toml, exit 0."""
+    folder = copy_of(search, tmp_path)
+    journal = folder / "journal.log"
+    lines = journal.read_text().splitlines()
+    for k, line in enumerate(lines):
+        op = json.loads(line)
+        if op.get("param_name") == "timestep":
+            op["param_value_internal"] = 5.0
+            lines[k] = json.dumps(op)
+    journal.write_text("\n".join(lines) + "\n")
+    before = (folder / "settings.toml").read_text()
+    assert main(tune_argv(folder)) == 2
+    line = one_line(capsys)
+    assert "journal.log: trial 0's timestep = 5 is not in [" in line, line
+    assert (folder / "settings.toml").read_text() == before
+
+
+# =========================================================================== hangs
+@pytest.mark.parametrize(
+    ("option", "value"), [("--heldout-per-regime", "1000"), ("--heldout-neighbours", "11")]
+)
+def test_a_held_out_draw_that_cannot_end_is_refused_up_front(
+    option: str, value: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--heldout-per-regime 1000 drew for 72-168 s after the search, then a traceback."""
+    out = tmp_path / "x"
+    argv = ["tune", "--engine", "pymunk", "--out", str(out), "--trials", "1", option, value]
+    assert main(argv) == 2
+    assert f"{option} must be at most 10" in one_line(capsys)
+    assert not out.exists()
+
+
+# =========================================================================== silent
+@pytest.mark.slow
+def test_a_timeout_spent_on_the_baselines_says_no_trial_ran(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A --timeout shorter than the baselines started no trial and wrote a front, exit 0."""
+    pytest.importorskip("optuna")
+    out = tmp_path / "s"
+    argv = tune_argv(out, "--timeout", "0.001")
+    argv.remove("--resume")
+    argv.remove("--trials")
+    argv.remove("1")
+    assert main(argv) == 2
+    line = one_line(capsys)
+    assert "the timeout (0.001 s) ended before the first trial" in line, line
+    assert not (out / "front.csv").exists() and not (out / "settings.toml").exists()
+
+
+def test_an_engine_given_twice_to_engine_dt_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The last value was kept without a word."""
+    out = tmp_path / "m"
+    argv = ["map", "--grid", "2x2", "--engines", "pymunk", "--out", str(out), "--quiet"]
+    assert main([*argv, "--engine-dt", "pymunk=1e-3", "pymunk=2e-3"]) == 2
+    assert "--engine-dt gives pymunk twice (0.001 and 0.002)" in one_line(capsys)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("call", "message"),
+    [
+        (lambda out: hb.compare("quick", out, engines=[]), "engines must name at least one"),
+        (lambda out: hb.tune("pymunk", out, scenes=[], trials=1), "scenes must name at least"),
+        (lambda out: hb.tune("pymunk", out, trials=1, resume="no"), "resume must be True or"),
+        (lambda out: hb.tune("pymunk", out, trials=1, quiet="no"), "quiet must be True or"),
+        (
+            lambda out: hb.tune("pymunk", out, scenes=["hop-top", "hop-top"], trials=1),
+            "scenes names hop-top more than once",
+        ),
+    ],
+)
+def test_the_api_refuses_empty_lists_and_strings_for_flags(
+    call: Any, message: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """compare(engines=[]) ran every engine, tune(scenes=[]) the 7 default scenes, and
+    tune(resume='no') resumed."""
+
+    def ran(*args: Any, **kwargs: Any) -> None:
+        raise AssertionError("the runs started")
+
+    monkeypatch.setattr("hoopbench.reports.api.search", ran)
+    monkeypatch.setattr("hoopbench.reports.api.suite_runs.compare", ran)
+    with pytest.raises(ValueError, match=message):
+        call(tmp_path / "out")
+    assert not (tmp_path / "out").exists()
