@@ -302,3 +302,44 @@ def test_the_api_refuses_empty_lists_and_strings_for_flags(
     with pytest.raises(ValueError, match=message):
         call(tmp_path / "out")
     assert not (tmp_path / "out").exists()
+
+
+def test_two_searches_of_one_engine_get_one_figure_each_and_no_reads_as_no(
+    tmp_path: Path,
+) -> None:
+    """Both searches showed the second one's figure; front.csv's "overfitted = no" was shown
+    as "yes" (the string "no" is truthy)."""
+    import pandas as pd
+
+    first, second = (copy_of(SHIPPED, tmp_path / k) for k in ("a", "b"))
+    front = pd.read_csv(first / "front.csv")
+    front["overfitted"] = "no"
+    front.to_csv(first / "front.csv", index=False)
+    front = pd.read_csv(second / "front.csv")
+    front["train_error"] *= 3  # another search: another figure
+    front.to_csv(second / "front.csv", index=False)
+    report = hb.report([first, second], tmp_path / "r")
+    pngs = [
+        tmp_path / "r" / name for name in ("best-settings-pymunk.png", "best-settings-pymunk-2.png")
+    ]
+    assert pngs[0].read_bytes() != pngs[1].read_bytes()
+    text = report.read_text()
+    for png in pngs:
+        assert f"]({png.name})" in text
+    one = text[text.index("### pymunk\n") : text.index("### pymunk (search 2)")]
+    assert "| no |" in one and "| yes |" not in one
+
+
+def test_a_front_csv_overfitted_that_is_no_flag_is_named(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import pandas as pd
+
+    folder = copy_of(SHIPPED, tmp_path)
+    front = pd.read_csv(folder / "front.csv")
+    front["overfitted"] = front["overfitted"].astype(str)
+    front.loc[0, "overfitted"] = "maybe"
+    front.to_csv(folder / "front.csv", index=False)
+    assert main(["report", "--results", str(folder), "--out", str(tmp_path / "r")]) == 2
+    line = one_line(capsys)
+    assert f"{folder / 'front.csv'}: overfitted must be true or false, got 'maybe'" in line

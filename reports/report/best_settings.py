@@ -47,6 +47,7 @@ __all__ = [
     "best_settings",
     "best_settings_section",
     "figure_name",
+    "figure_names",
     "is_tune_folder",
 ]
 
@@ -57,9 +58,22 @@ SCORE_AXIS = "error (loose tolerances; 10 = failed)"
 """The error axis of the figure, PNG and page alike."""
 
 
-def figure_name(engine: str) -> str:
-    """The file name of an engine's figure (the page draws its own in its place)."""
-    return f"best-settings-{file_stem(engine)}.png"
+def figure_name(engine: str, nth: int = 1) -> str:
+    """The file name of an engine's figure (the page draws its own in its place); ``nth``:
+    the engine's nth search in one report (the first keeps the plain name)."""
+    suffix = "" if nth == 1 else f"-{nth}"
+    return f"best-settings-{file_stem(engine)}{suffix}.png"
+
+
+def figure_names(found: Sequence[BestSettings]) -> list[str]:
+    """Each search's figure, one file a search: two searches of one engine in one report
+    drew both into one file (both showed the second one's figure)."""
+    seen: dict[str, int] = {}
+    names = []
+    for best in found:
+        seen[best.engine] = seen.get(best.engine, 0) + 1
+        names.append(figure_name(best.engine, seen[best.engine]))
+    return names
 
 
 def is_tune_folder(folder: str | Path) -> bool:
@@ -116,12 +130,31 @@ def _table_file(folder: Path, name: str) -> pd.DataFrame:
     return pd.read_csv(io.BytesIO(data))
 
 
+_FLAGS = {"true": True, "yes": True, "1": True, "false": False, "no": False, "0": False}
+"""front.csv's overfitted as written (True/False) or as a person writes it."""
+
+
+def _flags(column: pd.Series, path: Path) -> pd.Series:
+    """A yes/no column read as text, each value one of _FLAGS (the string "no" is truthy:
+    a front.csv saying overfitted = no was shown as yes); FolderFileError naming the file
+    and the value otherwise."""
+    values = []
+    for value in column:
+        key = str(value).strip().lower()
+        if key not in _FLAGS:
+            raise FolderFileError(f"{path}: overfitted must be true or false, got {value!r}")
+        values.append(_FLAGS[key])
+    return pd.Series(values, index=column.index, dtype=bool)
+
+
 def _read(folder: Path) -> BestSettings:
     text = read_folder_text(folder, SPEC_NAME)
     if text is None:
         raise FolderFileError(f"{folder / SPEC_NAME} is missing")
     spec = json.loads(text)
     front = _table_file(folder, FRONT_NAME)
+    if "overfitted" in front.columns:
+        front["overfitted"] = _flags(front["overfitted"], folder / FRONT_NAME)
     trials = _table_file(folder, TRIALS_NAME)
     tuned = front[front["setting"] == "tuned"]
     cost = float(tuned["heldout_cost_us_per_s"].iloc[0]) if len(tuned) else None
@@ -290,13 +323,13 @@ def best_settings_section(found: Sequence[BestSettings], out: str | Path) -> str
         "of scenes is the finest every one of its runs there is within: agrees (every event "
         "within the tight tolerances), close (within the loose ones) or none.",
     ]
-    for best in found:
-        name = figure_name(best.engine)
+    for best, name in zip(found, figure_names(found), strict=True):
         _figure(best, out / name)
         engine = escape_text(best.engine)
+        nth = name.removesuffix(".png").removeprefix(f"best-settings-{file_stem(best.engine)}")
         lines += [
             "",
-            f"### {engine}",
+            f"### {engine}" + (f" (search {nth.lstrip('-')})" if nth else ""),
             "",
             f"Training scenes: {escape_text(', '.join(best.training_scenes))}; "
             f"{len(best.trials)} trials. {_summary(best)}",

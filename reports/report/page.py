@@ -25,7 +25,7 @@ from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
 from hoopbench.models.catalogue import get_scene, scene_names
 from hoopbench.reports.compare.selection import default_rows, profile_of
-from hoopbench.reports.report.best_settings import BestSettings, figure_name
+from hoopbench.reports.report.best_settings import BestSettings, figure_names
 from hoopbench.reports.report.findings import MORE_FINDINGS
 from hoopbench.reports.report.hoop_gif import GIF_SCENE, hoop_gif
 from hoopbench.reports.report.markdown import (
@@ -111,8 +111,8 @@ def page_fragments(
                 fragments[f"paths_{scene}.png"] = _animation(runs, scene, f"motion-{k}")
     for k, (folder, prefix) in enumerate(zip(maps, map_prefixes, strict=True)):
         fragments[f"{prefix}_regimes.png"] = _map(folder, f"map-{k}")
-    for k, best in enumerate(searches):
-        fragments[figure_name(best.engine)] = _best_settings(best, f"best-settings-{k}")
+    for k, (best, name) in enumerate(zip(searches, figure_names(searches), strict=True)):
+        fragments[name] = _best_settings(best, f"best-settings-{k}")
     return fragments
 
 
