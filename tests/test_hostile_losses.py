@@ -17,6 +17,7 @@ import json
 import os
 import shutil
 import stat
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -343,3 +344,30 @@ def test_a_front_csv_overfitted_that_is_no_flag_is_named(
     assert main(["report", "--results", str(folder), "--out", str(tmp_path / "r")]) == 2
     line = one_line(capsys)
     assert f"{folder / 'front.csv'}: overfitted must be true or false, got 'maybe'" in line
+
+
+@pytest.mark.parametrize("how", ["plugin", "module"])
+def test_a_plugin_that_calls_sys_exit_is_named(
+    how: str, tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """hoopbench exited 0 and printed nothing."""
+    from hoopbench.engines import registry
+
+    registry.engine_names()  # the built-in engines registered (their modules import once)
+    monkeypatch.setattr(registry, "_discovered", False)
+    monkeypatch.setattr(registry, "_discovery_error", None)
+    monkeypatch.setattr(registry, "_ENGINES", dict(registry._ENGINES))
+    monkeypatch.delenv(registry.DISABLE_PLUGINS_VARIABLE, raising=False)
+    monkeypatch.delitem(sys.modules, "exiting_hoop_engine", raising=False)
+    (tmp_path / "exiting_hoop_engine.py").write_text("import sys\nsys.exit(0)\n")
+    if how == "plugin":
+        info = tmp_path / "exiting_hoop_engine-0.1.dist-info"
+        info.mkdir()
+        (info / "METADATA").write_text("Metadata-Version: 2.1\nName: exiting\nVersion: 0.1\n")
+        (info / "entry_points.txt").write_text("[hoopbench.engines]\nx = exiting_hoop_engine\n")
+    else:
+        monkeypatch.setenv(registry.ENGINE_MODULES_VARIABLE, "exiting_hoop_engine")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    assert main(["scenes"]) == 2
+    line = one_line(capsys)
+    assert "called sys.exit(0) while it was imported" in line, line
