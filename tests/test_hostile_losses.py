@@ -183,17 +183,18 @@ def test_a_resume_with_other_options_is_refused_whatever_sweep_json_says(
 
 
 @pytest.mark.slow
-def test_a_trials_folder_linked_elsewhere_is_not_written(
-    search: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+@pytest.mark.parametrize("name", ["trials", "heldout"])
+def test_a_runs_folder_linked_elsewhere_is_not_written(
+    name: str, search: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """tune --resume wrote into the folder trials/ linked to, replacing its runs.csv."""
     folder = copy_of(search, tmp_path)
     elsewhere = tmp_path / "elsewhere"
-    shutil.move(folder / "trials", elsewhere)
-    (folder / "trials").symlink_to(elsewhere)
+    shutil.move(folder / name, elsewhere)
+    (folder / name).symlink_to(elsewhere)
     before = contents(elsewhere)
     assert main(tune_argv(folder, "--trials", "2")) == 2
-    assert f"{folder / 'trials'} is not a folder of the search" in one_line(capsys)
+    assert f"{folder / name} is not a folder of the search" in one_line(capsys)
     assert contents(elsewhere) == before
 
 
