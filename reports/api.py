@@ -923,11 +923,13 @@ def tune_job(
         if run_timeout is None
         else _checked("run_timeout", check_positive_seconds, run_timeout),
     )
-    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32:
+    whole = numbers.Integral  # numpy's integers too (a seed drawn by numpy is one)
+    if isinstance(seed, bool) or not isinstance(seed, whole) or not 0 <= seed < 2**32:
         # the sampler's seed (numpy's): refused here, before the folder is made
         raise OptionError("seed", f"{{option}} must be a whole number in [0, 2**32), got {seed!r}")
+    seed = int(seed)
     held = TuneSpec.heldout_seed if heldout_seed is None else heldout_seed
-    if isinstance(held, bool) or not isinstance(held, int) or held < 0 or held == seed:
+    if isinstance(held, bool) or not isinstance(held, whole) or held < 0 or held == seed:
         raise OptionError(
             "heldout_seed",
             f"{{option}} must be a whole number >= 0 other than the seed, got {held!r}",
@@ -948,7 +950,7 @@ def tune_job(
         raise OptionError(
             "heldout_per_regime", "{option} and the neighbours cannot both be 0: no held-out scene"
         )
-    return TuneJob(TuneSpec(engine, chosen, seed, held, per_regime, near), budget)
+    return TuneJob(TuneSpec(engine, chosen, seed, int(held), per_regime, near), budget)
 
 
 def _at_most(option: str, value: int, cap: int, what: str) -> int:

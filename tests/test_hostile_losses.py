@@ -306,6 +306,22 @@ def test_the_api_refuses_empty_lists_and_strings_for_flags(
     assert not (tmp_path / "out").exists()
 
 
+def test_the_api_takes_numpy_seeds_and_names_a_missing_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """hb.tune(seed=np.int64(3)) was refused as "not a whole number"; out=None gave a pathlib
+    TypeError."""
+    import numpy as np
+
+    from hoopbench.reports import api
+
+    job = api.tune_job("pymunk", trials=1, seed=np.int64(3), heldout_seed=np.int64(4))
+    assert (job.spec.seed, job.spec.heldout_seed) == (3, 4)
+    assert type(job.spec.seed) is int and type(job.spec.heldout_seed) is int
+    with pytest.raises(ValueError, match="out must name a folder, got None"):
+        api.run_tune(job, None)  # type: ignore[arg-type]
+
+
 def test_two_searches_of_one_engine_get_one_figure_each_and_no_reads_as_no(
     tmp_path: Path,
 ) -> None:
