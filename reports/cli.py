@@ -702,7 +702,9 @@ def _cmd_findings(args: argparse.Namespace) -> int:
     if not results:
         raise UsageError("--results names searches only: give a results folder too")
     if args.update and not Path(args.update).is_file():
-        what = "is a folder" if Path(args.update).is_dir() else "does not exist"
+        update = Path(args.update)
+        kind = "is not a regular file (a FIFO, a device)" if update.exists() else "does not exist"
+        what = "is a folder" if update.is_dir() else kind
         raise UsageError(f"--update {args.update!r} {what}: give a Markdown file with the markers")
     frame = pd.concat([report_frame(Path(f)) for f in results], ignore_index=True)
     text = readme_markdown(frame, best_settings(searches))

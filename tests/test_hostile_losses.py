@@ -96,6 +96,16 @@ def test_findings_update_keeps_the_files_mode(results: Path, tmp_path: Path) -> 
     assert stat.S_IMODE(readme.stat().st_mode) == 0o600
 
 
+def test_findings_update_on_a_fifo_says_so(
+    results: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """It said the FIFO "does not exist"."""
+    fifo = tmp_path / "README.md"
+    os.mkfifo(fifo)
+    assert main(["findings", "--results", str(results), "--update", str(fifo)]) == 2
+    assert f"--update '{fifo}' is not a regular file" in one_line(capsys)
+
+
 @pytest.mark.parametrize("command", ["simulate", "reference"])
 def test_a_trajectory_written_with_force_keeps_the_files_mode(command: str, tmp_path: Path) -> None:
     """simulate --csv --force made a mode-600 file 644."""
