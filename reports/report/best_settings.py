@@ -235,8 +235,9 @@ def _tiers_line(best: BestSettings) -> str:
     """The cheapest setting of each tier, as the settings file names it."""
     if not best.has_counts:
         return (
-            "This search's front.csv is from before the tiers' scene counts: resume it "
-            "(`hoopbench tune --resume`, no new trials) to name the cheapest of each tier."
+            "This search's front.csv is from before the tiers' scene counts: resume its whole "
+            "folder (`hoopbench tune --resume`, no new trials; a compact copy cannot be "
+            "resumed) to name the cheapest of each tier."
         )
     costs = best.front.set_index("setting")["train_cost_us_per_s"]
     said = [_tier_choice(tier, choice, costs) for tier, choice in best.cheapest.items()]
