@@ -116,6 +116,18 @@ def _load_engines() -> None:
                     f"{ENGINE_MODULES_VARIABLE}: cannot import engine module {name.strip()!r}: "
                     f"{exc if isinstance(exc, ImportError) else _first_line(exc)}"
                 ) from None
+            except SystemExit as exc:
+                where = f"{ENGINE_MODULES_VARIABLE}: engine module {name.strip()!r}"
+                raise ValueError(_exited(where, exc)) from None
+
+
+def _exited(where: str, exc: SystemExit) -> str:
+    """The line for a module that called sys.exit while it was imported: hoopbench would
+    otherwise end there, with that code and not a word (exit 0 for sys.exit(0))."""
+    return (
+        f"{where} called sys.exit({exc.code!r}) while it was imported: it is not loaded "
+        f"(uninstall it, or set {DISABLE_PLUGINS_VARIABLE}=1 for a plugin)"
+    )
 
 
 def _first_line(exc: Exception) -> str:
@@ -131,6 +143,8 @@ def _load_plugin(entry: EntryPoint) -> None:
     where = f"engine plugin {entry.name!r} ({entry.value}) of {dist}"
     try:
         loaded = entry.load()
+    except SystemExit as exc:
+        raise ValueError(_exited(where, exc)) from None
     except Exception as exc:  # a plugin's import may raise anything: name it, in one line
         raise ValueError(
             f"{where} cannot be loaded: {_first_line(exc)} "

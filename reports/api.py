@@ -81,7 +81,7 @@ from hoopbench.reports.report.best_settings import is_tune_folder
 from hoopbench.reports.report.build import build_report, files_to_replace
 from hoopbench.reports.sweep import control_chars
 from hoopbench.reports.sweep.runner import RunSummary
-from hoopbench.reports.tune.heldout import validate
+from hoopbench.reports.tune.heldout import MAX_HELDOUT_NEIGHBOURS, MAX_HELDOUT_PER_REGIME, validate
 from hoopbench.reports.tune.search import (
     DEFAULT_TRAINING_SCENES,
     Budget,
@@ -679,6 +679,8 @@ def suite_job(
         or not run_timeout > 0
     ):
         raise OptionError("run_timeout", f"{{option}} must be > 0 s, got {run_timeout!r}")
+    if names is not None and not names:  # [] would be read as "every engine"
+        raise OptionError("engines", "{option} must name at least one engine, got []")
     loaded = load_suite(path, announce)  # the whole file is checked before anything runs
     if names:
         loaded = loaded.with_engines(names)
@@ -1020,12 +1022,19 @@ def tune_job(
         raise OptionError("engine", f"{{option}} must be one of {names}, got {engine!r}")
     if trials is None and timeout is None:
         raise OptionError("trials", "a search needs a budget: {option} (in all) or a timeout (s)")
-    try:
-        chosen = tuple(_as_scene(s) for s in (scenes or DEFAULT_TRAINING_SCENES))
+    if scenes is not None and (isinstance(scenes, str) or not isinstance(scenes, Sequence)):
+        raise OptionError("scenes", f"{{option}} must be a list of scenes, got {scenes!r}")
+    try:  # [] is refused below, not read as "the default scenes"
+        chosen = tuple(
+            _as_scene(s) for s in (DEFAULT_TRAINING_SCENES if scenes is None else scenes)
+        )
     except ValueError as exc:
         raise OptionError("scenes", f"{{option}}: {exc}") from None
     if not chosen:
-        raise OptionError("scenes", "{option} must name at least one scene")
+        raise OptionError("scenes", "{option} must name at least one scene, got []")
+    twice = sorted({s.name for s in chosen if [c.name for c in chosen].count(s.name) > 1})
+    if twice:  # refused here, before the folder is made
+        raise OptionError("scenes", f"{{option}} names {', '.join(twice)} more than once")
     budget = Budget(
         trials=None if trials is None else _checked("trials", check_positive_int, trials),
         timeout_s=None if timeout is None else _checked("timeout", check_positive_seconds, timeout),
@@ -1033,22 +1042,41 @@ def tune_job(
         if run_timeout is None
         else _checked("run_timeout", check_positive_seconds, run_timeout),
     )
-    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32:
+    whole = numbers.Integral  # numpy's integers too (a seed drawn by numpy is one)
+    if isinstance(seed, bool) or not isinstance(seed, whole) or not 0 <= seed < 2**32:
         # the sampler's seed (numpy's): refused here, before the folder is made
         raise OptionError("seed", f"{{option}} must be a whole number in [0, 2**32), got {seed!r}")
+    seed = int(seed)
     held = TuneSpec.heldout_seed if heldout_seed is None else heldout_seed
-    if isinstance(held, bool) or not isinstance(held, int) or held < 0 or held == seed:
+    if isinstance(held, bool) or not isinstance(held, whole) or held < 0 or held == seed:
         raise OptionError(
             "heldout_seed",
             f"{{option}} must be a whole number >= 0 other than the seed, got {held!r}",
         )
-    per_regime = _checked("heldout_per_regime", check_count, heldout_per_regime)
-    near = _checked("heldout_neighbours", check_count, heldout_neighbours)
+    per_regime = _at_most(
+        "heldout_per_regime",
+        _checked("heldout_per_regime", check_count, heldout_per_regime),
+        MAX_HELDOUT_PER_REGIME,
+        "random scenes of each regime, drawn after the search",
+    )
+    near = _at_most(
+        "heldout_neighbours",
+        _checked("heldout_neighbours", check_count, heldout_neighbours),
+        MAX_HELDOUT_NEIGHBOURS,
+        "neighbours of each training scene, drawn after the search",
+    )
     if per_regime == near == 0:
         raise OptionError(
             "heldout_per_regime", "{option} and the neighbours cannot both be 0: no held-out scene"
         )
-    return TuneJob(TuneSpec(engine, chosen, seed, held, per_regime, near), budget)
+    return TuneJob(TuneSpec(engine, chosen, seed, int(held), per_regime, near), budget)
+
+
+def _at_most(option: str, value: int, cap: int, what: str) -> int:
+    """``value`` if at most ``cap``; else OptionError, before anything is drawn or written."""
+    if value > cap:
+        raise OptionError(option, f"{{option}} must be at most {cap} ({what}), got {value}")
+    return value
 
 
 def run_tune(
@@ -1064,6 +1092,8 @@ def run_tune(
     """Run a checked search into ``out``: the search and its front table (None if a signal
     stopped it before the held-out runs ended). ``executor``: a Dask cluster's (``jobs`` is
     then ignored); ``batch_size``: runs per batch for an engine that steps many worlds."""
+    out = _check_out("out", out)
+    resume, quiet = _check_flag("resume", resume), _check_flag("quiet", quiet)
     workers = default_jobs() if jobs is None else _checked("jobs", check_workers, jobs)
     batch_size = _checked("batch_size", check_batch_size, batch_size)
     _check_executor(executor)

@@ -560,15 +560,8 @@ def _cmd_export(args: argparse.Namespace) -> int:
         options=dict(settings.options),
         command=sys.argv[1:],
     )
-    mode = out.stat().st_mode & 0o777 if out.exists() else None
-
-    def write(tmp: Path) -> None:
-        tmp.write_text(text)
-        if mode is not None:
-            tmp.chmod(mode)
-
     try:
-        write_whole(out, write)
+        write_whole(out, lambda tmp: tmp.write_text(text))  # keeps an existing file's mode
     except OSError as exc:
         if not _system_error(exc):
             raise
@@ -759,7 +752,9 @@ def _cmd_findings(args: argparse.Namespace) -> int:
     if not results:
         raise UsageError("--results names searches only: give a results folder too")
     if args.update and not Path(args.update).is_file():
-        what = "is a folder" if Path(args.update).is_dir() else "does not exist"
+        update = Path(args.update)
+        kind = "is not a regular file (a FIFO, a device)" if update.exists() else "does not exist"
+        what = "is a folder" if update.is_dir() else kind
         raise UsageError(f"--update {args.update!r} {what}: give a Markdown file with the markers")
     frame = pd.concat([report_frame(Path(f)) for f in results], ignore_index=True)
     text = readme_markdown(frame, best_settings(searches))
@@ -806,8 +801,24 @@ def _map_spec(args: argparse.Namespace) -> Any:
         engines=args.engines,
         timestep=args.dt,
         profile=args.profile,
-        engine_timesteps=dict(args.engine_dt) if args.engine_dt else None,
+        engine_timesteps=_engine_steps(args.engine_dt),
     )
+
+
+def _engine_steps(pairs: Sequence[tuple[str, float]] | None) -> dict[str, float] | None:
+    """--engine-dt's pairs as a mapping; an engine given twice is refused (one would be
+    dropped without a word)."""
+    if not pairs:
+        return None
+    steps: dict[str, float] = {}
+    for name, step in pairs:
+        if name in steps:
+            raise UsageError(
+                f"--engine-dt gives {name} twice ({steps[name]:g} and {step:g}): give each "
+                "engine one step"
+            )
+        steps[name] = step
+    return steps
 
 
 def _cmd_map(args: argparse.Namespace) -> int:

@@ -48,6 +48,7 @@ __all__ = [
     "best_settings",
     "best_settings_section",
     "figure_name",
+    "figure_names",
     "is_tune_folder",
 ]
 
@@ -58,9 +59,22 @@ SCORE_AXIS = "error (loose tolerances; 10 = failed)"
 """The error axis of the figure, PNG and page alike."""
 
 
-def figure_name(engine: str) -> str:
-    """The file name of an engine's figure (the page draws its own in its place)."""
-    return f"best-settings-{file_stem(engine)}.png"
+def figure_name(engine: str, nth: int = 1) -> str:
+    """The file name of an engine's figure (the page draws its own in its place); ``nth``:
+    the engine's nth search in one report (the first keeps the plain name)."""
+    suffix = "" if nth == 1 else f"-{nth}"
+    return f"best-settings-{file_stem(engine)}{suffix}.png"
+
+
+def figure_names(found: Sequence[BestSettings]) -> list[str]:
+    """Each search's figure, one file a search: two searches of one engine in one report
+    drew both into one file (both showed the second one's figure)."""
+    seen: dict[str, int] = {}
+    names = []
+    for best in found:
+        seen[best.engine] = seen.get(best.engine, 0) + 1
+        names.append(figure_name(best.engine, seen[best.engine]))
+    return names
 
 
 def is_tune_folder(folder: str | Path) -> bool:
@@ -198,11 +212,30 @@ def _spec(folder: Path) -> tuple[str, tuple[str, ...], str | None]:
     return engine, tuple(s["name"] for s in scenes), created if isinstance(created, str) else None
 
 
+_FLAGS = {"true": True, "yes": True, "1": True, "false": False, "no": False, "0": False}
+"""front.csv's overfitted as written (True/False) or as a person writes it."""
+
+
+def _flags(column: pd.Series, path: Path) -> pd.Series:
+    """A yes/no column read as text, each value one of _FLAGS (the string "no" is truthy:
+    a front.csv saying overfitted = no was shown as yes); FolderFileError naming the file
+    and the value otherwise."""
+    values = []
+    for value in column:
+        key = str(value).strip().lower()
+        if key not in _FLAGS:
+            raise FolderFileError(f"{path}: overfitted must be true or false, got {value!r}")
+        values.append(_FLAGS[key])
+    return pd.Series(values, index=column.index, dtype=bool)
+
+
 def _read(folder: Path) -> BestSettings:
     engine, scenes, created = _spec(folder)
     front = _table_file(folder, FRONT_NAME, _FRONT_COLUMNS)
     _counts_checked(folder / FRONT_NAME, front)
     trials = _table_file(folder, TRIALS_NAME, _TRIALS_COLUMNS)
+    if "overfitted" in front.columns:
+        front["overfitted"] = _flags(front["overfitted"], folder / FRONT_NAME)
     tuned = front[front["setting"] == "tuned"]
     cost = float(tuned["heldout_cost_us_per_s"].iloc[0]) if len(tuned) else None
     return BestSettings(
@@ -292,8 +325,9 @@ def _tiers_line(best: BestSettings) -> str:
     """The cheapest setting of each tier, as the settings file names it."""
     if not best.has_counts:
         return (
-            "This search's front.csv is from before the tiers' scene counts: resume it "
-            "(`hoopbench tune --resume`, no new trials) to name the cheapest of each tier."
+            "This search's front.csv is from before the tiers' scene counts: resume its whole "
+            "folder (`hoopbench tune --resume`, no new trials; a compact copy cannot be "
+            "resumed) to name the cheapest of each tier."
         )
     costs = best.front.set_index("setting")["train_cost_us_per_s"]
     said = [_tier_choice(tier, choice, costs) for tier, choice in best.cheapest.items()]
@@ -395,13 +429,13 @@ def best_settings_section(found: Sequence[BestSettings], out: str | Path) -> str
         "the machine and under the load it ran with, which its files do not name; each "
         "engine's part says when its search started.",
     ]
-    for best in found:
-        name = figure_name(best.engine)
+    for best, name in zip(found, figure_names(found), strict=True):
         _figure(best, out / name)
         engine = escape_text(best.engine)
+        nth = name.removesuffix(".png").removeprefix(f"best-settings-{file_stem(best.engine)}")
         lines += [
             "",
-            f"### {engine}",
+            f"### {engine}" + (f" (search {nth.lstrip('-')})" if nth else ""),
             "",
             f"Search started {escape_text(best.created or 'at a time not recorded')}. "
             f"Training scenes: {escape_text(', '.join(best.training_scenes))}; "

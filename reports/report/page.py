@@ -22,7 +22,7 @@ from plotly.offline import get_plotlyjs
 
 from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.models.catalogue import get_scene, scene_names
-from hoopbench.reports.report.best_settings import BestSettings, figure_name
+from hoopbench.reports.report.best_settings import BestSettings, figure_names
 from hoopbench.reports.report.drawn import drawn_rows, timestep_note
 from hoopbench.reports.report.files_section import PAGE_NAME
 from hoopbench.reports.report.findings import MORE_FINDINGS
@@ -113,8 +113,8 @@ def page_fragments(
                 fragments[f"paths_{scene}.png"] = _animation(runs, scene, f"motion-{k}")
     for k, (folder, prefix) in enumerate(zip(maps, map_prefixes, strict=True)):
         fragments[f"{prefix}_regimes.png"] = _map(folder, f"map-{k}")
-    for k, best in enumerate(searches):
-        fragments[figure_name(best.engine)] = _best_settings(best, f"best-settings-{k}")
+    for k, (best, name) in enumerate(zip(searches, figure_names(searches), strict=True)):
+        fragments[name] = _best_settings(best, f"best-settings-{k}")
     return fragments
 
 

@@ -43,6 +43,7 @@ the tasks still to run afresh.
 from __future__ import annotations
 
 import contextlib
+import errno
 import fcntl
 import json
 import multiprocessing
@@ -51,6 +52,7 @@ import os
 import pickle
 import signal
 import socket
+import stat
 import sys
 import threading
 import time
@@ -1046,10 +1048,40 @@ def sweep_lock(out: Path, say: Callable[[str], None] | None = None) -> Iterator[
                 del _held[key]
 
 
+def _open_lock(out: Path, create: bool) -> int | None:
+    """The folder's lock file, opened for writing: a regular file inside the folder, never
+    through a link (a lock linked to a file elsewhere would be emptied) and without blocking
+    (a FIFO); RunnerError naming it otherwise. None if it is not there and not ``create``."""
+    path = out / LOCK_NAME
+    flags = os.O_RDWR | os.O_NOFOLLOW | os.O_NONBLOCK | (os.O_CREAT if create else 0)
+    try:
+        fd = os.open(path, flags, 0o644)
+    except FileNotFoundError:
+        if create:
+            raise
+        return None
+    except OSError as exc:
+        if exc.errno != errno.ELOOP:
+            raise
+        raise RunnerError(
+            f"{path} is a link: hoopbench locks a folder only with a file of its own inside it "
+            "(nothing was written); remove the link"
+        ) from None
+    mode = os.fstat(fd).st_mode
+    if not stat.S_ISREG(mode):
+        os.close(fd)
+        raise RunnerError(
+            f"{path} is not a regular file: hoopbench locks a folder only with a file of its "
+            "own inside it (nothing was written); remove it"
+        )
+    return fd
+
+
 @contextlib.contextmanager
 def _locked_file(out: Path, say: Callable[[str], None] | None) -> Iterator[None]:
     out.mkdir(parents=True, exist_ok=True)
-    fd = os.open(out / LOCK_NAME, os.O_RDWR | os.O_CREAT, 0o644)
+    fd = _open_lock(out, create=True)
+    assert fd is not None
     try:
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -1074,8 +1106,10 @@ def _locked_file(out: Path, say: Callable[[str], None] | None) -> Iterator[None]
 def _refuse_if_locked(out: Path) -> None:
     """FolderInUseError if a sweep holds the folder's lock; nothing is written."""
     try:
-        fd = os.open(out / LOCK_NAME, os.O_RDWR)
+        fd = _open_lock(out, create=False)
     except OSError:
+        return
+    if fd is None:
         return
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)

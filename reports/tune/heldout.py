@@ -29,7 +29,12 @@ from hoopbench.reports.compare.suite import runs_frame
 from hoopbench.reports.sweep import results
 from hoopbench.reports.tune.neighbours import NEIGHBOUR_PREFIX, neighbours_of
 from hoopbench.reports.tune.search import (
+    FRONT_NAME,
+    HELDOUT_DIR,
+    SETTINGS_HASH_NAME,
+    SETTINGS_NAME,
     TRIALS_DIR,
+    TRIALS_NAME,
     Budget,
     Runner,
     SearchResult,
@@ -38,6 +43,7 @@ from hoopbench.reports.tune.search import (
     run_settings,
     setting_of,
     setting_tasks,
+    settings_hash,
     trials_frame,
 )
 from hoopbench.reports.tune.tiers import (
@@ -50,6 +56,8 @@ from hoopbench.reports.tune.tiers import (
 __all__ = [
     "FRONT_NAME",
     "HELDOUT_DIR",
+    "MAX_HELDOUT_NEIGHBOURS",
+    "MAX_HELDOUT_PER_REGIME",
     "OVERFIT_FACTOR",
     "OVERFIT_MARGIN",
     "SETTINGS_NAME",
@@ -59,15 +67,19 @@ __all__ = [
     "validate",
 ]
 
-HELDOUT_DIR = "heldout"
 HELDOUT_PREFIX = "heldout-"
 """Of a held-out scene's name: heldout-random-N, heldout-near-<training scene>-K."""
-FRONT_NAME = "front.csv"
-TRIALS_NAME = "trials.csv"
-SETTINGS_NAME = "settings.toml"
 HELDOUT_REGIMES = (Regime.ROLLS, Regime.SLIPS, Regime.SLIP_REVERSAL, Regime.HOPS)
 HELDOUT_T_END = 1.5
 """s: the held-out scenes' window (the truth test's)."""
+
+MAX_HELDOUT_PER_REGIME = 10
+"""Held-out random scenes per regime at most: the rarest regime takes some 60 draws of the
+exact solution a scene (10 a regime: 629 draws, 112 s on 2 loaded cores, 2026-11-28), and the
+draw gives up after 2,000 (reference/random_scenes.py), after the whole search."""
+MAX_HELDOUT_NEIGHBOURS = 10
+"""Held-out neighbours per training scene at most: each takes up to MAX_NEIGHBOUR_DRAWS
+exact solutions."""
 
 OVERFIT_FACTOR = 2.0
 OVERFIT_MARGIN = 0.5
@@ -193,3 +205,5 @@ def _write_settings(
     version = engine_class(spec.engine)().version()
     text = settings_text(spec.engine, version, provenance, settings, cheapest_by_tier(table))
     results.atomic_write(out / SETTINGS_NAME, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+    digest = settings_hash(text) + "\n"
+    results.atomic_write(out / SETTINGS_HASH_NAME, lambda tmp: tmp.write_text(digest))

@@ -14,6 +14,7 @@ When the budget is spent, the Pareto set (and the baselines) run again on held-o
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import json
 import math
 import signal
@@ -48,11 +49,13 @@ from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT, RunTask, Suite
 from hoopbench.reports.sweep import results
 from hoopbench.reports.sweep.folder_files import (
     MAX_DATA_BYTES,
+    folder_file,
     read_folder_bytes,
     read_folder_text,
 )
 from hoopbench.reports.sweep.runner import (
     Batching,
+    RunnerError,
     RunSummary,
     WorkerPool,
     claim_folder,
@@ -66,19 +69,29 @@ if TYPE_CHECKING:  # Optuna is an extra (tune): imported when a search runs (_op
 
 __all__ = [
     "DEFAULT_TRAINING_SCENES",
+    "FRONT_NAME",
+    "HELDOUT_DIR",
     "JOURNAL_NAME",
+    "RESULT_NAMES",
+    "SETTINGS_HASH_NAME",
+    "SETTINGS_NAME",
     "SPEC_NAME",
     "TRIALS_DIR",
+    "TRIALS_NAME",
     "Budget",
+    "NoTrialError",
     "Runner",
+    "SearchRecordError",
     "SearchResult",
     "Setting",
     "TuneSpec",
     "TuneUnavailableError",
+    "check_resumable",
     "run_settings",
     "search",
     "setting_of",
     "setting_tasks",
+    "settings_hash",
     "trials_frame",
 ]
 
@@ -98,6 +111,15 @@ Painlevé point; seed-pi is seed-mu's postscript with mus != muk)."""
 JOURNAL_NAME = "journal.log"
 SPEC_NAME = "tune.json"
 TRIALS_DIR = "trials"
+HELDOUT_DIR = "heldout"
+FRONT_NAME = "front.csv"
+TRIALS_NAME = "trials.csv"
+SETTINGS_NAME = "settings.toml"
+SETTINGS_HASH_NAME = ".settings.toml.sha256"
+"""The sha256 of the settings.toml the search last wrote: a resume that would replace a
+settings.toml edited since is refused (the user's edits are not lost without a word)."""
+RESULT_NAMES = (FRONT_NAME, TRIALS_NAME, SETTINGS_NAME, TRIALS_DIR, HELDOUT_DIR)
+"""What a search that ran leaves besides its record (journal.log, tune.json, sweep.json)."""
 TRIAL_PREFIX = "trial-"
 STUDY_NAME = "tune"
 
@@ -245,10 +267,52 @@ def run_settings(
     return summary, rows
 
 
+class _Replayed:
+    """A told trial's parameters, asked again as draw_settings asks a live trial: each must lie
+    in the engine's space as declared today (Optuna's FixedTrial only warns, so a journal line
+    edited to a timestep of 5 s would reach the settings file)."""
+
+    def __init__(self, number: int, params: Mapping[str, Any]) -> None:
+        self.number = number
+        self.params = params
+
+    def _value(self, name: str) -> Any:
+        if name not in self.params:
+            raise ValueError(self._outside(name, "missing", "the engine's search space"))
+        return self.params[name]
+
+    def _outside(self, name: str, value: Any, space: str) -> str:
+        return (
+            f"{JOURNAL_NAME}: trial {self.number}'s {name} = {value} is not in {space}: the "
+            "journal was edited or comes from another search space; it is not used"
+        )
+
+    def suggest_categorical(self, name: str, choices: Sequence[Any]) -> Any:
+        value = self._value(name)
+        if not any(value == c and isinstance(value, bool) == isinstance(c, bool) for c in choices):
+            raise ValueError(self._outside(name, repr(value), f"its choices {list(choices)}"))
+        return value
+
+    def suggest_int(self, name: str, low: int, high: int, log: bool = False) -> int:
+        value = self._value(name)
+        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+            raise ValueError(self._outside(name, repr(value), f"[{low}, {high}]"))
+        return value
+
+    def suggest_float(self, name: str, low: float, high: float, log: bool = False) -> float:
+        value = self._value(name)
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ValueError(self._outside(name, repr(value), f"[{low:g}, {high:g}]"))
+        if not low <= value <= high:  # NaN too
+            raise ValueError(self._outside(name, f"{value:g}", f"[{low:g}, {high:g}]"))
+        return float(value)
+
+
 def setting_of(engine: str, trial: FrozenTrial) -> Setting:
-    """A told trial's setting (its options replayed from its parameters)."""
-    fixed = _optuna().trial.FixedTrial(trial.params)
-    options, timestep = draw_settings(fixed, engine_class(engine))
+    """A told trial's setting (its options replayed from its parameters); ValueError naming
+    the trial and parameter if one lies outside the engine's space."""
+    replayed: Any = _Replayed(trial.number, trial.params)
+    options, timestep = draw_settings(replayed, engine_class(engine))
     values = trial.values or [None, None]
     return Setting(
         f"{TRIAL_PREFIX}{trial.number}", timestep, options, Profile.TUNED, values[0], values[1]
@@ -314,6 +378,8 @@ def _open_study(spec: TuneSpec, out: Path, resume: bool) -> optuna.Study:
         directions=["minimize", "minimize"],
         load_if_exists=resume,
     )
+    for told in study.get_trials(deepcopy=False, states=(TrialState.COMPLETE,)):
+        setting_of(spec.engine, told)  # refused before anything runs if not the engine's
     for stale in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,)):
         study.tell(stale.number, state=TrialState.FAIL)  # cut short by an earlier Ctrl-C
     if not study.trials:
@@ -426,7 +492,11 @@ def search(
     out = Path(out)
     optuna = _optuna()
     optuna.logging.set_verbosity(optuna.logging.WARNING)
+    if resume:
+        check_resumable(out, spec)  # before the claim: a refused folder gets nothing
     with claim_folder(out, resume, spec.identity(), say):
+        if resume:
+            check_resumable(out, spec)  # again under the lock
         _write_spec(out, spec)
         study = _open_study(spec, out, resume)
         started = time.monotonic()
@@ -442,10 +512,32 @@ def search(
                 stopped = stopped or bool(noted)
             except KeyboardInterrupt:  # a signal where no handler of ours was installed
                 baselines, stopped = (), True
+            if not stopped:
+                _check_a_trial_ran(study, budget, time.monotonic() - started)
             result = SearchResult(study, stopped, baselines)
             if then is not None and not stopped:
                 then(result, runner)
     return result
+
+
+class NoTrialError(RunnerError):
+    """The budget ended before the search started any trial: a front of the baselines alone
+    would read as a finished search."""
+
+
+def _check_a_trial_ran(study: optuna.Study, budget: Budget, elapsed_s: float) -> None:
+    """NoTrialError if no trial was ever started in the folder (the first, tuned's, is
+    queued from the start): the timeout was spent on the baselines."""
+    waiting = _optuna().trial.TrialState.WAITING
+    if budget.timeout_s is None or any(
+        t.state is not waiting for t in study.get_trials(deepcopy=False)
+    ):
+        return
+    raise NoTrialError(
+        f"the timeout ({budget.timeout_s:g} s) ended before the first trial: the baselines "
+        f"(stock and tuned) took {elapsed_s:.0f} s; nothing was validated; resume with a "
+        "longer timeout, or a number of trials"
+    )
 
 
 @contextlib.contextmanager
@@ -465,6 +557,85 @@ def _progress(study: optuna.Study) -> str:
         return f"trial {last.number}: {last.state.name.lower()}"
     error, cost = last.values
     return f"trial {last.number}: error {error:.3g}, cost {cost:.3g} us per simulated s"
+
+
+class SearchRecordError(RunnerError):
+    """A search folder that cannot be resumed as asked: its record is not whole, it holds
+    another search, or resuming would replace what the user wrote."""
+
+
+def check_resumable(out: Path, spec: TuneSpec) -> None:
+    """SearchRecordError unless ``out`` is nothing yet or a search that ``spec`` can go on
+    with: no link where the search writes a folder; journal.log and tune.json there once it
+    has results (a compact copy, as shipped under reports/tune/searches, keeps only its
+    results: resumed, a new search would replace them); tune.json naming this search; the
+    settings file as the search wrote it. Nothing is written."""
+    if not out.is_dir():
+        return
+    for name in (TRIALS_DIR, HELDOUT_DIR):
+        if (out / name).is_symlink() or ((out / name).exists() and not (out / name).is_dir()):
+            raise SearchRecordError(
+                f"{out / name} is not a folder of the search (a link or a file): a resume "
+                "writes its runs there; remove it, or resume a copy of the search"
+            )
+    has_results = any((out / name).exists() for name in RESULT_NAMES)
+    journal = folder_file(out, JOURNAL_NAME, MAX_DATA_BYTES)
+    if journal is None and has_results:
+        raise SearchRecordError(
+            f"{out} holds no {JOURNAL_NAME} (a compact copy of a search keeps only its results): "
+            "it cannot be resumed; start a new search in another folder (--out)"
+        )
+    text = read_folder_text(out, SPEC_NAME)
+    if text is None:
+        if journal is not None:
+            raise SearchRecordError(
+                f"{out} holds no {SPEC_NAME}: which search its journal belongs to is not "
+                "known, so it cannot be resumed; start a new search in another folder (--out)"
+            )
+        return
+    _check_same_search(out, spec, text)
+    _check_settings_unedited(out)
+
+
+def _check_same_search(out: Path, spec: TuneSpec, text: str) -> None:
+    try:
+        stored = json.loads(text)
+    except ValueError:
+        stored = None
+    if not isinstance(stored, dict):
+        raise SearchRecordError(f"{out / SPEC_NAME} is not a JSON object: cannot be resumed")
+    asked = spec.identity()
+    differ = [k for k in asked if k in stored and stored[k] != asked[k]]
+    if not differ:
+        return
+    said = ", ".join(
+        f"{k} {stored[k]!r} (asked: {asked[k]!r})" if k != "scenes" else "its scenes"
+        for k in differ
+    )
+    raise SearchRecordError(
+        f"{out} holds another search ({said} differ, says {SPEC_NAME}): resume it with its own "
+        "options, or start a new search in another folder"
+    )
+
+
+def settings_hash(text: str) -> str:
+    """The sha256 recorded for a settings file the search writes."""
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def _check_settings_unedited(out: Path) -> None:
+    """SearchRecordError if settings.toml differs from the file the search last wrote (a
+    search made before the hash was kept cannot tell, and goes on)."""
+    recorded = read_folder_text(out, SETTINGS_HASH_NAME)
+    current = read_folder_bytes(out, SETTINGS_NAME)
+    if recorded is None or current is None:
+        return
+    if hashlib.sha256(current).hexdigest() != recorded.strip():
+        raise SearchRecordError(
+            f"{out / SETTINGS_NAME} was edited after the search wrote it, and a resume "
+            "rewrites it: move your copy elsewhere (compare and simulate read it from any "
+            "folder) and resume again"
+        )
 
 
 def _write_spec(out: Path, spec: TuneSpec) -> None:
