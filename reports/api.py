@@ -1032,7 +1032,8 @@ def tune_job(
         raise OptionError("scenes", f"{{option}}: {exc}") from None
     if not chosen:
         raise OptionError("scenes", "{option} must name at least one scene, got []")
-    twice = sorted({s.name for s in chosen if [c.name for c in chosen].count(s.name) > 1})
+    named = [s.name for s in chosen if s.name]  # unnamed scenes: TuneSpec compares them whole
+    twice = sorted({name for name in named if named.count(name) > 1})
     if twice:  # refused here, before the folder is made
         raise OptionError("scenes", f"{{option}} names {', '.join(twice)} more than once")
     budget = Budget(

@@ -337,7 +337,8 @@ journal unreadable for good."""
 @pytest.mark.parametrize("case", JOURNAL_LINES)
 def test_a_journal_line_optuna_cannot_read_is_refused_and_the_journal_kept(tmp_path, case):
     """The search's journal opened as a resume opens it (search._open_study), on a journal
-    Optuna itself wrote (one trial told) with one hostile line appended: a ValueError naming
+    Optuna itself wrote (the study made, no trial: a told trial must hold the engine's
+    parameters, which the strict replay checks) with one hostile line appended: a ValueError naming
     the file, and not a byte of it changed."""
     optuna = pytest.importorskip("optuna")
     from hoopbench.reports.tune.search import JOURNAL_NAME, STUDY_NAME, _open_study
@@ -349,9 +350,9 @@ def test_a_journal_line_optuna_cannot_read_is_refused_and_the_journal_kept(tmp_p
         storage=optuna.storages.JournalStorage(backend),
         directions=["minimize", "minimize"],
     )
-    study.tell(study.ask(), [1.0, 2.0])
+    assert study.trials == []
     spec = api.tune_job("pymunk", scenes=["seed"], trials=2).spec
-    assert len(_open_study(spec, tmp_path, resume=True).trials) == 1  # Optuna's own: read
+    _open_study(spec, tmp_path, resume=True)  # Optuna's own journal: read without an error
     with path.open("a") as journal:
         journal.write(JOURNAL_LINES[case])
     before = path.read_bytes()
@@ -379,7 +380,15 @@ def test_a_training_scene_given_twice_is_refused_before_the_folder_is_made(tmp_p
     out = tmp_path / "t"
     argv = ["tune", "--engine", "pymunk", "--out", str(out), "--scenes", "seed", "seed-mu"]
     assert main([*argv, "seed", "--trials", "2", "--quiet"]) == 2
-    assert "scenes: 'seed' given twice" in one_line(capsys)
+    assert "--scenes names seed more than once" in one_line(capsys)
     assert not out.exists()
     with pytest.raises(ValueError, match="the same scene given twice"):
         api.tune_job("pymunk", scenes=[api.scene(lam=0.9, chi=0.1, mus=0.5)] * 2, trials=2)
+
+
+def test_two_different_unnamed_training_scenes_are_not_taken_for_one():
+    """Scenes made with hb.scene(...) have no name: only equal scenes are the same scene
+    (the name check once refused two different ones as "scenes names  more than once")."""
+    pytest.importorskip("optuna")
+    scenes = [api.scene(lam=0.9, chi=0.1, mus=0.5), api.scene(lam=0.8, chi=0.1, mus=0.5)]
+    assert len(api.tune_job("pymunk", scenes=scenes, trials=2).spec.scenes) == 2
