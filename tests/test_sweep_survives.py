@@ -18,6 +18,7 @@ import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any, TypeVar
 
 import pandas as pd
 import pytest
@@ -32,6 +33,7 @@ from hoopbench.reports.sweep.runner import (
     WorkerPool,
 )
 
+T = TypeVar("T")
 LIMIT = 120
 """Seconds any command here may take before the test calls it hung."""
 
@@ -130,9 +132,10 @@ def kill_mid_suite(
 VICTIMS: dict[str, Callable[[dict[str, list[int]]], list[int]]] = {
     "fork server and workers": lambda found: found["forkserver"] + found["workers"],
     "fork server": lambda found: found["forkserver"],
-    "resource tracker": lambda found: found["tracker"],
+    "resource tracker and workers": lambda found: found["tracker"] + found["workers"],
 }
-"""Killing the workers alone is tests/test_runner.py's (a crashing worker)."""
+"""Killing the workers alone is tests/test_runner.py's (a crashing worker); with them the
+resource tracker, which multiprocessing relaunches at the next worker start with a warning."""
 
 
 # ------------------------------------------------------------------ compare, killed
@@ -220,6 +223,25 @@ def thread_deaths(monkeypatch) -> list[BaseException]:
     return seen
 
 
+def bounded(call: Callable[[], T], seconds: float = 60) -> T:
+    """``call()``, failing the test if it has not returned after ``seconds``: a hang."""
+    outcome: dict[str, Any] = {}
+
+    def target() -> None:
+        try:
+            outcome["value"] = call()
+        except BaseException as exc:
+            outcome["error"] = exc
+
+    thread = threading.Thread(target=target, daemon=True)
+    thread.start()
+    thread.join(seconds)
+    assert not thread.is_alive(), f"no end after {seconds} s: the sweep hangs"
+    if "error" in outcome:
+        raise outcome["error"]
+    return outcome["value"]
+
+
 def fail_the_manager_once(monkeypatch, after: int = 3) -> None:
     """The pool's manager raises once, after ``after`` of its rounds: a bug, or a failure
     of the system under it."""
@@ -254,7 +276,7 @@ def test_a_sweeps_own_broken_pool_is_replaced_and_the_sweep_completes(
     tmp_path, monkeypatch, thread_deaths
 ):
     fail_the_manager_once(monkeypatch)
-    summary = run(sweep_tasks(), tmp_path / "out")
+    summary = bounded(lambda: run(sweep_tasks(), tmp_path / "out"))
     assert summary.completed
     assert [n for n in summary.notes if "the worker pool broke" in n], summary.notes
     rows = by_run_id(tmp_path / "out")
@@ -278,7 +300,7 @@ def test_a_callers_broken_pool_stops_the_sweep_with_its_rows_kept(
     stops with ExecutorBrokenError, every finished row kept, none stored as failed."""
     fail_the_manager_once(monkeypatch, after=6)
     with WorkerPool(2) as pool, pytest.raises(ExecutorBrokenError, match="manager failed"):
-        run(sweep_tasks(), tmp_path / "out", executor=pool)
+        bounded(lambda: run(sweep_tasks(), tmp_path / "out", executor=pool))
     rows = read_runs(tmp_path / "out")
     assert 0 < len(rows) < len(sweep_tasks())
     assert set(rows["status"]) <= {"ok", "diverged"}
