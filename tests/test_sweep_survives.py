@@ -17,20 +17,23 @@ import sys
 import threading
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypeVar
 
 import pandas as pd
 import pytest
 from test_compare import CLI, comparable, environment
-from test_runner import by_run_id, run, sweep_tasks, wait_until
+from test_runner import Job, by_run_id, run, sweep_tasks, wait_until
 
+from hoopbench.engines.run import RunStatus
 from hoopbench.reports.sweep.results import TIMING_COLUMNS, read_runs
 from hoopbench.reports.sweep.runner import (
     ExecutorBrokenError,
     PoolBrokenError,
     WorkerCrashedError,
     WorkerPool,
+    run_tasks,
 )
 
 T = TypeVar("T")
@@ -327,3 +330,39 @@ def test_a_worker_lost_with_its_fork_server_is_stopped_and_its_call_fails_as_cra
 def _parent_of(pid: int) -> int:
     with open(f"/proc/{pid}/stat") as f:
         return int(f.read().rsplit(")", 1)[1].split()[1])
+
+
+# ------------------------------------------------------------------ a time limit, twice
+@dataclass(frozen=True)
+class SlowOnce:
+    """A run slower than its time limit the first time only: a machine busy for a moment."""
+
+    run_id: str
+    scratch: str
+
+
+def slow_once_worker(task: SlowOnce) -> dict[str, Any]:
+    marker = Path(task.scratch) / f"{task.run_id}.tried"
+    if not marker.exists():
+        marker.touch()
+        time.sleep(30)
+    return {"status": "ok", "message": ""}
+
+
+def test_a_run_the_time_limit_ended_is_tried_once_more_and_then_stored_as_a_timeout(tmp_path):
+    """Issue 34: a time limit may end a run because the machine was loaded, so the run is tried
+    once more with the same limit; a run that passes it twice is a timeout, and says so."""
+    (tmp_path / "scratch").mkdir()
+    once = SlowOnce("slow-once", str(tmp_path / "scratch"))
+    summary = bounded(
+        lambda: run_tasks([once], slow_once_worker, tmp_path / "a", timeout=1.0, quiet=True)
+    )
+    row = by_run_id(tmp_path / "a")["slow-once"]
+    assert (row["status"], row["attempts"]) == ("ok", 2), row
+    assert summary.counts == {RunStatus.OK: 1}
+
+    summary = bounded(lambda: run([Job("hangs", "hang")], tmp_path / "b", timeout=1.0))
+    row = by_run_id(tmp_path / "b")["hangs"]
+    assert (row["status"], row["attempts"]) == ("timeout", 2), row
+    assert "in either of two tries" in row["message"]
+    assert "retried once with the same limit" in row["message"]

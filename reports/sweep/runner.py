@@ -14,7 +14,8 @@ into a broken pool that fails every run still queued, and it cannot stop one hun
   Dask's ``Client.get_executor()``). It keeps only rows, a few futures and counters, so its
   memory does not grow with the sweep; rows go to disk every couple of seconds
   (:mod:`hoopbench.reports.sweep.results`), so an interrupted or killed sweep loses only the runs
-  in progress, and ``resume=True`` runs what is missing. A run past its time limit becomes a
+  in progress, and ``resume=True`` runs what is missing. A run past its time limit is tried
+  once more with the same limit (a loaded machine ends runs too) and then becomes a
   ``timeout`` row, a run whose worker died twice a ``crashed`` row; both are retried by a
   resumed sweep. SIGINT and SIGTERM stop the sweep cleanly and are reported in the summary,
   so that the command line can exit 130 or 143 and say how to resume.
@@ -944,13 +945,15 @@ class _Attempt:
     task: Any
     """A task, or a TaskBatch."""
     number: int
-    """1 for the first try, 2 for the retry after a crash."""
+    """1 for the first try, 2 for the retry after a crash or a timeout."""
     limit: float | None
     submitted_at: float
+    first_timed_out: bool = False
+    """The retry of a call whose first try the time limit ended (else of a crash)."""
 
     def of(self, task: Any) -> _Attempt:
         """The same attempt, for one task of its batch."""
-        return _Attempt(task, self.number, self.limit, self.submitted_at)
+        return _Attempt(task, self.number, self.limit, self.submitted_at, self.first_timed_out)
 
 
 class _Sweep:
@@ -1539,8 +1542,18 @@ class _Calls:
                 kill(future)
             else:
                 future.cancel()  # a running call cannot be cancelled: abandoned
-            text = f"no result after {attempt.limit:g} s; the call was stopped"
             self._took(future, attempt, start)
+            if attempt.number == 1:
+                # A time limit ends a run on a loaded machine as well as a slow run: the
+                # machine's failure until the same limit ends it again (issue 34).
+                self.queue.appendleft(_Attempt(attempt.task, 2, None, 0.0, first_timed_out=True))
+                continue
+            text = f"no result after {attempt.limit:g} s; the call was stopped"
+            if attempt.first_timed_out:
+                text = (
+                    f"no result after {attempt.limit:g} s in either of two tries (a time limit "
+                    "may be the machine's: retried once with the same limit); stopped"
+                )
             self.sweep.record_failure(attempt, RunStatus.TIMEOUT, text, start)
 
     @staticmethod
@@ -1553,6 +1566,10 @@ class _Calls:
             self.queue.appendleft(_Attempt(attempt.task, 2, None, 0.0))
             return
         message = f"worker died twice: {text}"
+        if attempt.first_timed_out:
+            message = f"worker died on the retry after a timeout: {text}"
+        if isinstance(attempt.task, TaskBatch):  # every world of it gets this row
+            message += f" (in a batch of {len(attempt.task.tasks)} runs)"
         self.sweep.record_failure(attempt, RunStatus.CRASHED, message, None)
 
     def _settle(self, future: Future, attempt: _Attempt, stopping: bool) -> None:
@@ -1614,11 +1631,12 @@ def run_tasks(
     (timeout, crashed, error). ``timeout`` is seconds per task, or a function of the task.
 
     Without ``executor``, a :class:`WorkerPool` of ``jobs`` workers (default: CPU count) runs
-    the tasks: a hung call's worker is killed, a dead worker's call is retried once. A
-    foreign executor (``concurrent.futures`` or Dask's ``Client.get_executor()``) is not
-    shut down here; a timed-out call goes to its ``kill(future)`` if it has one (the Dask
-    ``ClusterExecutor`` of :mod:`hoopbench.reports.sweep.cluster`), else is cancelled if possible
-    and otherwise abandoned (it keeps its worker); an exception from a future counts as a
+    the tasks: a hung call's worker is killed and the call tried once more, a dead worker's
+    call is retried once. A foreign executor (``concurrent.futures`` or Dask's
+    ``Client.get_executor()``) is not shut down here; a timed-out call goes to its
+    ``kill(future)`` if it has one (the Dask ``ClusterExecutor`` of
+    :mod:`hoopbench.reports.sweep.cluster`), else is cancelled if possible and otherwise
+    abandoned (it keeps its worker); an exception from a future counts as a
     crash. Its calls are timed from submission, with at most ``max_in_flight`` (default: its
     ``max_workers``, ``_max_workers``, ``jobs`` or the CPU count) submitted at once.
 
