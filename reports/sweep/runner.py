@@ -61,7 +61,7 @@ from collections import Counter, deque
 from collections.abc import Callable, Hashable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, BrokenExecutor, Executor, Future, InvalidStateError
 from concurrent.futures import wait as wait_futures
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from importlib import import_module
 from multiprocessing.context import BaseContext
@@ -945,15 +945,29 @@ class _Attempt:
     task: Any
     """A task, or a TaskBatch."""
     number: int
-    """1 for the first try, 2 for the retry after a crash or a timeout."""
+    """1 for the first try, then one more for each retry: at most one after a crash and one
+    after a timeout."""
     limit: float | None
     submitted_at: float
-    first_timed_out: bool = False
-    """The retry of a call whose first try the time limit ended (else of a crash)."""
+    crashed_before: bool = False
+    """An earlier try's worker died."""
+    timed_out_before: bool = False
+    """The time limit ended an earlier try."""
 
     def of(self, task: Any) -> _Attempt:
         """The same attempt, for one task of its batch."""
-        return _Attempt(task, self.number, self.limit, self.submitted_at, self.first_timed_out)
+        return replace(self, task=task)
+
+    def retry(self, *, crashed: bool = False, timed_out: bool = False) -> _Attempt:
+        """The next try, after this one crashed or timed out."""
+        return _Attempt(
+            self.task,
+            self.number + 1,
+            None,
+            0.0,
+            self.crashed_before or crashed,
+            self.timed_out_before or timed_out,
+        )
 
 
 class _Sweep:
@@ -1543,17 +1557,15 @@ class _Calls:
             else:
                 future.cancel()  # a running call cannot be cancelled: abandoned
             self._took(future, attempt, start)
-            if attempt.number == 1:
+            if not attempt.timed_out_before:
                 # A time limit ends a run on a loaded machine as well as a slow run: the
                 # machine's failure until the same limit ends it again (issue 34).
-                self.queue.appendleft(_Attempt(attempt.task, 2, None, 0.0, first_timed_out=True))
+                self.queue.appendleft(attempt.retry(timed_out=True))
                 continue
-            text = f"no result after {attempt.limit:g} s; the call was stopped"
-            if attempt.first_timed_out:
-                text = (
-                    f"no result after {attempt.limit:g} s in either of two tries (a time limit "
-                    "may be the machine's: retried once with the same limit); stopped"
-                )
+            text = (
+                f"no result after {attempt.limit:g} s in either of two tries (a time limit "
+                "may be the machine's: retried once with the same limit); stopped"
+            )
             self.sweep.record_failure(attempt, RunStatus.TIMEOUT, text, start)
 
     @staticmethod
@@ -1562,12 +1574,12 @@ class _Calls:
         return future.started_at if isinstance(future, PoolFuture) else attempt.submitted_at
 
     def _crash(self, attempt: _Attempt, text: str) -> None:
-        if attempt.number == 1:
-            self.queue.appendleft(_Attempt(attempt.task, 2, None, 0.0))
+        if not attempt.crashed_before:
+            # Also after a timeout: on a Dask cluster the retry may land on the worker being
+            # restarted for another call's timeout.
+            self.queue.appendleft(attempt.retry(crashed=True))
             return
         message = f"worker died twice: {text}"
-        if attempt.first_timed_out:
-            message = f"worker died on the retry after a timeout: {text}"
         if isinstance(attempt.task, TaskBatch):  # every world of it gets this row
             message += f" (in a batch of {len(attempt.task.tasks)} runs)"
         self.sweep.record_failure(attempt, RunStatus.CRASHED, message, None)
