@@ -49,7 +49,7 @@ from hoopbench.models.scene import DegenerateSceneError, Scene
 from hoopbench.reference.exact import DEFAULT_ATOL, DEFAULT_RTOL
 
 if TYPE_CHECKING:  # the runner is imported only by the commands that run sweeps
-    from hoopbench.reports.sweep.runner import RunSummary
+    from hoopbench.reports.sweep.runner import ExecutorBrokenError, RunSummary
 
 __all__ = ["main"]
 
@@ -240,6 +240,30 @@ def _write_trajectory(trajectory: Any, path: Path) -> None:
         exc.filename = str(path)  # the temporary file's name means nothing to the user
         kept = "an existing file there is unchanged" if path.exists() else "nothing was written"
         raise _write_failure(exc, path, kept) from None
+
+
+def _broken_sweep(exc: ExecutorBrokenError, kept: str) -> int:
+    """The sweep's machinery failed for good (runner.ExecutorBrokenError): one line, what is
+    kept and how to resume; its own exit status."""
+    _error(f"stopped: {exc}; {kept}")
+    return exc.EXIT_STATUS
+
+
+def _sweep_failed(exc: BaseException, out: str, resume: str) -> int:
+    """A sweep's command stopped by ``exc`` (compare's and map's): a broken executor, a
+    refused folder, Ctrl-C outside the runner's handling (between a map's stages), or a
+    write the system refused: one line, what is kept and how to resume."""
+    from hoopbench.reports.sweep.runner import ExecutorBrokenError, RunnerError
+
+    if isinstance(exc, ExecutorBrokenError):
+        return _broken_sweep(exc, _sweep_kept(out, resume))
+    if isinstance(exc, RunnerError):
+        raise UsageError(str(exc)) from None
+    if isinstance(exc, KeyboardInterrupt):
+        return _interrupted_sweep(out, resume)
+    if isinstance(exc, OSError) and _system_error(exc):
+        raise _write_failure(exc, out, _sweep_kept(out, resume)) from None
+    raise exc
 
 
 def _interrupted_sweep(out: str, resume: str) -> int:
@@ -659,14 +683,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
                 executor=executor,
                 batch_size=args.batch_size,
             )
-    except RunnerError as exc:
-        raise UsageError(str(exc)) from None
-    except KeyboardInterrupt:  # outside the runner's own handling (between a map's stages)
-        return _interrupted_sweep(args.out, resume)
-    except OSError as exc:
-        if not _system_error(exc):
-            raise
-        raise _write_failure(exc, args.out, _sweep_kept(args.out, resume)) from None
+    except (RunnerError, KeyboardInterrupt, OSError) as exc:
+        return _sweep_failed(exc, args.out, resume)
     _say_how_the_sweep_ended(summary, args.out, resume, args.quiet)
     return summary.exit_code
 
@@ -840,14 +858,8 @@ def _cmd_map(args: argparse.Namespace) -> int:
                 quiet=args.quiet,
                 batch_size=args.batch_size,
             )
-    except RunnerError as exc:
-        raise UsageError(str(exc)) from None
-    except KeyboardInterrupt:  # outside the runner's own handling (between a map's stages)
-        return _interrupted_sweep(args.out, resume)
-    except OSError as exc:
-        if not _system_error(exc):
-            raise
-        raise _write_failure(exc, args.out, _sweep_kept(args.out, resume)) from None
+    except (RunnerError, KeyboardInterrupt, OSError) as exc:
+        return _sweep_failed(exc, args.out, resume)
     _say_how_the_sweep_ended(summary, args.out, resume, args.quiet)
     if summary.interrupted is not None:
         return summary.exit_code
@@ -1204,7 +1216,7 @@ def _add_tune(sub: Any, classes: Mapping[str, Any]) -> None:
 def _cmd_tune(args: argparse.Namespace) -> int:
     import hoopbench.reports.api as api
     from hoopbench.reports.sweep.cluster import executor_from_args
-    from hoopbench.reports.sweep.runner import RunnerError
+    from hoopbench.reports.sweep.runner import ExecutorBrokenError, RunnerError
     from hoopbench.reports.tune.search import TuneUnavailableError
 
     job = api.tune_job(
@@ -1229,6 +1241,9 @@ def _cmd_tune(args: argparse.Namespace) -> int:
                 executor=executor,
                 batch_size=args.batch_size,
             )
+    except ExecutorBrokenError as exc:
+        resume = f"hoopbench tune --engine {args.engine} --out {args.out} --resume --trials N"
+        return _broken_sweep(exc, f"every finished trial is kept; resume with: {resume}")
     except (RunnerError, TuneUnavailableError) as exc:
         raise UsageError(str(exc)) from None
     if result.interrupted or front is None:

@@ -188,7 +188,7 @@ def test_a_hung_run_times_out_its_worker_is_killed_and_the_sweep_finishes(tmp_pa
     assert rows["hangs"]["label"] == "label-hangs"
     assert "1 s" in rows["hangs"]["message"]
     assert summary.counts == {RunStatus.OK: 4, RunStatus.TIMEOUT: 1}
-    assert calls(scratch).count("hangs") == 1  # a timeout is not retried
+    assert calls(scratch).count("hangs") == 2  # retried once: the limit may be the machine's
     pids = [int(p.name) for p in (scratch / "pids").iterdir()]
     assert wait_until(lambda: not any(alive(pid) for pid in pids), timeout=5)
 

@@ -117,6 +117,7 @@ def test_a_batch_that_crashes_is_retried_once_as_a_batch(tmp_path, scratch):
     # A task that always kills its worker takes its batch with it: every task crashed.
     assert [rows[k]["status"] for k in ("by-1", "by-dies")] == ["crashed", "crashed"]
     assert rows["by-1"]["label"] == "label-by-1"  # each task's own failure row
+    assert rows["by-1"]["message"].endswith("(in a batch of 2 runs)")  # said so
     assert calls(scratch).count("by-1") == 2
     assert summary.counts == {RunStatus.OK: 3, RunStatus.CRASHED: 2}
 

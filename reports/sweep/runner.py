@@ -14,7 +14,8 @@ into a broken pool that fails every run still queued, and it cannot stop one hun
   Dask's ``Client.get_executor()``). It keeps only rows, a few futures and counters, so its
   memory does not grow with the sweep; rows go to disk every couple of seconds
   (:mod:`hoopbench.reports.sweep.results`), so an interrupted or killed sweep loses only the runs
-  in progress, and ``resume=True`` runs what is missing. A run past its time limit becomes a
+  in progress, and ``resume=True`` runs what is missing. A run past its time limit is tried
+  once more with the same limit (a loaded machine ends runs too) and then becomes a
   ``timeout`` row, a run whose worker died twice a ``crashed`` row; both are retried by a
   resumed sweep. SIGINT and SIGTERM stop the sweep cleanly and are reported in the summary,
   so that the command line can exit 130 or 143 and say how to resume.
@@ -57,11 +58,12 @@ import sys
 import threading
 import time
 import traceback
+import warnings
 from collections import Counter, deque
 from collections.abc import Callable, Hashable, Iterable, Iterator, Mapping, Sequence
-from concurrent.futures import FIRST_COMPLETED, BrokenExecutor, Executor, Future
+from concurrent.futures import FIRST_COMPLETED, BrokenExecutor, Executor, Future, InvalidStateError
 from concurrent.futures import wait as wait_futures
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from importlib import import_module
 from multiprocessing.context import BaseContext
@@ -87,6 +89,7 @@ __all__ = [
     "FolderInUseError",
     "OtherSweepError",
     "OutputDirNotEmptyError",
+    "PoolBrokenError",
     "PoolFuture",
     "RunSummary",
     "RunnerError",
@@ -121,6 +124,12 @@ class WorkerKilledError(RuntimeError):
     """The call's worker was killed on request (:meth:`WorkerPool.kill`, ``kill_workers``)."""
 
 
+class PoolBrokenError(BrokenExecutor):
+    """The pool runs no more calls: it could not start a worker process (its fork server
+    cannot be restarted), or its manager thread failed. Every call queued or running fails
+    with it, and :meth:`WorkerPool.submit` raises it: the thread does not die unheard."""
+
+
 class RemoteTracebackError(Exception):
     """The traceback of an exception raised in a worker, as text (set as its __cause__)."""
 
@@ -140,6 +149,18 @@ class PoolFuture(Future):
 
 _STOP = b""
 """Sent to a worker instead of a call: exit."""
+
+_LOST_WITH_THE_FORK_SERVER = 255
+"""The exit code multiprocessing gives a fork server's child when the fork server, which
+reports its children's exit codes, died: the worker's own fate is unknown (it may run on)."""
+
+# A resource tracker that died (SIGKILL, the OOM killer) is relaunched by multiprocessing at
+# the next worker start with this warning on stderr. The tracker only unlinks named
+# semaphores and shared memory that a dead process leaked; the pool's workers make none
+# (their pipes are not tracked), so the relaunch loses nothing and a sweep's stderr stays clean.
+warnings.filterwarnings(
+    "ignore", message="resource_tracker: process died unexpectedly", category=UserWarning
+)
 
 
 def _watch_parent(lifeline: multiprocessing.connection.Connection) -> None:
@@ -260,7 +281,19 @@ class WorkerPool(Executor):
     running call (its future fails with :class:`WorkerKilledError`) or cancels a queued one.
     Dead workers are replaced as calls need them. ``preload`` modules are imported by each
     worker (and by the fork server, when it is started by this pool) before it takes calls.
+
+    The pool outlives its helpers: a fork server that dies (its workers' calls fail with
+    WorkerCrashedError, the workers are stopped) is started anew at the next worker start,
+    which is tried again after ``START_RETRY_DELAYS``; when every try fails, or the manager
+    thread fails for any reason, the pool breaks (:class:`PoolBrokenError`, module
+    docstring) instead of leaving its futures pending for ever.
     """
+
+    START_RETRY_DELAYS: tuple[float, ...] = (0.2, 1.0, 3.0)
+    """Seconds before each new try to start a worker after a failed start; the failure after
+    the last breaks the pool. A SIGKILLed fork server refuses connections for a moment before
+    multiprocessing sees it dead and starts another (ConnectionRefusedError), or dies
+    mid-start (EOFError)."""
 
     def __init__(
         self,
@@ -286,6 +319,13 @@ class WorkerPool(Executor):
         self._workers: list[_Worker] = []
         self._shutdown = False
         self._startup_failures = 0
+        self._start_errors = 0
+        """Consecutive failures to start a worker process (the fork server lost)."""
+        self._retry_at: float | None = None
+        """When to try starting a worker again after a failure (time.monotonic())."""
+        self._broken: PoolBrokenError | None = None
+        self._wake_at: float | None = None
+        """When the manager must wake without news: a deferred worker start."""
         self._thread: threading.Thread | None = None
         self._closed = False
         self._wake_r, self._wake_w = os.pipe()
@@ -298,6 +338,11 @@ class WorkerPool(Executor):
         return self._max_workers
 
     @property
+    def preload(self) -> tuple[str, ...]:
+        """The modules each worker imports before it takes calls."""
+        return self._preload
+
+    @property
     def pids(self) -> list[int]:
         """Process ids of the live workers."""
         with self._lock:
@@ -307,6 +352,8 @@ class WorkerPool(Executor):
         data = pickle.dumps((fn, args, kwargs))  # an unpicklable call fails here, not later
         future = PoolFuture()
         with self._lock:
+            if self._broken is not None:
+                raise self._broken
             if self._shutdown:
                 raise RuntimeError("cannot submit to a WorkerPool after shutdown")
             self._pending.append((future, data))
@@ -404,10 +451,37 @@ class WorkerPool(Executor):
             name="hoopbench-worker",
             daemon=True,
         )
-        with _main_without_a_missing_file():
-            process.start()
-        child_conn.close()
+        try:
+            with _main_without_a_missing_file():
+                process.start()
+        except BaseException:
+            conn.close()
+            raise
+        finally:
+            child_conn.close()
         self._workers.append(_Worker(process=process, conn=conn))
+
+    def _start_worker_or_later(self) -> bool:
+        """Start a worker (lock held); False if none started: a failed start is tried again
+        after the next of START_RETRY_DELAYS, and the failure after the last raises
+        PoolBrokenError."""
+        now = time.monotonic()
+        if self._retry_at is not None and now < self._retry_at:
+            return False
+        try:
+            self._start_worker()
+        except Exception as exc:
+            tries = self._start_errors + 1
+            if self._start_errors >= len(self.START_RETRY_DELAYS):
+                raise PoolBrokenError(
+                    f"cannot start a worker process ({tries} tries): {_exception_text(exc)}"
+                ) from exc
+            self._retry_at = now + self.START_RETRY_DELAYS[self._start_errors]
+            self._start_errors = tries
+            return False
+        self._start_errors = 0
+        self._retry_at = None
+        return True
 
     def _dispatch(self) -> list[PoolFuture]:
         """Hand queued calls to idle workers and start workers as needed (lock held).
@@ -433,8 +507,11 @@ class WorkerPool(Executor):
             worker.future = future
         starting = sum(1 for w in self._workers if not w.ready and not w.killed)
         missing = min(len(self._pending) - starting, self._max_workers - len(self._workers))
+        self._wake_at = None
         for _ in range(max(0, missing)):
-            self._start_worker()
+            if not self._start_worker_or_later():
+                self._wake_at = self._retry_at  # the manager wakes to try again
+                break
         return dropped
 
     def _receive(self, worker: _Worker) -> tuple[PoolFuture, Any, bool] | None:
@@ -473,14 +550,17 @@ class WorkerPool(Executor):
                 outcomes.append(outcome)
         worker.process.join(timeout=1)
         code = worker.process.exitcode
+        lost = self._lost_with_the_fork_server(worker)
         if worker.future is not None:
             message = f"worker {worker.pid} died while running the call (exit code {code})"
-            if code is not None and code < 0:
+            if lost:
+                message = f"worker {worker.pid} lost with the fork server (stopped)"
+            elif code is not None and code < 0:
                 with contextlib.suppress(ValueError):
                     message += f", {signal.Signals(-code).name}"
             outcomes.append((worker.future, WorkerCrashedError(message, code), False))
             worker.future = None
-        if not worker.ready and not worker.killed:
+        if not worker.ready and not worker.killed and not lost:
             self._startup_failures += 1
             if self._startup_failures >= 3:  # workers die on start-up: fail the queue
                 while self._pending:
@@ -494,12 +574,50 @@ class WorkerPool(Executor):
             worker.process.close()
         return outcomes
 
+    def _lost_with_the_fork_server(self, worker: _Worker) -> bool:
+        """Whether the worker ended as its fork server died; then it is SIGKILLed: orphaned,
+        it may still run its call and hold a core (a hung call until this process ends)."""
+        lost = worker.process.exitcode == _LOST_WITH_THE_FORK_SERVER
+        if not lost or self._ctx.get_start_method() != "forkserver":
+            return False
+        if worker.process.pid is not None:
+            with contextlib.suppress(OSError):
+                os.kill(worker.process.pid, signal.SIGKILL)
+        return True
+
     def _manage(self) -> None:
         try:
             self._manage_loop()
+        except BaseException as exc:  # a thread that died would leave its futures pending
+            self._break(exc)
         finally:
             self._stop_workers()
             self._close()
+
+    def _break(self, exc: BaseException) -> None:
+        """The manager cannot go on: every call queued or running fails with PoolBrokenError
+        (the cause chained), and submit raises it."""
+        broken = exc if isinstance(exc, PoolBrokenError) else None
+        if broken is None:
+            broken = PoolBrokenError(f"the worker pool's manager failed: {_exception_text(exc)}")
+            broken.__cause__ = exc
+        with self._lock:
+            self._broken = broken
+            self._shutdown = True
+            queued = [f for f, _ in self._pending]
+            self._pending.clear()
+            running = [w.future for w in self._workers if w.future is not None]
+            for worker in self._workers:
+                worker.future = None
+                worker.killed = True
+                worker.process.kill()
+        for future in queued:
+            if not future.set_running_or_notify_cancel():
+                continue
+            future.set_exception(broken)
+        for future in running:
+            with contextlib.suppress(InvalidStateError):  # killed or cancelled meanwhile
+                future.set_exception(broken)
 
     def _manage_loop(self) -> None:
         while True:
@@ -509,7 +627,9 @@ class WorkerPool(Executor):
                 if self._shutdown and not self._pending and not busy:
                     return
                 waitables = self._waitables()
-            ready = multiprocessing.connection.wait(waitables)
+                wake_at = self._wake_at
+            timeout = None if wake_at is None else max(0.0, wake_at - time.monotonic())
+            ready = multiprocessing.connection.wait(waitables, timeout)
             with self._lock:
                 outcomes = self._collect(ready)
             # Outside the lock: a done-callback may submit again.
@@ -654,7 +774,17 @@ class OutputDirNotEmptyError(RunnerError):
 
 
 class ExecutorBrokenError(RunnerError):
-    """A foreign executor refuses new work (e.g. a ProcessPoolExecutor after a worker died)."""
+    """The executor runs no more calls: a foreign one refuses new work (a ProcessPoolExecutor
+    after a worker died, a Dask cluster whose scheduler is lost), or our own WorkerPool
+    broke more than MAX_POOL_RENEWALS times. The rows stored so far are kept; the message is
+    one line, and the command line exits with EXIT_STATUS and says how to resume."""
+
+    EXIT_STATUS = 75
+    """EX_TEMPFAIL of sysexits.h: a failure of the machinery, worth trying again (resume)."""
+
+
+MAX_POOL_RENEWALS = 2
+"""New WorkerPools one sweep starts in place of its own broken one before it gives up."""
 
 
 @dataclass(frozen=True)
@@ -817,13 +947,29 @@ class _Attempt:
     task: Any
     """A task, or a TaskBatch."""
     number: int
-    """1 for the first try, 2 for the retry after a crash."""
+    """1 for the first try, then one more for each retry: at most one after a crash and one
+    after a timeout."""
     limit: float | None
     submitted_at: float
+    crashed_before: bool = False
+    """An earlier try's worker died."""
+    timed_out_before: bool = False
+    """The time limit ended an earlier try."""
 
     def of(self, task: Any) -> _Attempt:
         """The same attempt, for one task of its batch."""
-        return _Attempt(task, self.number, self.limit, self.submitted_at)
+        return replace(self, task=task)
+
+    def retry(self, *, crashed: bool = False, timed_out: bool = False) -> _Attempt:
+        """The next try, after this one crashed or timed out."""
+        return _Attempt(
+            self.task,
+            self.number + 1,
+            None,
+            0.0,
+            self.crashed_before or crashed,
+            self.timed_out_before or timed_out,
+        )
 
 
 class _Sweep:
@@ -1285,11 +1431,18 @@ class _Calls:
         todo: Sequence[Any],
         limit: int,
         batch_worker: BatchWorker | None = None,
+        note: Callable[[str], None] | None = None,
     ) -> None:
         self.sweep = sweep
         self.pool = pool
         self.owned = owned
-        """Whether this sweep made the pool (then it also shuts it down)."""
+        """Whether this sweep made the pool (then it also shuts it down, or replaces it)."""
+        self.note = note
+        """Says a one-line remark (a pool replaced) to the user and the summary."""
+        self.broken: BaseException | None = None
+        """Why the executor broke (a call's future failed with BrokenExecutor), until handled."""
+        self.renewals = 0
+        """Pools this sweep started in place of a broken one of its own."""
         self.batch_worker = batch_worker
         self.queue: deque[_Attempt] = deque(_Attempt(t, 1, None, 0.0) for t in todo)
         self.in_flight: dict[Future, _Attempt] = {}
@@ -1359,8 +1512,31 @@ class _Calls:
             done, _ = wait_futures(list(self.in_flight), timeout=tick, return_when=FIRST_COMPLETED)
             for future in done:
                 self._settle(future, self.in_flight.pop(future), stopping=False)
+            if self.broken is not None:
+                self._renew_pool()
             self._stop_overdue()
             self.sweep.maybe_flush()
+
+    def _renew_pool(self) -> None:
+        """The executor broke: a new WorkerPool in place of our own broken one, the calls it
+        lost queued again as they were (a broken pool is not the run's fault); else
+        ExecutorBrokenError. The finished rows are kept either way."""
+        exc, self.broken = self.broken, None
+        assert exc is not None
+        old = self.pool
+        if not (self.owned and isinstance(old, WorkerPool)) or self.renewals >= MAX_POOL_RENEWALS:
+            raise ExecutorBrokenError(f"the executor is broken ({_exception_text(exc)})") from exc
+        for future, attempt in list(self.in_flight.items()):
+            del self.in_flight[future]
+            if future.done() and not future.cancelled() and future.exception() is None:
+                self._settle(future, attempt, stopping=False)
+            else:
+                self.queue.appendleft(attempt)
+        old.kill_workers()
+        self.pool = WorkerPool(old.max_workers, preload=old.preload)
+        self.renewals += 1
+        if self.note is not None:
+            self.note(f"the worker pool broke ({_exception_text(exc)}); started a new one")
 
     def stop(self) -> None:
         """Done, interrupted or failed: stop the calls still running, keep every finished row."""
@@ -1390,10 +1566,9 @@ class _Calls:
                 future = self._submit_one(attempt.task)
             except BrokenExecutor as exc:
                 self.queue.appendleft(attempt)
-                raise ExecutorBrokenError(
-                    f"the executor is broken ({_exception_text(exc)}); "
-                    "resume the sweep with a new one"
-                ) from exc
+                self.broken = exc
+                self._renew_pool()
+                continue
             self.in_flight[future] = attempt
 
     def _submit_one(self, unit: Any) -> Future:
@@ -1415,8 +1590,16 @@ class _Calls:
                 kill(future)
             else:
                 future.cancel()  # a running call cannot be cancelled: abandoned
-            text = f"no result after {attempt.limit:g} s; the call was stopped"
             self._took(future, attempt, start)
+            if not attempt.timed_out_before:
+                # A time limit ends a run on a loaded machine as well as a slow run: the
+                # machine's failure until the same limit ends it again (issue 34).
+                self.queue.appendleft(attempt.retry(timed_out=True))
+                continue
+            text = (
+                f"no result after {attempt.limit:g} s in either of two tries (a time limit "
+                "may be the machine's: retried once with the same limit); stopped"
+            )
             self.sweep.record_failure(attempt, RunStatus.TIMEOUT, text, start)
 
     @staticmethod
@@ -1425,10 +1608,14 @@ class _Calls:
         return future.started_at if isinstance(future, PoolFuture) else attempt.submitted_at
 
     def _crash(self, attempt: _Attempt, text: str) -> None:
-        if attempt.number == 1:
-            self.queue.appendleft(_Attempt(attempt.task, 2, None, 0.0))
+        if not attempt.crashed_before:
+            # Also after a timeout: on a Dask cluster the retry may land on the worker being
+            # restarted for another call's timeout.
+            self.queue.appendleft(attempt.retry(crashed=True))
             return
         message = f"worker died twice: {text}"
+        if isinstance(attempt.task, TaskBatch):  # every world of it gets this row
+            message += f" (in a batch of {len(attempt.task.tasks)} runs)"
         self.sweep.record_failure(attempt, RunStatus.CRASHED, message, None)
 
     def _settle(self, future: Future, attempt: _Attempt, stopping: bool) -> None:
@@ -1443,6 +1630,9 @@ class _Calls:
             self.sweep.record_value(attempt, future.result(), self._started(future, attempt))
         elif stopping:
             return
+        elif isinstance(exc, BrokenExecutor):  # the executor's failure, not the run's
+            self.queue.appendleft(attempt)
+            self.broken = self.broken or exc
         elif isinstance(self.pool, WorkerPool) and not isinstance(
             exc, WorkerCrashedError | WorkerKilledError
         ):
@@ -1487,11 +1677,12 @@ def run_tasks(
     (timeout, crashed, error). ``timeout`` is seconds per task, or a function of the task.
 
     Without ``executor``, a :class:`WorkerPool` of ``jobs`` workers (default: CPU count) runs
-    the tasks: a hung call's worker is killed, a dead worker's call is retried once. A
-    foreign executor (``concurrent.futures`` or Dask's ``Client.get_executor()``) is not
-    shut down here; a timed-out call goes to its ``kill(future)`` if it has one (the Dask
-    ``ClusterExecutor`` of :mod:`hoopbench.reports.sweep.cluster`), else is cancelled if possible
-    and otherwise abandoned (it keeps its worker); an exception from a future counts as a
+    the tasks: a hung call's worker is killed and the call tried once more, a dead worker's
+    call is retried once. A foreign executor (``concurrent.futures`` or Dask's
+    ``Client.get_executor()``) is not shut down here; a timed-out call goes to its
+    ``kill(future)`` if it has one (the Dask ``ClusterExecutor`` of
+    :mod:`hoopbench.reports.sweep.cluster`), else is cancelled if possible and otherwise
+    abandoned (it keeps its worker); an exception from a future counts as a
     crash. Its calls are timed from submission, with at most ``max_in_flight`` (default: its
     ``max_workers``, ``_max_workers``, ``jobs`` or the CPU count) submitted at once.
 
@@ -1540,7 +1731,12 @@ def run_tasks(
         sweep = _Sweep(worker, writer, progress, failure_row, timeout, flush_interval, flush_rows)
         units = batching.units(todo, in_flight_limit) if batching is not None else todo
         batch_worker = batching.worker if batching is not None else None
-        calls = _Calls(sweep, pool, executor is None, units, in_flight_limit, batch_worker)
+
+        def remark(text: str) -> None:  # mid-sweep: printed above the progress bar
+            notes.append(text)
+            progress.note(text)
+
+        calls = _Calls(sweep, pool, executor is None, units, in_flight_limit, batch_worker, remark)
         if costing is not None:
             calls.costing = costing
             calls.workers = getattr(pool, "max_workers", None) or in_flight_limit
