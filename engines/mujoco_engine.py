@@ -52,6 +52,7 @@ The sensor is read at the first RK4 stage: the force at the recorded state.
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
@@ -262,7 +263,7 @@ class MujocoEngine(MjcfEngine):
 
     name = "mujoco"
     distribution = "mujoco"
-    modules = ("mujoco", "mujoco.rollout", "mujoco.batch")
+    modules = ("mujoco", "mujoco.rollout")  # and mujoco.batch for a batch (_open_batch)
     batches = True
     geometries = MJCF_GEOMETRIES
     options = (
@@ -483,9 +484,12 @@ class MujocoEngine(MjcfEngine):
         """One model per world (its own mu, mass, ...), in one ``mujoco.batch.Batch``; each
         world's state row is its single run's initial state."""
         mujoco = module
+        # Imported here, not with the modules of every run: mujoco.batch is MuJoCo 4's, and
+        # the single runs go back to 3.3 (docs/engines.md, MuJoCo releases).
+        batching = importlib.import_module("mujoco.batch")
         built = [self._build(mujoco, scene, settings, options) for scene in scenes]
         models = [model for model, _ in built]
-        batch = mujoco.batch.Batch(models[0], len(scenes), BATCH_THREADS)
+        batch = batching.Batch(models[0], len(scenes), BATCH_THREADS)
         batch.set_models(models)
         for field_name in ("qpos", "qvel", "qacc_warmstart", "time"):
             rows = batch.bind(field_name)
