@@ -55,6 +55,7 @@ from hoopbench.reports.report.force_figures import ForcePanel, force_figure
 from hoopbench.reports.report.plotting import plain_text
 from hoopbench.reports.report.precision import cheapest_runs, precision_figure
 from hoopbench.reports.report.readings import READING_RESOLUTION_MS, reading_differences
+from hoopbench.reports.report.releases import releases_figure, releases_section
 from hoopbench.reports.report.stability import (
     ENERGY_GAIN_LIMIT,
     PENETRATION_LIMIT,
@@ -916,9 +917,12 @@ def write_markdown(
             run_time,
             _stability_section(runs),
         ]
+    # The engines' releases (compare --engine-version): their own section, figure included.
+    releases = releases_section(runs, _draw_plain(releases_figure, runs, out))
     sections += [
         stability,
         figures,
+        releases,
         *extra,
         _all_findings_section(everything),
         _platform_section(everything, generated, machines),
