@@ -160,7 +160,7 @@ def test_the_shipped_suites_are_valid(name):
 def test_unknown_shipped_suite():
     with pytest.raises(
         SuiteError,
-        match=r"no shipped suite .quik.; shipped: default, finer, full, precision, quick, "
+        match=r"no shipped suite .quik.; shipped: default, finer, full, precision, quick, releases, "
         r"stability",
     ):
         builtin_suite("quik")
