@@ -160,8 +160,8 @@ def test_the_shipped_suites_are_valid(name):
 def test_unknown_shipped_suite():
     with pytest.raises(
         SuiteError,
-        match=r"no shipped suite .quik.; shipped: default, finer, full, precision, quick, releases, "
-        r"stability",
+        match=r"no shipped suite .quik.; shipped: default, finer, full, precision, quick, "
+        r"releases, stability",
     ):
         builtin_suite("quik")
 
