@@ -175,3 +175,15 @@ def test_the_child_refuses_an_engine_imported_before_its_folder(tmp_path):
 
     with pytest.raises(RuntimeError, match="imported before"):
         release_child.use_release(tmp_path, "mujoco")
+
+
+@pytest.mark.slow
+def test_a_report_of_release_runs_alone_has_their_section(tmp_path):
+    """A suite whose runs are all on named releases (the releases suite) has no default
+    runs: the other sections are of none, and the report still writes its own."""
+    from hoopbench.reports.report.markdown import write_markdown
+
+    path = write_markdown(_rows(), tmp_path, generated="now")
+    text = path.read_text()
+    assert "## Across engine releases" in text and "Runs: 2;" in text
+    assert (tmp_path / "releases-mujoco.png").is_file()

@@ -34,6 +34,7 @@ from hoopbench.reports.report.plotting import pyplot, save
 
 __all__ = [
     "ReleaseChange",
+    "is_release_row",
     "release_changes",
     "release_rows",
     "releases_figure",
@@ -82,6 +83,13 @@ def _version_key(text: str) -> tuple[int, Version | str]:
         return (0, Version(text))
     except InvalidVersion:
         return (1, text)
+
+
+def is_release_row(runs: pd.DataFrame) -> pd.Series:
+    """Whether each row is a run on a named release (variant ``release=VERSION``)."""
+    if Col.VARIANT.value not in runs:
+        return pd.Series(False, index=runs.index)
+    return runs[Col.VARIANT.value].map(_release).notna()
 
 
 def release_rows(runs: pd.DataFrame) -> pd.DataFrame:
