@@ -138,7 +138,7 @@ def test_the_section_names_each_change_and_the_release_that_made_it(tmp_path):
     newer = rows.index[1]
     rows.loc[newer, Col.VERDICT.value] = "missed-hop"
     rows.loc[newer, Col.ERR_HOP_HEIGHT_REL.value] = rows.loc[newer, Col.ERR_HOP_HEIGHT_REL] + 0.5
-    rows.loc[newer, Col.US_PER_STEP.value] = 3 * rows.loc[newer, Col.US_PER_STEP]
+    rows.loc[newer, Col.CPU_US_PER_STEP.value] = 3 * rows.loc[newer, Col.CPU_US_PER_STEP]
     changes = release_changes(rows)
     assert {(c.before, c.after, c.what) for c in changes} == {
         ("3.3.7", "4.0.0", "verdict"),
