@@ -689,12 +689,15 @@ def _step_reading_forces(run: _Run, done: int, steps: int) -> None:
     for i in range(steps):
         mujoco.mj_forward(model, data)
         total = np.zeros(3)
+        # The contacts' fields as arrays (data.contact.frame[c]): before 3.1.4 the struct of
+        # one contact (data.contact[c].frame) reads zeros in the Python bindings (measured on
+        # 2.3.7 and 3.1.3), and the force read through it was none.
+        frames, geom2 = data.contact.frame, data.contact.geom2
         for c in range(data.ncon):
-            contact = data.contact[c]
             mujoco.mj_contactForce(model, data, c, local)
             # The force geom1 exerts on geom2, in the contact frame (rows: normal, tangents).
-            world = contact.frame.reshape(3, 3).T @ local[:3]
-            total += world if model.geom_bodyid[contact.geom2] == hoop else -world
+            world = np.reshape(frames[c], (3, 3)).T @ local[:3]
+            total += world if model.geom_bodyid[geom2[c]] == hoop else -world
         run.sensors[0, done + i, 0] = float(data.ncon > 0)
         run.sensors[0, done + i, 1:4] = total
         mujoco.mj_step(model, data)
