@@ -74,12 +74,13 @@ def test_a_release_folder_is_keyed_by_engine_version_and_python(monkeypatch, tmp
 
 @pytest.mark.slow
 def test_releases_side_by_side_and_a_missing_one_in_one_line(tmp_path, capfd):
-    """The issue's "done when": MuJoCo 3.3.7 and 4.0.0 in one folder, rows marked by the
-    version imported; mujoco==0.0.1 one line on stderr, and the rest completes."""
+    """The issue's "done when": MuJoCo 3.3.7 and 4.0.0 in one folder (and 3.1.3, before the
+    contact sensor), rows marked by the version imported; mujoco==0.0.1 one line on stderr,
+    and the rest completes."""
     suite_file = tmp_path / "one.toml"
     suite_file.write_text(
         'name = "one"\nengines = ["mujoco"]\ntimesteps = [1e-3]\nscenes = ["hop-top"]\n'
-        '[engine_versions]\nmujoco = ["3.3.7", "4.0.0", "0.0.1"]\n'
+        '[engine_versions]\nmujoco = ["3.1.3", "3.3.7", "4.0.0", "0.0.1"]\n'
     )
     out = tmp_path / "out"
     summary = compare(suite_file, out, jobs=2, quiet=True)
@@ -95,13 +96,21 @@ def test_releases_side_by_side_and_a_missing_one_in_one_line(tmp_path, capfd):
     assert sorted(
         zip(rows[Col.VARIANT], rows[Col.ENGINE_VERSION], rows[Col.STATUS], strict=True)
     ) == [
+        ("release=3.1.3", "3.1.3", "ok"),
         ("release=3.3.7", "3.3.7", "ok"),
         ("release=4.0.0", "4.0.0", "ok"),
     ]
+    # 3.1.3 has no contact sensor: the adapter reads the force itself, and the events are
+    # 4.0.0's (the releases' states are the same; a force read as none made a false lift-off).
+    by_release = rows.set_index(Col.VARIANT.value)
+    for column in (Col.ERR_T_SLIP_MS, Col.ERR_T_LIFT_MS, Col.ERR_HOP_HEIGHT_REL):
+        old, new = by_release.loc["release=3.1.3", column], by_release.loc["release=4.0.0", column]
+        assert pd.notna(new), column  # hop-top has each of these events
+        assert float(old) == pytest.approx(float(new), rel=1e-6), column
     meta = json.loads((out / "meta.json").read_text())["engine_releases"]
     assert meta["mujoco==0.0.1"]["status"] == "unusable"
     section = releases_section(rows)  # from the stored rows
-    assert "## Across engine releases" in section and "| 3.3.7 | 4.0.0 |" in section
+    assert "## Across engine releases" in section and "| 3.1.3 | 3.3.7 | 4.0.0 |" in section
 
 
 # --------------------------------------------------------------------------- MuJoCo before 3.3.5

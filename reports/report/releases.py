@@ -304,7 +304,7 @@ def releases_figure(runs: pd.DataFrame, out: Path) -> list[Path]:
         event, column = found
         order = _ordered(group)
         scale, unit = (100.0, "%") if event is Event.HOP_HEIGHT else (1.0, "ms")
-        fig, ax = plt.subplots(figsize=(7, 4))
+        fig, ax = plt.subplots(figsize=(9.5, 4))
         for (scene, dt, profile), runs_of in group.groupby(_RUN_KEY, sort=True):
             values = [
                 number_or_none(runs_of[runs_of["release"] == r][column].iloc[0])
@@ -321,7 +321,7 @@ def releases_figure(runs: pd.DataFrame, out: Path) -> list[Path]:
         ax.set_xlabel(f"{engine} release")
         ax.set_ylabel(f"{event} error, engine - exact ({unit})")
         ax.set_title(f"{engine}: {event} error against release")
-        ax.legend(fontsize=7, loc="best")
+        ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))
         fig.tight_layout()
         paths.append(save(fig, out / f"releases-{file_stem(str(engine))}.png", dpi=110))
     return paths
