@@ -69,8 +69,8 @@ report: $(REPORT_STAMP)
 		$(SEARCH_DIRS) $(or $(wildcard $(BENCH_OUT)),$(BENCH_SHIPPED)) --out $(OUT)
 
 # The catalogue on several releases of MuJoCo and pymunk (reports/compare/suites/releases.toml),
-# each installed once from the package index into $(XDG_CACHE_HOME)/hoopbench/engines (about
-# 20 MB and 5 s a release), and its report: the "Across engine releases" section.
+# each installed once from the package index into $(XDG_CACHE_HOME)/hoopbench/engines (17-65
+# MB and 3-10 s of pip a release), and its report: the "Across engine releases" section.
 releases: $(REPORT_STAMP)
 	$(BIN)/hoopbench compare --suite releases --out $(OUT)/releases
 	$(BIN)/hoopbench report --results $(OUT)/releases --out $(OUT)/releases-report

@@ -49,7 +49,7 @@ creep below 0.01 mm/s; the one-step integrators (Euler, implicitfast, discrete) 
 hop-top and hop-low to the chatter, RK4 did not (hop-top height -1 %, impact -0.8 ms).
 The sensor is read at the first RK4 stage: the force at the recorded state.
 
-Releases. The adapter runs MuJoCo 3.x and 4.0 (docs/engines.md, MuJoCo releases): a release
+Releases. The adapter runs MuJoCo 2.3.7 to 4.0 (docs/engines.md, Releases): a release
 before 3.3.5 has no contact sensor, and there a run steps with ``mj_step`` from Python, reading
 the force by ``mj_forward`` and ``mj_contactForce`` before each step (``_step_reading_forces``:
 on 4.0.0 the same numbers as the rollout, bit for bit); batches need ``mujoco.batch`` (4.0).

@@ -10,9 +10,10 @@ on ``sys.path`` before the engine is imported, so hoopbench's own adapter loads 
 release while numpy, scipy and the rest stay the main environment's.
 
 Why a folder and not a virtual environment per release: ``pip install --target`` of the
-engine alone is 3 s and 20 MB for a MuJoCo release (measured, 2026-11-28), where a venv with
-hoopbench's stack is 400 MB and a minute; and the rows must be judged by the same hoopbench,
-numpy and scipy for every release, so that only the engine differs. What the folder gets
+engine alone is 3-10 s and 17-22 MB for a MuJoCo 3.x release, 65 MB for 4.0.0 with its parts
+(measured, 2026-11-28), where a venv would need hoopbench's whole stack beside each release
+(not measured); and the rows must be judged by the same hoopbench, numpy and scipy for every
+release, so that only the engine differs. What the folder gets
 (:func:`install`): the engine's distribution, and each of its requirements that the main
 environment lacks or does not satisfy, or that pins one release (``mujoco-core==4.0.0``: the
 release's own parts), never one of hoopbench's own requirements (numpy, ...): a release that
