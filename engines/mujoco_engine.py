@@ -507,7 +507,7 @@ class MujocoEngine(MjcfEngine):
         world's state row is its single run's initial state."""
         mujoco = module
         # Imported here, not with the modules of every run: mujoco.batch is MuJoCo 4's, and
-        # the single runs go back to 3.3 (docs/engines.md, MuJoCo releases).
+        # the single runs go back to 2.3.7 (docs/engines.md, Releases).
         batching = importlib.import_module("mujoco.batch")
         built = [self._build(mujoco, scene, settings, options) for scene in scenes]
         models = [model for model, _ in built]
