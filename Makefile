@@ -14,7 +14,7 @@ endif
 PACKAGE_FILES := $(sort $(wildcard about/*.py models/*.py reference/*.py engines/*.py \
 	engines/*/*.py engines/*/*.toml reports/*.py reports/*/*.py reports/compare/suites/*.toml))
 
-.PHONY: test report tune searches findings docs lint format clean bench FORCE
+.PHONY: test report releases tune searches findings docs lint format clean bench FORCE
 
 # The strict editable install is a tree of links, one per file, installed as `hoopbench.*`:
 # type checkers resolve it, and `import models` stays an error. A new or removed file needs a
@@ -79,6 +79,13 @@ report: $(REPORT_STAMP)
 	@echo "make report: the report of the 3 suites$(if $(MAP_DIR), and the map) -> $(OUT)" >&2
 	$(BIN)/hoopbench report --results $(OUT)/default $(OUT)/finer $(OUT)/stability $(MAP_DIR) \
 		$(SEARCH_DIRS) $(or $(wildcard $(BENCH_OUT)),$(BENCH_SHIPPED)) --out $(OUT)
+
+# The catalogue on several releases of MuJoCo and pymunk (reports/compare/suites/releases.toml),
+# each installed once from the package index into $(XDG_CACHE_HOME)/hoopbench/engines (17-65
+# MB and 3-10 s of pip a release), and its report: the "Across engine releases" section.
+releases: $(REPORT_STAMP)
+	$(BIN)/hoopbench compare --suite releases --out $(OUT)/releases
+	$(BIN)/hoopbench report --results $(OUT)/releases --out $(OUT)/releases-report
 
 # A search of each engine's settings (docs/tune.md), into $(OUT)/tune/<engine>: each may
 # start trials for TUNE_TIMEOUT s (a started trial finishes) up to TUNE_TRIALS, then runs its

@@ -48,10 +48,16 @@ friction rows (solreffriction 0.015) cuts the chatter tenfold; impratio 100 keep
 creep below 0.01 mm/s; the one-step integrators (Euler, implicitfast, discrete) still lost
 hop-top and hop-low to the chatter, RK4 did not (hop-top height -1 %, impact -0.8 ms).
 The sensor is read at the first RK4 stage: the force at the recorded state.
+
+Releases. The adapter runs MuJoCo 2.3.7 to 4.0 (docs/engines.md, Releases): a release
+before 3.3.5 has no contact sensor, and there a run steps with ``mj_step`` from Python, reading
+the force by ``mj_forward`` and ``mj_contactForce`` before each step (``_step_reading_forces``:
+on 4.0.0 the same numbers as the rollout, bit for bit); batches need ``mujoco.batch`` (4.0).
 """
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
@@ -171,7 +177,11 @@ class MjcfEngine(Engine):
         self, mujoco: ModuleType, scene: Scene, settings: RunSettings, options: dict[str, Any]
     ) -> tuple[Any, Any]:
         """Model and data at the initial state (equilibrium penetration, see module doc)."""
-        text = self._model_text(scene, settings, options)
+        if self.contact_sensor and not has_contact_sensor(mujoco):
+            mu = self.mu_for(scene, settings)
+            text = mjcf_text(scene, settings, options, mu, contact_sensor=False)
+        else:
+            text = self._model_text(scene, settings, options)
         return model_at_start(mujoco, text, scene, settings.geometry, options)
 
     def _script_model(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
@@ -262,7 +272,7 @@ class MujocoEngine(MjcfEngine):
 
     name = "mujoco"
     distribution = "mujoco"
-    modules = ("mujoco", "mujoco.rollout", "mujoco.batch")
+    modules = ("mujoco", "mujoco.rollout")  # and mujoco.batch for a batch (_open_batch)
     batches = True
     geometries = MJCF_GEOMETRIES
     options = (
@@ -413,6 +423,11 @@ class MujocoEngine(MjcfEngine):
         if not record:
             yield run
             return
+        if not has_contact_sensor(mujoco):  # before 3.3.5: stepped from Python (module doc)
+            with _captured_warnings(mujoco) as run.warnings:
+                run.allocate(n_steps_for(scene, settings.timestep))
+                yield run
+            return
         from mujoco import rollout
 
         with _captured_warnings(mujoco) as run.warnings, rollout.Rollout(nthread=0) as run.runner:
@@ -423,17 +438,10 @@ class MujocoEngine(MjcfEngine):
         """Roll out ``steps`` steps in C; the last chunk takes one more for the last force."""
         mujoco, scene = run.mujoco, run.scene
         extra = 1 if last else 0
-        run.runner.rollout(
-            [run.model],
-            [run.data],
-            run.states[:, done],
-            initial_warmstart=run.warmstart,
-            nstep=steps + extra,
-            state=run.states[:, done + 1 : done + 1 + steps + extra],
-            sensordata=run.sensors[:, done : done + steps + extra],
-            skip_checks=True,
-        )
-        run.warmstart[0] = run.data.qacc_warmstart
+        if run.runner is None:
+            _step_reading_forces(run, done, steps + extra)
+        else:
+            self._roll_out(run, done, steps + extra)
         rows = slice(done, done + steps + 1)
         qpos_at = mujoco.mj_stateSize(run.model, mujoco.mjtState.mjSTATE_TIME.value)
         qvel_at = qpos_at + run.model.nq
@@ -444,6 +452,21 @@ class MujocoEngine(MjcfEngine):
         for key, values in com.items():
             run.com[key][rows] = values
         return Chunk(com, done + steps)
+
+    @staticmethod
+    def _roll_out(run: _Run, done: int, steps: int) -> None:
+        """``steps`` steps in C by ``mujoco.rollout``, the contact sensor read at each."""
+        run.runner.rollout(
+            [run.model],
+            [run.data],
+            run.states[:, done],
+            initial_warmstart=run.warmstart,
+            nstep=steps,
+            state=run.states[:, done + 1 : done + 1 + steps],
+            sensordata=run.sensors[:, done : done + steps],
+            skip_checks=True,
+        )
+        run.warmstart[0] = run.data.qacc_warmstart
 
     def _diverged(self, run: _Run) -> str | None:
         return _warning_reason(run.mujoco, run.data, run.warnings)
@@ -483,9 +506,12 @@ class MujocoEngine(MjcfEngine):
         """One model per world (its own mu, mass, ...), in one ``mujoco.batch.Batch``; each
         world's state row is its single run's initial state."""
         mujoco = module
+        # Imported here, not with the modules of every run: mujoco.batch is MuJoCo 4's, and
+        # the single runs go back to 2.3.7 (docs/engines.md, Releases).
+        batching = importlib.import_module("mujoco.batch")
         built = [self._build(mujoco, scene, settings, options) for scene in scenes]
         models = [model for model, _ in built]
-        batch = mujoco.batch.Batch(models[0], len(scenes), BATCH_THREADS)
+        batch = batching.Batch(models[0], len(scenes), BATCH_THREADS)
         batch.set_models(models)
         for field_name in ("qpos", "qvel", "qacc_warmstart", "time"):
             rows = batch.bind(field_name)
@@ -615,7 +641,8 @@ class _Run:
         mujoco, model, data = self.mujoco, self.model, self.data
         spec = mujoco.mjtState.mjSTATE_FULLPHYSICS.value
         self.states = np.empty((1, n_steps + 2, mujoco.mj_stateSize(model, spec)))
-        self.sensors = np.empty((1, n_steps + 1, model.nsensordata))
+        # found, then the force x, y, z: the contact sensor's, or _step_reading_forces's
+        self.sensors = np.zeros((1, n_steps + 1, max(model.nsensordata, 4)))
         mujoco.mj_getState(model, data, self.states[0, 0], spec)
         self.warmstart = np.array(data.qacc_warmstart).reshape(1, model.nv)
         self.com = {
@@ -640,6 +667,41 @@ class _Batch:
 
     def __post_init__(self) -> None:
         self.halted = np.zeros(len(self.scenes), dtype=bool)
+
+
+def has_contact_sensor(mujoco: ModuleType) -> bool:
+    """Whether this MuJoCo release has the contact sensor: 3.3.5 on (measured on the
+    releases' wheels: 3.3.4's MJCF schema refuses the element, 3.3.5 has mjSENS_CONTACT)."""
+    return hasattr(mujoco.mjtSensor, "mjSENS_CONTACT")
+
+
+def _step_reading_forces(run: _Run, done: int, steps: int) -> None:
+    """``steps`` plain ``mj_step`` calls from Python, for a release without the contact
+    sensor: before each, ``mj_forward`` at the recorded state gives the contact forces the
+    step starts from (what the sensor reads: MuJoCo evaluates sensors in the step's first
+    forward, which repeats this one with the same inputs), summed over the contacts and
+    turned into the world frame. On 4.0.0 this equals the rollout with the sensor (states bit
+    for bit, force to rounding: tests/test_releases.py)."""
+    mujoco, model, data = run.mujoco, run.model, run.data
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS.value
+    hoop = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY.value, "hoop")
+    local = np.zeros(6)
+    for i in range(steps):
+        mujoco.mj_forward(model, data)
+        total = np.zeros(3)
+        # The contacts' fields as arrays (data.contact.frame[c]): before 3.1.4 the struct of
+        # one contact (data.contact[c].frame) reads zeros in the Python bindings (measured on
+        # 2.3.7 and 3.1.3), and the force read through it was none.
+        frames, geom2 = data.contact.frame, data.contact.geom2
+        for c in range(data.ncon):
+            mujoco.mj_contactForce(model, data, c, local)
+            # The force geom1 exerts on geom2, in the contact frame (rows: normal, tangents).
+            world = np.reshape(frames[c], (3, 3)).T @ local[:3]
+            total += world if model.geom_bodyid[geom2[c]] == hoop else -world
+        run.sensors[0, done + i, 0] = float(data.ncon > 0)
+        run.sensors[0, done + i, 1:4] = total
+        mujoco.mj_step(model, data)
+        mujoco.mj_getState(model, data, run.states[0, done + 1 + i], spec)
 
 
 @contextmanager

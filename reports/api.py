@@ -47,6 +47,7 @@ from hoopbench.models.events import Events, Outcome
 from hoopbench.models.scene import THETA0_LIMIT_DEG, Scene
 from hoopbench.reference.exact import DEFAULT_ATOL, DEFAULT_RTOL, ExactSolution, solve_exact
 from hoopbench.reports.compare import suite as suite_runs
+from hoopbench.reports.compare.releases import parse_release
 from hoopbench.reports.compare.settings_file import (
     SettingsFile,
     load_choice,
@@ -59,6 +60,7 @@ from hoopbench.reports.compare.suite_file import (
     Announce,
     RunTask,
     Suite,
+    SuiteError,
     TrajectoryChoice,
     VariantSpec,
     check_catalogue_name,
@@ -664,12 +666,15 @@ def suite_job(
     trajectories: TrajectoryChoice | str = TrajectoryChoice.NONE,
     announce: Announce | None = None,
     settings: str | Path | None = None,
+    engine_versions: Sequence[str] = (),
 ) -> SuiteJob:
     """Check a suite and its options. ``suite``: a suite file (.toml) or the name of a
     shipped one (quick, default, ...). SuiteError (a ValueError) names a bad file's key.
     ``announce(name, runs)`` is told the run count before the runs are checked. ``settings``:
     a settings file of ``hoopbench tune``, each of its settings a variant of its engine
-    (``FILE#NAME``: only the setting NAME, or the cheapest of a tier: ``FILE#close``)."""
+    (``FILE#NAME``: only the setting NAME, or the cheapest of a tier: ``FILE#close``).
+    ``engine_versions``: ``ENGINE==VERSION`` texts, releases that engine runs on in place of
+    the installed one (compare/releases.py)."""
     # a Path is a file; text follows the command line's rule (suite_file.suite_path)
     path = suite if isinstance(suite, Path) else suite_path(str(suite))
     names = _check_names("engines", engines)
@@ -687,6 +692,12 @@ def suite_job(
     chosen = None if settings is None else load_choice(settings)
     if chosen is not None:
         loaded = with_settings(loaded, *chosen)
+    if engine_versions:
+        try:
+            given = [parse_release(text) for text in engine_versions]
+        except ValueError as exc:
+            raise SuiteError(str(exc)) from None
+        loaded = loaded.with_releases([(r.engine, r.version) for r in given])
     choice = _choice("trajectories", TrajectoryChoice, trajectories)
     return SuiteJob(path, loaded, run_timeout, choice, chosen)
 

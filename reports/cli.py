@@ -656,6 +656,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     resume = f"hoopbench compare --suite {args.suite} --out {args.out} --resume"
     if args.settings is not None:  # the same file resumes, another or none is refused
         resume += f" --settings {args.settings}"
+    resume += "".join(f" --engine-version {text}" for text in args.engine_version)
     job = api.suite_job(  # the whole suite and every option checked before anything runs
         args.suite,
         run_timeout=args.run_timeout,
@@ -663,6 +664,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         trajectories=args.trajectories,
         announce=None if args.quiet else _announce_suite,
         settings=args.settings,
+        engine_versions=args.engine_version,
     )
     if job.settings is not None and not args.quiet:
         _say_tier_note(*job.settings)
@@ -1102,6 +1104,14 @@ def _add_compare(sub: Any, classes: Mapping[str, Any]) -> None:
         help="time limit per run (default: 60 s + 0.5 ms per step)",
     )
     p.add_argument("--engines", nargs="+", metavar="ENGINE", help="only these engines of the suite")
+    p.add_argument(
+        "--engine-version",
+        action="append",
+        default=[],
+        metavar="ENGINE==VERSION",
+        help="run ENGINE on this release of its package in place of the installed one "
+        "(repeatable; each release installed once into its own cached folder: docs/cli.md)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.add_argument(
         "--trajectories",

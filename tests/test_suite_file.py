@@ -161,7 +161,7 @@ def test_unknown_shipped_suite():
     with pytest.raises(
         SuiteError,
         match=r"no shipped suite .quik.; shipped: default, finer, full, precision, quick, "
-        r"stability",
+        r"releases, stability",
     ):
         builtin_suite("quik")
 

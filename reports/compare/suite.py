@@ -46,6 +46,13 @@ from hoopbench.engines.registry import engine_class, get_engine
 from hoopbench.engines.run import RunResult, RunStatus
 from hoopbench.engines.settings import DEFAULT_BATCH_SIZE, RunSettings
 from hoopbench.reports.compare.costs import COSTING
+from hoopbench.reports.compare.releases import (
+    Release,
+    ReleaseUnusableError,
+    probe,
+    run_in_release,
+    with_env_note,
+)
 from hoopbench.reports.compare.rows import (
     FORMAT_VERSION,
     ONE_READING_VERSION,
@@ -180,8 +187,18 @@ def run_task(task: RunTask) -> dict[str, Any]:
     """Run one task and return its row; a failure anywhere becomes a row with status error.
 
     The worker function of the runner: importable, its input and output small and picklable.
+    A run of another engine release than the installed one goes to a child process that
+    imports that release (compare/releases.py).
     """
+    if task.release is not None:
+        return row_or_failure(_run_in_release, task, failure_row)
     return row_or_failure(_run_task, task, failure_row)
+
+
+def _run_in_release(task: RunTask) -> dict[str, Any]:
+    assert task.release is not None
+    (row,) = run_in_release(Release(task.engine, task.release), [task])
+    return row
 
 
 def _run_task(task: RunTask) -> dict[str, Any]:
@@ -191,7 +208,7 @@ def _run_task(task: RunTask) -> dict[str, Any]:
 def batch_key(task: RunTask) -> Hashable | None:
     """Runs of one engine that steps many worlds at once and of one settings share batches
     (the runner's Batching key); any other run goes alone (None)."""
-    if not engine_class(task.engine).batches:
+    if not engine_class(task.engine).batches or task.release is not None:
         return None
     return (task.engine, json.dumps(task.settings().to_dict(), sort_keys=True, default=repr))
 
@@ -358,6 +375,10 @@ def compare(
     tasks, left_out = suite.for_machine(tasks, warp_sees_gpu)
     if trajectories == TrajectoryChoice.DEFAULT:
         tasks = [t if t.variant == DEFAULT_VARIANT else _without_trajectory(t) for t in tasks]
+    say = None if quiet else control_chars.say
+    if say is not None and left_out:
+        say(f"{suite.name}: {left_out_text(left_out)}")
+    tasks, releases = _usable_releases(tasks, say)
     timeout = run_timeout if run_timeout_s is None else run_timeout_s
     # A resumed folder keeps an older version (its old rows are still there); a newer one stops.
     version = results.resumed_format_version(out, RUNS_TABLE) if resume else FORMAT_VERSION
@@ -375,11 +396,11 @@ def compare(
         "engine_versions": _engine_versions(suite.engines),
         **settings_meta(*(settings or (None,))),
         **({LEFT_OUT_KEY: [item.to_dict() for item in left_out]} if left_out else {}),
+        **({RELEASES_KEY: releases} if releases else {}),
     }
-    say = None if quiet else control_chars.say
-    if say is not None and left_out:
-        say(f"{suite.name}: {left_out_text(left_out)}")
     identity = suite_identity(suite, suite_file) | settings_identity(*(settings or (None,)))
+    if suite.engine_versions:  # another set of releases is another sweep
+        identity[RELEASES_KEY] = {e: list(v) for e, v in sorted(suite.engine_versions.items())}
     with claim_folder(out, resume, identity, say, settings_mismatch):
         summary = run_tasks(
             tasks,
@@ -401,6 +422,39 @@ def compare(
         if Path(suite_file).is_file() and not copy.exists():
             results.atomic_write(copy, lambda tmp: shutil.copyfile(suite_file, tmp))
     return summary
+
+
+RELEASES_KEY = "engine_releases"
+"""sweep.json's key: each release asked for (ENGINE==VERSION) and what became of it: the
+version imported, or the one line saying why it could not run."""
+
+
+def _usable_releases(
+    tasks: list[RunTask], say: Any
+) -> tuple[list[RunTask], dict[str, dict[str, str]]]:
+    """Install (once) and probe each release the tasks ask for; the tasks of the releases
+    that can run, and what became of each release. An unusable release is one line on
+    stderr (always: it is the answer to what was asked) and its runs are left out; the
+    others run."""
+    firsts: dict[Release, RunTask] = {}
+    for task in tasks:
+        if task.release is not None:
+            firsts.setdefault(Release(task.engine, task.release), task)
+    status: dict[str, dict[str, str]] = {}
+    bad = set()
+    for release, first in firsts.items():
+        try:
+            found = probe(release, first)
+        except ReleaseUnusableError as exc:
+            bad.add(release)
+            status[release.spec] = {"status": "unusable", "message": str(exc)}
+            control_chars.say(f"hoopbench: {exc}")
+            continue
+        status[release.spec] = {"status": "ok", "version": found}
+        if say is not None:
+            say(f"hoopbench: {with_env_note(release)}")
+    kept = [t for t in tasks if t.release is None or Release(t.engine, t.release) not in bad]
+    return kept, status
 
 
 def suite_identity(suite: Suite, suite_file: str | Path) -> dict[str, Any]:

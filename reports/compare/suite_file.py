@@ -16,7 +16,7 @@ import math
 import os
 import tomllib
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import StrEnum
 from pathlib import Path
 from types import MappingProxyType
@@ -29,6 +29,7 @@ from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene, scene_names
 from hoopbench.models.checks import check_real
 from hoopbench.models.scene import THETA0_LIMIT_DEG, Scene
+from hoopbench.reports.compare.releases import RELEASE_PREFIX, check_version
 from hoopbench.reports.sweep.folder_files import FolderFileError, read_input_file
 
 __all__ = [
@@ -68,6 +69,7 @@ _TOP_KEYS = (
     "timesteps",
     "engine_timesteps",
     "engine_scenes",
+    "engine_versions",
     "profiles",
     "scenes",
     "scene",
@@ -122,6 +124,9 @@ class VariantSpec:
     """The option values the variant's own options start from."""
     scenes: tuple[str, ...] | None = None
     """Names of the suite's scenes the variant runs on; None: all of them."""
+    release: str | None = None
+    """The engine's release the variant runs on (its own cached folder, compare/releases.py);
+    None: the installed one."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "options", MappingProxyType(dict(self.options)))
@@ -143,6 +148,8 @@ class RunTask:
     profile: Profile = Profile.TUNED
     trajectory_dir: str | None = None
     """Where the worker stores the run's trajectory (None: not stored)."""
+    release: str | None = None
+    """The engine release the run imports (compare/releases.py); None: the installed one."""
 
     def settings(self) -> RunSettings:
         return RunSettings(
@@ -210,6 +217,11 @@ class Suite:
         kept = [task for task in tasks if task.run_id not in reasons]
         return kept, tuple(LeftOut(e, v, n, why[e, v]) for (e, v), n in left.items())
 
+    engine_versions: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+    """Releases an engine runs on, in place of the installed one (``[engine_versions]``,
+    ``compare --engine-version``): its defaults on each, as the variant ``release=VERSION``;
+    its ``[[variant]]`` tables are not run (an option may not exist on an older release)."""
+
     def _timesteps_of(self, variant: VariantSpec) -> tuple[float, ...]:
         return variant.timesteps or self.engine_timesteps.get(variant.engine) or self.timesteps
 
@@ -219,6 +231,13 @@ class Suite:
         only = self.engine_scenes.get(engine)
         if only is not None and scene.name not in only:
             return []
+        releases = self.engine_versions.get(engine)
+        if releases:
+            return [
+                VariantSpec(engine, f"{RELEASE_PREFIX}{r}", profile=p, release=r)
+                for r in releases
+                for p in _distinct_profiles(engine, self.profiles)
+            ]
         defaults = [
             VariantSpec(engine, DEFAULT_VARIANT, profile=p)
             for p in _distinct_profiles(engine, self.profiles)
@@ -261,6 +280,7 @@ class Suite:
         variants = tuple(v for v in self.variants if v.engine in engines)
         own = {e: dt for e, dt in self.engine_timesteps.items() if e in engines}
         scenes = {e: names for e, names in self.engine_scenes.items() if e in engines}
+        releases = {e: r for e, r in self.engine_versions.items() if e in engines}
         return Suite(
             self.name,
             tuple(engines),
@@ -271,7 +291,21 @@ class Suite:
             own,
             scenes,
             self.sized_to_machine,
+            releases,
         )
+
+    def with_releases(self, releases: Sequence[tuple[str, str]]) -> Suite:
+        """The suite with ``compare --engine-version`` releases (engine, version): they
+        replace the suite's own releases of that engine, and an engine not in the suite
+        joins it."""
+        given: dict[str, list[str]] = {}
+        for engine, version in releases:
+            if version in given.setdefault(engine, []):
+                raise SuiteError(f"--engine-version: {engine}=={version} is given twice")
+            given[engine].append(version)
+        engines = (*self.engines, *(e for e in given if e not in self.engines))
+        own = {**self.engine_versions, **{e: tuple(v) for e, v in given.items()}}
+        return replace(self, engines=engines, engine_versions=own)
 
 
 @dataclass(frozen=True)
@@ -349,6 +383,7 @@ def _task(scene: Scene, variant: VariantSpec, dt: float, trajectory_dir: str | N
         timestep=dt,
         profile=variant.profile,
         trajectory_dir=trajectory_dir,
+        release=variant.release,
     )
 
 
@@ -428,7 +463,10 @@ def parse_suite(data: Mapping[str, Any], announce: Announce | None = None) -> Su
     sized = data.get("sized_to_machine", False)
     if not isinstance(sized, bool):
         raise SuiteError(f"sized_to_machine must be true or false, got {sized!r}")
-    suite = Suite(name, engines, timesteps, tuple(scenes), variants, profiles, own, only, sized)
+    releases = _engine_versions(data.get("engine_versions", {}), engines)
+    suite = Suite(
+        name, engines, timesteps, tuple(scenes), variants, profiles, own, only, sized, releases
+    )
     count = suite.run_count
     if count > MAX_SUITE_RUNS:
         raise SuiteError(
@@ -496,6 +534,28 @@ def _engine_scenes(
         if unknown:
             raise SuiteError(f"{where}: {', '.join(unknown)} not among the suite's scenes")
         out[engine] = tuple(names)
+    return out
+
+
+def _engine_versions(value: Any, engines: Sequence[str]) -> dict[str, tuple[str, ...]]:
+    """``[engine_versions]``: engine name -> the releases it runs on (compare/releases.py)."""
+    if not isinstance(value, Mapping):
+        raise SuiteError(f"engine_versions must be a table (engine = [versions]), got {value!r}")
+    out = {}
+    for engine, versions in value.items():
+        where = f"engine_versions.{engine}"
+        if engine not in engines:
+            raise SuiteError(
+                f"{where}: {engine!r} is not one of the suite's engines ({', '.join(engines)})"
+            )
+        if not isinstance(versions, list) or not versions:
+            raise SuiteError(f"{where} must be a non-empty list of versions, got {versions!r}")
+        if len(set(map(str, versions))) != len(versions):
+            raise SuiteError(f"{where}: a version is listed twice in {versions!r}")
+        try:
+            out[engine] = tuple(check_version(engine, v, where).version for v in versions)
+        except ValueError as exc:
+            raise SuiteError(str(exc)) from None
     return out
 
 

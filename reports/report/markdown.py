@@ -58,6 +58,11 @@ from hoopbench.reports.report.force_figures import ForcePanel, force_figure
 from hoopbench.reports.report.plotting import plain_text
 from hoopbench.reports.report.precision import cheapest_runs, precision_figure
 from hoopbench.reports.report.readings import READING_RESOLUTION_MS, reading_differences
+from hoopbench.reports.report.releases import (
+    is_release_row,
+    releases_figure,
+    releases_section,
+)
 from hoopbench.reports.report.stability import (
     ENERGY_GAIN_LIMIT,
     PENETRATION_LIMIT,
@@ -887,6 +892,11 @@ def write_markdown(
         text = "\n".join([_section("# hoopbench report", "", when), *extra])
         return results.atomic_write(out / "report.md", lambda tmp: tmp.write_text(text))
     everything = with_optional_columns(frame)
+    # Runs on other engine releases (compare --engine-version) have their own section; every
+    # other section is of the installed releases' runs.
+    on_releases = is_release_row(everything)
+    whole, releases_runs = everything, everything[on_releases]
+    everything = everything[~on_releases]
     # The stability suite's stiff and extreme scenes have a section of their own; the event
     # tables and agreement counts are the comparison suites' alone.
     is_stability = everything["suite"] == STABILITY_SUITE
@@ -923,12 +933,15 @@ def write_markdown(
             run_time,
             _stability_section(runs),
         ]
+    # The engines' releases (compare --engine-version): their own section, figure included.
+    releases = releases_section(releases_runs, _draw_plain(releases_figure, releases_runs, out))
     sections += [
         stability,
         figures,
+        releases,
         *extra,
         _all_findings_section(everything),
-        _platform_section(everything, generated, machines),
+        _platform_section(whole, generated, machines),
         files_section(out, results_dirs),
     ]
     text = "\n".join(section for section in sections if section)
