@@ -182,8 +182,9 @@ def start_two_then_fail(self):
         raise ConnectionRefusedError(111, "Connection refused")
     started(self)
 
-WorkerPool._start_worker = start_two_then_fail
-sys.exit(main(sys.argv[1:]))
+if __name__ == "__main__":  # the fork server imports this file too (as __mp_main__)
+    WorkerPool._start_worker = start_two_then_fail
+    sys.exit(main(sys.argv[1:]))
 """
 
 
