@@ -303,11 +303,22 @@ def _table(best: BestSettings) -> list[str]:
     return lines
 
 
+SECONDS_PER_US = 1e-6
+"""front.csv's costs are us per simulated s; the report's one cost unit is s per simulated s."""
+COST_AXIS = "cost, wall s of stepping per simulated s"
+"""The figures' cost axis, in the report's one cost unit (the searches' clock: wall)."""
+
+
+def in_seconds(us_per_s: Any) -> Any:
+    """Costs in us per simulated s (front.csv's, trials.csv's) as s per simulated s."""
+    return pd.to_numeric(us_per_s, errors="coerce") * SECONDS_PER_US
+
+
 def _per_sim_s(us_per_s: Any) -> str:
     """A search's cost, us per simulated s as front.csv stores it, in the report's one cost
     unit: seconds per simulated second."""
     try:
-        return _number(float(us_per_s) * 1e-6)
+        return _number(float(us_per_s) * SECONDS_PER_US)
     except (TypeError, ValueError):
         return "-"
 
@@ -364,12 +375,18 @@ def _panel(ax: Any, best: BestSettings, which: str) -> None:
     colour = engine_colours([best.engine])[best.engine]  # the engine's colour in every figure
     if which == "train":
         done = best.trials[best.trials["state"] == "complete"]
-        ax.scatter(done["train_cost_us_per_s"], done["train_error"], s=12, c="0.7", label="trials")
+        ax.scatter(
+            in_seconds(done["train_cost_us_per_s"]),
+            done["train_error"],
+            s=12,
+            c="0.7",
+            label="trials",
+        )
     pareto = front[front["kind"] == "pareto"].sort_values(f"{which}_cost_us_per_s")
     # On the held-out scenes the training front is no front: its points, not a line.
     style = "o-" if which == "train" else "o"
     ax.plot(
-        pareto[f"{which}_cost_us_per_s"],
+        in_seconds(pareto[f"{which}_cost_us_per_s"]),
         pareto[f"{which}_error"],
         style,
         c=colour,
@@ -378,7 +395,7 @@ def _panel(ax: Any, best: BestSettings, which: str) -> None:
     for name in ("stock", "tuned"):  # the profiles' markers, edged black to stand out
         point = front[front["setting"] == name]
         ax.scatter(
-            point[f"{which}_cost_us_per_s"],
+            in_seconds(point[f"{which}_cost_us_per_s"]),
             point[f"{which}_error"],
             marker=profile_style(name).marker,
             s=60,
@@ -392,7 +409,7 @@ def _panel(ax: Any, best: BestSettings, which: str) -> None:
     ):  # a log axis of nothing drawn fails ("Data cannot be log-scaled")
         ax.set_xscale("log")
         _plain_log_axis(ax.xaxis)
-    ax.set_xlabel("cost, us per simulated second")
+    ax.set_xlabel(COST_AXIS)
     ax.set_ylabel(SCORE_AXIS)
     ax.set_title("training scenes" if which == "train" else "held-out scenes")
     ax.grid(True, which="both", alpha=0.3)

@@ -14,7 +14,7 @@ from typing import Any
 import pandas as pd
 
 from hoopbench.reports.compare.settings_file import TIER_CHOICES
-from hoopbench.reports.report.best_settings import SCORE_AXIS, BestSettings
+from hoopbench.reports.report.best_settings import COST_AXIS, SCORE_AXIS, BestSettings, in_seconds
 from hoopbench.reports.report.page_html import rounded, text
 from hoopbench.reports.report.palette import engine_colours, profile_style
 from hoopbench.reports.tune.tiers import SCENES_COLUMN, TIER_COLUMNS, count_column
@@ -27,12 +27,12 @@ _PANELS = (("train", "training scenes"), ("heldout", "held-out scenes"))
 
 _SETTING_HOVER = (
     "<b>%{customdata[0]}</b> (%{customdata[1]})<br>dt %{customdata[2]} s<br>"
-    "%{customdata[3]}<br>training: error %{customdata[4]}, %{customdata[5]} us/sim s, "
-    "tier %{customdata[6]}<br>held-out: error %{customdata[7]}, %{customdata[8]} us/sim s, "
+    "%{customdata[3]}<br>training: error %{customdata[4]}, %{customdata[5]} wall s/sim s, "
+    "tier %{customdata[6]}<br>held-out: error %{customdata[7]}, %{customdata[8]} wall s/sim s, "
     "tier %{customdata[9]}<br>scenes within each tier: %{customdata[11]}<br>"
     "overfitted: %{customdata[10]}<extra></extra>"
 )
-_TRIAL_HOVER = "trial %{customdata}<br>error %{y:.3g}, %{x:.3g} us/sim s<extra></extra>"
+_TRIAL_HOVER = "trial %{customdata}<br>error %{y:.3g}, %{x:.3g} wall s/sim s<extra></extra>"
 
 
 def _number(value: Any) -> str:
@@ -74,10 +74,10 @@ def _hover_data(rows: pd.DataFrame) -> list[list[str]]:
             _number(row["timestep"]),
             _options(row.get("options")),
             _number(row["train_error"]),
-            _number(row["train_cost_us_per_s"]),
+            _number(in_seconds(row["train_cost_us_per_s"])),
             _tier(row.get(train)),
             _number(row["heldout_error"]),
-            _number(row["heldout_cost_us_per_s"]),
+            _number(in_seconds(row["heldout_cost_us_per_s"])),
             _tier(row.get(heldout)),
             "yes" if row["overfitted"] is True or str(row["overfitted"]) == "True" else "no",
             _counts(row),
@@ -99,7 +99,7 @@ def _panel_traces(best: BestSettings, which: str, k: int, colour: str) -> list[d
             {
                 "type": "scatter",
                 "mode": "markers",
-                "x": rounded(done["train_cost_us_per_s"]),
+                "x": rounded(in_seconds(done["train_cost_us_per_s"])),
                 "y": rounded(done["train_error"]),
                 "customdata": [str(n) for n in done["trial"]],
                 "hovertemplate": _TRIAL_HOVER,
@@ -114,7 +114,7 @@ def _panel_traces(best: BestSettings, which: str, k: int, colour: str) -> list[d
             "type": "scatter",
             # On the held-out scenes the training front is no front: its points, not a line.
             "mode": "lines+markers" if which == "train" else "markers",
-            "x": rounded(pareto[f"{which}_cost_us_per_s"]),
+            "x": rounded(in_seconds(pareto[f"{which}_cost_us_per_s"])),
             "y": rounded(pareto[f"{which}_error"]),
             "customdata": _hover_data(pareto),
             "hovertemplate": _SETTING_HOVER,
@@ -132,7 +132,7 @@ def _panel_traces(best: BestSettings, which: str, k: int, colour: str) -> list[d
             {
                 "type": "scatter",
                 "mode": "markers",
-                "x": rounded(point[f"{which}_cost_us_per_s"]),
+                "x": rounded(in_seconds(point[f"{which}_cost_us_per_s"])),
                 "y": rounded(point[f"{which}_error"]),
                 "customdata": _hover_data(point),
                 "hovertemplate": _SETTING_HOVER,
@@ -170,7 +170,7 @@ def best_settings_page_figure(best: BestSettings) -> Figure:
             "type": "log",
             "exponentformat": "none",
             "separatethousands": True,
-            "title": {"text": "cost, us per simulated second"},
+            "title": {"text": COST_AXIS},
         }
         layout[f"yaxis{suffix}"] = {
             "title": {"text": SCORE_AXIS},
