@@ -368,3 +368,31 @@ def test_a_run_the_time_limit_ended_is_tried_once_more_and_then_stored_as_a_time
     assert (row["status"], row["attempts"]) == ("timeout", 2), row
     assert "in either of two tries" in row["message"]
     assert "retried once with the same limit" in row["message"]
+
+
+# ------------------------------------------------------------------ map, killed
+MAP = ["map", "--grid", "3x2", "--engines", "test-slow", "--t-end", "1", "--quiet"]
+"""6 points, each the exact solver's and test-slow's run (0.4 s or more): the map's two
+stages on the same pool as a suite's."""
+
+
+@pytest.mark.slow
+def test_a_map_whose_fork_server_and_workers_are_killed_goes_on_to_the_uninterrupted_table(
+    tmp_path,
+):
+    """`hoopbench map` runs on the same pool: killing its fork server and workers mid-map
+    ends in the map the uninterrupted run stores (before issue 38: a hang)."""
+    whole = subprocess.run(
+        [*CLI, *MAP, "--out", str(tmp_path / "whole"), "--jobs", "2"],
+        env=environment(), capture_output=True, text=True, timeout=LIMIT, cwd=tmp_path,
+    )  # fmt: skip
+    assert whole.returncode == 0, whole.stderr
+    out = tmp_path / "out"
+    command = [*CLI, *MAP, "--out", str(out), "--jobs", "2"]
+    done, killed = kill_mid_suite(command, VICTIMS["fork server and workers"], tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert done.stderr == ""
+    rows = read_runs(out)
+    assert set(rows["status"]) == {"ok"}, rows[["run_id", "status", "message"]]
+    pd.testing.assert_frame_equal(comparable(out), comparable(tmp_path / "whole"))
+    assert wait_until(lambda: not any(alive(pid) for pid in killed), timeout=10)
