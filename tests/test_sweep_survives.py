@@ -396,3 +396,43 @@ def test_a_map_whose_fork_server_and_workers_are_killed_goes_on_to_the_uninterru
     assert set(rows["status"]) == {"ok"}, rows[["run_id", "status", "message"]]
     pd.testing.assert_frame_equal(comparable(out), comparable(tmp_path / "whole"))
     assert wait_until(lambda: not any(alive(pid) for pid in killed), timeout=10)
+
+
+# ------------------------------------------------------------------ tune, killed
+TUNE = ["tune", "--engine", "pymunk", "--trials", "3", "--scenes", "seed-mu", "hop-top"]
+TUNE += ["--heldout-per-regime", "1", "--heldout-neighbours", "0", "--quiet", "--jobs", "2"]
+"""A small search (its baselines, 3 trials, 2 scenes, then its held-out runs), on the same
+pool as a suite's."""
+
+
+@pytest.mark.slow
+def test_a_search_whose_fork_server_and_workers_are_killed_finishes(tmp_path):
+    """`hoopbench tune` with its fork server and workers SIGKILLed mid-search ends as an
+    uninterrupted search does: exit 0, only its closing line on stderr, every trial's run
+    ended as there, front.csv and settings.toml written, each trial's training error the
+    uninterrupted one's."""
+    from hoopbench.reports.tune.search import FRONT_NAME, SETTINGS_NAME, TRIALS_DIR
+
+    whole = subprocess.run(
+        [*CLI, *TUNE, "--out", str(tmp_path / "whole")],
+        env=environment(), capture_output=True, text=True, timeout=LIMIT, cwd=tmp_path,
+    )  # fmt: skip
+    assert whole.returncode == 0, whole.stderr
+    out = tmp_path / "out"
+    done, killed = kill_mid_suite(
+        [*CLI, *TUNE, "--out", str(out)], VICTIMS["fork server and workers"], tmp_path
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stderr.splitlines() == [f"hoopbench: settings -> {out / SETTINGS_NAME}"]
+    statuses = [
+        read_runs(folder / TRIALS_DIR).set_index("run_id")["status"].sort_index()
+        for folder in (out, tmp_path / "whole")
+    ]
+    pd.testing.assert_series_equal(*statuses)  # no run lost to the kill (a trial may diverge)
+    assert (out / FRONT_NAME).is_file() and (out / SETTINGS_NAME).is_file()
+    errors = [
+        pd.read_csv(folder / "trials.csv").set_index("trial")["train_error"]
+        for folder in (out, tmp_path / "whole")
+    ]
+    pd.testing.assert_series_equal(*errors)
+    assert wait_until(lambda: not any(alive(pid) for pid in killed), timeout=10)
