@@ -1252,14 +1252,13 @@ def _cmd_tune(args: argparse.Namespace) -> int:
                 batch_size=args.batch_size,
             )
     except ExecutorBrokenError as exc:
-        resume = f"hoopbench tune --engine {args.engine} --out {args.out} --resume --trials N"
+        resume = _tune_resume_command(args)
         return _broken_sweep(exc, f"every finished trial is kept; resume with: {resume}")
     except (RunnerError, TuneUnavailableError) as exc:
         raise UsageError(str(exc)) from None
     if result.interrupted or front is None:
         _say(
-            f"interrupted; every finished trial is kept. Resume with: hoopbench tune "
-            f"--engine {args.engine} --out {args.out} --resume --trials N"
+            f"interrupted; every finished trial is kept. Resume with: {_tune_resume_command(args)}"
         )
         return EXIT_INTERRUPTED
     columns = ["setting", "kind", "timestep", "train_error", "heldout_error"]
@@ -1267,6 +1266,34 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     print(front[columns].to_string(index=False, float_format=lambda v: f"{v:.4g}"))
     _say(f"settings -> {Path(args.out) / 'settings.toml'}")
     return 0
+
+
+_TUNE_RESUMED_OPTIONS = (
+    "scenes",
+    "trials",
+    "timeout",
+    "seed",
+    "heldout_seed",
+    "heldout_per_regime",
+    "heldout_neighbours",
+    "run_timeout",
+)
+"""The options a resumed search is given again: the search's own (a resume with others is
+refused: search.check_resumable) and its budget as it was given."""
+
+
+def _tune_resume_command(args: argparse.Namespace) -> str:
+    """The command that resumes this search, as typed: every option given, quoted for a
+    shell (the old line dropped --scenes and the held-out options and said --trials N)."""
+    import shlex
+
+    words = ["hoopbench", "tune", "--engine", args.engine, "--out", str(args.out)]
+    for name in _TUNE_RESUMED_OPTIONS:
+        value = getattr(args, name)
+        if value is not None:
+            values = value if isinstance(value, list) else [value]
+            words += [f"--{name.replace('_', '-')}", *map(str, values)]
+    return shlex.join([*words, "--resume"])
 
 
 def _add_bench(sub: Any, classes: Mapping[str, Any]) -> None:

@@ -398,3 +398,26 @@ def test_a_plugin_that_calls_sys_exit_is_named(
     assert main(["scenes"]) == 2
     line = one_line(capsys)
     assert "called sys.exit(0) while it was imported" in line, line
+
+
+def test_the_tune_resume_line_gives_back_every_option_of_the_search():
+    """The "Resume with:" line of an interrupted or broken search, typed as printed, names
+    the same search: it dropped --scenes and the held-out options and said ``--trials N``,
+    which is refused (and a resume with other options is refused too)."""
+    import shlex
+
+    from hoopbench.reports.cli import _parser, _tune_resume_command
+
+    given = ["tune", "--engine", "pymunk", "--out", "/tmp/my search", "--scenes", "seed-mu"]
+    given += ["hop-top", "--trials", "3", "--seed", "7", "--heldout-seed", "11"]
+    given += ["--heldout-per-regime", "2", "--heldout-neighbours", "0", "--run-timeout", "30"]
+    first = _parser().parse_args(given)
+    line = _tune_resume_command(first)
+    words = shlex.split(line)
+    assert words[0] == "hoopbench" and "N" not in words
+    again = _parser().parse_args(words[1:])
+    assert again.resume and not first.resume
+    for name in ("engine", "out", "scenes", "trials", "timeout", "seed", "heldout_seed"):
+        assert getattr(again, name) == getattr(first, name), name
+    for name in ("heldout_per_regime", "heldout_neighbours", "run_timeout"):
+        assert getattr(again, name) == getattr(first, name), name
