@@ -421,3 +421,30 @@ def test_the_tune_resume_line_gives_back_every_option_of_the_search():
         assert getattr(again, name) == getattr(first, name), name
     for name in ("heldout_per_regime", "heldout_neighbours", "run_timeout"):
         assert getattr(again, name) == getattr(first, name), name
+
+
+UNGUARDED = """
+import hoopbench as hb
+table = hb.compare("s.toml", "out", quiet=True)
+print(sorted(set(table["message"])))
+"""
+"""A script that starts a sweep with no ``if __name__ == '__main__':``: each worker imports
+it, so starts the sweep again."""
+
+
+def test_a_script_without_the_main_guard_is_told_so_in_its_rows(tmp_path):
+    """Its workers died at start-up on the parent's folder lock: a traceback of "out is in
+    use by another sweep" from each worker on stderr and crashed rows naming no cause. Each
+    row now names the main guard, and no worker prints a traceback. About 5 s."""
+    import subprocess
+
+    (tmp_path / "s.toml").write_text(
+        'name = "s"\nengines = ["reference"]\ntimesteps = [1e-3]\nscenes = ["seed-mu"]\n'
+    )
+    (tmp_path / "s.py").write_text(UNGUARDED)
+    done = subprocess.run(
+        [sys.executable, "s.py"], cwd=tmp_path, capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    assert "Traceback" not in done.stderr and "in use" not in done.stderr, done.stderr
+    assert "if __name__ == '__main__':" in done.stdout, done.stdout

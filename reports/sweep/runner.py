@@ -266,11 +266,20 @@ def refuse_in_a_starting_worker() -> None:
     processes in its manager thread, where no one hears it, and the parent's sweep waited
     for ever. Sweeps call this first, so each worker says why it cannot start instead.
     """
-    if getattr(multiprocessing.current_process(), "_inheriting", False):
-        raise RuntimeError(
-            "a hoopbench worker is importing the main script, which starts a sweep again: "
-            "put the script's code under  if __name__ == '__main__':"
-        )
+    if in_a_starting_worker():
+        raise RuntimeError(MAIN_GUARD)
+
+
+MAIN_GUARD = (
+    "a hoopbench worker is importing the main script, which starts a sweep again: "
+    "put the script's code under  if __name__ == '__main__':"
+)
+"""Why a worker cannot start: the advice of docs/cli.md."""
+
+
+def in_a_starting_worker() -> bool:
+    """Whether this process is a worker still importing its parent's main script."""
+    return bool(getattr(multiprocessing.current_process(), "_inheriting", False))
 
 
 class WorkerPool(Executor):
@@ -566,7 +575,10 @@ class WorkerPool(Executor):
                 while self._pending:
                     future, _ = self._pending.popleft()
                     if future.set_running_or_notify_cancel():
-                        error = WorkerCrashedError(f"worker processes die at start-up ({code})")
+                        error = WorkerCrashedError(
+                            f"worker processes die at start-up ({code}; a script that starts "
+                            "a sweep keeps its code under  if __name__ == '__main__':)"
+                        )
                         outcomes.append((future, error, False))
         self._workers.remove(worker)
         worker.conn.close()
@@ -1334,6 +1346,8 @@ def claim_folder(
     lock (a sweep started at the same instant may have filled it), and its identity written
     (a new sweep) or compared (a resume; ``explain``: check_identity's). Nothing is written
     for a refused folder that did not exist or held files."""
+    if in_a_starting_worker():  # one line from each worker, not a traceback of "in use"
+        raise SystemExit(f"hoopbench: {MAIN_GUARD}")
     try:
         check_dir(out, resume)
     except OutputDirNotEmptyError:
