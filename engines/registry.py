@@ -116,16 +116,23 @@ def _load_engines() -> None:
                     f"{ENGINE_MODULES_VARIABLE}: cannot import engine module {name.strip()!r}: "
                     f"{exc if isinstance(exc, ImportError) else _first_line(exc)}"
                 ) from None
-            except SystemExit as exc:
+            except (SystemExit, KeyboardInterrupt) as exc:
                 where = f"{ENGINE_MODULES_VARIABLE}: engine module {name.strip()!r}"
                 raise ValueError(_exited(where, exc)) from None
 
 
-def _exited(where: str, exc: SystemExit) -> str:
-    """The line for a module that called sys.exit while it was imported: hoopbench would
-    otherwise end there, with that code and not a word (exit 0 for sys.exit(0))."""
+def _exited(where: str, exc: SystemExit | KeyboardInterrupt) -> str:
+    """The line for a module that called sys.exit, or was interrupted, while it was imported:
+    hoopbench would otherwise end there, with that code and not a word (exit 0 for
+    sys.exit(0)), or as if the user had pressed Ctrl-C. Which of the user's Ctrl-C and the
+    module's own KeyboardInterrupt it was cannot be told apart here: the line says both."""
+    what = (
+        f"called sys.exit({exc.code!r})"
+        if isinstance(exc, SystemExit)
+        else "was interrupted (a Ctrl-C, or the module raised KeyboardInterrupt)"
+    )
     return (
-        f"{where} called sys.exit({exc.code!r}) while it was imported: it is not loaded "
+        f"{where} {what} while it was imported: it is not loaded "
         f"(uninstall it, or set {DISABLE_PLUGINS_VARIABLE}=1 for a plugin)"
     )
 
@@ -143,7 +150,7 @@ def _load_plugin(entry: EntryPoint) -> None:
     where = f"engine plugin {entry.name!r} ({entry.value}) of {dist}"
     try:
         loaded = entry.load()
-    except SystemExit as exc:
+    except (SystemExit, KeyboardInterrupt) as exc:
         raise ValueError(_exited(where, exc)) from None
     except Exception as exc:  # a plugin's import may raise anything: name it, in one line
         raise ValueError(

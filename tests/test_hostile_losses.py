@@ -373,11 +373,28 @@ def test_a_front_csv_overfitted_that_is_no_flag_is_named(
     assert f"{folder / 'front.csv'}: overfitted must be true or false, got 'maybe'" in line
 
 
+EXITS = {
+    "sys.exit": ("import sys\nsys.exit(0)\n", "called sys.exit(0) while it was imported"),
+    "KeyboardInterrupt": (
+        "raise KeyboardInterrupt\n",
+        "was interrupted (a Ctrl-C, or the module raised KeyboardInterrupt) while it was imported",
+    ),
+}
+"""A module's way out of its own import, and what hoopbench says of it."""
+
+
+@pytest.mark.parametrize("exit_kind", list(EXITS))
 @pytest.mark.parametrize("how", ["plugin", "module"])
 def test_a_plugin_that_calls_sys_exit_is_named(
-    how: str, tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+    how: str,
+    exit_kind: str,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """hoopbench exited 0 and printed nothing."""
+    """hoopbench exited 0 and printed nothing (sys.exit(0)), or ended as if the user had
+    pressed Ctrl-C (a KeyboardInterrupt raised by the module)."""
+    source, said = EXITS[exit_kind]
     from hoopbench.engines import registry
 
     registry.engine_names()  # the built-in engines registered (their modules import once)
@@ -386,7 +403,7 @@ def test_a_plugin_that_calls_sys_exit_is_named(
     monkeypatch.setattr(registry, "_ENGINES", dict(registry._ENGINES))
     monkeypatch.delenv(registry.DISABLE_PLUGINS_VARIABLE, raising=False)
     monkeypatch.delitem(sys.modules, "exiting_hoop_engine", raising=False)
-    (tmp_path / "exiting_hoop_engine.py").write_text("import sys\nsys.exit(0)\n")
+    (tmp_path / "exiting_hoop_engine.py").write_text(source)
     if how == "plugin":
         info = tmp_path / "exiting_hoop_engine-0.1.dist-info"
         info.mkdir()
@@ -397,7 +414,7 @@ def test_a_plugin_that_calls_sys_exit_is_named(
     monkeypatch.syspath_prepend(str(tmp_path))
     assert main(["scenes"]) == 2
     line = one_line(capsys)
-    assert "called sys.exit(0) while it was imported" in line, line
+    assert said in line, line
 
 
 def test_the_tune_resume_line_gives_back_every_option_of_the_search():
