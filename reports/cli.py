@@ -653,10 +653,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     from hoopbench.reports.sweep.cluster import executor_from_args
     from hoopbench.reports.sweep.runner import RunnerError
 
-    resume = f"hoopbench compare --suite {args.suite} --out {args.out} --resume"
-    if args.settings is not None:  # the same file resumes, another or none is refused
-        resume += f" --settings {args.settings}"
-    resume += "".join(f" --engine-version {text}" for text in args.engine_version)
+    resume = _compare_resume_command(args)
     job = api.suite_job(  # the whole suite and every option checked before anything runs
         args.suite,
         run_timeout=args.run_timeout,
@@ -689,6 +686,27 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         return _sweep_failed(exc, args.out, resume)
     _say_how_the_sweep_ended(summary, args.out, resume, args.quiet)
     return summary.exit_code
+
+
+def _compare_resume_command(args: argparse.Namespace) -> str:
+    """The command that finishes this sweep, as typed (shell-quoted): the suite's runs as
+    chosen (without --engines a resume runs every engine of the suite: the line dropped it),
+    their settings file and releases (another or none is refused), their trajectories and
+    time limit."""
+    import shlex
+
+    words = ["hoopbench", "compare", "--suite", str(args.suite), "--out", str(args.out)]
+    if args.engines:
+        words += ["--engines", *args.engines]
+    if args.settings is not None:
+        words += ["--settings", str(args.settings)]
+    for text in args.engine_version:
+        words += ["--engine-version", text]
+    if args.trajectories != "none":
+        words += ["--trajectories", args.trajectories]
+    if args.run_timeout is not None:
+        words += ["--run-timeout", str(args.run_timeout)]
+    return shlex.join([*words, "--resume"])
 
 
 LARGE_SUITE_RUNS = 10_000

@@ -465,3 +465,20 @@ def test_a_script_without_the_main_guard_is_told_so_in_its_rows(tmp_path):
     assert done.returncode == 0, done.stderr
     assert "Traceback" not in done.stderr and "in use" not in done.stderr, done.stderr
     assert "if __name__ == '__main__':" in done.stdout, done.stdout
+
+
+def test_the_compare_resume_line_keeps_the_runs_it_chose():
+    """``compare --engines E`` stopped, then its "resume with:" line typed as printed: the
+    line dropped --engines (and the trajectories and the time limit), so the resume ran
+    every engine of the suite into the folder, exit 0 and not a word."""
+    import shlex
+
+    from hoopbench.reports.cli import _compare_resume_command, _parser
+
+    given = ["compare", "--suite", "my suite.toml", "--out", "o", "--engines", "reference"]
+    given += ["pymunk", "--trajectories", "default", "--run-timeout", "30"]
+    first = _parser().parse_args(given)
+    again = _parser().parse_args(shlex.split(_compare_resume_command(first))[1:])
+    assert again.resume and not first.resume
+    for name in ("suite", "out", "engines", "trajectories", "run_timeout", "settings"):
+        assert getattr(again, name) == getattr(first, name), name
