@@ -609,18 +609,25 @@ def _cmd_settings(args: argparse.Namespace) -> int:
     if args.json:
         _print_json(payload)
         return 0
-    print("common: " + ", ".join(f"{k}={v}" for k, v in payload["common"].items()))
+    from hoopbench.reports.sweep.control_chars import terminal_text
+
+    print(terminal_text(_settings_text(payload)))  # a plugin's reasons are its own text
+    return 0
+
+
+def _settings_text(payload: dict[str, Any]) -> str:
+    lines = ["common: " + ", ".join(f"{k}={v}" for k, v in payload["common"].items())]
     for name, spec in payload["engines"].items():
-        print(f"{name} (geometries: {', '.join(spec['geometries'])})")
+        lines.append(f"{name} (geometries: {', '.join(spec['geometries'])})")
         for key, value in spec["options"].items():
             stock = spec["stock"][key]
-            print(f"  {key} = {value}" + ("" if stock == value else f"  (stock: {stock})"))
-            print(f"      {spec['reasons'][key]}")
-            print(f"      search: {spec['search'][key]}")
+            lines.append(f"  {key} = {value}" + ("" if stock == value else f"  (stock: {stock})"))
+            lines.append(f"      {spec['reasons'][key]}")
+            lines.append(f"      search: {spec['search'][key]}")
         if spec["variants"]:
-            print("  suite variants: " + ", ".join(v["name"] for v in spec["variants"]))
-    print("detectors: " + ", ".join(f"{k}={v}" for k, v in payload["detectors"].items()))
-    return 0
+            lines.append("  suite variants: " + ", ".join(v["name"] for v in spec["variants"]))
+    lines.append("detectors: " + ", ".join(f"{k}={v}" for k, v in payload["detectors"].items()))
+    return "\n".join(lines)
 
 
 def _search_text(option: Any) -> str:

@@ -482,3 +482,43 @@ def test_the_compare_resume_line_keeps_the_runs_it_chose():
     assert again.resume and not first.resume
     for name in ("suite", "out", "engines", "trajectories", "run_timeout", "settings"):
         assert getattr(again, name) == getattr(first, name), name
+
+
+ESCAPING_ENGINE = """
+from dataclasses import replace
+
+from hoopbench.engines.reference_engine import ReferenceEngine
+from hoopbench.engines.registry import register
+
+
+class EscapingEngine(ReferenceEngine):
+    name = "escaping"
+    options = tuple(
+        replace(option, reason="\\x1b[2J\\x1b]0;owned\\x07 cleared")
+        for option in ReferenceEngine.options
+    )
+
+
+register(EscapingEngine)
+"""
+"""A plugin engine whose declared reasons hold a clear-screen and a retitling sequence."""
+
+
+def test_a_plugin_engines_reasons_reach_the_terminal_as_text(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`hoopbench settings` printed a plugin's reason strings raw: its escape bytes cleared
+    the terminal and retitled it."""
+    from hoopbench.engines import registry
+
+    registry.engine_names()
+    monkeypatch.setattr(registry, "_discovered", False)
+    monkeypatch.setattr(registry, "_discovery_error", None)
+    monkeypatch.setattr(registry, "_ENGINES", dict(registry._ENGINES))
+    monkeypatch.delitem(sys.modules, "escaping_hoop_engine", raising=False)
+    (tmp_path / "escaping_hoop_engine.py").write_text(ESCAPING_ENGINE)
+    monkeypatch.setenv(registry.ENGINE_MODULES_VARIABLE, "escaping_hoop_engine")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    assert main(["settings", "--engine", "escaping"]) == 0
+    out = capsys.readouterr().out
+    assert "cleared" in out and "\x1b" not in out and "\x07" not in out

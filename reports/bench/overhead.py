@@ -21,6 +21,7 @@ from typing import Any
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene
+from hoopbench.reports.sweep.control_chars import terminal_text
 
 ENGINES = ("mujoco", "pybullet", "pymunk", "drake", "rapier", "box2d", "dart")
 
@@ -84,7 +85,7 @@ def print_overheads(engines: Sequence[str], scene: str, dt: float, repeat: int) 
     for name in engines:
         row = measure(name, scene, dt, repeat)
         if row["status"] != "ok":
-            print(f"{name:<10} {row['status']}: {row['message']}", flush=True)
+            print(f"{name:<10} {row['status']}: {terminal_text(row['message'])}", flush=True)
             continue
         print(
             f"{name:<10}{row['n_steps']:>8}{row['run_s']:>9.3f}{row['bare_s']:>9.3f}"
