@@ -436,3 +436,27 @@ def test_a_search_whose_fork_server_and_workers_are_killed_finishes(tmp_path):
     ]
     pd.testing.assert_series_equal(*errors)
     assert wait_until(lambda: not any(alive(pid) for pid in killed), timeout=10)
+
+
+def test_a_call_whose_worker_died_as_it_was_sent_goes_to_another_worker(monkeypatch, thread_deaths):
+    """A worker SIGKILLed just before its call is sent (the fork server and its workers
+    killed, as the OOM killer does): the send fails, the call goes back on the queue already
+    running, and the manager set it running a second time: "Future in unexpected state",
+    the pool broken and the sweep stopped (seen once in tune's kill test in a clean-clone
+    run). Now the call runs on a new worker."""
+    killed: list[int] = []
+    original = WorkerPool._dispatch
+
+    def kill_then_dispatch(self: WorkerPool) -> list:
+        for worker in self._workers:
+            if worker.ready and worker.future is None and self._pending and not killed:
+                os.kill(worker.pid, signal.SIGKILL)
+                killed.append(worker.pid)
+                worker.process.join(5)  # dead: the send below fails on its pipe
+        return original(self)
+
+    monkeypatch.setattr(WorkerPool, "_dispatch", kill_then_dispatch)
+    with WorkerPool(1) as pool:
+        future = pool.submit(abs, -3)
+        assert bounded(lambda: future.result(timeout=30)) == 3
+    assert killed and thread_deaths == []

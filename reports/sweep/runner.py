@@ -282,6 +282,13 @@ def in_a_starting_worker() -> bool:
     return bool(getattr(multiprocessing.current_process(), "_inheriting", False))
 
 
+def _claimed(future: Future[Any]) -> bool:
+    """Whether a queued call's future is running (now, or still: a call whose send failed
+    goes back to the queue already running, and setting it running again raised "Future in
+    unexpected state" in the manager); False if it was cancelled."""
+    return future.running() or future.set_running_or_notify_cancel()
+
+
 class WorkerPool(Executor):
     """A process pool whose workers run one call at a time and can be killed one by one.
 
@@ -502,7 +509,7 @@ class WorkerPool(Executor):
             if not worker.ready or worker.future is not None or worker.killed:
                 continue
             future, data = self._pending.popleft()
-            if not future.set_running_or_notify_cancel():
+            if not _claimed(future):
                 dropped.append(future)
                 continue
             try:
@@ -574,7 +581,7 @@ class WorkerPool(Executor):
             if self._startup_failures >= 3:  # workers die on start-up: fail the queue
                 while self._pending:
                     future, _ = self._pending.popleft()
-                    if future.set_running_or_notify_cancel():
+                    if _claimed(future):
                         error = WorkerCrashedError(
                             f"worker processes die at start-up ({code}; a script that starts "
                             "a sweep keeps its code under  if __name__ == '__main__':)"
@@ -624,7 +631,7 @@ class WorkerPool(Executor):
                 worker.killed = True
                 worker.process.kill()
         for future in queued:
-            if not future.set_running_or_notify_cancel():
+            if not _claimed(future):
                 continue
             future.set_exception(broken)
         for future in running:
