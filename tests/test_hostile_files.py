@@ -16,6 +16,7 @@ from types import SimpleNamespace
 
 import pandas as pd
 import pytest
+from test_hostile_inputs import one_line
 
 import hoopbench.reports.api as api
 import hoopbench.reports.cli as cli
@@ -30,14 +31,6 @@ TINY = 'name = "tiny"\nengines = ["reference"]\ntimesteps = [1e-3]\nscenes = ["s
 
 def no_raw_controls(text: str) -> bool:
     return not any(char in text for char in RAW)
-
-
-def one_line(capsys) -> str:
-    captured = capsys.readouterr()
-    lines = captured.err.strip().splitlines()
-    assert len(lines) == 1, captured.err
-    assert lines[0].startswith("hoopbench: ") and "Traceback" not in captured.err
-    return lines[0]
 
 
 def hostile_settings_file(folder: Path) -> Path:

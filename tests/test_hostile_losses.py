@@ -22,20 +22,13 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from test_hostile_inputs import one_line
 
 import hoopbench as hb
 from hoopbench.reports.cli import main
 
 TINY = 'name = "tiny"\nengines = ["reference"]\ntimesteps = [1e-3]\nscenes = ["seed"]\n'
 SHIPPED = Path(__file__).resolve().parents[1] / "reports" / "tune" / "searches" / "pymunk"
-
-
-def one_line(capsys: pytest.CaptureFixture[str]) -> str:
-    captured = capsys.readouterr()
-    lines = captured.err.strip().splitlines()
-    assert len(lines) == 1, captured.err
-    assert lines[0].startswith("hoopbench: ") and "Traceback" not in captured.err
-    return lines[0]
 
 
 @pytest.fixture(scope="module")
