@@ -7,11 +7,13 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
+from hoopbench.engines.judging.score import CostClock
 from hoopbench.reports.report.answer import (
     ACCURACY_TIERS,
     answer,
     answer_markdown,
     at_best,
+    best_search,
     timestep_limits,
 )
 from hoopbench.reports.report.best_settings import BestSettings
@@ -170,8 +172,9 @@ def test_one_scene_is_said_as_one():
     assert "on the 1 catalogue scene (seed-mu)" in text and "all 1" not in text
 
 
-def search(engine, rows, training=("seed-mu", "hop-top")) -> BestSettings:
-    """A search read back, as best_settings gives it: its front rows, with tier counts."""
+def search(engine, rows, training=("seed-mu", "hop-top"), clock=CostClock.WALL) -> BestSettings:
+    """A search read back, as best_settings gives it: its front rows, with tier counts, its
+    costs by ``clock`` (wall: as every search shipped so far)."""
     front = pd.DataFrame(rows)
     return BestSettings(
         engine=engine,
@@ -182,6 +185,7 @@ def search(engine, rows, training=("seed-mu", "hop-top")) -> BestSettings:
         at_tuned_cost=None,
         at_ten_times=None,
         cheapest=cheapest_by_tier(front),
+        cost_clock=clock,
     )
 
 
@@ -201,8 +205,8 @@ def front_row(name, agrees, close, *, n=6, cost=5e5, dt=1e-4, heldout_tier="clos
 def test_each_engine_at_its_best_weighs_the_shipped_search():
     """The suite meets the tight tier on 2/3 scenes and the loose on 3/3; the search's setting
     is within both on 6/6 of its scenes (4 held out), so it is the engine's best for tight;
-    for loose both cover every scene and the suite's is cheaper (0.1 s against 0.5 s per
-    simulated second)."""
+    for loose both cover every scene, and the suite's is named (measured by this report; the
+    search's cost is never compared with it)."""
     rows = pd.DataFrame(setting("drake", ["agrees", "close", "agrees"], us=10.0))
     found = search("drake", [front_row("trial-34", 6, 6, heldout_tier="agrees")])
     result = answer(rows, [found])
@@ -220,6 +224,40 @@ def test_each_engine_at_its_best_weighs_the_shipped_search():
     assert (
         "| drake | loose | tuned, default, dt 0.0001 | 3/3 catalogue scenes | 0.1 (wall) |" in text
     )
+
+
+def test_a_tie_in_share_names_the_suites_setting_whatever_the_search_s_cost():
+    """Both within loose on every scene: the search's 0.05 wall s per simulated s is no
+    cheaper than the suites' 0.1 CPU s (two clocks, two machines): the suites' setting, and
+    the cell says the search's clock."""
+    rows = pd.DataFrame(
+        [{**r, "cpu_us_per_step": r["us_per_step"]} for r in setting("drake", ["close"] * 3)]
+    )
+    for clock in CostClock:
+        found = search("drake", [front_row("trial-3", 0, 6, cost=5e4)], clock=clock)
+        (loose,) = at_best(answer(rows, [found]))
+        assert not loose.from_search and loose.suite.scenes_met == 3
+        assert loose.search.clock is clock and loose.search.cost_per_sim_s == pytest.approx(0.05)
+
+
+def test_the_searches_best_prefers_a_cpu_costed_search_and_compares_costs_within_a_clock():
+    """Three searches within loose on all their scenes: the wall-costed one is the cheapest
+    by its number, but wall and CPU costs are not compared: of the CPU-costed ones, the
+    cheaper; the table's cell says the clock."""
+    rows = pd.DataFrame(setting("mujoco", ["agrees", "early-slip", "agrees"]))
+    found = [
+        search("pymunk", [front_row("trial-1", 0, 6, cost=1e4)], clock=CostClock.WALL),
+        search("rapier", [front_row("trial-2", 0, 6, cost=9e5)], clock=CostClock.CPU),
+        search("box2d", [front_row("trial-3", 0, 6, cost=3e5)], clock=CostClock.CPU),
+    ]
+    result = answer(rows, found)
+    best = best_search(result, 1)
+    assert (best.engine, best.clock) == ("box2d", CostClock.CPU)
+    text = answer_markdown(result)
+    assert (
+        "| box2d | loose | trial-3 (dt 0.0001) |" in text and "| 0.3 (CPU, the search's) |" in text
+    )
+    assert "| 0.01 (wall, the search's) |" in text
 
 
 def test_an_engine_of_a_search_alone_is_at_its_best_but_not_in_the_suites_table():

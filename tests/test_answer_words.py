@@ -10,6 +10,7 @@ import pandas as pd
 import pytest
 from test_answer import front_row, search
 
+from hoopbench.engines.judging.score import CostClock
 from hoopbench.engines.judging.verdict import Verdict
 from hoopbench.reports.report.answer import RANK_RULE, answer, answer_markdown, ranked
 from hoopbench.reports.report.answer_files import (
@@ -118,6 +119,19 @@ def test_a_search_within_the_tier_on_more_of_its_scenes_is_the_one_to_use():
         "'reports/tune/searches/drake/settings.toml#agrees'. No engine meets it on all 4 "
         "scenes at the suites' settings"
     )
+
+
+def test_a_search_s_cost_is_said_by_its_own_clock_and_against_its_own_tuned():
+    """A search costed by CPU time: its cost in CPU s, its ratio to its own tuned baseline;
+    the suites' best beside it (0.1 CPU s) is not set against it."""
+    tuned = front_row("tuned", 1, 2, cost=1.5e6) | {"kind": "baseline"}
+    found = search("drake", [front_row("trial-34", 6, 6, cost=7.5e5), tuned], clock=CostClock.CPU)
+    tight = answer_sentences(answer(rows("pymunk", "mujoco"), [found]))[0]
+    assert (
+        "at 0.75 CPU s per simulated s as the search measured it (0.5 times the tuned "
+        "profile's cost in the same search)." in tight
+    )
+    assert "wall" not in tight
 
 
 def test_the_table_is_ranked_by_its_stated_rule_and_the_files_hold_its_rows(tmp_path):

@@ -20,6 +20,7 @@ from test_hostile_inputs import one_line
 
 import hoopbench.reports.api as api
 import hoopbench.reports.cli as cli
+from hoopbench.engines.judging.score import CostClock
 from hoopbench.reports.cli import main
 
 CONTROLS = "\x1b]0;pwned\x07\x1b[2J\x1b[31mFAKE\x1b[0m\u202e\x9b"
@@ -87,7 +88,7 @@ def test_tune_out_reaches_the_terminal_as_text(tmp_path, capsys, monkeypatch, in
     front = pd.DataFrame(
         [dict.fromkeys(["setting", "kind", "timestep", "train_error", "heldout_error"], 1)]
     ).assign(train_cost_us_per_s=1.0, overfitted="no")
-    ended = SimpleNamespace(interrupted=interrupted)
+    ended = SimpleNamespace(interrupted=interrupted, cost_clock=CostClock.CPU)
     monkeypatch.setattr(api, "run_tune", lambda *a, **k: (ended, None if interrupted else front))
     out = tmp_path / f"t{CONTROLS}"
     code = main(["tune", "--engine", "pymunk", "--out", str(out), "--trials", "2", "--quiet"])
@@ -345,12 +346,12 @@ def test_a_journal_line_optuna_cannot_read_is_refused_and_the_journal_kept(tmp_p
     )
     assert study.trials == []
     spec = api.tune_job("pymunk", scenes=["seed"], trials=2).spec
-    _open_study(spec, tmp_path, resume=True)  # Optuna's own journal: read without an error
+    _open_study(spec, tmp_path, True, CostClock.CPU)  # Optuna's own journal: read without an error
     with path.open("a") as journal:
         journal.write(JOURNAL_LINES[case])
     before = path.read_bytes()
     with pytest.raises(ValueError, match=r"journal\.log: .*not a journal Optuna can replay"):
-        _open_study(spec, tmp_path, resume=True)
+        _open_study(spec, tmp_path, True, CostClock.CPU)
     assert path.read_bytes() == before
 
 

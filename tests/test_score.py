@@ -9,6 +9,7 @@ from hoopbench.engines.judging.columns import Col
 from hoopbench.engines.judging.score import (
     FLAG_SCORE,
     SCORE_CAP,
+    CostClock,
     cheapest_of_most,
     cost_us_per_s,
     error_score,
@@ -83,14 +84,18 @@ def test_errors_are_capped_and_averaged_over_scenes() -> None:
     assert error_score([]) == SCORE_CAP
 
 
-def test_the_cost_is_wall_time_per_simulated_second() -> None:
+def test_the_cost_is_the_clock_s_time_per_simulated_second() -> None:
     rows = [
-        _row(**{Col.WALL_TIME_S: 0.5, Col.N_STEPS: 10_000, Col.TIMESTEP: 1e-4}),
-        _row(**{Col.WALL_TIME_S: 1.5, Col.N_STEPS: 30_000, Col.TIMESTEP: 1e-4}),
+        _row(**{Col.WALL_TIME_S: 0.5, Col.CPU_TIME_S: 0.25, Col.N_STEPS: 10_000}),
+        _row(**{Col.WALL_TIME_S: 1.5, Col.CPU_TIME_S: 0.5, Col.N_STEPS: 30_000}),
         _row(**{Col.STATUS: "timeout"}),
     ]
-    assert cost_us_per_s(rows) == pytest.approx(1e6 * 2.0 / 4.0)
-    assert cost_us_per_s([_row()]) is None
+    assert cost_us_per_s(rows, CostClock.WALL) == pytest.approx(1e6 * 2.0 / 4.0)
+    assert cost_us_per_s(rows, CostClock.CPU) == pytest.approx(1e6 * 0.75 / 4.0)
+    assert cost_us_per_s([_row()], CostClock.CPU) is None
+    # a row timed by the wall clock alone gives no CPU cost
+    wall_only = {Col.WALL_TIME_S: 0.5, Col.N_STEPS: 10_000, Col.TIMESTEP: 1e-4}
+    assert cost_us_per_s([_row(**wall_only)], CostClock.CPU) is None
 
 
 def test_a_tier_is_reached_when_every_run_is_within_it() -> None:

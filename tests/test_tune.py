@@ -196,6 +196,67 @@ def test_a_results_folder_resumes_only_with_its_own_settings_file(
     assert meta["settings_sha256"] == load_settings(mine).sha256
 
 
+def _per_simulated_s(rows: pd.DataFrame, column: str) -> float:
+    """us of ``column`` (a time, s) per simulated second of the rows."""
+    return 1e6 * rows[column].sum() / (rows["n_steps"] * rows["timestep"]).sum()
+
+
+def test_a_trial_s_cost_is_the_cpu_time_of_its_runs_per_simulated_second(
+    searched: tuple[Path, pd.DataFrame],
+) -> None:
+    """The objective's cost is the runs' CPU time; the wall time's is kept beside it, in
+    trials.csv, front.csv and the settings file, and tune.json says which clock."""
+    out, front = searched
+    assert json.loads((out / "tune.json").read_text())["cost_clock"] == "cpu"
+    rows = runs_frame(out / TRIALS_DIR)
+    trials = pd.read_csv(out / "trials.csv").set_index("trial")
+    for trial in _study(out).trials:
+        mine = rows[rows["variant"] == f"trial-{trial.number}"]
+        cpu, wall = _per_simulated_s(mine, "cpu_time_s"), _per_simulated_s(mine, "wall_time_s")
+        assert trial.values[1] == pytest.approx(cpu, rel=1e-9)
+        assert trials.loc[trial.number, "train_cost_us_per_s"] == pytest.approx(cpu, rel=1e-9)
+        assert trials.loc[trial.number, "train_wall_us_per_s"] == pytest.approx(wall, rel=1e-9)
+        assert cpu != pytest.approx(wall, rel=1e-9)  # two clocks, not one number twice
+    held = runs_frame(out / "heldout")
+    for line in front.to_dict("records"):
+        variant = "default" if line["kind"] == "baseline" else line["setting"]
+        mine = held[held["variant"] == variant]
+        if line["kind"] == "baseline":
+            mine = mine[mine["profile"] == line["setting"]]
+        assert line["heldout_cost_us_per_s"] == pytest.approx(_per_simulated_s(mine, "cpu_time_s"))
+        assert line["heldout_wall_us_per_s"] == pytest.approx(_per_simulated_s(mine, "wall_time_s"))
+    loaded = load_settings(out / "settings.toml")
+    assert loaded.provenance["cost_clock"] == "cpu"
+    first = loaded.settings[0]
+    line = front[front["setting"] == first.name].iloc[0]
+    assert first.measured["wall_us_per_s"] == pytest.approx(line["train_wall_us_per_s"])
+
+
+def test_a_search_made_before_the_clock_was_recorded_resumes_by_wall_time(
+    tmp_path: Path,
+) -> None:
+    """A search whose tune.json has no cost_clock (every shipped one) was scored by wall time:
+    a resume scores its new trials, its baselines and its held-out runs by wall time too, and
+    leaves tune.json without the key. (The older search is made here by removing the key
+    after a first session; that session's trial 0 keeps its CPU cost and is not checked.)"""
+    out = tmp_path / "older"
+    hb.tune(ENGINE, out, scenes=[_scene()], trials=1, quiet=True)
+    spec = json.loads((out / "tune.json").read_text())
+    del spec["cost_clock"]
+    (out / "tune.json").write_text(json.dumps(spec, indent=2) + "\n")
+    front = hb.tune(ENGINE, out, scenes=[_scene()], trials=2, resume=True, quiet=True)
+    assert "cost_clock" not in json.loads((out / "tune.json").read_text())
+    rows = runs_frame(out / TRIALS_DIR)
+    new = _study(out).trials[1]
+    mine = rows[rows["variant"] == f"trial-{new.number}"]
+    assert new.values[1] == pytest.approx(_per_simulated_s(mine, "wall_time_s"), rel=1e-9)
+    assert new.values[1] != pytest.approx(_per_simulated_s(mine, "cpu_time_s"), rel=1e-9)
+    baselines = front[front["kind"] == "baseline"]
+    assert (baselines["train_cost_us_per_s"] == baselines["train_wall_us_per_s"]).all()
+    assert (front["heldout_cost_us_per_s"] == front["heldout_wall_us_per_s"]).all()
+    assert load_settings(out / "settings.toml").provenance["cost_clock"] == "wall"
+
+
 def test_a_search_goes_on_after_an_interruption(tmp_path: Path) -> None:
     out = tmp_path / "search"
     hb.tune(ENGINE, out, scenes=[_scene()], trials=2, quiet=True)

@@ -14,13 +14,16 @@ verdict.py), continuous so that a search can tell "nearly close" from "far off":
   that diverged or gave nothing (failed, timeout, crashed), and any ratio above it.
 
 The error of a set of runs is the mean of theirs (each scene weighs the same); its cost is
-the runs' wall time per simulated second, in microseconds. docs/tune.md explains both.
+the time of the runs' stepping per simulated second, in microseconds, by one clock
+(CostClock): the process's CPU time, which the machine's load moves far less, or the wall
+time. docs/tune.md explains both.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable, Mapping
+from enum import StrEnum
 from typing import Any, TypeVar
 
 from hoopbench.engines.judging.columns import Col
@@ -37,6 +40,7 @@ __all__ = [
     "COST_NOISE_FACTOR",
     "FLAG_SCORE",
     "SCORE_CAP",
+    "CostClock",
     "cheapest_of_most",
     "cost_us_per_s",
     "costs_equal",
@@ -182,17 +186,37 @@ def cheapest_of_most(
     return min(equal, key=tie_key)
 
 
-def cost_us_per_s(rows: Iterable[Mapping[str, Any]]) -> float | None:
-    """Wall time of the runs' stepping per simulated second, us; None if no run was timed."""
-    wall = simulated = 0.0
+class CostClock(StrEnum):
+    """Whose time a cost is: a search records its clock (``hoopbench tune``'s tune.json)."""
+
+    CPU = "cpu"
+    """The process's CPU time over the stepping (Col.CPU_TIME_S)."""
+    WALL = "wall"
+    """The wall time over the stepping (Col.WALL_TIME_S): it grows with the machine's load."""
+
+    @property
+    def column(self) -> str:
+        """The runs-table column of the stepping's time by this clock, s."""
+        return Col.CPU_TIME_S if self is CostClock.CPU else Col.WALL_TIME_S
+
+    @property
+    def label(self) -> str:
+        """As the report says it: "CPU" or "wall" (the answer's Answer.clock words)."""
+        return "CPU" if self is CostClock.CPU else "wall"
+
+
+def cost_us_per_s(rows: Iterable[Mapping[str, Any]], clock: CostClock) -> float | None:
+    """The runs' stepping time by ``clock`` per simulated second, us; None if no run was
+    timed by it."""
+    spent = simulated = 0.0
     for row in rows:
-        time_s = number_or_none(row.get(Col.WALL_TIME_S))
+        time_s = number_or_none(row.get(clock.column))
         steps = number_or_none(row.get(Col.N_STEPS))
         step = number_or_none(row.get(Col.TIMESTEP))
         if time_s is None or not steps or not step:
             continue
-        wall += time_s
+        spent += time_s
         simulated += steps * step
-    if simulated <= 0 or not math.isfinite(wall):
+    if simulated <= 0 or not math.isfinite(spent):
         return None
-    return 1e6 * wall / simulated
+    return 1e6 * spent / simulated

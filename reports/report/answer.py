@@ -41,7 +41,7 @@ from dataclasses import dataclass
 import pandas as pd
 
 from hoopbench.engines.judging.columns import Col
-from hoopbench.engines.judging.score import COST_NOISE_FACTOR, cheapest_of_most
+from hoopbench.engines.judging.score import COST_NOISE_FACTOR, CostClock, cheapest_of_most
 from hoopbench.engines.judging.tolerances import Tier
 from hoopbench.engines.judging.verdict import TIER_NAMES, TIER_VERDICTS, number_or_none
 from hoopbench.engines.options import Profile
@@ -178,18 +178,22 @@ class SearchChoice:
     """How many of ``scenes`` are held out (scenes the search never trained on)."""
     heldout_tier: str
     """The tier its runs reach on every held-out scene: agrees, close or none."""
-    wall_per_sim_s: float
-    """Seconds of wall time per simulated second on the training scenes, as measured by the
-    search (on the machine and load of the search)."""
-    tuned_wall_per_sim_s: float | None = None
+    cost_per_sim_s: float
+    """Seconds of stepping time by ``clock`` per simulated second on the training scenes, as
+    measured by the search (on the machine and load of the search)."""
+    clock: CostClock = CostClock.WALL
+    """The clock of the search's costs (its tune.json's cost_clock; wall where it has none)."""
+    tuned_cost_per_sim_s: float | None = None
     """The same of the engine's tuned profile, the search's baseline (None where its front
-    has none): a cost ratio within one clock, where the search's and the suites' differ."""
+    has none): a cost ratio within one clock and one search, the only comparison of a
+    search's cost the answer makes."""
 
 
 @dataclass(frozen=True)
 class AtBest:
     """One engine's best for a tier: the suite's setting or the search's, whichever is within
-    the tier on the larger share of its own scenes (the cheaper where they tie)."""
+    the tier on the larger share of its own scenes (the suite's where they tie: their costs
+    are never compared, measured by other runs, machines or clocks)."""
 
     engine: str
     tier: str
@@ -205,9 +209,9 @@ class AtBest:
             return False
         if self.suite is None:
             return True
-        search = (-self.search.scenes_met / self.search.scenes, self.search.wall_per_sim_s)
-        suite = (-self.suite.scenes_met / self.suite_scenes, self.suite.cost_per_sim_s)
-        return search < suite
+        return self.search.scenes_met / self.search.scenes > (
+            self.suite.scenes_met / self.suite_scenes
+        )
 
 
 @dataclass(frozen=True)
@@ -454,13 +458,15 @@ def _search_choice(best: BestSettings, tier: AccuracyTier) -> SearchChoice | Non
         scenes=choice.scenes,
         heldout=choice.scenes - len(best.training_scenes),
         heldout_tier=str(heldout) if isinstance(heldout, str) else "-",
-        wall_per_sim_s=float(row["train_cost_us_per_s"]) * 1e-6,
-        tuned_wall_per_sim_s=_tuned_cost(best.front),
+        cost_per_sim_s=float(row["train_cost_us_per_s"]) * 1e-6,
+        clock=best.cost_clock,
+        tuned_cost_per_sim_s=_tuned_cost(best.front),
     )
 
 
 def _tuned_cost(front: pd.DataFrame) -> float | None:
-    """The search's wall cost of its ``tuned`` baseline, s per simulated s (None: none)."""
+    """The search's cost of its ``tuned`` baseline (by the search's clock), s per simulated
+    s (None: none)."""
     tuned = pd.to_numeric(front[front["setting"] == "tuned"]["train_cost_us_per_s"])
     cost = float(tuned.iloc[0]) * 1e-6 if len(tuned) else math.nan
     return cost if math.isfinite(cost) and cost > 0 else None
@@ -562,8 +568,9 @@ def _regimes(rows: pd.DataFrame, scenes: Sequence[str], clock: str) -> tuple[Reg
 
 def best_search(result: Answer, tier: int) -> SearchChoice | None:
     """Of every engine's shipped search, the setting it names for ``ACCURACY_TIERS[tier]``
-    that is within the tier on the largest share of its search's scenes, the cheapest (by
-    the searches' own wall costs) of those: the searches' answer."""
+    that is within the tier on the largest share of its search's scenes; of those, one whose
+    search is costed by CPU time before one costed by wall time, and the cheapest of one
+    clock (costs of two clocks are never compared): the searches' answer."""
     found = [
         line.searched[tier]
         for line in result.engines
@@ -571,7 +578,12 @@ def best_search(result: Answer, tier: int) -> SearchChoice | None:
     ]
     return min(
         (s for s in found if s is not None),
-        key=lambda s: (-s.scenes_met / s.scenes, s.wall_per_sim_s, s.engine),
+        key=lambda s: (
+            -s.scenes_met / s.scenes,
+            s.clock is not CostClock.CPU,
+            s.cost_per_sim_s,
+            s.engine,
+        ),
         default=None,
     )
 
@@ -686,7 +698,7 @@ def _best_cells(best: AtBest) -> list[str]:
             escape_cell(f"{search.setting} (dt {search.timestep:.3g})"),
             f"{search.scenes_met}/{search.scenes} scenes, {search.heldout} of them held out "
             f"(held-out tier: {escape_cell(search.heldout_tier)})",
-            f"{search.wall_per_sim_s:.3g} (wall, the search's)",
+            f"{search.cost_per_sim_s:.3g} ({search.clock.label}, the search's)",
             escape_cell(f"search: {search.engine}'s settings.toml#{tier_file}{other}"),
         ]
     assert suite is not None
@@ -708,12 +720,14 @@ def _at_best_markdown(result: Answer) -> list[str]:
         "Each engine at its best: per tier, the suites' cheapest setting above or the one the "
         "engine's shipped search of `hoopbench tune` names for the tier (reports/tune/searches/"
         "ENGINE/settings.toml, `--settings 'FILE#agrees'` or `#close`), whichever is within "
-        "the tier on the larger share of its scenes (the cheaper where they tie). A search's "
-        "scenes are its training scenes (the catalogue's) and held-out scenes it never "
-        "trained on; its cost was measured by the search, on the machine and load it ran on "
-        "(shipped with the repository, not measured by this report): the wall time of its "
-        "runs' stepping per simulated second, which grows with that machine's load, where the "
-        "suites' is the CPU time of the same stepping (each cell says whose).",
+        "the tier on the larger share of its scenes (the suites' where they tie: a search's "
+        "cost is never compared with the suites'). A search's scenes are its training scenes "
+        "(the catalogue's) and held-out scenes it never trained on; its cost was measured by "
+        "the search, on the machine and load it ran on (shipped with the repository, not "
+        "measured by this report), by the clock its tune.json records: the CPU time of its "
+        "runs' stepping per simulated second, or, for a search made before the clock was "
+        "recorded, the wall time, which grows with that machine's load (each cell says "
+        "whose).",
         "",
         "| engine | tier | best setting | within the tier on | s per simulated s | found by |",
         "|---|---|---|---|---|---|",

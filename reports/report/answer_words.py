@@ -108,9 +108,8 @@ def _search_lead(search: SearchChoice) -> str:
     return (
         f"{search.engine}'s searched setting {search.setting} (dt {search.timestep:.3g} s), "
         f"within it on {share} of its search's scenes, {search.heldout} of them held out, at "
-        f"{search.wall_per_sim_s:.3g} wall s per simulated s as the search measured it"
-        + _tuned_ratio(search)
-        + "."
+        f"{search.cost_per_sim_s:.3g} {search.clock.label} s per simulated s as the search "
+        "measured it" + _tuned_ratio(search) + "."
     )
 
 
@@ -121,9 +120,9 @@ def _run_it(search: SearchChoice, tier: int) -> str:
 
 def _tuned_ratio(search: SearchChoice) -> str:
     """' (0.62 times tuned's cost in the same search)': a ratio within the search's clock."""
-    if search.tuned_wall_per_sim_s is None:
+    if search.tuned_cost_per_sim_s is None:
         return ""
-    ratio = search.wall_per_sim_s / search.tuned_wall_per_sim_s
+    ratio = search.cost_per_sim_s / search.tuned_cost_per_sim_s
     return f" ({ratio:.2g} times the tuned profile's cost in the same search)"
 
 

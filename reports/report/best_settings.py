@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from hoopbench.engines.judging.score import CostClock
 from hoopbench.reports.compare.settings_file import TIER_CHOICES, TierChoice
 from hoopbench.reports.report.escaping import escape_cell, escape_text, file_stem
 from hoopbench.reports.report.palette import engine_colours, profile_style
@@ -33,7 +34,7 @@ from hoopbench.reports.sweep.folder_files import (
     read_folder_text,
 )
 from hoopbench.reports.tune.heldout import FRONT_NAME, TRIALS_NAME
-from hoopbench.reports.tune.search import SPEC_NAME
+from hoopbench.reports.tune.search import COST_CLOCK_KEY, SPEC_NAME, recorded_clock
 from hoopbench.reports.tune.tiers import (
     SCENES_COLUMN,
     TIER_COLUMNS,
@@ -47,6 +48,7 @@ __all__ = [
     "BestSettings",
     "best_settings",
     "best_settings_section",
+    "cost_axis",
     "figure_name",
     "figure_names",
     "is_tune_folder",
@@ -105,6 +107,9 @@ class BestSettings:
     created: str | None = None
     """When the search started (tune.json's ``created``, ISO 8601); None where it is not
     recorded."""
+    cost_clock: CostClock = CostClock.WALL
+    """The clock of the search's costs (tune.json's ``cost_clock``; a search made before the
+    key, as every search shipped so far, has none: wall time)."""
 
     @property
     def has_tiers(self) -> bool:
@@ -185,9 +190,19 @@ def _counts_checked(path: Path, front: pd.DataFrame) -> None:
                 raise FolderFileError(f"{path}: {column} counts more scenes than {SCENES_COLUMN}")
 
 
-def _spec(folder: Path) -> tuple[str, tuple[str, ...], str | None]:
-    """tune.json's engine, training scenes' names and start time (None if not a string);
-    FolderFileError naming the file and the field for anything else."""
+@dataclass(frozen=True)
+class _Spec:
+    """What the section reads of tune.json."""
+
+    engine: str
+    scenes: tuple[str, ...]
+    created: str | None
+    cost_clock: CostClock
+
+
+def _spec(folder: Path) -> _Spec:
+    """tune.json's engine, training scenes' names, start time (None if not a string) and
+    costs' clock; FolderFileError naming the file and the field for anything else."""
     path = folder / SPEC_NAME
     text = read_folder_text(folder, SPEC_NAME)
     if text is None:
@@ -209,7 +224,12 @@ def _spec(folder: Path) -> tuple[str, tuple[str, ...], str | None]:
             f"{path}: scenes must be a list of scenes, each with a name, got {shown}"
         )
     created = spec.get("created")
-    return engine, tuple(s["name"] for s in scenes), created if isinstance(created, str) else None
+    try:
+        clock = recorded_clock(spec)
+    except ValueError as exc:
+        raise FolderFileError(f"{path}: {exc}") from None
+    names = tuple(s["name"] for s in scenes)
+    return _Spec(engine, names, created if isinstance(created, str) else None, clock)
 
 
 _FLAGS = {"true": True, "yes": True, "1": True, "false": False, "no": False, "0": False}
@@ -230,7 +250,7 @@ def _flags(column: pd.Series, path: Path) -> pd.Series:
 
 
 def _read(folder: Path) -> BestSettings:
-    engine, scenes, created = _spec(folder)
+    spec = _spec(folder)
     front = _table_file(folder, FRONT_NAME, _FRONT_COLUMNS)
     _counts_checked(folder / FRONT_NAME, front)
     trials = _table_file(folder, TRIALS_NAME, _TRIALS_COLUMNS)
@@ -239,15 +259,16 @@ def _read(folder: Path) -> BestSettings:
     tuned = front[front["setting"] == "tuned"]
     cost = float(tuned["heldout_cost_us_per_s"].iloc[0]) if len(tuned) else None
     return BestSettings(
-        engine=engine,
+        engine=spec.engine,
         front=front,
         trials=trials,
-        training_scenes=scenes,
+        training_scenes=spec.scenes,
         tuned_heldout=float(tuned["heldout_error"].iloc[0]) if len(tuned) else None,
         at_tuned_cost=_best_within(front, cost),
         at_ten_times=_best_within(front, None if cost is None else COST_FACTOR * cost),
         cheapest=cheapest_by_tier(front),
-        created=created,
+        created=spec.created,
+        cost_clock=spec.cost_clock,
     )
 
 
@@ -287,7 +308,8 @@ def _table(best: BestSettings) -> list[str]:
     within = "".join(f" scenes within {tier} |" for tier in TIER_CHOICES)
     lines = [
         "| setting | kind | timestep (s) | training error | held-out error | training cost "
-        f"(wall s per simulated s) | overfitted | training tier | held-out tier |{within}",
+        f"({best.cost_clock.label} s per simulated s) | overfitted | training tier | "
+        f"held-out tier |{within}",
         "|" + "---|" * (9 + len(TIER_CHOICES)),
     ]
     train, heldout = TIER_COLUMNS
@@ -305,8 +327,11 @@ def _table(best: BestSettings) -> list[str]:
 
 SECONDS_PER_US = 1e-6
 """front.csv's costs are us per simulated s; the report's one cost unit is s per simulated s."""
-COST_AXIS = "cost, wall s of stepping per simulated s"
-"""The figures' cost axis, in the report's one cost unit (the searches' clock: wall)."""
+
+
+def cost_axis(clock: CostClock) -> str:
+    """The figures' cost axis, in the report's one cost unit, by the search's clock."""
+    return f"cost, {clock.label} s of stepping per simulated s"
 
 
 def in_seconds(us_per_s: Any) -> Any:
@@ -323,13 +348,15 @@ def _per_sim_s(us_per_s: Any) -> str:
         return "-"
 
 
-def _tier_choice(tier: str, choice: TierChoice | None, costs: pd.Series) -> str:
+def _tier_choice(tier: str, choice: TierChoice | None, costs: pd.Series, clock: CostClock) -> str:
     if choice is None:
         return f"{tier}: none"
     cost = _per_sim_s(costs.get(choice.setting))
     scenes = f"{choice.scenes_within}/{choice.scenes} scenes"
     within = scenes if choice.scenes_within == choice.scenes else f"only {scenes}"
-    return f"{tier}: {escape_text(choice.setting)} ({within}; {cost} wall s per simulated s)"
+    return (
+        f"{tier}: {escape_text(choice.setting)} ({within}; {cost} {clock.label} s per simulated s)"
+    )
 
 
 def _tiers_line(best: BestSettings) -> str:
@@ -341,7 +368,9 @@ def _tiers_line(best: BestSettings) -> str:
             "resumed) to name the cheapest of each tier."
         )
     costs = best.front.set_index("setting")["train_cost_us_per_s"]
-    said = [_tier_choice(tier, choice, costs) for tier, choice in best.cheapest.items()]
+    said = [
+        _tier_choice(tier, choice, costs, best.cost_clock) for tier, choice in best.cheapest.items()
+    ]
     return (
         "The cheapest setting whose runs are within each accuracy tier on all scenes, "
         "training and held-out, or on as many as any setting is "
@@ -409,7 +438,7 @@ def _panel(ax: Any, best: BestSettings, which: str) -> None:
     ):  # a log axis of nothing drawn fails ("Data cannot be log-scaled")
         ax.set_xscale("log")
         _plain_log_axis(ax.xaxis)
-    ax.set_xlabel(COST_AXIS)
+    ax.set_xlabel(cost_axis(best.cost_clock))
     ax.set_ylabel(SCORE_AXIS)
     ax.set_title("training scenes" if which == "train" else "held-out scenes")
     ax.grid(True, which="both", alpha=0.3)
@@ -426,6 +455,34 @@ def _figure(best: BestSettings, path: Path) -> Path:
     return save(fig, path, dpi=110)  # whole or not at all, plain tick labels
 
 
+def _clock_words(clock: CostClock) -> str:
+    """Which clock a search's costs are, in words."""
+    if clock is CostClock.CPU:
+        return f"Its costs are the process's CPU time (tune.json's {COST_CLOCK_KEY})"
+    return (
+        f"Its costs are wall time (its tune.json names no {COST_CLOCK_KEY}: the search was "
+        "made before searches were costed by CPU time)"
+    )
+
+
+def _clocks_sentence(found: Sequence[BestSettings]) -> str:
+    """How many of the searches are costed by each clock, and what that allows."""
+    wall = sum(best.cost_clock is CostClock.WALL for best in found)
+    counts = f"{len(found) - wall} of the {len(found)} searches here are costed by CPU time"
+    counts += f", {wall} by wall time" if wall else ""
+    redo = (
+        " (to cost them by CPU time, run the searches again, `make tune` then `make "
+        "searches`: hours of the machine; docs/tune.md)"
+        if wall
+        else ""
+    )
+    return (
+        f"{counts}{redo}; each engine's part says its search's clock and when it started. A "
+        "search's costs are compared with its own baselines (stock and tuned, measured in the "
+        "same search), never with the suites' costs or another clock's."
+    )
+
+
 def best_settings_section(found: Sequence[BestSettings], out: str | Path) -> str:
     """The section's Markdown, its figures written to ``out`` (best-settings-ENGINE.png)."""
     out = Path(out)
@@ -440,11 +497,11 @@ def best_settings_section(found: Sequence[BestSettings], out: str | Path) -> str
         "of scenes is the finest every one of its runs there is within: agrees (every event "
         "within the tight tolerances), close (within the loose ones) or none. The searches' "
         "files were shipped with the repository (reports/tune/searches, `make searches`): "
-        "this report reads them and measures nothing of them again. A cost is the wall time "
-        "of a setting's runs' stepping per simulated second (the report's one cost unit, "
-        "seconds per simulated second; the answer's are CPU time), measured by the search on "
-        "the machine and under the load it ran with, which its files do not name; each "
-        "engine's part says when its search started.",
+        "this report reads them and measures nothing of them again. A cost is the time of "
+        "a setting's runs' stepping per simulated second (the report's one cost unit, seconds "
+        "per simulated second), measured by the search on the machine it ran on, which its "
+        "files do not name, by the clock its tune.json records: the process's CPU time, or "
+        "the wall time, which grows with that machine's load. " + _clocks_sentence(found),
     ]
     for best, name in zip(found, figure_names(found), strict=True):
         _figure(best, out / name)
@@ -455,6 +512,7 @@ def best_settings_section(found: Sequence[BestSettings], out: str | Path) -> str
             f"### {engine}" + (f" (search {nth.lstrip('-')})" if nth else ""),
             "",
             f"Search started {escape_text(best.created or 'at a time not recorded')}. "
+            f"{_clock_words(best.cost_clock)}. "
             f"Training scenes: {escape_text(', '.join(best.training_scenes))}; "
             f"{len(best.trials)} trials. {_summary(best)}",
             "",

@@ -13,8 +13,9 @@ from typing import Any
 
 import pandas as pd
 
+from hoopbench.engines.judging.score import CostClock
 from hoopbench.reports.compare.settings_file import TIER_CHOICES
-from hoopbench.reports.report.best_settings import COST_AXIS, SCORE_AXIS, BestSettings, in_seconds
+from hoopbench.reports.report.best_settings import SCORE_AXIS, BestSettings, cost_axis, in_seconds
 from hoopbench.reports.report.page_html import rounded, text
 from hoopbench.reports.report.palette import engine_colours, profile_style
 from hoopbench.reports.tune.tiers import SCENES_COLUMN, TIER_COLUMNS, count_column
@@ -25,14 +26,23 @@ Figure = dict[str, Any]
 
 _PANELS = (("train", "training scenes"), ("heldout", "held-out scenes"))
 
-_SETTING_HOVER = (
-    "<b>%{customdata[0]}</b> (%{customdata[1]})<br>dt %{customdata[2]} s<br>"
-    "%{customdata[3]}<br>training: error %{customdata[4]}, %{customdata[5]} wall s/sim s, "
-    "tier %{customdata[6]}<br>held-out: error %{customdata[7]}, %{customdata[8]} wall s/sim s, "
-    "tier %{customdata[9]}<br>scenes within each tier: %{customdata[11]}<br>"
-    "overfitted: %{customdata[10]}<extra></extra>"
-)
-_TRIAL_HOVER = "trial %{customdata}<br>error %{y:.3g}, %{x:.3g} wall s/sim s<extra></extra>"
+
+def _setting_hover(clock: CostClock) -> str:
+    """A setting's hover, its costs by the search's clock."""
+    unit = f"{clock.label} s/sim s"
+    return (
+        "<b>%{customdata[0]}</b> (%{customdata[1]})<br>dt %{customdata[2]} s<br>"
+        f"%{{customdata[3]}}<br>training: error %{{customdata[4]}}, %{{customdata[5]}} {unit}, "
+        f"tier %{{customdata[6]}}<br>held-out: error %{{customdata[7]}}, %{{customdata[8]}} "
+        f"{unit}, tier %{{customdata[9]}}<br>scenes within each tier: %{{customdata[11]}}<br>"
+        "overfitted: %{customdata[10]}<extra></extra>"
+    )
+
+
+def _trial_hover(clock: CostClock) -> str:
+    """A trial's hover, its cost by the search's clock."""
+    unit = f"{clock.label} s/sim s"
+    return f"trial %{{customdata}}<br>error %{{y:.3g}}, %{{x:.3g}} {unit}<extra></extra>"
 
 
 def _number(value: Any) -> str:
@@ -102,7 +112,7 @@ def _panel_traces(best: BestSettings, which: str, k: int, colour: str) -> list[d
                 "x": rounded(in_seconds(done["train_cost_us_per_s"])),
                 "y": rounded(done["train_error"]),
                 "customdata": [str(n) for n in done["trial"]],
-                "hovertemplate": _TRIAL_HOVER,
+                "hovertemplate": _trial_hover(best.cost_clock),
                 "marker": {"color": "#b3b3b3", "size": 6},
                 "name": "trials",
                 **axes,
@@ -117,7 +127,7 @@ def _panel_traces(best: BestSettings, which: str, k: int, colour: str) -> list[d
             "x": rounded(in_seconds(pareto[f"{which}_cost_us_per_s"])),
             "y": rounded(pareto[f"{which}_error"]),
             "customdata": _hover_data(pareto),
-            "hovertemplate": _SETTING_HOVER,
+            "hovertemplate": _setting_hover(best.cost_clock),
             "line": {"color": colour},
             "marker": {"color": colour, "size": 8},
             "name": "Pareto set",
@@ -135,7 +145,7 @@ def _panel_traces(best: BestSettings, which: str, k: int, colour: str) -> list[d
                 "x": rounded(in_seconds(point[f"{which}_cost_us_per_s"])),
                 "y": rounded(point[f"{which}_error"]),
                 "customdata": _hover_data(point),
-                "hovertemplate": _SETTING_HOVER,
+                "hovertemplate": _setting_hover(best.cost_clock),
                 "marker": {
                     "color": colour,
                     "size": 12,
@@ -170,7 +180,7 @@ def best_settings_page_figure(best: BestSettings) -> Figure:
             "type": "log",
             "exponentformat": "none",
             "separatethousands": True,
-            "title": {"text": COST_AXIS},
+            "title": {"text": cost_axis(best.cost_clock)},
         }
         layout[f"yaxis{suffix}"] = {
             "title": {"text": SCORE_AXIS},

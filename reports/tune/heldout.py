@@ -19,7 +19,7 @@ from typing import Any
 import pandas as pd
 
 from hoopbench.engines.judging.columns import Col
-from hoopbench.engines.judging.score import cost_us_per_s, error_score
+from hoopbench.engines.judging.score import CostClock, cost_us_per_s, error_score
 from hoopbench.engines.registry import engine_class
 from hoopbench.models.scene import Scene
 from hoopbench.reference.random_scenes import RANDOM_PREFIX, draw
@@ -112,8 +112,14 @@ def _part_error(rows: list[dict[str, Any]], prefix: str) -> float | None:
 
 
 def _line(
-    setting: Setting, kind: str, rows: list[dict[str, Any]], train_rows: list[dict[str, Any]]
+    setting: Setting,
+    kind: str,
+    rows: list[dict[str, Any]],
+    train_rows: list[dict[str, Any]],
+    clock: CostClock,
 ) -> dict[str, Any]:
+    """A setting's front.csv line; its costs by the search's ``clock``, the wall time's
+    beside them."""
     heldout = error_score(rows)
     return {
         "setting": setting.name,
@@ -122,8 +128,10 @@ def _line(
         "options": json.dumps(dict(setting.options), sort_keys=True, default=list),
         "train_error": setting.train_error,
         "train_cost_us_per_s": setting.train_cost,
+        "train_wall_us_per_s": setting.train_wall,
         "heldout_error": heldout,
-        "heldout_cost_us_per_s": cost_us_per_s(rows),
+        "heldout_cost_us_per_s": cost_us_per_s(rows, clock),
+        "heldout_wall_us_per_s": cost_us_per_s(rows, CostClock.WALL),
         "overfitted": is_overfitted(setting.train_error, heldout),
         **tier_columns(train_rows, rows),
         **count_columns(train_rows, rows),
@@ -138,7 +146,8 @@ def validate(
     """Run the Pareto set and the baselines on the held-out scenes; write front.csv,
     trials.csv and settings.toml. None if a signal stopped the runs (resume goes on)."""
     scenes = heldout_scenes(spec)
-    front = [setting_of(spec.engine, t) for t in result.study.best_trials]
+    clock = result.cost_clock
+    front = [setting_of(spec.engine, t, clock) for t in result.study.best_trials]
     front.sort(key=lambda s: (s.train_error, s.train_cost))
     lines = []
     trained = runs_frame(out / TRIALS_DIR)
@@ -150,10 +159,10 @@ def validate(
                 return None
             ids = {t.run_id for t in setting_tasks(spec.engine, spec.scenes, setting)}
             train_rows = trained[trained["run_id"].isin(ids)].to_dict("records")
-            lines.append(_line(setting, kind, rows, train_rows))
+            lines.append(_line(setting, kind, rows, train_rows, clock))
     table = pd.DataFrame(lines)
     results.write_csv(table, out / FRONT_NAME)
-    results.write_csv(trials_frame(result.study), out / TRIALS_NAME)
+    results.write_csv(trials_frame(result.study, clock), out / TRIALS_NAME)
     _write_settings(spec, result, table, front, scenes, budget, out)
     return table
 
@@ -183,6 +192,7 @@ def _write_settings(
                 "train_error": _number(s.train_error),
                 "heldout_error": _number(by_name.loc[s.name, "heldout_error"]),
                 "cost_us_per_s": _number(s.train_cost),
+                "wall_us_per_s": _number(s.train_wall),
                 "overfitted": bool(by_name.loc[s.name, "overfitted"]),
                 **{c: str(by_name.loc[s.name, c]) for c in TIER_COLUMNS},
             },
@@ -190,6 +200,7 @@ def _write_settings(
         for s in front
     ]
     provenance = {
+        "cost_clock": str(result.cost_clock),
         "training_scenes": [s.name for s in spec.scenes],
         "heldout_scenes": [s.name for s in scenes],
         "heldout_seed": spec.heldout_seed,

@@ -4,11 +4,13 @@ Each trial draws a setting from the engine's declared space (space.py), runs it 
 training scene through the runner as ordinary runs (worker processes or a Dask cluster, time
 limits, batches for an engine that steps many worlds at once, as ``compare`` runs them; rows
 in ``trials/``, variant ``trial-N``), and scores them with engines/judging/score.py: the mean
-error and the cost in us per simulated second. Optuna's journal file (``journal.log``) keeps
-every told trial, so a search stopped by Ctrl-C or by its budget goes on with ``resume``. The
-first trial is hoopbench's ``tuned`` setting; ``stock`` and ``tuned`` also run as baselines.
-When the budget is spent, the Pareto set (and the baselines) run again on held-out scenes
-(heldout.py) and the folder gets ``front.csv`` and ``settings.toml``.
+error and the cost in us per simulated second, by the process's CPU time (the wall time kept
+beside it); the clock is recorded in tune.json (``cost_clock``), and a search made before it
+was recorded, scored by wall time, keeps that clock when resumed. Optuna's journal file
+(``journal.log``) keeps every told trial, so a search stopped by Ctrl-C or by its budget goes
+on with ``resume``. The first trial is hoopbench's ``tuned`` setting; ``stock`` and ``tuned``
+also run as baselines. When the budget is spent, the Pareto set (and the baselines) run again
+on held-out scenes (heldout.py) and the folder gets ``front.csv`` and ``settings.toml``.
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ from typing import TYPE_CHECKING, Any
 
 import pandas as pd
 
-from hoopbench.engines.judging.score import cost_us_per_s, error_score
+from hoopbench.engines.judging.score import CostClock, cost_us_per_s, error_score
 from hoopbench.engines.options import Profile
 from hoopbench.engines.registry import engine_class
 from hoopbench.engines.settings import DEFAULT_BATCH_SIZE, DEFAULT_TIMESTEP
@@ -68,6 +70,7 @@ if TYPE_CHECKING:  # Optuna is an extra (tune): imported when a search runs (_op
     from optuna.trial import FrozenTrial
 
 __all__ = [
+    "COST_CLOCK_KEY",
     "DEFAULT_TRAINING_SCENES",
     "FRONT_NAME",
     "HELDOUT_DIR",
@@ -87,6 +90,7 @@ __all__ = [
     "TuneSpec",
     "TuneUnavailableError",
     "check_resumable",
+    "recorded_clock",
     "run_settings",
     "search",
     "setting_of",
@@ -120,6 +124,14 @@ SETTINGS_HASH_NAME = ".settings.toml.sha256"
 settings.toml edited since is refused (the user's edits are not lost without a word)."""
 RESULT_NAMES = (FRONT_NAME, TRIALS_NAME, SETTINGS_NAME, TRIALS_DIR, HELDOUT_DIR)
 """What a search that ran leaves besides its record (journal.log, tune.json, sweep.json)."""
+COST_CLOCK_KEY = "cost_clock"
+"""tune.json's key naming the clock of the search's costs (CostClock's value); a search made
+before it has none: its costs are wall time."""
+NEW_SEARCH_CLOCK = CostClock.CPU
+"""The clock of a new search's costs: the CPU time moves far less with the machine's load."""
+WALL_ATTR = "wall_us_per_s"
+"""A told trial's user attribute: its wall time per simulated second, kept beside its cost
+(None where no run gave one)."""
 TRIAL_PREFIX = "trial-"
 STUDY_NAME = "tune"
 
@@ -200,7 +212,9 @@ class Setting:
     profile: Profile = Profile.TUNED
     train_error: float | None = None
     train_cost: float | None = None
-    """us per simulated second."""
+    """us per simulated second, by the search's clock (its tune.json's cost_clock)."""
+    train_wall: float | None = None
+    """The same by the wall clock, kept beside it (None: not recorded)."""
     extra: Mapping[str, Any] = field(default_factory=dict)
 
     @property
@@ -308,15 +322,33 @@ class _Replayed:
         return float(value)
 
 
-def setting_of(engine: str, trial: FrozenTrial) -> Setting:
-    """A told trial's setting (its options replayed from its parameters); ValueError naming
-    the trial and parameter if one lies outside the engine's space."""
+def setting_of(engine: str, trial: FrozenTrial, clock: CostClock) -> Setting:
+    """A told trial's setting (its options replayed from its parameters) in a search whose
+    costs are by ``clock``; ValueError naming the trial and parameter if one lies outside the
+    engine's space."""
     replayed: Any = _Replayed(trial.number, trial.params)
     options, timestep = draw_settings(replayed, engine_class(engine))
     values = trial.values or [None, None]
     return Setting(
-        f"{TRIAL_PREFIX}{trial.number}", timestep, options, Profile.TUNED, values[0], values[1]
+        f"{TRIAL_PREFIX}{trial.number}",
+        timestep,
+        options,
+        Profile.TUNED,
+        values[0],
+        values[1],
+        _trial_wall(trial, clock),
     )
+
+
+def _trial_wall(trial: FrozenTrial, clock: CostClock) -> float | None:
+    """A told trial's wall cost, us per simulated s: kept beside its cost, or its cost itself
+    in a wall-clock search (whose trials, made before the attribute, have none)."""
+    wall = trial.user_attrs.get(WALL_ATTR)
+    if isinstance(wall, int | float) and not isinstance(wall, bool):
+        return float(wall)
+    if clock is CostClock.WALL and trial.values:
+        return float(trial.values[1])
+    return None
 
 
 COUNTED_FAILURES = ("refused", "failed_runs")
@@ -357,7 +389,7 @@ def _unreadable_journal(out: Path, why: str) -> ValueError:
     )
 
 
-def _open_study(spec: TuneSpec, out: Path, resume: bool) -> optuna.Study:
+def _open_study(spec: TuneSpec, out: Path, resume: bool, clock: CostClock) -> optuna.Study:
     optuna = _optuna()
     TrialState = optuna.trial.TrialState
     _journal_lines_checked(out)
@@ -379,7 +411,7 @@ def _open_study(spec: TuneSpec, out: Path, resume: bool) -> optuna.Study:
         load_if_exists=resume,
     )
     for told in study.get_trials(deepcopy=False, states=(TrialState.COMPLETE,)):
-        setting_of(spec.engine, told)  # refused before anything runs if not the engine's
+        setting_of(spec.engine, told, clock)  # refused before anything runs if not the engine's
     for stale in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,)):
         study.tell(stale.number, state=TrialState.FAIL)  # cut short by an earlier Ctrl-C
     if not study.trials:
@@ -388,8 +420,11 @@ def _open_study(spec: TuneSpec, out: Path, resume: bool) -> optuna.Study:
     return study
 
 
-def _one_trial(study: optuna.Study, spec: TuneSpec, out: Path, runner: Runner) -> RunSummary | None:
-    """Ask, run and tell one trial; the runs' summary (None if the setting was refused)."""
+def _one_trial(
+    study: optuna.Study, spec: TuneSpec, out: Path, runner: Runner, clock: CostClock
+) -> RunSummary | None:
+    """Ask, run and tell one trial, its cost by ``clock`` (its wall cost kept beside it as a
+    user attribute); the runs' summary (None if the setting was refused)."""
     TrialState = _optuna().trial.TrialState
     trial = study.ask()
     try:
@@ -405,7 +440,7 @@ def _one_trial(study: optuna.Study, spec: TuneSpec, out: Path, runner: Runner) -
     except BaseException:
         study.tell(trial, state=TrialState.FAIL)
         raise
-    cost = cost_us_per_s(rows)
+    cost = cost_us_per_s(rows, clock)
     if summary.interrupted is not None or len(rows) < len(tasks):
         study.tell(trial, state=TrialState.FAIL)  # cut short: does not count, tried again
         return summary
@@ -413,6 +448,7 @@ def _one_trial(study: optuna.Study, spec: TuneSpec, out: Path, runner: Runner) -
         trial.set_user_attr("failed_runs", len(rows))
         study.tell(trial, state=TrialState.FAIL)
         return summary
+    trial.set_user_attr(WALL_ATTR, cost_us_per_s(rows, CostClock.WALL))
     study.tell(trial, [error_score(rows), cost])
     return summary
 
@@ -428,11 +464,15 @@ class SearchResult:
     study: optuna.Study
     interrupted: bool
     baselines: tuple[Setting, ...]
+    cost_clock: CostClock
+    """The clock of the search's costs (its tune.json's)."""
 
 
-def _baselines(spec: TuneSpec, out: Path, runner: Runner) -> tuple[tuple[Setting, ...], bool]:
-    """stock and tuned on the training scenes (at the default timestep), and whether a signal
-    stopped them."""
+def _baselines(
+    spec: TuneSpec, out: Path, runner: Runner, clock: CostClock
+) -> tuple[tuple[Setting, ...], bool]:
+    """stock and tuned on the training scenes (at the default timestep), their costs by
+    ``clock`` and by the wall clock, and whether a signal stopped them."""
     settings: list[Setting] = []
     cls = engine_class(spec.engine)
     for profile in (Profile.STOCK, Profile.TUNED):
@@ -448,7 +488,8 @@ def _baselines(spec: TuneSpec, out: Path, runner: Runner) -> tuple[tuple[Setting
                 base.options,
                 profile,
                 error_score(rows),
-                cost_us_per_s(rows),
+                cost_us_per_s(rows, clock),
+                cost_us_per_s(rows, CostClock.WALL),
             )
         )
     return tuple(settings), False
@@ -498,23 +539,24 @@ def search(
         if resume:
             check_resumable(out, spec)  # again under the lock
         _write_spec(out, spec)
-        study = _open_study(spec, out, resume)
+        clock = _stored_clock(out)
+        study = _open_study(spec, out, resume, clock)
         started = time.monotonic()
         with _executor(executor, jobs) as runs_on, _signals_noted() as noted:
             runner = Runner(runs_on, spec.engine, budget.run_timeout_s, batch_size)
             try:
-                baselines, stopped = _baselines(spec, out, runner)
+                baselines, stopped = _baselines(spec, out, runner, clock)
                 while not stopped and not noted and _budget_left(study, budget, started):
-                    summary = _one_trial(study, spec, out, runner)
+                    summary = _one_trial(study, spec, out, runner, clock)
                     stopped = summary is not None and summary.interrupted is not None
                     if say is not None and not stopped:
-                        say(_progress(study))
+                        say(_progress(study, clock))
                 stopped = stopped or bool(noted)
             except KeyboardInterrupt:  # a signal where no handler of ours was installed
                 baselines, stopped = (), True
             if not stopped:
                 _check_a_trial_ran(study, budget, time.monotonic() - started)
-            result = SearchResult(study, stopped, baselines)
+            result = SearchResult(study, stopped, baselines, clock)
             if then is not None and not stopped:
                 then(result, runner)
     return result
@@ -551,12 +593,14 @@ def _executor(executor: Executor | None, jobs: int) -> Iterator[Executor]:
         yield pool
 
 
-def _progress(study: optuna.Study) -> str:
+def _progress(study: optuna.Study, clock: CostClock) -> str:
     last = study.trials[-1]
     if last.state is not _optuna().trial.TrialState.COMPLETE or last.values is None:
         return f"trial {last.number}: {last.state.name.lower()}"
     error, cost = last.values
-    return f"trial {last.number}: error {error:.3g}, cost {cost:.3g} us per simulated s"
+    return (
+        f"trial {last.number}: error {error:.3g}, cost {cost:.3g} {clock.label} us per simulated s"
+    )
 
 
 class SearchRecordError(RunnerError):
@@ -643,7 +687,11 @@ def _write_spec(out: Path, spec: TuneSpec) -> None:
     of options added since it was made (their values this session's)."""
     text = read_folder_text(out, SPEC_NAME)  # checked, not followed out of the folder
     if text is None:
-        data = {**spec.identity(), "created": datetime.now(UTC).isoformat(timespec="seconds")}
+        data = {
+            **spec.identity(),
+            COST_CLOCK_KEY: str(NEW_SEARCH_CLOCK),
+            "created": datetime.now(UTC).isoformat(timespec="seconds"),
+        }
     else:
         try:
             stored = json.loads(text)
@@ -660,17 +708,47 @@ def _write_spec(out: Path, spec: TuneSpec) -> None:
     )
 
 
-def trials_frame(study: optuna.Study) -> pd.DataFrame:
-    """One line per trial: number, state, error, cost and parameters."""
+def recorded_clock(stored: Mapping[str, Any]) -> CostClock:
+    """The clock of a search's costs from its tune.json (a JSON object): its cost_clock, or
+    the wall clock where it has none (every search made before the key, as every shipped
+    one, was scored by wall time); ValueError for a value that is no clock."""
+    value = stored.get(COST_CLOCK_KEY, str(CostClock.WALL))
+    if not isinstance(value, str) or value not in {str(c) for c in CostClock}:
+        known = " or ".join(repr(str(c)) for c in CostClock)
+        raise ValueError(f"{COST_CLOCK_KEY} must be {known}, got {value!r}")
+    return CostClock(value)
+
+
+def _stored_clock(out: Path) -> CostClock:
+    """The clock of the search in ``out`` (its tune.json, written or checked just before):
+    a resumed search keeps its own, so one study never mixes clocks."""
+    text = read_folder_text(out, SPEC_NAME)
+    try:
+        stored = json.loads(text) if text is not None else None
+    except ValueError:
+        stored = None
+    if not isinstance(stored, dict):
+        raise SearchRecordError(f"{out / SPEC_NAME} is not a JSON object: cannot be resumed")
+    try:
+        return recorded_clock(stored)
+    except ValueError as exc:
+        raise SearchRecordError(f"{out / SPEC_NAME}: {exc}") from None
+
+
+def trials_frame(study: optuna.Study, clock: CostClock) -> pd.DataFrame:
+    """One line per trial: number, state, error, cost (by ``clock``), wall cost and
+    parameters."""
     lines = []
     for trial in study.get_trials(deepcopy=False):
         values = trial.values or [math.nan, math.nan]
+        wall = _trial_wall(trial, clock)
         lines.append(
             {
                 "trial": trial.number,
                 "state": trial.state.name.lower(),
                 "train_error": values[0],
                 "train_cost_us_per_s": values[1],
+                "train_wall_us_per_s": math.nan if wall is None else wall,
                 "params": json.dumps(trial.params, sort_keys=True),
             }
         )
