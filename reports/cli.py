@@ -1288,11 +1288,11 @@ def _cmd_tune(args: argparse.Namespace) -> int:
         return EXIT_INTERRUPTED
     columns = ["setting", "kind", "timestep", "train_error", "heldout_error"]
     columns += ["train_cost_us_per_s", "overfitted"]
-    print(front[columns].to_string(index=False, float_format=lambda v: f"{v:.4g}"))
-    _say(
+    print(
         f"costs: {result.cost_clock.label} time of the stepping, us per simulated s (the wall "
         "time's beside them in front.csv)"
     )
+    print(front[columns].to_string(index=False, float_format=lambda v: f"{v:.4g}"))
     _say(f"settings -> {Path(args.out) / 'settings.toml'}")
     return 0
 
