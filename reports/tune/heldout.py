@@ -29,6 +29,7 @@ from hoopbench.reports.compare.suite import runs_frame
 from hoopbench.reports.sweep import results
 from hoopbench.reports.tune.neighbours import NEIGHBOUR_PREFIX, neighbours_of
 from hoopbench.reports.tune.search import (
+    COST_CLOCK_KEY,
     FRONT_NAME,
     HELDOUT_DIR,
     SETTINGS_HASH_NAME,
@@ -200,7 +201,7 @@ def _write_settings(
         for s in front
     ]
     provenance = {
-        "cost_clock": str(result.cost_clock),
+        COST_CLOCK_KEY: str(result.cost_clock),
         "training_scenes": [s.name for s in spec.scenes],
         "heldout_scenes": [s.name for s in scenes],
         "heldout_seed": spec.heldout_seed,
