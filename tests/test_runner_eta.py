@@ -292,3 +292,14 @@ def test_report_runs_runs_make_reports_steps_in_order_under_one_plan(tmp_path, m
     totals = {total for _, total in seen}
     assert len(totals) == 1 and totals.pop() > 8  # one plan, the map's 4 + 4 runs in it
     assert current_plan.get() is None
+
+
+def test_the_fit_is_not_pulled_to_nothing_by_calls_that_return_at_once():
+    """A map's points: half return in 2 ms, half take 0.2 s (the ETA's sums need about 0.1
+    s a call). Weighed relative to each call alone, the fit said 2-4 ms (the map's first
+    stage then showed 'eta 0s' with 9 s left)."""
+    calls = [
+        {"kinds": [["map", "reference"]], "steps": 0, "worlds": 1, "seconds": t, "cold": False}
+        for t in (0.002, 0.2) * 5
+    ]
+    assert fit(calls)[("map", "reference")].fixed_s > 0.03

@@ -12,9 +12,10 @@ Nothing here asserts a time. Three parts:
 * ``fit CALLS``: the rates that fit the whole calls ``hoopbench report-runs --calls CALLS``
   wrote (one JSON object a line: kinds, steps, worlds, seconds, cold), by each call's most
   general kind: non-negative least squares of each call's seconds, relative to them (a 0.3 s
-  call weighs as much as a 60 s one), on a fixed part, a part per step, per world-step (an
-  engine whose calls have several worlds) and a worker's first call's extra (a kind with
-  cold calls). Printed as the Python of CALL_COST_PRIOR, with the machine and load.
+  call weighs as much as a 60 s one; none more than a call of the kind's mean), on a fixed
+  part, a part per step, per world-step (an engine whose calls have several worlds) and a
+  worker's first call's extra (a kind with cold calls). Printed as the Python of
+  CALL_COST_PRIOR, with the machine and load.
 """
 
 from __future__ import annotations
@@ -126,7 +127,10 @@ def fit(records: Iterable[dict[str, object]]) -> dict[Hashable, Rates]:
             bool(cold.any() and not cold.all()),
         ]
         a = np.column_stack([c for c, u in zip(columns, used, strict=True) if u])
-        weight = 1.0 / np.maximum(took, 1e-3)
+        # Relative to each call's seconds, but none weighs more than a call of the kind's
+        # mean: the map's points that return at once (2 ms among 0.2 s calls) pulled the
+        # fixed part to 2 ms, and the ETA's sums need the mean.
+        weight = 1.0 / np.maximum(took, took.mean())
         solution, _ = nnls(a * weight[:, None], took * weight)
         values = iter(solution)
         fixed, step, world_step, extra = (float(next(values)) if u else 0.0 for u in used)
