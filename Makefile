@@ -63,19 +63,16 @@ MAP_ARGS ?= --grid 10x10 --engines mujoco pybullet pymunk
 
 # The default suite, the scenes its timesteps cannot resolve at a finer one (finer.toml),
 # the stiff and extreme scenes and the small hop map; then one report of them all and the
-# shipped searches. Each step says on stderr which it is (suite k of 3, the map, then the
-# report); each suite's lines then count its runs with an ETA from their expected costs, the
-# map's its runs, the report's say what it draws.
+# shipped searches. `hoopbench report-runs` runs the suites and the map in one process, each
+# into its own folder as `hoopbench compare` and `hoopbench map` would: it says which step
+# starts (suite k of 3, the map), and each progress line ends with the overall one (step k of
+# 4, runs done of all, an ETA for the whole of make report from the runs' expected costs);
+# the report's lines then say what it draws.
+# REPORT_RUNS_ARGS="--calls FILE" also writes each call's cost (docs/cli.md: the priors).
+REPORT_RUNS_ARGS ?=
 MAP_DIR = $(if $(strip $(MAP_ARGS)),$(OUT)/map)
 report: $(REPORT_STAMP)
-	@echo "make report: suite 1 of 3 (default) -> $(OUT)/default" >&2
-	$(BIN)/hoopbench compare --suite default --out $(OUT)/default --trajectories default
-	@echo "make report: suite 2 of 3 (finer) -> $(OUT)/finer" >&2
-	$(BIN)/hoopbench compare --suite finer --out $(OUT)/finer
-	@echo "make report: suite 3 of 3 (stability) -> $(OUT)/stability" >&2
-	$(BIN)/hoopbench compare --suite stability --out $(OUT)/stability
-	$(if $(MAP_DIR),@echo "make report: the hop map ($(MAP_ARGS)) -> $(MAP_DIR)" >&2)
-	$(if $(MAP_DIR),$(BIN)/hoopbench map $(MAP_ARGS) --out $(MAP_DIR))
+	$(BIN)/hoopbench report-runs --out $(OUT) --map="$(MAP_ARGS)" $(REPORT_RUNS_ARGS)
 	@echo "make report: the report of the 3 suites$(if $(MAP_DIR), and the map) -> $(OUT)" >&2
 	$(BIN)/hoopbench report --results $(OUT)/default $(OUT)/finer $(OUT)/stability $(MAP_DIR) \
 		$(SEARCH_DIRS) $(or $(wildcard $(BENCH_OUT)),$(BENCH_SHIPPED)) --out $(OUT)

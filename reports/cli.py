@@ -866,6 +866,67 @@ def _engine_steps(pairs: Sequence[tuple[str, float]] | None) -> dict[str, float]
     return steps
 
 
+def _cmd_report_runs(args: argparse.Namespace) -> int:
+    """Each step as its own command runs it (folder, resume line, outputs), in one process
+    under one plan: their progress lines end with the plan's (reports/report_runs.py)."""
+    import shlex
+
+    from hoopbench.reports.api import default_jobs
+    from hoopbench.reports.report_runs import MAP_STEP, REPORT_SUITES, report_plan
+    from hoopbench.reports.sweep.plan import current_plan
+
+    out = Path(args.out)
+    n = len(REPORT_SUITES)
+    steps = [
+        (f"suite {k} of {n} ({name})", ["compare", "--suite", name, "--out", str(out / name), *o])
+        for k, (name, o) in enumerate(REPORT_SUITES, 1)
+    ]
+    spec = None
+    if args.map.strip():
+        argv = ["map", *shlex.split(args.map), "--out", str(out / "map")]
+        spec = _map_spec(_parser().parse_args(argv))  # every value checked before any run
+        steps.append((f"{MAP_STEP} ({args.map.strip()})", argv))
+    plan = report_plan(
+        [name for name, _ in REPORT_SUITES], spec, default_jobs(), DEFAULT_BATCH_SIZE
+    )
+    token = current_plan.set(plan)
+    try:
+        for what, argv in steps:
+            _say_plain(f"make report: {what} -> {argv[argv.index('--out') + 1]}")
+            code = main(argv)
+            if code:
+                return code
+    finally:
+        current_plan.reset(token)
+        if args.calls is not None:
+            _write_calls(plan.finished, Path(args.calls))
+    return 0
+
+
+def _write_calls(finished: Sequence[Any], path: Path) -> None:
+    """Each finished call a JSON line (report-runs --calls)."""
+    lines = [
+        json.dumps(
+            {
+                "kinds": list(d.call.kinds),
+                "steps": d.call.steps,
+                "worlds": d.call.worlds,
+                "seconds": d.seconds,
+                "cold": d.cold,
+            }
+        )
+        for d in finished
+    ]
+    path.write_text("".join(line + "\n" for line in lines))
+
+
+def _say_plain(text: str) -> None:
+    """A line on stderr as it is (its names are ours or the caller's folder, quoted safe)."""
+    from hoopbench.reports.sweep.control_chars import say
+
+    say(text)
+
+
 def _cmd_map(args: argparse.Namespace) -> int:
     import hoopbench.reports.api as api
     from hoopbench.reports.report.map_section import write_map_outputs
@@ -1165,6 +1226,33 @@ def _add_map(sub: Any, classes: Mapping[str, Any]) -> None:
     p.set_defaults(func=_cmd_map)
 
 
+def _add_report_runs(sub: Any, classes: Mapping[str, Any]) -> None:
+    p = sub.add_parser(
+        "report-runs",
+        help="make report's three suites and hop map in one process, with one progress line",
+    )
+    p.add_argument(
+        "--out",
+        required=True,
+        type=_folder,
+        help="make report's folder: each suite, and the map, into a folder of it",
+    )
+    p.add_argument(
+        "--map",
+        default="",
+        metavar="ARGS",
+        help="hoopbench map's options, in one string (make report's MAP_ARGS); empty: no map",
+    )
+    p.add_argument(
+        "--calls",
+        type=_folder,
+        metavar="FILE",
+        help="also write each finished call (kinds, steps, worlds, seconds, cold) as a JSON "
+        "line: what python -m hoopbench.reports.bench.call_costs fit reads",
+    )
+    p.set_defaults(func=_cmd_report_runs)
+
+
 def _add_report(sub: Any, classes: Mapping[str, Any]) -> None:
     p = sub.add_parser("report", help="write report.md and figures from stored results")
     p.add_argument(
@@ -1393,6 +1481,7 @@ def _parser() -> _Parser:
         _add_settings,
         _add_compare,
         _add_map,
+        _add_report_runs,
         _add_report,
         _add_findings,
         _add_figure,

@@ -46,6 +46,7 @@ RANKS = {
         "hop_map": 2,
         "tune": 2,
         "report": 3,
+        "report_runs": 3,
         "bench": 4,
         "api": 5,
         "cli": 6,

@@ -1,95 +1,130 @@
-"""The progress lines' ETA from the calls' expected costs (reports/sweep/eta.py), on
-synthetic finished calls: no clock is asserted, only the arithmetic of the estimate."""
+"""The progress lines' ETA from the calls' expected costs (reports/sweep/eta.py) and the
+overall line of sweeps run in a row (reports/sweep/plan.py), on synthetic finished calls
+and priors: no clock is asserted, only the arithmetic of the estimate. About 2 s."""
 
 from __future__ import annotations
 
 import io
+import json
 from dataclasses import dataclass
 
 import pytest
 from test_runner import Job, job_failure_row, job_worker
 
-from hoopbench.reports.compare.costs import STEP_COST_PRIOR, call_cost
+from hoopbench.reports.bench.call_costs import accuracy, fit, seconds_of
+from hoopbench.reports.compare.costs import CALL_COST_PRIOR, MAP, REPORT, call_cost
 from hoopbench.reports.sweep.eta import (
     CallCost,
     Costing,
+    Rates,
+    Running,
     Took,
+    kind_factors,
     machine_factor,
     remaining_seconds,
-    seconds_per_step,
 )
+from hoopbench.reports.sweep.plan import Plan, PlannedSweep, current_plan
 from hoopbench.reports.sweep.runner import run_tasks
 
 CHEAP = CallCost(kinds=(("pymunk", "tuned", "default"), "pymunk"), steps=1000)
-DEAR = CallCost(kinds=(("mjx", "tuned", "default"), "mjx"), steps=1000)
+DEAR = CallCost(kinds=(("mjx", "tuned", "default"), "mjx"), steps=1000, worlds=8)
+PRIOR = {
+    "pymunk": Rates(fixed_s=0.2, step_s=1e-5),  # 1000 steps: 0.21 s
+    "mjx": Rates(fixed_s=10.0, step_s=1e-3, world_step_s=1e-4, cold_s=50.0),  # 11.8 s warm
+}
 
 
-def test_each_kind_costs_its_own_seconds_per_step():
-    finished = [Took(CHEAP, 0.1), Took(CHEAP, 0.3), Took(DEAR, 60.0)]
-    measured = seconds_per_step(finished)
-    assert measured["pymunk"] == pytest.approx(0.4 / 2000)
-    assert measured["mjx"] == pytest.approx(60.0 / 1000)
-    assert measured[("mjx", "tuned", "default")] == pytest.approx(60.0 / 1000)
+def test_a_call_costs_its_fixed_part_its_steps_and_its_world_steps():
+    assert PRIOR["pymunk"].seconds(CHEAP) == pytest.approx(0.21)
+    assert PRIOR["mjx"].seconds(DEAR) == pytest.approx(10.0 + 1000 * (1e-3 + 8 * 1e-4))
+    assert PRIOR["mjx"].seconds(DEAR, cold=True) == pytest.approx(11.8 + 50.0)
+
+
+def test_calls_at_a_finer_step_do_not_scale_the_dear_kind_down():
+    """Issue 34: the finer suite's ETA was 0.14-0.25 of the time left. Cheap calls of 120,000
+    steps ran as their fixed and per-step parts say (0.2 + 1.2 s): the machine is as fast as
+    the priors, and MJX's call is expected at its prior. A prior per step alone, measured on
+    calls of 1,000 steps (0.21 ms a step), said 25 s of them and scaled MJX by 0.056."""
+    fine = CallCost(kinds=CHEAP.kinds, steps=120_000)
+    finished = [Took(fine, 1.4), Took(fine, 1.4)]
+    assert machine_factor(finished, PRIOR) == pytest.approx(1.0)
+    warm = {DEAR.kinds[0]: 1}
+    assert remaining_seconds([DEAR], [], finished, 1, PRIOR, warm) == pytest.approx(11.8)
+    per_step_only = {"pymunk": Rates(0.0, 0.21e-3), "mjx": Rates(0.0, 11.8e-3)}
+    assert machine_factor(finished, per_step_only) == pytest.approx(2.8 / 50.4)
 
 
 def test_the_cheap_runs_finishing_first_do_not_make_the_eta_short():
     """Issue 34: 'eta 3m' took 27 min. 98 cheap runs done in 10 s, 2 dear ones left: by the
     count the sweep is 98 % done; by cost it has 2 minutes left on one worker."""
+    prior = {"pymunk": Rates(0.1, 0.0), "mjx": Rates(60.0, 0.0)}
     finished = [Took(CHEAP, 0.1)] * 98 + [Took(DEAR, 60.0)]
-    left = remaining_seconds([DEAR, DEAR], [], finished, workers=1, prior={})
+    left = remaining_seconds([DEAR, DEAR], [], finished, workers=1, prior=prior)
     assert left == pytest.approx(120.0)
     by_count = (98 * 0.1 + 60.0) / 99 * 2
     assert by_count < left / 1.5  # what the old line said: far too short
 
 
 def test_the_calls_left_are_laid_out_on_the_workers_in_order():
-    finished = [Took(CHEAP, 1.0)]  # 1 ms a step: each call 1 s
+    prior = {"pymunk": Rates(0.0, 1e-3)}  # 1 ms a step: each call 1 s
     long = CallCost(kinds=CHEAP.kinds, steps=30_000)  # 30 s
-    assert remaining_seconds([CHEAP] * 4, [], finished, 2, {}) == pytest.approx(2.0)
+    assert remaining_seconds([CHEAP] * 4, [], [], 2, prior) == pytest.approx(2.0)
     # One long call cannot be split: the sweep lasts at least as long as it.
-    assert remaining_seconds([long, CHEAP, CHEAP], [], finished, 2, {}) == pytest.approx(30.0)
+    assert remaining_seconds([long, CHEAP, CHEAP], [], [], 2, prior) == pytest.approx(30.0)
     # A call in flight keeps its worker for what it has left.
-    running = [(long, 20.0)]
-    assert remaining_seconds([CHEAP], running, finished, 2, {}) == pytest.approx(10.0)
+    running = [Running(long, 20.0)]
+    assert remaining_seconds([CHEAP], running, [], 2, prior) == pytest.approx(10.0)
     # Past its expected cost, a tenth of what it has run is left of it.
-    assert remaining_seconds([], [(CHEAP, 5.0)], finished, 2, {}) == pytest.approx(0.5)
+    assert remaining_seconds([], [Running(CHEAP, 5.0)], [], 2, prior) == pytest.approx(0.5)
 
 
-def test_the_most_specific_kind_known_wins_then_priors_then_the_mean():
+def test_a_kind_measured_scales_its_own_prior_the_others_scale_by_the_machine():
+    """pymunk ran 3 times its prior, MJX not yet: MJX is expected 3 times its prior (the
+    machine is loaded); once an MJX call ran 1.5 times its prior, MJX is its own."""
+    finished = [Took(CHEAP, 0.63), Took(CHEAP, 0.63)]
+    warm = {DEAR.kinds[0]: 1}  # its worker has traced it: no cold part
+    assert kind_factors(finished, PRIOR)["pymunk"] == pytest.approx(3.0)
+    assert machine_factor(finished, PRIOR) == pytest.approx(3.0)
+    assert remaining_seconds([DEAR], [], finished, 1, PRIOR, warm) == pytest.approx(3 * 11.8)
+    finished.append(Took(DEAR, 1.5 * 11.8))
+    assert remaining_seconds([DEAR], [], finished, 1, PRIOR, warm) == pytest.approx(1.5 * 11.8)
+    assert machine_factor([], PRIOR) == 1.0
+
+
+def test_the_most_specific_kind_with_a_prior_or_a_measure_wins():
     solver = CallCost(kinds=(("newton", "tuned", "solver=mujoco"), "newton"), steps=100)
     plain = CallCost(kinds=(("newton", "tuned", "default"), "newton"), steps=100)
-    finished = [Took(plain, 1.0)]  # newton: 10 ms a step, measured on its default variant
-    prior = {("newton", "tuned", "solver=mujoco"): 0.5}
-    # The variant's own prior beats the engine's measure of another variant...
-    assert remaining_seconds([solver], [], finished, 1, prior) == pytest.approx(50.0)
-    # ... until the variant itself has a finished call.
-    finished.append(Took(solver, 3.0))
-    assert remaining_seconds([solver], [], finished, 1, prior) == pytest.approx(3.0)
-    # An engine never seen: its prior, else every finished call's mean cost per step.
+    prior = {"newton": Rates(0.0, 0.01), ("newton", "tuned", "solver=mujoco"): Rates(0.0, 0.05)}
+    # The variant's own prior beats the engine's...
+    assert remaining_seconds([solver], [], [], 1, prior) == pytest.approx(5.0)
+    # ... and the plain variant measured twice its prior scales the other by the engine's
+    # factor until the variant itself has a finished call.
+    finished = [Took(plain, 2.0)]
+    assert remaining_seconds([solver], [], finished, 1, prior) == pytest.approx(10.0)
+    finished.append(Took(solver, 4.0))  # 0.8 of its prior: the variant's own factor
+    assert remaining_seconds([solver], [], finished, 1, prior) == pytest.approx(4.0)
+    # A kind no prior knows: every finished call's mean per step; nothing: no estimate.
     other = CallCost(kinds=(("dart", "tuned", "default"), "dart"), steps=100)
-    assert remaining_seconds([other], [], finished, 1, {"dart": 0.2}) == pytest.approx(20.0)
-    assert remaining_seconds([other], [], finished, 1, {}) == pytest.approx(100 * 4.0 / 200)
-    # Nothing finished and nothing known: no estimate (the line falls back on the count).
+    assert remaining_seconds([other], [], finished, 1, {}) == pytest.approx(100 * 6.0 / 200)
     assert remaining_seconds([other], [], [], 1, {}) is None
 
 
-def test_the_priors_scale_with_how_slow_the_machine_runs_now():
-    """A loaded machine ran the cheap calls 3 times slower than their prior: the dear kind
-    not measured yet is expected 3 times slower than its prior too."""
-    prior = {"pymunk": 1e-4, "mjx": 1e-2}
-    finished = [Took(CHEAP, 0.3), Took(CHEAP, 0.3)]
-    assert machine_factor(finished, prior) == pytest.approx(3.0)
-    assert remaining_seconds([DEAR], [], finished, 1, prior) == pytest.approx(30.0)
-    assert machine_factor([], prior) == 1.0
+def test_a_workers_first_call_of_a_kind_is_cold():
+    """MJX's first call on a worker traces and compiles: 50 s more, once per worker."""
+    assert remaining_seconds([DEAR] * 3, [], [], 2, PRIOR) == pytest.approx(61.8 + 11.8)
+    # One worker has run it already: one cold call left.
+    warm = {DEAR.kinds[0]: 1}
+    assert remaining_seconds([DEAR] * 2, [], [], 2, PRIOR, warm) == pytest.approx(61.8)
+    both = {DEAR.kinds[0]: 2}
+    assert remaining_seconds([DEAR] * 2, [], [], 2, PRIOR, both) == pytest.approx(11.8)
 
 
-def test_a_cold_call_counts_only_while_no_warm_one_is_known():
-    """MJX's first call on a worker traces and compiles (71 s), its later ones 8 s."""
-    mjx_float64 = CallCost(kinds=(("mjx", "tuned", "precision=float64"), "mjx"), steps=1000)
-    finished = [Took(DEAR, 71.0, cold=True)]
-    assert remaining_seconds([DEAR], [], finished, 1, {}) == pytest.approx(71.0)
-    finished.append(Took(mjx_float64, 8.0))  # warm, of another variant of the engine
-    assert remaining_seconds([DEAR], [], finished, 1, {}) == pytest.approx(8.0)
+def test_a_call_that_steps_nothing_costs_its_fixed_part():
+    """A call that steps nothing (a map's classification) costs its fixed part."""
+    point = CallCost(kinds=((MAP, "reference"),), steps=0)
+    prior = {(MAP, "reference"): Rates(0.5, 0.0)}
+    assert remaining_seconds([point] * 4, [], [], 2, prior) == pytest.approx(1.0)
+    assert remaining_seconds([point], [], [Took(point, 1.0)], 1, prior) == pytest.approx(1.0)
 
 
 @dataclass(frozen=True)
@@ -100,17 +135,22 @@ class SuiteLike:
     variant: str = "default"
 
 
-def test_a_batch_counts_once_at_its_longest_world():
+def test_a_batch_counts_once_at_its_longest_world_with_its_worlds():
     call = call_cost([SuiteLike("mjx", 3000), SuiteLike("mjx", 1000)])
     assert call.steps == 3000
+    assert call.worlds == 2
     assert call.kinds == (("mjx", "tuned", "default"), "mjx")
 
 
-def test_every_engine_has_a_prior():
+def test_every_engine_the_map_and_the_report_have_a_prior():
     from hoopbench.engines.registry import engine_names
 
-    assert set(engine_names()) <= set(STEP_COST_PRIOR)
-    assert all(rate > 0 for rate in STEP_COST_PRIOR.values())
+    assert set(engine_names()) <= set(CALL_COST_PRIOR)
+    assert {(MAP, "reference"), (MAP, "mujoco"), (MAP, "pybullet"), (MAP, "pymunk")} <= set(
+        CALL_COST_PRIOR
+    )
+    assert REPORT in CALL_COST_PRIOR
+    assert all(r.fixed_s + r.step_s + r.world_step_s > 0 for r in CALL_COST_PRIOR.values())
 
 
 def _kinds(tasks):
@@ -118,12 +158,15 @@ def _kinds(tasks):
     return CallCost(kinds=(job.kind,), steps=1)
 
 
+SLEEP_PRIOR = {"sleep": Rates(3600.0, 0.0), "ok": Rates(0.0, 0.0)}
+
+
 def test_the_progress_line_says_the_costed_eta(tmp_path):
     """Two 'sleep' calls left after the first 'ok' one, each a known hour: the line says
     2 hours, where the count of calls would say a few milliseconds."""
     jobs = [Job("ok-0"), Job("sleep-1", "sleep"), Job("sleep-2", "sleep")]
     log = io.StringIO()
-    costing = Costing(cost=_kinds, prior={"sleep": 3600.0, "ok": 0.0})
+    costing = Costing(cost=_kinds, prior=SLEEP_PRIOR)
     run_tasks(jobs, job_worker, tmp_path / "out", jobs=1, max_in_flight=1, quiet=False,
               stream=log, failure_row=job_failure_row, costing=costing)  # fmt: skip
     first = log.getvalue().splitlines()[0]
@@ -141,3 +184,122 @@ def test_a_broken_cost_model_leaves_the_sweep_and_the_count_eta(tmp_path):
                         jobs=1, quiet=False, stream=log, costing=Costing(_broken, {}))  # fmt: skip
     assert summary.completed and summary.total == 3
     assert log.getvalue().splitlines()[-1].endswith("eta 0s")
+
+
+def _plan() -> Plan:
+    sleep = CallCost(kinds=("sleep",), steps=1)
+    later = PlannedSweep("finer", 2, (sleep, sleep))  # 2 hours on 1 worker
+    first = PlannedSweep("default", 3, ())
+    report = CallCost(kinds=(REPORT,), steps=0)
+    return Plan("make report", [first, later], {**SLEEP_PRIOR, REPORT: Rates(600.0, 0.0)}, 1,
+                after=(report,))  # fmt: skip
+
+
+def test_the_overall_line_counts_every_sweeps_runs_and_time(tmp_path):
+    """A plan of two sweeps and a report: the first sweep's lines end with the overall line,
+    its runs of all five and an ETA of its own 2 hours left, the next sweep's 2 hours from
+    its prior, and the report's 10 minutes; the next sweep's lines count on from 3."""
+    plan = _plan()
+    jobs = [Job("ok-0"), Job("sleep-1", "sleep"), Job("sleep-2", "sleep")]
+    costing = Costing(cost=_kinds, prior=SLEEP_PRIOR)
+    log = io.StringIO()
+    token = current_plan.set(plan)
+    try:
+        run_tasks(jobs, job_worker, tmp_path / "a", jobs=1, max_in_flight=1, quiet=False,
+                  stream=log, failure_row=job_failure_row, costing=costing)  # fmt: skip
+        run_tasks([Job("ok-3"), Job("ok-4")], job_worker, tmp_path / "b", jobs=1, quiet=False,
+                  stream=log, failure_row=job_failure_row, costing=costing)  # fmt: skip
+    finally:
+        current_plan.reset(token)
+    lines = log.getvalue().splitlines()
+    assert lines[0].endswith(
+        "eta 2h00m; make report: step 1 of 2 (default), runs 1/5, eta 4h10m"
+    ), lines[0]
+    assert "; make report: step 2 of 2 (finer), runs 5/5, eta " in lines[-1], lines
+    assert len(plan.finished) == 5  # both sweeps' calls: the second learns from the first
+
+
+def test_a_later_sweep_is_expected_at_the_factor_the_finished_calls_measured():
+    """The first suite's sleep calls took half their prior: the next suite's sleep calls,
+    not started, are expected at half theirs (and the report at the machine's factor)."""
+    plan = _plan()
+    plan.begin(3)
+    plan.finished.append(Took(CallCost(kinds=("sleep",), steps=1), 1800.0))
+    assert plan.later_seconds() == pytest.approx(2 * 1800.0 + 300.0)
+    assert plan.text(1, 0.0) == "make report: step 1 of 2 (default), runs 1/5, eta 1h05m"
+
+
+def test_the_fit_finds_the_fixed_and_per_step_parts():
+    """Calls made by known rates (0.3 s + 20 us a step, 2 s more cold) give them back."""
+    calls = [
+        {"kinds": ["x"], "steps": s, "worlds": 1, "seconds": 0.3 + 2e-5 * s + 2.0 * c, "cold": c}
+        for s, c in ((1000, True), (1000, False), (30000, False), (120000, False), (6000, True))
+    ]
+    rates = fit(calls)["x"]
+    assert rates.fixed_s == pytest.approx(0.3)
+    assert rates.step_s == pytest.approx(2e-5)
+    assert rates.cold_s == pytest.approx(2.0)
+    assert json.loads(json.dumps(calls[0]))["kinds"] == ["x"]
+
+
+def test_the_accuracy_is_read_from_a_stamped_log():
+    """Lines at 10 % and 50 % of a suite: ETA over the real time left until its last line;
+    the overall one's until the log's last (the report step after the runs)."""
+    lines = [
+        (0.0, "make report: suite 1 of 1 (default) -> out/default"),
+        (
+            10.0,
+            "[1/10] a: ok; no failures; elapsed 10s, eta 1m30s; make report: step 1 of 1 "
+            "(default), runs 1/10, eta 3m00s",
+        ),
+        (50.0, "[5/10] b: ok; no failures; elapsed 50s, eta 25s"),
+        (100.0, "[10/10] c: ok; no failures; elapsed 1m40s, eta 0s"),
+        (130.0, "make report: the report of the 3 suites -> out"),  # the report's 30 s
+    ]
+    table = accuracy(lines)
+    assert table["default"][:3] == [pytest.approx(1.0), pytest.approx(25 / 50),
+                                    pytest.approx(25 / 50)]  # fmt: skip
+    assert table["overall"][0] == pytest.approx(180 / 120)
+    assert seconds_of("1h02m") == 3720.0
+
+
+def test_report_runs_runs_make_reports_steps_in_order_under_one_plan(tmp_path, monkeypatch):
+    """Each step as its own command (compare, map), in make report's order and options,
+    each with the plan set; a step that fails stops the rest with its exit code. The plan
+    is worked out from the real suites (about 1 s)."""
+    import argparse
+
+    from hoopbench.reports import cli
+
+    seen: list[tuple[list[str], int]] = []
+
+    def fake_main(argv):
+        plan = current_plan.get()
+        seen.append((argv, plan.total if plan is not None else -1))
+        return 3 if argv[0] == "map" else 0
+
+    monkeypatch.setattr(cli, "main", fake_main)
+    args = argparse.Namespace(out=str(tmp_path), map="--grid 2x2 --engines pymunk", calls=None)
+    assert cli._cmd_report_runs(args) == 3
+    argvs = [argv for argv, _ in seen]
+    assert argvs == [
+        ["compare", "--suite", "default", "--out", str(tmp_path / "default"),
+         "--trajectories", "default"],
+        ["compare", "--suite", "finer", "--out", str(tmp_path / "finer")],
+        ["compare", "--suite", "stability", "--out", str(tmp_path / "stability")],
+        ["map", "--grid", "2x2", "--engines", "pymunk", "--out", str(tmp_path / "map")],
+    ]  # fmt: skip
+    totals = {total for _, total in seen}
+    assert len(totals) == 1 and totals.pop() > 8  # one plan, the map's 4 + 4 runs in it
+    assert current_plan.get() is None
+
+
+def test_the_fit_is_not_pulled_to_nothing_by_calls_that_return_at_once():
+    """A map's points: half return in 2 ms, half take 0.2 s (the ETA's sums need about 0.1
+    s a call). Weighed relative to each call alone, the fit said 2-4 ms (the map's first
+    stage then showed 'eta 0s' with 9 s left)."""
+    calls = [
+        {"kinds": [["map", "reference"]], "steps": 0, "worlds": 1, "seconds": t, "cold": False}
+        for t in (0.002, 0.2) * 5
+    ]
+    assert fit(calls)[("map", "reference")].fixed_s > 0.03

@@ -56,6 +56,7 @@ from hoopbench.engines.stopping import StopRule
 from hoopbench.models.events import Outcome
 from hoopbench.models.scene import DegenerateSceneError
 from hoopbench.reference.regimes import classify_solved
+from hoopbench.reports.compare.costs import MAP_COSTING
 from hoopbench.reports.compare.suite import TIMEOUT_NOTE, batch_least, run_timeout
 from hoopbench.reports.hop_map.display import write_display, write_exact_display
 from hoopbench.reports.hop_map.spec import (
@@ -92,6 +93,7 @@ __all__ = [
     "MapTask",
     "map_batch_key",
     "map_failure_row",
+    "planned_tasks",
     "reference_tasks",
     "run_map",
     "run_map_batch",
@@ -459,6 +461,16 @@ def _prepare(out: Path, spec: MapSpec, resume: bool) -> None:
     results.atomic_write(path, lambda tmp: tmp.write_text(spec.to_toml(), encoding="utf-8"))
 
 
+def planned_tasks(spec: MapSpec) -> tuple[list[MapTask], list[MapTask]]:
+    """The map's tasks as planned before it starts, for their costs: stage 1's, and stage
+    2's as if every point's reference were final (stage 2 leaves out those that are not)."""
+    refs = reference_tasks(spec)
+    engine_tasks = [
+        _engine_task(spec, ref.point, engine, {}, None) for ref in refs for engine in spec.engines
+    ]
+    return refs, engine_tasks
+
+
 def _stage_two_tasks(spec: MapSpec, out: Path) -> tuple[list[MapTask], int]:
     """Engine tasks of the points whose reference row is final, each point's reference task
     before them (stored: skipped, but it puts runs.csv in map order); and how many of those
@@ -558,6 +570,7 @@ def _run_map(
         meta=meta,
         quiet=quiet,
         stream=stream,
+        costing=MAP_COSTING,
     )
     refs = reference_tasks(spec, str(out))
     first = _stage_one(refs, out, common, quiet, stream)

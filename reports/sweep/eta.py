@@ -1,37 +1,46 @@
 """The time a sweep has left, from what its calls are expected to cost.
 
 A sweep's calls differ in cost by orders of magnitude (a pymunk run at dt 1e-3 takes a tenth
-of a second, a MuJoCo Warp batch minutes), and they finish in no particular order: the cheap
-ones first. An ETA from the count of calls finished (elapsed / done * left) is then 5-10
-times off (issue 34). Here each call has a kind (from the most specific, e.g. an engine and
-its settings, to the most general, the engine) and a number of steps (a batch: its longest
-world's, as its worlds step together), and costs its steps times the seconds per step of its
-kind: measured on the warm calls of that kind finished in this sweep, else a prior (a
-shipped estimate, scaled by how much slower than it the finished calls ran here:
-:func:`machine_factor`), else the next, more general kind; else measured on the kind's cold calls;
-else the mean of every finished call. A call is cold when its worker had run no call of its
-most specific kind before: it pays what a worker pays once per settings (MJX traces and
-compiles, 4-10 times the cost of its later calls on 2 CPU cores: 71 s, then 8 s). The
-calls left are then laid out on the workers in the order they are submitted (a call in flight
-keeps its worker for what it has left), and the ETA is when the last one ends.
+of a second, an MJX batch a minute), and they finish in no particular order: the cheap ones
+first. An ETA from the count of calls finished (elapsed / done * left) is then 5-10 times
+off (issue 34).
 
-The runner knows nothing of engines: the caller gives each call's kinds, steps and the
-priors (:class:`Costing`).
+Here each call has kinds (from the most specific, e.g. an engine and its settings, to the
+most general, the engine), a number of steps (a batch: its longest world's, as its worlds
+step together) and of worlds, and a prior for its most specific kind that has one
+(:class:`Rates`): a fixed part that every call pays whatever its steps (a worker's imports,
+model building, tracing and compiling, the exact solve, judging), a part per step and, for
+a batch, a part per world-step, and what a worker's first call of the kind pays once more.
+A call at 1e-4 s is mostly stepping and one at 1e-3 s mostly its fixed part: a prior per
+step alone, measured on the one, is 2-5 times off on the other.
+
+What the priors say is then scaled by what the finished calls measured: by a kind's own
+factor (its finished calls' seconds over what the priors said of them, the most specific
+kind that has any), else by the machine's (:func:`machine_factor`: every finished call's
+seconds over what the priors said of them; a loaded or slower machine scales every kind
+not measured yet alike). The calls left are then laid out on the workers in the order they
+are submitted (a call in flight keeps its worker for what it has left), and the ETA is when
+the last one ends.
+
+The runner knows nothing of engines: the caller gives each call's kinds, steps, worlds and
+the priors (:class:`Costing`).
 """
 
 from __future__ import annotations
 
 import heapq
+from collections import Counter
 from collections.abc import Callable, Hashable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
 __all__ = [
     "CallCost",
     "Costing",
+    "Rates",
     "Took",
+    "kind_factors",
     "machine_factor",
     "remaining_seconds",
-    "seconds_per_step",
 ]
 
 
@@ -42,7 +51,30 @@ class CallCost:
     kinds: tuple[Hashable, ...]
     """From the most specific (an engine and its settings) to the most general (an engine)."""
     steps: float
-    """Steps it takes: a run's, or a batch's longest world's (> 0)."""
+    """Steps it takes: a run's, or a batch's longest world's (>= 0: a call that steps
+    nothing, as the exact classification of a map's point, pays its fixed part)."""
+    worlds: int = 1
+    """Worlds stepped together (a batch's runs; 1 for a run alone)."""
+
+
+@dataclass(frozen=True)
+class Rates:
+    """A kind's whole call in s: ``fixed_s + steps * (step_s + worlds * world_step_s)``, and
+    ``cold_s`` more for a worker's first call of its most specific kind."""
+
+    fixed_s: float
+    """s a call pays whatever its steps (model building, the exact solve, judging)."""
+    step_s: float
+    """s per step (a batch: per step of all its worlds at once)."""
+    world_step_s: float = 0.0
+    """s per step of each world of a batch (0 for an engine that steps one world)."""
+    cold_s: float = 0.0
+    """s a worker's first call of the kind pays more (imports, MJX's tracing and compiling)."""
+
+    def seconds(self, call: CallCost, cold: bool = False) -> float:
+        """The call's seconds by these rates."""
+        per_step = self.step_s + call.worlds * self.world_step_s
+        return self.fixed_s + call.steps * per_step + (self.cold_s if cold else 0.0)
 
 
 @dataclass(frozen=True)
@@ -50,9 +82,9 @@ class Costing:
     """How the runner weighs its calls for the ETA."""
 
     cost: Callable[[Sequence[object]], CallCost]
-    """The tasks of one call (one task, or a batch's) -> its kinds and steps."""
-    prior: Mapping[Hashable, float]
-    """Seconds per step of a kind before any call of it has finished here."""
+    """The tasks of one call (one task, or a batch's) -> its kinds, steps and worlds."""
+    prior: Mapping[Hashable, Rates]
+    """A kind's rates before any call of it has finished here."""
 
 
 @dataclass(frozen=True)
@@ -65,81 +97,110 @@ class Took:
     """Its worker had run no call of its most specific kind before (module docstring)."""
 
 
-def seconds_per_step(finished: Iterable[Took]) -> dict[Hashable, float]:
-    """Kind -> seconds per step measured: the finished calls' seconds over their steps, over
-    every call that has the kind at any level."""
-    seconds: dict[Hashable, float] = {}
-    steps: dict[Hashable, float] = {}
-    for done in finished:
-        call, took = done.call, done.seconds
-        for kind in call.kinds:
-            seconds[kind] = seconds.get(kind, 0.0) + took
-            steps[kind] = steps.get(kind, 0.0) + call.steps
-    return {kind: seconds[kind] / steps[kind] for kind in seconds if steps[kind] > 0}
-
-
-def _expected(
-    call: CallCost,
-    warm: Mapping[Hashable, float],
-    cold: Mapping[Hashable, float],
-    prior: Mapping[Hashable, float],
+def prior_seconds(
+    call: CallCost, prior: Mapping[Hashable, Rates], cold: bool = False
 ) -> float | None:
-    """A call's seconds: the most specific kind measured warm or with a prior, else the
-    most specific measured cold; None without."""
+    """The call's seconds by the prior of its most specific kind that has one; None without."""
     for kind in call.kinds:
-        rate = warm.get(kind, prior.get(kind))
-        if rate is not None:
-            return rate * call.steps
-    for kind in call.kinds:
-        if kind in cold:
-            return cold[kind] * call.steps
+        rates = prior.get(kind)
+        if rates is not None:
+            return rates.seconds(call, cold)
     return None
 
 
-def machine_factor(finished: Sequence[Took], prior: Mapping[Hashable, float]) -> float:
+def _said(finished: Iterable[Took], prior: Mapping[Hashable, Rates]) -> list[tuple[Took, float]]:
+    """The finished calls a prior knows, each with what the prior said of it (> 0)."""
+    pairs = [(done, prior_seconds(done.call, prior, done.cold)) for done in finished]
+    return [(done, said) for done, said in pairs if said is not None and said > 0]
+
+
+def kind_factors(
+    finished: Iterable[Took], prior: Mapping[Hashable, Rates]
+) -> dict[Hashable, float]:
+    """Kind -> its finished calls' seconds over what the priors said of them, over every
+    call that has the kind at any level."""
+    took: dict[Hashable, float] = {}
+    said: dict[Hashable, float] = {}
+    for done, expected in _said(finished, prior):
+        for kind in done.call.kinds:
+            took[kind] = took.get(kind, 0.0) + done.seconds
+            said[kind] = said.get(kind, 0.0) + expected
+    return {kind: took[kind] / said[kind] for kind in said}
+
+
+def machine_factor(finished: Sequence[Took], prior: Mapping[Hashable, Rates]) -> float:
     """How much slower this machine, now, runs the finished calls than the priors say: their
-    seconds over the priors' (the warm calls' if any; 1 with none a prior knows). A loaded
-    machine or a slower one scales the priors of the kinds not measured yet alike."""
-    warm = [done for done in finished if not done.cold] or list(finished)
-    said = [(done.seconds, _expected(done.call, {}, {}, prior)) for done in warm]
-    known = [(took, expected) for took, expected in said if expected]
+    seconds over the priors' (1 with none a prior knows). A loaded machine or a slower one
+    scales the priors of the kinds not measured yet alike."""
+    known = _said(finished, prior)
     if not known:
         return 1.0
-    return sum(took for took, _ in known) / sum(expected for _, expected in known if expected)
+    return sum(done.seconds for done, _ in known) / sum(said for _, said in known)
+
+
+@dataclass(frozen=True)
+class Running:
+    """A call in flight that has started."""
+
+    call: CallCost
+    ran: float
+    """s it has run."""
+    cold: bool = False
+
+
+class _Estimate:
+    """Each call's expected seconds, from the priors scaled by the finished calls."""
+
+    def __init__(self, finished: Sequence[Took], prior: Mapping[Hashable, Rates]) -> None:
+        self.prior = prior
+        self.factors = kind_factors(finished, prior)
+        self.machine = machine_factor(finished, prior)
+        steps = sum(done.call.steps for done in finished)
+        # A call no prior knows: every finished call's mean seconds per step, else per call.
+        self.per_step = sum(d.seconds for d in finished) / steps if steps > 0 else None
+        self.per_call = sum(d.seconds for d in finished) / len(finished) if finished else None
+
+    def seconds(self, call: CallCost, cold: bool) -> float | None:
+        said = prior_seconds(call, self.prior, cold)
+        if said is None:
+            if call.steps > 0 and self.per_step is not None:
+                return self.per_step * call.steps
+            return self.per_call
+        factor = next((self.factors[k] for k in call.kinds if k in self.factors), self.machine)
+        return said * factor
 
 
 def remaining_seconds(
     pending: Sequence[CallCost],
-    running: Sequence[tuple[CallCost, float]],
+    running: Sequence[Running],
     finished: Sequence[Took],
     workers: int,
-    prior: Mapping[Hashable, float],
+    prior: Mapping[Hashable, Rates],
+    warm: Mapping[Hashable, int] | None = None,
 ) -> float | None:
     """Seconds until the sweep ends: ``pending`` calls (in submission order) and the
-    ``running`` ones (each with the seconds it has run) laid out on ``workers`` workers,
-    at the costs of :func:`seconds_per_step`'s measure of the ``finished`` calls, else
-    ``prior`` (module docstring). None when a call has no kind measured or known and no
-    call has finished yet."""
-    warm = seconds_per_step(done for done in finished if not done.cold)
-    cold = seconds_per_step(finished)
-    total_steps = sum(done.call.steps for done in finished)
-    mean = sum(done.seconds for done in finished) / total_steps if total_steps > 0 else None
-    scaled = {kind: rate * machine_factor(finished, prior) for kind, rate in prior.items()}
-
-    def cost(call: CallCost) -> float | None:
-        found = _expected(call, warm, cold, scaled)
-        return found if found is not None or mean is None else mean * call.steps
-
-    free = [0.0] * max(workers, 1)  # when each worker is next free, s from now
-    for call, ran in running:
-        expected = cost(call)
+    ``running`` ones laid out on ``workers`` workers, each at its expected seconds (module
+    docstring). ``warm``: most specific kind -> workers that have run a call of it; the
+    first pending calls of a kind, one per worker that has not, are cold. None when a call
+    has no prior and no call has finished yet."""
+    estimate = _Estimate(finished, prior)
+    workers = max(workers, 1)
+    cold_left = Counter({kind: workers - n for kind, n in (warm or {}).items()})
+    free = [0.0] * workers  # when each worker is next free, s from now
+    for run in running:
+        expected = estimate.seconds(run.call, run.cold)
         if expected is None:
             return None
         # A call past its expected cost has an unknown rest: a tenth of what it has run.
-        rest = expected - ran if expected > ran else 0.1 * ran
+        rest = expected - run.ran if expected > run.ran else 0.1 * run.ran
         heapq.heapreplace(free, free[0] + rest)
     for call in pending:
-        expected = cost(call)
+        kind = call.kinds[0] if call.kinds else None
+        if kind not in cold_left:
+            cold_left[kind] = workers
+        cold = cold_left[kind] > 0
+        cold_left[kind] -= 1
+        expected = estimate.seconds(call, cold)
         if expected is None:
             return None
         heapq.heapreplace(free, free[0] + expected)

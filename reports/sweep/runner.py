@@ -77,8 +77,16 @@ from tqdm import tqdm
 from hoopbench.engines.run import RunStatus
 from hoopbench.reports.sweep import results
 from hoopbench.reports.sweep.control_chars import terminal_text
-from hoopbench.reports.sweep.eta import CallCost, Costing, Took, remaining_seconds
+from hoopbench.reports.sweep.eta import (
+    CallCost,
+    Costing,
+    Rates,
+    Running,
+    Took,
+    remaining_seconds,
+)
 from hoopbench.reports.sweep.folder_files import read_folder_text
+from hoopbench.reports.sweep.plan import Plan, current_plan, duration_text
 
 __all__ = [
     "IDENTITY_NAME",
@@ -852,6 +860,8 @@ class _Progress:
         self.estimate: Callable[[], float | None] | None = None
         """Seconds left from the calls' expected costs (run_tasks sets it given a Costing);
         without it, or while it knows no cost, the ETA assumes every run costs the same."""
+        self.plan: Plan | None = None
+        """The sweeps run in a row that this one is part of: its line ends with theirs."""
         isatty = getattr(stream, "isatty", None)
         self.bar = None
         if not quiet and total and isatty is not None and isatty():
@@ -863,16 +873,28 @@ class _Progress:
         if self.bar is not None:
             self.bar.bar_format = "{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}{postfix}]"
 
-    def eta(self, elapsed: float) -> str:
+    def seconds_left(self, elapsed: float) -> float:
         """The time left: from the calls' expected costs when known, else by count."""
         left = self.total - self.done
         if not left:
-            return "0s"
+            return 0.0
         seconds = None
         if self.estimate is not None:
             with contextlib.suppress(Exception):  # a cost model's bug must not stop a sweep
                 seconds = self.estimate()
-        return _duration(elapsed / self.done * left if seconds is None else seconds)
+        return elapsed / self.done * left if seconds is None else seconds
+
+    def eta(self, elapsed: float) -> str:
+        return _duration(self.seconds_left(elapsed))
+
+    def _plan_text(self, left: float) -> str:
+        """'; make report: step 2 of 4 (finer), runs 500/1244, eta 3m10s', or ''."""
+        if self.plan is None:
+            return ""
+        text = ""
+        with contextlib.suppress(Exception):  # a cost model's bug must not stop a sweep
+            text = f"; {self.plan.text(self.done, left)}"
+        return text
 
     def note(self, text: str) -> None:
         if self.quiet:
@@ -903,8 +925,8 @@ class _Progress:
         if self.bar is not None:
             self.bar.update(1)
             if self.estimate is not None:  # tqdm's own ETA is the count's
-                elapsed = time.monotonic() - self.start
-                text = f"{self._failures_text()}, eta {self.eta(elapsed)}"
+                left = self.seconds_left(time.monotonic() - self.start)
+                text = f"{self._failures_text()}, eta {_duration(left)}{self._plan_text(left)}"
                 self.bar.set_postfix_str(text, refresh=False)
             elif status is not RunStatus.OK:
                 self.bar.set_postfix_str(self._failures_text(), refresh=False)
@@ -915,9 +937,11 @@ class _Progress:
             return
         self.last_line = now
         elapsed = now - self.start
+        left = self.seconds_left(elapsed)
         print(
             f"[{self.done}/{self.total}] {terminal_text(label)}: {status.value}; "
-            f"{self._failures_text()}; elapsed {_duration(elapsed)}, eta {self.eta(elapsed)}",
+            f"{self._failures_text()}; elapsed {_duration(elapsed)}, eta {_duration(left)}"
+            f"{self._plan_text(left)}",
             file=self.stream,
             flush=True,
         )
@@ -927,13 +951,7 @@ class _Progress:
             self.bar.close()
 
 
-def _duration(seconds: float) -> str:
-    seconds = round(seconds)
-    hours, rest = divmod(seconds, 3600)
-    minutes, secs = divmod(rest, 60)
-    if hours:
-        return f"{hours}h{minutes:02d}m"
-    return f"{minutes}m{secs:02d}s" if minutes else f"{secs}s"
+_duration = duration_text
 
 
 class _StopFlag:
@@ -1476,6 +1494,8 @@ class _Calls:
         self.finished: list[Took] = []
         """Each finished call's kinds, steps and the seconds it took (with a Costing)."""
         self._costs: dict[int, CallCost] = {}
+        self.prior: Mapping[Hashable, Rates] = {}
+        """The Costing's priors (and a plan's: its other sweeps' kinds scale the machine)."""
         self._warm: set[tuple[int | None, Hashable]] = set()
         """(worker pid, most specific kind) of the calls run: a worker's next is warm."""
 
@@ -1508,15 +1528,19 @@ class _Calls:
             return None
         now = time.monotonic()
         running, waiting = [], []
+        warm = Counter(kind for _, kind in self._warm)
         for future, attempt in self.in_flight.items():
             start = self._started(future, attempt)
+            call = self._cost(attempt.task)
             if start is None:
-                waiting.append(self._cost(attempt.task))
-            else:
-                running.append((self._cost(attempt.task), now - start))
+                waiting.append(call)
+                continue
+            worker = (getattr(future, "worker_pid", None), call.kinds[0] if call.kinds else None)
+            cold = worker not in self._warm
+            warm[worker[1]] += cold  # its worker is warm for the calls after it
+            running.append(Running(call, now - start, cold))
         pending = waiting + [self._cost(attempt.task) for attempt in self.queue]
-        prior = self.costing.prior
-        return remaining_seconds(pending, running, self.finished, self.workers, prior)
+        return remaining_seconds(pending, running, self.finished, self.workers, self.prior, warm)
 
     @property
     def unfinished(self) -> int:
@@ -1738,6 +1762,7 @@ def run_tasks(
         task_order = [t.run_id for t in tasks]
         if resume and not todo and tasks:
             note(f"resume: nothing to run, all {len(tasks)} runs are stored with a final status")
+            _join_plan(None, None)  # the plan's next sweep, if any, has nothing left
             missing = [n for n in (results.CSV_NAME, results.META_NAME) if not (out / n).exists()]
             if missing:
                 _finalize(out, task_order, meta, started_at, wall_start, True, session)
@@ -1760,8 +1785,10 @@ def run_tasks(
         calls = _Calls(sweep, pool, executor is None, units, in_flight_limit, batch_worker, remark)
         if costing is not None:
             calls.costing = costing
+            calls.prior = costing.prior
             calls.workers = getattr(pool, "max_workers", None) or in_flight_limit
             progress.use_estimate(calls.remaining)
+        _join_plan(calls, progress)
         stopped_by = _drive(calls, handle_signals, tick=0.1 if timeout is not None else 0.25)
         if stopped_by is None:
             _finalize(out, task_order, meta, started_at, wall_start, resume, session)
@@ -1774,6 +1801,23 @@ def run_tasks(
             unfinished=calls.unfinished,
             notes=tuple(notes),
         )
+
+
+def _join_plan(calls: _Calls | None, progress: _Progress | None) -> None:
+    """With a plan running (plan.current_plan), this sweep is its next: its calls add to the
+    plan's finished ones (and learn from them), its lines end with the plan's. Without
+    calls, the sweep has nothing to run."""
+    plan = current_plan.get()
+    if plan is None:
+        return
+    if calls is None or progress is None:
+        plan.begin(0)
+        plan.end(0)
+        return
+    plan.begin(progress.total)
+    calls.finished = plan.finished
+    calls.prior = {**plan.prior, **calls.prior}
+    progress.plan = plan
 
 
 def _drive(calls: _Calls, handle_signals: bool, tick: float) -> signal.Signals | None:
@@ -1789,4 +1833,6 @@ def _drive(calls: _Calls, handle_signals: bool, tick: float) -> signal.Signals |
         finally:
             calls.stop()
             calls.sweep.close(failed)
+            if calls.sweep.progress.plan is not None:
+                calls.sweep.progress.plan.end(calls.sweep.progress.done)
     return stopped_by
