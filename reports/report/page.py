@@ -46,7 +46,7 @@ from hoopbench.reports.report.page_map import map_fragment
 from hoopbench.reports.report.page_script import FILTER_COLUMNS, PAGE_SCRIPT, PAGE_STYLE
 from hoopbench.reports.sweep import results
 
-__all__ = ["PAGE_NAME", "page_fragments", "render_page", "write_gif", "write_page"]
+__all__ = ["PAGE_NAME", "gif_runs", "page_fragments", "render_page", "write_gif", "write_page"]
 
 Fragments = dict[str, Callable[[], str]]
 """A figure file's name in report.md -> what the page shows in its place (made when needed)."""
@@ -206,15 +206,22 @@ def render_page(markdown_text: str, out: Path, fragments: Fragments) -> str:
     )
 
 
+def gif_runs(frame: pd.DataFrame) -> bool:
+    """Whether the report has hop-top's exact and engine trajectories (write_gif draws them)."""
+    if frame.empty or GIF_SCENE not in scene_names():
+        return False
+    rows = drawn_rows(_split(frame)[0], GIF_SCENE)
+    engines = set() if rows.empty else set(rows["engine"])  # none: maybe no columns either
+    return REFERENCE_ENGINE in engines and len(engines) >= 2
+
+
 def write_gif(frame: pd.DataFrame, out: Path, say: Say | None = None) -> Path | None:
     """out/hop-top.gif (hoop_gif.py), when the report has hop-top's exact and engine
-    trajectories; `make findings` copies it to reports/img/ for the README."""
-    if frame.empty or GIF_SCENE not in scene_names():
+    trajectories (gif_runs); `make findings` copies it to reports/img/ for the README."""
+    if not gif_runs(frame):
         return None
     runs, _ = _split(frame)
     trajectories = stored_trajectories(runs, GIF_SCENE)
-    if REFERENCE_ENGINE not in trajectories or len(trajectories) < 2:
-        return None
     if say is not None:
         say(f"the animation {GIF_SCENE}.gif")
     scene = get_scene(GIF_SCENE)
