@@ -1,13 +1,14 @@
 """How the report draws (issue 34, the report step): its figures in a FigurePool beside the
-tables, every drawing finished before report.md lists the folder, and the page's numbers
-rounded as before.
+tables, every drawing finished before report.md lists the folder, the page's figures made
+side by side as they would be one by one, and the page's numbers rounded as before.
 
-Cost: about 3 s (two worker processes started once, a stability-only report.md).
+Cost: about 5 s (two worker processes started three times, stability-only reports).
 """
 
 from __future__ import annotations
 
 import math
+import shutil
 import time
 from concurrent.futures import Future
 from pathlib import Path
@@ -16,6 +17,7 @@ import numpy as np
 from test_stability import rows
 
 from hoopbench.reports.report.markdown import FigurePool, write_markdown
+from hoopbench.reports.report.page import _image_sources, write_page
 from hoopbench.reports.report.page_html import rounded
 
 
@@ -65,3 +67,44 @@ def test_the_page_rounds_to_five_significant_digits():
     assert rounded(values) == [1.2346, -0.00012346, None, None]
     assert rounded([123456.7, -0.0, 2.5e-300], digits=2) == [120000.0, -0.0, 2.5e-300]
     assert [type(v) for v in rounded([1.0, 2])] == [float, float]
+
+
+class _Recording(FigurePool):
+    """A pool that notes what it is asked to make."""
+
+    def __init__(self) -> None:
+        super().__init__(2)
+        self.made: list[str] = []
+
+    def submit(self, function, *args):
+        self.made.append(function.__name__)
+        return super().submit(function, *args)
+
+
+def test_the_page_makes_its_figures_side_by_side_as_it_would_alone(tmp_path):
+    """The figures report.md shows, made in the pool: the same page as made one by one."""
+    alone, side = tmp_path / "alone", tmp_path / "side"
+    alone.mkdir()
+    write_markdown(rows(), alone, generated="now")
+    shutil.copytree(alone, side)
+    write_page(rows(), alone)
+    with _Recording() as pool:
+        write_page(rows(), side, pool=pool)
+    assert pool.made == ["_figure_html"]  # the stability matrix: the one figure it shows
+    assert (side / "report.html").read_text() == (alone / "report.html").read_text()
+
+
+def test_the_page_knows_which_figures_report_md_shows():
+    text = "\n".join(
+        [
+            "# r",
+            "![a [b] c](one.png)",
+            "",
+            "| x | y |",
+            "|---|---|",
+            "| ![in a table](two.png) | 1 |",
+            "",
+            "`![code](three.png)` and \\![escaped](four.png)",
+        ]
+    )
+    assert _image_sources(text) == {"one.png", "two.png"}

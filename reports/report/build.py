@@ -154,7 +154,7 @@ def build_report(
             awaited=drawing,
         )
         prefixes = map_prefixes(len(maps))
-        write_page(frame, out, maps=maps, map_prefixes=prefixes, searches=found, say=say)
+        write_page(frame, out, maps=maps, map_prefixes=prefixes, searches=found, say=say, pool=pool)
     return report
 
 
