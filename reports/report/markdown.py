@@ -835,8 +835,9 @@ class FigurePool:
     Arrow's threads, which a fork would copy mid-flight), started at the first call; with
     fewer than 2 (one core, or too few calls to gain from it) each call is drawn here when
     it is submitted. Measured on a 3-engine default report: 20.0 s drawn here, 12.8 s so.
-    Each worker holds its own matplotlib and pandas (about 500 MB at most on make report's
-    results, the GIF's frames included)."""
+    Each worker holds its own matplotlib and pandas (under 500 MB on make report's results,
+    the GIF's frames included; the report's own process then peaks at about 400 MB, not
+    590)."""
 
     def __init__(self, workers: int = FIGURE_WORKERS) -> None:
         self.workers = max(1, min(workers, os.cpu_count() or 1))
