@@ -14,6 +14,7 @@ the rows: none is written by hand.
 from __future__ import annotations
 
 import hashlib
+import os
 import shutil
 from collections.abc import Callable, Sequence
 from functools import partial
@@ -338,7 +339,10 @@ def figure_key(frame: pd.DataFrame, name: str) -> str:
 
     digest = hashlib.sha256(f"{name}\0{matplotlib.__version__}\0".encode())
     for module in (map_figures, plotting):
-        digest.update(Path(str(module.__file__)).read_bytes())
+        try:
+            digest.update(Path(str(module.__file__)).read_bytes())
+        except OSError:  # code not readable as a file (a zipped install): a key never reused
+            digest.update(os.urandom(16))
     digest.update(frame.to_csv(index=False).encode())  # floats as repr: every digit
     return digest.hexdigest()
 
