@@ -525,7 +525,7 @@ def test_a_full_disk_when_a_resumed_map_draws(monkeypatch, small_map, tmp_path, 
 
     folder = copy_of(small_map, tmp_path)
 
-    def full(frame, out, prefix="map"):
+    def full(frame, out, prefix="map", **_):
         raise full_disk(Path(out) / f"{prefix}_regimes.png")
 
     monkeypatch.setattr(map_section, "write_map_figures", full)

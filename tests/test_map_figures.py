@@ -478,3 +478,39 @@ def test_engines_at_their_own_step_are_named_with_it(tmp_path):
     assert map_figures._engine_label(frame, "mujoco") == "mujoco (dt 0.0001 s)"
     frame.loc[engines, "timestep"] = 1e-4
     assert map_figures._engine_label(frame, "mjx") == "mjx"
+
+
+def test_a_report_copies_the_maps_own_figures_of_the_same_data(tmp_path):
+    """`hoopbench map` draws its figures, and the report's are the same pictures of the same
+    rows: copied, not drawn again; rows that changed since (a resumed map) are drawn anew,
+    and so is a figure whose file lost its key. Cost: about 2 s (three figures drawn twice)."""
+    from hoopbench.reports.report.map_section import write_map_figures
+
+    frame = synthetic_frame(4, 3)
+    drawn: list[str] = []
+
+    def draw(function, *args):
+        drawn.append(Path(args[1]).name)
+        return function(*args)
+
+    own, report = tmp_path / "map", tmp_path / "report"
+    names = ["map_regimes.png", "map_verdicts.png", "map_hop_error.png"]
+    assert [p.name for p in write_map_figures(frame, own, draw=draw)] == names
+    assert drawn == names
+    drawn.clear()
+    paths = write_map_figures(frame, report, draw=draw, drawn_in=own)
+    assert drawn == [] and [p.read_bytes() for p in paths] == [
+        (own / n).read_bytes() for n in names
+    ]
+    write_map_figures(frame, report, draw=draw, drawn_in=own)
+    assert drawn == []  # already there, of the same data
+    changed = frame.copy()
+    changed.loc[changed.index[-1], "verdict"] = str(Verdict.FALSE_HOP)
+    write_map_figures(changed, report, draw=draw, drawn_in=own)
+    assert drawn == names
+    drawn.clear()
+    with Image.open(own / names[0]) as image:
+        image.save(own / names[0])  # the pixels alone, no key
+    (report / names[0]).unlink()
+    write_map_figures(frame, report, draw=draw, drawn_in=own)
+    assert drawn == [names[0]]

@@ -37,7 +37,9 @@ import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from itertools import compress
 
+import numpy as np
 import pandas as pd
 
 from hoopbench.engines.judging.columns import Col
@@ -323,15 +325,20 @@ def _worst_transition(
     ``scenes`` that meet ``tier``: how near the tier's edge they are."""
     if Col.MAX_TRANSITION_RATIO not in group.columns:
         return None
-    mine = group[group[Col.SCENE].isin(scenes) & group[Col.VERDICT].isin(tier.verdicts)]
-    ratio = pd.to_numeric(mine[Col.MAX_TRANSITION_RATIO], errors="coerce")
+    # Positions, not a filtered frame: taking rows of every column is most of the cost.
+    mine = np.flatnonzero(group[Col.SCENE].isin(scenes) & group[Col.VERDICT].isin(tier.verdicts))
+    ratio = pd.to_numeric(group[Col.MAX_TRANSITION_RATIO].iloc[mine], errors="coerce")
     if ratio.isna().all():
         return None
-    row = mine.iloc[int(ratio.fillna(-math.inf).to_numpy().argmax())]
-    error = number_or_none(row.get(Col.MAX_TRANSITION_ERR_MS))
+    at = int(mine[int(ratio.fillna(-math.inf).to_numpy().argmax())])
+
+    def value(column: str) -> object:
+        return group[column].iloc[at] if column in group.columns else None
+
+    error = number_or_none(value(Col.MAX_TRANSITION_ERR_MS))
     return WorstTransition(
-        str(row[Col.SCENE]),
-        str(row[Col.MAX_TRANSITION]),
+        str(value(Col.SCENE)),
+        str(value(Col.MAX_TRANSITION)),
         math.nan if error is None else error,
         float(ratio.max()),
     )
@@ -355,18 +362,21 @@ def _choice(
     key: tuple, group: pd.DataFrame, scenes: Sequence[str], tier: AccuracyTier, clock: str
 ) -> Choice:
     setting = Setting(str(key[0]), str(key[1]), str(key[2]), float(key[3]))
-    met = group[group[Col.VERDICT].isin(tier.verdicts)][Col.SCENE]
+    # Lists, not a filtered frame per scene: a report weighs some 800 settings a tier.
+    on = group[Col.SCENE].tolist()
+    met = set(compress(on, group[Col.VERDICT].isin(tier.verdicts).tolist()))
+    verdicts: dict[str, set[str]] = {}
+    for scene, verdict in zip(on, group[Col.VERDICT].astype(str).tolist(), strict=True):
+        verdicts.setdefault(scene, set()).add(verdict)
     missed = tuple(
-        (scene, tuple(sorted(set(group[group[Col.SCENE] == scene][Col.VERDICT].astype(str)))))
-        for scene in scenes
-        if scene not in set(met)
+        (scene, tuple(sorted(verdicts.get(scene, ())))) for scene in scenes if scene not in met
     )
     column = Col.CPU_US_PER_STEP if clock == "CPU" else Col.US_PER_STEP
     cost = group[column] if column in group.columns else pd.Series(dtype=float)
     us = float(pd.to_numeric(cost, errors="coerce").median())
     return Choice(
         setting,
-        len(set(met) & set(scenes)),
+        len(met & set(scenes)),
         us,
         us * 1e-6 / setting.timestep,
         _worst_transition(group, scenes, tier),

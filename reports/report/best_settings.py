@@ -13,7 +13,7 @@ from __future__ import annotations
 import io
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -444,6 +444,14 @@ def _panel(ax: Any, best: BestSettings, which: str) -> None:
     ax.grid(True, which="both", alpha=0.3)
 
 
+Draw = Callable[..., object]
+"""Where a section's figure is drawn: called with the drawing function and its arguments."""
+
+
+def _now(function: Callable[..., Path], *args: object) -> Path:
+    return function(*args)
+
+
 def _figure(best: BestSettings, path: Path) -> Path:
     plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
@@ -483,8 +491,12 @@ def _clocks_sentence(found: Sequence[BestSettings]) -> str:
     )
 
 
-def best_settings_section(found: Sequence[BestSettings], out: str | Path) -> str:
-    """The section's Markdown, its figures written to ``out`` (best-settings-ENGINE.png)."""
+def best_settings_section(
+    found: Sequence[BestSettings], out: str | Path, draw: Draw | None = None
+) -> str:
+    """The section's Markdown, its figures written to ``out`` (best-settings-ENGINE.png) by
+    ``draw(function, *args)`` (default: here, now; the report's FigurePool.submit draws them
+    beside its other work)."""
     out = Path(out)
     lines = [
         "## Best settings",
@@ -504,7 +516,7 @@ def best_settings_section(found: Sequence[BestSettings], out: str | Path) -> str
         "the wall time, which grows with that machine's load. " + _clocks_sentence(found),
     ]
     for best, name in zip(found, figure_names(found), strict=True):
-        _figure(best, out / name)
+        (draw or _now)(_figure, best, out / name)
         engine = escape_text(best.engine)
         nth = name.removesuffix(".png").removeprefix(f"best-settings-{file_stem(best.engine)}")
         lines += [

@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from concurrent.futures import Future
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -28,8 +29,8 @@ from hoopbench.reports.report.best_settings import (
     is_tune_folder,
 )
 from hoopbench.reports.report.map_section import is_map_folder, map_prefixes, map_sections
-from hoopbench.reports.report.markdown import Say, SuiteMachine, write_markdown
-from hoopbench.reports.report.page import write_gif, write_page
+from hoopbench.reports.report.markdown import FigurePool, Say, SuiteMachine, write_markdown
+from hoopbench.reports.report.page import GIF_SCENE, gif_runs, write_gif, write_page
 from hoopbench.reports.report.plotting import plain_text
 from hoopbench.reports.sweep import results
 from hoopbench.reports.sweep.folder_files import (
@@ -116,20 +117,30 @@ def build_report(
             f"{len(maps)} map(s), {len(benches)} bench folder(s)")  # fmt: skip
     generated = datetime.now(UTC).isoformat(timespec="seconds")
     # Two reports into one folder would mix their figures: the sweeps' lock serves.
-    with sweep_lock(out), plain_text():  # names from the results are drawn as written
+    # Names from the results are drawn as written (plain_text); the figures are drawn in a
+    # FigurePool beside the tables, the dearest (the GIF) first.
+    with sweep_lock(out), plain_text(), FigurePool() as pool:
         _check_out(out, dirs, force)  # again, under the lock: one may have just finished
+        drawing: list[Future] = []
+
+        def draw(function: Callable[..., Any], *args: Any) -> None:
+            drawing.append(pool.submit(function, *args))
+
+        # The animation before report.md, whose Files section lists what the folder holds.
+        if gif_runs(frame):
+            if say is not None:
+                say(f"the animation {GIF_SCENE}.gif")
+            draw(write_gif, frame, out)
         if maps and say is not None:
             say(f"the hop map section(s) of {len(maps)} map(s)")
-        extra = map_sections(maps, out)
+        extra = map_sections(maps, out, draw)
         if found:
             if say is not None:
                 say(f"the Best settings section of {len(found)} search(es)")
-            extra.append(best_settings_section(found, out))
+            extra.append(best_settings_section(found, out, draw))
         if benches:
             extra.append(batch_cost_section(benches))
         machines = [_suite_machine(d) for d in plain]
-        # The animation before report.md, whose Files section lists what the folder holds.
-        write_gif(frame, out, say)
         report = write_markdown(
             frame,
             out,
@@ -139,9 +150,11 @@ def build_report(
             machines=machines,
             results_dirs=dirs,
             say=say,
+            pool=pool,
+            awaited=drawing,
         )
         prefixes = map_prefixes(len(maps))
-        write_page(frame, out, maps=maps, map_prefixes=prefixes, searches=found, say=say)
+        write_page(frame, out, maps=maps, map_prefixes=prefixes, searches=found, say=say, pool=pool)
     return report
 
 

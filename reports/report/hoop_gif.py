@@ -1,5 +1,5 @@
 """The README's top figure: hop-top in motion, every engine's hoop beside the exact one, as a
-GIF (matplotlib's animation with its Pillow writer). The same runs and events as the page's
+GIF (drawn by matplotlib, written by Pillow). The same runs and events as the page's
 animation (:func:`page_animation.hoop_motions`): a panel per run, the exact one first, the
 centre-of-mass path so far over the exact path, and each event written in as it happens,
 its label above it, and a key of the marks below the panels.
@@ -7,7 +7,9 @@ its label above it, and a key of the marks below the panels.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -22,7 +24,11 @@ from hoopbench.reports.report.palette import (
 )
 from hoopbench.reports.report.plotting import pyplot, written_whole
 
-__all__ = ["GIF_FRAMES", "GIF_SCENE", "hoop_gif", "key_handles"]
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+    from PIL import Image
+
+__all__ = ["GIF_FRAMES", "GIF_SCENE", "gif_figure", "gif_frames", "hoop_gif", "key_handles"]
 
 GIF_SCENE = "hop-top"
 """The scene of the README's animation: the catalogue's clearest hop (0.38 m at 1.17 s)."""
@@ -113,9 +119,17 @@ def key_handles() -> list:
 
 def hoop_gif(scene: Scene, motions: list[HoopMotion], out: str | Path) -> Path:
     """Write the GIF (module doc) of ``motions`` (the exact one first) to ``out``."""
-    plt = pyplot()
-    from matplotlib.animation import FuncAnimation, PillowWriter
+    fig, frame = gif_figure(scene, motions)
+    frames = gif_frames(fig, frame, GIF_FRAMES)
+    pyplot().close(fig)
+    out = Path(out)
+    written_whole(out, lambda tmp: _write_gif(frames, tmp))
+    return out
 
+
+def gif_figure(scene: Scene, motions: list[HoopMotion]) -> tuple[Figure, Callable[[int], None]]:
+    """The GIF's figure and the call that moves its artists to frame k of GIF_FRAMES."""
+    plt = pyplot()
     a = scene.a
     x0 = min(float(m.x.min()) for m in motions) - 1.1 * a
     x1 = max(float(m.x.max()) for m in motions) + 1.1 * a
@@ -148,14 +162,65 @@ def hoop_gif(scene: Scene, motions: list[HoopMotion], out: str | Path) -> Path:
     )  # fmt: skip
     times = np.linspace(0.0, max(float(m.t[-1]) for m in motions), GIF_FRAMES)
 
-    def frame(k: int) -> list:
+    def frame(k: int) -> None:
         for artists, motion in zip(panels, motions, strict=True):
             _update(artists, motion, float(times[k]), times)
-        return []
 
-    animation = FuncAnimation(fig, frame, frames=len(times), interval=_FRAME_MS, blit=False)
-    out = Path(out)
-    writer = PillowWriter(fps=1000 // _FRAME_MS)
-    written_whole(out, lambda tmp: animation.save(tmp, writer=writer, dpi=_DPI))
-    plt.close(fig)
-    return out
+    return fig, frame
+
+
+def gif_frames(fig: Figure, frame: Callable[[int], None], n: int) -> list[Image.Image]:
+    """The ``n`` frames of ``fig`` at _DPI, ``frame(k)`` moving its artists to frame k.
+
+    The same pixels as matplotlib's animation writer (FuncAnimation.save with PillowWriter,
+    which drew every frame twice, once at the figure's own dpi and once at the writer's) for
+    a third of its time: what does not move (the figure's background and the key) is drawn
+    once, and each frame restores it and draws the panels alone over it. Drawing the key
+    first rather than after the panels changes no pixel: it lies below them and no panel's
+    drawing (clipped to its axes) nor label reaches it (tests/test_report_gif.py compares
+    each frame with a whole figure's drawing)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig.set_dpi(_DPI)
+    canvas = FigureCanvasAgg(fig)
+    panels = list(fig.axes)
+    for ax in panels:
+        ax.set_visible(False)
+    canvas.draw()
+    background = canvas.copy_from_bbox(fig.bbox)
+    for ax in panels:
+        ax.set_visible(True)
+    renderer = canvas.get_renderer()
+    frames = []
+    for k in range(n):
+        frame(k)
+        canvas.restore_region(background)
+        for ax in panels:  # in the figure's own order (all of zorder 0), as Figure.draw
+            ax.draw(renderer)
+        frames.append(_frame_image(canvas))
+    return frames
+
+
+def _frame_image(canvas: Any) -> Image.Image:
+    """The canvas as PillowWriter keeps a frame: RGB when it is opaque (GIF's palette is
+    then chosen better), RGBA when not."""
+    from PIL import Image
+
+    width, height = canvas.get_width_height()
+    image = Image.frombuffer(
+        "RGBA", (width, height), bytes(canvas.buffer_rgba()), "raw", "RGBA", 0, 1
+    )
+    extrema: Any = image.getextrema()  # per band: (least, most)
+    return image.convert("RGB") if extrema[3][0] == 255 else image
+
+
+def _write_gif(frames: list[Image.Image], path: Path) -> None:
+    """The frames as an endless GIF, _FRAME_MS apart (as PillowWriter at 1000 // _FRAME_MS
+    frames a second writes them)."""
+    frames[0].save(
+        path,
+        save_all=True,
+        append_images=frames[1:],
+        duration=int(1000 / (1000 // _FRAME_MS)),
+        loop=0,
+    )

@@ -2,7 +2,9 @@
 its hop-height error, drawn from a map frame (:func:`hoopbench.reports.hop_map.map_frame`).
 
 Each figure function takes the frame and a path, writes one PNG there and returns the path;
-none reads a file. The cells to colour come from small pure functions
+none reads a file. Its ``key`` (map_section.figure_key: what it was drawn from) is kept in the
+PNG as the text entry :data:`FIGURE_KEY`, so that a report copies the map folder's figure of
+the same data rather than drawing it again. The cells to colour come from small pure functions
 (:func:`regime_cells`, :func:`verdict_cells`, :func:`hop_ratio_cells`) that return arrays of
 shape (ny, nx), row iy and column ix, NaN where nothing is drawn; the figures draw exactly
 those arrays, so tests check the data and not the pixels.
@@ -35,6 +37,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DPI",
+    "FIGURE_KEY",
     "HOP_REGIMES",
     "PANEL_SIZE",
     "REGIME_COLOURS",
@@ -333,17 +336,21 @@ def _categorical(ax: Axes, grid: MapGrid, cells: np.ndarray, colours: list[str])
     )
 
 
-def _save(fig: Figure, path: str | Path) -> Path:
+FIGURE_KEY = "hoopbench map figure"
+"""The PNG text entry holding what a map figure was drawn from (map_section.figure_key)."""
+
+
+def _save(fig: Figure, path: str | Path, key: str | None) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    return save(fig, path, dpi=DPI)
+    return save(fig, path, dpi=DPI, metadata=None if key is None else {FIGURE_KEY: key})
 
 
 def _message(ax: Axes, text: str) -> None:
     ax.text(0.5, 0.5, text, transform=ax.transAxes, ha="center", va="center", fontsize=9)
 
 
-def regime_figure(frame: pd.DataFrame, path: str | Path) -> Path:
+def regime_figure(frame: pd.DataFrame, path: str | Path, key: str | None = None) -> Path:
     """The reference's regime map (left, one colour per regime, a legend of those present)
     and its hop height where it hops (right, log colour scale: hop heights on a map span
     decades, from a millimetre to the hoop's size)."""
@@ -374,7 +381,7 @@ def regime_figure(frame: pd.DataFrame, path: str | Path) -> Path:
         fig.legend(
             handles=handles, loc="outside lower center", ncols=min(len(handles), 4), fontsize=8
         )
-    return _save(fig, path)
+    return _save(fig, path, key)
 
 
 def _engine_label(frame: pd.DataFrame, engine: str) -> str:
@@ -395,7 +402,7 @@ def _agreement_title(label: str, cells: np.ndarray) -> str:
     return f"{label}: agrees on {rate} ({agree}/{n})"
 
 
-def verdict_figure(frame: pd.DataFrame, path: str | Path) -> Path:
+def verdict_figure(frame: pd.DataFrame, path: str | Path, key: str | None = None) -> Path:
     """Per engine (one panel each, shared axes) the points where its verdict is not
     ``agrees``, coloured by verdict; agreeing points faint, points without an exact answer
     white. Each title gives the share of judged points whose verdict is ``agrees``."""
@@ -419,14 +426,14 @@ def verdict_figure(frame: pd.DataFrame, path: str | Path) -> Path:
     no_verdict = "no verdict (no exact answer, too small to see, or not run)"
     handles.append(Patch(facecolor=NOT_JUDGED, edgecolor="0.6", label=no_verdict))
     fig.legend(handles=handles, loc="outside lower center", ncols=min(len(handles), 5), fontsize=8)
-    return _save(fig, path)
+    return _save(fig, path, key)
 
 
 _RATIO_LIMIT = 3.0
 """The colour scale's end, in factors of 2 (x8): beyond, the colour saturates."""
 
 
-def hop_error_figure(frame: pd.DataFrame, path: str | Path) -> Path:
+def hop_error_figure(frame: pd.DataFrame, path: str | Path, key: str | None = None) -> Path:
     """Per engine, its hop height over the exact one where both hop, on a log2 colour scale
     centred on 1 (a ratio, not engine - exact: hop heights across a map span decades, and
     equal colours mean equal factors whatever the height; the lines mark the loose
@@ -462,4 +469,4 @@ def hop_error_figure(frame: pd.DataFrame, path: str | Path) -> Path:
     for factor in (1 + loose, 1 - loose):  # the verdict's hop-size rule (loose)
         bar.ax.axhline(math.log2(factor), color="k", lw=1.0)
     bar.set_label(f"engine / exact hop height (lines: loose tolerance, {100 * loose:g} %)")
-    return _save(fig, path)
+    return _save(fig, path, key)

@@ -13,7 +13,11 @@ the rows: none is written by hand.
 
 from __future__ import annotations
 
+import hashlib
+import os
+import shutil
 from collections.abc import Callable, Sequence
+from functools import partial
 from pathlib import Path
 
 import pandas as pd
@@ -26,16 +30,21 @@ from hoopbench.reports.hop_map.spec import AXES, MAP_FILE, Axis, MapSpec, load_s
 from hoopbench.reports.hop_map.table import ALL_REGIMES, agreement_table, map_frame
 from hoopbench.reports.report.escaping import escape_cell, escape_text
 from hoopbench.reports.report.map_figures import (
+    FIGURE_KEY,
     engines_of,
     hop_error_figure,
     regime_figure,
     verdict_figure,
 )
+from hoopbench.reports.report.plotting import written_whole
 from hoopbench.reports.sweep import results
+from hoopbench.reports.sweep.folder_files import MAX_DATA_BYTES, FolderFileError, folder_file
 
 __all__ = [
     "MAP_MARKDOWN",
     "agreement_markdown",
+    "drawn_key",
+    "figure_key",
     "is_map_folder",
     "map_findings",
     "map_prefixes",
@@ -312,19 +321,86 @@ def _agreement_cell(count: int, judged: int, pct: float) -> str:
     return f"{count}/{judged} ({pct:.0f} %)" if judged else "-"
 
 
-def write_map_figures(frame: pd.DataFrame, out: str | Path, *, prefix: str = "map") -> list[Path]:
+Draw = Callable[..., object]
+"""Where a figure is drawn: called with the drawing function and its arguments."""
+
+
+def _now(function: Callable[..., Path], *args: object) -> Path:
+    return function(*args)
+
+
+def figure_key(frame: pd.DataFrame, name: str) -> str:
+    """What a map figure is drawn from, as a sha256: the figure's name, the frame's every
+    value, the drawing code (map_figures.py, plotting.py) and matplotlib's version. Two
+    figures of one key are the same picture."""
+    import matplotlib
+
+    from hoopbench.reports.report import map_figures, plotting
+
+    digest = hashlib.sha256(f"{name}\0{matplotlib.__version__}\0".encode())
+    for module in (map_figures, plotting):
+        try:
+            digest.update(Path(str(module.__file__)).read_bytes())
+        except OSError:  # code not readable as a file (a zipped install): a key never reused
+            digest.update(os.urandom(16))
+    digest.update(frame.to_csv(index=False).encode())  # floats as repr: every digit
+    return digest.hexdigest()
+
+
+def drawn_key(folder: Path, name: str) -> str | None:
+    """The figure key a PNG of ``folder`` holds (None: no such file, or no key)."""
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        path = folder_file(folder, name, MAX_DATA_BYTES)
+        if path is None:
+            return None
+        with Image.open(path) as image:
+            key = image.info.get(FIGURE_KEY)
+    except (FolderFileError, OSError, UnidentifiedImageError, SyntaxError, ValueError):
+        return None  # a figure this report cannot read is drawn again
+    return key if isinstance(key, str) else None
+
+
+def _copy(source: Path, target: Path) -> None:
+    shutil.copyfile(source, target)
+
+
+def write_map_figures(
+    frame: pd.DataFrame,
+    out: str | Path,
+    *,
+    prefix: str = "map",
+    draw: Draw | None = None,
+    drawn_in: Path | None = None,
+) -> list[Path]:
     """The map's figures as ``out/<prefix>_<name>.png`` (the per-engine ones only if the
-    frame has engine rows); their paths."""
+    frame has engine rows), drawn by ``draw(function, *args)`` (default: here, now); their
+    paths. A figure already drawn of the same data (figure_key), in ``out`` or as the map
+    folder ``drawn_in``'s own (``hoopbench map`` drew it), is kept or copied, not drawn."""
     out = Path(out)
     has_engines = bool(engines_of(frame))
-    return [
-        draw(frame, out / f"{prefix}_{name}.png")
-        for name, (draw, _, needs_engines) in _FIGURES.items()
-        if has_engines or not needs_engines
-    ]
+    paths = []
+    for name, (figure, _, needs_engines) in _FIGURES.items():
+        if needs_engines and not has_engines:
+            continue
+        path = out / f"{prefix}_{name}.png"
+        paths.append(path)
+        key = figure_key(frame, name)
+        if drawn_key(out, path.name) == key:
+            continue
+        if drawn_in is not None and drawn_key(drawn_in, f"map_{name}.png") == key:
+            source = drawn_in / f"map_{name}.png"
+            out.mkdir(parents=True, exist_ok=True)
+            written_whole(path, partial(_copy, source))
+            continue
+        (draw or _now)(figure, frame, path, key)
+    return paths
 
 
-def _section(results_dir: Path, out: Path, prefix: str, level: int) -> tuple[str, list[Path]]:
+def _section(
+    results_dir: Path, out: Path, prefix: str, level: int, draw: Draw | None = None
+) -> tuple[str, list[Path]]:
     try:
         spec = load_spec(results_dir)
     except ValueError as exc:  # a folder from elsewhere: say which file is wrong
@@ -339,7 +415,7 @@ def _section(results_dir: Path, out: Path, prefix: str, level: int) -> tuple[str
     lines += [f"{h}# Findings", ""]
     lines += [f"- {escape_text(s)}" for s in map_findings(frame)]
     lines += ["", f"{h}# Figures", ""]
-    figures = write_map_figures(frame, out, prefix=prefix)
+    figures = write_map_figures(frame, out, prefix=prefix, draw=draw, drawn_in=results_dir)
     for path in figures:
         alt = _FIGURES[path.stem.removeprefix(f"{prefix}_")][1]
         lines += [f"![{alt}]({path.name})", ""]
@@ -356,20 +432,31 @@ def _section(results_dir: Path, out: Path, prefix: str, level: int) -> tuple[str
 
 
 def map_section(
-    results_dir: str | Path, out: str | Path | None = None, *, prefix: str = "map", level: int = 2
+    results_dir: str | Path,
+    out: str | Path | None = None,
+    *,
+    prefix: str = "map",
+    level: int = 2,
+    draw: Draw | None = None,
 ) -> str:
     """The Markdown of a map folder's section, its figures written to ``out`` (default: the
-    folder itself) as ``<prefix>_*.png``. ``level``: the heading level of its title."""
+    folder itself) as ``<prefix>_*.png`` by ``draw`` (write_map_figures). ``level``: the
+    heading level of its title."""
     results_dir = Path(results_dir)
     out = results_dir if out is None else Path(out)
-    return _section(results_dir, out, prefix, level)[0]
+    return _section(results_dir, out, prefix, level, draw)[0]
 
 
-def map_sections(results_dirs: Sequence[str | Path], out: str | Path) -> list[str]:
+def map_sections(
+    results_dirs: Sequence[str | Path], out: str | Path, draw: Draw | None = None
+) -> list[str]:
     """The sections of several map folders in one report, figures written to ``out`` with a
-    prefix per folder (map, or map1, map2, ... when there are several)."""
+    prefix per folder (map, or map1, map2, ... when there are several) by ``draw``."""
     prefixes = map_prefixes(len(results_dirs))
-    return [map_section(d, out, prefix=p) for d, p in zip(results_dirs, prefixes, strict=True)]
+    return [
+        map_section(d, out, prefix=p, draw=draw)
+        for d, p in zip(results_dirs, prefixes, strict=True)
+    ]
 
 
 def map_prefixes(n: int) -> list[str]:

@@ -13,7 +13,7 @@ import multiprocessing
 import os
 import platform
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -824,33 +824,68 @@ def _job_name(job: _Job) -> str:
     return name.format(scene)
 
 
-def _drawn(jobs: Sequence[_Job], say: Say | None = None) -> list[Any]:
-    """The results of independent figure-drawing calls, in order. Drawing is most of a
-    report's time and one process draws on one core: the calls run in FIGURE_WORKERS
+FIGURE_WORKERS = 2
+"""Processes that draw a report's figures (the machines this runs on have 2 cores)."""
+
+
+class FigurePool:
+    """Drawing calls run beside the caller's own work (the report's tables): drawing is most
+    of a report's time and one process draws on one core. The calls run in ``workers``
     processes from a fork server (not forked from here: the report has read Parquet with
-    Arrow's threads, which a fork would copy mid-flight), or here when there are too few to
-    gain from it. Measured on a 3-engine default report: 20.0 s drawn here, 12.8 s so.
-    ``say`` hears of each call as it ends ("figures 3/14: contact forces")."""
-    workers = min(FIGURE_WORKERS, os.cpu_count() or 1, len(jobs))
+    Arrow's threads, which a fork would copy mid-flight), started at the first call; with
+    fewer than 2 (one core, or too few calls to gain from it) each call is drawn here when
+    it is submitted. Measured on a 3-engine default report: 20.0 s drawn here, 12.8 s so.
+    Each worker holds its own matplotlib and pandas (under 500 MB on make report's results,
+    the GIF's frames included; the report's own process then peaks at about 400 MB, not
+    590)."""
+
+    def __init__(self, workers: int = FIGURE_WORKERS) -> None:
+        self.workers = max(1, min(workers, os.cpu_count() or 1))
+        self._pool: ProcessPoolExecutor | None = None
+
+    def __enter__(self) -> FigurePool:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+
+    def submit(self, function: Callable[..., Any], *args: Any) -> Future:
+        """The call's future: its result once drawn (its text drawn as written)."""
+        if self.workers < 2:
+            future: Future = Future()
+            try:
+                future.set_result(_draw_plain(function, *args))
+            except Exception as exc:  # raised where its result is asked for, as a worker's
+                future.set_exception(exc)
+            return future
+        if self._pool is None:
+            context = multiprocessing.get_context("forkserver")
+            self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=context)
+        return self._pool.submit(_draw_plain, function, *args)
+
+
+def _submitted(jobs: Sequence[_Job], pool: FigurePool, say: Say | None) -> list[Future]:
     if say is not None:
-        say(f"drawing {len(jobs)} figure groups in {max(workers, 1)} process(es)")
+        say(f"drawing {len(jobs)} figure groups in {pool.workers} process(es)")
+    return [pool.submit(function, *args) for function, args in jobs]
 
-    def done(k: int, job: _Job) -> None:
+
+def _gathered(jobs: Sequence[_Job], futures: Sequence[Future], say: Say | None) -> list[Any]:
+    """The results of the submitted calls, in order; ``say`` hears of each call as it ends
+    ("figures 3/14: contact forces")."""
+    names = {future: _job_name(job) for job, future in zip(jobs, futures, strict=True)}
+    for k, future in enumerate(as_completed(futures), start=1):
         if say is not None:
-            say(f"figures {k}/{len(jobs)}: {_job_name(job)}")
+            say(f"figures {k}/{len(jobs)}: {names[future]}")
+    return [future.result() for future in futures]
 
-    if workers < 2:
-        drawn = []
-        for k, (function, args) in enumerate(jobs, start=1):
-            drawn.append(_draw_plain(function, *args))
-            done(k, (function, args))
-        return drawn
-    context = multiprocessing.get_context("forkserver")
-    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-        futures = {pool.submit(_draw_plain, f, *args): (f, args) for f, args in jobs}
-        for k, future in enumerate(as_completed(futures), start=1):
-            done(k, futures[future])
-        return [future.result() for future in futures]
+
+def _drawn(jobs: Sequence[_Job], say: Say | None = None) -> list[Any]:
+    """The results of independent figure-drawing calls, in order, drawn side by side in a
+    FigurePool of their own (here when there is one call)."""
+    with FigurePool(min(FIGURE_WORKERS, len(jobs))) as pool:
+        return _gathered(jobs, _submitted(jobs, pool, say), say)
 
 
 def _draw_plain(function: Callable[..., Any], *args: Any) -> Any:
@@ -860,11 +895,28 @@ def _draw_plain(function: Callable[..., Any], *args: Any) -> Any:
         return function(*args)
 
 
-FIGURE_WORKERS = 2
-"""Processes that draw a report's figures (the machines this runs on have 2 cores)."""
-
-
 # --------------------------------------------------------------------------- the report
+def _tables(
+    runs: pd.DataFrame, everything: pd.DataFrame, searches: Sequence[BestSettings], out: Path
+) -> dict[str, str]:
+    """The sections of report.md without figures, by name (those of the comparison suites'
+    runs only where there are some)."""
+    tables = {
+        "answer": _answer_section(runs, searches, out),
+        "findings": _findings_section(everything),
+        "all findings": _all_findings_section(everything),
+    }
+    if not runs.empty:
+        tables |= {
+            "scenes": _scenes_section(runs),
+            "readings": _readings_section(runs),
+            "settings": _settings_section(runs),
+            "timestep": _timestep_section(runs),
+            "stability": _stability_section(runs),
+        }
+    return tables
+
+
 def write_markdown(
     frame: pd.DataFrame,
     out: Path,
@@ -875,6 +927,8 @@ def write_markdown(
     machines: Sequence[SuiteMachine] = (),
     results_dirs: Sequence[Path] = (),
     say: Say | None = None,
+    pool: FigurePool | None = None,
+    awaited: Sequence[Future] = (),
 ) -> Path:
     """Write out/report.md with tables and PNG figures; return its path. ``frame`` is unchanged.
     ``machines``: the machine and load of each results folder's sweep (Platform and runs).
@@ -884,12 +938,23 @@ def write_markdown(
     ``searches``: the shipped searches, whose settings the answer weighs too.
     ``results_dirs``: the folders the report reads, listed in its Files section with what
     ``out`` holds once the figures are drawn. ``say`` hears what it is doing, a line a step
-    (:data:`Say`).
+    (:data:`Say`). ``pool``: where the figures are drawn, beside the tables (default: a
+    FigurePool of their own); ``awaited``: other drawings of the report (its GIF, the maps'
+    and the searches' figures) to finish before the Files section lists the folder.
     """
+    if pool is None:
+        with FigurePool() as own:
+            return write_markdown(
+                frame, out, generated=generated, extra=extra, searches=searches,
+                machines=machines, results_dirs=results_dirs, say=say, pool=own,
+                awaited=awaited,
+            )  # fmt: skip
     out = Path(out)
     if frame.empty:  # hop maps alone: no runs table to make sections of
         when = f"Generated {generated} on {platform.platform()}."
         text = "\n".join([_section("# hoopbench report", "", when), *extra])
+        for future in awaited:
+            future.result()
         return results.atomic_write(out / "report.md", lambda tmp: tmp.write_text(text))
     everything = with_optional_columns(frame)
     # Runs on other engine releases (compare --engine-version) have their own section; every
@@ -910,29 +975,23 @@ def write_markdown(
         (_stability_matrix_section, (everything[is_stability], out)),
         (_force_section, (runs, out)),
     ]
-    drawn = _drawn([*head, *both, *tail], say)
-    (seed, _), (stability, _), (forces, _) = drawn[len(head) : len(head) + 3]
+    jobs = [*head, *both, *tail]
+    futures = _submitted(jobs, pool, say)
+    # The tables while the figures are drawn: the tables need none of them.
     if say is not None:
         say("tables: the answer, the findings and the sections of report.md")
-    sections = [
-        _header(),
-        _answer_section(runs, searches, out),
-        _findings_section(everything),
-        seed,
-    ]
+    tables = _tables(runs, everything, searches, out)
+    drawn = _gathered(jobs, futures, say)
+    for future in awaited:
+        future.result()
+    (seed, _), (stability, _), (forces, _) = drawn[len(head) : len(head) + 3]
+    sections = [_header(), tables["answer"], tables["findings"], seed]
     figures = ""
     if not runs.empty:
         run_time, _ = drawn[0]
         figures = _figures_section([path for paths in drawn[len(head) + 3 :] for path in paths])
-        sections += [
-            _scenes_section(runs),
-            _readings_section(runs),
-            forces,
-            _settings_section(runs),
-            _timestep_section(runs),
-            run_time,
-            _stability_section(runs),
-        ]
+        sections += [tables["scenes"], tables["readings"], forces, tables["settings"]]
+        sections += [tables["timestep"], run_time, tables["stability"]]
     # The engines' releases (compare --engine-version): their own section, figure included.
     releases = releases_section(releases_runs, _draw_plain(releases_figure, releases_runs, out))
     sections += [
@@ -940,7 +999,7 @@ def write_markdown(
         figures,
         releases,
         *extra,
-        _all_findings_section(everything),
+        tables["all findings"],
         _platform_section(whole, generated, machines),
         files_section(out, results_dirs),
     ]

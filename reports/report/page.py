@@ -14,7 +14,9 @@ from __future__ import annotations
 import base64
 import re
 from collections.abc import Callable, Sequence
+from functools import partial
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 from markdown_it import MarkdownIt
@@ -29,6 +31,7 @@ from hoopbench.reports.report.findings import MORE_FINDINGS
 from hoopbench.reports.report.hoop_gif import GIF_SCENE, hoop_gif
 from hoopbench.reports.report.markdown import (
     STABILITY_SUITE,
+    FigurePool,
     Say,
     force_panels,
     stored_trajectories,
@@ -46,18 +49,21 @@ from hoopbench.reports.report.page_map import map_fragment
 from hoopbench.reports.report.page_script import FILTER_COLUMNS, PAGE_SCRIPT, PAGE_STYLE
 from hoopbench.reports.sweep import results
 
-__all__ = ["PAGE_NAME", "page_fragments", "render_page", "write_gif", "write_page"]
+__all__ = ["PAGE_NAME", "gif_runs", "page_fragments", "render_page", "write_gif", "write_page"]
 
 Fragments = dict[str, Callable[[], str]]
 """A figure file's name in report.md -> what the page shows in its place (made when needed)."""
 
 
-def _figure(figure_id: str, make: Callable[[], dict | None]) -> Callable[[], str]:
-    def fragment() -> str:
-        figure = make()
-        return "" if figure is None else figure_fragment(figure_id, figure)
+def _figure(figure_id: str, make: Callable[..., dict | None], *args: Any) -> Callable[[], str]:
+    """The fragment of the plotly figure ``make(*args)`` (a call a drawing process can make:
+    module functions and their arguments, no closure)."""
+    return partial(_figure_html, figure_id, make, *args)
 
-    return fragment
+
+def _figure_html(figure_id: str, make: Callable[..., dict | None], *args: Any) -> str:
+    figure = make(*args)
+    return "" if figure is None else figure_fragment(figure_id, figure)
 
 
 def _scene_rows(runs: pd.DataFrame, scene: str) -> pd.DataFrame:
@@ -66,22 +72,27 @@ def _scene_rows(runs: pd.DataFrame, scene: str) -> pd.DataFrame:
 
 
 def _animation(runs: pd.DataFrame, scene: str, figure_id: str) -> Callable[[], str]:
-    def fragment() -> str:
-        trajectories = stored_trajectories(runs, scene)
-        if not trajectories:
-            return ""
-        rows = _scene_rows(runs, scene)
-        motions = hoop_motions(get_scene(scene), trajectories, rows)
-        animation = figure_fragment(figure_id, animation_figure(get_scene(scene), motions))
-        caption = (
-            f"{text(scene)} in motion, every engine that ran it (tuned, default settings, "
-            f"{text(timestep_note(rows))}), the exact hoop first. Each panel marks its run's "
-            "events in the run's colour where its centre of mass was: slip x, lift-off "
-            "triangle, impact square (the key below the strip):"
-        )
-        return f"<p>{caption}</p>{animation}"
+    return partial(_animation_html, runs, scene, figure_id)
 
-    return fragment
+
+def _animation_html(runs: pd.DataFrame, scene: str, figure_id: str) -> str:
+    trajectories = stored_trajectories(runs, scene)
+    if not trajectories:
+        return ""
+    rows = _scene_rows(runs, scene)
+    motions = hoop_motions(get_scene(scene), trajectories, rows)
+    animation = figure_fragment(figure_id, animation_figure(get_scene(scene), motions))
+    caption = (
+        f"{text(scene)} in motion, every engine that ran it (tuned, default settings, "
+        f"{text(timestep_note(rows))}), the exact hoop first. Each panel marks its run's "
+        "events in the run's colour where its centre of mass was: slip x, lift-off "
+        "triangle, impact square (the key below the strip):"
+    )
+    return f"<p>{caption}</p>{animation}"
+
+
+def _force_figure(runs: pd.DataFrame) -> dict | None:
+    return force_page_figure(force_panels(runs))
 
 
 def _split(frame: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -101,13 +112,9 @@ def page_fragments(
     fragments: Fragments = {}
     if not frame.empty:
         runs, stiff = _split(frame)
-        fragments["error_vs_time.png"] = _figure(
-            "error-vs-time", lambda: precision_page_figure(runs)
-        )
-        fragments["stability.png"] = _figure("stability", lambda: stability_page_figure(stiff))
-        fragments["contact_forces.png"] = _figure(
-            "contact-forces", lambda: force_page_figure(force_panels(runs))
-        )
+        fragments["error_vs_time.png"] = _figure("error-vs-time", precision_page_figure, runs)
+        fragments["stability.png"] = _figure("stability", stability_page_figure, stiff)
+        fragments["contact_forces.png"] = _figure("contact-forces", _force_figure, runs)
         for k, scene in enumerate(dict.fromkeys(runs["scene"])):
             if scene in scene_names():
                 fragments[f"paths_{scene}.png"] = _animation(runs, scene, f"motion-{k}")
@@ -119,11 +126,11 @@ def page_fragments(
 
 
 def _best_settings(best: BestSettings, figure_id: str) -> Callable[[], str]:
-    return _figure(figure_id, lambda: best_settings_page_figure(best))
+    return _figure(figure_id, best_settings_page_figure, best)
 
 
 def _map(folder: Path, figure_id: str) -> Callable[[], str]:
-    return lambda: map_fragment(folder, figure_id)
+    return partial(map_fragment, folder, figure_id)
 
 
 # --------------------------------------------------------------------------- rendering
@@ -184,6 +191,19 @@ def _fold_findings(body: str) -> str:
     )
 
 
+def _image_sources(markdown_text: str) -> set[str]:
+    """The figure files report.md shows (its images' sources, as the page's renderer reads
+    them)."""
+    tokens = MarkdownIt("commonmark", {"html": False}).enable("table").parse(markdown_text)
+    return {
+        str(child.attrGet("src") or "")
+        for token in tokens
+        if token.type == "inline"
+        for child in token.children or ()
+        if child.type == "image"
+    }
+
+
 def render_page(markdown_text: str, out: Path, fragments: Fragments) -> str:
     """The whole page: report.md's text with the fragments in place of their figures."""
     md = _renderer(out, fragments)
@@ -206,15 +226,22 @@ def render_page(markdown_text: str, out: Path, fragments: Fragments) -> str:
     )
 
 
+def gif_runs(frame: pd.DataFrame) -> bool:
+    """Whether the report has hop-top's exact and engine trajectories (write_gif draws them)."""
+    if frame.empty or GIF_SCENE not in scene_names():
+        return False
+    rows = drawn_rows(_split(frame)[0], GIF_SCENE)
+    engines = set() if rows.empty else set(rows["engine"])  # none: maybe no columns either
+    return REFERENCE_ENGINE in engines and len(engines) >= 2
+
+
 def write_gif(frame: pd.DataFrame, out: Path, say: Say | None = None) -> Path | None:
     """out/hop-top.gif (hoop_gif.py), when the report has hop-top's exact and engine
-    trajectories; `make findings` copies it to reports/img/ for the README."""
-    if frame.empty or GIF_SCENE not in scene_names():
+    trajectories (gif_runs); `make findings` copies it to reports/img/ for the README."""
+    if not gif_runs(frame):
         return None
     runs, _ = _split(frame)
     trajectories = stored_trajectories(runs, GIF_SCENE)
-    if REFERENCE_ENGINE not in trajectories or len(trajectories) < 2:
-        return None
     if say is not None:
         say(f"the animation {GIF_SCENE}.gif")
     scene = get_scene(GIF_SCENE)
@@ -230,16 +257,26 @@ def write_page(
     map_prefixes: Sequence[str] = (),
     searches: Sequence[BestSettings] = (),
     say: Say | None = None,
+    pool: FigurePool | None = None,
 ) -> Path:
     """Write out/report.html from out/report.md (written first) and the rows it was made of
     (and the searches read back, whose fronts it draws). The README's animation is
     :func:`write_gif`'s, written before report.md (build.py), whose Files section lists it.
-    ``say`` hears what it is doing, a line a step."""
+    ``say`` hears what it is doing, a line a step. ``pool``: where the figures report.md
+    shows are made, side by side (default: here, each as the page needs it)."""
     out = Path(out)
     markdown_text = (out / "report.md").read_text(encoding="utf-8")
     if say is not None:
         say(f"{PAGE_NAME}: its interactive figures and animations")
     fragments = page_fragments(frame, maps, map_prefixes, searches)
+    if pool is not None:  # those report.md shows, made side by side (each a partial)
+        shown = _image_sources(markdown_text)
+        futures = {
+            name: pool.submit(make.func, *make.args)
+            for name, make in fragments.items()
+            if name in shown and isinstance(make, partial) and not make.keywords
+        }
+        fragments |= {name: future.result for name, future in futures.items()}
     page = render_page(markdown_text, out, fragments)
     path = out / PAGE_NAME
     results.atomic_write(path, lambda tmp: tmp.write_text(page, encoding="utf-8"))

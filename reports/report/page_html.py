@@ -10,6 +10,7 @@ writes every ``<``, ``>`` and ``&`` as a JSON ``\\u`` escape, so that no ``</scr
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -31,11 +32,12 @@ the page small (the tables keep the stored numbers)."""
 
 def rounded(values: Any, digits: int = SIGNIFICANT) -> list[float | None]:
     """Numbers to ``digits`` significant digits, as a JSON-ready list (NaN as None: a gap)."""
-    array = np.asarray(values, dtype=float)
-    out: list[float | None] = []
-    for v in array.ravel():
-        out.append(None if not np.isfinite(v) else float(f"{v:.{digits}g}"))
-    return out
+    spec = f".{digits}g"
+    # Python floats (tolist), not NumPy scalars: the page rounds a million numbers or so.
+    return [
+        float(format(v, spec)) if math.isfinite(v) else None
+        for v in np.asarray(values, dtype=float).ravel().tolist()
+    ]
 
 
 def script_json(data: Any) -> str:

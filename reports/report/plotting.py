@@ -94,13 +94,16 @@ def written_whole(path: str | os.PathLike[str], write: Callable[[Path], object])
     )
 
 
-def save(fig: Any, out: str | os.PathLike[str], *, dpi: int) -> Path:
+def save(
+    fig: Any, out: str | os.PathLike[str], *, dpi: int, metadata: dict[str, str] | None = None
+) -> Path:
     """Write ``fig`` to ``out`` whole (:func:`written_whole`) and close it. Every tick label
     drawn as math (a log or symlog axis's, a log colour bar's) is written as plain text first:
     under :func:`plain_text` matplotlib would show ``$\\mathdefault{10^{2}}$`` as written.
     Every text's control characters (a scene's or a setting's name from a file) are drawn as
     their codes (visible_controls): matplotlib has no glyph for them and its "Glyph missing"
-    warning would carry them to the terminal raw."""
+    warning would carry them to the terminal raw. ``metadata``: text entries of the PNG
+    (map_section's figure key), none by default."""
     from matplotlib.text import Text
 
     for text in fig.findobj(Text):
@@ -110,6 +113,7 @@ def save(fig: Any, out: str | os.PathLike[str], *, dpi: int) -> Path:
             axis.set_major_formatter(_plain_formatter(axis.get_major_formatter()))
             axis.set_minor_formatter(_plain_formatter(axis.get_minor_formatter()))
     try:
-        return written_whole(out, lambda tmp: fig.savefig(tmp, dpi=dpi))
+        extra = {} if metadata is None else {"metadata": metadata}
+        return written_whole(out, lambda tmp: fig.savefig(tmp, dpi=dpi, **extra))
     finally:
         pyplot().close(fig)

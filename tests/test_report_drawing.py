@@ -1,0 +1,110 @@
+"""How the report draws (issue 34, the report step): its figures in a FigurePool beside the
+tables, every drawing finished before report.md lists the folder, the page's figures made
+side by side as they would be one by one, and the page's numbers rounded as before.
+
+Cost: about 5 s (two worker processes started three times, stability-only reports).
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+import time
+from concurrent.futures import Future
+from pathlib import Path
+
+import numpy as np
+from test_stability import rows
+
+from hoopbench.reports.report.markdown import FigurePool, write_markdown
+from hoopbench.reports.report.page import _image_sources, write_page
+from hoopbench.reports.report.page_html import rounded
+
+
+def _seen(path: str, within_s: float = 20.0) -> bool:
+    """Whether ``path`` appears within ``within_s`` (a liveness bound, not a measure)."""
+    end = time.monotonic() + within_s
+    while time.monotonic() < end:
+        if Path(path).exists():
+            return True
+        time.sleep(0.02)
+    return False
+
+
+def test_a_submitted_drawing_runs_beside_the_caller(tmp_path):
+    """The call waits for a file the caller makes only after submitting it: drawn here, at
+    submit, it would never see it."""
+    go = tmp_path / "go"
+    with FigurePool(2) as pool:
+        future = pool.submit(_seen, str(go))
+        go.touch()
+        assert future.result() is True
+        assert [f.result() for f in [pool.submit(pow, 2, k) for k in range(4)]] == [1, 2, 4, 8]
+
+
+class _Late(Future):
+    """A drawing that finishes when its result is asked for: its file is there only if
+    report.md waited for it."""
+
+    def __init__(self, path: Path) -> None:
+        super().__init__()
+        self.path = path
+
+    def result(self, timeout: float | None = None) -> Path:
+        self.path.write_bytes(b"GIF89a")
+        return self.path
+
+
+def test_report_md_lists_the_drawings_it_awaited(tmp_path):
+    late = tmp_path / "hop-top.gif"
+    text = write_markdown(rows(), tmp_path, generated="now", awaited=[_Late(late)]).read_text()
+    files = text.split("\n## Files\n", 1)[1]
+    assert "(hop-top.gif)" in files
+
+
+def test_the_page_rounds_to_five_significant_digits():
+    values = np.array([[1.234567, -0.000123456789], [math.nan, math.inf]])
+    assert rounded(values) == [1.2346, -0.00012346, None, None]
+    assert rounded([123456.7, -0.0, 2.5e-300], digits=2) == [120000.0, -0.0, 2.5e-300]
+    assert [type(v) for v in rounded([1.0, 2])] == [float, float]
+
+
+class _Recording(FigurePool):
+    """A pool that notes what it is asked to make."""
+
+    def __init__(self) -> None:
+        super().__init__(2)
+        self.made: list[str] = []
+
+    def submit(self, function, *args):
+        self.made.append(function.__name__)
+        return super().submit(function, *args)
+
+
+def test_the_page_makes_its_figures_side_by_side_as_it_would_alone(tmp_path):
+    """The figures report.md shows, made in the pool: the same page as made one by one."""
+    alone, side = tmp_path / "alone", tmp_path / "side"
+    alone.mkdir()
+    write_markdown(rows(), alone, generated="now")
+    shutil.copytree(alone, side)
+    write_page(rows(), alone)
+    with _Recording() as pool:
+        write_page(rows(), side, pool=pool)
+    assert pool.made == ["_figure_html"]  # the stability matrix: the one figure it shows
+    assert (side / "report.html").read_text() == (alone / "report.html").read_text()
+
+
+def test_the_page_knows_which_figures_report_md_shows():
+    text = "\n".join(
+        [
+            "# r",
+            "![a [b] c](one.png)",
+            "",
+            "| x | y |",
+            "|---|---|",
+            "| ![in a table](two.png) | 1 |",
+            "",
+            "`![code](three.png)` and \\![escaped](four.png)",
+        ]
+    )
+    assert _image_sources(text) == {"one.png", "two.png"}
