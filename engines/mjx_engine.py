@@ -151,7 +151,6 @@ class MjxEngine(WorldsEngine, MjcfEngine):
             # that changes precision starts its traces anew (a trace takes about 5 s).
             jax.clear_caches()
             _chunk_function.cache_clear()
-            _keep_function.cache_clear()
             _typed_function.cache_clear()
         _precision_used.append(precision)
         with jax.enable_x64(precision == "float64"):
@@ -165,10 +164,10 @@ class MjxEngine(WorldsEngine, MjcfEngine):
         options: dict[str, Any],
     ) -> _Batch:
         import jax
-        import jax.numpy as jnp
         from mujoco import mjx
 
         device = _device(jax, options["device"])
+        precision = options["precision"]
         # One model name for every run: the names are static metadata, which JAX's jit keys
         # its traces on, so a scene's own name cost a trace and a compile per scene (measured:
         # 80-135 s for each 20-step placement run on 2 loaded cores).
@@ -186,13 +185,15 @@ class MjxEngine(WorldsEngine, MjcfEngine):
             call = list(zip(models, datas, strict=True))[first : first + WORLDS_PER_CALL]
             call += [call[0]] * (WORLDS_PER_CALL - len(call))
             try:
-                model = jax.tree.map(lambda *leaves: jnp.stack(leaves), *(m for m, _ in call))
+                model = _stacked(jax, [m for m, _ in call], device)
             except ValueError as exc:
                 raise ValueError(
                     f"the scenes' MJX models differ in more than arrays: {exc}"
                 ) from None
-            data = jax.tree.map(lambda *leaves: jnp.stack(leaves), *(d for _, d in call))
-            calls.append(_Call(model=model, data=_typed_function(jax)(model, data)))
+            data = _stacked(jax, [d for _, d in call], device)
+            if precision == "float64":
+                data = _typed_function(jax)(model, data)
+            calls.append(_Call(model=model, data=data))
         start = np.array(
             [
                 com_rows(scene, d.qpos, d.qvel)[0]
@@ -203,9 +204,7 @@ class MjxEngine(WorldsEngine, MjcfEngine):
         # Compiled here, outside the timed loop: zero steps (a cached compile takes ~1 s);
         # every call has this shape, so this is the batch's only compile.
         jax.block_until_ready(chunk(calls[0].model, calls[0].data, 0))
-        keep = _keep_function(jax)
-        jax.block_until_ready(keep(np.ones(WORLDS_PER_CALL, dtype=bool), *[calls[0].data] * 2))
-        return _Batch(scenes=list(scenes), calls=calls, chunk=chunk, keep=keep, state=start)
+        return _Batch(scenes=list(scenes), calls=calls, chunk=chunk, state=start, device=device)
 
     def _batch_advance(
         self, batch: _Batch, active: np.ndarray, steps: int
@@ -234,6 +233,8 @@ class MjxEngine(WorldsEngine, MjcfEngine):
         force = np.zeros((worlds, n, 2))
         mask = np.zeros(len(batch.calls) * WORLDS_PER_CALL, dtype=bool)
         mask[:worlds] = active
+        import jax
+
         launched = []
         for k, call in enumerate(batch.calls):  # every call launched before any is read
             first = k * WORLDS_PER_CALL
@@ -241,10 +242,13 @@ class MjxEngine(WorldsEngine, MjcfEngine):
             if not here.any():
                 continue
             stepped, *out = batch.chunk(call.model, call.data, n)
-            call.data = stepped if here.all() else batch.keep(here, stepped, call.data)
+            if not here.all():
+                stepped = _kept(jax, here, stepped, call.data, batch.device)
+            call.data = stepped
             launched.append((first, out))
         for first, out in launched:
-            qpos, qvel, f = (np.asarray(x[:, :n], dtype=float) for x in out)
+            # Sliced on the host: a slice of the device array compiled once per length n.
+            qpos, qvel, f = (np.asarray(x, dtype=float)[:, :n] for x in out)
             for k in map(int, np.flatnonzero(mask[first : first + WORLDS_PER_CALL])):
                 i = first + k  # an active world (a padding copy never is)
                 rows[i] = com_rows(batch.scenes[i], qpos[k], qvel[k])
@@ -346,7 +350,8 @@ def _typed_function(jax: ModuleType) -> Any:
     """(model, data) -> data with a step's dtypes, compiled once per process: put_data's
     contact indices are int32 where a step makes int64 (x64), and the loop's carry must keep
     its types. Traced in a jit that lives as long as the process (tracing ``forward`` anew
-    for every batch cost 1.4-2 s of each repeated call)."""
+    for every batch cost 1.4-2 s of each repeated call). Called in float64 only: without x64
+    put_data's types are a step's (tests/test_mjx.py), and the trace cost 0.6 CPU-s."""
 
     def typed(model: Any, data: Any) -> Any:
         like = jax.eval_shape(_forward().forward, model, data)
@@ -364,7 +369,7 @@ def _chunk_function(jax: ModuleType, integrator: str) -> Any:
     the world-frame contact force of each step. The loop is the standalone script's
     (``_SCRIPT``): a mask inside it (``where(active, ...)`` per step) compiled a batch of 8
     worlds to other roundings than the script's loop (hop-top's Y from row 55 at dt 1e-4),
-    so the inactive worlds are put back after the call (:func:`_keep_function`)."""
+    so the inactive worlds are put back after the call (:func:`_kept`)."""
     import jax.numpy as jnp
     from mujoco.mjx._src import forward, support
 
@@ -393,16 +398,24 @@ def _chunk_function(jax: ModuleType, integrator: str) -> Any:
     return jax.jit(jax.vmap(world, in_axes=(0, 0, None)))
 
 
-@cache
-def _keep_function(jax: ModuleType) -> Any:
-    """(active, stepped, before) -> the data of the active worlds from ``stepped``, of the
-    others from ``before``, compiled once per process."""
-    import jax.numpy as jnp
+def _stacked(jax: ModuleType, trees: Sequence[Any], device: Any) -> Any:
+    """The worlds' models (or datas) stacked leaf by leaf on the host and put on the device:
+    ``jnp.stack`` compiled a stack for each leaf's shape and type, about 1.4 CPU-s of every
+    batch's set-up, for the same numbers (a copy). ValueError if their metadata differ."""
+    host = jax.tree.map(lambda *leaves: np.stack([np.asarray(x) for x in leaves]), *trees)
+    return jax.device_put(host, device)
 
-    def keep(active: Any, stepped: Any, before: Any) -> Any:
-        return jax.tree.map(lambda new, old: jnp.where(active, new, old), stepped, before)
 
-    return jax.jit(jax.vmap(keep))
+def _kept(jax: ModuleType, active: np.ndarray, stepped: Any, before: Any, device: Any) -> Any:
+    """The data of the active worlds from ``stepped``, of the others from ``before``: a
+    select on the host (the compiled select cost 0.5 CPU-s of every batch's set-up), exact,
+    for the calls of the window's last chunks only."""
+
+    def keep(new: Any, old: Any) -> np.ndarray:
+        new, old = np.asarray(new), np.asarray(old)
+        return np.where(active.reshape(-1, *[1] * (new.ndim - 1)), new, old)
+
+    return jax.device_put(jax.tree.map(keep, stepped, before), device)
 
 
 @dataclass
@@ -421,5 +434,5 @@ class _Batch:
     scenes: list[Scene]
     calls: list[_Call]
     chunk: Any
-    keep: Any
     state: np.ndarray
+    device: Any

@@ -168,3 +168,87 @@ def test_runs_on_a_gpu():
         pytest.skip(f"no GPU for JAX: {exc}")
     result = _run("mjx", scene=SCENE.with_(t_end=0.05), device="gpu")
     assert result.info.status is RunStatus.OK
+
+
+def _mjx() -> None:
+    """Skip (or, where the engine must run, fail) when MJX cannot be imported."""
+    try:
+        from mujoco import mjx  # noqa: F401
+    except ImportError as exc:
+        engine_unavailable("mjx", str(exc))
+
+
+def test_settings_that_change_only_arrays_share_one_compile():
+    """The stacked mjx.Model is the compiled chunk's argument: a run that changes only the
+    model's arrays (timestep, solref, solimp, impratio, the scene's mass, radius and
+    friction) reuses the compiled chunk of the settings before it; only MJX's static fields
+    (integrator, cone, solver, iterations, the shapes, the precision) trace anew. Euler,
+    the cheapest compile. Cost: about 10 CPU-s (a trace and a compile, two 20-step runs)."""
+    _mjx()
+    import jax
+
+    engine = get_engine("mjx")
+    first = RunSettings(timestep=7e-4, options={"integrator": "Euler"})
+    other = RunSettings(
+        timestep=9e-4,
+        options={
+            "integrator": "Euler",
+            "solref": (0.0123, 0.9),
+            "solimp": (0.91, 0.97, 0.002, 0.5, 2.0),
+            "impratio": 7.0,
+        },
+    )
+    runs = engine.simulate_batch([SCENE.with_(t_end=20 * first.timestep)], first)
+    assert runs[0].info.status is RunStatus.OK, runs[0].info.message
+    traced: list[str] = []
+
+    def listen(event: str, duration: float, **kwargs) -> None:
+        if event == "/jax/core/compile/jaxpr_trace_duration":
+            traced.append(kwargs.get("fun_name", "?"))
+
+    jax.monitoring.register_event_duration_secs_listener(listen)
+    try:
+        scene = get_scene("high-spin").with_(t_end=20 * other.timestep)
+        runs = engine.simulate_batch([scene], other)
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listen)
+    assert runs[0].info.status is RunStatus.OK, runs[0].info.message
+    assert "world" not in traced, traced
+
+
+def test_kept_takes_each_world_from_its_own_side():
+    """The select that puts back the worlds that did not step: world by world, every leaf
+    (of any rank), bit for bit, on the device it was given. Cost: milliseconds."""
+    _mjx()
+    import jax
+
+    from hoopbench.engines.mjx_engine import _kept
+
+    stepped = {"qpos": np.arange(12.0).reshape(4, 3), "time": np.array([1.0, 2.0, 3.0, 4.0])}
+    before = jax.tree.map(lambda leaf: -leaf - 0.5, stepped)
+    active = np.array([True, False, True, False])
+    device = jax.devices("cpu")[0]
+    kept = _kept(jax, active, stepped, before, device)
+    for name, leaf in kept.items():
+        assert leaf.devices() == {device}
+        for world in range(4):
+            side = stepped if active[world] else before
+            assert np.array_equal(np.asarray(leaf)[world], side[name][world])
+
+
+def test_float32_data_has_a_steps_types():
+    """Without x64 mjx.put_data's types are those a step makes, so the adapter casts the data
+    (a trace of ``forward``) in float64 only, where the contact indices are int32 against a
+    step's int64 (MjxEngine._batch). Cost: one abstract trace of forward, about 1 CPU-s."""
+    _mjx()
+    import jax
+    from mujoco import mjx
+
+    model = mujoco.MjModel.from_xml_string(get_engine("mjx").model_text(SCENE))
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    with jax.enable_x64(False):
+        mx, dx = mjx.put_model(model, impl="jax"), mjx.put_data(model, data, impl="jax")
+        like = jax.eval_shape(mjx.forward, mx, dx)
+    put = [leaf.dtype for leaf in jax.tree.leaves(dx)]
+    assert put == [leaf.dtype for leaf in jax.tree.leaves(like)]
