@@ -176,7 +176,10 @@ class Trajectory:
         frame = self.to_frame()
         if suffix == ".parquet":
             frame.attrs[FORMAT_KEY] = FORMAT_VERSION
-            frame.to_parquet(path, index=False)
+            # No dictionary encoding: a run's floats hardly repeat, and Arrow's attempt at a
+            # dictionary before falling back was 60 % of the write (a 30,000-sample run: 23
+            # ms with it, 9 ms without, and 2.4 MB against 2.9; the same values read back).
+            frame.to_parquet(path, index=False, use_dictionary=False)
         elif suffix == ".csv":
             with path.open("w", newline="") as fh:
                 fh.write(f"# hoopbench trajectory format {FORMAT_VERSION}; SI units\n")

@@ -274,3 +274,51 @@ def test_each_world_may_have_its_own_stop_rule():
     assert runs[3].info.settings["stop"] == StopRule().to_dict()
     with pytest.raises(ValueError, match="2 stop rules for 4 scenes"):
         engine.simulate_batch(scenes, RunSettings(timestep=DT), stops=stops[:2])
+
+
+def _one_window_scenes() -> list[Scene]:
+    """Scenes that roll, slip and hop, every window 0.15 s: 1,500 steps, two chunks."""
+    return [scene.with_(t_end=0.15) for scene in _mujoco_scenes()]
+
+
+def test_mujoco_takes_the_last_force_in_the_last_chunk_with_the_same_rows(monkeypatch):
+    """Every world ends its window in the last chunk: its last force's step comes in that
+    chunk's call (1,000 steps, then 500 + 1), not in a call of its own, and every run is
+    still its single run bit for bit. ~0.3 s."""
+    engine = get_engine("mujoco")
+    assert engine.last_force_in_chunk
+    scenes, settings = _one_window_scenes(), RunSettings(timestep=DT)
+    singles = [engine.simulate(scene, settings) for scene in scenes]
+    calls: list[int] = []
+    advance = type(engine)._batch_advance
+
+    def counted(self, batch, active, steps):
+        calls.append(steps)
+        return advance(self, batch, active, steps)
+
+    monkeypatch.setattr(type(engine), "_batch_advance", counted)
+    batch = engine.simulate_batch(scenes, settings)
+    assert calls == [CHUNK_STEPS, 500 + 1]
+    assert_same_runs(singles, batch)
+
+
+class FakeLastForceEngine(FakeBatchEngine):
+    """The fake batch, its last force's step taken in the last chunk's call."""
+
+    name = "test-fake-last-force"
+    last_force_in_chunk = True
+
+
+def test_a_fake_batch_with_the_last_force_in_its_last_chunk_is_its_single_runs():
+    """Windows of one length: no finishing step of its own; of several lengths: a world
+    that ends before the others still takes its finishing step alone."""
+    engine, settings = FakeLastForceEngine(), RunSettings(timestep=DT)
+    same = [scene.with_(t_end=0.25) for scene in _scenes() if scene.name != BAD]
+    batch = engine.simulate_batch(same, settings)
+    assert_same_runs([engine.simulate(scene, settings) for scene in same], batch)
+    assert engine.active_counts == [3] * 2501  # 2,500 steps and the last force's, together
+    engine.active_counts.clear()
+    scenes = _scenes()
+    batch = engine.simulate_batch(scenes, settings)
+    assert_same_runs([engine.simulate(scene, settings) for scene in scenes], batch)
+    assert engine.active_counts[:301] == [4] * 300 + [1]

@@ -7,6 +7,7 @@ from types import ModuleType
 from typing import Any
 
 import numpy as np
+import pyarrow.parquet as pq
 import pytest
 
 from hoopbench.engines.base import Engine, Simulation
@@ -76,3 +77,19 @@ def test_an_error_run_gets_no_events():
     run = get_engine("reference").simulate(get_scene("massless").with_(t_end=1.5))
     assert run.info.status is RunStatus.ERROR
     assert judge(run).events is None
+
+
+def test_a_stored_trajectory_reads_back_whole_without_dictionaries(tmp_path):
+    """A Parquet trajectory holds its floats plain (no dictionary: a run's floats hardly
+    repeat, and Arrow's try at one was most of a write) and reads back bit for bit."""
+    scene = get_scene("hop-bottom")
+    run = get_engine("pymunk").simulate(scene.with_(t_end=0.3), RunSettings(timestep=1e-4))
+    assert run.trajectory is not None
+    path = run.trajectory.write(tmp_path / "hop.parquet")
+    back = Trajectory.read(path)
+    for name in ("t", "X", "Y", "theta", "normal_force", "friction_force", "contact"):
+        assert np.array_equal(getattr(back, name), getattr(run.trajectory, name)), name
+    meta = pq.ParquetFile(path).metadata
+    for i in range(meta.num_columns):
+        encodings = meta.row_group(0).column(i).encodings
+        assert not any("DICTIONARY" in e for e in encodings), (i, encodings)

@@ -18,6 +18,7 @@ import numpy as np
 
 from hoopbench.engines.judging.columns import Col
 from hoopbench.engines.judging.contact import canonical_events, read_run
+from hoopbench.engines.judging.exact_samples import exact_sample
 from hoopbench.engines.judging.forces import force_columns
 from hoopbench.engines.judging.transitions import exact_transition_times, times_text
 from hoopbench.engines.judging.verdict import (
@@ -117,7 +118,7 @@ def rms_position_error(trajectory: Trajectory, exact: ExactSolution) -> float | 
     if len(t) < 2:
         return None
     n = len(t)
-    ref = exact.sample(t)
+    ref = exact_sample(exact, t)
     x, y = kinematics.centre_position(
         exact.scene, trajectory.X[:n], trajectory.Y[:n], trajectory.theta[:n]
     )

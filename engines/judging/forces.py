@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hoopbench.engines.judging.columns import Col
+from hoopbench.engines.judging.exact_samples import exact_sample
 from hoopbench.models.events import Phase, PhaseKind
 from hoopbench.models.trajectory import Trajectory
 from hoopbench.reference.exact import ExactSolution
@@ -106,7 +107,7 @@ def force_columns(
     rows, sigma = _window_rows(traj.t, phases, end)
     columns: dict[str, Any] = {Col.FORCE_RMS_N_G: None, Col.FORCE_RMS_F_G: None}
     if len(rows):
-        ref = exact.sample(traj.t[rows])
+        ref = exact_sample(exact, traj.t[rows])
         columns[Col.FORCE_RMS_N_G] = _rms((traj.normal_force[rows] - ref.normal_force) / g)
         columns[Col.FORCE_RMS_F_G] = _rms((traj.friction_force[rows] - ref.friction_force) / g)
     slipping = rows[(sigma[rows] != 0) & (traj.normal_force[rows] > 0)]
