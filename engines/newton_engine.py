@@ -304,7 +304,7 @@ class NewtonEngine(WorldsEngine):
                 built,
                 settings.timestep,
                 ROUNDINGS[options["solver"]],
-                record_on_device=model.device.is_cuda,
+                record_on_device=_records_on_device(model.device),
             )
             batch.start()
             yield batch
@@ -488,6 +488,12 @@ def _recording_kernels(wp: ModuleType) -> tuple[Any, Any]:
     return record, count
 
 
+def _records_on_device(device: Any) -> bool:
+    """Whether the steps are recorded on the device and read once per chunk: on CUDA, where
+    they are captured (a CPU reads each step's state in place: a view, no launch)."""
+    return bool(device.is_cuda)
+
+
 @dataclass
 class _Batch:
     """The worlds' kept objects (model, solver, states, contacts) and the last angles read."""
@@ -499,8 +505,8 @@ class _Batch:
     timestep: float
     roundings: int
     record_on_device: bool = False
-    """Record each step on the device (``_recording_kernels``) and read once per chunk: set
-    on CUDA, where the steps are captured; a CPU reads each step's state in place."""
+    """Record each step on the device (``_recording_kernels``) and read once per chunk
+    (``_records_on_device``)."""
     mass: np.ndarray = field(init=False)
     gravity: np.ndarray = field(init=False)
     theta: np.ndarray = field(init=False)
