@@ -172,8 +172,7 @@ def test_steps_recorded_on_the_device_are_the_steps_read_in_place(monkeypatch, s
     """On CUDA each step is recorded into a device buffer by a kernel (a captured graph
     reads nothing back) and the chunk read once; on the CPU the state is read in place
     after each step. Recording on the CPU gives the same runs bit for bit, with every
-    solver (XPBD also writes the state a step starts from: it alone cannot tell which of
-    the pair is recorded)."""
+    solver."""
     engine = get_engine("newton")
     settings = RunSettings(timestep=DT, options={"solver": solver})
     scenes = [get_scene("hop-top").with_(t_end=0.05), SEED.with_(t_end=0.08)]
