@@ -18,8 +18,13 @@ Contact force. Each step is ``forward`` (constraint forces at the state before t
 then ``contact_force`` (world frame) of every active contact, summed per world, then the
 integrator (``mujoco_warp.step`` would leave RK4's last stage's forces): the MuJoCo adapter's
 timing (its sensor is evaluated before integrating). States and forces are read back to the
-host after every step: free on the CPU (shared memory), a cost on a GPU that a captured
-graph would remove (left out here).
+host after every step: free on the CPU (shared memory); on a GPU the step is a CUDA graph
+captured once (``_Batch._step``) and the reads are still per step (the contacts' sums per
+world would need a kernel of their own: left out).
+
+Built once. What a call builds that no world's state changes (the stacked model, the Data,
+the contact buffers, the captured step) is kept per process per device, options, timestep
+and worlds (``_KEPT``); a later call writes its worlds' start into the kept Data.
 
 Precision: single (Warp's ``float``), MuJoCo Warp's only one. Warp's compiled kernels go to
 its kernel cache (``HOOPBENCH_CACHE`` or the user's cache folder, ``hoopbench/warp``): the

@@ -65,6 +65,13 @@ centre of mass's velocity it reports turns by a first-order residual of 4-5e-2 m
 flight at dt 1e-3 (of the order omega^3 lam a dt / 2), far above the floor, so its flights
 still read contact (Newton's own ``contact_f`` observable would not; left out for time).
 
+Built once. What a call builds that no world's state changes (the model, solver, collision
+pipeline, contacts, state pair, recording buffers and, on CUDA, the captured steps) is kept
+per process per shape and setting (``_BUILT``); a later call writes its worlds' parameters
+into the kept model and resets the states and the solver (docs/engines.md, Batched
+simulators). On the CPU each step's state is read in place and the rows made once per chunk;
+on CUDA a kernel records it into a device buffer inside the captured step.
+
 Precision: single (Warp's ``float``). The first step of a new build compiles kernels (tens
 of seconds on 2 CPU cores, kept in Warp's kernel cache, ``HOOPBENCH_CACHE`` or the user's
 cache folder, ``hoopbench/warp``).
