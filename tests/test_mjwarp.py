@@ -78,7 +78,7 @@ def test_a_row_is_the_same_alone_and_in_any_batch_over_a_quarter_second():
     """Every catalogue scene MuJoCo takes, stock (Euler: a quarter of RK4's cost), over its
     first 0.25 s at dt 1e-3, alone and in calls of 2, 8, 2 and 10 worlds: the same run bit
     for bit. Whole windows on the CPU would cost about 40 ms a step for a lone world tuned
-    (3 s: 2 min a scene); the GPU test below runs them. Cost: 13 CPU-s, 2 loaded cores,
+    (3 s: 2 min a scene); the GPU test below runs them. Cost: 26 CPU-s, 2 loaded cores,
     2026-11-29."""
     settings = RunSettings(timestep=DT, profile="stock")
     assert not batched_differences("mjwarp", _catalogue(0.25), settings, ORDERS)
