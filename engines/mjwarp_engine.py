@@ -259,6 +259,9 @@ class _Kept:
     data: Any
     ids: Any
     contact: Any
+    contacts: tuple[Any, Any]
+    """The count of active contacts and each one's world, copied before the integrator
+    (RK4's stages detect contacts again: read after the step, they were the last stage's)."""
     integrate: Any
     graph: Any = None
     """The CUDA graph of one step (forward, contact_force, the integrator)."""
@@ -276,12 +279,13 @@ def _kept(mjw: ModuleType, wp: ModuleType, built: Sequence[Any], options: dict) 
     ids = wp.array(np.arange(n, dtype=np.int32), dtype=wp.int32)
     contact = wp.zeros(n, dtype=wp.spatial_vector)
     integrate = getattr(mjw, _SCRIPT_INTEGRATE[options["integrator"]])
+    contacts = (wp.empty_like(data.nacon), wp.empty_like(data.contact.worldid))
     scratch = mjw.put_data(mjm, mjd, nworld=len(built))
     mjw.forward(model, scratch)
     mjw.contact_force(model, scratch, ids, True, contact)
     integrate(model, scratch)
     wp.synchronize()
-    return _Kept(model, data, ids, contact, integrate)
+    return _Kept(model, data, ids, contact, contacts, integrate)
 
 
 @dataclass
@@ -327,9 +331,9 @@ class _Batch:
         force = np.zeros((steps, nworld, 3))
         for i in range(steps):
             self._step()
-            n = int(d.nacon.numpy()[0])
-            world = d.contact.worldid.numpy()[:n]
-            np.add.at(force[i], world, self.kept.contact.numpy()[:n, :3])
+            count, worlds = self.kept.contacts
+            n = int(count.numpy()[0])
+            np.add.at(force[i], worlds.numpy()[:n], self.kept.contact.numpy()[:n, :3])
             for name, before in kept.items():
                 now = getattr(d, name).numpy()
                 now[~active] = before[~active]
@@ -346,7 +350,11 @@ class _Batch:
 
 def _launch_step(mjw: ModuleType, kept: _Kept) -> None:
     """forward (constraint forces at the state before the step), the world-frame force of
-    every contact, then the integrator (module doc, Contact force)."""
+    every contact and which contacts they are, then the integrator (module doc, Contact
+    force)."""
     mjw.forward(kept.model, kept.data)
     mjw.contact_force(kept.model, kept.data, kept.ids, True, kept.contact)
+    count, worlds = kept.contacts
+    count.assign(kept.data.nacon)  # a device copy (wp.copy): a graph may hold it
+    worlds.assign(kept.data.contact.worldid)
     kept.integrate(kept.model, kept.data)
