@@ -81,6 +81,7 @@ from __future__ import annotations
 
 import functools
 import math
+import operator
 import warnings
 from collections import OrderedDict
 from collections.abc import Iterator, Mapping, Sequence
@@ -406,7 +407,7 @@ def _built(newton: ModuleType, wp: ModuleType, model: Any, opts: dict, dt: float
     kept = _BUILT.get(key)
     if kept is not None and _take_parameters(wp, kept.model, model):
         _BUILT.move_to_end(key)
-        kept.solver.notify_model_changed(_ALL_FLAGS)
+        kept.solver.notify_model_changed(_changed_flags(newton))
         kept.calls += 1
         return kept
     _BUILT[key] = built = _build_once(newton, wp, model, opts, dt)
@@ -415,9 +416,21 @@ def _built(newton: ModuleType, wp: ModuleType, model: Any, opts: dict, dt: float
     return built
 
 
-_ALL_FLAGS = (1 << 12) - 1
-"""Every ``newton.ModelFlags`` bit (JOINT_PROPERTIES 1 << 0 to JOINT_REFERENCE_POSE_PROPERTIES
-1 << 11): the whole model may have changed."""
+_CHANGED = (
+    "MODEL_PROPERTIES",  # gravity
+    "BODY_PROPERTIES",  # the initial pose
+    "BODY_INERTIAL_PROPERTIES",  # mass, inertia, centre of mass
+    "SHAPE_PROPERTIES",  # radius, mu, ke, kd, kf, rolling and torsional friction
+    "JOINT_PROPERTIES",  # the free joint's frame
+    "JOINT_DOF_PROPERTIES",
+)
+"""The ``newton.ModelFlags`` of what differs between two calls' worlds of one shape and
+setting (the shapes' kinds and counts are the same: ``_take_parameters``)."""
+
+
+def _changed_flags(newton: ModuleType) -> int:
+    """The bits of :data:`_CHANGED`."""
+    return functools.reduce(operator.or_, (int(newton.ModelFlags[n]) for n in _CHANGED), 0)
 
 
 def _take_parameters(wp: ModuleType, kept: Any, model: Any) -> bool:
