@@ -18,8 +18,13 @@ Contact force. Each step is ``forward`` (constraint forces at the state before t
 then ``contact_force`` (world frame) of every active contact, summed per world, then the
 integrator (``mujoco_warp.step`` would leave RK4's last stage's forces): the MuJoCo adapter's
 timing (its sensor is evaluated before integrating). States and forces are read back to the
-host after every step: free on the CPU (shared memory), a cost on a GPU that a captured
-graph would remove (left out here).
+host after every step: free on the CPU (shared memory); on a GPU the step is a CUDA graph
+captured once (``_Batch._step``) and the reads are still per step (the contacts' sums per
+world would need a kernel of their own: left out).
+
+Built once. What a call builds that no world's state changes (the stacked model, the Data,
+the contact buffers, the captured step) is kept per process per device, options, timestep
+and worlds (``_KEPT``); a later call writes its worlds' start into the kept Data.
 
 Precision: single (Warp's ``float``), MuJoCo Warp's only one. Warp's compiled kernels go to
 its kernel cache (``HOOPBENCH_CACHE`` or the user's cache folder, ``hoopbench/warp``): the
@@ -29,6 +34,7 @@ first step of a new build compiles for about 20 s on 2 CPU cores.
 from __future__ import annotations
 
 import dataclasses
+from collections import OrderedDict
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -112,20 +118,30 @@ class MjwarpEngine(WorldsEngine, MjcfEngine):
         device = warp_device(wp, options["device"])
         with wp.ScopedDevice(device):
             built = [self._build(module, scene, settings, options) for scene in scenes]
-            model = _stacked_model(mjw, wp, [m for m, _ in built])
-            data = mjw.put_data(built[0][0], built[0][1], nworld=len(scenes))
-            for field in ("qpos", "qvel", "qacc_warmstart"):
-                rows = np.array([getattr(d, field) for _, d in built])
-                getattr(data, field).assign(rows.astype(np.float32))
-            integrate = getattr(mjw, _SCRIPT_INTEGRATE[options["integrator"]])
-            batch = _Batch(mjw, wp, list(scenes), model, data, integrate)
-            batch.warm_up(*built[0])
-            yield batch
+            key = (
+                device,
+                tuple(sorted(options.items())),
+                settings.timestep,
+                tuple((scene, self.mu_for(scene, settings)) for scene in scenes),
+            )
+            kept = _KEPT.get(key)
+            if kept is None:
+                kept = _kept(mjw, wp, built, options)
+                _KEPT[key] = kept
+                while len(_KEPT) > KEPT_CALLS:
+                    _KEPT.popitem(last=False)
+            else:
+                _KEPT.move_to_end(key)
+                kept.calls += 1
+            for field in _STATE:  # the worlds' start: MuJoCo C's equilibrium (module doc)
+                rows = np.array([np.atleast_1d(getattr(d, field)) for _, d in built])
+                getattr(kept.data, field).assign(rows.reshape(getattr(kept.data, field).shape))
+            yield _Batch(mjw, wp, list(scenes), kept)
 
     def _batch_advance(
         self, batch: _Batch, active: np.ndarray, steps: int
     ) -> tuple[np.ndarray, np.ndarray]:
-        with batch.wp.ScopedDevice(batch.data.qpos.device):
+        with batch.wp.ScopedDevice(batch.kept.data.qpos.device):
             qpos, qvel, force = batch.advance(steps, active)
         states = np.stack(
             [com_rows(s, q, v) for s, q, v in zip(batch.scenes, qpos, qvel, strict=True)]
@@ -224,38 +240,88 @@ def _differing_arrays(models: Sequence[Any], path: tuple[str, ...] = ()) -> Iter
                 yield (*path, f.name), values
 
 
+KEPT_CALLS = 4
+"""Calls whose built objects one process keeps (the least recently used one goes)."""
+
+_KEPT: OrderedDict[tuple[Any, ...], _Kept] = OrderedDict()
+"""Per process, per device, options, timestep and worlds (their scenes and mu): what a call
+builds that no world's state changes (:func:`_kept`)."""
+
+
+@dataclass
+class _Kept:
+    """What a call builds that does not depend on the worlds' states, kept per process: the
+    stacked model, the Data of its worlds (each call writes its worlds' integration state,
+    ``_STATE``, into it), the buffers of one step's contact forces, the integrator and, on
+    CUDA, the captured step."""
+
+    model: Any
+    data: Any
+    ids: Any
+    contact: Any
+    contacts: tuple[Any, Any]
+    """The count of active contacts and each one's world, copied before the integrator
+    (RK4's stages detect contacts again: read after the step, they were the last stage's)."""
+    integrate: Any
+    graph: Any = None
+    """The CUDA graph of one step (forward, contact_force, the integrator)."""
+    calls: int = 1
+    """Calls served, this one included."""
+
+
+def _kept(mjw: ModuleType, wp: ModuleType, built: Sequence[Any], options: dict) -> _Kept:
+    """The stacked model and Data of new worlds, and one step of a scratch copy of the first
+    world: the kernels load (or compile, on first use) here, outside the timed loop."""
+    mjm, mjd = built[0]
+    model = _stacked_model(mjw, wp, [m for m, _ in built])
+    data = mjw.put_data(mjm, mjd, nworld=len(built))
+    n = data.naconmax
+    ids = wp.array(np.arange(n, dtype=np.int32), dtype=wp.int32)
+    contact = wp.zeros(n, dtype=wp.spatial_vector)
+    integrate = getattr(mjw, _SCRIPT_INTEGRATE[options["integrator"]])
+    contacts = (wp.empty_like(data.nacon), wp.empty_like(data.contact.worldid))
+    scratch = mjw.put_data(mjm, mjd, nworld=len(built))
+    mjw.forward(model, scratch)
+    mjw.contact_force(model, scratch, ids, True, contact)
+    integrate(model, scratch)
+    wp.synchronize()
+    return _Kept(model, data, ids, contact, contacts, integrate)
+
+
 @dataclass
 class _Batch:
-    """The worlds on a Warp device, the integrator, and the buffers of one step's contact
-    forces."""
+    """The worlds' kept objects on a Warp device (model, Data, contact-force buffers)."""
 
     mjw: ModuleType
     wp: ModuleType
     scenes: list[Scene]
-    model: Any
-    data: Any
-    integrate: Any
+    kept: _Kept
 
-    def __post_init__(self) -> None:
-        n = self.data.naconmax
-        self.ids = self.wp.array(np.arange(n, dtype=np.int32), dtype=self.wp.int32)
-        self.contact = self.wp.zeros(n, dtype=self.wp.spatial_vector)
+    @property
+    def data(self) -> Any:
+        """The worlds' MuJoCo Warp Data."""
+        return self.kept.data
 
-    def warm_up(self, mjm: Any, mjd: Any) -> None:
-        """Load (or compile, on first use) the kernels with one step of a scratch copy of
-        the first world: the run's timed loop then holds stepping only."""
-        scratch = self.mjw.put_data(mjm, mjd, nworld=self.data.nworld)
-        self.mjw.forward(self.model, scratch)
-        self.mjw.contact_force(self.model, scratch, self.ids, True, self.contact)
-        self.integrate(self.model, scratch)
-        self.wp.synchronize()
+    def _step(self) -> None:
+        """One step of every world: forward, the contact forces, the integrator. On CUDA a
+        graph captured once per kept objects (``wp.ScopedCapture``, replayed by
+        ``wp.capture_launch``, as MuJoCo Warp's own benchmark steps)."""
+        mjw, wp, kept = self.mjw, self.wp, self.kept
+        if not kept.data.qpos.device.is_cuda:
+            _launch_step(mjw, kept)
+            return
+        if kept.graph is None:
+            with wp.ScopedCapture() as capture:
+                _launch_step(mjw, kept)
+            kept.graph = capture.graph
+        wp.capture_launch(kept.graph)
 
     def advance(self, steps: int, active: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """qpos, qvel (W, steps + 1, 3): before the chunk and after each step; the
         world-frame contact force on the hoop of each step (W, steps, 3), N. Every world
         steps (one launch serves all); the inactive ones get their state back after each
         step, so that a world still running does not move while others finish."""
-        mjw, wp, m, d = self.mjw, self.wp, self.model, self.data
+        wp, d = self.wp, self.kept.data
         nworld = d.nworld
         kept = (
             {name: getattr(d, name).numpy().copy() for name in _STATE} if not active.all() else {}
@@ -264,12 +330,10 @@ class _Batch:
         qvel = [d.qvel.numpy().astype(float)]
         force = np.zeros((steps, nworld, 3))
         for i in range(steps):
-            mjw.forward(m, d)
-            mjw.contact_force(m, d, self.ids, True, self.contact)
-            n = int(d.nacon.numpy()[0])
-            world = d.contact.worldid.numpy()[:n]
-            np.add.at(force[i], world, self.contact.numpy()[:n, :3])
-            self.integrate(m, d)
+            self._step()
+            count, worlds = self.kept.contacts
+            n = int(count.numpy()[0])
+            np.add.at(force[i], worlds.numpy()[:n], self.kept.contact.numpy()[:n, :3])
             for name, before in kept.items():
                 now = getattr(d, name).numpy()
                 now[~active] = before[~active]
@@ -282,3 +346,15 @@ class _Batch:
             np.stack(qvel, axis=1),
             np.transpose(force, (1, 0, 2)),
         )
+
+
+def _launch_step(mjw: ModuleType, kept: _Kept) -> None:
+    """forward (constraint forces at the state before the step), the world-frame force of
+    every contact and which contacts they are, then the integrator (module doc, Contact
+    force)."""
+    mjw.forward(kept.model, kept.data)
+    mjw.contact_force(kept.model, kept.data, kept.ids, True, kept.contact)
+    count, worlds = kept.contacts
+    count.assign(kept.data.nacon)  # a device copy (wp.copy): a graph may hold it
+    worlds.assign(kept.data.contact.worldid)
+    kept.integrate(kept.model, kept.data)

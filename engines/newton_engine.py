@@ -65,6 +65,13 @@ centre of mass's velocity it reports turns by a first-order residual of 4-5e-2 m
 flight at dt 1e-3 (of the order omega^3 lam a dt / 2), far above the floor, so its flights
 still read contact (Newton's own ``contact_f`` observable would not; left out for time).
 
+Built once. What a call builds that no world's state changes (the model, solver, collision
+pipeline, contacts, state pair, recording buffers and, on CUDA, the captured steps) is kept
+per process per shape and setting (``_BUILT``); a later call writes its worlds' parameters
+into the kept model and resets the states and the solver (docs/engines.md, Batched
+simulators). On the CPU each step's state is read in place and the rows made once per chunk;
+on CUDA a kernel records it into a device buffer inside the captured step.
+
 Precision: single (Warp's ``float``). The first step of a new build compiles kernels (tens
 of seconds on 2 CPU cores, kept in Warp's kernel cache, ``HOOPBENCH_CACHE`` or the user's
 cache folder, ``hoopbench/warp``).
@@ -72,8 +79,11 @@ cache folder, ``hoopbench/warp``).
 
 from __future__ import annotations
 
+import functools
 import math
+import operator
 import warnings
+from collections import OrderedDict
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -294,15 +304,15 @@ class NewtonEngine(WorldsEngine):
             warnings.filterwarnings("ignore", message="MuJoCo dependency version mismatch")
             mus = [self.mu_for(scene, settings) for scene in scenes]
             model = _build(newton, wp, scenes, mus, options)
-            solver = _solver(newton, model, options)
+            built = _built(newton, wp, model, options, settings.timestep)
             batch = _Batch(
                 newton,
                 wp,
                 list(scenes),
-                model,
-                solver,
+                built,
                 settings.timestep,
                 ROUNDINGS[options["solver"]],
+                record_on_device=_records_on_device(model.device),
             )
             batch.start()
             yield batch
@@ -310,7 +320,7 @@ class NewtonEngine(WorldsEngine):
     def _batch_advance(
         self, batch: _Batch, active: np.ndarray, steps: int
     ) -> tuple[np.ndarray, np.ndarray]:
-        with batch.wp.ScopedDevice(batch.model.device):
+        with batch.wp.ScopedDevice(batch.built.model.device):
             return batch.advance(steps, active)
 
 
@@ -355,66 +365,226 @@ def _solver(newton: ModuleType, model: Any, opts: dict) -> Any:
     return cls(model, **kwargs)
 
 
+BUILT_KEPT = 4
+"""Shapes and settings whose built objects one process keeps (the least recently used one
+goes): a suite's worker meets a few settings at a time, a hop map many scene sets of one
+shape and setting."""
+
+_BUILT: OrderedDict[tuple[Any, ...], _Built] = OrderedDict()
+"""Per process, per shape (worlds) and setting (options, device): what a call builds that no
+world's state changes (:func:`_built`)."""
+
+
+@dataclass
+class _Built:
+    """What a call builds that does not depend on the worlds' states, kept per process: the
+    model (each call writes its own worlds' parameters into its arrays), the solver, the
+    collision pipeline (its kernels are generated per instance) and contacts, the pair of
+    states, the buffers a step records into on a GPU and, there, the captured steps."""
+
+    model: Any
+    solver: Any
+    pipeline: Any
+    contacts: Any
+    control: Any
+    states: tuple[Any, Any]
+    history: tuple[Any, Any, Any]
+    """Device buffers of a chunk's recorded body_q (CHUNK_STEPS, W), body_qd
+    (CHUNK_STEPS, W) and the step counter the recording kernel reads (CUDA only)."""
+    graphs: dict[int, Any] = field(default_factory=dict)
+    """CUDA graphs of one recorded step, by which of ``states`` holds the state (0, 1)."""
+    calls: int = 1
+    """Calls served, this one included."""
+
+
+def _built(newton: ModuleType, wp: ModuleType, model: Any, opts: dict, dt: float) -> _Built:
+    """The kept objects of this shape and setting, holding ``model``'s parameters (the
+    worlds' masses, inertia, shapes, friction, initial poses); built on a first call. A
+    kept model takes a new call's parameters only when every value that is not a Warp
+    array is the same (counts, flags), and its solver is told they changed, as Newton's
+    users change a model in place (``notify_model_changed``)."""
+    key = (model.body_count, str(model.device), tuple(sorted(opts.items())))
+    kept = _BUILT.get(key)
+    if kept is not None and _take_parameters(wp, kept.model, model):
+        _BUILT.move_to_end(key)
+        kept.solver.notify_model_changed(_changed_flags(newton))
+        kept.calls += 1
+        return kept
+    _BUILT[key] = built = _build_once(newton, wp, model, opts, dt)
+    while len(_BUILT) > BUILT_KEPT:
+        _BUILT.popitem(last=False)
+    return built
+
+
+_CHANGED = (
+    "MODEL_PROPERTIES",  # gravity
+    "BODY_PROPERTIES",  # the initial pose
+    "BODY_INERTIAL_PROPERTIES",  # mass, inertia, centre of mass
+    "SHAPE_PROPERTIES",  # radius, mu, ke, kd, kf, rolling and torsional friction
+    "JOINT_PROPERTIES",  # the free joint's frame
+    "JOINT_DOF_PROPERTIES",
+)
+"""The ``newton.ModelFlags`` of what differs between two calls' worlds of one shape and
+setting (the shapes' kinds and counts are the same: ``_take_parameters``)."""
+
+
+def _changed_flags(newton: ModuleType) -> int:
+    """The bits of :data:`_CHANGED`."""
+    return functools.reduce(operator.or_, (int(newton.ModelFlags[n]) for n in _CHANGED), 0)
+
+
+def _take_parameters(wp: ModuleType, kept: Any, model: Any) -> bool:
+    """Copy ``model``'s Warp arrays into ``kept``'s, if the two have the same shape: every
+    array the same size and type, every public number, string and flag equal (the private
+    ones are caches Newton fills on first use, e.g. the contact capacity). False (nothing
+    copied) otherwise."""
+    arrays = []
+    for name, value in vars(model).items():
+        old = getattr(kept, name, None)
+        if name.startswith("_"):
+            continue
+        if isinstance(value, wp.array):
+            if not isinstance(old, wp.array) or (old.shape, old.dtype) != (
+                value.shape,
+                value.dtype,
+            ):
+                return False
+            arrays.append((old, value))
+        elif isinstance(value, int | float | str | bool | type(None)) and old != value:
+            return False
+    for old, value in arrays:
+        if value.size:
+            old.assign(value)
+    return True
+
+
+def _build_once(newton: ModuleType, wp: ModuleType, model: Any, opts: dict, dt: float) -> _Built:
+    """The solver, collision pipeline, states and buffers of a new shape or setting, and one
+    step of a pair of scratch states: the kernels load (or compile) here, outside the timed
+    loop. The scratch step must not start from the run's state: XPBD writes its state_in
+    (stepping from it moved the run one step on before its first row: every row was the
+    next step's state, until 2026-11-28)."""
+    solver = _solver(newton, model, opts)
+    pipeline = newton.CollisionPipeline(model)
+    contacts = pipeline.contacts()
+    control = model.control()
+    worlds = model.body_count
+    history = (
+        wp.zeros((CHUNK_STEPS, worlds), dtype=wp.transform),
+        wp.zeros((CHUNK_STEPS, worlds), dtype=wp.spatial_vector),
+        wp.zeros(1, dtype=wp.int32),
+    )
+    scratch_in, scratch_out = model.state(), model.state()
+    pipeline.collide(scratch_in, contacts)
+    solver.step(scratch_in, scratch_out, control, contacts, dt)
+    wp.synchronize()
+    states = (model.state(), model.state())
+    return _Built(model, solver, pipeline, contacts, control, states, history)
+
+
+@functools.cache
+def _recording_kernels(wp: ModuleType) -> tuple[Any, Any]:
+    """The kernels of a step recorded on the device (a CUDA graph holds no host read): the
+    worlds' body_q and body_qd into row ``step[0]`` of the history, then ``step[0] += 1``.
+    Defined here, not at the top: Warp is imported with the engine, not with the adapter
+    (mypy cannot read Warp's array types off a module argument: the ignores)."""
+
+    @wp.kernel
+    def record(
+        body_q: wp.array[wp.transform],  # type: ignore[name-defined]
+        body_qd: wp.array[wp.spatial_vector],  # type: ignore[name-defined]
+        step: wp.array[wp.int32],  # type: ignore[name-defined]
+        q_out: wp.array2d[wp.transform],  # type: ignore[name-defined]
+        qd_out: wp.array2d[wp.spatial_vector],  # type: ignore[name-defined]
+    ) -> None:
+        world = wp.tid()
+        q_out[step[0], world] = body_q[world]
+        qd_out[step[0], world] = body_qd[world]
+
+    @wp.kernel
+    def count(step: wp.array[wp.int32]) -> None:  # type: ignore[name-defined]
+        step[0] = step[0] + wp.int32(1)
+
+    return record, count
+
+
+def _records_on_device(device: Any) -> bool:
+    """Whether the steps are recorded on the device and read once per chunk: on CUDA, where
+    they are captured (a CPU reads each step's state in place: a view, no launch)."""
+    return bool(device.is_cuda)
+
+
 @dataclass
 class _Batch:
-    """The worlds' model, solver, states and contacts; the last velocities and angles read."""
+    """The worlds' kept objects (model, solver, states, contacts) and the last angles read."""
 
     newton: ModuleType
     wp: ModuleType
     scenes: list[Scene]
-    model: Any
-    solver: Any
+    built: _Built
     timestep: float
     roundings: int
+    record_on_device: bool = False
+    """Record each step on the device (``_recording_kernels``) and read once per chunk
+    (``_records_on_device``)."""
     mass: np.ndarray = field(init=False)
     gravity: np.ndarray = field(init=False)
     theta: np.ndarray = field(init=False)
     lever: np.ndarray = field(init=False)
 
     def start(self) -> None:
-        """The worlds' initial velocities, the joint coordinates the articulated solvers
-        step, and one step of a pair of scratch states: the kernels load (or compile) here,
-        outside the timed loop. The scratch step must not start from the run's state: XPBD
-        writes its state_in (stepping from it moved the run one step on before its first
-        row: every row was the next step's state, until 2026-11-28)."""
-        newton, model = self.newton, self.model
-        self.state, self.next, self.control = model.state(), model.state(), model.control()
-        self.pipeline = newton.CollisionPipeline(model)
-        self.contacts = self.pipeline.contacts()
+        """The worlds' initial states in the kept pair (a new model's ``state()``), the
+        solver's own state cleared (``reset``: MuJoCo's warm start), then the initial
+        velocities and the joint coordinates the articulated solvers step."""
+        newton, built = self.newton, self.built
+        self.state, self.next = built.states
+        initial = built.model.state()
+        for state in built.states:
+            for name, array in vars(initial).items():
+                if isinstance(array, self.wp.array) and array.size:
+                    getattr(state, name).assign(array)
+        built.solver.reset(self.state)
         qd = [_start_velocity(scene) for scene in self.scenes]
         self.state.body_qd.assign(np.array(qd, dtype=np.float32))
-        newton.eval_ik(model, self.state, self.state.joint_q, self.state.joint_qd)
+        newton.eval_ik(built.model, self.state, self.state.joint_q, self.state.joint_qd)
         self.mass = np.array([scene.M for scene in self.scenes])
         self.gravity = np.array([scene.g for scene in self.scenes])
         self.theta = np.array([scene.theta0 for scene in self.scenes])
         self.lever = np.array([abs(scene.com_offset) for scene in self.scenes])
-        scratch_in, scratch_out = model.state(), model.state()
-        self.pipeline.collide(scratch_in, self.contacts)
-        self.solver.step(scratch_in, scratch_out, self.control, self.contacts, self.timestep)
         self.wp.synchronize()
-
-    def read(self) -> np.ndarray:
-        """(W, 7): every world's hoop centre (x, z), theta (unwrapped: the nearest angle to
-        the last one read), centre-of-mass velocity (x, z) and spin about y, now; and the
-        speed bound s = |v| + |omega| |c| (m/s) of its velocity's rounding (module doc, Force)."""
-        q = self.state.body_q.numpy().astype(float)
-        qd = self.state.body_qd.numpy().astype(float)
-        turn = 2.0 * np.arctan2(q[:, 4], q[:, 6])
-        self.theta = self.theta + (turn - self.theta + math.pi) % (2 * math.pi) - math.pi
-        speed = np.linalg.norm(qd[:, :3], axis=1) + np.linalg.norm(qd[:, 3:], axis=1) * self.lever
-        return np.stack(
-            [q[:, 0], q[:, 2], self.theta, qd[:, 0], qd[:, 2], qd[:, 4], speed], axis=-1
-        )
 
     def advance(self, steps: int, active: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Every world steps (one launch serves all); the inactive ones get their state back
-        after each step, so that a world still running does not move while others finish."""
-        raw = [self.read()]
+        after each step, so that a world still running does not move while others finish.
+        The states are kept raw (float32) at each step and turned into rows once per chunk."""
+        w = len(self.scenes)
+        q = np.empty((steps + 1, w, 7), dtype=np.float32)
+        qd = np.empty((steps + 1, w, 6), dtype=np.float32)
+        q[0], qd[0] = self.state.body_q.numpy(), self.state.body_qd.numpy()
+        if self.record_on_device and active.all():
+            self._advance_recorded(steps, q[1:], qd[1:])
+        else:
+            self._advance_read(steps, active, q[1:], qd[1:])
+        rows = self._rows(q, qd)  # (W, steps + 1, 7)
+        forces = _step_forces(rows, self.mass, self.gravity, self.timestep, self.roundings)
+        states = np.stack(
+            [_com_rows(s, world[:, :6]) for s, world in zip(self.scenes, rows, strict=True)]
+        )
+        return states, forces
+
+    def _step(self) -> None:
+        """One step of every world from ``state`` into ``next``."""
+        built = self.built
+        self.state.clear_forces()
+        built.pipeline.collide(self.state, built.contacts)
+        built.solver.step(self.state, self.next, built.control, built.contacts, self.timestep)
+
+    def _advance_read(self, steps: int, active: np.ndarray, q: np.ndarray, qd: np.ndarray) -> None:
+        """``steps`` steps, each state read in place after its step (on a CPU ``numpy()``
+        is a view of the array: no copy, no launch)."""
         kept = self._state_arrays() if not active.all() else {}
-        for _ in range(steps):
-            self.state.clear_forces()
-            self.pipeline.collide(self.state, self.contacts)
-            self.solver.step(self.state, self.next, self.control, self.contacts, self.timestep)
+        for k in range(steps):
+            self._step()
             self.state, self.next = self.next, self.state
             for name, before in kept.items():
                 array = getattr(self.state, name)
@@ -422,13 +592,63 @@ class _Batch:
                 rows = now.reshape(len(active), -1)
                 rows[~active] = before[~active]
                 array.assign(rows.reshape(now.shape))
-            raw.append(self.read())
-        rows = np.stack(raw, axis=1)  # (W, steps + 1, 7)
-        forces = _step_forces(rows, self.mass, self.gravity, self.timestep, self.roundings)
-        states = np.stack(
-            [_com_rows(s, world[:, :6]) for s, world in zip(self.scenes, rows, strict=True)]
+            q[k], qd[k] = self.state.body_q.numpy(), self.state.body_qd.numpy()
+
+    def _advance_recorded(self, steps: int, q: np.ndarray, qd: np.ndarray) -> None:
+        """``steps`` steps recorded on the device and read back once. On CUDA each step is
+        a graph captured once per shape and setting (``wp.ScopedCapture``, launched by
+        ``wp.capture_launch``, as Newton's examples step), one per state buffer the step
+        starts from, since the step swaps the pair."""
+        wp, built = self.wp, self.built
+        history_q, history_qd, counter = built.history
+        counter.zero_()
+        for _ in range(steps):
+            if not self.state.body_q.device.is_cuda:
+                self._step_recording()
+            else:
+                parity = 0 if self.state is built.states[0] else 1
+                if parity not in built.graphs:
+                    with wp.ScopedCapture() as capture:
+                        self._step_recording()
+                    built.graphs[parity] = capture.graph
+                wp.capture_launch(built.graphs[parity])
+            self.state, self.next = self.next, self.state
+        q[:] = history_q.numpy()[:steps]
+        qd[:] = history_qd.numpy()[:steps]
+
+    def _step_recording(self) -> None:
+        """One step, then the new state into the history's row ``counter``."""
+        record, count = _recording_kernels(self.wp)
+        history_q, history_qd, counter = self.built.history
+        self._step()
+        self.wp.launch(
+            record,
+            dim=len(self.scenes),
+            inputs=[self.next.body_q, self.next.body_qd, counter, history_q, history_qd],
         )
-        return states, forces
+        self.wp.launch(count, dim=1, inputs=[counter])
+
+    def _rows(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        """(W, n, 7) from raw body_q (n, W, 7) and body_qd (n, W, 6): every world's hoop
+        centre (x, z), theta (unwrapped: the nearest angle to the last one), centre-of-mass
+        velocity (x, z) and spin about y; and the speed bound s = |v| + |omega| |c| (m/s) of
+        its velocity's rounding (module doc, Force)."""
+        qf, qdf = q.astype(float), qd.astype(float)
+        turn = 2.0 * np.arctan2(qf[..., 4], qf[..., 6])
+        theta = np.empty_like(turn)
+        last = self.theta
+        for k, now in enumerate(turn):  # each angle from the last: a sequence, not a vector
+            last = last + (now - last + math.pi) % (2 * math.pi) - math.pi
+            theta[k] = last
+        self.theta = last
+        lever = self.lever[None, :]
+        speed = (
+            np.linalg.norm(qdf[..., :3], axis=-1) + np.linalg.norm(qdf[..., 3:], axis=-1) * lever
+        )
+        rows = np.stack(
+            [qf[..., 0], qf[..., 2], theta, qdf[..., 0], qdf[..., 2], qdf[..., 4], speed], axis=-1
+        )
+        return np.transpose(rows, (1, 0, 2))
 
     def _state_arrays(self) -> dict[str, np.ndarray]:
         """The worlds' body and joint state, one row per world (one body, one free joint

@@ -12,12 +12,21 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from worlds_runs import DT, STATE_COLUMNS, run_ok, skip_without_a_warp_gpu, worst
+from worlds_runs import (
+    DT,
+    STATE_COLUMNS,
+    batched_differences,
+    run_ok,
+    same_run,
+    skip_without_a_warp_gpu,
+    worst,
+)
 
+from hoopbench.engines import mjwarp_engine
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.run import RunStatus
 from hoopbench.engines.settings import RunSettings
-from hoopbench.models.catalogue import get_scene
+from hoopbench.models.catalogue import get_scene, scene_names
 
 SCENE = get_scene("hop-top").with_(t_end=0.6)
 
@@ -52,6 +61,50 @@ def test_batch_rows_are_the_single_runs():
         assert worst(run.trajectory, single.trajectory, STATE_COLUMNS) <= 1e-6
 
 
+def _catalogue(t_end: float | None = None) -> list:
+    """Every catalogue scene MuJoCo's model takes (not massless: its hoop has no moment of
+    inertia about the centre of mass), over ``t_end`` (None: the whole window)."""
+    scenes = [get_scene(name) for name in scene_names() if name != "massless"]
+    return scenes if t_end is None else [scene.with_(t_end=t_end) for scene in scenes]
+
+
+ORDERS = ([3, 1], range(8), range(8, 10), [9, 4, 0, 8, 3, 7, 1, 2, 6, 5])
+"""Calls of the alone-against-batched tests: a pair, eight then the other two, all ten in
+another order (indices into ``_catalogue()``)."""
+
+
+@pytest.mark.slow
+def test_a_row_is_the_same_alone_and_in_any_batch_over_a_quarter_second():
+    """Every catalogue scene MuJoCo takes, stock (Euler: a quarter of RK4's cost), over its
+    first 0.25 s at dt 1e-3, alone and in calls of 2, 8, 2 and 10 worlds: the same run bit
+    for bit. Whole windows on the CPU would cost about 40 ms a step for a lone world tuned
+    (3 s: 2 min a scene); the GPU test below runs them. Cost: 26 CPU-s, 2 loaded cores,
+    2026-11-29."""
+    settings = RunSettings(timestep=DT, profile="stock")
+    assert not batched_differences("mjwarp", _catalogue(0.25), settings, ORDERS)
+
+
+def test_a_second_call_builds_nothing_and_steps_as_the_first():
+    """Per process a call keeps its stacked model, Data and buffers per device, options,
+    timestep and worlds: a second call of the same builds none of them again and writes its
+    worlds' integration state into the kept Data (a call of other worlds in between, and
+    the kept Data left at the first call's end): its runs are the first call's bit for
+    bit."""
+    engine = get_engine("mjwarp")
+    settings = RunSettings(timestep=DT, profile="stock")
+    scenes = [SCENE.with_(t_end=0.05), get_scene("painleve").with_(t_end=0.05)]
+    mjwarp_engine._KEPT.clear()
+    first = engine.simulate_batch(scenes, settings)
+    engine.simulate_batch(
+        [get_scene(n).with_(t_end=0.05) for n in ("seed", "hop-bottom")], settings
+    )
+    second = engine.simulate_batch(scenes, settings)
+    assert [kept.calls for kept in mjwarp_engine._KEPT.values()] == [1, 2]
+    for a, b in zip(first, second, strict=True):
+        assert a.info.status is RunStatus.OK, a.info.message
+        assert same_run(a, b) is None, same_run(a, b)
+
+
 def test_unknown_device_is_named():
     with pytest.raises(ValueError, match="device must be one of auto, cpu, gpu"):
         get_engine("mjwarp").check(SCENE, RunSettings(options={"device": "tpu"}))
@@ -62,3 +115,12 @@ def test_runs_on_a_gpu():
     skip_without_a_warp_gpu()
     result = _run("mjwarp", scene=SCENE.with_(t_end=0.05), device="gpu")
     assert result.info.status is RunStatus.OK
+
+
+@pytest.mark.gpu
+def test_a_row_is_the_same_alone_and_in_any_batch_on_a_gpu():
+    """As the CPU test above, tuned, over every scene's whole window (3 s), on a GPU, where
+    each step is a CUDA graph captured once per kept objects."""
+    skip_without_a_warp_gpu()
+    settings = RunSettings(timestep=DT, options={"device": "gpu"})
+    assert not batched_differences("mjwarp", _catalogue(), settings, ORDERS)

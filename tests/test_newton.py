@@ -21,14 +21,22 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from worlds_runs import DT, STATE_COLUMNS, run_ok, skip_without_a_warp_gpu
+from worlds_runs import (
+    DT,
+    STATE_COLUMNS,
+    batched_differences,
+    run_ok,
+    same_run,
+    skip_without_a_warp_gpu,
+)
 
+from hoopbench.engines import newton_engine
 from hoopbench.engines.judging.contact import canonical_events, read_run
 from hoopbench.engines.newton_engine import ROUNDINGS
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.run import RunStatus
 from hoopbench.engines.settings import RunSettings
-from hoopbench.models.catalogue import get_scene
+from hoopbench.models.catalogue import get_scene, scene_names
 
 SEED = get_scene("seed-mu").with_(t_end=0.1)
 SLIP_AT_0_1_S = {"mujoco": 3.7e-4, "xpbd": 5.4e-3, "featherstone": 0.22, "semi_implicit": 0.22}
@@ -113,6 +121,69 @@ def test_batch_rows_are_the_single_runs():
         assert worst <= 1e-6
 
 
+@pytest.mark.slow
+def test_a_row_is_the_same_alone_and_in_any_batch():
+    """Every catalogue scene over its whole window (3 s, dt 1e-3, tuned XPBD) alone, in the
+    runner's calls of worlds_per_call (8, then the other 3), and in one call of all 11 in
+    another order: the same run bit for bit (massless's too, which diverges: non-finite X).
+    Newton pads nothing and every reduction is per world (one body, one contact pair per
+    world). Cost: 44 CPU-s (eleven 3 s windows alone, 3.3 CPU-s each; the three calls
+    3.5 CPU-s each), 2 loaded cores, 2026-11-29."""
+    scenes = [get_scene(name) for name in scene_names()]
+    order = [10, 4, 0, 9, 3, 7, 1, 8, 2, 6, 5]
+    calls = [range(8), range(8, len(scenes)), order]
+    assert not batched_differences("newton", scenes, RunSettings(timestep=DT), calls)
+
+
+def _fresh_and_kept(solver: str) -> tuple[list, list, int]:
+    """hop-bottom and painleve (0.05 s): in a fresh build, and in the third call of kept
+    objects built for other worlds (the two swapped, then hop-top and slip-reversal: every
+    hoop's lam, inertia, mu and start differ); and how many calls the kept objects served."""
+    engine = get_engine("newton")
+    settings = RunSettings(timestep=DT, options={"solver": solver})
+    first = [get_scene(name).with_(t_end=0.05) for name in ("hop-bottom", "painleve")]
+    others = [first[::-1], [get_scene(n).with_(t_end=0.05) for n in ("hop-top", "slip-reversal")]]
+    newton_engine._BUILT.clear()
+    fresh = engine.simulate_batch(first, settings)
+    newton_engine._BUILT.clear()
+    for scenes in others:
+        engine.simulate_batch(scenes, settings)
+    kept = engine.simulate_batch(first, settings)
+    (built,) = newton_engine._BUILT.values()
+    return fresh, kept, built.calls
+
+
+@pytest.mark.parametrize("solver", sorted(SLIP_AT_0_1_S))
+def test_a_second_call_builds_nothing_and_steps_as_a_fresh_build(solver):
+    """Per process, a call keeps its model, solver, collision pipeline and states per shape
+    and setting: later calls of that shape build none of them again (one build for three
+    calls), write their worlds' parameters into the kept model (Newton's
+    ``notify_model_changed``) and reset the kept states and the solver's own (``reset``:
+    MuJoCo's warm start); their runs are a fresh build's bit for bit."""
+    fresh, kept, served = _fresh_and_kept(solver)
+    assert served == 3
+    for a, b in zip(fresh, kept, strict=True):
+        assert a.info.status is RunStatus.OK, a.info.message
+        assert same_run(a, b) is None, same_run(a, b)
+
+
+@pytest.mark.parametrize("solver", sorted(SLIP_AT_0_1_S))
+def test_steps_recorded_on_the_device_are_the_steps_read_in_place(monkeypatch, solver):
+    """On CUDA each step is recorded into a device buffer by a kernel (a captured graph
+    reads nothing back) and the chunk read once; on the CPU the state is read in place
+    after each step. Recording on the CPU gives the same runs bit for bit, with every
+    solver."""
+    engine = get_engine("newton")
+    settings = RunSettings(timestep=DT, options={"solver": solver})
+    scenes = [get_scene("hop-top").with_(t_end=0.05), SEED.with_(t_end=0.08)]
+    in_place = engine.simulate_batch(scenes, settings)
+    monkeypatch.setattr(newton_engine, "_records_on_device", lambda device: True)
+    recorded = engine.simulate_batch(scenes, settings)
+    for a, b in zip(in_place, recorded, strict=True):
+        assert a.info.status is RunStatus.OK, a.info.message
+        assert same_run(a, b) is None, same_run(a, b)
+
+
 def test_unknown_solver_is_named():
     with pytest.raises(ValueError, match="solver must be one of xpbd, featherstone"):
         get_engine("newton").check(SEED, RunSettings(options={"solver": "vbd"}))
@@ -122,3 +193,23 @@ def test_unknown_solver_is_named():
 def test_runs_on_a_gpu():
     skip_without_a_warp_gpu()
     assert _run(SEED.with_(t_end=0.02), device="gpu").info.status is RunStatus.OK
+
+
+@pytest.mark.gpu
+def test_a_second_call_on_a_gpu_replays_the_captured_steps():
+    """On CUDA the kept objects hold the captured steps (one CUDA graph per state buffer a
+    step starts from): a second call of the shape captures nothing again and its runs are
+    the first call's bit for bit."""
+    skip_without_a_warp_gpu()
+    engine = get_engine("newton")
+    settings = RunSettings(timestep=DT, options={"device": "gpu"})
+    scenes = [get_scene("hop-top").with_(t_end=0.05), SEED.with_(t_end=0.05)]
+    newton_engine._BUILT.clear()
+    first = engine.simulate_batch(scenes, settings)
+    (built,) = newton_engine._BUILT.values()
+    graphs = dict(built.graphs)
+    second = engine.simulate_batch(scenes, settings)
+    assert len(graphs) == 2 and built.graphs == graphs and built.calls == 2
+    for a, b in zip(first, second, strict=True):
+        assert a.info.status is RunStatus.OK, a.info.message
+        assert same_run(a, b) is None, same_run(a, b)
