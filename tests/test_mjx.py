@@ -22,13 +22,12 @@ import mujoco
 import numpy as np
 import pytest
 from conftest import engine_unavailable
-from worlds_runs import DT, run_ok, worst
+from worlds_runs import DT, batched_differences, run_ok, worst
 
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.run import RunStatus
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.catalogue import get_scene
-from hoopbench.models.trajectory import COLUMNS
 
 SCENE = get_scene("hop-top").with_(t_end=0.6)
 
@@ -96,19 +95,6 @@ SUITE_SCENES = (
 """The default suite's scenes, which it runs on MJX (reports/compare/suites/default.toml)."""
 
 
-def _same_run(a, b) -> str | None:
-    """None if two runs are the same bit for bit (status, steps, ending, every trajectory
-    column), else the first difference."""
-    for field in ("status", "message", "n_steps", "stop_reason"):
-        if getattr(a.info, field) != getattr(b.info, field):
-            return f"{field}: {getattr(a.info, field)} != {getattr(b.info, field)}"
-    for name in COLUMNS:
-        x, y = getattr(a.trajectory, name), getattr(b.trajectory, name)
-        if not np.array_equal(x, y, equal_nan=True):
-            return f"{name}: first difference at row {np.flatnonzero(x != y)[0]}"
-    return None
-
-
 @pytest.mark.slow
 def test_a_row_is_the_same_alone_and_in_any_batch():
     """Each default-suite scene over its whole window (3 s, dt 1e-3, tuned, float32) alone,
@@ -119,23 +105,10 @@ def test_a_row_is_the_same_alone_and_in_any_batch():
     the suite's batches, and hop-top's trajectory alone left its pair's at step 202 (its
     lift-off 1.1209 s alone, 1.1711 s in pairs). Cost: 93 CPU-s, 220 s wall at a load of
     8 to 11 on 2 cores (eight 3 s windows alone, then 18 worlds in three calls)."""
-    engine = get_engine("mjx")
-    settings = RunSettings(timestep=DT)
     scenes = [get_scene(name) for name in SUITE_SCENES]
-    alone = [engine.simulate(scene, settings) for scene in scenes]
-    if alone[0].info.status is RunStatus.UNAVAILABLE:
-        engine_unavailable("mjx", alone[0].info.message)
     order = [7, 1, 6, 0, 5, 2, 4, 3, 1, 0]  # hop-top and seed-mu in both calls
-    batches = {
-        "one batch": (engine.simulate_batch(scenes, settings), range(len(scenes))),
-        "ten worlds": (engine.simulate_batch([scenes[i] for i in order], settings), order),
-    }
-    differences = [
-        f"{SUITE_SCENES[i]} ({label}): {found}"
-        for label, (runs, indices) in batches.items()
-        for run, i in zip(runs, indices, strict=True)
-        if (found := _same_run(run, alone[i]))
-    ]
+    orders = [list(range(len(scenes))), order]
+    differences = batched_differences("mjx", scenes, RunSettings(timestep=DT), orders)
     assert not differences, differences
 
 
