@@ -35,20 +35,20 @@ REPORT = "report"
 CALL_COST_PRIOR: dict[Hashable, Rates] = {
     # Rates(fixed_s, step_s, world_step_s, cold_s), fitted by
     # `python -m hoopbench.reports.bench.call_costs fit` on the whole calls of make report's
-    # three suites (731 calls) and its map (304 calls), main at 6a50fe6, 2026-11-29
-    # 00:25-00:48 UTC, on the project's machine (AMD EPYC, 2 cores, no GPU) under load: 1-min
-    # load average 6-11 from other work, where the wall times are 2-4 times an idle
-    # machine's. A loaded or another machine scales them all by the machine factor.
-    "box2d": Rates(0.025, 2.7e-05, 0.0, 0.13),
-    "dart": Rates(0.0058, 6.6e-05, 0.0, 0.23),
-    "drake": Rates(0.072, 9.6e-05, 0.0, 0.25),
-    "mjx": Rates(35.0, 0.0, 0.00059),
-    "mujoco": Rates(0.18, 9.9e-06, 4e-05, 0.56),
-    "newton": Rates(12.0, 0.0, 0.00071, 3.8),
-    "pybullet": Rates(0.093, 3.4e-05),
-    "pymunk": Rates(0.031, 1.5e-05, 0.0, 0.096),
-    "rapier": Rates(0.014, 4.8e-05, 0.0, 0.034),
-    "reference": Rates(0.0098, 7.1e-06, 0.0, 0.87),
+    # three suites (731 calls) and its map (304 calls), main at 2026-11-29 01:45 UTC (after
+    # issue 34's MJX, Newton, worker and report changes), on the project's machine (AMD EPYC,
+    # 2 cores, no GPU), idle (1-min load average 0.7 at the start), JAX's and Warp's caches
+    # warm. A loaded or another machine (or cold caches) scales them by the machine factor.
+    "box2d": Rates(0.011, 4.1e-06, 0.0, 0.003),
+    "dart": Rates(0.015, 9.3e-06, 0.0, 0.011),
+    "drake": Rates(0.082, 1.6e-05, 0.0, 0.08),
+    "mjx": Rates(4.0, 0.0015, 0.00014),
+    "mujoco": Rates(0.037, 6.4e-07, 7.9e-06, 0.1),
+    "newton": Rates(1.1, 0.0, 0.00012, 0.74),
+    "pybullet": Rates(0.018, 9.1e-06, 0.0, 0.0045),
+    "pymunk": Rates(0.013, 2.6e-06),
+    "rapier": Rates(0.0088, 8e-06),
+    "reference": Rates(0.057, 8.9e-07, 0.0, 0.096),
     # Run only with a GPU (left out of make report's suites without one), not measured here:
     # whole calls over their steps, on the default suite with a lightly loaded machine
     # (2026-11-28 18:55 UTC): MuJoCo Warp's RK4 (tuned) against its Euler (stock), and
@@ -58,18 +58,15 @@ CALL_COST_PRIOR: dict[Hashable, Rates] = {
     ("mjwarp", "tuned", "default"): Rates(0.0, 0.018),
     ("newton", "tuned", "solver=mujoco"): Rates(0.0, 0.0071),
     # The map's (make report's: 10 x 10, MuJoCo in 4 batches of 25, 1e-4 s; its runs stop
-    # at their first impact, so a step of its window costs less than a suite's): 304 calls,
-    # load 12. MuJoCo's 4 calls (35-56 s) over their world-steps.
-    # Its classification: refitted on 200 calls with the fit's weighting floor, after the
-    # relative fit (0.0022 s) let the 2 ms points outweigh the 0.2 s ones: the map's first
-    # stage then said "eta 0s" with 9 s left.
-    (MAP, "reference"): Rates(0.13, 0.0, 0.0, 0.17),
-    (MAP, "mujoco"): Rates(0.0, 0.0, 6e-05),
-    (MAP, "pybullet"): Rates(0.0, 1.1e-05, 0.0, 1.4),
-    (MAP, "pymunk"): Rates(0.0, 3.7e-06, 0.0, 0.25),
+    # at their first impact, so a step of its window costs less than a suite's): its 304
+    # calls of the same idle make report. MuJoCo's 4 calls over their world-steps.
+    (MAP, "reference"): Rates(0.022, 0.0, 0.0, 0.03),
+    (MAP, "mujoco"): Rates(0.0, 0.0, 7.6e-06, 2.2),
+    (MAP, "pybullet"): Rates(0.0, 6.1e-06, 0.0, 0.21),
+    (MAP, "pymunk"): Rates(0.0, 1.9e-06, 0.0, 0.011),
     # `hoopbench report` of the three suites, the map, the shipped searches and bench (make
-    # report's last step): about 50 s on 2 idle cores (note43), times the load's 3.
-    REPORT: Rates(150.0, 0.0),
+    # report's last step): 22 s on the same idle make report.
+    REPORT: Rates(22.0, 0.0),
 }
 """A kind's whole call (:class:`~hoopbench.reports.sweep.eta.Rates`) before any call of it
 has finished here: by engine, by engine, profile and variant where those differ, by the
