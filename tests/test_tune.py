@@ -481,7 +481,7 @@ def test_make_report_passes_every_shipped_search(
     command = ["make", "-n", "report", f"SEARCHES={shipped}", f"OUT={tmp_path / 'out'}"]
     dry = subprocess.run(command, cwd=root, capture_output=True, text=True, check=True)
     line = dry.stdout.replace("\\\n", " ")
-    report = next(s for s in line.splitlines() if "hoopbench report" in s)
+    report = next(s for s in line.splitlines() if "hoopbench report --results" in s)
     assert f"{shipped / 'mujoco'} {shipped / 'pymunk'} " in " ".join(report.split())
     assert str(shipped / "empty") not in report
 

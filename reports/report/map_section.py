@@ -28,6 +28,7 @@ from hoopbench.reference.regimes import Regime
 from hoopbench.reports.compare.selection import engine_rows, reference_rows
 from hoopbench.reports.hop_map.spec import AXES, MAP_FILE, Axis, MapSpec, load_spec
 from hoopbench.reports.hop_map.table import ALL_REGIMES, agreement_table, map_frame
+from hoopbench.reports.report import map_figures, plotting
 from hoopbench.reports.report.escaping import escape_cell, escape_text
 from hoopbench.reports.report.map_figures import (
     FIGURE_KEY,
@@ -334,8 +335,6 @@ def figure_key(frame: pd.DataFrame, name: str) -> str:
     value, the drawing code (map_figures.py, plotting.py) and matplotlib's version. Two
     figures of one key are the same picture."""
     import matplotlib
-
-    from hoopbench.reports.report import map_figures, plotting
 
     digest = hashlib.sha256(f"{name}\0{matplotlib.__version__}\0".encode())
     for module in (map_figures, plotting):
