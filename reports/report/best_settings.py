@@ -13,7 +13,7 @@ from __future__ import annotations
 import io
 import json
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -25,7 +25,7 @@ from hoopbench.engines.judging.score import CostClock
 from hoopbench.reports.compare.settings_file import TIER_CHOICES, TierChoice
 from hoopbench.reports.report.escaping import escape_cell, escape_text, file_stem
 from hoopbench.reports.report.palette import engine_colours, profile_style
-from hoopbench.reports.report.plotting import pyplot, save
+from hoopbench.reports.report.plotting import Draw, draw_now, pyplot, save
 from hoopbench.reports.sweep.folder_files import (
     MAX_DATA_BYTES,
     FolderFileError,
@@ -444,14 +444,6 @@ def _panel(ax: Any, best: BestSettings, which: str) -> None:
     ax.grid(True, which="both", alpha=0.3)
 
 
-Draw = Callable[..., object]
-"""Where a section's figure is drawn: called with the drawing function and its arguments."""
-
-
-def _now(function: Callable[..., Path], *args: object) -> Path:
-    return function(*args)
-
-
 def _figure(best: BestSettings, path: Path) -> Path:
     plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
@@ -516,7 +508,7 @@ def best_settings_section(
         "the wall time, which grows with that machine's load. " + _clocks_sentence(found),
     ]
     for best, name in zip(found, figure_names(found), strict=True):
-        (draw or _now)(_figure, best, out / name)
+        (draw or draw_now)(_figure, best, out / name)
         engine = escape_text(best.engine)
         nth = name.removesuffix(".png").removeprefix(f"best-settings-{file_stem(best.engine)}")
         lines += [

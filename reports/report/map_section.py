@@ -37,7 +37,7 @@ from hoopbench.reports.report.map_figures import (
     regime_figure,
     verdict_figure,
 )
-from hoopbench.reports.report.plotting import written_whole
+from hoopbench.reports.report.plotting import Draw, draw_now, written_whole
 from hoopbench.reports.sweep import results
 from hoopbench.reports.sweep.folder_files import MAX_DATA_BYTES, FolderFileError, folder_file
 
@@ -322,14 +322,6 @@ def _agreement_cell(count: int, judged: int, pct: float) -> str:
     return f"{count}/{judged} ({pct:.0f} %)" if judged else "-"
 
 
-Draw = Callable[..., object]
-"""Where a figure is drawn: called with the drawing function and its arguments."""
-
-
-def _now(function: Callable[..., Path], *args: object) -> Path:
-    return function(*args)
-
-
 def figure_key(frame: pd.DataFrame, name: str) -> str:
     """What a map figure is drawn from, as a sha256: the figure's name, the frame's every
     value, the drawing code (map_figures.py, plotting.py) and matplotlib's version. Two
@@ -393,7 +385,7 @@ def write_map_figures(
             out.mkdir(parents=True, exist_ok=True)
             written_whole(path, partial(_copy, source))
             continue
-        (draw or _now)(figure, frame, path, key)
+        (draw or draw_now)(figure, frame, path, key)
     return paths
 
 

@@ -29,7 +29,17 @@ from typing import Any
 from hoopbench.models.whole_files import write_whole
 from hoopbench.reports.sweep.control_chars import visible_controls
 
-__all__ = ["plain_text", "plain_tick_label", "pyplot", "save", "written_whole"]
+__all__ = ["Draw", "draw_now", "plain_text", "plain_tick_label", "pyplot", "save", "written_whole"]
+
+Draw = Callable[..., object]
+"""Where a report section's figure is drawn: called with the drawing function and its
+arguments (the report's FigurePool.submit draws it beside its other work; :func:`draw_now`
+here, now)."""
+
+
+def draw_now(function: Callable[..., Path], *args: object) -> Path:
+    """Draw a figure here and now: ``function(*args)``."""
+    return function(*args)
 
 
 @cache
