@@ -9,6 +9,7 @@ import functools
 import numpy as np
 import pytest
 
+from hoopbench.engines.judging import contact
 from hoopbench.engines.judging.contact import ContactSettings, read_contact
 from hoopbench.models import kinematics
 from hoopbench.models.catalogue import get_scene, scene_names
@@ -452,3 +453,41 @@ def test_creep_is_counted_only_where_the_exact_hoop_is_in_contact():
     before = read_contact(_record(n, f, clear, slip), mu=0.5, exact_lift=0.1)
     assert everywhere.creep_time == pytest.approx(0.3, abs=2 * DT)
     assert before.creep_time == pytest.approx(0.1, abs=2 * DT)
+
+
+def _flights_one_by_one(t, n, clearance, touching, cfg):
+    """The flights as the reading defines them, one stretch without contact at a time: the
+    oracle of the whole-array _flights."""
+    level = cfg.contact_level * cfg.g
+    out = []
+    for start, stop in contact._runs(~touching):
+        t_start = contact._crossing(t, n, int(start), level)
+        t_end = None if stop == len(t) else contact._crossing(t, n, int(stop), level)
+        if t_end is None:
+            t_end = contact._landing(t, clearance, int(start))
+        out.append(contact.Flight(t_start, t_end, float(np.max(clearance[start:stop]))))
+    return out
+
+
+def test_the_flights_of_whole_arrays_are_those_read_one_by_one():
+    """Records of flickering force (zeros, the contact level itself, NaN and infinite
+    forces, flights at either end): every flight's times and peak the same floats as one
+    stretch at a time (repr: -0.0 and NaN included). ~0.5 s."""
+    cfg = ContactSettings()
+    level = cfg.contact_level * cfg.g
+    rng = np.random.default_rng(7)
+    choices = np.array([0.0, level, 0.5 * level, 2 * level, 1.0, -1.0, np.nan])
+    for k in range(1500):
+        size = int(rng.integers(1, 40))
+        t = np.arange(size) * DT
+        n = rng.choice(choices, size) if k % 2 else rng.normal(level, level, size)
+        if k % 5 == 0:
+            n[rng.integers(0, size)] = np.inf
+        clearance = rng.normal(0.0, 1e-3, size)
+        if k % 7 == 0:
+            clearance[rng.integers(0, size)] = np.nan
+        touching = n > level
+        whole = contact._flights(t, n, clearance, touching, cfg)
+        with np.errstate(divide="ignore", invalid="ignore"):  # a NaN force's crossing
+            one_by_one = _flights_one_by_one(t, n, clearance, touching, cfg)
+        assert repr(whole) == repr(one_by_one)
