@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from hoopbench.engines.judging import exact_samples
-from hoopbench.engines.judging.comparison import exact_solution
+from hoopbench.engines.judging.comparison import KEPT_SOLUTIONS, exact_solution
 from hoopbench.engines.judging.exact_samples import exact_sample
 from hoopbench.models.catalogue import get_scene
 from hoopbench.models.trajectory import Trajectory
@@ -62,3 +62,63 @@ def test_the_oldest_samples_go_first(monkeypatch):
     first = exact_sample(exact, one)
     exact_sample(exact, two)  # 4,000 samples kept would be too many: the first goes
     assert exact_sample(exact, one) is not first
+
+
+def _grid(exact, dt: float = 1e-4) -> np.ndarray:
+    """The floor's times at dt (comparison._sampled): every dt to the window's end, and the
+    solution's last instant."""
+    n = int(np.floor(min(exact.scene.t_end, exact.t_final) / dt * (1.0 + 1e-12)))
+    return np.unique(np.minimum(np.append(np.arange(n + 1) * dt, exact.t_final), exact.t_final))
+
+
+@pytest.mark.parametrize("name", ["hop-top", "seed-mu", "hop-low"])
+def test_times_within_a_kept_sample_are_its_rows_the_solutions_numbers(name, monkeypatch):
+    """A run stopped early samples a prefix of the floor's times, a force window a part of
+    them: both come from the kept sample, each the very numbers ``sample`` gives for those
+    times alone (bit for bit: a sample is computed time by time), without sampling again."""
+    scene = get_scene(name)
+    exact = exact_solution(scene, scene.mus)
+    grid = _grid(exact)
+    kept = exact_sample(exact, grid)
+    prefix = np.arange(len(grid) // 3) * 1e-4  # a run's times, built as from_steps does
+    window = prefix[len(prefix) // 5 :: 7]
+    alone = {id(t): exact.sample(t) for t in (prefix, window)}
+    calls = []
+    monkeypatch.setattr(type(exact), "sample", lambda self, t: calls.append(t))
+    for t in (prefix, window):
+        picked = exact_sample(exact, t)
+        assert picked is not kept and _same(picked, alone[id(t)])
+        with pytest.raises(ValueError, match="read-only"):
+            picked.theta[0] = 0.0
+    assert calls == []
+
+
+def test_times_not_all_within_a_kept_sample_are_sampled_anew():
+    """One time between the kept ones, or past their end, and the times are sampled anew:
+    nothing is interpolated."""
+    scene = get_scene("hop-top")
+    exact = exact_solution(scene, scene.mus)
+    grid = np.arange(2000) * 1e-4
+    exact_sample(exact, grid)
+    between = grid[:100].copy()
+    between[50] += 0.25e-4
+    past = np.arange(2001) * 1e-4
+    for t in (between, past):
+        picked = exact_sample(exact, t)
+        assert _same(picked, exact.sample(t))
+        assert exact_sample(exact, t) is picked  # sampled anew, and kept as its own
+
+
+def test_a_worker_keeps_the_last_kept_solutions_exact_solutions_and_no_more():
+    """exact_solution solves a (scene, mu) once while it is among the last KEPT_SOLUTIONS
+    used, and forgets older ones (a map's worker kept every point it judged: unbounded)."""
+    scene = get_scene("hop-top").with_(t_end=0.002)  # a few integrator steps each
+    mus = [0.5 + 1e-3 * k for k in range(KEPT_SOLUTIONS + 1)]
+    exact_solution.cache_clear()
+    first = exact_solution(scene, mus[0])
+    for mu in mus[1:KEPT_SOLUTIONS]:  # KEPT_SOLUTIONS in all
+        exact_solution(scene, mu)
+    assert exact_solution(scene, mus[0]) is first
+    for mu in mus[1:]:  # KEPT_SOLUTIONS others used since: the first is the oldest, gone
+        exact_solution(scene, mu)
+    assert exact_solution(scene, mus[0]) is not first

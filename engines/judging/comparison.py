@@ -48,11 +48,19 @@ __all__ = [
 ]
 
 
-@functools.cache  # one exact solve per (scene, mu) per worker process, not one per run
-@functools.lru_cache(maxsize=16)
+KEPT_SOLUTIONS = 64
+"""Exact solutions a worker keeps (about 105 kB each, 7 MB in all: a 10x10 map's 100
+solutions held 10.5 MB), the least recently used dropped first. A suite judges every engine
+and profile of its 8-10 (scene, mu) pairs in turn, a map a point's engines one after the other
+and at most a batch (DEFAULT_BATCH_SIZE, 64) of points in one call: every reuse is within
+the last 64. Unbounded, a worker of a 40x40 map kept every point it judged (168 MB)."""
+
+
+@functools.lru_cache(maxsize=KEPT_SOLUTIONS)
 def exact_solution(scene: Scene, mu: float) -> ExactSolution:
-    """The exact solution of ``scene`` with mus = muk = ``mu``. Kept for the last few scenes:
-    a suite or a map judges several engines and profiles on one scene in turn."""
+    """The exact solution of ``scene`` with mus = muk = ``mu``, solved once per worker while
+    kept (:data:`KEPT_SOLUTIONS`): a suite or a map judges several engines and profiles on one
+    scene in turn."""
     return solve_exact(scene.with_(mus=mu, muk=mu))
 
 
@@ -254,10 +262,11 @@ def _sampled(solution: ExactSolution, timestep: float) -> Trajectory | None:
     t = np.unique(
         np.minimum(np.append(np.arange(n + 1) * timestep, solution.t_final), solution.t_final)
     )
-    sampled = solution.sample(t)
+    # Kept (exact_samples.py): a run at this timestep samples a prefix of these times.
+    sampled = exact_sample(solution, t)
     finite = np.isfinite(sampled.normal_force) & np.isfinite(sampled.friction_force)
     if not finite.all():  # a Painlevé point's last instant has no finite force
-        sampled = solution.sample(t[finite])
+        sampled = exact_sample(solution, t[finite])
     return sampled if len(sampled.t) >= 2 else None
 
 
