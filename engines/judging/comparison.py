@@ -51,9 +51,10 @@ __all__ = [
 KEPT_SOLUTIONS = 64
 """Exact solutions a worker keeps (about 105 kB each, 7 MB in all: a 10x10 map's 100
 solutions held 10.5 MB), the least recently used dropped first. A suite judges every engine
-and profile of its 8-10 (scene, mu) pairs in turn, a map a point's engines one after the other
-and at most a batch (DEFAULT_BATCH_SIZE, 64) of points in one call: every reuse is within
-the last 64. Unbounded, a worker of a 40x40 map kept every point it judged (168 MB)."""
+and profile of its 8-10 (scene, mu) pairs in turn; a map's task order keeps a point's runs
+close (a batch of at most DEFAULT_BATCH_SIZE, 64, points, each point's single runs one after
+the other), so a solution is rarely wanted again after 64 others. Unbounded, a worker kept
+every point of a map it judged (a 40x40 map's 1,600 points: up to 168 MB)."""
 
 
 @functools.lru_cache(maxsize=KEPT_SOLUTIONS)
