@@ -1,5 +1,6 @@
 """The exact solution sampled once per (solution, times) in a worker (judging/exact_samples.py):
-the very numbers of ``ExactSolution.sample``, shared only between runs of equal times. ~1 s."""
+the very numbers of ``ExactSolution.sample``, shared between runs of equal times or taken from
+a kept sample whose times include a run's; and the worker's kept exact solutions. ~2 s CPU."""
 
 from __future__ import annotations
 
