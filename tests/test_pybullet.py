@@ -453,6 +453,15 @@ def test_client_kept_between_runs_and_closed_on_release(monkeypatch):
     assert len(ids) == 2  # the next run connects anew
 
 
+def test_a_run_inside_another_keeps_one_client_and_closes_the_other(monkeypatch):
+    ids = _spy_connect(monkeypatch)
+    scene, settings = seed_mu(t_end=0.01), RunSettings()
+    engine = PybulletEngine()
+    with engine._open(pybullet, scene, settings, engine.check(scene, settings), record=True):
+        assert engine.run(scene).ok
+    assert len(ids) == 2 and [_connected(cid) for cid in ids].count(True) == 1
+
+
 def test_client_closed_after_error(monkeypatch):
     ids = _spy_connect(monkeypatch)
 
