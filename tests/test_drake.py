@@ -431,3 +431,72 @@ def test_sliding_hoop_glides_off_the_floor_with_sap_and_similar(
     assert (lift > 1e-3) == lifts, lift
     if not lifts:
         assert lift < 1e-4
+
+
+# --------------------------------------------------------------------------- TAMSI at 5e-4
+_TAMSI_LANDING = """
+import numpy as np
+from pydrake.geometry import AddContactMaterial, HalfSpace, ProximityProperties, Sphere
+from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.multibody.plant import AddMultibodyPlant, CoulombFriction, MultibodyPlantConfig
+from pydrake.multibody.tree import FixedOffsetFrame, PlanarJoint, RotationalInertia, SpatialInertia
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+
+DT, K = {dt!r}, 9.8e6  # s; N/m, the pair's: M g over the tuned 1e-6 m allowance
+builder = DiagramBuilder()
+config = MultibodyPlantConfig(
+    time_step=DT, contact_model="point", discrete_contact_approximation="tamsi",
+    stiction_tolerance=1e-5,
+)
+plant, _ = AddMultibodyPlant(config, builder)
+# hop-top: a 1 kg hoop of radius 1 m, its centre of mass 0.95 m from the centre, 0.107 kg m^2
+inertia = SpatialInertia.MakeFromCentralInertia(
+    1.0, [0, 0.95, 0], RotationalInertia(0.107, 0.107, 0.107)
+)
+hoop = plant.AddRigidBody("hoop", inertia)
+props = ProximityProperties()
+# per geometry 2 K (in series: K), critically damped as Drake's own rule gives
+AddContactMaterial(dissipation=np.sqrt(1 / K) / (9.8 / K), point_stiffness=2 * K,
+                   friction=CoulombFriction(0.8, 0.8), properties=props)
+plant.RegisterCollisionGeometry(hoop, RigidTransform(), Sphere(1.0), "hoop", props)
+plant.RegisterCollisionGeometry(plant.world_body(), RigidTransform(), HalfSpace(), "floor", props)
+plane = plant.AddFrame(FixedOffsetFrame(
+    "plane", plant.world_frame(), RigidTransform(RollPitchYaw(np.pi / 2, 0, 0), [0, 0, 1.0])
+))
+plant.AddJoint(PlanarJoint("planar", plane, hoop.body_frame(), damping=[0, 0, 0]))
+plant.mutable_gravity_field().set_gravity_vector([0, 0, -9.8])
+plant.Finalize()
+simulator = Simulator(builder.Build())
+context = plant.GetMyMutableContextFromRoot(simulator.get_mutable_context())
+plant.SetPositions(context, [0.0, -5.25e-7, 0.0])  # rolling, weight on top, 0.525 um deep
+plant.SetVelocities(context, [2.2135943621178655, 0.0, -2.2135943621178655])
+simulator.Initialize()
+try:
+    simulator.AdvanceTo(3.0)
+    print("ran")
+except RuntimeError as exc:
+    print(str(exc).split(" with ")[0])
+"""
+"""hop-top as a pydrake user writes it from Drake's docs (no SDFormat, no hoopbench), with
+hoopbench's tuned contact (TAMSI, 1e-6 m allowance) and its start state: only pydrake."""
+
+
+def test_tamsi_fails_on_hop_tops_landing_at_5e_4_in_drake_alone():
+    """The default suite's one Drake error row (hop-top, tuned, 5e-4 s) is TAMSI's: the same
+    plant built with pydrake alone stops at the same time with the same error, on the landing
+    after the hop; at 4e-4 s it runs (docs/engines.md, Drake). ~4 s (two processes)."""
+    messages = {}
+    for dt in (5e-4, 4e-4):
+        done = subprocess.run(
+            [sys.executable, "-c", _TAMSI_LANDING.format(dt=dt)],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+        assert done.returncode == 0, done.stderr
+        messages[dt] = done.stdout.strip()
+    stop = "failed to converge at simulation time = 1.6805"
+    assert stop in messages[5e-4] and messages[4e-4] == "ran"
+    run = DrakeEngine().run(get_scene("hop-top"), RunSettings(timestep=5e-4))
+    assert run.info.status is RunStatus.ERROR and stop in run.info.message

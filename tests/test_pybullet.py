@@ -1,5 +1,6 @@
 """PyBullet adapter and its URDF: the model PyBullet loads is the scene's, options reach the
-engine, the client is always closed, and the recorded forces are the ones that move the hoop."""
+engine, the client is kept between runs and closed on errors, and the recorded forces are the
+ones that move the hoop."""
 
 from __future__ import annotations
 
@@ -19,7 +20,12 @@ import pytest
 from hoopbench.engines.base import CHUNK_STEPS
 from hoopbench.engines.judging.contact import canonical_events, read_run
 from hoopbench.engines.judging.tolerances import Tier, event_tolerances, tolerances
-from hoopbench.engines.pybullet_engine import _HOOP_LINK, MAX_PAIR_FRICTION, PybulletEngine
+from hoopbench.engines.pybullet_engine import (
+    _HOOP_LINK,
+    MAX_PAIR_FRICTION,
+    PybulletEngine,
+    _release_client,
+)
 from hoopbench.engines.reference_engine import ReferenceEngine
 from hoopbench.engines.run import RunResult, RunStatus
 from hoopbench.engines.settings import RunSettings
@@ -305,7 +311,7 @@ def test_mass_matrix_is_the_planar_rigid_body():
     try:
         M, r, inertia = ODD.M, ODD.com_offset, ODD.inertia_com
         for th in (0.0, 0.7, 2.5, 4.0):
-            got = np.array(pybullet.calculateMassMatrix(hoop, [0.3, 0.7, th], cid))
+            got = np.array(pybullet.calculateMassMatrix(hoop, [0.3, 0.7, th], physicsClientId=cid))
             s, c = math.sin(th), math.cos(th)
             want = np.array(
                 [[M, 0, M * r * c], [0, M, -M * r * s], [M * r * c, -M * r * s, inertia + M * r**2]]
@@ -416,6 +422,8 @@ def test_mu_beyond_the_clamp_raises():
 
 # ----------------------------------------------------------------------------- client life
 def _spy_connect(monkeypatch) -> list[int]:
+    """The clients connected from now on (the process's kept client released first)."""
+    _release_client(pybullet)
     ids: list[int] = []
     real = pybullet.connect
 
@@ -432,13 +440,26 @@ def _connected(cid: int) -> bool:
     return bool(pybullet.getConnectionInfo(physicsClientId=cid)["isConnected"])
 
 
-def test_client_closed_after_run_and_bare_loop(monkeypatch):
+def test_client_kept_between_runs_and_closed_on_release(monkeypatch):
     ids = _spy_connect(monkeypatch)
     scene = seed_mu(t_end=0.01)
     assert PybulletEngine().run(scene).ok
     assert PybulletEngine().bare_loop_time(scene) > 0
-    assert len(ids) == 2 and ids[0] >= 0
-    assert not any(_connected(cid) for cid in ids)
+    assert PybulletEngine().run(scene, RunSettings(options={"base": "chain"})).ok
+    assert len(ids) == 1 and ids[0] >= 0 and _connected(ids[0])  # one client, reset per run
+    _release_client(pybullet)
+    assert not _connected(ids[0])
+    assert PybulletEngine().run(scene).ok
+    assert len(ids) == 2  # the next run connects anew
+
+
+def test_a_run_inside_another_keeps_one_client_and_closes_the_other(monkeypatch):
+    ids = _spy_connect(monkeypatch)
+    scene, settings = seed_mu(t_end=0.01), RunSettings()
+    engine = PybulletEngine()
+    with engine._open(pybullet, scene, settings, engine.check(scene, settings), record=True):
+        assert engine.run(scene).ok
+    assert len(ids) == 2 and [_connected(cid) for cid in ids].count(True) == 1
 
 
 def test_client_closed_after_error(monkeypatch):
@@ -464,7 +485,34 @@ def test_divergence_stops_and_keeps_the_partial_trajectory(monkeypatch):
     assert result.info.message == "made up for the test"
     assert result.info.n_steps == CHUNK_STEPS
     assert len(result.trajectory) == CHUNK_STEPS + 1
-    assert not _connected(ids[0])
+    assert len(ids) == 1 and _connected(ids[0])  # a result, not an error: the client is kept
+
+
+def test_a_run_in_a_kept_client_is_the_run_in_a_new_one():
+    """Bit for bit, after runs that load other bodies and set other parameters in the same
+    client (chain base, hull, soft contact, another timestep and scene): resetSimulation and
+    the parameters every run sets leave nothing of the runs before (0.3 s windows, ~0.3 s)."""
+    scene, settings = ODD.with_(t_end=0.3), RunSettings(timestep=2e-4)
+    _release_client(pybullet)
+    alone = PybulletEngine().simulate(scene, settings).trajectory.to_frame()
+    others = [
+        (seed_mu(t_end=0.2), RunSettings(options={"base": "chain", "numSolverIterations": 7})),
+        (seed_mu(t_end=0.2), RunSettings(geometry="hull", options={"contactERP": 0.5})),
+        (
+            get_scene("hop-top").with_(t_end=0.2),
+            RunSettings(
+                timestep=5e-4,
+                restitution=0.5,
+                options={"contactStiffness": 1e5, "contactDamping": 1e2, "contactSlop": 1e-3},
+            ),
+        ),
+    ]
+    for other, other_settings in others:
+        assert PybulletEngine().simulate(other, other_settings).info.status is RunStatus.OK
+    kept = PybulletEngine().simulate(scene, settings).trajectory.to_frame()
+    assert list(kept.columns) == list(alone.columns)
+    for column in alone.columns:
+        assert np.array_equal(kept[column], alone[column], equal_nan=True), column
 
 
 def test_missing_pybullet_is_unavailable(monkeypatch):
