@@ -216,7 +216,7 @@ def test_warp_compiles_no_backward_pass():
     """hoopbench takes no gradient, so Newton's and MuJoCo Warp's kernels are built without
     their adjoints (half of a cold Newton call's compile, docs/engines.md). A Warp module
     takes the setting when it is created, at its package's import: a fresh process, as a
-    sweep's worker is (3.5 CPU-s)."""
+    sweep's worker is (7 CPU-s: importing both engines)."""
     out = subprocess.run(
         [sys.executable, "-c", WARP_MODULES_WITH_A_BACKWARD_PASS],
         capture_output=True,
