@@ -1078,6 +1078,9 @@ def import_warp() -> ModuleType:
     owns) and with its kernel cache under :func:`cache_folder`; EngineUnavailableError if
     it cannot be imported."""
     wp = import_engine("warp")
+    # hoopbench never takes a gradient: no kernel's adjoint is compiled (Warp's documented
+    # switch; a module takes it when created, so before the engine's package is imported).
+    wp.config.enable_backward = False
     if not wp.config.kernel_cache_dir:
         wp.config.kernel_cache_dir = str(cache_folder("warp"))
     wp.config.quiet = True

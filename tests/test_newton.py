@@ -19,8 +19,13 @@ torsional friction, no angular damping), over 0.1 s; measured on newton 1.8.0, w
 
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
+
 import numpy as np
 import pytest
+from conftest import engine_unavailable
 from worlds_runs import (
     DT,
     STATE_COLUMNS,
@@ -182,6 +187,48 @@ def test_steps_recorded_on_the_device_are_the_steps_read_in_place(monkeypatch, s
     for a, b in zip(in_place, recorded, strict=True):
         assert a.info.status is RunStatus.OK, a.info.message
         assert same_run(a, b) is None, same_run(a, b)
+
+
+WARP_MODULES_WITH_A_BACKWARD_PASS = """
+import json
+from hoopbench.engines.base import EngineUnavailableError
+from hoopbench.engines.registry import get_engine
+try:
+    for engine in ("newton", "mjwarp"):
+        get_engine(engine)._import()
+except EngineUnavailableError as exc:
+    print(json.dumps({"unavailable": engine, "message": str(exc)}))
+    raise SystemExit
+import warp as wp
+from warp._src.context import user_modules  # Warp's registry of modules (no public list)
+ours = {n: m for n, m in user_modules.items() if n.startswith(("newton.", "mujoco_warp."))}
+print(json.dumps({
+    "config": wp.config.enable_backward,
+    "modules": len(ours),
+    "with_backward": sorted(n for n, m in ours.items() if m.options["enable_backward"]),
+}))
+"""
+"""A fresh process imports Newton and MuJoCo Warp as a run does and lists their Warp modules
+that would compile a backward pass."""
+
+
+def test_warp_compiles_no_backward_pass():
+    """hoopbench takes no gradient, so Newton's and MuJoCo Warp's kernels are built without
+    their adjoints (half of a cold Newton call's compile, docs/engines.md). A Warp module
+    takes the setting when it is created, at its package's import: a fresh process, as a
+    sweep's worker is (7 CPU-s: importing both engines)."""
+    out = subprocess.run(
+        [sys.executable, "-c", WARP_MODULES_WITH_A_BACKWARD_PASS],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+    found = json.loads(out.splitlines()[-1])
+    if "unavailable" in found:
+        engine_unavailable(found["unavailable"], found["message"])
+    assert found["config"] is False
+    assert found["modules"] > 10, "the engines' Warp modules were not found"
+    assert found["with_backward"] == []
 
 
 def test_unknown_solver_is_named():
