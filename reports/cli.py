@@ -1224,7 +1224,8 @@ def _add_map(sub: Any, classes: Mapping[str, Any]) -> None:
 def _add_report_runs(sub: Any, classes: Mapping[str, Any]) -> None:
     p = sub.add_parser(
         "report-runs",
-        help="make report's three suites and hop map in one process, with one progress line",
+        help="make report's three suites and hop map in one process, overlapping on one pool "
+        "of workers, with one progress line",
     )
     p.add_argument(
         "--out",
