@@ -64,10 +64,11 @@ MAP_ARGS ?= --grid 10x10 --engines mujoco pybullet pymunk
 # The default suite, the scenes its timesteps cannot resolve at a finer one (finer.toml),
 # the stiff and extreme scenes and the small hop map; then one report of them all and the
 # shipped searches. `hoopbench report-runs` runs the suites and the map in one process, each
-# into its own folder as `hoopbench compare` and `hoopbench map` would: it says which step
-# starts (suite k of 3, the map), and each progress line ends with the overall one (step k of
-# 4, runs done of all, an ETA for the whole of make report from the runs' expected costs);
-# the report's lines then say what it draws.
+# into its own folder as `hoopbench compare` and `hoopbench map` would, overlapping on one
+# pool of workers (a step begins once the one before has nothing left queued): it says which
+# step starts (suite k of 3, the map), and each progress line ends with the overall one (step
+# k of 4 and the steps running beside it, runs done of all, an ETA for the whole of make
+# report from the runs' expected costs); the report's lines then say what it draws.
 # REPORT_RUNS_ARGS="--calls FILE" also writes each call's cost (docs/cli.md: the priors).
 REPORT_RUNS_ARGS ?=
 MAP_DIR = $(if $(strip $(MAP_ARGS)),$(OUT)/map)

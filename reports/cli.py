@@ -868,39 +868,34 @@ def _engine_steps(pairs: Sequence[tuple[str, float]] | None) -> dict[str, float]
 
 def _cmd_report_runs(args: argparse.Namespace) -> int:
     """Each step as its own command runs it (folder, resume line, outputs), in one process
-    under one plan: their progress lines end with the plan's (reports/report_runs.py)."""
+    under one plan, overlapping on one pool: their progress lines end with the plan's
+    (reports/report_runs.py)."""
     import shlex
 
     from hoopbench.reports.api import default_jobs
-    from hoopbench.reports.report_runs import MAP_STEP, REPORT_SUITES, report_plan
-    from hoopbench.reports.sweep.plan import current_plan
+    from hoopbench.reports.report_runs import MAP_STEP, REPORT_SUITES, Step, report_plan, run_steps
 
     out = Path(args.out)
     n = len(REPORT_SUITES)
     steps = [
-        (f"suite {k} of {n} ({name})", ["compare", "--suite", name, "--out", str(out / name), *o])
+        Step(
+            f"suite {k} of {n} ({name})", ("compare", "--suite", name, "--out", str(out / name), *o)
+        )
         for k, (name, o) in enumerate(REPORT_SUITES, 1)
     ]
     spec = None
     if args.map.strip():
         argv = ["map", *shlex.split(args.map), "--out", str(out / "map")]
         spec = _map_spec(_parser().parse_args(argv))  # every value checked before any run
-        steps.append((f"{MAP_STEP} ({args.map.strip()})", argv))
+        steps.append(Step(f"{MAP_STEP} ({args.map.strip()})", tuple(argv), sweeps=2))
     plan = report_plan(
         [name for name, _ in REPORT_SUITES], spec, default_jobs(), DEFAULT_BATCH_SIZE
     )
-    token = current_plan.set(plan)
     try:
-        for what, argv in steps:
-            _say_plain(f"make report: {what} -> {argv[argv.index('--out') + 1]}")
-            code = main(argv)
-            if code:
-                return code
+        return run_steps(plan, steps, main, _say_plain)
     finally:
-        current_plan.reset(token)
         if args.calls is not None:
             _write_calls(plan.finished, Path(args.calls))
-    return 0
 
 
 def _write_calls(finished: Sequence[Any], path: Path) -> None:
@@ -1229,7 +1224,8 @@ def _add_map(sub: Any, classes: Mapping[str, Any]) -> None:
 def _add_report_runs(sub: Any, classes: Mapping[str, Any]) -> None:
     p = sub.add_parser(
         "report-runs",
-        help="make report's three suites and hop map in one process, with one progress line",
+        help="make report's three suites and hop map in one process, overlapping on one pool "
+        "of workers, with one progress line",
     )
     p.add_argument(
         "--out",

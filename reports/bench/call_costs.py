@@ -8,7 +8,11 @@ Nothing here asserts a time. Three parts:
 * ``accuracy LOG``: from such a log, each step's ETA (a suite's or the map's own) and the
   overall one (``make report: step k of n ...``), over the real time left, at the first line
   at or past 10, 25, 50 and 75 % of its runs. A step's real end is its last line; the
-  overall's, the log's last line (the report step included).
+  overall's, the log's last line (the report step included). A line belongs to the step its
+  overall part names first (steps overlap: 'step 3 of 4 (stability, with finer)'). An ETA
+  is printed to the second ('1h02m': the minute): the ratio is that of the value within
+  its rounding nearest the time left (the map's 2-s classification said 'eta 1s' with
+  0.48 s left: 2.08 by the printed second, 1.04 within its rounding).
 * ``fit CALLS``: the rates that fit the whole calls ``hoopbench report-runs --calls CALLS``
   wrote (one JSON object a line: kinds, steps, worlds, seconds, cold), by each call's most
   general kind: non-negative least squares of each call's seconds, relative to them (a 0.3 s
@@ -32,6 +36,7 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import nnls
 
+from hoopbench.reports.report_runs import MAP_STEP
 from hoopbench.reports.sweep.eta import Rates
 
 FRACTIONS = (0.10, 0.25, 0.50, 0.75)
@@ -39,6 +44,12 @@ _DURATION = re.compile(r"(?:(\d+)h)?(?:(\d+)m)?(?:(\d+)s)?$")
 _STEP = re.compile(r"\[(\d+)/(\d+)\] .*?, eta (\S+?)(?:;|$)")
 _OVERALL = re.compile(r"make report: step (\d+) of \d+ \(([^)]*)\), runs (\d+)/(\d+), eta (\S+)$")
 _START = re.compile(r"make report: (suite \d+ of \d+ \((\w+)\)|the hop map)")
+
+
+def rounding(text: str) -> tuple[float, float]:
+    """The seconds an ETA as printed may stand for: '42s' 41.5-42.5, '1h02m' 3720-3780."""
+    value = seconds_of(text)
+    return (value, value + 60.0) if "h" in text else (max(value - 0.5, 0.0), value + 0.5)
 
 
 def seconds_of(text: str) -> float:
@@ -59,21 +70,30 @@ def read_log(path: Path) -> list[tuple[float, str]]:
     return lines
 
 
-def _ratios(points: Sequence[tuple[float, float, float]], end: float) -> list[float | None]:
-    """(fraction done, time, ETA) -> the ETA over the real time left at each FRACTIONS."""
+Point = tuple[float, float, str]
+"""(fraction of the runs done, time of the line, its ETA as printed)."""
+
+
+def _ratios(points: Sequence[Point], end: float) -> list[float | None]:
+    """The ETA over the real time left at each FRACTIONS (the ETA within its rounding
+    nearest the time left)."""
     out: list[float | None] = []
     for fraction in FRACTIONS:
         found = next((p for p in points if p[0] >= fraction), None)
         left = None if found is None else end - found[1]
-        out.append(None if found is None or not left or left <= 0 else found[2] / left)
+        if found is None or not left or left <= 0:
+            out.append(None)
+            continue
+        low, high = rounding(found[2])
+        out.append(min(max(left, low), high) / left)
     return out
 
 
 def accuracy(lines: Sequence[tuple[float, str]]) -> dict[str, list[float | None]]:
     """Step name (and 'overall') -> ETA / real time left at FRACTIONS (module docstring)."""
-    steps: dict[str, list[tuple[float, float, float]]] = {}
+    steps: dict[str, list[Point]] = {}
     ends: dict[str, float] = {}
-    overall: list[tuple[float, float, float]] = []
+    overall: list[Point] = []
     name = "?"
     for t, line in lines:
         started = _START.search(line)
@@ -84,18 +104,26 @@ def accuracy(lines: Sequence[tuple[float, str]]) -> dict[str, list[float | None]
         if step is None:
             continue
         done, total = int(step.group(1)), int(step.group(2))
-        # The map's two stages count apart: its reference stage is a step of its own.
-        key = name if not (name == "map" and "reference" in line) else "map (reference)"
-        steps.setdefault(key, []).append((done / total, t, seconds_of(step.group(3))))
-        ends[key] = t
         whole = _OVERALL.search(line)
+        own = name if whole is None else _step_name(whole.group(2))
+        # The map's two stages count apart: its reference stage is a step of its own.
+        key = own if not (own == "map" and "reference" in line) else "map (reference)"
+        steps.setdefault(key, []).append((done / total, t, step.group(3)))
+        ends[key] = t
         if whole is not None:
             runs, all_runs = int(whole.group(3)), int(whole.group(4))
-            overall.append((runs / all_runs, t, seconds_of(whole.group(5))))
+            overall.append((runs / all_runs, t, whole.group(5)))
     out = {key: _ratios(points, ends[key]) for key, points in steps.items()}
     if overall and lines:
         out["overall"] = _ratios(overall, lines[-1][0])
     return out
+
+
+def _step_name(words: str) -> str:
+    """The step a line is of, from its overall part's '(stability, with finer)': as the
+    start lines name it ('map' for the map)."""
+    own = words.split(", with ")[0]
+    return "map" if own == MAP_STEP else own
 
 
 def _kind(value: object) -> Hashable:

@@ -15,12 +15,21 @@ A call at 1e-4 s is mostly stepping and one at 1e-3 s mostly its fixed part: a p
 step alone, measured on the one, is 2-5 times off on the other.
 
 What the priors say is then scaled by what the finished calls measured: by a kind's own
-factor (its finished calls' seconds over what the priors said of them, the most specific
-kind that has any), else by the machine's (:func:`machine_factor`: every finished call's
-seconds over what the priors said of them; a loaded or slower machine scales every kind
-not measured yet alike). The calls left are then laid out on the workers in the order they
-are submitted (a call in flight keeps its worker for what it has left), and the ETA is when
-the last one ends.
+factor (its finished warm calls' seconds over what the priors said of them, the most
+specific kind that has any), else by the machine's (:func:`machine_factor`: the median
+engine's warm calls' seconds over what the priors said of them; a loaded or slower machine
+scales every kind not measured yet alike).
+
+A cold call (its worker's first of its kind) is no sample of a kind's stepping: with cold
+caches MJX's first calls of 3,000 steps were mostly compiling (2-3 times their prior), and
+that factor on the finer suite's 30,000-step call made its ETA 3.1-3.3 times the time left.
+So a cold call of a kind measured by cold calls only is expected at the part of its prior
+that a call pays once (fixed and cold) times what the kind's cold calls took beyond their
+steps at the machine's factor (:func:`once_factors`), plus its steps at the machine's
+factor; a warm call of such a kind at a more general kind's factor, else the machine's.
+
+The calls left are then laid out on the workers in the order they are submitted (a call
+in flight keeps its worker for what it has left), and the ETA is when the last one ends.
 
 The runner knows nothing of engines: the caller gives each call's kinds, steps, worlds and
 the priors (:class:`Costing`).
@@ -29,6 +38,7 @@ the priors (:class:`Costing`).
 from __future__ import annotations
 
 import heapq
+import statistics
 from collections import Counter
 from collections.abc import Callable, Hashable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -38,8 +48,10 @@ __all__ = [
     "Costing",
     "Rates",
     "Took",
+    "call_ends",
     "kind_factors",
     "machine_factor",
+    "once_factors",
     "remaining_seconds",
 ]
 
@@ -97,15 +109,17 @@ class Took:
     """Its worker had run no call of its most specific kind before (module docstring)."""
 
 
+def prior_rates(call: CallCost, prior: Mapping[Hashable, Rates]) -> Rates | None:
+    """The rates of the call's most specific kind that has a prior; None without."""
+    return next((prior[kind] for kind in call.kinds if kind in prior), None)
+
+
 def prior_seconds(
     call: CallCost, prior: Mapping[Hashable, Rates], cold: bool = False
 ) -> float | None:
     """The call's seconds by the prior of its most specific kind that has one; None without."""
-    for kind in call.kinds:
-        rates = prior.get(kind)
-        if rates is not None:
-            return rates.seconds(call, cold)
-    return None
+    rates = prior_rates(call, prior)
+    return None if rates is None else rates.seconds(call, cold)
 
 
 def _said(finished: Iterable[Took], prior: Mapping[Hashable, Rates]) -> list[tuple[Took, float]]:
@@ -114,28 +128,61 @@ def _said(finished: Iterable[Took], prior: Mapping[Hashable, Rates]) -> list[tup
     return [(done, said) for done, said in pairs if said is not None and said > 0]
 
 
-def kind_factors(
-    finished: Iterable[Took], prior: Mapping[Hashable, Rates]
-) -> dict[Hashable, float]:
-    """Kind -> its finished calls' seconds over what the priors said of them, over every
-    call that has the kind at any level."""
+def _ratios(pairs: Iterable[tuple[Took, float]]) -> dict[Hashable, float]:
+    """Kind -> its calls' seconds over what was said of them, over every call that has
+    the kind at any level."""
     took: dict[Hashable, float] = {}
     said: dict[Hashable, float] = {}
-    for done, expected in _said(finished, prior):
+    for done, expected in pairs:
         for kind in done.call.kinds:
             took[kind] = took.get(kind, 0.0) + done.seconds
             said[kind] = said.get(kind, 0.0) + expected
     return {kind: took[kind] / said[kind] for kind in said}
 
 
+def kind_factors(
+    finished: Iterable[Took], prior: Mapping[Hashable, Rates]
+) -> dict[Hashable, float]:
+    """Kind -> its finished warm calls' seconds over what the priors said of them, over
+    every warm call that has the kind at any level (module docstring: cold calls apart)."""
+    return _ratios((done, said) for done, said in _said(finished, prior) if not done.cold)
+
+
 def machine_factor(finished: Sequence[Took], prior: Mapping[Hashable, Rates]) -> float:
-    """How much slower this machine, now, runs the finished calls than the priors say: their
-    seconds over the priors' (1 with none a prior knows). A loaded machine or a slower one
-    scales the priors of the kinds not measured yet alike."""
+    """How much slower this machine, now, runs the finished calls than the priors say: the
+    median over their most general kinds (an engine) of each one's seconds over the
+    priors' (1 with none a prior knows), the warm calls' when there are any. A loaded
+    machine or a slower one scales the priors of the kinds not measured yet alike; the
+    median keeps one engine whose prior is off for a suite (Drake's warm calls took 1.8
+    times theirs in the default suite, the others 0.9-1.3) from scaling every other."""
     known = _said(finished, prior)
-    if not known:
-        return 1.0
-    return sum(done.seconds for done, _ in known) / sum(said for _, said in known)
+    warm = [(done, said) for done, said in known if not done.cold]
+    ratios = _ratios((done, said) for done, said in (warm or known))
+    engines = sorted(ratios[kind] for kind in {done.call.kinds[-1] for done, _ in warm or known})
+    return float(statistics.median(engines)) if engines else 1.0
+
+
+def once_factors(
+    finished: Iterable[Took], prior: Mapping[Hashable, Rates], machine: float
+) -> dict[Hashable, float]:
+    """Most specific kind -> for its finished cold calls: what they took beyond their steps
+    at the ``machine`` factor, over what their priors say a call pays once (the fixed part
+    and the cold part), at least 0. A kind whose priors say nothing of such a part is left
+    out. Only the most specific: with cold caches Newton's first call compiled Warp's
+    kernels (16 times its once-part), which its worker's calls of other variants then did
+    not pay again."""
+    took: dict[Hashable, float] = {}
+    once: dict[Hashable, float] = {}
+    for done in finished:
+        rates = prior_rates(done.call, prior)
+        if not done.cold or rates is None:
+            continue
+        fixed = rates.fixed_s + rates.cold_s
+        stepping = rates.seconds(done.call) - rates.fixed_s
+        kind = done.call.kinds[0] if done.call.kinds else None
+        took[kind] = took.get(kind, 0.0) + done.seconds - machine * stepping
+        once[kind] = once.get(kind, 0.0) + fixed
+    return {kind: max(took[kind], 0.0) / once[kind] for kind in once if once[kind] > 0}
 
 
 @dataclass(frozen=True)
@@ -155,19 +202,26 @@ class _Estimate:
         self.prior = prior
         self.factors = kind_factors(finished, prior)
         self.machine = machine_factor(finished, prior)
+        self.once = once_factors(finished, prior, self.machine)
         steps = sum(done.call.steps for done in finished)
         # A call no prior knows: every finished call's mean seconds per step, else per call.
         self.per_step = sum(d.seconds for d in finished) / steps if steps > 0 else None
         self.per_call = sum(d.seconds for d in finished) / len(finished) if finished else None
 
     def seconds(self, call: CallCost, cold: bool) -> float | None:
-        said = prior_seconds(call, self.prior, cold)
-        if said is None:
+        rates = prior_rates(call, self.prior)
+        if rates is None:
             if call.steps > 0 and self.per_step is not None:
                 return self.per_step * call.steps
             return self.per_call
-        factor = next((self.factors[k] for k in call.kinds if k in self.factors), self.machine)
-        return said * factor
+        for kind in call.kinds:  # the most specific kind measured
+            if kind in self.factors:
+                return rates.seconds(call, cold) * self.factors[kind]
+            if cold and kind in self.once:  # measured by cold calls only (module docstring)
+                once = rates.fixed_s + rates.cold_s
+                stepping = rates.seconds(call) - rates.fixed_s
+                return once * self.once[kind] + stepping * self.machine
+        return rates.seconds(call, cold) * self.machine
 
 
 def remaining_seconds(
@@ -183,17 +237,35 @@ def remaining_seconds(
     docstring). ``warm``: most specific kind -> workers that have run a call of it; the
     first pending calls of a kind, one per worker that has not, are cold. None when a call
     has no prior and no call has finished yet."""
+    ends = call_ends(pending, running, finished, workers, prior, warm)
+    return None if ends is None else max([0.0, *ends[0], *ends[1]])
+
+
+def call_ends(
+    pending: Sequence[CallCost],
+    running: Sequence[Running],
+    finished: Sequence[Took],
+    workers: int,
+    prior: Mapping[Hashable, Rates],
+    warm: Mapping[Hashable, int] | None = None,
+) -> tuple[list[float], list[float]] | None:
+    """When each of the ``running`` calls and each of the ``pending`` ones is expected to
+    end, s from now, laid out as :func:`remaining_seconds` lays them (sweeps that share the
+    workers: which call of which ends when)."""
     estimate = _Estimate(finished, prior)
     workers = max(workers, 1)
     cold_left = Counter({kind: workers - n for kind, n in (warm or {}).items()})
     free = [0.0] * workers  # when each worker is next free, s from now
+    running_ends: list[float] = []
     for run in running:
         expected = estimate.seconds(run.call, run.cold)
         if expected is None:
             return None
         # A call past its expected cost has an unknown rest: a tenth of what it has run.
         rest = expected - run.ran if expected > run.ran else 0.1 * run.ran
-        heapq.heapreplace(free, free[0] + rest)
+        running_ends.append(free[0] + rest)
+        heapq.heapreplace(free, running_ends[-1])
+    pending_ends: list[float] = []
     for call in pending:
         kind = call.kinds[0] if call.kinds else None
         if kind not in cold_left:
@@ -203,5 +275,6 @@ def remaining_seconds(
         expected = estimate.seconds(call, cold)
         if expected is None:
             return None
-        heapq.heapreplace(free, free[0] + expected)
-    return max(free)
+        pending_ends.append(free[0] + expected)
+        heapq.heapreplace(free, pending_ends[-1])
+    return running_ends, pending_ends

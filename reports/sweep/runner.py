@@ -101,6 +101,7 @@ __all__ = [
     "PoolFuture",
     "RunSummary",
     "RunnerError",
+    "StopFlag",
     "Task",
     "TaskBatch",
     "WorkerCrashedError",
@@ -862,6 +863,8 @@ class _Progress:
         without it, or while it knows no cost, the ETA assumes every run costs the same."""
         self.plan: Plan | None = None
         """The sweeps run in a row that this one is part of: its line ends with theirs."""
+        self.plan_index = 0
+        """Which of the plan's sweeps this is."""
         isatty = getattr(stream, "isatty", None)
         self.bar = None
         if not quiet and total and isatty is not None and isatty():
@@ -893,7 +896,7 @@ class _Progress:
             return ""
         text = ""
         with contextlib.suppress(Exception):  # a cost model's bug must not stop a sweep
-            text = f"; {self.plan.text(self.done, left)}"
+            text = f"; {self.plan.text(self.plan_index)}"
         return text
 
     def note(self, text: str) -> None:
@@ -954,7 +957,9 @@ class _Progress:
 _duration = duration_text
 
 
-class _StopFlag:
+class StopFlag:
+    """The first SIGINT or SIGTERM that came (its handler), else None."""
+
     def __init__(self) -> None:
         self.signal: signal.Signals | None = None
 
@@ -964,9 +969,9 @@ class _StopFlag:
 
 
 @contextlib.contextmanager
-def _stop_on_signals(enabled: bool) -> Iterator[_StopFlag]:
+def _stop_on_signals(enabled: bool) -> Iterator[StopFlag]:
     """SIGINT and SIGTERM set the flag for the duration; the previous handlers come back."""
-    flag = _StopFlag()
+    flag = StopFlag()
     installed: dict[signal.Signals, Any] = {}
     if enabled and threading.current_thread() is threading.main_thread():
         for sig in (signal.SIGINT, signal.SIGTERM):
@@ -1446,8 +1451,11 @@ def _resumed_statuses(out: Path, note: Callable[[str], None]) -> dict[str, str]:
 def _pool_for(
     worker: Worker, executor: Executor | None, jobs: int | None, max_in_flight: int | None
 ) -> tuple[Executor, int]:
-    """The executor that runs the calls (a new WorkerPool without ``executor``) and how many
-    calls may be submitted at once."""
+    """The executor that runs the calls (a new WorkerPool without ``executor``, or the
+    running plan's shared one) and how many calls may be submitted at once."""
+    plan = current_plan.get()
+    if executor is None and plan is not None and isinstance(plan.pool, WorkerPool):
+        return plan.pool, max_in_flight or 2 * plan.pool.max_workers
     if executor is None:
         module = getattr(worker, "__module__", None)
         preload = [module] if module and module not in ("__main__", "__mp_main__") else []
@@ -1498,6 +1506,10 @@ class _Calls:
         """The Costing's priors (and a plan's: its other sweeps' kinds scale the machine)."""
         self._warm: set[tuple[int | None, Hashable]] = set()
         """(worker pid, most specific kind) of the calls run: a worker's next is warm."""
+        self.plan: Plan | None = None
+        """The plan whose shared pool this sweep's calls run on, else None (its own)."""
+        self.plan_index = 0
+        """Which of the plan's sweeps this is."""
 
     def _cost(self, unit: Any) -> CallCost:
         """A call's kinds and steps (the Costing's), worked out once per call."""
@@ -1524,12 +1536,23 @@ class _Calls:
     def remaining(self) -> float | None:
         """Seconds left (eta.remaining_seconds): the calls in flight that have started, then
         the others in the order they are submitted. None without a Costing."""
+        left = self.left()
+        if left is None:
+            return None
+        running, pending, warm = left
+        return remaining_seconds(pending, running, self.finished, self.workers, self.prior, warm)
+
+    def left(self) -> tuple[list[Running], list[CallCost], Counter[Hashable]] | None:
+        """The calls in flight that have started, the others in the order they are
+        submitted, and most specific kind -> workers warm for it (those running one
+        count); None without a Costing."""
         if self.costing is None:
             return None
         now = time.monotonic()
         running, waiting = [], []
         warm = Counter(kind for _, kind in self._warm)
-        for future, attempt in self.in_flight.items():
+        # list(): another sweep's thread may read these (a plan's layout) as they change.
+        for future, attempt in list(self.in_flight.items()):
             start = self._started(future, attempt)
             call = self._cost(attempt.task)
             if start is None:
@@ -1539,8 +1562,13 @@ class _Calls:
             cold = worker not in self._warm
             warm[worker[1]] += cold  # its worker is warm for the calls after it
             running.append(Running(call, now - start, cold))
-        pending = waiting + [self._cost(attempt.task) for attempt in self.queue]
-        return remaining_seconds(pending, running, self.finished, self.workers, self.prior, warm)
+        pending = waiting + [self._cost(attempt.task) for attempt in list(self.queue)]
+        return running, pending, warm
+
+    @property
+    def done(self) -> int:
+        """Runs done (as its progress counts them)."""
+        return self.sweep.progress.done
 
     @property
     def unfinished(self) -> int:
@@ -1548,7 +1576,7 @@ class _Calls:
         attempts = [*self.in_flight.values(), *self.queue]
         return sum(len(_tasks_of(attempt.task)) for attempt in attempts)
 
-    def run(self, flag: _StopFlag, tick: float) -> None:
+    def run(self, flag: StopFlag, tick: float) -> None:
         """Submit, collect and time out calls until all are done or a signal arrives."""
         while True:
             self._submit(flag)
@@ -1569,7 +1597,10 @@ class _Calls:
         exc, self.broken = self.broken, None
         assert exc is not None
         old = self.pool
-        if not (self.owned and isinstance(old, WorkerPool)) or self.renewals >= MAX_POOL_RENEWALS:
+        shared = self.plan is not None and self.plan.pool is not None
+        if not (self.owned or shared) or not isinstance(old, WorkerPool):
+            raise ExecutorBrokenError(f"the executor is broken ({_exception_text(exc)})") from exc
+        if self.renewals >= MAX_POOL_RENEWALS:
             raise ExecutorBrokenError(f"the executor is broken ({_exception_text(exc)})") from exc
         for future, attempt in list(self.in_flight.items()):
             del self.in_flight[future]
@@ -1577,11 +1608,23 @@ class _Calls:
                 self._settle(future, attempt, stopping=False)
             else:
                 self.queue.appendleft(attempt)
-        old.kill_workers()
-        self.pool = WorkerPool(old.max_workers, preload=old.preload)
+        self.pool = self._new_pool(old)
         self.renewals += 1
         if self.note is not None:
             self.note(f"the worker pool broke ({_exception_text(exc)}); started a new one")
+
+    def _new_pool(self, old: WorkerPool) -> WorkerPool:
+        """A new pool in place of ``old``, broken; on a plan's shared pool, the one another
+        sweep already started in its place, else a new one that every sweep then uses."""
+        if self.plan is None or self.plan.pool is None:
+            old.kill_workers()
+            return WorkerPool(old.max_workers, preload=old.preload)
+        with self.plan.lock:
+            if self.plan.pool is old:
+                old.kill_workers()
+                self.plan.pool = WorkerPool(old.max_workers, preload=old.preload)
+            new: WorkerPool = self.plan.pool
+            return new
 
     def stop(self) -> None:
         """Done, interrupted or failed: stop the calls still running, keep every finished row."""
@@ -1602,7 +1645,7 @@ class _Calls:
                 self._settle(future, attempt, stopping=True)
                 del self.in_flight[future]
 
-    def _submit(self, flag: _StopFlag) -> None:
+    def _submit(self, flag: StopFlag) -> None:
         while self.queue and len(self.in_flight) < self.limit and flag.signal is None:
             attempt = self.queue.popleft()
             attempt.limit = self.sweep.limit(attempt.task)
@@ -1615,6 +1658,8 @@ class _Calls:
                 self._renew_pool()
                 continue
             self.in_flight[future] = attempt
+        if not self.queue and self.plan is not None:
+            self.plan.drained(self.plan_index)  # the next sweep's calls queue behind these
 
     def _submit_one(self, unit: Any) -> Future:
         """Submit a task to the worker, or a batch to the batch worker."""
@@ -1782,7 +1827,8 @@ def run_tasks(
             notes.append(text)
             progress.note(text)
 
-        calls = _Calls(sweep, pool, executor is None, units, in_flight_limit, batch_worker, remark)
+        owned = executor is None and pool is not getattr(current_plan.get(), "pool", None)
+        calls = _Calls(sweep, pool, owned, units, in_flight_limit, batch_worker, remark)
         if costing is not None:
             calls.costing = costing
             calls.prior = costing.prior
@@ -1804,27 +1850,36 @@ def run_tasks(
 
 
 def _join_plan(calls: _Calls | None, progress: _Progress | None) -> None:
-    """With a plan running (plan.current_plan), this sweep is its next: its calls add to the
-    plan's finished ones (and learn from them), its lines end with the plan's. Without
-    calls, the sweep has nothing to run."""
+    """With a plan running (plan.current_plan), this sweep is one of it: its calls add to
+    the plan's finished ones (and learn from them), its lines end with the plan's, its ETA
+    is the plan's layout of it. Without calls, the sweep has nothing to run."""
     plan = current_plan.get()
     if plan is None:
         return
     if calls is None or progress is None:
-        plan.begin(0)
-        plan.end(0)
+        plan.end(plan.begin(0), 0)
         return
-    plan.begin(progress.total)
+    index = plan.begin(progress.total)
     calls.finished = plan.finished
+    calls._warm = plan.warm  # a shared pool's workers stay warm from sweep to sweep
     calls.prior = {**plan.prior, **calls.prior}
-    progress.plan = plan
+    if plan.pool is not None and calls.pool is plan.pool:
+        calls.plan, calls.plan_index = plan, index
+        calls.workers = plan.workers
+    progress.plan, progress.plan_index = plan, index
+    plan.attach(index, calls)
+    if calls.costing is not None:
+        progress.use_estimate(lambda: plan.sweep_left(index))
 
 
 def _drive(calls: _Calls, handle_signals: bool, tick: float) -> signal.Signals | None:
     """Run the calls; the signal that stopped them, or None if they all ran."""
     # The handlers stay while the workers are stopped and the rows flushed: a second Ctrl-C
     # must not cut that short.
-    with _stop_on_signals(handle_signals) as flag:
+    plan = calls.sweep.progress.plan
+    with _stop_on_signals(handle_signals) as own_flag:
+        # Sweeps in other threads than the main one: its handlers set the plan's flag.
+        flag = plan.stop if plan is not None and plan.stop is not None else own_flag
         failed = True
         try:
             calls.run(flag, tick)
@@ -1833,6 +1888,6 @@ def _drive(calls: _Calls, handle_signals: bool, tick: float) -> signal.Signals |
         finally:
             calls.stop()
             calls.sweep.close(failed)
-            if calls.sweep.progress.plan is not None:
-                calls.sweep.progress.plan.end(calls.sweep.progress.done)
+            if plan is not None:
+                plan.end(calls.sweep.progress.plan_index, calls.sweep.progress.done)
     return stopped_by
