@@ -9,6 +9,7 @@ about 20 MB and 10 s of pip a release, reused after.
 from __future__ import annotations
 
 import json
+import sys
 
 import numpy as np
 import pandas as pd
@@ -196,3 +197,24 @@ def test_a_report_of_release_runs_alone_has_their_section(tmp_path):
     text = path.read_text()
     assert "## Across engine releases" in text and "Runs: 2;" in text
     assert (tmp_path / "releases-mujoco.png").is_file()
+
+
+def test_an_engines_version_is_read_once_per_search_path(monkeypatch, tmp_path):
+    """Engine.version() reads the package's metadata once per sys.path (it cost up to 2 ms a
+    run), and again when the path changes, as a release run puts its folder first."""
+    from hoopbench.engines import base
+
+    reads: list[str] = []
+
+    def counted(distribution: str) -> str:
+        reads.append(distribution)
+        return f"1.{len(reads)}"
+
+    base._installed_version.cache_clear()
+    monkeypatch.setattr(base, "version", counted)
+    engine = get_engine("mujoco")
+    assert engine.version() == engine.version() == "1.1"
+    monkeypatch.setattr("sys.path", [str(tmp_path), *sys.path])
+    assert engine.version() == "1.2"
+    assert reads == ["mujoco", "mujoco"]
+    base._installed_version.cache_clear()
