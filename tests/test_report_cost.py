@@ -14,9 +14,10 @@ import numpy as np
 import pytest
 from test_stability import rows
 
+from hoopbench.models import kinematics
 from hoopbench.models.catalogue import get_scene
 from hoopbench.models.trajectory import Trajectory
-from hoopbench.reports.report import drawn, markdown
+from hoopbench.reports.report import drawn, figures, markdown
 from hoopbench.reports.report import findings as findings_module
 from hoopbench.reports.report.drawn import read_trajectory
 from hoopbench.reports.report.markdown import FigurePool, dearest_first, write_markdown
@@ -115,6 +116,47 @@ def test_the_drawings_start_dearest_first_the_report_s_own_among_them(tmp_path):
 def test_equal_costs_keep_their_order():
     jobs = [(_figure, ()), (write_gif, ()), (_figure, ()), (print, ())]
     assert dearest_first(jobs) == [1, 3, 0, 2]  # print: unmeasured, 1 s
+
+
+def test_a_paths_panel_draws_every_sample_s_spoke_and_marks_in_a_few_lines(tmp_path, monkeypatch):
+    """paths_figure drew three lines a sample (75 a panel, 750 on make report's figures);
+    now a few a panel, with the same spokes, weights and centres."""
+    drawn_figures = []
+    real = figures.save
+    monkeypatch.setattr(
+        figures, "save", lambda fig, out, **k: drawn_figures.append(fig) or real(fig, out, **k)
+    )
+    scene = get_scene("hop-top")
+    n = 101
+    t = np.linspace(0.0, 1.0, n)
+    theta = np.linspace(0.0, 3.0, n)  # plumb at the start, slanted after
+    zero = np.zeros(n)
+    traj = Trajectory.from_state(
+        scene, t=t, X=t, Y=zero + 1.0, theta=theta, Xdot=zero, Ydot=zero, thetadot=zero,
+        normal_force=zero, friction_force=zero,
+    )  # fmt: skip
+    figures.paths_figure(scene, {"mujoco": traj}, tmp_path / "paths.png", n_frames=24)
+    (fig,) = drawn_figures
+    lines = fig.axes[0].get_lines()
+    assert len(lines) <= 6
+    i = np.linspace(0, n - 1, 25).astype(int)
+    x, y = kinematics.centre_position(scene, traj.X, traj.Y, traj.theta)
+    wx, wy = x[i] + scene.a * np.sin(theta[i]), y[i] + scene.a * np.cos(theta[i])
+    spokes = set()
+    for line in lines:
+        if line.get_color() != "0.6":
+            continue
+        points = np.asarray(line.get_xydata(), float)
+        for part in np.split(points, np.flatnonzero(np.isnan(points[:, 0]))):
+            part = part[~np.isnan(part[:, 0])]
+            if len(part):
+                spokes.add(tuple(np.round([*part[0], *part[-1]], 9)))
+    expected = {tuple(np.round([x[k], y[k], a, b], 9)) for k, a, b in zip(i, wx, wy, strict=True)}
+    assert spokes == expected
+    marks = {line.get_markerfacecolor(): line for line in lines if line.get_marker() == "o"}
+    np.testing.assert_allclose(marks["none"].get_xydata(), np.column_stack([wx, wy]))
+    centres = [m for face, m in marks.items() if face != "none"]
+    np.testing.assert_allclose(centres[0].get_xydata(), np.column_stack([x[i], y[i]]))
 
 
 def test_a_page_figure_costs_what_its_maker_costs():
