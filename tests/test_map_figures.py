@@ -514,3 +514,31 @@ def test_a_report_copies_the_maps_own_figures_of_the_same_data(tmp_path):
     (report / names[0]).unlink()
     write_map_figures(frame, report, draw=draw, drawn_in=own)
     assert drawn == [names[0]]
+
+
+def test_every_text_of_the_hop_error_figure_lies_within_it(tmp_path, monkeypatch):
+    """The colour bar's label was clipped at the figure's edge (its one line was longer than
+    the bar): every title and axis label, the bar's included, lies within the figure."""
+    figures = []
+    real = map_figures._save
+    monkeypatch.setattr(
+        map_figures, "_save", lambda fig, path, key: figures.append(fig) or real(fig, path, key)
+    )
+    hop_error_figure(synthetic_frame(10, 10), tmp_path / "hop_error.png")
+    (fig,) = figures
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.text import Text
+
+    fig.set_dpi(map_figures.DPI)  # as saved
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    inside = fig.bbox
+    # Titles and axis labels (tick labels outside an axis's limits are never drawn).
+    named = [t for ax in fig.axes for t in (ax.title, ax.xaxis.label, ax.yaxis.label)]
+    texts = [t for t in named if isinstance(t, Text) and t.get_visible() and t.get_text()]
+    assert any("exact hop height" in t.get_text() for t in texts)
+    for text in texts:
+        box = text.get_window_extent(renderer)
+        assert inside.x0 - 0.5 <= box.x0 and box.x1 <= inside.x1 + 0.5, text.get_text()
+        assert inside.y0 - 0.5 <= box.y0 and box.y1 <= inside.y1 + 0.5, text.get_text()

@@ -9,7 +9,6 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Callable, Sequence
-from concurrent.futures import Future
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -118,13 +117,13 @@ def build_report(
     generated = datetime.now(UTC).isoformat(timespec="seconds")
     # Two reports into one folder would mix their figures: the sweeps' lock serves.
     # Names from the results are drawn as written (plain_text); the figures are drawn in a
-    # FigurePool beside the tables, the dearest (the GIF) first.
+    # FigurePool beside the tables, with report.md's own, the dearest (the GIF) first.
     with sweep_lock(out), plain_text(), FigurePool() as pool:
         _check_out(out, dirs, force)  # again, under the lock: one may have just finished
-        drawing: list[Future] = []
+        drawing: list[tuple[Callable[..., Any], tuple[Any, ...]]] = []
 
         def draw(function: Callable[..., Any], *args: Any) -> None:
-            drawing.append(pool.submit(function, *args))
+            drawing.append((function, args))
 
         # The animation before report.md, whose Files section lists what the folder holds.
         if gif_runs(frame):
@@ -151,7 +150,7 @@ def build_report(
             results_dirs=dirs,
             say=say,
             pool=pool,
-            awaited=drawing,
+            drawings=drawing,
         )
         prefixes = map_prefixes(len(maps))
         write_page(frame, out, maps=maps, map_prefixes=prefixes, searches=found, say=say, pool=pool)

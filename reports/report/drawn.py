@@ -8,14 +8,17 @@ Each figure's caption names the engines drawn at another timestep (:func:`timest
 
 from __future__ import annotations
 
+from functools import lru_cache
+from pathlib import Path
+
 import pandas as pd
 
 from hoopbench.engines.options import Profile
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
-from hoopbench.models.trajectory import Trajectory
+from hoopbench.models.trajectory import COLUMNS, Trajectory
 from hoopbench.reports.compare.selection import default_rows, profile_of
 
-__all__ = ["drawn_rows", "drawn_trajectories", "timestep_note"]
+__all__ = ["drawn_rows", "drawn_trajectories", "read_trajectory", "timestep_note"]
 
 
 def drawn_rows(runs: pd.DataFrame, scene_name: str) -> pd.DataFrame:
@@ -39,11 +42,34 @@ def drawn_rows(runs: pd.DataFrame, scene_name: str) -> pd.DataFrame:
 
 
 def drawn_trajectories(runs: pd.DataFrame, scene_name: str) -> dict[str, Trajectory]:
-    """The trajectories of :func:`drawn_rows`, by engine."""
+    """The trajectories of :func:`drawn_rows`, by engine (each file read once a process:
+    :func:`read_trajectory`)."""
     return {
-        str(row["engine"]): Trajectory.read(row["trajectory_file"])
+        str(row["engine"]): read_trajectory(row["trajectory_file"])
         for _, row in drawn_rows(runs, scene_name).iterrows()
     }
+
+
+TRAJECTORIES_KEPT = 96
+"""Trajectories a process keeps once read: every one a report draws (make report's: 80, at
+most 2.4 MB each, 183 MB in all; a drawing process reads a scene's for its figures, the
+contact forces, the page's animation and the GIF, each of them its own call)."""
+
+
+def read_trajectory(path: str | Path) -> Trajectory:
+    """``Trajectory.read(path)``, read once a process while the file is unchanged (its
+    size and modification time) and kept (TRAJECTORIES_KEPT, the least recent dropped
+    first); its arrays are read-only, as they are shared by every figure drawn of them."""
+    stat = Path(path).stat()
+    return _read(str(path), stat.st_mtime_ns, stat.st_size)
+
+
+@lru_cache(maxsize=TRAJECTORIES_KEPT)
+def _read(path: str, mtime_ns: int, size: int) -> Trajectory:
+    trajectory = Trajectory.read(path)
+    for name in COLUMNS:
+        getattr(trajectory, name).flags.writeable = False
+    return trajectory
 
 
 def timestep_note(rows: pd.DataFrame) -> str:

@@ -577,11 +577,14 @@ def _bullets(sentences: Sequence[str]) -> str:
     return "\n".join(f"- {escape_text(sentence)}" for sentence in sentences)
 
 
-def findings_markdown(runs: pd.DataFrame, *, key_only: bool = True) -> str:
+def findings_markdown(
+    runs: pd.DataFrame, *, key_only: bool = True, every: Sequence[str] | None = None
+) -> str:
     """The scoreboard, its note, then the findings as a Markdown list: the first
-    KEY_FINDINGS and a pointer to the section with the rest (``key_only``), or all of them."""
+    KEY_FINDINGS and a pointer to the section with the rest (``key_only``), or all of them.
+    ``every``: ``findings(runs)`` when the caller has them already (they take seconds)."""
     board = scoreboard_markdown(findings_scoreboard(runs))
-    every = findings(runs)
+    every = findings(runs) if every is None else every
     shown = every[:KEY_FINDINGS] if key_only else every
     lines = [_bullets(shown)] if shown else []
     if len(shown) < len(every):
@@ -603,9 +606,10 @@ def readme_markdown(runs: pd.DataFrame, searches: Sequence[BestSettings] = ()) -
     return "\n\n".join(part for part in (head, text) if part)
 
 
-def all_findings_markdown(runs: pd.DataFrame) -> str:
-    """Every finding as a Markdown list (empty text when there are none)."""
-    return _bullets(findings(runs))
+def all_findings_markdown(runs: pd.DataFrame, every: Sequence[str] | None = None) -> str:
+    """Every finding as a Markdown list (empty text when there are none); ``every`` as in
+    :func:`findings_markdown`."""
+    return _bullets(findings(runs) if every is None else every)
 
 
 def update_readme(readme: str | Path, text: str) -> Path:

@@ -468,5 +468,6 @@ def hop_error_figure(frame: pd.DataFrame, path: str | Path, key: str | None = No
     loose = event_tolerances(Tier.LOOSE).hop_height_rel
     for factor in (1 + loose, 1 - loose):  # the verdict's hop-size rule (loose)
         bar.ax.axhline(math.log2(factor), color="k", lw=1.0)
-    bar.set_label(f"engine / exact hop height (lines: loose tolerance, {100 * loose:g} %)")
+    # Two lines: on one, the label was longer than the bar and ran off the figure's edge.
+    bar.set_label(f"engine / exact hop height\n(lines: loose tolerance, {100 * loose:g} %)")
     return _save(fig, path, key)

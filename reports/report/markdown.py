@@ -639,17 +639,18 @@ def _stability_section(runs: pd.DataFrame) -> str:
     )
 
 
-def _findings_section(runs: pd.DataFrame) -> str:
-    """The scoreboard and the key findings, plain sentences generated from the numbers below
-    (reports/report/findings.py); the rest in :func:`_all_findings_section`."""
-    text = findings_markdown(runs)
+def _findings_section(runs: pd.DataFrame, every: Sequence[str]) -> str:
+    """The scoreboard and the key findings (``every``: ``findings(runs)``), plain sentences
+    generated from the numbers below (reports/report/findings.py); the rest in
+    :func:`_all_findings_section`."""
+    text = findings_markdown(runs, every=every)
     return _section("## Scoreboard and findings", "", text) if text else ""
 
 
-def _all_findings_section(runs: pd.DataFrame) -> str:
-    """Every finding (the page folds this section)."""
-    text = all_findings_markdown(runs)
-    return _section(f"## {MORE_FINDINGS}", "", text) if len(findings(runs)) > KEY_FINDINGS else ""
+def _all_findings_section(runs: pd.DataFrame, every: Sequence[str]) -> str:
+    """Every finding (``every``: ``findings(runs)``; the page folds this section)."""
+    text = all_findings_markdown(runs, every)
+    return _section(f"## {MORE_FINDINGS}", "", text) if len(every) > KEY_FINDINGS else ""
 
 
 def _answer_section(runs: pd.DataFrame, searches: Sequence[BestSettings], out: Path) -> str:
@@ -865,10 +866,56 @@ class FigurePool:
         return self._pool.submit(_draw_plain, function, *args)
 
 
+DRAWING_CPU_S = {
+    "write_gif": 7.5,
+    "_run_time_section": 2.4,
+    "map_fragment": 2.1,
+    "_force_section": 1.9,
+    "_trajectory_figures": 1.4,
+    "_seed_section": 1.2,
+    "_stability_matrix_section": 0.8,
+    "_figure_html:precision_page_figure": 0.7,
+    "regime_figure": 0.55,
+    "_exact_path_figure": 0.45,
+    "_figure_html:_force_figure": 0.45,
+    "hop_error_figure": 0.35,
+    "verdict_figure": 0.3,
+    "_figure": 0.3,
+    "_animation_html": 0.27,
+    "_figure_html:stability_page_figure": 0.08,
+    "_figure_html:best_settings_page_figure": 0.02,
+}
+"""A drawing call's CPU time, s, by its function's name (a page figure's by the function
+that makes it, its first argument that is a function): measured in each drawing process of
+a report of `make report`'s results (3 suites, the map, 9 searches; 2026-11-29, 2 cores
+under load). Only their order matters (:func:`dearest_first`)."""
+_UNMEASURED_CPU_S = 1.0
+
+
+def _expected_cpu_s(job: _Job) -> float:
+    function, args = job
+    make = next((arg for arg in args if callable(arg)), None)
+    named = f"{function.__name__}:{getattr(make, '__name__', '')}"
+    return DRAWING_CPU_S.get(named, DRAWING_CPU_S.get(function.__name__, _UNMEASURED_CPU_S))
+
+
+def dearest_first(jobs: Sequence[_Job]) -> list[int]:
+    """The positions of ``jobs``, the dearest (DRAWING_CPU_S) first, ties in their order:
+    the longest call started first, two processes end their share at about the same time
+    (a dear call started last would leave the other process idle while it runs)."""
+    cost = [_expected_cpu_s(job) for job in jobs]
+    return sorted(range(len(jobs)), key=lambda k: -cost[k])
+
+
 def _submitted(jobs: Sequence[_Job], pool: FigurePool, say: Say | None) -> list[Future]:
+    """The futures of ``jobs``, in their order, submitted dearest first (:func:`dearest_first`)."""
     if say is not None:
         say(f"drawing {len(jobs)} figure groups in {pool.workers} process(es)")
-    return [pool.submit(function, *args) for function, args in jobs]
+    futures: dict[int, Future] = {}
+    for k in dearest_first(jobs):
+        function, args = jobs[k]
+        futures[k] = pool.submit(function, *args)
+    return [futures[k] for k in range(len(jobs))]
 
 
 def _gathered(jobs: Sequence[_Job], futures: Sequence[Future], say: Say | None) -> list[Any]:
@@ -901,10 +948,11 @@ def _tables(
 ) -> dict[str, str]:
     """The sections of report.md without figures, by name (those of the comparison suites'
     runs only where there are some)."""
+    every = findings(everything)  # seconds of work: made once, for both sections
     tables = {
         "answer": _answer_section(runs, searches, out),
-        "findings": _findings_section(everything),
-        "all findings": _all_findings_section(everything),
+        "findings": _findings_section(everything, every),
+        "all findings": _all_findings_section(everything, every),
     }
     if not runs.empty:
         tables |= {
@@ -929,6 +977,7 @@ def write_markdown(
     say: Say | None = None,
     pool: FigurePool | None = None,
     awaited: Sequence[Future] = (),
+    drawings: Sequence[_Job] = (),
 ) -> Path:
     """Write out/report.md with tables and PNG figures; return its path. ``frame`` is unchanged.
     ``machines``: the machine and load of each results folder's sweep (Platform and runs).
@@ -940,20 +989,21 @@ def write_markdown(
     ``out`` holds once the figures are drawn. ``say`` hears what it is doing, a line a step
     (:data:`Say`). ``pool``: where the figures are drawn, beside the tables (default: a
     FigurePool of their own); ``awaited``: other drawings of the report (its GIF, the maps'
-    and the searches' figures) to finish before the Files section lists the folder.
+    and the searches' figures) to finish before the Files section lists the folder;
+    ``drawings``: such drawings not yet started, drawn with the figures, dearest first.
     """
     if pool is None:
         with FigurePool() as own:
             return write_markdown(
                 frame, out, generated=generated, extra=extra, searches=searches,
                 machines=machines, results_dirs=results_dirs, say=say, pool=own,
-                awaited=awaited,
+                awaited=awaited, drawings=drawings,
             )  # fmt: skip
     out = Path(out)
     if frame.empty:  # hop maps alone: no runs table to make sections of
         when = f"Generated {generated} on {platform.platform()}."
         text = "\n".join([_section("# hoopbench report", "", when), *extra])
-        for future in awaited:
+        for future in [*awaited, *_submitted(drawings, pool, None)]:
             future.result()
         return results.atomic_write(out / "report.md", lambda tmp: tmp.write_text(text))
     everything = with_optional_columns(frame)
@@ -976,13 +1026,15 @@ def write_markdown(
         (_force_section, (runs, out)),
     ]
     jobs = [*head, *both, *tail]
-    futures = _submitted(jobs, pool, say)
+    # The other drawings in the same queue: the dearest of all first.
+    futures = _submitted([*drawings, *jobs], pool, say)
+    others, futures = futures[: len(drawings)], futures[len(drawings) :]
     # The tables while the figures are drawn: the tables need none of them.
     if say is not None:
         say("tables: the answer, the findings and the sections of report.md")
     tables = _tables(runs, everything, searches, out)
     drawn = _gathered(jobs, futures, say)
-    for future in awaited:
+    for future in [*awaited, *others]:
         future.result()
     (seed, _), (stability, _), (forces, _) = drawn[len(head) : len(head) + 3]
     sections = [_header(), tables["answer"], tables["findings"], seed]

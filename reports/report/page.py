@@ -33,6 +33,7 @@ from hoopbench.reports.report.markdown import (
     STABILITY_SUITE,
     FigurePool,
     Say,
+    dearest_first,
     force_panels,
     stored_trajectories,
     with_optional_columns,
@@ -271,11 +272,16 @@ def write_page(
     fragments = page_fragments(frame, maps, map_prefixes, searches)
     if pool is not None:  # those report.md shows, made side by side (each a partial)
         shown = _image_sources(markdown_text)
-        futures = {
-            name: pool.submit(make.func, *make.args)
+        made = {
+            name: (make.func, make.args)
             for name, make in fragments.items()
             if name in shown and isinstance(make, partial) and not make.keywords
         }
+        names = list(made)
+        futures = {}
+        for k in dearest_first([made[name] for name in names]):
+            function, args = made[names[k]]
+            futures[names[k]] = pool.submit(function, *args)
         fragments |= {name: future.result for name, future in futures.items()}
     page = render_page(markdown_text, out, fragments)
     path = out / PAGE_NAME
