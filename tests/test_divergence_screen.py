@@ -171,5 +171,7 @@ def test_a_monitor_fed_the_clearance_decides_as_one_that_computes_it():
             clear = kinematics.clearance(scene, part["Y"], part["theta"])
             last = rows.stop - 1
             decided.append((plain.feed(part, last), given.feed(part, last, clear)))
+            # The open flight's samples too: a shifted clearance would move them.
+            assert np.array_equal(plain._open_clear, given._open_clear), done
         assert all(a == b for a, b in decided), decided
         assert decided[-1][0] is not None, rule
