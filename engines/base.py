@@ -57,6 +57,7 @@ __all__ = [
     "STATE_KEYS",
     "Chunk",
     "DivergenceLimits",
+    "DivergenceScreen",
     "Engine",
     "EngineUnavailableError",
     "Simulation",
@@ -131,7 +132,7 @@ class DivergenceLimits:
 
 def check_divergence(
     scene: Scene,
-    traj_state: dict[str, np.ndarray],
+    traj_state: Mapping[str, np.ndarray],
     limits: DivergenceLimits,
     shape: kinematics.Polygon | None = None,
 ) -> str | None:
@@ -141,18 +142,105 @@ def check_divergence(
     clearance (models/kinematics.py) the penetration limit bounds, as the judge reads it.
     """
     for name, values in traj_state.items():
-        if not np.all(np.isfinite(values)):
+        if not np.isfinite(values).all():
             return f"non-finite {name}"
     energy = kinematics.energy_per_mass(
         scene, traj_state["Y"], traj_state["Xdot"], traj_state["Ydot"], traj_state["thetadot"]
     )
-    e0 = scene.energy_per_mass
-    if np.max(energy) > e0 * (1.0 + limits.energy_rise):
-        return f"energy rose to {np.max(energy) / e0:.3g} times its initial value"
-    clear = kinematics.clearance(scene, traj_state["Y"], traj_state["theta"], shape)
-    if np.min(clear) < -limits.penetration * scene.a:
-        return f"penetration {-np.min(clear):.3g} m exceeds {limits.penetration} a"
+    e0, most = scene.energy_per_mass, energy.max()
+    if most > e0 * (1.0 + limits.energy_rise):
+        return f"energy rose to {most / e0:.3g} times its initial value"
+    least = kinematics.clearance(scene, traj_state["Y"], traj_state["theta"], shape).min()
+    if least < -limits.penetration * scene.a:
+        return f"penetration {-least:.3g} m exceeds {limits.penetration} a"
     return None
+
+
+class DivergenceScreen:
+    """:func:`check_divergence` for a batch's worlds, vectorised across them: the states of
+    every world whose chunk ended are checked in one set of array operations, and only a
+    world that fails is checked again by ``check_divergence`` for its reason. The energy
+    and the clearance are computed by the same operations in the same order as
+    models/kinematics.py's, element by element, so a world passes exactly when
+    ``check_divergence`` returns None (tests/test_divergence_screen.py); the clearance is
+    handed on to the world's stop monitor, which reads the same one.
+
+    ``states``: (n, rows, 6), columns STATE_KEYS, of the worlds ``ids``."""
+
+    def __init__(
+        self,
+        scenes: Sequence[Scene],
+        shapes: Sequence[kinematics.Polygon | None],
+        limits: DivergenceLimits,
+    ) -> None:
+        self.scenes, self.shapes, self.limits = list(scenes), list(shapes), limits
+        # Column vectors, one row per world, broadcast over a world's rows; each factor as
+        # energy_per_mass and clearance form it from the scene's floats.
+        self.g = np.array([[s.g] for s in scenes])
+        self.spin = np.array([[0.5 * s.k * s.a**2] for s in scenes])
+        self.offset = np.array([[s.com_offset] for s in scenes])
+        self.a = np.array([[s.a] for s in scenes])
+        self.most_energy = np.array(
+            [s.energy_per_mass * (1.0 + limits.energy_rise) for s in scenes]
+        )
+        self.least_clearance = np.array([-limits.penetration * s.a for s in scenes])
+        self.polygons = [i for i, shape in enumerate(self.shapes) if shape is not None]
+
+    def clearance(self, ids: np.ndarray, states: np.ndarray) -> np.ndarray:
+        """(n, rows), m: kinematics.clearance of each world's rows."""
+        Y, theta = states[:, :, 1], states[:, :, 2]
+        offset, a = (
+            (self.offset, self.a)
+            if len(ids) == len(self.scenes)
+            else (self.offset[ids], self.a[ids])
+        )
+        clear = Y - offset * np.cos(theta) - a
+        for i in self.polygons:
+            for row in np.flatnonzero(ids == i):
+                clear[row] = kinematics.clearance(
+                    self.scenes[i], Y[row], theta[row], self.shapes[i]
+                )
+        return clear
+
+    def reasons(
+        self, ids: np.ndarray, states: np.ndarray
+    ) -> tuple[list[str | None] | None, np.ndarray | None]:
+        """(each world's ``check_divergence`` reason, or None when every world passes;
+        the clearance, as :meth:`clearance`, or None when not screened). States other than
+        float64 (an adapter's own precision) are checked world by world: the screen's
+        factors are float64, where the check's Python floats would take the states' type."""
+        if states.dtype != np.float64:
+            return self._each(ids, states, np.zeros(len(ids), dtype=bool)), None
+        finite = np.isfinite(states).all(axis=(1, 2))
+        # Energy and clearance of finite rows only, as check_divergence (no warnings).
+        rows = states if finite.all() else np.where(finite[:, None, None], states, 0.0)
+        Y, Xdot, Ydot, thetadot = (rows[:, :, k] for k in (1, 3, 4, 5))
+        g, spin = (
+            (self.g, self.spin) if len(ids) == len(self.scenes) else (self.g[ids], self.spin[ids])
+        )
+        energy = g * Y + 0.5 * (Xdot**2 + Ydot**2) + spin * thetadot**2
+        clear = self.clearance(ids, rows)
+        most, least = (
+            (self.most_energy, self.least_clearance)
+            if len(ids) == len(self.scenes)
+            else (self.most_energy[ids], self.least_clearance[ids])
+        )
+        passed = finite & (energy.max(axis=1) <= most) & (clear.min(axis=1) >= least)
+        return (None if passed.all() else self._each(ids, states, passed)), clear
+
+    def _each(self, ids: np.ndarray, states: np.ndarray, passed: np.ndarray) -> list[str | None]:
+        """check_divergence's reason for every world not ``passed`` (None for the others)."""
+        return [
+            None
+            if ok
+            else check_divergence(self.scenes[i], _columns(rows), self.limits, self.shapes[i])
+            for i, ok, rows in zip(ids.tolist(), passed.tolist(), states, strict=True)
+        ]
+
+
+def _columns(rows: np.ndarray) -> dict[str, np.ndarray]:
+    """A world's states (rows, 6) as contiguous columns by STATE_KEYS, as a chunk gives them."""
+    return {key: np.ascontiguousarray(rows[:, k]) for k, key in enumerate(STATE_KEYS)}
 
 
 @dataclass(frozen=True)
@@ -731,7 +819,8 @@ class Engine(ABC):
         diverges or is stopped: the loop of the class docstring (Batches). ``settings``:
         each world's, the same but for their stop rules."""
         with self._open_batch(module, scenes, settings[0], options) as batch:
-            worlds = _Worlds(scenes, settings, self._batch_shapes(batch), self.detectors)
+            shapes = self._batch_shapes(batch)
+            worlds = _Worlds(scenes, settings, shapes, self.detectors, self.limits)
             with _collector_paused():
                 start, cpu_start = time.perf_counter(), time.process_time()
                 while (active := worlds.active).any():
@@ -741,8 +830,7 @@ class Engine(ABC):
                     states, forces = self._batch_advance(batch, active, steps + extra)
                     worlds.record(states[:, : steps + 1], forces[:, :steps])
                     ends = worlds.at_chunk_end()
-                    reasons = self._batch_diverged(batch, active)
-                    finishing = worlds.judge_chunk(ends, reasons, self.limits)
+                    finishing = worlds.judge_chunk(ends, self._batch_diverged(batch, active))
                     if finishing.any():  # the last state's force: one step more
                         if not extra:
                             _, forces = self._batch_advance(batch, finishing, 1)
@@ -754,7 +842,10 @@ class Engine(ABC):
 
 class _Worlds:
     """The per-world bookkeeping of a batch: what each world has recorded, whether it is
-    still stepped, and how it ended. All active worlds have taken the same steps."""
+    still stepped, and how it ended. All active worlds have taken the same steps. A chunk is
+    kept as the adapter gave it, one block for all its worlds, and checked across them at
+    once (DivergenceScreen); only a world with a monitor, a reason or an end is handled
+    alone."""
 
     def __init__(
         self,
@@ -762,6 +853,7 @@ class _Worlds:
         settings: Sequence[RunSettings],
         shapes: Sequence[kinematics.Polygon | None] | None,
         detectors: DetectorSettings,
+        limits: DivergenceLimits,
     ) -> None:
         self.scenes, self.timestep = list(scenes), settings[0].timestep
         self.shapes = list(shapes) if shapes is not None else [None] * len(self.scenes)
@@ -770,37 +862,43 @@ class _Worlds:
             StopMonitor.for_run(s, rule.stop, self.timestep, detectors=detectors, shape=p)
             for s, rule, p in zip(self.scenes, settings, self.shapes, strict=True)
         ]
+        self.watched = np.array([monitor is not None for monitor in self.monitors])
+        self.any_watched = bool(self.watched.any())
+        self.screen = DivergenceScreen(self.scenes, self.shapes, limits)
         self.active = np.ones(len(self.scenes), dtype=bool)
         self.done = 0
-        self.states: list[list[np.ndarray]] = [[] for _ in self.scenes]
-        self.forces: list[list[np.ndarray]] = [[] for _ in self.scenes]
+        # Per chunk: the worlds stepped (ids), their states (n, steps + 1, 6) and forces
+        # (n, steps, 2); a chunk's first state row restates the previous chunk's last one.
+        self.chunks: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self.last_force: dict[int, np.ndarray] = {}
         self.diverged: list[str | None] = [None] * len(self.scenes)
         self.stopped: list[StopReason | None] = [None] * len(self.scenes)
-        self.last_chunk: list[dict[str, np.ndarray]] = [{} for _ in self.scenes]
+        self._windows()
+
+    def _windows(self) -> None:
+        """The active worlds' indices, and their first and last window ends, steps (Python
+        ints, read each chunk; 0 when none is active)."""
+        self.stepped = np.flatnonzero(self.active)
+        ends = self.n_steps[self.stepped]
+        self.first_end, self.last_end = (int(ends.min()), int(ends.max())) if len(ends) else (0, 0)
 
     def chunk_steps(self) -> int:
         """Steps to the next chunk end of any active world (a multiple of CHUNK_STEPS or a
         window's end), as a single run chunks its window."""
-        to_window = int(np.min(self.n_steps[self.active])) - self.done
-        return min(CHUNK_STEPS - self.done % CHUNK_STEPS, to_window)
+        return min(CHUNK_STEPS - self.done % CHUNK_STEPS, self.first_end - self.done)
 
     def all_end_after(self, steps: int) -> bool:
         """Whether every active world reaches its window's end after ``steps`` more steps."""
-        return bool(np.all(self.n_steps[self.active] == self.done + steps))
+        return self.first_end == self.last_end == self.done + steps
 
     def record(self, states: np.ndarray, forces: np.ndarray) -> None:
         """Keep the active worlds' chunk: states (W, steps + 1, 6), forces (W, steps, 2)."""
-        steps = forces.shape[1]
-        for i in np.flatnonzero(self.active):
-            blocks = self.states[i]
-            if blocks:  # the chunk's first row restates the previous chunk's last one
-                blocks[-1] = blocks[-1][:-1]
-            blocks.append(np.array(states[i]))  # a copy: an adapter may reuse its buffers
-            self.forces[i].append(np.array(forces[i]))
-            self.last_chunk[i] = {
-                key: np.ascontiguousarray(blocks[-1][:, k]) for k, key in enumerate(STATE_KEYS)
-            }
-        self.done += steps
+        ids = self.stepped
+        if len(ids) == len(self.active):  # copies: an adapter may reuse its buffers
+            self.chunks.append((ids, np.array(states), np.array(forces)))
+        else:
+            self.chunks.append((ids, states[ids], forces[ids]))
+        self.done += forces.shape[1]
 
     def at_chunk_end(self) -> np.ndarray:
         """(W,) bool: the active worlds whose chunk ends here."""
@@ -808,32 +906,46 @@ class _Worlds:
             return self.active.copy()
         return self.active & (self.n_steps == self.done)
 
-    def judge_chunk(
-        self, ends: np.ndarray, reasons: Sequence[str | None], limits: DivergenceLimits
-    ) -> np.ndarray:
+    def judge_chunk(self, ends: np.ndarray, reasons: Sequence[str | None]) -> np.ndarray:
         """Check the worlds whose chunk ended, as a single run does (the engine's reason,
         divergence, the monitor); retire those that end. (W,) bool: the worlds that reached
         their window's end, which need one more step for their last force."""
-        finishing = np.zeros_like(self.active)
-        for i in map(int, np.flatnonzero(ends)):
-            scene, chunk = self.scenes[i], self.last_chunk[i]
-            diverged = reasons[i] or check_divergence(scene, chunk, limits, self.shapes[i])
+        stepped, states, _ = self.chunks[-1]
+        ids = np.flatnonzero(ends)
+        rows = states if len(ids) == len(stepped) else states[np.searchsorted(stepped, ids)]
+        checked, clear = self.screen.reasons(ids, rows)
+        finishing = ends & (self.n_steps <= self.done)
+        ended = finishing.copy()
+        # Worlds with a reason or a monitor, one by one; the others pass or finish.
+        alone: Sequence[int] = ()
+        if checked is not None or any(reasons):
+            alone = range(len(ids))
+        elif self.any_watched:
+            alone = np.flatnonzero(self.watched[ids]).tolist()
+        for row in alone:
+            i = int(ids[row])
+            diverged = reasons[i] or (checked[row] if checked is not None else None)
             monitor = self.monitors[i]
             if diverged:
                 self.diverged[i] = diverged
-            elif monitor and (stopped := monitor.feed(chunk, self.done)):
+            elif monitor and (
+                stopped := monitor.feed(
+                    _columns(rows[row]), self.done, None if clear is None else clear[row]
+                )
+            ):
                 self.stopped[i] = stopped
-            elif self.done < self.n_steps[i]:
-                continue
             else:
-                finishing[i] = True
-            self.active[i] = False
+                continue
+            finishing[i], ended[i] = False, True
+        if ended.any():
+            self.active &= ~ended
+            self._windows()
         return finishing
 
     def finish(self, finishing: np.ndarray, forces: np.ndarray) -> None:
         """The force (W, 2) of the step from each finishing world's last state."""
-        for i in np.flatnonzero(finishing):
-            self.forces[i].append(forces[i : i + 1])
+        for i in np.flatnonzero(finishing).tolist():
+            self.last_force[i] = np.array(forces[i : i + 1])
 
     def simulations(self, wall: float, cpu: float) -> tuple[list[Simulation], BatchCost]:
         """Each world's Simulation (its wall and CPU times: its shares of the batch's, by
@@ -858,8 +970,19 @@ class _Worlds:
     def _trajectory(self, i: int) -> Trajectory:
         """World i's trajectory: every state that has a force (Trajectory.from_state)."""
         scene = self.scenes[i]
-        states = np.concatenate(self.states[i])
-        forces = np.concatenate(self.forces[i]) / scene.M
+        state_blocks: list[np.ndarray] = []
+        force_blocks: list[np.ndarray] = []
+        for ids, states, forces in self.chunks:
+            row = int(np.searchsorted(ids, i))
+            if row < len(ids) and ids[row] == i:
+                if state_blocks:  # the chunk's first row restates the previous one's last
+                    state_blocks[-1] = state_blocks[-1][:-1]
+                state_blocks.append(states[row])
+                force_blocks.append(forces[row])
+        if i in self.last_force:
+            force_blocks.append(self.last_force[i])
+        states = np.concatenate(state_blocks)
+        forces = np.concatenate(force_blocks) / scene.M
         n = len(forces)  # an early end has no force for its last state: dropped
         columns = {key: np.ascontiguousarray(states[:n, k]) for k, key in enumerate(STATE_KEYS)}
         return Trajectory.from_steps(

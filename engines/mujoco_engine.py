@@ -532,31 +532,36 @@ class MujocoEngine(MjcfEngine):
     ) -> tuple[np.ndarray, np.ndarray]:
         """A rollout of the active worlds in C: positions, velocities and the contact
         sensor after each step (the sensor row of a step: the force at its start state)."""
-        mujoco, ids = batch.mujoco, np.flatnonzero(active)
-        time_spec = mujoco.mjtState.mjSTATE_TIME
-        out = batch.batch.rollout(steps, record=["qpos", "qvel", "sensordata", time_spec], ids=ids)
-        states = np.full((len(active), steps + 1, len(STATE_KEYS)), np.nan)
-        forces = np.full((len(active), steps, 2), np.nan)
-        for row, i in enumerate(ids):
-            q = np.concatenate([batch.qpos[i : i + 1], out["qpos"][row]])
-            v = np.concatenate([batch.qvel[i : i + 1], out["qvel"][row]])
-            scene = batch.scenes[i]
-            # The slide z joint is the hoop centre's height above its resting height.
-            com = kinematics.com_state(scene, q[:, 0], scene.a + q[:, 1], q[:, 2], *v.T)
-            states[i] = np.stack([com[key] for key in STATE_KEYS], axis=1)
-            # Sensor layout: found, then the force (x, y, z) on the hoop in the world frame.
-            forces[i] = out["sensordata"][row][:, [3, 1]]
-            batch.qpos[i], batch.qvel[i] = q[-1], v[-1]
-            times = np.concatenate([batch.time[i : i + 1], out[time_spec][row][:, 0]])
-            batch.time[i] = times[-1]
-            if np.any(np.diff(times) <= 0):  # the batch stopped stepping it
-                batch.halted[i] = True
+        every = bool(active.all())
+        ids = batch.ids if every else np.flatnonzero(active)
+        out = batch.batch.rollout(steps, record=batch.record, ids=ids)
+        # Every stepped world at once: its last state, then the rollout's rows.
+        com = np.empty((len(ids), steps + 1, len(STATE_KEYS)))
+        com[:, 0] = batch.com if every else batch.com[ids]
+        offset, a = (batch.offset, batch.a) if every else (batch.offset[ids], batch.a[ids])
+        _com_rows(offset, a, out["qpos"], out["qvel"], com[:, 1:])
+        # Sensor layout: found, then the force (x, y, z) on the hoop in the world frame.
+        sensor = out["sensordata"][:, :, 3:0:-2]  # columns 3 and 1: a view
+        time = out[batch.record[-1]][:, :, 0]
+        # A world the batch stopped stepping repeats its time (np.diff's test, unrolled).
+        start = batch.time if every else batch.time[ids]
+        stuck = (time[:, 0] - start <= 0) | (time[:, 1:] - time[:, :-1] <= 0).any(axis=1)
+        if every:
+            batch.com[:], batch.time[:] = com[:, -1], time[:, -1]
+            states, forces = com, sensor
+        else:  # rows of the worlds not stepped are never read
+            batch.com[ids], batch.time[ids] = com[:, -1], time[:, -1]
+            states = np.full((len(active), steps + 1, len(STATE_KEYS)), np.nan)
+            forces = np.full((len(active), steps, 2), np.nan)
+            states[ids], forces[ids] = com, sensor
+        if stuck.any():
+            batch.halted[ids[stuck]] = True
         return states, forces
 
     def _batch_diverged(self, batch: _Batch, active: np.ndarray) -> list[str | None]:
         # mujoco.batch stops stepping a world whose warning counters rise; a single run steps
         # on (MuJoCo resets its state), so the world runs again alone.
-        return [RUN_ALONE if halted else None for halted in batch.halted]
+        return [RUN_ALONE if halted else None for halted in batch.halted.tolist()]
 
 
 def mjcf_text(
@@ -653,8 +658,9 @@ class _Run:
 
 @dataclass
 class _Batch:
-    """A batch's worlds: their scenes, the ``mujoco.batch.Batch`` stepping them, and each
-    world's last recorded joint positions and velocities (slide x, slide z, hinge)."""
+    """A batch's worlds: their scenes, the ``mujoco.batch.Batch`` stepping them, each
+    world's initial joint positions and velocities (slide x, slide z, hinge) and its last
+    recorded centre-of-mass state and time."""
 
     mujoco: ModuleType
     scenes: list[Scene]
@@ -665,9 +671,44 @@ class _Batch:
     time: np.ndarray
     """s, each world's simulation time after its last step: a halted world's stands still."""
     halted: np.ndarray = field(init=False)
+    offset: np.ndarray = field(init=False)
+    """(W, 1), m: each scene's com_offset, broadcast over a world's rows."""
+    a: np.ndarray = field(init=False)
+    """(W, 1), m: each scene's hoop radius, as ``offset``."""
+
+    ids: np.ndarray = field(init=False)
+    """Every world's index, the ``ids`` of a rollout of them all."""
+    record: list[Any] = field(init=False)
+    """What a rollout records: positions, velocities, the contact sensor, the time."""
+    com: np.ndarray = field(init=False)
+    """(W, 6): each world's last centre-of-mass state (STATE_KEYS), a chunk's first row."""
 
     def __post_init__(self) -> None:
         self.halted = np.zeros(len(self.scenes), dtype=bool)
+        self.offset = np.array([[scene.com_offset] for scene in self.scenes])
+        self.a = np.array([[scene.a] for scene in self.scenes])
+        self.ids = np.arange(len(self.scenes))
+        self.record = ["qpos", "qvel", "sensordata", self.mujoco.mjtState.mjSTATE_TIME]
+        self.com = np.empty((len(self.scenes), len(STATE_KEYS)))
+        _com_rows(self.offset, self.a, self.qpos[:, None], self.qvel[:, None], self.com[:, None])
+
+
+def _com_rows(
+    offset: np.ndarray, a: np.ndarray, q: np.ndarray, v: np.ndarray, com: np.ndarray
+) -> None:
+    """kinematics.com_state of n worlds' joint rows at once (q, v: (n, rows, 3), slide x,
+    slide z, hinge) into ``com`` (n, rows, 6), columns STATE_KEYS, by com_state's operations
+    in its order, so that each row is the single run's bit for bit. ``offset``, ``a``:
+    (n, 1), m. The slide z joint is the hoop centre's height above its resting height."""
+    theta, thetadot = q[:, :, 2], v[:, :, 2]
+    # r * sin and r * cos once each: com_state's r * c * thetadot is (r * c) * thetadot.
+    rs, rc = offset * np.sin(theta), offset * np.cos(theta)
+    np.add(q[:, :, 0], rs, out=com[:, :, 0])
+    np.add(a + q[:, :, 1], rc, out=com[:, :, 1])
+    com[:, :, 2] = theta
+    np.add(v[:, :, 0], rc * thetadot, out=com[:, :, 3])
+    np.subtract(v[:, :, 1], rs * thetadot, out=com[:, :, 4])
+    com[:, :, 5] = thetadot
 
 
 def has_contact_sensor(mujoco: ModuleType) -> bool:

@@ -155,9 +155,13 @@ class StopMonitor:
             return None
         return cls(scene, rule, timestep, detectors=detectors, shape=shape)
 
-    def feed(self, states: Mapping[str, NDArray], last_step: int) -> StopReason | None:
+    def feed(
+        self, states: Mapping[str, NDArray], last_step: int, clear: NDArray | None = None
+    ) -> StopReason | None:
         """Take a chunk of states (arrays X, Y, theta, Xdot, Ydot, thetadot, the same length,
-        the last row at step ``last_step``); the reason to stop now, or None."""
+        the last row at step ``last_step``); the reason to stop now, or None. ``clear``: the
+        chunk's clearance, m, row by row, if the caller has it (a batch's divergence screen
+        computes it the same way), else computed here."""
         if self.reason is not None:
             return self.reason
         theta = np.asarray(states["theta"], dtype=float)
@@ -168,7 +172,12 @@ class StopMonitor:
         self._seen = last_step
         theta = theta[new]
         t = steps[new] * self.timestep
-        clear = kinematics.clearance(self.scene, np.asarray(states["Y"])[new], theta, self.shape)
+        if clear is None:
+            clear = kinematics.clearance(
+                self.scene, np.asarray(states["Y"])[new], theta, self.shape
+            )
+        else:
+            clear = np.asarray(clear)[new]
         if self.rule.at_first_impact and self._impact(t, clear):
             self.reason = StopReason.IMPACT
         elif self.rule.settle_after is not None:
