@@ -35,20 +35,20 @@ REPORT = "report"
 CALL_COST_PRIOR: dict[Hashable, Rates] = {
     # Rates(fixed_s, step_s, world_step_s, cold_s), fitted by
     # `python -m hoopbench.reports.bench.call_costs fit` on the whole calls of make report's
-    # three suites (731 calls) and its map (304 calls), main at 2026-11-29 01:45 UTC (after
-    # issue 34's MJX, Newton, worker and report changes), on the project's machine (AMD EPYC,
-    # 2 cores, no GPU), idle (1-min load average 0.7 at the start), JAX's and Warp's caches
-    # warm. A loaded or another machine (or cold caches) scales them by the machine factor.
-    "box2d": Rates(0.011, 4.1e-06, 0.0, 0.003),
-    "dart": Rates(0.015, 9.3e-06, 0.0, 0.011),
-    "drake": Rates(0.082, 1.6e-05, 0.0, 0.08),
-    "mjx": Rates(4.0, 0.0015, 0.00014),
-    "mujoco": Rates(0.037, 6.4e-07, 7.9e-06, 0.1),
-    "newton": Rates(1.1, 0.0, 0.00012, 0.74),
-    "pybullet": Rates(0.018, 9.1e-06, 0.0, 0.0045),
-    "pymunk": Rates(0.013, 2.6e-06),
-    "rapier": Rates(0.0088, 8e-06),
-    "reference": Rates(0.057, 8.9e-07, 0.0, 0.096),
+    # three suites (731 calls) and its map (304 calls), main at 2026-11-29 04:59 UTC (after
+    # the overlapped sweeps, the map's and PyBullet's leaner runs and the batch screen), on
+    # the project's machine (AMD EPYC, 2 cores, no GPU), nearly idle (1-min load average 2.6
+    # at the start, falling), JAX's and Warp's caches warm. A loaded or another machine (or cold caches) scales them by the machine factor.
+    "box2d": Rates(0.0095, 4e-06, 0.0, 0.0028),
+    "dart": Rates(0.012, 1e-05, 0.0, 0.04),
+    "drake": Rates(0.078, 1.7e-05, 0.0, 0.096),
+    "mjx": Rates(4.1, 0.0012, 0.00015),
+    "mujoco": Rates(0.026, 2e-06, 6.7e-06, 0.068),
+    "newton": Rates(0.0, 0.00052, 6.4e-05, 0.9),
+    "pybullet": Rates(0.017, 8.9e-06),
+    "pymunk": Rates(0.011, 2.3e-06),
+    "rapier": Rates(0.0097, 8.2e-06, 0.0, 0.0036),
+    "reference": Rates(0.049, 5.6e-07, 0.0, 0.17),
     # Run only with a GPU (left out of make report's suites without one), not measured here:
     # whole calls over their steps, on the default suite with a lightly loaded machine
     # (2026-11-28 18:55 UTC): MuJoCo Warp's RK4 (tuned) against its Euler (stock), and
@@ -60,13 +60,13 @@ CALL_COST_PRIOR: dict[Hashable, Rates] = {
     # The map's (make report's: 10 x 10, MuJoCo in 4 batches of 25, 1e-4 s; its runs stop
     # at their first impact, so a step of its window costs less than a suite's): its 304
     # calls of the same idle make report. MuJoCo's 4 calls over their world-steps.
-    (MAP, "reference"): Rates(0.022, 0.0, 0.0, 0.03),
-    (MAP, "mujoco"): Rates(0.0, 0.0, 7.6e-06, 2.2),
-    (MAP, "pybullet"): Rates(0.0, 6.1e-06, 0.0, 0.21),
-    (MAP, "pymunk"): Rates(0.0, 1.9e-06, 0.0, 0.011),
+    (MAP, "reference"): Rates(0.025, 0.0, 0.0, 0.046),
+    (MAP, "mujoco"): Rates(0.0, 0.0, 6.9e-06, 1.9),
+    (MAP, "pybullet"): Rates(0.0, 5.6e-06, 0.0, 0.13),
+    (MAP, "pymunk"): Rates(0.0, 1.7e-06, 0.0, 0.0093),
     # `hoopbench report` of the three suites, the map, the shipped searches and bench (make
-    # report's last step): 22 s on the same idle make report.
-    REPORT: Rates(22.0, 0.0),
+    # report's last step): 21 s on the same make report.
+    REPORT: Rates(21.0, 0.0),
 }
 """A kind's whole call (:class:`~hoopbench.reports.sweep.eta.Rates`) before any call of it
 has finished here: by engine, by engine, profile and variant where those differ, by the
