@@ -38,7 +38,8 @@ CALL_COST_PRIOR: dict[Hashable, Rates] = {
     # three suites (731 calls) and its map (304 calls), main at 2026-11-29 04:59 UTC (after
     # the overlapped sweeps, the map's and PyBullet's leaner runs and the batch screen), on
     # the project's machine (AMD EPYC, 2 cores, no GPU), nearly idle (1-min load average 2.6
-    # at the start, falling), JAX's and Warp's caches warm. A loaded or another machine (or cold caches) scales them by the machine factor.
+    # at the start, falling), JAX's and Warp's caches warm. A loaded or another machine (or
+    # cold caches) scales them by the machine factor.
     "box2d": Rates(0.0095, 4e-06, 0.0, 0.0028),
     "dart": Rates(0.012, 1e-05, 0.0, 0.04),
     "drake": Rates(0.078, 1.7e-05, 0.0, 0.096),
