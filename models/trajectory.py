@@ -147,6 +147,18 @@ class Trajectory:
     def __len__(self) -> int:
         return len(self.t)
 
+    def rows(self, index: slice | NDArray) -> Trajectory:
+        """The samples at ``index`` (a slice gives views, an index array copies), every
+        column picked alike."""
+        return Trajectory(**{name: getattr(self, name)[index] for name in COLUMNS})
+
+    def make_read_only(self) -> Trajectory:
+        """Mark every column's array read-only (a trajectory shared by several readers, whom
+        a write would then fail loudly); itself."""
+        for name in COLUMNS:
+            getattr(self, name).flags.writeable = False
+        return self
+
     def to_frame(self) -> pd.DataFrame:
         """One row per sample, one column per variable (names as in COLUMNS)."""
         return pd.DataFrame({name: getattr(self, name) for name in COLUMNS})

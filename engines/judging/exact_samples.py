@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from hoopbench.models.trajectory import COLUMNS, Trajectory
+from hoopbench.models.trajectory import Trajectory
 from hoopbench.reference.exact import ExactSolution
 
 __all__ = ["KEPT_SAMPLES", "clear", "exact_sample"]
@@ -69,7 +69,7 @@ def exact_sample(exact: ExactSolution, t: NDArray) -> Trajectory:
     if within is not None:
         return within
     sampled = exact.sample(t)
-    _freeze(sampled)  # shared from now on: a caller writing into it would raise
+    sampled.make_read_only()  # shared from now on: a caller writing into it would raise
     ascending = bool(np.all(np.diff(t) > 0))
     _kept[key] = _Kept(exact, t.copy(), sampled, ascending)
     _kept.move_to_end(key)
@@ -97,15 +97,8 @@ def _within_kept(exact: ExactSolution, t: NDArray) -> Trajectory | None:
             rows: slice | NDArray = slice(first, last + 1)  # views of read-only arrays
         else:
             rows = index
-        picked = Trajectory(**{name: getattr(kept.sampled, name)[rows] for name in COLUMNS})
-        _freeze(picked)
-        return picked
+        return kept.sampled.rows(rows).make_read_only()
     return None
-
-
-def _freeze(sampled: Trajectory) -> None:
-    for name in COLUMNS:
-        getattr(sampled, name).setflags(write=False)
 
 
 def clear() -> None:

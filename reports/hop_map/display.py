@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from hoopbench.models.trajectory import COLUMNS, Trajectory
+from hoopbench.models.trajectory import Trajectory
 from hoopbench.reference.exact import ExactSolution
 from hoopbench.reports.sweep.folder_files import MAX_DATA_BYTES, folder_file
 
@@ -79,7 +79,7 @@ def thinned(trajectory: Trajectory, samples: int = DISPLAY_SAMPLES) -> Trajector
         return trajectory
     keep = _kept(len(trajectory), samples)
     # The kept rows of each column (a table of every sample first cost 2 of a run's 3 ms).
-    return Trajectory(**{name: getattr(trajectory, name)[keep] for name in COLUMNS})
+    return trajectory.rows(keep)
 
 
 def display_path(out: str | Path, run_id: str) -> Path:

@@ -15,7 +15,7 @@ import pandas as pd
 
 from hoopbench.engines.options import Profile
 from hoopbench.engines.settings import DEFAULT_TIMESTEP
-from hoopbench.models.trajectory import COLUMNS, Trajectory
+from hoopbench.models.trajectory import Trajectory
 from hoopbench.reports.compare.selection import default_rows, profile_of
 
 __all__ = ["drawn_rows", "drawn_trajectories", "read_trajectory", "timestep_note"]
@@ -66,10 +66,7 @@ def read_trajectory(path: str | Path) -> Trajectory:
 
 @lru_cache(maxsize=TRAJECTORIES_KEPT)
 def _read(path: str, mtime_ns: int, size: int) -> Trajectory:
-    trajectory = Trajectory.read(path)
-    for name in COLUMNS:
-        getattr(trajectory, name).flags.writeable = False
-    return trajectory
+    return Trajectory.read(path).make_read_only()
 
 
 def timestep_note(rows: pd.DataFrame) -> str:
