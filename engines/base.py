@@ -186,14 +186,17 @@ class DivergenceScreen:
         self.least_clearance = np.array([-limits.penetration * s.a for s in scenes])
         self.polygons = [i for i, shape in enumerate(self.shapes) if shape is not None]
 
+    def _of(self, ids: np.ndarray, *per_world: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The rows of ``ids`` of each per-world array (the arrays themselves when every
+        world is checked: no copy)."""
+        if len(ids) == len(self.scenes):
+            return per_world
+        return tuple(values[ids] for values in per_world)
+
     def clearance(self, ids: np.ndarray, states: np.ndarray) -> np.ndarray:
         """(n, rows), m: kinematics.clearance of each world's rows."""
         Y, theta = states[:, :, 1], states[:, :, 2]
-        offset, a = (
-            (self.offset, self.a)
-            if len(ids) == len(self.scenes)
-            else (self.offset[ids], self.a[ids])
-        )
+        offset, a = self._of(ids, self.offset, self.a)
         clear = Y - offset * np.cos(theta) - a
         for i in self.polygons:
             for row in np.flatnonzero(ids == i):
@@ -215,16 +218,10 @@ class DivergenceScreen:
         # Energy and clearance of finite rows only, as check_divergence (no warnings).
         rows = states if finite.all() else np.where(finite[:, None, None], states, 0.0)
         Y, Xdot, Ydot, thetadot = (rows[:, :, k] for k in (1, 3, 4, 5))
-        g, spin = (
-            (self.g, self.spin) if len(ids) == len(self.scenes) else (self.g[ids], self.spin[ids])
-        )
+        g, spin = self._of(ids, self.g, self.spin)
         energy = g * Y + 0.5 * (Xdot**2 + Ydot**2) + spin * thetadot**2
         clear = self.clearance(ids, rows)
-        most, least = (
-            (self.most_energy, self.least_clearance)
-            if len(ids) == len(self.scenes)
-            else (self.most_energy[ids], self.least_clearance[ids])
-        )
+        most, least = self._of(ids, self.most_energy, self.least_clearance)
         passed = finite & (energy.max(axis=1) <= most) & (clear.min(axis=1) >= least)
         return (None if passed.all() else self._each(ids, states, passed)), clear
 
