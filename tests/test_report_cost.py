@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_report_drawing import RecordingPool
 from test_stability import rows
 
 from hoopbench.models import kinematics
@@ -88,20 +89,8 @@ def _figure(out: Path) -> Path:
     return Path(out).joinpath("best-settings.png")
 
 
-class _InOrder(FigurePool):
-    """One process: each call drawn here as it is submitted, its name noted."""
-
-    def __init__(self) -> None:
-        super().__init__(1)
-        self.made: list[str] = []
-
-    def submit(self, function, *args):
-        self.made.append(function.__name__)
-        return super().submit(function, *args)
-
-
 def test_the_drawings_start_dearest_first_the_report_s_own_among_them(tmp_path):
-    pool = _InOrder()
+    pool = RecordingPool(1)  # one process: each call drawn as it is submitted
     drawings = [(_figure, (tmp_path,)), (write_gif, (tmp_path,))]
     write_markdown(rows(), tmp_path, generated="now", pool=pool, drawings=drawings)
     assert pool.made == [

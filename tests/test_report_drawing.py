@@ -69,11 +69,11 @@ def test_the_page_rounds_to_five_significant_digits():
     assert [type(v) for v in rounded([1.0, 2])] == [float, float]
 
 
-class _Recording(FigurePool):
-    """A pool that notes what it is asked to make."""
+class RecordingPool(FigurePool):
+    """A pool that notes what it is asked to make, by function name, in the order asked."""
 
-    def __init__(self) -> None:
-        super().__init__(2)
+    def __init__(self, workers: int = 2) -> None:
+        super().__init__(workers)
         self.made: list[str] = []
 
     def submit(self, function, *args):
@@ -88,7 +88,7 @@ def test_the_page_makes_its_figures_side_by_side_as_it_would_alone(tmp_path):
     write_markdown(rows(), alone, generated="now")
     shutil.copytree(alone, side)
     write_page(rows(), alone)
-    with _Recording() as pool:
+    with RecordingPool() as pool:
         write_page(rows(), side, pool=pool)
     assert pool.made == ["_figure_html"]  # the stability matrix: the one figure it shows
     assert (side / "report.html").read_text() == (alone / "report.html").read_text()

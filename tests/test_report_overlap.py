@@ -9,11 +9,11 @@ from __future__ import annotations
 import os
 import signal
 import time
-from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+from test_runner_eta import ActiveSweep
 
 from hoopbench.reports.report_runs import Step, run_steps
 from hoopbench.reports.sweep import results
@@ -115,16 +115,6 @@ def test_a_signal_stops_every_step_running_and_each_resumes(tmp_path):
     assert len(_statuses(tmp_path / "finer")) == 7
 
 
-@dataclass
-class _Active:
-    done: int = 0
-    running: tuple[Running, ...] = ()
-    pending: tuple[CallCost, ...] = ()
-
-    def left(self):
-        return list(self.running), list(self.pending), Counter()
-
-
 LONG = CallCost(kinds=("mjx",), steps=1)
 SHORT = CallCost(kinds=("pymunk",), steps=1)
 PRIOR = {"mjx": Rates(80.0, 0.0), "pymunk": Rates(2.0, 0.0), "report": Rates(20.0, 0.0)}
@@ -147,8 +137,8 @@ def test_steps_running_together_share_the_workers_in_the_eta():
         2,
         after=(CallCost(kinds=("report",), steps=0),),
     )
-    plan.attach(plan.begin(1), _Active(running=(Running(LONG, 20.0),)))
-    plan.attach(plan.begin(10), _Active(done=3, pending=(SHORT,) * 10))
+    plan.attach(plan.begin(1), ActiveSweep(running=(Running(LONG, 20.0),)))
+    plan.attach(plan.begin(10), ActiveSweep(done=3, pending=(SHORT,) * 10))
     assert plan.sweep_left(1) == pytest.approx(20.0)
     assert plan.sweep_left(0) == pytest.approx(60.0)
     assert plan.seconds_left() == pytest.approx(60.0 + 20.0)

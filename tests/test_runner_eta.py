@@ -188,7 +188,7 @@ def test_a_broken_cost_model_leaves_the_sweep_and_the_count_eta(tmp_path):
 
 
 @dataclass
-class _Active:
+class ActiveSweep:
     """A sweep running under a plan: its runs done, its calls running and waiting."""
 
     done: int = 0
@@ -236,7 +236,7 @@ def test_a_later_sweep_is_expected_at_the_factor_the_finished_calls_measured():
     """The first suite's sleep calls took half their prior: the next suite's sleep calls,
     not started, are expected at half theirs (and the report at the machine's factor)."""
     plan = _plan()
-    plan.attach(plan.begin(3), _Active(done=1))
+    plan.attach(plan.begin(3), ActiveSweep(done=1))
     plan.finished.append(Took(CallCost(kinds=("sleep",), steps=1), 1800.0))
     assert plan.later_seconds() == pytest.approx(2 * 1800.0 + 300.0)
     assert plan.text(0) == "make report: step 1 of 2 (default), runs 1/5, eta 1h05m"
