@@ -55,6 +55,7 @@ __all__ = [
     "MAX_STEPS",
     "RUN_ALONE",
     "STATE_KEYS",
+    "WARP_CACHE",
     "Chunk",
     "DivergenceLimits",
     "DivergenceScreen",
@@ -404,6 +405,10 @@ class Engine(ABC):
     """The most a step of a run may cost on a loaded CPU (s): a suite's or a map's time limit
     allows it for every step of the run. 0.5 ms is 50 times the dearest step of the engines
     that step one world in C or Rust (about 10 us: MuJoCo RK4, PyBullet)."""
+    compiled_cache: ClassVar[str | None] = None
+    """The folder under :func:`cache_folder` where the engine keeps the code it compiles
+    between processes (None: it compiles nothing). While it holds nothing, a kind's first
+    call compiles (the ETA's priors know: reports/compare/costs.py, COLD_CACHE_S)."""
     gpu_only: ClassVar[str | None] = None
     """Why the engine's runs pay off only on a GPU (None: they pay off on a CPU too): a suite
     sized to the machine (``sized_to_machine``) runs them only where a GPU is present, and
@@ -1157,6 +1162,10 @@ DEVICE = Option(
 """The ``device`` option of the batched engines (MJX, MuJoCo Warp, Newton)."""
 
 
+WARP_CACHE = "warp"
+"""NVIDIA Warp's kernel cache, under :func:`cache_folder` (Newton's and MuJoCo Warp's)."""
+
+
 def cache_folder(engine: str) -> Path:
     """Where an engine keeps its compiled code between processes: ``$HOOPBENCH_CACHE/<engine>``,
     else the user's cache folder (``$XDG_CACHE_HOME`` or ~/.cache) ``/hoopbench/<engine>``."""
@@ -1213,7 +1222,7 @@ def import_warp() -> ModuleType:
     # switch; a module takes it when created, so before the engine's package is imported).
     wp.config.enable_backward = False
     if not wp.config.kernel_cache_dir:
-        wp.config.kernel_cache_dir = str(cache_folder("warp"))
+        wp.config.kernel_cache_dir = str(cache_folder(WARP_CACHE))
     wp.config.quiet = True
     wp.config.log_level = max(wp.config.log_level, wp.LOG_WARNING)  # no per-module timings
     return wp

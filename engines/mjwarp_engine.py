@@ -43,7 +43,13 @@ from typing import Any
 
 import numpy as np
 
-from hoopbench.engines.base import DEVICE, WorldsEngine, import_warp, warp_device
+from hoopbench.engines.base import (
+    DEVICE,
+    WARP_CACHE,
+    WorldsEngine,
+    import_warp,
+    warp_device,
+)
 from hoopbench.engines.mujoco_engine import MjcfEngine, MujocoEngine
 from hoopbench.engines.options import Variant, choice
 from hoopbench.engines.registry import register
@@ -73,6 +79,7 @@ class MjwarpEngine(WorldsEngine, MjcfEngine):
     modules = ("mujoco", "warp", "mujoco_warp")
     geometries = ("sphere",)
     step_cost_bound = 0.2
+    compiled_cache = WARP_CACHE
     """6 times a lone world's step on the CPU (34 ms, docs/engines.md)."""
     gpu_only = (
         "Warp kernels launched from Python at every step: on a CPU 4-15 ms a step for a "

@@ -95,6 +95,7 @@ import numpy as np
 from hoopbench.engines.base import (
     CHUNK_STEPS,
     DEVICE,
+    WARP_CACHE,
     WorldsEngine,
     import_warp,
     warp_device,
@@ -158,6 +159,7 @@ class NewtonEngine(WorldsEngine):
     modules = ("newton", "warp")
     model_note = "the worlds are built by calls (newton.ModelBuilder), not read"
     worlds_per_call = 8
+    compiled_cache = WARP_CACHE
     """The fewest worlds the runner cuts a settings' runs to: on a CPU a Newton step is its
     kernel launches from Python, whatever the worlds (XPBD, 3,000 steps at 1e-3 s, CPU time:
     3.53 s for 1 world, 3.67 s for 2, 3.82 s for 8; 2 loaded cores, 2026-11-28), so that

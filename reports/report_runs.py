@@ -26,10 +26,11 @@ from dataclasses import dataclass
 
 from hoopbench.engines.base import warp_sees_gpu
 from hoopbench.reports.compare.costs import (
-    CALL_COST_PRIOR,
     REPORT,
     call_cost,
+    cold_caches,
     map_call_cost,
+    priors,
 )
 from hoopbench.reports.compare.suite import batch_key, batch_least, run_task_batch
 from hoopbench.reports.compare.suite_file import load_suite, suite_path
@@ -96,7 +97,7 @@ def report_plan(suites: Sequence[str], spec: MapSpec | None, jobs: int, batch_si
     if spec is not None:
         sweeps += map_sweeps(spec, 2 * jobs, batch_size)
     report = CallCost(kinds=(REPORT,), steps=0)
-    return Plan("make report", sweeps, CALL_COST_PRIOR, jobs, after=(report,))
+    return Plan("make report", sweeps, priors(cold_caches()), jobs, after=(report,))
 
 
 @dataclass(frozen=True)

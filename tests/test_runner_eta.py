@@ -13,7 +13,15 @@ import pytest
 from test_runner import Job, job_failure_row, job_worker
 
 from hoopbench.reports.bench.call_costs import accuracy, fit, rounding, seconds_of
-from hoopbench.reports.compare.costs import CALL_COST_PRIOR, MAP, REPORT, call_cost
+from hoopbench.reports.compare.costs import (
+    CALL_COST_PRIOR,
+    COLD_CACHE_S,
+    MAP,
+    REPORT,
+    call_cost,
+    cold_caches,
+    priors,
+)
 from hoopbench.reports.sweep.eta import (
     CallCost,
     Costing,
@@ -152,6 +160,35 @@ def test_every_engine_the_map_and_the_report_have_a_prior():
     )
     assert REPORT in CALL_COST_PRIOR
     assert all(r.fixed_s + r.step_s + r.world_step_s > 0 for r in CALL_COST_PRIOR.values())
+
+
+def test_cold_caches_are_the_engines_whose_compiled_code_folder_is_empty(tmp_path, monkeypatch):
+    monkeypatch.setenv("HOOPBENCH_CACHE", str(tmp_path))
+    assert {"mjx", "newton", "mjwarp"} <= cold_caches()
+    (tmp_path / "jax" / "sub").mkdir(parents=True)  # a folder alone compiles nothing
+    assert "mjx" in cold_caches()
+    (tmp_path / "jax" / "sub" / "entry").write_bytes(b"x")
+    assert "mjx" not in cold_caches()
+    assert "pymunk" not in cold_caches()  # compiles nothing: never cold
+
+
+def test_a_cold_cache_adds_its_compile_to_the_first_calls_of_its_kinds_only():
+    assert priors() == CALL_COST_PRIOR
+    assert priors({"newton"}) == CALL_COST_PRIOR  # no kind of Newton's says its compile
+    cold = priors({"mjx"})
+    tuned = CallCost(kinds=(("mjx", "tuned", "default"), "mjx"), steps=3000, worlds=8)
+    other = CallCost(kinds=(("mjx", "tuned", "solref=0.02"), "mjx"), steps=3000, worlds=8)
+    assert remaining_seconds([tuned], [], [], 1, cold) == pytest.approx(
+        remaining_seconds([tuned], [], [], 1, CALL_COST_PRIOR)
+        + COLD_CACHE_S[("mjx", "tuned", "default")]
+    )
+    warm = {("mjx", "tuned", "default"): 1}  # its worker has run one: no compile again
+    assert remaining_seconds([tuned], [], [], 1, cold, warm) == pytest.approx(
+        remaining_seconds([tuned], [], [], 1, CALL_COST_PRIOR, warm)
+    )
+    assert remaining_seconds([other], [], [], 1, cold) == pytest.approx(
+        remaining_seconds([other], [], [], 1, CALL_COST_PRIOR)
+    )
 
 
 def _kinds(tasks):

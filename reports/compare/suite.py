@@ -45,7 +45,7 @@ from hoopbench.engines.judging.verdict import (
 from hoopbench.engines.registry import engine_class, get_engine
 from hoopbench.engines.run import RunResult, RunStatus
 from hoopbench.engines.settings import DEFAULT_BATCH_SIZE, RunSettings
-from hoopbench.reports.compare.costs import COSTING
+from hoopbench.reports.compare.costs import suite_costing
 from hoopbench.reports.compare.releases import (
     Release,
     ReleaseUnusableError,
@@ -416,7 +416,7 @@ def compare(
             batching=Batching(run_task_batch, batch_key, batch_size, batch_least)
             if batch_size > 1
             else None,
-            costing=COSTING,
+            costing=suite_costing(),
         )
         copy = out / "suite.toml"
         if Path(suite_file).is_file() and not copy.exists():
