@@ -66,11 +66,12 @@ flight at dt 1e-3 (of the order omega^3 lam a dt / 2), far above the floor, so i
 still read contact (Newton's own ``contact_f`` observable would not; left out for time).
 
 Built once. What a call builds that no world's state changes (the model, solver, collision
-pipeline, contacts, state pair, recording buffers and, on CUDA, the captured steps) is kept
-per process per shape and setting (``_BUILT``); a later call writes its worlds' parameters
-into the kept model and resets the states and the solver (docs/engines.md, Batched
-simulators). On the CPU each step's state is read in place and the rows made once per chunk;
-on CUDA a kernel records it into a device buffer inside the captured step.
+pipeline, contacts, state pair, recording buffers and the captured steps) is kept per
+process per shape and setting (``_BUILT``); a later call writes its worlds' parameters into
+the kept model and resets the states and the solver (docs/engines.md, Batched simulators).
+Each step is a graph captured once and replayed, as Newton's examples step, on a CPU too
+(Warp's CPU graph: the kernels without Python's cost per launch, ``CAPTURE_STEPS``); a kernel
+inside it records the step's state into a buffer, read and made into rows once per chunk.
 
 Precision: single (Warp's ``float``). The first step of a new build compiles kernels (tens
 of seconds on 2 CPU cores, kept in Warp's kernel cache, ``HOOPBENCH_CACHE`` or the user's
@@ -160,10 +161,11 @@ class NewtonEngine(WorldsEngine):
     model_note = "the worlds are built by calls (newton.ModelBuilder), not read"
     worlds_per_call = 8
     compiled_cache = WARP_CACHE
-    """The fewest worlds the runner cuts a settings' runs to: on a CPU a Newton step is its
-    kernel launches from Python, whatever the worlds (XPBD, 3,000 steps at 1e-3 s, CPU time:
-    3.53 s for 1 world, 3.67 s for 2, 3.82 s for 8; 2 loaded cores, 2026-11-28), so that
-    batches of 2 cost 4 times a batch of 8. Unlike MJX, Newton pads nothing: a world's row is
+    """The fewest worlds the runner cuts a settings' runs to: on a CPU a Newton step costs
+    about the same whatever the worlds (XPBD, 3,000 steps at 1e-3 s, CPU time of a kept
+    call's stepping: 0.10 s for 1 world or 2, 0.12 s for 8, replayed as a captured graph,
+    2026-11-29; 3.53, 3.67 and 3.82 s when launched from Python, 2026-11-28), so that
+    batches of 2 cost nearly 4 times a batch of 8. Unlike MJX, Newton pads nothing: a world's row is
     the same alone and in any batch (tests/test_newton.py)."""
     step_cost_bound = 0.2
     """5 times a lone world's step on the CPU with its dearest solver (MuJoCo: 41 ms,
@@ -314,7 +316,7 @@ class NewtonEngine(WorldsEngine):
                 built,
                 settings.timestep,
                 ROUNDINGS[options["solver"]],
-                record_on_device=_records_on_device(model.device),
+                captured=CAPTURE_STEPS,
             )
             batch.start()
             yield batch
@@ -382,7 +384,7 @@ class _Built:
     """What a call builds that does not depend on the worlds' states, kept per process: the
     model (each call writes its own worlds' parameters into its arrays), the solver, the
     collision pipeline (its kernels are generated per instance) and contacts, the pair of
-    states, the buffers a step records into on a GPU and, there, the captured steps."""
+    states, the buffers a step records into and holds worlds from, and the captured steps."""
 
     model: Any
     solver: Any
@@ -391,10 +393,16 @@ class _Built:
     control: Any
     states: tuple[Any, Any]
     history: tuple[Any, Any, Any]
-    """Device buffers of a chunk's recorded body_q (CHUNK_STEPS, W), body_qd
-    (CHUNK_STEPS, W) and the step counter the recording kernel reads (CUDA only)."""
-    graphs: dict[int, Any] = field(default_factory=dict)
-    """CUDA graphs of one recorded step, by which of ``states`` holds the state (0, 1)."""
+    """Device buffers of a chunk's recorded body_q (CHUNK_STEPS + 1, W), body_qd
+    (CHUNK_STEPS + 1, W: a chunk and the last state's force step) and the step counter the
+    recording kernel reads."""
+    held: tuple[Any, ...]
+    """Device buffers of the worlds a step holds (``_recording_kernels``): which (W, int32,
+    1 for held) and their state at the chunk's start (body_q, body_qd, joint_q, joint_qd)."""
+    graphs: dict[tuple[float, int], Any] = field(default_factory=dict)
+    """Captured graphs of one recorded step (CUDA graphs, or Warp's CPU graphs), by time
+    step (s: a graph keeps its launches' arguments) and by which of ``states`` holds the
+    state the step starts from (0, 1)."""
     calls: int = 1
     """Calls served, this one included."""
 
@@ -472,8 +480,8 @@ def _build_once(newton: ModuleType, wp: ModuleType, model: Any, opts: dict, dt: 
     control = model.control()
     worlds = model.body_count
     history = (
-        wp.zeros((CHUNK_STEPS, worlds), dtype=wp.transform),
-        wp.zeros((CHUNK_STEPS, worlds), dtype=wp.spatial_vector),
+        wp.zeros((CHUNK_STEPS + 1, worlds), dtype=wp.transform),
+        wp.zeros((CHUNK_STEPS + 1, worlds), dtype=wp.spatial_vector),
         wp.zeros(1, dtype=wp.int32),
     )
     scratch_in, scratch_out = model.state(), model.state()
@@ -481,15 +489,53 @@ def _build_once(newton: ModuleType, wp: ModuleType, model: Any, opts: dict, dt: 
     solver.step(scratch_in, scratch_out, control, contacts, dt)
     wp.synchronize()
     states = (model.state(), model.state())
-    return _Built(model, solver, pipeline, contacts, control, states, history)
+    start = (wp.zeros_like(getattr(scratch_in, name)) for name in HELD_STATE)
+    held = (wp.zeros(worlds, dtype=wp.int32), *start)
+    return _Built(model, solver, pipeline, contacts, control, states, history, held)
+
+
+HELD_STATE = ("body_q", "body_qd", "joint_q", "joint_qd")
+"""The state a held world gets back after each step (one body and one free joint a world:
+joint_q 7 and joint_qd 6 values)."""
+
+CAPTURE_STEPS = True
+"""Each step is a captured graph replayed (``wp.ScopedCapture``, ``wp.capture_launch``), as
+Newton's examples step on every device (``example_basic_shapes``): a CUDA graph on a GPU,
+Warp's CPU graph on a CPU, whose replay calls the step's kernels without Python's cost per
+launch (XPBD, 8 worlds: 1.6 ms a step launched, 47 us replayed; docs/engines.md, Newton).
+False launches each kernel from Python (the same rows: tests/test_newton.py)."""
 
 
 @functools.cache
-def _recording_kernels(wp: ModuleType) -> tuple[Any, Any]:
-    """The kernels of a step recorded on the device (a CUDA graph holds no host read): the
-    worlds' body_q and body_qd into row ``step[0]`` of the history, then ``step[0] += 1``.
-    Defined here, not at the top: Warp is imported with the engine, not with the adapter
-    (mypy cannot read Warp's array types off a module argument: the ignores)."""
+def _recording_kernels(wp: ModuleType) -> tuple[Any, Any, Any]:
+    """The kernels a recorded step adds (a captured graph holds no host read or write):
+    ``hold`` gives the held worlds their chunk-start state back, ``record`` writes the
+    worlds' body_q and body_qd into row ``step[0]`` of the history, ``count`` adds 1 to
+    ``step[0]``. Defined here, not at the top: Warp is imported with the engine, not with
+    the adapter (mypy cannot read Warp's array types off a module argument: the ignores)."""
+
+    @wp.kernel
+    def hold(
+        held: wp.array[wp.int32],  # type: ignore[name-defined]
+        body_q: wp.array[wp.transform],  # type: ignore[name-defined]
+        body_qd: wp.array[wp.spatial_vector],  # type: ignore[name-defined]
+        joint_q: wp.array[wp.float32],  # type: ignore[name-defined]
+        joint_qd: wp.array[wp.float32],  # type: ignore[name-defined]
+        start_q: wp.array[wp.transform],  # type: ignore[name-defined]
+        start_qd: wp.array[wp.spatial_vector],  # type: ignore[name-defined]
+        start_joint_q: wp.array[wp.float32],  # type: ignore[name-defined]
+        start_joint_qd: wp.array[wp.float32],  # type: ignore[name-defined]
+    ) -> None:
+        world = wp.tid()
+        if held[world] != 0:
+            body_q[world] = start_q[world]
+            body_qd[world] = start_qd[world]
+            n_q = joint_q.shape[0] // held.shape[0]
+            for i in range(n_q):
+                joint_q[world * n_q + i] = start_joint_q[world * n_q + i]
+            n_qd = joint_qd.shape[0] // held.shape[0]
+            for i in range(n_qd):
+                joint_qd[world * n_qd + i] = start_joint_qd[world * n_qd + i]
 
     @wp.kernel
     def record(
@@ -507,13 +553,7 @@ def _recording_kernels(wp: ModuleType) -> tuple[Any, Any]:
     def count(step: wp.array[wp.int32]) -> None:  # type: ignore[name-defined]
         step[0] = step[0] + wp.int32(1)
 
-    return record, count
-
-
-def _records_on_device(device: Any) -> bool:
-    """Whether the steps are recorded on the device and read once per chunk: on CUDA, where
-    they are captured (a CPU reads each step's state in place: a view, no launch)."""
-    return bool(device.is_cuda)
+    return hold, record, count
 
 
 @dataclass
@@ -526,9 +566,8 @@ class _Batch:
     built: _Built
     timestep: float
     roundings: int
-    record_on_device: bool = False
-    """Record each step on the device (``_recording_kernels``) and read once per chunk
-    (``_records_on_device``)."""
+    captured: bool = True
+    """Each step a captured graph replayed (:data:`CAPTURE_STEPS`), else launched."""
     mass: np.ndarray = field(init=False)
     gravity: np.ndarray = field(init=False)
     theta: np.ndarray = field(init=False)
@@ -556,17 +595,15 @@ class _Batch:
         self.wp.synchronize()
 
     def advance(self, steps: int, active: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Every world steps (one launch serves all); the inactive ones get their state back
-        after each step, so that a world still running does not move while others finish.
-        The states are kept raw (float32) at each step and turned into rows once per chunk."""
+        """Every world steps (one launch serves all); the inactive ones are held: they get
+        their state back after each step, so that a world still running does not move while
+        others finish. The states are recorded raw (float32) at each step and turned into
+        rows once per chunk."""
         w = len(self.scenes)
         q = np.empty((steps + 1, w, 7), dtype=np.float32)
         qd = np.empty((steps + 1, w, 6), dtype=np.float32)
         q[0], qd[0] = self.state.body_q.numpy(), self.state.body_qd.numpy()
-        if self.record_on_device and active.all():
-            self._advance_recorded(steps, q[1:], qd[1:])
-        else:
-            self._advance_read(steps, active, q[1:], qd[1:])
+        self._advance_recorded(steps, active, q[1:], qd[1:])
         rows = self._rows(q, qd)  # (W, steps + 1, 7)
         forces = _step_forces(rows, self.mass, self.gravity, self.timestep, self.roundings)
         states = np.stack(
@@ -581,48 +618,54 @@ class _Batch:
         built.pipeline.collide(self.state, built.contacts)
         built.solver.step(self.state, self.next, built.control, built.contacts, self.timestep)
 
-    def _advance_read(self, steps: int, active: np.ndarray, q: np.ndarray, qd: np.ndarray) -> None:
-        """``steps`` steps, each state read in place after its step (on a CPU ``numpy()``
-        is a view of the array: no copy, no launch)."""
-        kept = self._state_arrays() if not active.all() else {}
-        for k in range(steps):
-            self._step()
-            self.state, self.next = self.next, self.state
-            for name, before in kept.items():
-                array = getattr(self.state, name)
-                now = array.numpy()
-                rows = now.reshape(len(active), -1)
-                rows[~active] = before[~active]
-                array.assign(rows.reshape(now.shape))
-            q[k], qd[k] = self.state.body_q.numpy(), self.state.body_qd.numpy()
-
-    def _advance_recorded(self, steps: int, q: np.ndarray, qd: np.ndarray) -> None:
-        """``steps`` steps recorded on the device and read back once. On CUDA each step is
-        a graph captured once per shape and setting (``wp.ScopedCapture``, launched by
+    def _advance_recorded(
+        self, steps: int, active: np.ndarray, q: np.ndarray, qd: np.ndarray
+    ) -> None:
+        """``steps`` steps recorded on the device and read back once. Each step is a graph
+        captured once per shape, setting and time step (``wp.ScopedCapture``, launched by
         ``wp.capture_launch``, as Newton's examples step), one per state buffer the step
         starts from, since the step swaps the pair."""
         wp, built = self.wp, self.built
         history_q, history_qd, counter = built.history
+        if steps > history_q.shape[0]:
+            raise ValueError(f"{steps} steps: the history holds {history_q.shape[0]}")
         counter.zero_()
+        self._hold(active)
         for _ in range(steps):
-            if not self.state.body_q.device.is_cuda:
+            if not self.captured:
                 self._step_recording()
             else:
-                parity = 0 if self.state is built.states[0] else 1
-                if parity not in built.graphs:
+                key = (self.timestep, 0 if self.state is built.states[0] else 1)
+                if key not in built.graphs:
                     with wp.ScopedCapture() as capture:
                         self._step_recording()
-                    built.graphs[parity] = capture.graph
-                wp.capture_launch(built.graphs[parity])
+                    built.graphs[key] = capture.graph
+                wp.capture_launch(built.graphs[key])
             self.state, self.next = self.next, self.state
-        q[:] = history_q.numpy()[:steps]
-        qd[:] = history_qd.numpy()[:steps]
+        q[:] = history_q[:steps].numpy()
+        qd[:] = history_qd[:steps].numpy()
+
+    def _hold(self, active: np.ndarray) -> None:
+        """Mark the inactive worlds held, and keep their state (the chunk's start) for the
+        step's ``hold`` kernel to give back."""
+        held, *start = self.built.held
+        held.assign((~active).astype(np.int32))
+        if not active.all():
+            for name, array in zip(HELD_STATE, start, strict=True):
+                self.wp.copy(array, getattr(self.state, name))
 
     def _step_recording(self) -> None:
-        """One step, then the new state into the history's row ``counter``."""
-        record, count = _recording_kernels(self.wp)
+        """One step, the held worlds' state given back, then the new state into the
+        history's row ``counter``."""
+        hold, record, count = _recording_kernels(self.wp)
         history_q, history_qd, counter = self.built.history
+        held, *start = self.built.held
         self._step()
+        self.wp.launch(
+            hold,
+            dim=len(self.scenes),
+            inputs=[held, *(getattr(self.next, name) for name in HELD_STATE), *start],
+        )
         self.wp.launch(
             record,
             dim=len(self.scenes),
@@ -651,15 +694,6 @@ class _Batch:
             [qf[..., 0], qf[..., 2], theta, qdf[..., 0], qdf[..., 2], qdf[..., 4], speed], axis=-1
         )
         return np.transpose(rows, (1, 0, 2))
-
-    def _state_arrays(self) -> dict[str, np.ndarray]:
-        """The worlds' body and joint state, one row per world (one body, one free joint
-        each: joint_q 7 and joint_qd 6 values per world)."""
-        w = len(self.scenes)
-        return {
-            name: getattr(self.state, name).numpy().reshape(w, -1).copy()
-            for name in ("body_q", "body_qd", "joint_q", "joint_qd")
-        }
 
 
 def _step_forces(

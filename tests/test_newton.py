@@ -173,18 +173,22 @@ def test_a_second_call_builds_nothing_and_steps_as_a_fresh_build(solver):
 
 
 @pytest.mark.parametrize("solver", sorted(SLIP_AT_0_1_S))
-def test_steps_recorded_on_the_device_are_the_steps_read_in_place(monkeypatch, solver):
-    """On CUDA each step is recorded into a device buffer by a kernel (a captured graph
-    reads nothing back) and the chunk read once; on the CPU the state is read in place
-    after each step. Recording on the CPU gives the same runs bit for bit, with every
-    solver."""
+def test_captured_steps_are_the_steps_launched(monkeypatch, solver):
+    """Each step is a captured graph replayed (Warp's CPU graph here, a CUDA graph on a GPU)
+    and recorded into a device buffer read once per chunk: the same runs bit for bit as its
+    kernels launched one by one from Python, with every solver, a world held while the
+    other runs on (the shorter window) included, and with a kept build's graphs at another
+    time step (a graph keeps its launches' arguments). About 2 CPU-s."""
     engine = get_engine("newton")
     settings = RunSettings(timestep=DT, options={"solver": solver})
     scenes = [get_scene("hop-top").with_(t_end=0.05), SEED.with_(t_end=0.08)]
-    in_place = engine.simulate_batch(scenes, settings)
-    monkeypatch.setattr(newton_engine, "_records_on_device", lambda device: True)
-    recorded = engine.simulate_batch(scenes, settings)
-    for a, b in zip(in_place, recorded, strict=True):
+    captured = engine.simulate_batch(scenes, settings)
+    captured_coarser = engine.simulate_batch(scenes, settings.with_(timestep=2 * DT))
+    monkeypatch.setattr(newton_engine, "CAPTURE_STEPS", False)
+    launched = engine.simulate_batch(scenes, settings)
+    launched_coarser = engine.simulate_batch(scenes, settings.with_(timestep=2 * DT))
+    pairs = zip(launched + launched_coarser, captured + captured_coarser, strict=True)
+    for a, b in pairs:
         assert a.info.status is RunStatus.OK, a.info.message
         assert same_run(a, b) is None, same_run(a, b)
 
