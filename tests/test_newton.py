@@ -132,8 +132,8 @@ def test_a_row_is_the_same_alone_and_in_any_batch():
     runner's calls of worlds_per_call (8, then the other 3), and in one call of all 11 in
     another order: the same run bit for bit (massless's too, which diverges: non-finite X).
     Newton pads nothing and every reduction is per world (one body, one contact pair per
-    world). Cost: 44 CPU-s (eleven 3 s windows alone, 3.3 CPU-s each; the three calls
-    3.5 CPU-s each), 2 loaded cores, 2026-11-29."""
+    world). Cost: 8 CPU-s, Newton's import and first build included (44 before the steps
+    were captured graphs: 3.3 CPU-s a window alone), 2 loaded cores, 2026-11-29."""
     scenes = [get_scene(name) for name in scene_names()]
     order = [10, 4, 0, 9, 3, 7, 1, 8, 2, 6, 5]
     calls = [range(8), range(8, len(scenes)), order]
@@ -178,7 +178,9 @@ def test_captured_steps_are_the_steps_launched(monkeypatch, solver):
     and recorded into a device buffer read once per chunk: the same runs bit for bit as its
     kernels launched one by one from Python, with every solver, a world held while the
     other runs on (the shorter window) included, and with a kept build's graphs at another
-    time step (a graph keeps its launches' arguments). About 2 CPU-s."""
+    time step (a graph keeps its launches' arguments). Cost: about 4 CPU-s for xpbd,
+    featherstone and semi_implicit together, 7 for mujoco (MuJoCo Warp's first call in a
+    process, then its steps launched at 6 ms), 2 loaded cores, 2026-11-29."""
     engine = get_engine("newton")
     settings = RunSettings(timestep=DT, options={"solver": solver})
     scenes = [get_scene("hop-top").with_(t_end=0.05), SEED.with_(t_end=0.08)]
