@@ -17,10 +17,13 @@ world's is kept.
 Contact force. Each step is ``forward`` (constraint forces at the state before the step),
 then ``contact_force`` (world frame) of every active contact, summed per world, then the
 integrator (``mujoco_warp.step`` would leave RK4's last stage's forces): the MuJoCo adapter's
-timing (its sensor is evaluated before integrating). States and forces are read back to the
-host after every step: free on the CPU (shared memory); on a GPU the step is a CUDA graph
-captured once (``_Batch._step``) and the reads are still per step (the contacts' sums per
-world would need a kernel of their own: left out).
+timing (its sensor is evaluated before integrating). Each step is a graph captured once per
+kept objects and replayed (``_Batch._step``, ``CAPTURE_STEPS``), as MuJoCo Warp's own
+benchmark steps: a CUDA graph on a GPU, Warp's CPU graph on a CPU, whose replay calls the
+step's kernels without Python's cost per launch (a lone world's step 8.7 ms launched, 0.05 ms
+replayed: docs/engines.md, MuJoCo Warp). States and forces are read back to the host after
+every step: free on the CPU (shared memory); on a GPU a copy per step (the contacts' sums
+per world would need a kernel of their own: left out).
 
 Built once. What a call builds that no world's state changes (the stacked model, the Data,
 the contact buffers, the captured step) is kept per process per device, options, timestep
@@ -79,12 +82,15 @@ class MjwarpEngine(WorldsEngine, MjcfEngine):
     modules = ("mujoco", "warp", "mujoco_warp")
     geometries = ("sphere",)
     step_cost_bound = 0.2
+    """6 times a lone world's step on the CPU launched from Python (34 ms, RK4, 2026-11-28;
+    replayed as Warp's CPU graph a step costs under 1 ms, 8 worlds tuned: docs/engines.md)."""
     compiled_cache = WARP_CACHE
-    """6 times a lone world's step on the CPU (34 ms, docs/engines.md)."""
     gpu_only = (
-        "Warp kernels launched from Python at every step: on a CPU 4-15 ms a step for a "
-        "lone world (a 3 s run at 1e-3 s stepped 12 s stock, 40-45 s tuned, 2 cores, "
-        "2026-11-28), for MuJoCo C's model"
+        "Warp kernels replayed at every step as Warp's CPU graph: on a CPU 0.05 ms a step "
+        "for a lone world stock, 0.15 ms tuned (0.14 and 0.46 ms for 8 worlds; a 3 s run "
+        "at 1e-3 s steps in 0.15-0.45 s, 2 loaded cores, 2026-11-29), but a process pays "
+        "about 2.5 CPU-s to import it and load its kernels (1.6 and 0.9 s), for MuJoCo C's "
+        "model"
     )
     options = (
         *MujocoEngine.options_except("ring_segments", integrator=choice(*_MJWARP_INTEGRATORS)),
@@ -259,8 +265,8 @@ builds that no world's state changes (:func:`_kept`)."""
 class _Kept:
     """What a call builds that does not depend on the worlds' states, kept per process: the
     stacked model, the Data of its worlds (each call writes its worlds' integration state,
-    ``_STATE``, into it), the buffers of one step's contact forces, the integrator and, on
-    CUDA, the captured step."""
+    ``_STATE``, into it), the buffers of one step's contact forces, the integrator and the
+    captured step."""
 
     model: Any
     data: Any
@@ -271,7 +277,8 @@ class _Kept:
     (RK4's stages detect contacts again: read after the step, they were the last stage's)."""
     integrate: Any
     graph: Any = None
-    """The CUDA graph of one step (forward, contact_force, the integrator)."""
+    """The captured graph of one step (forward, contact_force, the integrator): a CUDA
+    graph, or Warp's CPU graph."""
     calls: int = 1
     """Calls served, this one included."""
 
@@ -310,11 +317,11 @@ class _Batch:
         return self.kept.data
 
     def _step(self) -> None:
-        """One step of every world: forward, the contact forces, the integrator. On CUDA a
-        graph captured once per kept objects (``wp.ScopedCapture``, replayed by
-        ``wp.capture_launch``, as MuJoCo Warp's own benchmark steps)."""
+        """One step of every world: forward, the contact forces, the integrator, a graph
+        captured once per kept objects (``wp.ScopedCapture``, replayed by
+        ``wp.capture_launch``, as MuJoCo Warp's own benchmark steps), on a CPU too."""
         mjw, wp, kept = self.mjw, self.wp, self.kept
-        if not kept.data.qpos.device.is_cuda:
+        if not CAPTURE_STEPS:
             _launch_step(mjw, kept)
             return
         if kept.graph is None:
@@ -353,6 +360,13 @@ class _Batch:
             np.stack(qvel, axis=1),
             np.transpose(force, (1, 0, 2)),
         )
+
+
+CAPTURE_STEPS = True
+"""Each step is a captured graph replayed (``wp.ScopedCapture``, ``wp.capture_launch``): a
+CUDA graph on a GPU, Warp's CPU graph on a CPU (a lone world's step 8.7 ms launched, 0.05 ms
+replayed, stock; 29 and 0.15 ms tuned). False launches each kernel from Python: the same
+rows bit for bit (tests/test_mjwarp.py)."""
 
 
 def _launch_step(mjw: ModuleType, kept: _Kept) -> None:

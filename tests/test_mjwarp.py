@@ -61,11 +61,10 @@ def test_batch_rows_are_the_single_runs():
         assert worst(run.trajectory, single.trajectory, STATE_COLUMNS) <= 1e-6
 
 
-def _catalogue(t_end: float | None = None) -> list:
+def _catalogue() -> list:
     """Every catalogue scene MuJoCo's model takes (not massless: its hoop has no moment of
-    inertia about the centre of mass), over ``t_end`` (None: the whole window)."""
-    scenes = [get_scene(name) for name in scene_names() if name != "massless"]
-    return scenes if t_end is None else [scene.with_(t_end=t_end) for scene in scenes]
+    inertia about the centre of mass)."""
+    return [get_scene(name) for name in scene_names() if name != "massless"]
 
 
 ORDERS = ([3, 1], range(8), range(8, 10), [9, 4, 0, 8, 3, 7, 1, 2, 6, 5])
@@ -74,14 +73,32 @@ another order (indices into ``_catalogue()``)."""
 
 
 @pytest.mark.slow
-def test_a_row_is_the_same_alone_and_in_any_batch_over_a_quarter_second():
-    """Every catalogue scene MuJoCo takes, stock (Euler: a quarter of RK4's cost), over its
-    first 0.25 s at dt 1e-3, alone and in calls of 2, 8, 2 and 10 worlds: the same run bit
-    for bit. Whole windows on the CPU would cost about 40 ms a step for a lone world tuned
-    (3 s: 2 min a scene); the GPU test below runs them. Cost: 26 CPU-s, 2 loaded cores,
+@pytest.mark.parametrize("profile", ["stock", "tuned"])
+def test_a_row_is_the_same_alone_and_in_any_batch_over_whole_windows(profile):
+    """Every catalogue scene MuJoCo takes, stock (Euler) and tuned (RK4), over its whole
+    window (3 s) at dt 1e-3, alone and in calls of 2, 8, 2 and 10 worlds: the same run bit
+    for bit, each step a captured graph replayed (Warp's CPU graph: launched from Python,
+    a tuned 3-s run would cost 90 s). Cost: 6 CPU-s stock, 10 tuned, 2 loaded cores,
     2026-11-29."""
-    settings = RunSettings(timestep=DT, profile="stock")
-    assert not batched_differences("mjwarp", _catalogue(0.25), settings, ORDERS)
+    settings = RunSettings(timestep=DT, profile=profile)
+    assert not batched_differences("mjwarp", _catalogue(), settings, ORDERS)
+
+
+@pytest.mark.parametrize("profile", ["stock", "tuned"])
+def test_captured_steps_are_the_steps_launched(monkeypatch, profile):
+    """Each step is a graph captured once per kept objects and replayed (Warp's CPU graph
+    here, a CUDA graph on a GPU): the same runs bit for bit as its kernels launched one by
+    one from Python, Euler and RK4, a world held while the other runs on (the shorter
+    window) included. About 2.5 CPU-s for both."""
+    engine = get_engine("mjwarp")
+    settings = RunSettings(timestep=DT, profile=profile)
+    scenes = [SCENE.with_(t_end=0.03), get_scene("seed-mu").with_(t_end=0.05)]
+    captured = engine.simulate_batch(scenes, settings)
+    monkeypatch.setattr(mjwarp_engine, "CAPTURE_STEPS", False)
+    launched = engine.simulate_batch(scenes, settings)
+    for a, b in zip(launched, captured, strict=True):
+        assert a.info.status is RunStatus.OK, a.info.message
+        assert same_run(a, b) is None, same_run(a, b)
 
 
 def test_a_second_call_builds_nothing_and_steps_as_the_first():
@@ -119,8 +136,8 @@ def test_runs_on_a_gpu():
 
 @pytest.mark.gpu
 def test_a_row_is_the_same_alone_and_in_any_batch_on_a_gpu():
-    """As the CPU test above, tuned, over every scene's whole window (3 s), on a GPU, where
-    each step is a CUDA graph captured once per kept objects."""
+    """As the CPU test above, tuned, on a GPU, where each step is a CUDA graph captured once
+    per kept objects."""
     skip_without_a_warp_gpu()
     settings = RunSettings(timestep=DT, options={"device": "gpu"})
     assert not batched_differences("mjwarp", _catalogue(), settings, ORDERS)
