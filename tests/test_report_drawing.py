@@ -2,13 +2,16 @@
 tables, every drawing finished before report.md lists the folder, the page's figures made
 side by side as they would be one by one, and the page's numbers rounded as before.
 
-Cost: about 5 s (two worker processes started three times, stability-only reports).
+Cost: about 8 s (two worker processes started three times, stability-only reports; a
+fresh interpreter's fork server importing the drawing modules).
 """
 
 from __future__ import annotations
 
 import math
 import shutil
+import subprocess
+import sys
 import time
 from concurrent.futures import Future
 from pathlib import Path
@@ -108,3 +111,26 @@ def test_the_page_knows_which_figures_report_md_shows():
         ]
     )
     assert _image_sources(text) == {"one.png", "two.png"}
+
+
+_IN_A_WORKER = """
+import sys
+from hoopbench.reports.report.markdown import DRAWING_MODULES, FigurePool
+with FigurePool(2, preload=["hoopbench.reports.report.page"]) as pool:
+    wanted = [*DRAWING_MODULES, "hoopbench.reports.report.page"]
+    check = "[m for m in %r if m not in __import__('sys').modules]" % (wanted,)
+    print(pool.submit(eval, check).result())
+"""
+
+
+def test_a_drawing_worker_starts_with_the_drawing_modules_imported():
+    """Its fork server imported them once (each worker had imported them itself, about 2
+    CPU-s each). In a fresh interpreter: a process has one fork server, and a sweep's may
+    have started this one's. Some of them the call would import anyway (_draw_plain imports
+    matplotlib.pyplot, which imports PIL.Image), not pyarrow.parquet, PIL.GifImagePlugin
+    nor the caller's page module."""
+    done = subprocess.run(
+        [sys.executable, "-c", _IN_A_WORKER], capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]"

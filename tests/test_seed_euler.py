@@ -212,3 +212,21 @@ def test_bad_input():
     degenerate = Scene.from_chi(0.1, lam=1.0, eps=0.0, mus=0.8, muk=0.7)
     with pytest.raises(DegenerateSceneError, match="needs a positive moment of inertia"):
         solve_seed_euler(degenerate)
+
+
+def test_the_exact_rolling_phase_is_solved_once_for_every_dt_and_delta(scene, monkeypatch):
+    """The report's seed section runs the scheme at 16 (dt, delta): one exact solve serves
+    them all (each was about 75 ms, nearly all of the section's work)."""
+    solved = []
+
+    def counted(*args, **kwargs):
+        solved.append(args)
+        return solve_exact(*args, **kwargs)
+
+    monkeypatch.setattr(seed_euler, "solve_exact", counted)
+    seed_euler._solved.cache_clear()
+    first = solve_seed_euler(scene, dt=0.002, delta=1e-3)
+    again = solve_seed_euler(scene, dt=5e-4, delta=1e-4)
+    assert len(solved) == 1
+    assert first.exact is again.exact
+    seed_euler._solved.cache_clear()  # the counting solver's solution is not kept for others

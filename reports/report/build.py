@@ -118,7 +118,7 @@ def build_report(
     # Two reports into one folder would mix their figures: the sweeps' lock serves.
     # Names from the results are drawn as written (plain_text); the figures are drawn in a
     # FigurePool beside the tables, with report.md's own, the dearest (the GIF) first.
-    with sweep_lock(out), plain_text(), FigurePool() as pool:
+    with sweep_lock(out), plain_text(), FigurePool(preload=[__name__]) as pool:
         _check_out(out, dirs, force)  # again, under the lock: one may have just finished
         drawing: list[tuple[Callable[..., Any], tuple[Any, ...]]] = []
 

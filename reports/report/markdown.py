@@ -829,6 +829,18 @@ FIGURE_WORKERS = 2
 """Processes that draw a report's figures (the machines this runs on have 2 cores)."""
 
 
+DRAWING_MODULES = (
+    "matplotlib.pyplot",
+    "matplotlib.backends.backend_agg",
+    "pyarrow.parquet",
+    "PIL.Image",
+    "PIL.PngImagePlugin",
+    "PIL.GifImagePlugin",
+)
+"""What every drawing process imports (besides the report's own modules): its fork server
+imports them once for all of them (:class:`FigurePool`)."""
+
+
 class FigurePool:
     """Drawing calls run beside the caller's own work (the report's tables): drawing is most
     of a report's time and one process draws on one core. The calls run in ``workers``
@@ -838,18 +850,36 @@ class FigurePool:
     it is submitted. Measured on a 3-engine default report: 20.0 s drawn here, 12.8 s so.
     Each worker holds its own matplotlib and pandas (under 500 MB on make report's results,
     the GIF's frames included; the report's own process then peaks at about 400 MB, not
-    590)."""
+    590).
 
-    def __init__(self, workers: int = FIGURE_WORKERS) -> None:
+    The fork server imports this module, DRAWING_MODULES and ``preload`` (the caller's
+    modules: those its drawing calls' modules import) once, started when the pool is
+    entered so that it imports them while the caller works: each worker then starts with
+    them, where it imported them itself (about 2 CPU-s a worker; Python 3.11's fork server
+    does not import the caller's ``__main__`` either, so each worker also ran the command
+    line's script anew). Effective only if this process's fork server is not running yet
+    (a sweep's WorkerPool starts it with its own modules)."""
+
+    def __init__(self, workers: int = FIGURE_WORKERS, *, preload: Sequence[str] = ()) -> None:
         self.workers = max(1, min(workers, os.cpu_count() or 1))
+        self._preload = [__name__, *DRAWING_MODULES, *preload]
         self._pool: ProcessPoolExecutor | None = None
 
     def __enter__(self) -> FigurePool:
+        if self.workers >= 2:
+            self._start_server()
         return self
 
     def __exit__(self, *exc: object) -> None:
         if self._pool is not None:
             self._pool.shutdown(wait=True, cancel_futures=True)
+
+    def _start_server(self) -> None:
+        """The fork server started (it returns at once; the server imports on its own)."""
+        from multiprocessing import forkserver
+
+        multiprocessing.get_context("forkserver").set_forkserver_preload(self._preload)
+        forkserver.ensure_running()
 
     def submit(self, function: Callable[..., Any], *args: Any) -> Future:
         """The call's future: its result once drawn (its text drawn as written)."""
@@ -861,6 +891,7 @@ class FigurePool:
                 future.set_exception(exc)
             return future
         if self._pool is None:
+            self._start_server()
             context = multiprocessing.get_context("forkserver")
             self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=context)
         return self._pool.submit(_draw_plain, function, *args)

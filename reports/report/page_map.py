@@ -85,10 +85,15 @@ def _hover(point: pd.DataFrame) -> str:
         height = row["exact_hop_height"]
         hop = f", hop {height:.4g} m" if pd.notna(height) else ""
         lines.append(f"exact: <b>{text(row['regime'])}</b>{hop}")
-    for _, row in point[point["engine"].isin(engines_of(point))].iterrows():
-        verdict = row["verdict"] if isinstance(row["verdict"], str) else f"({row['status']})"
-        reason = row["verdict_reason"] if isinstance(row["verdict_reason"], str) else ""
-        lines.append(f"{text(row['engine'])}: <b>{text(verdict)}</b> {text(reason)[:140]}")
+    judged = point[point["engine"].isin(engines_of(point))]
+    # Column by column: iterrows made each row a Series of the table's 100-odd columns.
+    for engine, verdict, status, reason in zip(
+        judged["engine"], judged["verdict"], judged["status"], judged["verdict_reason"],
+        strict=True,
+    ):  # fmt: skip
+        verdict = verdict if isinstance(verdict, str) else f"({status})"
+        reason = reason if isinstance(reason, str) else ""
+        lines.append(f"{text(engine)}: <b>{text(verdict)}</b> {text(reason)[:140]}")
     return "<br>".join(lines)
 
 
@@ -97,17 +102,18 @@ def _runs(out: Path, point: pd.DataFrame, title: str, g: float, samples: int) ->
     ``samples``), the exact one last."""
     runs: list[dict[str, Any]] = []
     colours = engine_colours(point["engine"])  # the palette of every figure
-    for _, row in point.iterrows():
-        stored = read_display(out, str(row["run_id"]))
+    engines = engines_of(point)
+    for run_id, engine in zip(point["run_id"], point["engine"], strict=True):
+        stored = read_display(out, str(run_id))
         if stored is None:
             continue
         trajectory = stored.thinned(samples)
-        exact = row["engine"] not in engines_of(point)
+        exact = engine not in engines
         runs.append(
             {
-                "name": "exact" if exact else text(row["engine"]),
+                "name": "exact" if exact else text(engine),
                 "exact": exact,
-                "colour": REFERENCE_COLOUR if exact else colours[str(row["engine"])],
+                "colour": REFERENCE_COLOUR if exact else colours[str(engine)],
                 "t": rounded(trajectory.t),
                 "c": rounded(trajectory.clearance * 1e3),
                 "v": rounded(trajectory.slip_velocity),
