@@ -175,8 +175,11 @@ class MjxEngine(WorldsEngine, MjcfEngine):
         models = [mjx.put_model(m, device=device, impl="jax") for m, _ in built]
         datas = [mjx.put_data(m, d, device=device, impl="jax") for m, d in built]
         # Heightfield bounds are static metadata that follow the radius; this model has no
-        # heightfield, so the first world's stand for all (scenes of different sizes stack).
-        hfield = models[0]._impl.geom_rbound_hfield
+        # heightfield (MJX reads them only for a heightfield's collision grid), so zeros stand
+        # for every world's: scenes of different sizes stack, and a call whose first world
+        # has another radius than an earlier call's finds the earlier trace (the first
+        # world's bounds cost a retrace, about 3.5 s, for the stability suite's hoop-1cm).
+        hfield = np.zeros_like(models[0]._impl.geom_rbound_hfield)
         models = [m.replace(_impl=m._impl.replace(geom_rbound_hfield=hfield)) for m in models]
         # Every call steps WORLDS_PER_CALL worlds: the last call's free places hold copies
         # of its first world, never active (a world's neighbours do not change its steps).
