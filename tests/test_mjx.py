@@ -234,8 +234,8 @@ def test_a_return_to_a_precision_finds_its_compiled_chunk():
     """A change of precision clears JAX's caches (MjxEngine._open_batch), but the compiled
     chunks are kept (mjx_engine._compiled): a process that comes back to the precision it
     left runs its compiled chunk again, with no trace (MJX's RK4 took about 5 CPU-s to
-    trace), to the same numbers bit for bit. Euler, the cheapest trace. Cost: about 8 CPU-s
-    (two traces and cached compiles, three 20-step runs)."""
+    trace), to the same numbers bit for bit. Euler, the cheapest trace. Cost: about 15 CPU-s
+    on loaded cores (two traces and cached compiles, three 20-step runs)."""
     _mjx()
     import jax
 
