@@ -29,7 +29,9 @@ forces in the data, so the two halves are called here (internal functions of
 Precision. ``float32`` is what MJX's users run (JAX's default); ``float64`` turns on
 ``jax_enable_x64`` for the run. Compiled functions go to JAX's persistent compilation cache
 (``HOOPBENCH_CACHE`` or the user's cache folder, ``hoopbench/jax``): the first RK4 compile
-takes about 20 s on 2 CPU cores, a cached one about 1 s.
+takes about 20 s on 2 CPU cores, a cached one about 1 s. A process keeps its compiled chunks
+(:func:`_compiled`) past the clearing of JAX's caches that a change of precision needs
+(MjxEngine._open_batch), so coming back to a precision costs no new trace.
 """
 
 from __future__ import annotations
