@@ -29,7 +29,9 @@ forces in the data, so the two halves are called here (internal functions of
 Precision. ``float32`` is what MJX's users run (JAX's default); ``float64`` turns on
 ``jax_enable_x64`` for the run. Compiled functions go to JAX's persistent compilation cache
 (``HOOPBENCH_CACHE`` or the user's cache folder, ``hoopbench/jax``): the first RK4 compile
-takes about 20 s on 2 CPU cores, a cached one about 1 s.
+takes about 20 s on 2 CPU cores, a cached one about 1 s. A process keeps its compiled chunks
+(:func:`_compiled`) past the clearing of JAX's caches that a change of precision needs
+(MjxEngine._open_batch), so coming back to a precision costs no new trace.
 """
 
 from __future__ import annotations
@@ -176,8 +178,11 @@ class MjxEngine(WorldsEngine, MjcfEngine):
         models = [mjx.put_model(m, device=device, impl="jax") for m, _ in built]
         datas = [mjx.put_data(m, d, device=device, impl="jax") for m, d in built]
         # Heightfield bounds are static metadata that follow the radius; this model has no
-        # heightfield, so the first world's stand for all (scenes of different sizes stack).
-        hfield = models[0]._impl.geom_rbound_hfield
+        # heightfield (MJX reads them only for a heightfield's collision grid), so zeros stand
+        # for every world's: scenes of different sizes stack, and a call whose first world
+        # has another radius than an earlier call's finds the earlier trace (the first
+        # world's bounds cost a retrace, about 3.5 s, for the stability suite's hoop-1cm).
+        hfield = np.zeros_like(models[0]._impl.geom_rbound_hfield)
         models = [m.replace(_impl=m._impl.replace(geom_rbound_hfield=hfield)) for m in models]
         # Every call steps WORLDS_PER_CALL worlds: the last call's free places hold copies
         # of its first world, never active (a world's neighbours do not change its steps).
@@ -193,7 +198,7 @@ class MjxEngine(WorldsEngine, MjcfEngine):
                 ) from None
             data = _stacked(jax, [d for _, d in call], device)
             if precision == "float64":
-                data = _typed_function(jax)(model, data)
+                data = _compiled(jax, "typed", _typed_function(jax), model, data)(model, data)
             calls.append(_Call(model=model, data=data))
         start = np.array(
             [
@@ -201,10 +206,11 @@ class MjxEngine(WorldsEngine, MjcfEngine):
                 for scene, (_, d) in zip(scenes, built, strict=True)
             ]
         )
-        chunk = _chunk_function(jax, options["integrator"])
-        # Compiled here, outside the timed loop: zero steps (a cached compile takes ~1 s);
-        # every call has this shape, so this is the batch's only compile.
-        jax.block_until_ready(chunk(calls[0].model, calls[0].data, 0))
+        # Compiled here, outside the timed loop (a cached compile takes ~1 s); every call has
+        # this shape, so this is the batch's only compile.
+        integrator = options["integrator"]
+        function = _chunk_function(jax, integrator)
+        chunk = _compiled(jax, integrator, function, calls[0].model, calls[0].data, 0)
         return _Batch(scenes=list(scenes), calls=calls, chunk=chunk, state=start, device=device)
 
     def _batch_advance(
@@ -397,6 +403,37 @@ def _chunk_function(jax: ModuleType, integrator: str) -> Any:
         return jax.lax.fori_loop(0, steps, step, (data, *rows))
 
     return jax.jit(jax.vmap(world, in_axes=(0, 0, None)))
+
+
+_compiled_functions: dict[tuple[Any, ...], Any] = {}
+"""This process's compiled functions by what they were compiled for (:func:`_compiled`), the
+last used last."""
+
+KEPT_COMPILED = 16
+"""Compiled functions a process keeps, the least recently used dropped first: a suite's worker
+meets a handful of settings groups (``make report``: 5 chunks and a cast), while a search
+that changes MJX's static settings trial after trial would otherwise keep every executable."""
+
+
+def _compiled(jax: ModuleType, name: str, function: Any, *arguments: Any) -> Any:
+    """``function`` (a jit) traced, lowered and compiled for ``arguments`` (JAX's persistent
+    cache gives the compile), once per process for their precision, pytree structure (MJX's
+    static metadata by content), types and devices: the same executable as the jit's own
+    call. Kept here because a change of precision clears JAX's caches (MjxEngine._open_batch),
+    and a process that came back to the precision it had left traced MJX's step anew (about
+    5 CPU-s for RK4); a compiled function holds its own executable, which that clearing leaves
+    usable (tests/test_mjx.py)."""
+    leaves, tree = jax.tree.flatten(arguments)
+    types = tuple(jax.typeof(leaf) for leaf in leaves)
+    devices = {d for leaf in leaves if isinstance(leaf, jax.Array) for d in leaf.devices()}
+    key = (name, bool(jax.config.jax_enable_x64), tree, types, frozenset(devices))
+    compiled = _compiled_functions.pop(key, None)
+    if compiled is None:
+        compiled = function.trace(*arguments).lower().compile()
+    _compiled_functions[key] = compiled
+    while len(_compiled_functions) > KEPT_COMPILED:
+        del _compiled_functions[next(iter(_compiled_functions))]
+    return compiled
 
 
 def _stacked(jax: ModuleType, trees: Sequence[Any], device: Any) -> Any:

@@ -154,9 +154,10 @@ def _mjx() -> None:
 def test_settings_that_change_only_arrays_share_one_compile():
     """The stacked mjx.Model is the compiled chunk's argument: a run that changes only the
     model's arrays (timestep, solref, solimp, impratio, the scene's mass, radius and
-    friction) reuses the compiled chunk of the settings before it; only MJX's static fields
-    (integrator, cone, solver, iterations, the shapes, the precision) trace anew. Euler,
-    the cheapest compile. Cost: about 10 CPU-s (a trace and a compile, two 20-step runs)."""
+    friction: the stability suite's 1 cm hoop) reuses the compiled chunk of the settings
+    before it; only MJX's static fields (integrator, cone, solver, iterations, the shapes,
+    the precision) trace anew. Euler, the cheapest compile. Cost: about 10 CPU-s (a trace
+    and a compile, two 20-step runs)."""
     _mjx()
     import jax
 
@@ -181,7 +182,9 @@ def test_settings_that_change_only_arrays_share_one_compile():
 
     jax.monitoring.register_event_duration_secs_listener(listen)
     try:
-        scene = get_scene("high-spin").with_(t_end=20 * other.timestep)
+        # Another radius too (the stability suite's 1 cm hoop): MJX's heightfield bounds,
+        # static, follow it; a call led by such a world traced anew (about 3.5 s).
+        scene = get_scene("high-spin").with_(a=0.01, t_end=20 * other.timestep)
         runs = engine.simulate_batch([scene], other)
     finally:
         jax.monitoring.unregister_event_duration_listener(listen)
@@ -225,3 +228,66 @@ def test_float32_data_has_a_steps_types():
         like = jax.eval_shape(mjx.forward, mx, dx)
     put = [leaf.dtype for leaf in jax.tree.leaves(dx)]
     assert put == [leaf.dtype for leaf in jax.tree.leaves(like)]
+
+
+def test_a_return_to_a_precision_finds_its_compiled_chunk():
+    """A change of precision clears JAX's caches (MjxEngine._open_batch), but the compiled
+    chunks are kept (mjx_engine._compiled): a process that comes back to the precision it
+    left runs its compiled chunk again, with no trace (MJX's RK4 took about 5 CPU-s to
+    trace), to the same numbers bit for bit. Euler, the cheapest trace. Cost: about 15 CPU-s
+    on loaded cores (two traces and cached compiles, three 20-step runs)."""
+    _mjx()
+    import jax
+
+    engine = get_engine("mjx")
+    scene = SCENE.with_(t_end=20 * 7e-4)
+    settings = {
+        precision: RunSettings(
+            timestep=7e-4, options={"integrator": "Euler", "precision": precision}
+        )
+        for precision in ("float32", "float64")
+    }
+    first = engine.simulate(scene, settings["float32"])
+    assert engine.simulate(scene, settings["float64"]).info.status is RunStatus.OK
+    traced: list[str] = []
+
+    def listen(event: str, duration: float, **kwargs) -> None:
+        if event == "/jax/core/compile/jaxpr_trace_duration":
+            traced.append(kwargs.get("fun_name", "?"))
+
+    jax.monitoring.register_event_duration_secs_listener(listen)
+    try:
+        again = engine.simulate(scene, settings["float32"])
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listen)
+    assert again.info.status is RunStatus.OK, again.info.message
+    assert "world" not in traced, traced
+    for column in ("X", "Y", "theta", "normal_force"):
+        assert np.array_equal(getattr(again.trajectory, column), getattr(first.trajectory, column))
+
+
+def test_compiled_functions_keep_the_last_used(monkeypatch):
+    """The kept compiled functions are bounded (mjx_engine.KEPT_COMPILED), the least recently
+    used dropped first: one more than the bound drops the oldest unused one, and a function
+    used again is kept. A one-line jit, no MJX. Cost: about 0.5 CPU-s (17 tiny compiles)."""
+    _mjx()
+    import jax
+
+    from hoopbench.engines import mjx_engine
+
+    monkeypatch.setattr(mjx_engine, "_compiled_functions", {})
+    kept = mjx_engine.KEPT_COMPILED
+    plus_one = jax.jit(lambda x: x + 1)
+
+    def compiled(size: int):
+        return mjx_engine._compiled(jax, "plus one", plus_one, np.zeros(size))
+
+    first, second = compiled(1), compiled(2)
+    for size in range(3, kept + 1):
+        compiled(size)
+    assert compiled(1) is first  # used again: now the last used
+    compiled(kept + 1)
+    assert len(mjx_engine._compiled_functions) == kept
+    assert compiled(1) is first
+    assert compiled(2) is not second  # the least recently used, dropped
+    assert np.array_equal(compiled(2)(np.zeros(2)), np.ones(2))
