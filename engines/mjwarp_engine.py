@@ -85,13 +85,10 @@ class MjwarpEngine(WorldsEngine, MjcfEngine):
     """6 times a lone world's step on the CPU launched from Python (34 ms, RK4, 2026-11-28;
     replayed as Warp's CPU graph a step costs under 1 ms, 8 worlds tuned: docs/engines.md)."""
     compiled_cache = WARP_CACHE
-    gpu_only = (
-        "Warp kernels replayed at every step as Warp's CPU graph: on a CPU 0.05 ms a step "
-        "for a lone world stock, 0.15 ms tuned (0.14 and 0.46 ms for 8 worlds; a 3 s run "
-        "at 1e-3 s steps in 0.15-0.45 s, 2 loaded cores, 2026-11-29), but a process pays "
-        "about 2.5 CPU-s to import it and load its kernels (1.6 and 0.9 s), for MuJoCo C's "
-        "model"
-    )
+    # Not gpu_only: replayed as Warp's CPU graph a step costs 0.05 ms for a lone world stock,
+    # 0.15 ms tuned (0.14 and 0.46 ms for 8 worlds; a 3 s run at 1e-3 s steps in 0.15-0.45 s,
+    # 2 loaded cores, 2026-11-29), and a process pays about 2.5 CPU-s to import it and load
+    # its kernels: the suites sized to the machine run it on a CPU too.
     options = (
         *MujocoEngine.options_except("ring_segments", integrator=choice(*_MJWARP_INTEGRATORS)),
         DEVICE,

@@ -85,7 +85,7 @@ import math
 import operator
 import warnings
 from collections import OrderedDict
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from types import ModuleType
@@ -170,17 +170,6 @@ class NewtonEngine(WorldsEngine):
     step_cost_bound = 0.2
     """5 times a lone world's step on the CPU with its dearest solver (MuJoCo: 41 ms,
     docs/engines.md)."""
-
-    @classmethod
-    def gpu_only_reason(cls, options: Mapping[str, Any]) -> str | None:
-        """Newton's MuJoCo solver is MuJoCo Warp (its own gpu_only); the other solvers pay
-        off on a CPU too."""
-        if options.get("solver") != "mujoco":
-            return None
-        return (
-            "its MuJoCo solver is MuJoCo Warp: on a CPU 5 ms a step for a lone world, 6 times "
-            "XPBD's (a 3 s run at 1e-3 s stepped 15-16 s, 2 cores, 2026-11-28)"
-        )
 
     options = (
         Option(
