@@ -848,6 +848,7 @@ class FigurePool:
     def __init__(self, workers: int = FIGURE_WORKERS) -> None:
         self.workers = max(1, min(workers, os.cpu_count() or 1))
         self._pool: ProcessPoolExecutor | None = None
+        self._started: dict[tuple[Any, ...], tuple[tuple[Any, ...], Future]] = {}
 
     def __enter__(self) -> FigurePool:
         return self
@@ -857,7 +858,16 @@ class FigurePool:
             self._pool.shutdown(wait=True, cancel_futures=True)
 
     def submit(self, function: Callable[..., Any], *args: Any) -> Future:
-        """The call's future: its result once drawn (its text drawn as written)."""
+        """The call's future: its result once drawn (its text drawn as written). A call
+        submitted before (the same function with the same argument objects, which drawing
+        never changes) is not drawn again: its future is returned. The page's figures are
+        started right after report.md's (build.py) and write_page asks for them again."""
+        key = (function, *map(id, args))
+        if key not in self._started:  # the arguments are kept with it: their ids stay theirs
+            self._started[key] = (args, self._submit(function, *args))
+        return self._started[key][1]
+
+    def _submit(self, function: Callable[..., Any], *args: Any) -> Future:
         if self.workers < 2:
             future: Future = Future()
             try:
@@ -983,6 +993,7 @@ def write_markdown(
     pool: FigurePool | None = None,
     awaited: Sequence[Future] = (),
     drawings: Sequence[_Job] = (),
+    then: Sequence[_Job] = (),
 ) -> Path:
     """Write out/report.md with tables and PNG figures; return its path. ``frame`` is unchanged.
     ``machines``: the machine and load of each results folder's sweep (Platform and runs).
@@ -995,20 +1006,24 @@ def write_markdown(
     (:data:`Say`). ``pool``: where the figures are drawn, beside the tables (default: a
     FigurePool of their own); ``awaited``: other drawings of the report (its GIF, the maps'
     and the searches' figures) to finish before the Files section lists the folder;
-    ``drawings``: such drawings not yet started, drawn with the figures, dearest first.
+    ``drawings``: such drawings not yet started, drawn with the figures, dearest first;
+    ``then``: drawings report.md does not wait for (the page's figures), started after all
+    of its own, dearest first (asked for again, ``pool`` returns their futures).
     """
     if pool is None:
         with FigurePool() as own:
             return write_markdown(
                 frame, out, generated=generated, extra=extra, searches=searches,
                 machines=machines, results_dirs=results_dirs, say=say, pool=own,
-                awaited=awaited, drawings=drawings,
+                awaited=awaited, drawings=drawings, then=then,
             )  # fmt: skip
     out = Path(out)
     if frame.empty:  # hop maps alone: no runs table to make sections of
         when = f"Generated {generated} on {platform.platform()}."
         text = "\n".join([_section("# hoopbench report", "", when), *extra])
-        for future in [*awaited, *_submitted(drawings, pool, None)]:
+        mine = _submitted(drawings, pool, None)
+        _submitted(then, pool, None)
+        for future in [*awaited, *mine]:
             future.result()
         return results.atomic_write(out / "report.md", lambda tmp: tmp.write_text(text))
     everything = with_optional_columns(frame)
@@ -1030,9 +1045,12 @@ def write_markdown(
         (_stability_matrix_section, (everything[is_stability], out)),
         (_force_section, (runs, out)),
     ]
-    jobs = [*head, *both, *tail]
-    # The other drawings in the same queue: the dearest of all first.
+    # The engines' releases (compare --engine-version): their own section, figure included.
+    releases = [(releases_figure, (releases_runs, out))] if len(releases_runs) else []
+    jobs = [*head, *both, *releases, *tail]
+    # The other drawings in the same queue: the dearest of all first; the page's after them.
     futures = _submitted([*drawings, *jobs], pool, say)
+    _submitted(then, pool, None)
     others, futures = futures[: len(drawings)], futures[len(drawings) :]
     # The tables while the figures are drawn: the tables need none of them.
     if say is not None:
@@ -1042,19 +1060,19 @@ def write_markdown(
     for future in [*awaited, *others]:
         future.result()
     (seed, _), (stability, _), (forces, _) = drawn[len(head) : len(head) + 3]
+    released = drawn[len(head) + 3] if releases else []
     sections = [_header(), tables["answer"], tables["findings"], seed]
     figures = ""
     if not runs.empty:
         run_time, _ = drawn[0]
-        figures = _figures_section([path for paths in drawn[len(head) + 3 :] for path in paths])
+        trajectories = drawn[len(head) + 3 + len(releases) :]
+        figures = _figures_section([path for paths in trajectories for path in paths])
         sections += [tables["scenes"], tables["readings"], forces, tables["settings"]]
         sections += [tables["timestep"], run_time, tables["stability"]]
-    # The engines' releases (compare --engine-version): their own section, figure included.
-    releases = releases_section(releases_runs, _draw_plain(releases_figure, releases_runs, out))
     sections += [
         stability,
         figures,
-        releases,
+        releases_section(releases_runs, released),
         *extra,
         tables["all findings"],
         _platform_section(whole, generated, machines),
