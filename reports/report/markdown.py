@@ -253,8 +253,9 @@ def _settings_section(runs: pd.DataFrame) -> str:
         "minus exact (hop height relative); a verdict other than agrees follows its number, "
         "and stands alone where the run has no such event.",
     ]
+    of_engine = dict(iter(at_dt.groupby("engine", sort=False)))  # split once, not per engine
     for engine, rows in variants.groupby("engine", sort=False):
-        base = default_rows(at_dt[at_dt["engine"] == engine])
+        base = default_rows(of_engine[engine])
         parts += [
             "",
             f"### {escape_text(engine)}",
@@ -270,17 +271,25 @@ def _knob_table(engine: str, rows: pd.DataFrame) -> str:
     where it hops), and the cost per step."""
     scenes = list(dict.fromkeys(rows[rows["variant"] != DEFAULT_VARIANT]["scene"]))
     lines = []
-    labelled = rows.assign(setting=_setting_labels(engine, rows))
-    for label, group in labelled.groupby("setting", sort=False):
-        by_scene = {r["scene"]: r for _, r in group.iterrows()}
+    # The rows as mappings once, each setting's by position: a frame and a Series per row
+    # of every setting took most of the report's settings section.
+    records = rows.to_dict("records")
+    settings: dict[tuple[str, str, str], list[int]] = {}
+    for k, label in enumerate(_setting_labels(engine, records)):
+        settings.setdefault(label, []).append(k)
+    cost = rows["us_per_step"]
+    for label, at in settings.items():
+        by_scene = {records[k]["scene"]: records[k] for k in at}
         line = {"knob": label[0], "tuned": label[1], "run": label[2]}
         line |= {scene: _event_cell(by_scene.get(scene)) for scene in scenes}
-        line["cost"] = group["us_per_step"].median()
+        line["cost"] = cost.iloc[at].median()
         lines.append(line)
-    first = rows[rows["scene"].isin(scenes)].drop_duplicates("scene").set_index("scene")
+    lift: dict[str, object] = {}
+    for record in records:
+        lift.setdefault(record["scene"], record["exact_t_lift"])
     headers = {"knob": "knob", "tuned": "tuned value", "run": "this run"}
     for scene in scenes:
-        hops = pd.notna(first.loc[scene, "exact_t_lift"])
+        hops = pd.notna(lift[scene])
         headers[scene] = f"{scene} hop height" if hops else f"{scene} slip onset"
     headers["cost"] = "us/step"
     order = {"(all tuned)": 0, "(all stock)": 1}
@@ -288,12 +297,12 @@ def _knob_table(engine: str, rows: pd.DataFrame) -> str:
     return _table(pd.DataFrame(lines), headers)
 
 
-def _setting_labels(engine: str, rows: pd.DataFrame) -> list[tuple[str, str, str]]:
+def _setting_labels(engine: str, rows: Sequence[Mapping[str, Any]]) -> list[tuple[str, str, str]]:
     """Per row: (knob, its tuned value, its value in this run), from the run's options off
     the engine's tuned ones (:func:`off_tuned`); '(all tuned)' and '(all stock)' for its
     defaults, the variant's name where the engine is no longer registered."""
     labels = []
-    for _, row in rows.iterrows():
+    for row in rows:
         if row["variant"] == DEFAULT_VARIANT:
             labels.append(
                 (f"(all {row['profile'] if isinstance(row['profile'], str) else 'tuned'})", "", "")
@@ -313,7 +322,7 @@ def _setting_labels(engine: str, rows: pd.DataFrame) -> list[tuple[str, str, str
     return labels
 
 
-def _event_cell(row: pd.Series | None) -> str:
+def _event_cell(row: Mapping[str, Any] | None) -> str:
     """A run's hop-height or slip-onset error (findings.event_error), with its verdict."""
     if row is None:
         return "not run"

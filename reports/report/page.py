@@ -284,18 +284,25 @@ def write_page(
     :func:`write_gif`'s, written before report.md (build.py), whose Files section lists it.
     ``say`` hears what it is doing, a line a step. ``pool``: where the figures report.md
     shows are made, side by side (default: here, each as the page needs it); ``fragments``:
-    :func:`page_fragments` of the same arguments, made before (build.py started their
-    drawings in ``pool`` with report.md's: the pool returns those)."""
+    :func:`page_fragments` of the same arguments, whose drawings the caller started in
+    ``pool`` (build.py, right after report.md's): the pool returns those, none is drawn
+    twice."""
     out = Path(out)
     markdown_text = (out / "report.md").read_text(encoding="utf-8")
     if say is not None:
         say(f"{PAGE_NAME}: its interactive figures and animations")
+    started = fragments is not None
     if fragments is None:
         fragments = page_fragments(frame, maps, map_prefixes, searches)
-    fragments = dict(fragments)  # the caller's own is left as it was
+    fragments = dict(fragments)  # the caller's own left as it was
     if pool is not None:  # those report.md shows, made side by side (each a partial)
-        shown = _image_sources(markdown_text)
-        made = {name: job for name, job in page_jobs(fragments).items() if name in shown}
+        # Started before, every one is drawing already: no need to read which are shown.
+        shown = None if started else _image_sources(markdown_text)
+        made = {
+            name: job
+            for name, job in page_jobs(fragments).items()
+            if shown is None or name in shown
+        }
         names = list(made)
         futures = {}
         for k in dearest_first([made[name] for name in names]):
