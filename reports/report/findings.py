@@ -348,8 +348,7 @@ def later_transitions(rows: pd.DataFrame) -> LaterTransitions:
     each row's columns: ``classify(row).timed``; a row stored without ``phase_times`` has
     none)."""
     worst: list[tuple[float, OffTransition, bool]] = []
-    for _, series in rows.iterrows():
-        row = series.to_dict()
+    for row in rows.to_dict("records"):  # one call, not a Series and a dict per row
         later = [event for event in judge_row(row).timed if event.later]
         if not later:
             continue
@@ -519,7 +518,7 @@ def _stability_sentence(mine: pd.DataFrame, engine: str) -> str:
     rows = default_rows(mine)
     if rows.empty:
         return ""
-    kinds = [classify(row)[0] for _, row in rows.iterrows()]
+    kinds = [classify(row)[0] for row in rows.to_dict("records")]
     bad = [k for k in kinds if k is not Stability.OK]
     if not bad:
         return f"{engine} is stable in all {len(kinds)} stiff and extreme cells."
