@@ -203,3 +203,37 @@ def test_a_report_never_replaces_answer_files_unasked(tmp_path):
         (tmp_path / name).write_text("")
     names = [path.name for path in files_to_replace(tmp_path, [])]
     assert names == ["report.md", "answer.csv", "answer.json"]
+
+
+def test_a_setting_s_runs_are_read_once_and_the_worst_transition_of_the_chosen_alone(
+    monkeypatch,
+):
+    """answer() weighs some 100 settings on 2 tiers for every engine and every exact outcome
+    (seconds of the report step, issue 34): each setting's runs are read once for the
+    engines' lines and once for the regimes (their rows on the answer's scenes), not once a
+    tier and regime, and the worst transition and missed scenes only of the settings chosen."""
+    from hoopbench.reports.report import answer as answer_module
+
+    read: list[str] = []
+    worst: list[str] = []
+    setting_runs, worst_transition = answer_module._setting_runs, answer_module._worst_transition
+
+    def counted_runs(judged, key, at):
+        read.append(str(key))
+        return setting_runs(judged, key, at)
+
+    def counted_worst(judged, at, scenes, tier):
+        worst.append(str(tier))
+        return worst_transition(judged, at, scenes, tier)
+
+    monkeypatch.setattr(answer_module, "_setting_runs", counted_runs)
+    monkeypatch.setattr(answer_module, "_worst_transition", counted_worst)
+    frame = rows("pymunk", "drake")
+    coarse = rows("pymunk", "drake").assign(timestep=1e-3, max_transition_ratio=0.5)
+    result = answer(pd.concat([frame.assign(max_transition_ratio=0.2), coarse]))
+    assert len(result.regimes) == 2 and len(result.engines) == 2
+    assert len(read) == 2 * 4  # 4 settings, each once a group of rows
+    chosen = [c for line in result.engines for c in line.cheapest if c is not None]
+    chosen += [c for regime in result.regimes for c in regime.best if c is not None]
+    assert len(worst) == len(chosen) == 8
+    assert all(c.worst is not None and c.worst.ratio == 0.5 for c in chosen)  # dt 1e-3's

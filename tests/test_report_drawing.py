@@ -20,7 +20,7 @@ import numpy as np
 from test_stability import rows
 
 from hoopbench.reports.report.markdown import FigurePool, write_markdown
-from hoopbench.reports.report.page import _image_sources, write_page
+from hoopbench.reports.report.page import _image_sources, page_fragments, page_jobs, write_page
 from hoopbench.reports.report.page_html import rounded
 
 
@@ -134,3 +134,37 @@ def test_a_drawing_worker_starts_with_the_drawing_modules_imported():
     )
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "[]"
+
+
+class DrawingPool(FigurePool):
+    """A pool that notes what it draws (not what it is asked for), by function name."""
+
+    def __init__(self, workers: int = 1) -> None:
+        super().__init__(workers)
+        self.drawn: list[str] = []
+
+    def _submit(self, function, *args):
+        self.drawn.append(function.__name__)
+        return super()._submit(function, *args)
+
+
+def test_the_page_s_figures_start_after_report_md_s_and_are_drawn_once(tmp_path):
+    """build.py starts the page's figures with report.md's (write_markdown's ``then``), after
+    all of them, so that the drawing processes go on with them while report.md is written;
+    write_page, asking the pool for them again, gets those and draws nothing twice. The page
+    is the one made without them. One process: each call drawn as submitted, in order."""
+    alone, early = tmp_path / "alone", tmp_path / "early"
+    alone.mkdir()
+    early.mkdir()
+    write_markdown(rows(), alone, generated="now")
+    write_page(rows(), alone)
+    fragments = page_fragments(rows(), (), ())
+    with DrawingPool() as pool:
+        then = list(page_jobs(fragments).values())
+        write_markdown(rows(), early, generated="now", pool=pool, then=then)
+        before_page = list(pool.drawn)
+        write_page(rows(), early, pool=pool, fragments=fragments)
+    assert before_page[:3] == ["_force_section", "_seed_section", "_stability_matrix_section"]
+    assert before_page[3:] == ["_figure_html"] * len(then) and len(then) == 3
+    assert pool.drawn == before_page  # nothing drawn twice
+    assert (early / "report.html").read_text() == (alone / "report.html").read_text()

@@ -36,7 +36,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from itertools import compress
 
 import numpy as np
@@ -318,71 +318,158 @@ def _clock(rows: pd.DataFrame) -> str:
 _KEYS = [Col.ENGINE, Col.PROFILE, Col.VARIANT, Col.TIMESTEP]
 
 
+@dataclass(frozen=True)
+class _SettingRuns:
+    """One setting's runs among some judged rows, and what weighing it against a tier reads
+    of them whatever the tier and the scenes: made once per setting, not once per tier and
+    group of scenes (a report weighs some 100 settings on 2 tiers for every engine and every
+    regime)."""
+
+    setting: Setting
+    at: np.ndarray
+    """The runs' positions in the judged rows (:class:`_Judged`)."""
+    met: tuple[frozenset[str], ...]
+    """Per tier of ACCURACY_TIERS: the scenes a run of it meets the tier on."""
+    us_per_step: float
+    """The median stepping time of the runs (by the answer's clock), microseconds."""
+    changed_options: int
+    """The most options any of the runs changes from its profile's values."""
+
+
+@dataclass(frozen=True)
+class _Judged:
+    """The judged rows (:func:`_judged`) with the columns the answer reads of them as lists
+    and arrays, read once for every setting, tier and group of scenes."""
+
+    rows: pd.DataFrame
+    scene: list[str]
+    verdict: list[str]
+    """The verdicts as text."""
+    meets: tuple[np.ndarray, ...]
+    """Per tier of ACCURACY_TIERS: whether each row's verdict is of it."""
+    cost: np.ndarray
+    """Each row's stepping time per step by the answer's clock (NaN: not measured), us."""
+    options: list[int]
+    """Per row, how many options it changes (:func:`_changed_options`)."""
+    ratio: np.ndarray | None
+    """Each row's max_transition_ratio (None: the rows were stored without it)."""
+    clock: str
+    settings: dict[tuple, np.ndarray]
+    """Each setting's key (_KEYS) -> the positions of its rows, in groupby's order."""
+
+
+def _judged_rows(rows: pd.DataFrame) -> _Judged:
+    clock = _clock(rows)
+    column = Col.CPU_US_PER_STEP if clock == "CPU" else Col.US_PER_STEP
+    cost = rows[column] if column in rows.columns else pd.Series(math.nan, index=rows.index)
+    ratio = (
+        pd.to_numeric(rows[Col.MAX_TRANSITION_RATIO], errors="coerce").to_numpy(dtype=float)
+        if Col.MAX_TRANSITION_RATIO in rows.columns
+        else None
+    )
+    return _Judged(
+        rows,
+        rows[Col.SCENE].tolist(),
+        rows[Col.VERDICT].astype(str).tolist(),
+        tuple(rows[Col.VERDICT].isin(tier.verdicts).to_numpy() for tier in ACCURACY_TIERS),
+        pd.to_numeric(cost, errors="coerce").to_numpy(dtype=float),
+        _changed_options(rows),
+        ratio,
+        clock,
+        dict(rows.groupby(_KEYS).indices) if len(rows) else {},
+    )
+
+
+def _changed_options(rows: pd.DataFrame) -> list[int]:
+    """Per row, how many options it changes from its profile's values (Col.OPTIONS, JSON);
+    a row without it counts its variant (0 for the default variant, else 1). A setting's
+    count is the most of its rows'."""
+    counts = [0 if str(v) == DEFAULT_VARIANT else 1 for v in rows[Col.VARIANT]]
+    if Col.OPTIONS in rows.columns:
+        for k, text in enumerate(rows[Col.OPTIONS]):
+            try:
+                counts[k] = max(counts[k], len(json.loads(text)))
+            except (TypeError, ValueError):
+                continue
+    return counts
+
+
+def _setting_runs(judged: _Judged, key: tuple, at: np.ndarray) -> _SettingRuns:
+    scenes = [judged.scene[k] for k in at]
+    return _SettingRuns(
+        Setting(str(key[0]), str(key[1]), str(key[2]), float(key[3])),
+        at,
+        tuple(frozenset(compress(scenes, meets[at].tolist())) for meets in judged.meets),
+        # The median as pandas takes it (NaN left out), of the same floats.
+        float(pd.Series(judged.cost[at]).median()),
+        max((judged.options[k] for k in at), default=0),
+    )
+
+
+def _settings_of(judged: _Judged, keep: np.ndarray | None = None) -> list[_SettingRuns]:
+    """The settings of the judged rows (of those ``keep`` marks, if given), in groupby's
+    order of their keys: a setting without a kept row left out."""
+    found = []
+    for key, at in judged.settings.items():
+        mine = at if keep is None else at[keep[at]]
+        if len(mine):
+            found.append(_setting_runs(judged, key, mine))
+    return found
+
+
 def _worst_transition(
-    group: pd.DataFrame, scenes: Sequence[str], tier: AccuracyTier
+    judged: _Judged, at: np.ndarray, scenes: Sequence[str], tier: int
 ) -> WorstTransition | None:
-    """The worst transition (the largest max_transition_ratio) of a setting's runs on
-    ``scenes`` that meet ``tier``: how near the tier's edge they are."""
-    if Col.MAX_TRANSITION_RATIO not in group.columns:
+    """The worst transition (the largest max_transition_ratio) of a setting's runs (at) on
+    ``scenes`` that meet ``ACCURACY_TIERS[tier]``: how near the tier's edge they are."""
+    if judged.ratio is None:
         return None
-    # Positions, not a filtered frame: taking rows of every column is most of the cost.
-    mine = np.flatnonzero(group[Col.SCENE].isin(scenes) & group[Col.VERDICT].isin(tier.verdicts))
-    ratio = pd.to_numeric(group[Col.MAX_TRANSITION_RATIO].iloc[mine], errors="coerce")
-    if ratio.isna().all():
+    wanted = set(scenes)
+    meets = judged.meets[tier]
+    mine = np.array([k for k in at if judged.scene[k] in wanted and meets[k]], dtype=int)
+    ratio = judged.ratio[mine]
+    if np.isnan(ratio).all():
         return None
-    at = int(mine[int(ratio.fillna(-math.inf).to_numpy().argmax())])
+    at_worst = int(mine[int(np.where(np.isnan(ratio), -math.inf, ratio).argmax())])
+    rows = judged.rows
 
     def value(column: str) -> object:
-        return group[column].iloc[at] if column in group.columns else None
+        return rows[column].iloc[at_worst] if column in rows.columns else None
 
     error = number_or_none(value(Col.MAX_TRANSITION_ERR_MS))
     return WorstTransition(
         str(value(Col.SCENE)),
         str(value(Col.MAX_TRANSITION)),
         math.nan if error is None else error,
-        float(ratio.max()),
+        float(np.nanmax(ratio)),
     )
 
 
-def _changed_options(group: pd.DataFrame) -> int:
-    """How many options a setting's runs change from their profile's values: the most any of
-    its rows records (Col.OPTIONS, JSON); a row without it counts its variant (0 for the
-    default variant, else 1)."""
-    counts = [0 if str(v) == DEFAULT_VARIANT else 1 for v in group[Col.VARIANT]]
-    if Col.OPTIONS in group.columns:
-        for text in group[Col.OPTIONS]:
-            try:
-                counts.append(len(json.loads(text)))
-            except (TypeError, ValueError):
-                continue
-    return max(counts, default=0)
-
-
-def _choice(
-    key: tuple, group: pd.DataFrame, scenes: Sequence[str], tier: AccuracyTier, clock: str
-) -> Choice:
-    setting = Setting(str(key[0]), str(key[1]), str(key[2]), float(key[3]))
-    # Lists, not a filtered frame per scene: a report weighs some 800 settings a tier.
-    on = group[Col.SCENE].tolist()
-    met = set(compress(on, group[Col.VERDICT].isin(tier.verdicts).tolist()))
+def _missed(
+    judged: _Judged, runs: _SettingRuns, scenes: Sequence[str], tier: int
+) -> tuple[tuple[str, tuple[str, ...]], ...]:
+    """(scene, its runs' verdicts; empty: not run) of each of ``scenes`` that the setting's
+    runs do not meet the tier on."""
     verdicts: dict[str, set[str]] = {}
-    for scene, verdict in zip(on, group[Col.VERDICT].astype(str).tolist(), strict=True):
-        verdicts.setdefault(scene, set()).add(verdict)
-    missed = tuple(
+    for k in runs.at:
+        verdicts.setdefault(judged.scene[k], set()).add(judged.verdict[k])
+    met = runs.met[tier]
+    return tuple(
         (scene, tuple(sorted(verdicts.get(scene, ())))) for scene in scenes if scene not in met
     )
-    column = Col.CPU_US_PER_STEP if clock == "CPU" else Col.US_PER_STEP
-    cost = group[column] if column in group.columns else pd.Series(dtype=float)
-    us = float(pd.to_numeric(cost, errors="coerce").median())
+
+
+def _choice(runs: _SettingRuns, scenes: Sequence[str], tier: int, clock: str) -> Choice:
+    """The setting's choice for the tier on ``scenes``, without what only the chosen one
+    shows (its worst transition and the scenes it misses: :func:`_cheapest`)."""
+    us = runs.us_per_step
     return Choice(
-        setting,
-        len(met & set(scenes)),
+        runs.setting,
+        len(runs.met[tier] & set(scenes)),
         us,
-        us * 1e-6 / setting.timestep,
-        _worst_transition(group, scenes, tier),
-        _changed_options(group),
-        clock,
-        missed,
+        us * 1e-6 / runs.setting.timestep,
+        changed_options=runs.changed_options,
+        clock=clock,
     )
 
 
@@ -403,24 +490,39 @@ def tie_order(choice: Choice) -> tuple[float, bool, int, str, str]:
 
 
 def _cheapest(
-    rows: pd.DataFrame, scenes: Sequence[str], tier: AccuracyTier, clock: str
+    judged: _Judged, settings: Sequence[_SettingRuns], scenes: Sequence[str], tier: int
 ) -> Choice | None:
     """Of the settings whose runs meet the tier on the most scenes, the cheapest (a setting
     whose cost was not measured comes last), costs within the noise ordered by tie_order:
-    the judging layer's rule (cheapest_of_most)."""
-    choices = [_choice(key, group, scenes, tier, clock) for key, group in rows.groupby(_KEYS)]
-    return cheapest_of_most(((c, c.scenes_met, c.cost_per_sim_s) for c in choices), tie_order)
+    the judging layer's rule (cheapest_of_most). Its worst transition and the scenes it
+    misses are read for it alone: neither enters the choice."""
+    pairs = [(_choice(runs, scenes, tier, judged.clock), runs) for runs in settings]
+    best = cheapest_of_most(
+        ((pair, pair[0].scenes_met, pair[0].cost_per_sim_s) for pair in pairs),
+        lambda pair: tie_order(pair[0]),
+    )
+    if best is None:
+        return None
+    choice, runs = best
+    return replace(
+        choice,
+        worst=_worst_transition(judged, runs.at, scenes, tier),
+        missed=_missed(judged, runs, scenes, tier),
+    )
 
 
 def _always_wrong(
-    rows: pd.DataFrame, scenes: Sequence[str]
+    judged: _Judged, at: np.ndarray, scenes: Sequence[str]
 ) -> tuple[tuple[str, tuple[str, ...]], ...]:
-    """(scene, its runs' verdicts) where no run of ``rows`` meets the loose tier."""
+    """(scene, its runs' verdicts) where no run of ``at`` meets the loose tier."""
     loose = ACCURACY_TIERS[-1].verdicts
+    by_scene: dict[str, list[str]] = {}
+    for k in at:
+        by_scene.setdefault(judged.scene[k], []).append(judged.verdict[k])
     wrong = []
     for scene in scenes:
-        verdicts = rows[rows[Col.SCENE] == scene][Col.VERDICT].astype(str)
-        if len(verdicts) and not verdicts.isin(loose).any():
+        verdicts = by_scene.get(scene, [])
+        if verdicts and not any(v in loose for v in verdicts):
             wrong.append((scene, tuple(sorted(set(verdicts)))))
     return tuple(wrong)
 
@@ -496,20 +598,23 @@ def answer(runs: pd.DataFrame, searches: Sequence[BestSettings] = ()) -> Answer:
     every engine fails them at the default timestep and coarser, which says nothing about
     which engine to choose; the answer says so beside the table."""
     rows = _judged(runs)
-    clock = _clock(rows)
+    judged = _judged_rows(rows)
     limits = timestep_limits(runs)
     limited = {limit.scene for limit in limits}
     scenes = tuple(s for s in dict.fromkeys(rows[Col.SCENE]) if s not in limited)
+    tiers = range(len(ACCURACY_TIERS))
+    settings = _settings_of(judged)
+    engine_of = rows[Col.ENGINE].to_numpy()
     engines = []
     names = dict.fromkeys([*engine_names_of(rows), *(best.engine for best in searches)])
     for engine in names:
-        mine = rows[rows[Col.ENGINE] == engine]
+        mine = [s for s in settings if s.setting.engine == engine]
         engines.append(
             EngineAnswer(
                 engine,
-                tuple(_cheapest(mine, scenes, tier, clock) for tier in ACCURACY_TIERS),
-                _always_wrong(mine, scenes),
-                mine.groupby(_KEYS).ngroups,
+                tuple(_cheapest(judged, mine, scenes, tier) for tier in tiers),
+                _always_wrong(judged, np.flatnonzero(engine_of == engine), scenes),
+                len(mine),
                 _searched(searches, engine),
             )
         )
@@ -523,21 +628,21 @@ def answer(runs: pd.DataFrame, searches: Sequence[BestSettings] = ()) -> Answer:
         scenes,
         tuple(engines),
         limits,
-        clock,
+        judged.clock,
         _timed_out(runs),
         overall,
-        _regimes(rows, scenes, clock),
-        _met_by(rows, scenes),
+        _regimes(judged, scenes),
+        _met_by(judged, scenes),
     )
 
 
-def _met_by(rows: pd.DataFrame, scenes: Sequence[str]) -> tuple[tuple[str, tuple[str, ...]], ...]:
+def _met_by(judged: _Judged, scenes: Sequence[str]) -> tuple[tuple[str, tuple[str, ...]], ...]:
     """Per scene, the engines with a run on it that meets the loose tier, in the rows' order."""
-    good = rows[rows[Col.VERDICT].isin(ACCURACY_TIERS[-1].verdicts)]
-    return tuple(
-        (scene, tuple(dict.fromkeys(good[good[Col.SCENE] == scene][Col.ENGINE].astype(str))))
-        for scene in scenes
-    )
+    engines = judged.rows[Col.ENGINE].astype(str).tolist()
+    by_scene: dict[str, dict[str, None]] = {}
+    for k in np.flatnonzero(judged.meets[-1]):
+        by_scene.setdefault(judged.scene[k], {})[engines[k]] = None
+    return tuple((scene, tuple(by_scene.get(scene, {}))) for scene in scenes)
 
 
 RANK_RULE = (
@@ -557,21 +662,25 @@ def rank_key(line: EngineAnswer) -> tuple[bool, tuple[int, ...], float, str]:
     return (line.settings_tried == 0, met, cost if math.isfinite(cost) else math.inf, line.engine)
 
 
-def _regimes(rows: pd.DataFrame, scenes: Sequence[str], clock: str) -> tuple[Regime, ...]:
+def _regimes(judged: _Judged, scenes: Sequence[str]) -> tuple[Regime, ...]:
     """The answer's scenes grouped by their exact outcome, each with its cheapest settings
     (none where the rows carry no exact outcome, or every scene has the same one)."""
+    rows = judged.rows
     if Col.EXACT_OUTCOME not in rows.columns:
         return ()
-    mine = rows[rows[Col.SCENE].isin(scenes)]
-    outcome = mine.groupby(Col.SCENE, sort=False)[Col.EXACT_OUTCOME].first().dropna()
+    keep = rows[Col.SCENE].isin(scenes).to_numpy()
+    outcome = rows[keep].groupby(Col.SCENE, sort=False)[Col.EXACT_OUTCOME].first().dropna()
     groups: dict[str, list[str]] = {}
     for scene in scenes:
         if scene in outcome.index:
             groups.setdefault(str(outcome[scene]), []).append(scene)
     if len(groups) < 2:
         return ()
+    # Each setting's runs on the answer's scenes (its cost and options counted of those).
+    settings = _settings_of(judged, keep)
+    tiers = range(len(ACCURACY_TIERS))
     return tuple(
-        Regime(kind, tuple(names), tuple(_cheapest(mine, names, t, clock) for t in ACCURACY_TIERS))
+        Regime(kind, tuple(names), tuple(_cheapest(judged, settings, names, t) for t in tiers))
         for kind, names in groups.items()
     )
 

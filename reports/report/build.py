@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Callable, Sequence
+from concurrent.futures import Future
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -29,8 +30,14 @@ from hoopbench.reports.report.best_settings import (
 )
 from hoopbench.reports.report.map_section import is_map_folder, map_prefixes, map_sections
 from hoopbench.reports.report.markdown import FigurePool, Say, SuiteMachine, write_markdown
-from hoopbench.reports.report.page import GIF_SCENE, gif_runs, write_gif, write_page
-from hoopbench.reports.report.plotting import plain_text
+from hoopbench.reports.report.page import (
+    GIF_SCENE,
+    gif_runs,
+    page_fragments,
+    page_jobs,
+    write_gif,
+    write_page,
+)
 from hoopbench.reports.sweep import results
 from hoopbench.reports.sweep.folder_files import (
     MAX_DATA_BYTES,
@@ -116,20 +123,24 @@ def build_report(
             f"{len(maps)} map(s), {len(benches)} bench folder(s)")  # fmt: skip
     generated = datetime.now(UTC).isoformat(timespec="seconds")
     # Two reports into one folder would mix their figures: the sweeps' lock serves.
-    # Names from the results are drawn as written (plain_text); the figures are drawn in a
-    # FigurePool beside the tables, with report.md's own, the dearest (the GIF) first.
-    with sweep_lock(out), plain_text(), FigurePool(preload=[__name__]) as pool:
+    # The figures are drawn in a FigurePool beside the tables, with report.md's own, the
+    # dearest first; each as written (FigurePool.submit), none in this process. The pool's
+    # fork server imports the drawing modules once (FigurePool's preload).
+    with sweep_lock(out), FigurePool(preload=[__name__]) as pool:
         _check_out(out, dirs, force)  # again, under the lock: one may have just finished
         drawing: list[tuple[Callable[..., Any], tuple[Any, ...]]] = []
+        awaited: list[Future] = []
 
         def draw(function: Callable[..., Any], *args: Any) -> None:
             drawing.append((function, args))
 
-        # The animation before report.md, whose Files section lists what the folder holds.
+        # The animation, the dearest drawing, started now: a drawing process works on it
+        # while the sections below are made. report.md waits for it (its Files section
+        # lists what the folder holds).
         if gif_runs(frame):
             if say is not None:
                 say(f"the animation {GIF_SCENE}.gif")
-            draw(write_gif, frame, out)
+            awaited.append(pool.submit(write_gif, frame, out))
         if maps and say is not None:
             say(f"the hop map section(s) of {len(maps)} map(s)")
         extra = map_sections(maps, out, draw)
@@ -140,6 +151,9 @@ def build_report(
         if benches:
             extra.append(batch_cost_section(benches))
         machines = [_suite_machine(d) for d in plain]
+        prefixes = map_prefixes(len(maps))
+        # The page's figures are drawn after report.md's, while report.md is written.
+        fragments = page_fragments(frame, maps, prefixes, found)
         report = write_markdown(
             frame,
             out,
@@ -150,10 +164,14 @@ def build_report(
             results_dirs=dirs,
             say=say,
             pool=pool,
+            awaited=awaited,
             drawings=drawing,
+            then=list(page_jobs(fragments).values()),
         )
-        prefixes = map_prefixes(len(maps))
-        write_page(frame, out, maps=maps, map_prefixes=prefixes, searches=found, say=say, pool=pool)
+        write_page(
+            frame, out, maps=maps, map_prefixes=prefixes, searches=found, say=say, pool=pool,
+            fragments=fragments,
+        )  # fmt: skip
     return report
 
 

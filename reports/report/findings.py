@@ -11,9 +11,11 @@ import json
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from itertools import compress
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from hoopbench.engines.judging.columns import Col
@@ -235,44 +237,54 @@ _HOP_READINGS = (("canonical reading", Col.ERR_HOP_HEIGHT_REL),)
 report's "Where the two readings differ" sets the kinematic one beside it."""
 
 
-def _agreement_sentence(rows: pd.DataFrame, engine: str, label: str) -> str:
+def _by_engine(rows: pd.DataFrame) -> dict[str, pd.DataFrame]:
+    """Each engine's rows (their order kept): split once, where a sentence per engine would
+    take its rows out of the whole table again (every column, on every call)."""
+    return {str(engine): group for engine, group in rows.groupby("engine", sort=False)}
+
+
+def _agreement_sentence(mine: pd.DataFrame, engine: str, label: str) -> str:
     """Outcome right, phase sequence right (``phases_agree``, as the scoreboard counts it) and
     every event right within the tight tolerances (verdict ``agrees``) and within the loose
-    ones (``agrees`` or ``close``), with the verdicts that went wrong."""
-    mine = rows[rows["engine"] == engine]
-    judged = mine[mine["verdict"].notna()]
-    if judged.empty:
+    ones (``agrees`` or ``close``), with the verdicts that went wrong; ``mine``: the engine's
+    rows."""
+    # Masks over the engine's rows, not filtered frames: each would take every column.
+    judged = mine["verdict"].notna().to_numpy()
+    if not judged.any():
         return ""
-    outcome = int((judged["outcome_agrees"] == True).sum())  # noqa: E712 - NaN is not True
-    tight = judged["verdict"].isin([str(v) for v in TIGHT_TIER])
-    loose = judged["verdict"].isin([str(v) for v in LOOSE_TIER])
+    outcome = int(((mine["outcome_agrees"] == True).to_numpy() & judged).sum())  # noqa: E712 - NaN is not True
+    tight = mine["verdict"].isin([str(v) for v in TIGHT_TIER]).to_numpy() & judged
+    loose = mine["verdict"].isin([str(v) for v in LOOSE_TIER]).to_numpy() & judged
     agrees = f"{int(tight.sum())} (within the loose tolerances on {int(loose.sum())})"
-    wrong = judged[~loose]
-    by_verdict = {
-        verdict: ", ".join(group["scene"]) for verdict, group in wrong.groupby("verdict", sort=True)
-    }
-    detail = "; ".join(f"{verdict} on {scenes}" for verdict, scenes in by_verdict.items())
-    text = f"{engine} ({label}) gets the outcome right on {outcome} of {len(judged)} scenes"
-    if Col.PHASES_AGREE in judged.columns:
-        phases = int((judged[Col.PHASES_AGREE] == True).sum())  # noqa: E712
+    verdicts, scenes = mine["verdict"].tolist(), mine["scene"].tolist()
+    wrong: dict[str, list[str]] = {}
+    for k in np.flatnonzero(judged & ~loose):
+        wrong.setdefault(verdicts[k], []).append(scenes[k])
+    detail = "; ".join(f"{verdict} on {', '.join(wrong[verdict])}" for verdict in sorted(wrong))
+    text = f"{engine} ({label}) gets the outcome right on {outcome} of {int(judged.sum())} scenes"
+    if Col.PHASES_AGREE in mine.columns:
+        phases = int(((mine[Col.PHASES_AGREE] == True).to_numpy() & judged).sum())  # noqa: E712
         text += f", the whole phase sequence on {phases} and every event on {agrees}"
     else:
         text += f" and every event on {agrees}"
     return text + (f" ({detail})" if detail else "") + "."
 
 
-def _coarsest_sentence(runs: pd.DataFrame, engine: str, profile: str) -> str:
-    """The timesteps at which the engine gets the outcome right on every scene it ran."""
-    rows = default_rows(runs[runs["engine"] == engine])
-    rows = _for_profile(rows, profile)
-    rows = rows[rows["verdict"].notna()]
-    if rows.empty:
+def _coarsest_sentence(judged: pd.DataFrame, engine: str, profile: str) -> str:
+    """The timesteps at which the engine gets the outcome right on every scene it ran;
+    ``judged``: the engine's default-variant rows with a verdict."""
+    mine = (profile_of(judged) == profile).to_numpy()
+    if not mine.any():
         return ""
-    by_dt = rows.groupby("timestep")["outcome_agrees"].apply(lambda v: int((v == True).sum()))  # noqa: E712
-    total = rows.groupby("timestep").size()
-    parts = ", ".join(
-        f"{by_dt[dt]}/{total[dt]} at {dt:g}" for dt in sorted(by_dt.index, reverse=True)
-    )
+    agrees = (judged["outcome_agrees"] == True).to_numpy()  # noqa: E712 - NaN is not True
+    timesteps = judged["timestep"].tolist()
+    right: dict[float, int] = {}
+    total: dict[float, int] = {}
+    for k in np.flatnonzero(mine):
+        dt = timesteps[k]
+        right[dt] = right.get(dt, 0) + int(agrees[k])
+        total[dt] = total.get(dt, 0) + 1
+    parts = ", ".join(f"{right[dt]}/{total[dt]} at {dt:g}" for dt in sorted(total, reverse=True))
     return f"{engine} ({profile}) outcome right, by timestep (s): {parts}."
 
 
@@ -336,8 +348,7 @@ def later_transitions(rows: pd.DataFrame) -> LaterTransitions:
     each row's columns: ``classify(row).timed``; a row stored without ``phase_times`` has
     none)."""
     worst: list[tuple[float, OffTransition, bool]] = []
-    for _, series in rows.iterrows():
-        row = series.to_dict()
+    for row in rows.to_dict("records"):  # one call, not a Series and a dict per row
         later = [event for event in judge_row(row).timed if event.later]
         if not later:
             continue
@@ -449,24 +460,29 @@ def _sliding_sentence(rows: pd.DataFrame, label: str) -> str:
     )
 
 
-def _knob_sentence(runs: pd.DataFrame, engine: str) -> str:
+def _knob_sentence(mine: pd.DataFrame, engine: str) -> str:
     """Which of the engine's stock knob values, each alone on its tuned settings, turns an
-    outcome the tuned run gets right into a wrong one (the contact-settings runs)."""
-    rows = runs[(runs["engine"] == engine) & (runs["timestep"] == DEFAULT_TIMESTEP)]
-    tuned = _for_profile(default_rows(rows), str(Profile.TUNED))
-    right = set(tuned[tuned["outcome_agrees"] == True]["scene"])  # noqa: E712 - NaN is not True
+    outcome the tuned run gets right into a wrong one (the contact-settings runs); ``mine``:
+    the engine's rows."""
+    rows = mine[mine["timestep"] == DEFAULT_TIMESTEP]
+    agrees = (rows["outcome_agrees"] == True).to_numpy()  # noqa: E712 - NaN is not True
+    tuned = (rows["variant"] == DEFAULT_VARIANT) & (profile_of(rows) == str(Profile.TUNED))
+    right = set(compress(rows["scene"].tolist(), (tuned.to_numpy() & agrees).tolist()))
+    wrong_at = rows["scene"].isin(right).to_numpy() & ~agrees
     broke, kept = [], []
-    for _, group in rows[rows["variant"] != DEFAULT_VARIANT].groupby("variant", sort=False):
-        off = off_tuned(engine, group.iloc[0])
+    for at in _variant_positions(rows["variant"]):
+        off = off_tuned(engine, rows.iloc[at[0]])
         if not off or len(off) != 1:
             continue
         ((name, (_, value, is_stock)),) = off.items()
         if not is_stock:
             continue
-        wrong = group[group["scene"].isin(right) & (group["outcome_agrees"] != True)]  # noqa: E712
+        wrong = [k for k in at if wrong_at[k]]
         knob = f"{name} = {option_text(value)}"
-        if len(wrong):
-            scenes = ", ".join(f"{r['scene']} ({_event_text(r)})" for _, r in wrong.iterrows())
+        if wrong:
+            scenes = ", ".join(
+                f"{r['scene']} ({_event_text(r)})" for _, r in rows.iloc[wrong].iterrows()
+            )
             broke.append(f"{knob} on {scenes}")
         else:
             kept.append(knob)
@@ -486,11 +502,23 @@ def _knob_sentence(runs: pd.DataFrame, engine: str) -> str:
 _BREAKS = "get outcomes wrong that the tuned run gets right"
 
 
-def _stability_sentence(runs: pd.DataFrame, engine: str) -> str:
-    rows = default_rows(runs[runs["engine"] == engine])
+def _variant_positions(variants: pd.Series) -> list[list[int]]:
+    """The positions of each variant's rows, the default variant's left out, in the order
+    the variants first appear (groupby's without sorting; a row without one left out)."""
+    at: dict[str, list[int]] = {}
+    for k, variant in enumerate(variants.tolist()):
+        if isinstance(variant, str) and variant != DEFAULT_VARIANT:
+            at.setdefault(variant, []).append(k)
+    return list(at.values())
+
+
+def _stability_sentence(mine: pd.DataFrame, engine: str) -> str:
+    """How many of the engine's stiff and extreme cells fail, and how; ``mine``: its rows
+    of the stability suite."""
+    rows = default_rows(mine)
     if rows.empty:
         return ""
-    kinds = [classify(row)[0] for _, row in rows.iterrows()]
+    kinds = [classify(row)[0] for row in rows.to_dict("records")]
     bad = [k for k in kinds if k is not Stability.OK]
     if not bad:
         return f"{engine} is stable in all {len(kinds)} stiff and extreme cells."
@@ -533,17 +561,25 @@ def findings(runs: pd.DataFrame) -> list[str]:
             )
         transitions.append(_transitions_sentence(rows, label))
         transitions.append(_sliding_sentence(rows, label))
-        agreement += [_agreement_sentence(rows, e, label) for e in _engines(rows)]
-    knobs = [_knob_sentence(main, engine) for engine in _engines(main)]
+        of_engine = _by_engine(rows)
+        agreement += [
+            _agreement_sentence(of_engine.get(e, rows.iloc[:0]), e, label) for e in _engines(rows)
+        ]
+    none = main.iloc[:0]
+    of_engine = _by_engine(main)
+    knobs = [_knob_sentence(of_engine.get(e, none), e) for e in _engines(main)]
     # The order of importance (KEY_FINDINGS come first): the closest engine per event and
     # the later transitions off, then the stock knobs that break an outcome, then the rest.
     out = [*closest, *transitions, *[k for k in knobs if _BREAKS in k], *agreement]
     out += [k for k in knobs if _BREAKS not in k]
     for engine in _engines(main):
+        rows = default_rows(of_engine.get(engine, none))
+        rows = rows[rows["verdict"].notna()]
         for profile in _profiles(main):
-            out.append(_coarsest_sentence(main, engine, profile))
+            out.append(_coarsest_sentence(rows, engine, profile))
+    of_engine = _by_engine(stability)
     for engine in _engines(stability):
-        out.append(_stability_sentence(stability, engine))
+        out.append(_stability_sentence(of_engine.get(engine, stability.iloc[:0]), engine))
     return [s for s in out if s]
 
 

@@ -253,8 +253,9 @@ def _settings_section(runs: pd.DataFrame) -> str:
         "minus exact (hop height relative); a verdict other than agrees follows its number, "
         "and stands alone where the run has no such event.",
     ]
+    of_engine = dict(iter(at_dt.groupby("engine", sort=False)))  # split once, not per engine
     for engine, rows in variants.groupby("engine", sort=False):
-        base = default_rows(at_dt[at_dt["engine"] == engine])
+        base = default_rows(of_engine[engine])
         parts += [
             "",
             f"### {escape_text(engine)}",
@@ -270,17 +271,25 @@ def _knob_table(engine: str, rows: pd.DataFrame) -> str:
     where it hops), and the cost per step."""
     scenes = list(dict.fromkeys(rows[rows["variant"] != DEFAULT_VARIANT]["scene"]))
     lines = []
-    labelled = rows.assign(setting=_setting_labels(engine, rows))
-    for label, group in labelled.groupby("setting", sort=False):
-        by_scene = {r["scene"]: r for _, r in group.iterrows()}
+    # The rows as mappings once, each setting's by position: a frame and a Series per row
+    # of every setting took most of the report's settings section.
+    records = rows.to_dict("records")
+    settings: dict[tuple[str, str, str], list[int]] = {}
+    for k, label in enumerate(_setting_labels(engine, records)):
+        settings.setdefault(label, []).append(k)
+    cost = rows["us_per_step"]
+    for label, at in settings.items():
+        by_scene = {records[k]["scene"]: records[k] for k in at}
         line = {"knob": label[0], "tuned": label[1], "run": label[2]}
         line |= {scene: _event_cell(by_scene.get(scene)) for scene in scenes}
-        line["cost"] = group["us_per_step"].median()
+        line["cost"] = cost.iloc[at].median()
         lines.append(line)
-    first = rows[rows["scene"].isin(scenes)].drop_duplicates("scene").set_index("scene")
+    lift: dict[str, object] = {}
+    for record in records:
+        lift.setdefault(record["scene"], record["exact_t_lift"])
     headers = {"knob": "knob", "tuned": "tuned value", "run": "this run"}
     for scene in scenes:
-        hops = pd.notna(first.loc[scene, "exact_t_lift"])
+        hops = pd.notna(lift[scene])
         headers[scene] = f"{scene} hop height" if hops else f"{scene} slip onset"
     headers["cost"] = "us/step"
     order = {"(all tuned)": 0, "(all stock)": 1}
@@ -288,12 +297,12 @@ def _knob_table(engine: str, rows: pd.DataFrame) -> str:
     return _table(pd.DataFrame(lines), headers)
 
 
-def _setting_labels(engine: str, rows: pd.DataFrame) -> list[tuple[str, str, str]]:
+def _setting_labels(engine: str, rows: Sequence[Mapping[str, Any]]) -> list[tuple[str, str, str]]:
     """Per row: (knob, its tuned value, its value in this run), from the run's options off
     the engine's tuned ones (:func:`off_tuned`); '(all tuned)' and '(all stock)' for its
     defaults, the variant's name where the engine is no longer registered."""
     labels = []
-    for _, row in rows.iterrows():
+    for row in rows:
         if row["variant"] == DEFAULT_VARIANT:
             labels.append(
                 (f"(all {row['profile'] if isinstance(row['profile'], str) else 'tuned'})", "", "")
@@ -313,7 +322,7 @@ def _setting_labels(engine: str, rows: pd.DataFrame) -> list[tuple[str, str, str
     return labels
 
 
-def _event_cell(row: pd.Series | None) -> str:
+def _event_cell(row: Mapping[str, Any] | None) -> str:
     """A run's hop-height or slip-onset error (findings.event_error), with its verdict."""
     if row is None:
         return "not run"
@@ -333,18 +342,23 @@ def _timestep_section(runs: pd.DataFrame) -> str:
     profile = profile_of(default)
     groups = default.assign(profile=profile).groupby(["engine", "profile", "timestep"], sort=False)
     for (engine, profile, dt), group in groups:
-        seed = group[group["scene"] == "seed-mu"]
+        # Each scene's first run of the group, by position: a filtered frame per scene would
+        # take every column of the group, for some 100 groups.
+        first: dict[str, int] = {}
+        for k, scene in enumerate(group["scene"].tolist()):
+            first.setdefault(scene, k)
+        seed = first.get("seed-mu")
         row = {
             "engine": engine,
             "profile": profile,
             "timestep": dt,
-            "wall": seed["wall_time_s"].iloc[0] if len(seed) else None,
-            "slip": seed["err_t_slip_ms"].iloc[0] if len(seed) else None,
+            "wall": group["wall_time_s"].iloc[seed] if seed is not None else None,
+            "slip": group["err_t_slip_ms"].iloc[seed] if seed is not None else None,
             "agree": f"{int((group['outcome_agrees'] == True).sum())}/{len(group)}",  # noqa: E712
         }
+        lift = group["err_t_lift_ms"]
         for scene in hop_scenes:
-            hit = group[group["scene"] == scene]
-            row[scene] = hit["err_t_lift_ms"].iloc[0] if len(hit) else None
+            row[scene] = lift.iloc[first[scene]] if scene in first else None
         rows.append(row)
     table = pd.DataFrame(rows).sort_values(
         ["engine", "profile", "timestep"], ascending=[True, False, False]
@@ -864,6 +878,7 @@ class FigurePool:
         self.workers = max(1, min(workers, os.cpu_count() or 1))
         self._preload = [__name__, *DRAWING_MODULES, *preload]
         self._pool: ProcessPoolExecutor | None = None
+        self._started: dict[tuple[Any, ...], tuple[tuple[Any, ...], Future]] = {}
 
     def __enter__(self) -> FigurePool:
         if self.workers >= 2:
@@ -882,7 +897,16 @@ class FigurePool:
         forkserver.ensure_running()
 
     def submit(self, function: Callable[..., Any], *args: Any) -> Future:
-        """The call's future: its result once drawn (its text drawn as written)."""
+        """The call's future: its result once drawn (its text drawn as written). A call
+        submitted before (the same function with the same argument objects, which drawing
+        never changes) is not drawn again: its future is returned. The page's figures are
+        started right after report.md's (build.py) and write_page asks for them again."""
+        key = (function, *map(id, args))
+        if key not in self._started:  # the arguments are kept with it: their ids stay theirs
+            self._started[key] = (args, self._submit(function, *args))
+        return self._started[key][1]
+
+    def _submit(self, function: Callable[..., Any], *args: Any) -> Future:
         if self.workers < 2:
             future: Future = Future()
             try:
@@ -1009,6 +1033,7 @@ def write_markdown(
     pool: FigurePool | None = None,
     awaited: Sequence[Future] = (),
     drawings: Sequence[_Job] = (),
+    then: Sequence[_Job] = (),
 ) -> Path:
     """Write out/report.md with tables and PNG figures; return its path. ``frame`` is unchanged.
     ``machines``: the machine and load of each results folder's sweep (Platform and runs).
@@ -1021,20 +1046,24 @@ def write_markdown(
     (:data:`Say`). ``pool``: where the figures are drawn, beside the tables (default: a
     FigurePool of their own); ``awaited``: other drawings of the report (its GIF, the maps'
     and the searches' figures) to finish before the Files section lists the folder;
-    ``drawings``: such drawings not yet started, drawn with the figures, dearest first.
+    ``drawings``: such drawings not yet started, drawn with the figures, dearest first;
+    ``then``: drawings report.md does not wait for (the page's figures), started after all
+    of its own, dearest first (asked for again, ``pool`` returns their futures).
     """
     if pool is None:
         with FigurePool() as own:
             return write_markdown(
                 frame, out, generated=generated, extra=extra, searches=searches,
                 machines=machines, results_dirs=results_dirs, say=say, pool=own,
-                awaited=awaited, drawings=drawings,
+                awaited=awaited, drawings=drawings, then=then,
             )  # fmt: skip
     out = Path(out)
     if frame.empty:  # hop maps alone: no runs table to make sections of
         when = f"Generated {generated} on {platform.platform()}."
         text = "\n".join([_section("# hoopbench report", "", when), *extra])
-        for future in [*awaited, *_submitted(drawings, pool, None)]:
+        mine = _submitted(drawings, pool, None)
+        _submitted(then, pool, None)
+        for future in [*awaited, *mine]:
             future.result()
         return results.atomic_write(out / "report.md", lambda tmp: tmp.write_text(text))
     everything = with_optional_columns(frame)
@@ -1056,9 +1085,12 @@ def write_markdown(
         (_stability_matrix_section, (everything[is_stability], out)),
         (_force_section, (runs, out)),
     ]
-    jobs = [*head, *both, *tail]
-    # The other drawings in the same queue: the dearest of all first.
+    # The engines' releases (compare --engine-version): their own section, figure included.
+    releases = [(releases_figure, (releases_runs, out))] if len(releases_runs) else []
+    jobs = [*head, *both, *releases, *tail]
+    # The other drawings in the same queue: the dearest of all first; the page's after them.
     futures = _submitted([*drawings, *jobs], pool, say)
+    _submitted(then, pool, None)
     others, futures = futures[: len(drawings)], futures[len(drawings) :]
     # The tables while the figures are drawn: the tables need none of them.
     if say is not None:
@@ -1068,19 +1100,19 @@ def write_markdown(
     for future in [*awaited, *others]:
         future.result()
     (seed, _), (stability, _), (forces, _) = drawn[len(head) : len(head) + 3]
+    released = drawn[len(head) + 3] if releases else []
     sections = [_header(), tables["answer"], tables["findings"], seed]
     figures = ""
     if not runs.empty:
         run_time, _ = drawn[0]
-        figures = _figures_section([path for paths in drawn[len(head) + 3 :] for path in paths])
+        trajectories = drawn[len(head) + 3 + len(releases) :]
+        figures = _figures_section([path for paths in trajectories for path in paths])
         sections += [tables["scenes"], tables["readings"], forces, tables["settings"]]
         sections += [tables["timestep"], run_time, tables["stability"]]
-    # The engines' releases (compare --engine-version): their own section, figure included.
-    releases = releases_section(releases_runs, _draw_plain(releases_figure, releases_runs, out))
     sections += [
         stability,
         figures,
-        releases,
+        releases_section(releases_runs, released),
         *extra,
         tables["all findings"],
         _platform_section(whole, generated, machines),

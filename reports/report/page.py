@@ -50,7 +50,15 @@ from hoopbench.reports.report.page_map import map_fragment
 from hoopbench.reports.report.page_script import FILTER_COLUMNS, PAGE_SCRIPT, PAGE_STYLE
 from hoopbench.reports.sweep import results
 
-__all__ = ["PAGE_NAME", "gif_runs", "page_fragments", "render_page", "write_gif", "write_page"]
+__all__ = [
+    "PAGE_NAME",
+    "gif_runs",
+    "page_fragments",
+    "page_jobs",
+    "render_page",
+    "write_gif",
+    "write_page",
+]
 
 Fragments = dict[str, Callable[[], str]]
 """A figure file's name in report.md -> what the page shows in its place (made when needed)."""
@@ -124,6 +132,16 @@ def page_fragments(
     for k, (best, name) in enumerate(zip(searches, figure_names(searches), strict=True)):
         fragments[name] = _best_settings(best, f"best-settings-{k}")
     return fragments
+
+
+def page_jobs(fragments: Fragments) -> dict[str, tuple[Callable[..., Any], tuple[Any, ...]]]:
+    """The fragments a drawing process can make (each a partial of a module function with
+    its arguments), as calls (function, arguments), by figure file name."""
+    return {
+        name: (make.func, make.args)
+        for name, make in fragments.items()
+        if isinstance(make, partial) and not make.keywords
+    }
 
 
 def _best_settings(best: BestSettings, figure_id: str) -> Callable[[], str]:
@@ -259,23 +277,31 @@ def write_page(
     searches: Sequence[BestSettings] = (),
     say: Say | None = None,
     pool: FigurePool | None = None,
+    fragments: Fragments | None = None,
 ) -> Path:
     """Write out/report.html from out/report.md (written first) and the rows it was made of
     (and the searches read back, whose fronts it draws). The README's animation is
     :func:`write_gif`'s, written before report.md (build.py), whose Files section lists it.
     ``say`` hears what it is doing, a line a step. ``pool``: where the figures report.md
-    shows are made, side by side (default: here, each as the page needs it)."""
+    shows are made, side by side (default: here, each as the page needs it); ``fragments``:
+    :func:`page_fragments` of the same arguments, whose drawings the caller started in
+    ``pool`` (build.py, right after report.md's): the pool returns those, none is drawn
+    twice."""
     out = Path(out)
     markdown_text = (out / "report.md").read_text(encoding="utf-8")
     if say is not None:
         say(f"{PAGE_NAME}: its interactive figures and animations")
-    fragments = page_fragments(frame, maps, map_prefixes, searches)
+    started = fragments is not None
+    if fragments is None:
+        fragments = page_fragments(frame, maps, map_prefixes, searches)
+    fragments = dict(fragments)  # the caller's own left as it was
     if pool is not None:  # those report.md shows, made side by side (each a partial)
-        shown = _image_sources(markdown_text)
+        # Started before, every one is drawing already: no need to read which are shown.
+        shown = None if started else _image_sources(markdown_text)
         made = {
-            name: (make.func, make.args)
-            for name, make in fragments.items()
-            if name in shown and isinstance(make, partial) and not make.keywords
+            name: job
+            for name, job in page_jobs(fragments).items()
+            if shown is None or name in shown
         }
         names = list(made)
         futures = {}

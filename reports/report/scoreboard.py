@@ -20,6 +20,9 @@ A run without the event (a missed hop, a failed run) counts in n and not in k.
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+
+import numpy as np
 import pandas as pd
 
 from hoopbench.engines.judging.columns import Col
@@ -70,9 +73,11 @@ def _is_true(rows: pd.DataFrame, name: str) -> pd.Series:
     return rows[name].map(lambda v: v is True or v == True)  # noqa: E712 - NaN is not True
 
 
-def _within(rows: pd.DataFrame, event: Event) -> pd.Series:
+def _within(rows: pd.DataFrame, records: Sequence[Mapping], event: Event) -> pd.Series:
+    """Whether each row's event is within its tight tolerance; ``records``: the rows as
+    mappings (made once for every event and line: it is most of the scoreboard's cost)."""
     return pd.Series(
-        [event_within(row, event, Tier.TIGHT) is True for row in rows.to_dict("records")],
+        [event_within(row, event, Tier.TIGHT) is True for row in records],
         index=rows.index,
         dtype=bool,
     )
@@ -84,7 +89,7 @@ def _in_tier(rows: pd.DataFrame, tier: frozenset) -> pd.Series:
     return rows[Col.VERDICT].isin([str(v) for v in tier])
 
 
-def _line(rows: pd.DataFrame) -> dict[str, str]:
+def _line(rows: pd.DataFrame, records: Sequence[Mapping]) -> dict[str, str]:
     judged = rows[Col.VERDICT].notna() if Col.VERDICT in rows.columns else rows.index != rows.index
     slips = judged & _column(rows, Col.EXACT_T_SLIP).notna()
     hops = judged & _column(rows, Col.EXACT_HOP_HEIGHT).notna()
@@ -94,10 +99,10 @@ def _line(rows: pd.DataFrame) -> dict[str, str]:
         "phases": _share(_is_true(rows, Col.PHASES_AGREE), judged),
         "agrees": _share(_in_tier(rows, TIGHT_TIER), judged),
         "close": _share(_in_tier(rows, LOOSE_TIER), judged),
-        "slip": _share(_within(rows, Event.SLIP_ONSET), slips),
-        "hop_height": _share(_within(rows, Event.HOP_HEIGHT), hops),
-        "lift": _share(_within(rows, Event.LIFT_OFF), hops),
-        "impact": _share(_within(rows, Event.IMPACT), impacts),
+        "slip": _share(_within(rows, records, Event.SLIP_ONSET), slips),
+        "hop_height": _share(_within(rows, records, Event.HOP_HEIGHT), hops),
+        "lift": _share(_within(rows, records, Event.LIFT_OFF), hops),
+        "impact": _share(_within(rows, records, Event.IMPACT), impacts),
     }
     if FORCE_RMS in rows.columns:
         rms = _column(rows, FORCE_RMS)[judged].dropna()
@@ -111,11 +116,13 @@ def scoreboard(rows: pd.DataFrame, profiles: list[str], engines: list[str]) -> p
     rows have no line."""
     lines = []
     profile_column = profile_of(rows)
+    records = rows.to_dict("records")
     for profile in profiles:
         for engine in engines:
-            mine = rows[(rows[Col.ENGINE] == engine) & (profile_column == profile)]
-            if len(mine):
-                lines.append({"engine": engine, "profile": profile, **_line(mine)})
+            mask = ((rows[Col.ENGINE] == engine) & (profile_column == profile)).to_numpy()
+            if mask.any():
+                mine = [records[k] for k in np.flatnonzero(mask)]
+                lines.append({"engine": engine, "profile": profile, **_line(rows[mask], mine)})
     return pd.DataFrame(lines, columns=[c for c in _HEADERS if any(c in ln for ln in lines)])
 
 
