@@ -205,6 +205,18 @@ class Segment:
     """t, shape (m,) -> state rows, shape (6, m): X, Y, theta, Xdot, Ydot, thetadot."""
     forces: Callable[[NDArray], tuple[NDArray, NDArray]] = field(repr=False)
     """t, shape (m,) -> (f, n) per unit mass, m/s^2."""
+    together: Callable[[NDArray], tuple[NDArray, NDArray, NDArray]] | None = field(
+        default=None, repr=False
+    )
+    """t -> (states, f, n), the numbers ``states`` and ``forces`` give, from one evaluation of
+    the phase's dense output (half a sample's cost); None: the two are called in turn."""
+
+    def evaluate(self, t: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+        """The state rows and contact forces at ``t``: ``states(t)`` and ``forces(t)``."""
+        if self.together is not None:
+            return self.together(t)
+        f, n = self.forces(t)
+        return self.states(t), f, n
 
 
 @dataclass(frozen=True)
@@ -289,8 +301,7 @@ class ExactSolution:
             mask = index == i
             if mask.any():
                 tt = np.clip(t[mask], seg.t_start, seg.t_end)
-                states[:, mask] = seg.states(tt)
-                f[mask], n[mask] = seg.forces(tt)
+                states[:, mask], f[mask], n[mask] = seg.evaluate(tt)
         return states, f, n
 
 
@@ -448,7 +459,7 @@ def _roll_phase(
     reason = _which_event(sol, names)
     motion = _Rolling(scene, sol.sol, x0, theta_start)
     t1 = float(sol.t[-1])
-    seg = Segment(PhaseKind.ROLL, t0, t1, None, motion.states, motion.forces)
+    seg = Segment(PhaseKind.ROLL, t0, t1, None, motion.states, motion.forces, motion.together)
     return seg, _PhaseEnd(t1, tuple(motion.states(np.array([t1]))[:, 0]), reason)
 
 
@@ -464,8 +475,19 @@ class _Rolling:
     """rad."""
 
     def states(self, t: NDArray) -> NDArray:
-        a, r = self.scene.a, self.scene.com_offset
+        return self._states(*self.dense(t))
+
+    def forces(self, t: NDArray) -> tuple[NDArray, NDArray]:
         theta, thetadot = self.dense(t)
+        return dynamics.rolling_forces(self.scene, theta, thetadot)
+
+    def together(self, t: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+        theta, thetadot = self.dense(t)
+        f, n = dynamics.rolling_forces(self.scene, theta, thetadot)
+        return self._states(theta, thetadot), f, n
+
+    def _states(self, theta: NDArray, thetadot: NDArray) -> NDArray:
+        a, r = self.scene.a, self.scene.com_offset
         s, c = np.sin(theta), np.cos(theta)
         return np.vstack(
             [
@@ -477,10 +499,6 @@ class _Rolling:
                 thetadot,
             ]
         )
-
-    def forces(self, t: NDArray) -> tuple[NDArray, NDArray]:
-        theta, thetadot = self.dense(t)
-        return dynamics.rolling_forces(self.scene, theta, thetadot)
 
 
 def _slip_events(
@@ -564,7 +582,7 @@ def _slip_phase(
     sol = _integrate(rhs, y0, t0, t_end, events, opts, "xavw", budget)
     reason, t1 = _slip_end(scene, sol, names, sigma, opts.units)
     motion = _Slipping(scene, sol.sol, sigma)
-    seg = Segment(PhaseKind.SLIP, t0, t1, sigma, motion.states, motion.forces)
+    seg = Segment(PhaseKind.SLIP, t0, t1, sigma, motion.states, motion.forces, motion.together)
     return seg, _PhaseEnd(t1, tuple(motion.states(np.array([t1]))[:, 0]), reason)
 
 
@@ -578,14 +596,24 @@ class _Slipping:
     sigma: int
 
     def states(self, t: NDArray) -> NDArray:
+        return self._states(self.dense(t))
+
+    def forces(self, t: NDArray) -> tuple[NDArray, NDArray]:
+        return self._forces(self.dense(t))
+
+    def together(self, t: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+        y = self.dense(t)
+        return self._states(y), *self._forces(y)
+
+    def _states(self, y: NDArray) -> NDArray:
         a, r = self.scene.a, self.scene.com_offset
-        X, theta, Xdot, thetadot = self.dense(t)
+        X, theta, Xdot, thetadot = y
         return np.vstack(
             [X, a + r * np.cos(theta), theta, Xdot, -r * np.sin(theta) * thetadot, thetadot]
         )
 
-    def forces(self, t: NDArray) -> tuple[NDArray, NDArray]:
-        _, theta, _, thetadot = self.dense(t)
+    def _forces(self, y: NDArray) -> tuple[NDArray, NDArray]:
+        _, theta, _, thetadot = y
         n = dynamics.slip_normal_force(self.scene, theta, thetadot, self.sigma)
         return -self.sigma * self.scene.muk * n, n
 

@@ -15,6 +15,7 @@ import pytest
 from hoopbench.engines.judging import comparison
 from hoopbench.engines.judging.comparison import exact_solution
 from hoopbench.models.catalogue import SCENES
+from hoopbench.models.events import PhaseKind
 from hoopbench.models.scene import Scene
 from hoopbench.reference.exact import ExactSolution, solve_exact
 from hoopbench.reference.regimes import classify_solved
@@ -61,6 +62,23 @@ def test_an_exact_solution_pickles_to_the_same_numbers(name):
     survives pickling bit for bit."""
     solution = solve_exact(SCENES[name])
     assert _same(pickle.loads(pickle.dumps(solution)), solution)
+
+
+@pytest.mark.parametrize("name", ["slip-reversal", "hop-top"])
+def test_a_phase_evaluates_its_states_and_forces_together_as_apart(name):
+    """Sampling evaluates a roll or slip phase's dense output once for its states and its
+    forces (ExactSolution.sample: the map's floor samples 30,000 times a point): the same
+    numbers as the two evaluated apart."""
+    solution = solve_exact(SCENES[name])
+    kinds = set()
+    for seg in solution.segments:
+        t = np.linspace(seg.t_start, seg.t_end, 501)
+        states, f, n = seg.evaluate(t)
+        assert np.array_equal(states, seg.states(t))
+        assert all(np.array_equal(x, y) for x, y in zip((f, n), seg.forces(t), strict=True))
+        if seg.together is not None:
+            kinds.add(seg.kind)
+    assert kinds == {PhaseKind.ROLL, PhaseKind.SLIP}
 
 
 @pytest.mark.parametrize(("ix", "iy", "settles"), [(0, 0, True), (0, 1, False)])
