@@ -27,7 +27,7 @@ from typing import Protocol, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.integrate import solve_ivp
+from scipy.integrate import OdeSolution, solve_ivp
 from scipy.optimize import brentq, minimize_scalar
 
 from hoopbench.models import kinematics
@@ -205,6 +205,18 @@ class Segment:
     """t, shape (m,) -> state rows, shape (6, m): X, Y, theta, Xdot, Ydot, thetadot."""
     forces: Callable[[NDArray], tuple[NDArray, NDArray]] = field(repr=False)
     """t, shape (m,) -> (f, n) per unit mass, m/s^2."""
+    together: Callable[[NDArray], tuple[NDArray, NDArray, NDArray]] | None = field(
+        default=None, repr=False
+    )
+    """t -> (states, f, n), the numbers ``states`` and ``forces`` give, from one evaluation of
+    the phase's dense output (half a sample's cost); None: the two are called in turn."""
+
+    def evaluate(self, t: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+        """The state rows and contact forces at ``t``: ``states(t)`` and ``forces(t)``."""
+        if self.together is not None:
+            return self.together(t)
+        f, n = self.forces(t)
+        return self.states(t), f, n
 
 
 @dataclass(frozen=True)
@@ -289,8 +301,7 @@ class ExactSolution:
             mask = index == i
             if mask.any():
                 tt = np.clip(t[mask], seg.t_start, seg.t_end)
-                states[:, mask] = seg.states(tt)
-                f[mask], n[mask] = seg.forces(tt)
+                states[:, mask], f[mask], n[mask] = seg.evaluate(tt)
         return states, f, n
 
 
@@ -333,7 +344,19 @@ class _Solved:
     t_events: list[NDArray]
     status: int
     message: str
-    sol: Callable[[ArrayLike], NDArray] = field(repr=False)
+    sol: _Dense = field(repr=False)
+
+
+@dataclass(frozen=True)
+class _Dense:
+    """A phase's dense output in seconds (solve_ivp's is in the scene's time unit)."""
+
+    solution: OdeSolution
+    unit: float
+    """s: the scene's time unit (see :func:`_integrate`)."""
+
+    def __call__(self, t: ArrayLike) -> NDArray:
+        return cast(NDArray, self.solution(np.asarray(t, dtype=float) / self.unit))
 
 
 def _integrate(
@@ -375,14 +398,13 @@ def _integrate(
         dense_output=True,
         max_step=opts.max_step / unit,
     )
-    dense = sol.sol
     return _Solved(
         t=sol.t * unit,
         y=sol.y,
         t_events=[times * unit for times in sol.t_events],
         status=sol.status,
         message=sol.message,
-        sol=lambda t: dense(np.asarray(t, dtype=float) / unit),
+        sol=_Dense(sol.sol, unit),
     )
 
 
@@ -410,8 +432,7 @@ def _roll_phase(
     *,
     settle: bool = False,
 ) -> tuple[Segment, _PhaseEnd]:
-    a, r = scene.a, scene.com_offset
-    x0 = state[0] - r * math.sin(state[2])
+    x0 = state[0] - scene.com_offset * math.sin(state[2])
     theta_start = state[2]
 
     def rhs(t, y):
@@ -436,14 +457,41 @@ def _roll_phase(
         events.append(_event(turned, 1))
     sol = _integrate(rhs, [state[2], state[5]], t0, t_end, events, opts, "aw", budget)
     reason = _which_event(sol, names)
-    dense = sol.sol
+    motion = _Rolling(scene, sol.sol, x0, theta_start)
+    t1 = float(sol.t[-1])
+    seg = Segment(PhaseKind.ROLL, t0, t1, None, motion.states, motion.forces, motion.together)
+    return seg, _PhaseEnd(t1, tuple(motion.states(np.array([t1]))[:, 0]), reason)
 
-    def states(t):
-        theta, thetadot = dense(t)
+
+@dataclass(frozen=True)
+class _Rolling:
+    """A roll phase's states and contact forces from its dense output (theta, thetadot)."""
+
+    scene: Scene
+    dense: _Dense
+    x0: float
+    """m: X - r sin(theta) at the phase's start."""
+    theta_start: float
+    """rad."""
+
+    def states(self, t: NDArray) -> NDArray:
+        return self._states(*self.dense(t))
+
+    def forces(self, t: NDArray) -> tuple[NDArray, NDArray]:
+        theta, thetadot = self.dense(t)
+        return dynamics.rolling_forces(self.scene, theta, thetadot)
+
+    def together(self, t: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+        theta, thetadot = self.dense(t)
+        f, n = dynamics.rolling_forces(self.scene, theta, thetadot)
+        return self._states(theta, thetadot), f, n
+
+    def _states(self, theta: NDArray, thetadot: NDArray) -> NDArray:
+        a, r = self.scene.a, self.scene.com_offset
         s, c = np.sin(theta), np.cos(theta)
         return np.vstack(
             [
-                x0 + a * (theta - theta_start) + r * s,
+                self.x0 + a * (theta - self.theta_start) + r * s,
                 a + r * c,
                 theta,
                 thetadot * (a + r * c),
@@ -451,14 +499,6 @@ def _roll_phase(
                 thetadot,
             ]
         )
-
-    def forces(t):
-        theta, thetadot = dense(t)
-        return dynamics.rolling_forces(scene, theta, thetadot)
-
-    t1 = float(sol.t[-1])
-    seg = Segment(PhaseKind.ROLL, t0, t1, None, states, forces)
-    return seg, _PhaseEnd(t1, tuple(states(np.array([t1]))[:, 0]), reason)
 
 
 def _slip_events(
@@ -532,8 +572,6 @@ def _slip_phase(
     opts: _Options,
     budget: _StepBudget,
 ) -> tuple[Segment, _PhaseEnd]:
-    a, r = scene.a, scene.com_offset
-
     def rhs(t, y):
         _, theta, Xdot, thetadot = y
         Xddot, _, thetaddot, _ = dynamics.slip_accelerations(scene, theta, thetadot, sigma)
@@ -543,21 +581,41 @@ def _slip_phase(
     y0 = [state[0], state[2], state[3], state[5]]
     sol = _integrate(rhs, y0, t0, t_end, events, opts, "xavw", budget)
     reason, t1 = _slip_end(scene, sol, names, sigma, opts.units)
-    dense = sol.sol
+    motion = _Slipping(scene, sol.sol, sigma)
+    seg = Segment(PhaseKind.SLIP, t0, t1, sigma, motion.states, motion.forces, motion.together)
+    return seg, _PhaseEnd(t1, tuple(motion.states(np.array([t1]))[:, 0]), reason)
 
-    def states(t):
-        X, theta, Xdot, thetadot = dense(t)
+
+@dataclass(frozen=True)
+class _Slipping:
+    """A slip phase's states and contact forces from its dense output (X, theta, Xdot,
+    thetadot)."""
+
+    scene: Scene
+    dense: _Dense
+    sigma: int
+
+    def states(self, t: NDArray) -> NDArray:
+        return self._states(self.dense(t))
+
+    def forces(self, t: NDArray) -> tuple[NDArray, NDArray]:
+        return self._forces(self.dense(t))
+
+    def together(self, t: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+        y = self.dense(t)
+        return self._states(y), *self._forces(y)
+
+    def _states(self, y: NDArray) -> NDArray:
+        a, r = self.scene.a, self.scene.com_offset
+        X, theta, Xdot, thetadot = y
         return np.vstack(
             [X, a + r * np.cos(theta), theta, Xdot, -r * np.sin(theta) * thetadot, thetadot]
         )
 
-    def forces(t):
-        _, theta, _, thetadot = dense(t)
-        n = dynamics.slip_normal_force(scene, theta, thetadot, sigma)
-        return -sigma * scene.muk * n, n
-
-    seg = Segment(PhaseKind.SLIP, t0, t1, sigma, states, forces)
-    return seg, _PhaseEnd(t1, tuple(states(np.array([t1]))[:, 0]), reason)
+    def _forces(self, y: NDArray) -> tuple[NDArray, NDArray]:
+        _, theta, _, thetadot = y
+        n = dynamics.slip_normal_force(self.scene, theta, thetadot, self.sigma)
+        return -self.sigma * self.scene.muk * n, n
 
 
 def _restick_inside_first_step(
@@ -650,11 +708,24 @@ def _hop_height(
 
 
 def _flight_segment(scene: Scene, t0: float, state: State, t_impact: float) -> Segment:
-    X, Y, theta, Xdot, Ydot, thetadot = state
-    g = scene.g
+    motion = _Flying(t0, state, scene.g)
+    return Segment(PhaseKind.FLIGHT, t0, t_impact, None, motion.states, motion.forces)
 
-    def states(t):
-        tau = np.asarray(t) - t0
+
+@dataclass(frozen=True)
+class _Flying:
+    """A flight's states (ballistic, from the lift-off's) and its zero contact forces."""
+
+    t0: float
+    """s: the lift-off."""
+    state: State
+    g: float
+    """m/s^2."""
+
+    def states(self, t: NDArray) -> NDArray:
+        X, Y, theta, Xdot, Ydot, thetadot = self.state
+        g = self.g
+        tau = np.asarray(t) - self.t0
         return np.vstack(
             [
                 X + Xdot * tau,
@@ -666,11 +737,10 @@ def _flight_segment(scene: Scene, t0: float, state: State, t_impact: float) -> S
             ]
         )
 
-    def forces(t):
+    @staticmethod
+    def forces(t: NDArray) -> tuple[NDArray, NDArray]:
         z = np.zeros_like(np.asarray(t, dtype=float))
         return z, z.copy()
-
-    return Segment(PhaseKind.FLIGHT, t0, t_impact, None, states, forces)
 
 
 def flight_phase(
@@ -1088,12 +1158,20 @@ class _Solve:
 
 def _frozen_segment(scene: Scene, state: State) -> Segment:
     """A zero-length segment holding the initial state, so sampling t = 0 works."""
+    frozen = _Frozen(state)
+    return Segment(PhaseKind.ROLL, 0.0, 0.0, None, frozen.states, frozen.forces)
 
-    def states(t):
-        return np.tile(np.asarray(state, dtype=float)[:, None], (1, np.size(t)))
 
-    def forces(t):
+@dataclass(frozen=True)
+class _Frozen:
+    """The initial state at every time, and no finite contact force."""
+
+    state: State
+
+    def states(self, t: NDArray) -> NDArray:
+        return np.tile(np.asarray(self.state, dtype=float)[:, None], (1, np.size(t)))
+
+    @staticmethod
+    def forces(t: NDArray) -> tuple[NDArray, NDArray]:
         z = np.full(np.size(t), np.nan)
         return z, z.copy()
-
-    return Segment(PhaseKind.ROLL, 0.0, 0.0, None, states, forces)

@@ -24,8 +24,15 @@ from hoopbench.engines.judging.comparison import event_columns, floor_columns, k
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models.scene import Scene
+from hoopbench.reference.exact import solve_exact
 from hoopbench.reference.regimes import classify
 from hoopbench.reports.cli import main
+from hoopbench.reports.hop_map.display import (
+    DISPLAY_COLUMNS,
+    DISPLAY_SAMPLES,
+    thinned,
+    write_display,
+)
 from hoopbench.reports.hop_map.spec import (
     AXES,
     DEFAULT_ENGINES,
@@ -255,6 +262,19 @@ def test_tasks_are_small_and_pickle():
     assert pickle.loads(pickle.dumps(task)) == task
     assert len(pickle.dumps(task)) < 2000
     assert pickle.loads(pickle.dumps(run_map_task)) is run_map_task  # importable by name
+
+
+def test_a_display_file_is_the_bytes_pandas_writes_of_its_curves(tmp_path):
+    """write_display writes with pyarrow alone, a schema made once: the file must still be
+    what pandas' to_parquet writes of the thinned curves (its metadata included)."""
+    solution = solve_exact(Scene.from_chi(2.0, lam=0.5, mus=0.8, muk=0.8, t_end=1.0))
+    trajectory = solution.sample(np.linspace(0.0, solution.t_final, 1000))
+    path = write_display(trajectory, tmp_path, "run")
+    kept = thinned(trajectory)
+    frame = pd.DataFrame({c: getattr(kept, c).astype(np.float32) for c in DISPLAY_COLUMNS})
+    frame.to_parquet(tmp_path / "pandas.parquet", index=False)
+    assert path.read_bytes() == (tmp_path / "pandas.parquet").read_bytes()
+    assert len(pd.read_parquet(path)) == DISPLAY_SAMPLES
 
 
 # ------------------------------------------------------------------ the rows

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections import OrderedDict
 from collections.abc import Mapping
 from typing import Any
 
@@ -54,15 +55,58 @@ solutions held 10.5 MB), the least recently used dropped first. A suite judges e
 and profile of its 8-10 (scene, mu) pairs in turn; a map's task order keeps a point's runs
 close (a batch of at most DEFAULT_BATCH_SIZE, 64, points, each point's single runs one after
 the other), so a solution is rarely wanted again after 64 others. Unbounded, a worker kept
-every point of a map it judged (a 40x40 map's 1,600 points: up to 168 MB)."""
+every point of a map it judged (a 40x40 map's 1,600 points: up to 168 MB). A map's
+workers are given each point's solution by its classification (reports/hop_map/stages.py,
+:meth:`_KeptSolutions.keep`) instead of solving it."""
 
 
-@functools.lru_cache(maxsize=KEPT_SOLUTIONS)
-def exact_solution(scene: Scene, mu: float) -> ExactSolution:
-    """The exact solution of ``scene`` with mus = muk = ``mu``, solved once per worker while
-    kept (:data:`KEPT_SOLUTIONS`): a suite or a map judges several engines and profiles on one
-    scene in turn."""
-    return solve_exact(scene.with_(mus=mu, muk=mu))
+class _KeptSolutions:
+    """:func:`exact_solution`: the last :data:`KEPT_SOLUTIONS` solutions used, by (scene, mu),
+    the least recently used dropped first (as functools.lru_cache, which has no way to keep
+    a solution solved elsewhere: :meth:`keep`)."""
+
+    def __init__(self, size: int) -> None:
+        self.size = size
+        self._kept: OrderedDict[tuple[Scene, float], ExactSolution] = OrderedDict()
+
+    def __call__(self, scene: Scene, mu: float) -> ExactSolution:
+        """The exact solution of ``scene`` with mus = muk = ``mu``, solved once per worker
+        while kept: a suite or a map judges several engines and profiles on one scene in
+        turn."""
+        key = (scene, mu)
+        solution = self._kept.get(key)
+        if solution is None:
+            solution = solve_exact(scene.with_(mus=mu, muk=mu))
+        self._put(key, solution)
+        return solution
+
+    def holds(self, scene: Scene, mu: float) -> bool:
+        """Whether this worker keeps the solution of (``scene``, ``mu``)."""
+        return (scene, mu) in self._kept
+
+    def keep(self, scene: Scene, mu: float, solution: ExactSolution) -> None:
+        """Keep ``solution`` as this worker's solution of (``scene``, ``mu``): it must be
+        what :meth:`__call__` would solve, bit for bit (a hop map's classification solves it
+        once, in another worker: reports/hop_map/stages.py). Its scene must be
+        ``scene`` with mus = muk = ``mu``, else ValueError."""
+        if solution.scene != scene.with_(mus=mu, muk=mu):
+            raise ValueError(f"a solution of {solution.scene} kept as one of {scene}, mu = {mu}")
+        self._put((scene, mu), solution)
+
+    def _put(self, key: tuple[Scene, float], solution: ExactSolution) -> None:
+        self._kept[key] = solution
+        self._kept.move_to_end(key)
+        while len(self._kept) > self.size:
+            self._kept.popitem(last=False)
+
+    def cache_clear(self) -> None:
+        """Forget every kept solution (tests)."""
+        self._kept.clear()
+
+
+exact_solution = _KeptSolutions(KEPT_SOLUTIONS)
+"""The exact solution of ``scene`` with mus = muk = ``mu`` (a call), kept per worker
+(:class:`_KeptSolutions`)."""
 
 
 @functools.cache

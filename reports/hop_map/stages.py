@@ -14,13 +14,21 @@ the one runs dataset ``DIR/runs/``:
    reference's last event, when nothing new can happen. Its row has the event, error and
    verdict columns that ``compare`` gives (the same functions build them).
 
+Each point's exact solution over its whole window (what the engine runs are judged against:
+their detection floor, RMS and force columns) is solved once, in stage 1, and stored in a
+private temporary folder of this session's; stage 2's workers read it instead of solving it
+again (a worker that cannot reach the folder, or a resumed map's, solves it as before).
+
 Its table (columns :data:`MAP_COLUMNS`) is read by :mod:`hoopbench.reports.hop_map.table`.
 """
 
 from __future__ import annotations
 
 import json
+import os
+import pickle
 import sys
+import tempfile
 from collections import Counter
 from collections.abc import Hashable, Mapping, Sequence
 from concurrent.futures import Executor
@@ -54,7 +62,8 @@ from hoopbench.engines.run import RunResult, RunStatus
 from hoopbench.engines.settings import DEFAULT_BATCH_SIZE, RunSettings
 from hoopbench.engines.stopping import StopRule
 from hoopbench.models.events import Outcome
-from hoopbench.models.scene import DegenerateSceneError
+from hoopbench.models.scene import DegenerateSceneError, Scene
+from hoopbench.reference.exact import ExactSolution
 from hoopbench.reference.regimes import classify_solved
 from hoopbench.reports.compare.costs import MAP_COSTING
 from hoopbench.reports.compare.suite import TIMEOUT_NOTE, batch_least, run_timeout
@@ -150,6 +159,11 @@ class MapTask:
     display_dir: str | None = None
     """The map folder, where the run's thinned trajectory goes (hop_map/display.py); None:
     none is kept."""
+    exact_dir: str | None = None
+    """This session's private folder of exact solutions (:func:`run_map`'s): the reference
+    task stores its point's there, and the point's engine tasks judge against it instead of
+    solving it again; None, or a folder this worker cannot reach (another machine's): each
+    worker solves it."""
 
     @property
     def label(self) -> str:
@@ -163,10 +177,12 @@ class MapTask:
         return 0 if self.timestep is None else n_steps_for(self.point.scene(), self.timestep)
 
 
-def reference_tasks(spec: MapSpec, display_dir: str | None = None) -> list[MapTask]:
+def reference_tasks(
+    spec: MapSpec, display_dir: str | None = None, exact_dir: str | None = None
+) -> list[MapTask]:
     """Stage 1: one classification per point."""
     return [
-        MapTask(f"{p.name}-{REFERENCE}", p, REFERENCE, display_dir=display_dir)
+        MapTask(f"{p.name}-{REFERENCE}", p, REFERENCE, display_dir=display_dir, exact_dir=exact_dir)
         for p in spec.points()
     ]
 
@@ -177,6 +193,7 @@ def _engine_task(
     engine: str,
     exact: Mapping[str, Any],
     display_dir: str | None,
+    exact_dir: str | None = None,
 ) -> MapTask:
     carried = tuple((c, exact[c]) for c in EXACT_CARRIED if c in exact)
     return MapTask(
@@ -187,6 +204,7 @@ def _engine_task(
         spec.profile,
         carried,
         display_dir,
+        exact_dir,
     )
 
 
@@ -270,9 +288,12 @@ def _ordered(row: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def _reference_row(task: MapTask) -> dict[str, Any]:
-    point, solution = classify_solved(task.point.scene())
+    scene = task.point.scene()
+    point, solution = classify_solved(scene)
     if task.display_dir is not None:
         write_exact_display(solution, task.display_dir, task.run_id)
+    if task.exact_dir is not None:
+        _store_solution(task, _judging_solution(scene, solution))
     return _ordered(
         {
             **_task_columns(task),
@@ -285,6 +306,59 @@ def _reference_row(task: MapTask) -> dict[str, Any]:
             Col.EXACT_T_SETTLED: point.t_settled,
         }
     )
+
+
+EXACT_SUFFIX = ".exact.pickle"
+"""A stored exact solution's file in a task's exact_dir: the point's name, then this."""
+
+
+def _judging_solution(scene: Scene, classified: ExactSolution) -> ExactSolution:
+    """The solution an engine run at ``scene`` is judged against, ``exact_solution(scene,
+    scene.mus)`` (kept in this worker from now on), given the one the classification solved
+    (stop_when_settled). That one is it when the solve did not stop early: the settle event
+    only ends a roll phase, it changes no step of a solve it does not end
+    (tests/test_hop_map_exact.py); otherwise the whole window is solved here."""
+    mu = scene.mus
+    if classified.t_settled is None and classified.scene == scene.with_(mus=mu, muk=mu):
+        exact_solution.keep(scene, mu, classified)
+        return classified
+    return exact_solution(scene, mu)
+
+
+def _solution_path(task: MapTask) -> Path | None:
+    if task.exact_dir is None:
+        return None
+    return Path(task.exact_dir) / f"{task.point.name}{EXACT_SUFFIX}"
+
+
+def _store_solution(task: MapTask, solution: ExactSolution) -> None:
+    """Store the point's judging solution for its engine tasks; a worker that cannot write
+    it (no such folder on its machine) leaves it to them."""
+    path = _solution_path(task)
+    if path is None:
+        return
+    part = path.with_name(path.name + ".part")
+    try:
+        part.write_bytes(pickle.dumps(solution, protocol=pickle.HIGHEST_PROTOCOL))
+        os.replace(part, path)  # a reader sees the whole file or none
+    except OSError:
+        part.unlink(missing_ok=True)
+
+
+def _point_solution(task: MapTask, scene: Scene) -> ExactSolution:
+    """``exact_solution(scene, scene.mus)``: kept by this worker, else read from what the
+    point's reference task stored (this session's own private folder, written by this
+    hoopbench: nothing else is unpickled), else solved."""
+    mu = scene.mus
+    path = _solution_path(task)
+    if path is not None and not exact_solution.holds(scene, mu):
+        try:
+            stored = pickle.loads(path.read_bytes())
+        except (OSError, EOFError, pickle.UnpicklingError):
+            stored = None
+        if isinstance(stored, ExactSolution) and stored.scene == scene.with_(mus=mu, muk=mu):
+            exact_solution.keep(scene, mu, stored)
+    return exact_solution(scene, mu)
 
 
 def _engine_settings(task: MapTask, t_settled: float | None) -> RunSettings:
@@ -346,9 +420,8 @@ def _judged_row(task: MapTask, result: RunResult, settings: RunSettings) -> dict
         stop_reason=info.stop_reason,
     )
     row.update(cost_columns(info))
-    # The exact solution again (about 30 ms, small beside a run): the force columns need its
-    # n(t) and f(t), which a stored reference row does not hold.
-    solution = exact_solution(scene, scene.mus) if result.trajectory is not None else None
+    # The exact solution over the whole window: the floor, RMS and force columns sample it.
+    solution = _point_solution(task, scene) if result.trajectory is not None else None
     row.update(judged_columns(row, result, scene, solution))
     row[Col.HOP_HEIGHT_ERROR] = _hop_height_error(row)
     if task.display_dir is not None and result.trajectory is not None:
@@ -471,7 +544,7 @@ def planned_tasks(spec: MapSpec) -> tuple[list[MapTask], list[MapTask]]:
     return refs, engine_tasks
 
 
-def _stage_two_tasks(spec: MapSpec, out: Path) -> tuple[list[MapTask], int]:
+def _stage_two_tasks(spec: MapSpec, out: Path, exact_dir: str) -> tuple[list[MapTask], int]:
     """Engine tasks of the points whose reference row is final, each point's reference task
     before them (stored: skipped, but it puts runs.csv in map order); and how many of those
     reference tasks there are."""
@@ -481,14 +554,17 @@ def _stage_two_tasks(spec: MapSpec, out: Path) -> tuple[list[MapTask], int]:
     }
     tasks: list[MapTask] = []
     n_refs = 0
-    for ref in reference_tasks(spec, str(out)):
+    for ref in reference_tasks(spec, str(out), exact_dir):
         row = refs.get(ref.run_id)
         if row is None or not is_final_status(row[Col.STATUS]):
             continue  # timed out or crashed: a resumed map tries it again, then its engines
         tasks.append(ref)
         n_refs += 1
         exact = _stored_exact(row) if row[Col.STATUS] == RunStatus.OK else {}
-        tasks += [_engine_task(spec, ref.point, engine, exact, str(out)) for engine in spec.engines]
+        tasks += [
+            _engine_task(spec, ref.point, engine, exact, str(out), exact_dir)
+            for engine in spec.engines
+        ]
     return tasks, n_refs
 
 
@@ -532,10 +608,14 @@ def run_map(
             "run the map into a new folder (the old one reads as before)"
         )
     say = None if quiet else (lambda text: _say(text, quiet, stream))
-    with claim_folder(out, resume, MAP_IDENTITY, say):
+    with (
+        claim_folder(out, resume, MAP_IDENTITY, say),
+        tempfile.TemporaryDirectory(prefix="hoopbench-map-exact-") as exact_dir,
+    ):
         return _run_map(
             spec,
             out,
+            exact_dir,
             jobs=jobs,
             executor=executor,
             resume=resume,
@@ -548,6 +628,7 @@ def run_map(
 def _run_map(
     spec: MapSpec,
     out: Path,
+    exact_dir: str,
     *,
     jobs: int,
     executor: Executor | None,
@@ -572,11 +653,13 @@ def _run_map(
         stream=stream,
         costing=MAP_COSTING,
     )
-    refs = reference_tasks(spec, str(out))
+    # Stage 1 stores each point's exact solution in exact_dir for stage 2 (its engines'
+    # judging), which would otherwise solve it again in every worker that runs the point.
+    refs = reference_tasks(spec, str(out), exact_dir)
     first = _stage_one(refs, out, common, quiet, stream)
     if first.interrupted is not None:
         return _summary(spec, out, [first], 0)
-    tasks, n_refs = _stage_two_tasks(spec, out)
+    tasks, n_refs = _stage_two_tasks(spec, out, exact_dir)
     engines = ", ".join(spec.engines) or "none"
     _say(f"hop map, stage 2 of 2: {len(tasks) - n_refs} engine runs ({engines})", quiet, stream)
     finished = _is_finished(spec, out, tasks)
