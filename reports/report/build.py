@@ -27,6 +27,7 @@ from hoopbench.reports.report.best_settings import (
     best_settings_section,
     is_tune_folder,
 )
+from hoopbench.reports.report.drawing_processes import started_drawing
 from hoopbench.reports.report.map_section import is_map_folder, map_prefixes, map_sections
 from hoopbench.reports.report.markdown import FigurePool, Say, SuiteMachine, write_markdown
 from hoopbench.reports.report.page import GIF_SCENE, gif_runs, write_gif, write_page
@@ -118,7 +119,10 @@ def build_report(
     # Two reports into one folder would mix their figures: the sweeps' lock serves.
     # Names from the results are drawn as written (plain_text); the figures are drawn in a
     # FigurePool beside the tables, with report.md's own, the dearest (the GIF) first.
-    with sweep_lock(out), plain_text(), FigurePool() as pool:
+    # Drawing processes started ahead (report-runs --report) are taken once the lock is held.
+    started = started_drawing.get()
+    take = started.take if started is not None else lambda: None
+    with sweep_lock(out), plain_text(), FigurePool(processes=take()) as pool:
         _check_out(out, dirs, force)  # again, under the lock: one may have just finished
         drawing: list[tuple[Callable[..., Any], tuple[Any, ...]]] = []
 

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 import multiprocessing
-import os
 import platform
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
@@ -40,6 +39,11 @@ from hoopbench.reports.report.answer import answer
 from hoopbench.reports.report.answer_files import write_answer_files
 from hoopbench.reports.report.answer_words import answer_section
 from hoopbench.reports.report.best_settings import BestSettings
+from hoopbench.reports.report.drawing_processes import (
+    FIGURE_WORKERS,
+    drawing_workers,
+    interruptible,
+)
 from hoopbench.reports.report.drawn import drawn_rows, drawn_trajectories, timestep_note
 from hoopbench.reports.report.escaping import escape_cell, escape_text, file_stem
 from hoopbench.reports.report.figures import events_figure, hoop_figure, paths_figure
@@ -825,10 +829,6 @@ def _job_name(job: _Job) -> str:
     return name.format(scene)
 
 
-FIGURE_WORKERS = 2
-"""Processes that draw a report's figures (the machines this runs on have 2 cores)."""
-
-
 class FigurePool:
     """Drawing calls run beside the caller's own work (the report's tables): drawing is most
     of a report's time and one process draws on one core. The calls run in ``workers``
@@ -840,9 +840,15 @@ class FigurePool:
     the GIF's frames included; the report's own process then peaks at about 400 MB, not
     590)."""
 
-    def __init__(self, workers: int = FIGURE_WORKERS) -> None:
-        self.workers = max(1, min(workers, os.cpu_count() or 1))
-        self._pool: ProcessPoolExecutor | None = None
+    def __init__(
+        self, workers: int = FIGURE_WORKERS, processes: ProcessPoolExecutor | None = None
+    ) -> None:
+        self.workers = drawing_workers(workers)
+        self._pool: ProcessPoolExecutor | None = processes if self.workers >= 2 else None
+        """``processes``: started already (drawing_processes.StartedDrawing), shut down with
+        this pool."""
+        if processes is not None and self._pool is None:
+            processes.shutdown(wait=True, cancel_futures=True)
 
     def __enter__(self) -> FigurePool:
         return self
@@ -937,8 +943,9 @@ def _drawn(jobs: Sequence[_Job], say: Say | None = None) -> list[Any]:
 
 def _draw_plain(function: Callable[..., Any], *args: Any) -> Any:
     """One drawing call with its text drawn as written (plotting.plain_text): a worker
-    process does not inherit the caller's matplotlib settings."""
-    with plain_text():
+    process does not inherit the caller's matplotlib settings), and Ctrl-C interrupts it
+    (drawing_processes.interruptible: in a process started ahead too)."""
+    with plain_text(), interruptible():
         return function(*args)
 
 
