@@ -68,15 +68,14 @@ MAP_ARGS ?= --grid 10x10 --engines mujoco pybullet pymunk
 # pool of workers (a step begins once the one before has nothing left queued): it says which
 # step starts (suite k of 3, the map), and each progress line ends with the overall one (step
 # k of 4 and the steps running beside it, runs done of all, an ETA for the whole of make
-# report from the runs' expected costs); the report's lines then say what it draws.
+# report from the runs' expected costs). Then (--report) the same process writes the report
+# of them, the searches and the bench, as `hoopbench report --results` would; its drawing
+# processes start while the map's last runs end. The report's lines say what it draws.
 # REPORT_RUNS_ARGS="--calls FILE" also writes each call's cost (docs/cli.md: the priors).
 REPORT_RUNS_ARGS ?=
-MAP_DIR = $(if $(strip $(MAP_ARGS)),$(OUT)/map)
 report: $(REPORT_STAMP)
-	$(BIN)/hoopbench report-runs --out $(OUT) --map="$(MAP_ARGS)" $(REPORT_RUNS_ARGS)
-	@echo "make report: the report of the 3 suites$(if $(MAP_DIR), and the map) -> $(OUT)" >&2
-	$(BIN)/hoopbench report --results $(OUT)/default $(OUT)/finer $(OUT)/stability $(MAP_DIR) \
-		$(SEARCH_DIRS) $(or $(wildcard $(BENCH_OUT)),$(BENCH_SHIPPED)) --out $(OUT)
+	$(BIN)/hoopbench report-runs --out $(OUT) --map="$(MAP_ARGS)" $(REPORT_RUNS_ARGS) \
+		--report $(SEARCH_DIRS) $(or $(wildcard $(BENCH_OUT)),$(BENCH_SHIPPED))
 
 # The catalogue on several releases of MuJoCo and pymunk (reports/compare/suites/releases.toml),
 # each installed once from the package index into $(XDG_CACHE_HOME)/hoopbench/engines (17-65

@@ -873,7 +873,7 @@ def _cmd_report_runs(args: argparse.Namespace) -> int:
     import shlex
 
     from hoopbench.reports.api import default_jobs
-    from hoopbench.reports.report_runs import MAP_STEP, REPORT_SUITES, Step, report_plan, run_steps
+    from hoopbench.reports.report_runs import MAP_STEP, REPORT_SUITES, Step, report_plan
 
     out = Path(args.out)
     n = len(REPORT_SUITES)
@@ -891,11 +891,46 @@ def _cmd_report_runs(args: argparse.Namespace) -> int:
     plan = report_plan(
         [name for name, _ in REPORT_SUITES], spec, default_jobs(), DEFAULT_BATCH_SIZE
     )
+    if args.report is None:
+        return _run_steps(plan, steps, args.calls)
+    from hoopbench.reports.report.drawing_processes import StartedDrawing, started_drawing
+
+    # The report's drawing processes start beside the map's last runs (drawing_processes).
+    started = StartedDrawing(_ready_to_draw)
+    token = started_drawing.set(started)
     try:
-        return run_steps(plan, steps, main, _say_plain)
+        code = _run_steps(plan, steps, args.calls, started.start)
+        if code:
+            return code
+        results = [str(out / name) for name, _ in REPORT_SUITES]
+        results += [str(out / "map")] if spec is not None else []
+        _say_plain(f"make report: the report of the {n} suites"
+                   f"{' and the map' if spec is not None else ''} -> {out}")  # fmt: skip
+        return main(["report", "--results", *results, *args.report, "--out", str(out)])
     finally:
-        if args.calls is not None:
-            _write_calls(plan.finished, Path(args.calls))
+        started_drawing.reset(token)
+        started.close()
+
+
+def _run_steps(
+    plan: Any, steps: Sequence[Any], calls: str | None, queued: Callable[[], object] | None = None
+) -> int:
+    """report-runs' steps (run_steps), each call's cost written to ``calls`` if given."""
+    from hoopbench.reports.report_runs import run_steps
+
+    try:
+        return run_steps(plan, steps, main, _say_plain, queued)
+    finally:
+        if calls is not None:
+            _write_calls(plan.finished, Path(calls))
+
+
+def _ready_to_draw() -> None:
+    """In a report's drawing process as it starts: the imports its drawings need."""
+    import hoopbench.reports.report.page  # noqa: F401
+    from hoopbench.reports.report.plotting import pyplot
+
+    pyplot()
 
 
 def _write_calls(finished: Sequence[Any], path: Path) -> None:
@@ -924,6 +959,7 @@ def _say_plain(text: str) -> None:
 
 def _cmd_map(args: argparse.Namespace) -> int:
     import hoopbench.reports.api as api
+    from hoopbench.reports.report.drawing_processes import started_drawing
     from hoopbench.reports.report.map_section import write_map_outputs
     from hoopbench.reports.sweep.cluster import executor_from_args
     from hoopbench.reports.sweep.runner import RunnerError
@@ -951,8 +987,9 @@ def _cmd_map(args: argparse.Namespace) -> int:
             f"{summary.unfinished} run(s) still to do (a point's reference "
             f"timed out or crashed): hoopbench map --out {args.out} --resume"
         )
+    started = started_drawing.get()  # report-runs --report's: the figures side by side
     try:
-        paths = write_map_outputs(args.out)
+        paths = write_map_outputs(args.out, None if started is None else started.lent())
     except OSError as exc:
         if not _system_error(exc):
             raise
@@ -1245,6 +1282,14 @@ def _add_report_runs(sub: Any, classes: Mapping[str, Any]) -> None:
         metavar="FILE",
         help="also write each finished call (kinds, steps, worlds, seconds, cold) as a JSON "
         "line: what python -m hoopbench.reports.bench.call_costs fit reads",
+    )
+    p.add_argument(
+        "--report",
+        nargs="*",
+        metavar="DIR",
+        help="then, once every step has succeeded, the report of the suites, the map and these "
+        "folders (searches, make bench's) into --out, as hoopbench report --results would write "
+        "it; its drawing processes start while the map's last runs end (make report's)",
     )
     p.set_defaults(func=_cmd_report_runs)
 

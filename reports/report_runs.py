@@ -118,13 +118,19 @@ own pool imports its worker's module)."""
 
 
 def run_steps(
-    plan: Plan, steps: Sequence[Step], run: Callable[[list[str]], int], say: Callable[[str], None]
+    plan: Plan,
+    steps: Sequence[Step],
+    run: Callable[[list[str]], int],
+    say: Callable[[str], None],
+    queued: Callable[[], object] | None = None,
 ) -> int:
     """Run ``steps`` (``run(argv)`` each, e.g. the CLI's main) under ``plan``, overlapping on
     one shared pool of ``plan.workers`` workers: each in its own thread, begun once the step
     before has nothing left queued. SIGINT and SIGTERM stop every step (each says how to
-    resume it); a step that fails keeps the steps not begun from beginning. The first
-    failed step's exit code, else 0."""
+    resume it); a step that fails keeps the steps not begun from beginning. ``queued``, if
+    given, is called (in a thread of its own) once the last step has nothing left queued,
+    unless a step failed or a signal came first: what comes after the steps may start then,
+    beside their last calls. The first failed step's exit code, else 0."""
     plan.stop = StopFlag()
     plan.pool = WorkerPool(plan.workers, preload=PRELOAD)
     codes = [0] * len(steps)
@@ -138,6 +144,8 @@ def run_steps(
         target = _step_runner(plan, step, first, lane, run, say, codes, k)
         threads.append(threading.Thread(target=context.run, args=(target,), name=step.what))
         first += step.sweeps
+    if queued is not None:
+        threads.append(threading.Thread(target=_when_queued, args=(plan, first, queued)))
     handlers = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         for sig in handlers:
@@ -153,6 +161,13 @@ def run_steps(
         pool, plan.pool = plan.pool, None
         pool.shutdown(wait=True)
     return next((code for code in codes if code), 0)
+
+
+def _when_queued(plan: Plan, sweeps: int, queued: Callable[[], object]) -> None:
+    """``queued()`` once the plan's last sweep (of ``sweeps``) has nothing left queued, unless
+    a step failed or a signal came first."""
+    if plan.wait_turn(sweeps):
+        queued()
 
 
 def _step_runner(

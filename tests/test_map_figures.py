@@ -6,6 +6,7 @@ import itertools
 import re
 import shutil
 from collections import Counter
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -416,6 +417,34 @@ def test_write_map_outputs_writes_the_figures_and_map_md(map_dir):
     ]
     text = paths[-1].read_text()
     assert text.startswith("# Hop map") and "## Agreement with the exact reference" in text
+
+
+class _Recording(ThreadPoolExecutor):
+    """One thread that draws each call submitted to it, and names it (report-runs lends the
+    report's drawing processes; a thread stands in for them here)."""
+
+    def __init__(self) -> None:
+        super().__init__(max_workers=1)
+        self.drawn: list[str] = []
+
+    def submit(self, fn, /, *args, **kwargs):  # type: ignore[override]
+        self.drawn.append(fn.__name__)
+        return super().submit(fn, *args, **kwargs)
+
+
+def test_write_map_outputs_draws_the_same_figures_where_it_is_told(map_dir, tmp_path):
+    """Given the report's drawing processes (report-runs --report), the map's figures are
+    drawn there, the same bytes as drawn here, map.md written once they are."""
+    here, there = tmp_path / "a" / "map", tmp_path / "b" / "map"  # map.md names its folder
+    for folder in (here, there):
+        shutil.copytree(map_dir, folder, ignore=shutil.ignore_patterns("*.png", "map.md"))
+    drawn_here = write_map_outputs(here)
+    with _Recording() as processes:
+        drawn_there = write_map_outputs(there, processes)
+    assert processes.drawn == ["regime_figure", "verdict_figure", "hop_error_figure"]
+    assert [p.name for p in drawn_there] == [p.name for p in drawn_here]
+    for a, b in zip(drawn_here, drawn_there, strict=True):
+        assert a.read_bytes() == b.read_bytes(), a.name
 
 
 def test_report_of_a_map_folder(map_dir, tmp_path, capsys):

@@ -2,23 +2,27 @@
 tables, every drawing finished before report.md lists the folder, the page's figures made
 side by side as they would be one by one, and the page's numbers rounded as before.
 
-Cost: about 8 s (two worker processes started three times, stability-only reports; a
+Cost: about 10 s (two worker processes started four times, stability-only reports; a
 fresh interpreter's fork server importing the drawing modules).
 """
 
 from __future__ import annotations
 
 import math
+import os
 import shutil
+import signal
 import subprocess
 import sys
 import time
 from concurrent.futures import Future
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 from test_stability import rows
 
+from hoopbench.reports.report.drawing_processes import StartedDrawing, interruptible
 from hoopbench.reports.report.markdown import FigurePool, write_markdown
 from hoopbench.reports.report.page import _image_sources, page_fragments, page_jobs, write_page
 from hoopbench.reports.report.page_html import rounded
@@ -168,3 +172,62 @@ def test_the_page_s_figures_start_after_report_md_s_and_are_drawn_once(tmp_path)
     assert before_page[3:] == ["_figure_html"] * len(then) and len(then) == 3
     assert pool.drawn == before_page  # nothing drawn twice
     assert (early / "report.html").read_text() == (alone / "report.html").read_text()
+
+
+def _interrupted(started: str) -> str:
+    """A drawing that runs until Ctrl-C reaches it (at most 20 s): how it ended."""
+    with interruptible():
+        Path(started).touch()
+        try:
+            time.sleep(20.0)
+        except KeyboardInterrupt:
+            return "interrupted"
+    return "slept"
+
+
+def _ready(folder: str) -> None:
+    """A started drawing process's imports, here: its pid, as a file in ``folder``."""
+    (Path(folder) / f"{os.getpid()}.pid").touch()
+
+
+def _started_pids(folder: Path, processes: int) -> set[int]:
+    """The pids of the started processes, once ``processes`` have started (a liveness bound
+    of 60 s: a loaded machine's fork server may take 20)."""
+    end = time.monotonic() + 60.0
+    while len(list(folder.glob("*.pid"))) < processes and time.monotonic() < end:
+        time.sleep(0.02)
+    return {int(p.stem) for p in folder.glob("*.pid")}
+
+
+def _alive(pid: int) -> bool:
+    """Whether process ``pid`` runs (not gone, not a zombie its parent has yet to reap)."""
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+    except OSError:
+        return False
+    return "\nState:\tZ" not in status
+
+
+def test_drawing_processes_started_ahead_ignore_ctrl_c_until_they_draw(tmp_path):
+    """report-runs --report starts the report's drawing processes while the map's last runs
+    end: idle, Ctrl-C (which reaches the whole process group, during the sweeps too) leaves
+    them alive, as the sweeps stop by their own handler; a report's drawing in them stops
+    as it would in the report's own. The report's FigurePool draws in them, once taken."""
+    started = StartedDrawing(ready=partial(_ready, str(tmp_path)), workers=2)
+    started.start()
+    assert started.lent() is not None
+    pids = _started_pids(tmp_path, 2)
+    assert len(pids) == 2
+    for pid in pids:
+        os.kill(pid, signal.SIGINT)
+    time.sleep(0.5)  # an idle process with Python's own handler dies of it meanwhile
+    assert all(_alive(pid) for pid in pids)
+    with FigurePool(2, processes=started.take()) as pool:
+        assert started.lent() is None and started.take() is None
+        assert {pool.submit(os.getpid).result() for _ in range(8)} <= pids
+        running = pool.submit(_interrupted, str(tmp_path / "started"))
+        assert _seen(str(tmp_path / "started"), within_s=60.0)
+        for pid in pids:
+            os.kill(pid, signal.SIGINT)
+        assert running.result(timeout=15.0) == "interrupted"
+    started.close()  # taken: nothing to shut down

@@ -1,8 +1,9 @@
 """make report's sweeps overlapping on one shared pool (reports/report_runs.py run_steps,
 reports/sweep/plan.py): a step's calls take the worker the step before leaves idle, a
 signal stops every step resumably, and the overall line lays out the steps running
-together. Real WorkerPools of 2 workers and calls that wait on files, not on the clock:
-about 8 s of wall time, 3 CPU-s (under load)."""
+together, and what comes after them starts beside the last step's last calls. Real
+WorkerPools of 2 workers and calls that wait on files, not on the clock: about 10 s of wall
+time, 4 CPU-s (under load)."""
 
 from __future__ import annotations
 
@@ -91,6 +92,20 @@ def test_the_next_step_runs_on_the_worker_the_step_before_leaves_idle(tmp_path):
         assert (tmp_path / name / results.META_NAME).exists()
 
 
+def test_what_comes_after_starts_beside_the_last_steps_last_calls(tmp_path):
+    """The last step's one call waits for a file that only ``queued`` makes: called once
+    that step has nothing left queued, it runs while the call does (report-runs starts the
+    report's drawing processes so); called once the steps end, the call would give up."""
+    flag = tmp_path / "made"
+    calls = {"default": [Call("ok-0", "ok")], "finer": [Call("wait-0", "wait", str(flag))]}
+    names = list(calls)
+    code = run_steps(
+        _plan(names), _steps(tmp_path, names), _runner(calls, tmp_path), print, flag.touch
+    )
+    assert code == 0
+    assert _statuses(tmp_path / "finer") == {"wait-0": "ok"}
+
+
 def test_a_signal_stops_every_step_running_and_each_resumes(tmp_path):
     """Step 2's first call sends SIGINT to this process while step 1's call waits: both
     stop (exit 130, as a sweep interrupted says), step 3 never begins (step 2 still had
@@ -103,10 +118,13 @@ def test_a_signal_stops_every_step_running_and_each_resumes(tmp_path):
         "stability": [Call("ok-0", "ok")],
     }
     names = list(calls)
-    code = run_steps(_plan(names), _steps(tmp_path, names), _runner(calls, tmp_path), print)
+    after: list[str] = []  # what would start once the last step has nothing queued
+    run = _runner(calls, tmp_path)
+    code = run_steps(_plan(names), _steps(tmp_path, names), run, print, lambda: after.append("x"))
     assert code == 128 + signal.SIGINT
     assert _statuses(tmp_path / "default").get("wait-0") is None  # stopped, not stored
     assert not (tmp_path / "stability").exists()
+    assert after == []
     Path(flag).touch()
     calls["finer"][0] = Call("signal-0", "ok")
     run = _runner(calls, tmp_path, resume=True)

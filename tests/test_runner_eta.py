@@ -330,7 +330,9 @@ def test_report_runs_runs_make_reports_steps_in_order_under_one_plan(tmp_path, m
         return 3 if argv[0] == "map" else 0
 
     monkeypatch.setattr(cli, "main", fake_main)
-    args = argparse.Namespace(out=str(tmp_path), map="--grid 2x2 --engines pymunk", calls=None)
+    args = argparse.Namespace(
+        out=str(tmp_path), map="--grid 2x2 --engines pymunk", calls=None, report=None
+    )
     assert cli._cmd_report_runs(args) == 3
     argvs = [argv for argv, _ in seen]
     assert argvs == [
@@ -422,3 +424,42 @@ def test_overlapping_steps_lines_count_for_the_step_they_name_first():
     table = accuracy(lines)
     assert table["default"][0] == pytest.approx(1.0)  # 9 s said at 1 s, its last line at 10 s
     assert table["finer"][0] == pytest.approx(1.0)  # 4 s said at 3 s, its last line at 7 s
+
+
+def test_report_runs_then_writes_the_report_with_its_drawing_processes_started(
+    tmp_path, monkeypatch
+):
+    """--report: once every step has succeeded, the report of the suites, the map and the
+    given folders, as make report's second command wrote it, with the drawing processes
+    started once the last step had nothing queued (here no process starts: start is only
+    counted); a failed step leaves the report out, and nothing stays set."""
+    import argparse
+
+    from hoopbench.reports import cli
+    from hoopbench.reports.report.drawing_processes import StartedDrawing, started_drawing
+
+    starts: list[StartedDrawing] = []
+    monkeypatch.setattr(StartedDrawing, "start", lambda self: starts.append(self))
+    seen: list[tuple[list[str], StartedDrawing | None]] = []
+    failing = {"map": 0}
+
+    def fake_main(argv):
+        seen.append((argv, started_drawing.get()))
+        return failing.get(argv[0], 0)
+
+    monkeypatch.setattr(cli, "main", fake_main)
+    out = tmp_path / "r"
+    args = argparse.Namespace(out=str(out), map="--grid 2x2 --engines pymunk", calls=None,
+                              report=["searches/a", "bench"])  # fmt: skip
+    assert cli._cmd_report_runs(args) == 0
+    assert seen[-1][0] == ["report", "--results", *(str(out / n) for n in
+                           ("default", "finer", "stability", "map")),
+                           "searches/a", "bench", "--out", str(out)]  # fmt: skip
+    started = seen[-1][1]
+    assert starts == [started] and started is not None
+    assert all(step_started is started for _, step_started in seen)  # the map's figures too
+    assert started_drawing.get() is None
+    seen.clear()
+    failing["map"] = 3
+    assert cli._cmd_report_runs(args) == 3
+    assert [argv[0] for argv, _ in seen] == ["compare", "compare", "compare", "map"]

@@ -28,6 +28,7 @@ from hoopbench.reports.report.best_settings import (
     best_settings_section,
     is_tune_folder,
 )
+from hoopbench.reports.report.drawing_processes import started_drawing
 from hoopbench.reports.report.map_section import is_map_folder, map_prefixes, map_sections
 from hoopbench.reports.report.markdown import FigurePool, Say, SuiteMachine, write_markdown
 from hoopbench.reports.report.page import (
@@ -125,8 +126,11 @@ def build_report(
     # Two reports into one folder would mix their figures: the sweeps' lock serves.
     # The figures are drawn in a FigurePool beside the tables, with report.md's own, the
     # dearest first; each as written (FigurePool.submit), none in this process. The pool's
-    # fork server imports the drawing modules once (FigurePool's preload).
-    with sweep_lock(out), FigurePool(preload=[__name__]) as pool:
+    # fork server imports the drawing modules once (FigurePool's preload); drawing processes
+    # started ahead (report-runs --report) are taken once the lock is held.
+    started = started_drawing.get()
+    take = started.take if started is not None else lambda: None
+    with sweep_lock(out), FigurePool(processes=take(), preload=[__name__]) as pool:
         _check_out(out, dirs, force)  # again, under the lock: one may have just finished
         drawing: list[tuple[Callable[..., Any], tuple[Any, ...]]] = []
         awaited: list[Future] = []

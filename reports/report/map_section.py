@@ -17,8 +17,10 @@ import hashlib
 import os
 import shutil
 from collections.abc import Callable, Sequence
+from concurrent.futures import Executor, Future
 from functools import partial
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 
@@ -455,11 +457,23 @@ def map_prefixes(n: int) -> list[str]:
     return ["map"] if n == 1 else [f"map{k + 1}" for k in range(n)]
 
 
-def write_map_outputs(results_dir: str | Path) -> list[Path]:
+def write_map_outputs(results_dir: str | Path, processes: Executor | None = None) -> list[Path]:
     """After ``hoopbench map``: the figures and ``DIR/map.md`` (the section as a document,
-    figures beside it); their paths, map.md last."""
+    figures beside it); their paths, map.md last. ``processes``: where the figures are drawn,
+    side by side (report-runs --report: the report's drawing processes, started already),
+    map.md written once they are; by default here, one after the other."""
     results_dir = Path(results_dir)
-    text, figures = _section(results_dir, results_dir, "map", 1)
+    drawing: list[Future[Any]] = []
+
+    def draw(function: Callable[..., Any], *args: Any) -> None:
+        assert processes is not None
+        drawing.append(processes.submit(function, *args))
+
+    text, figures = _section(
+        results_dir, results_dir, "map", 1, None if processes is None else draw
+    )
+    for future in drawing:
+        future.result()
 
     def write(tmp: Path) -> None:
         tmp.write_text(text, encoding="utf-8")

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 import multiprocessing
-import os
 import platform
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
@@ -40,6 +39,11 @@ from hoopbench.reports.report.answer import answer
 from hoopbench.reports.report.answer_files import write_answer_files
 from hoopbench.reports.report.answer_words import answer_section
 from hoopbench.reports.report.best_settings import BestSettings
+from hoopbench.reports.report.drawing_processes import (
+    FIGURE_WORKERS,
+    drawing_workers,
+    interruptible,
+)
 from hoopbench.reports.report.drawn import drawn_rows, drawn_trajectories, timestep_note
 from hoopbench.reports.report.escaping import escape_cell, escape_text, file_stem
 from hoopbench.reports.report.figures import events_figure, hoop_figure, paths_figure
@@ -839,10 +843,6 @@ def _job_name(job: _Job) -> str:
     return name.format(scene)
 
 
-FIGURE_WORKERS = 2
-"""Processes that draw a report's figures (the machines this runs on have 2 cores)."""
-
-
 DRAWING_MODULES = (
     "matplotlib.pyplot",
     "matplotlib.backends.backend_agg",
@@ -872,16 +872,27 @@ class FigurePool:
     them, where it imported them itself (about 2 CPU-s a worker; Python 3.11's fork server
     does not import the caller's ``__main__`` either, so each worker also ran the command
     line's script anew). Effective only if this process's fork server is not running yet
-    (a sweep's WorkerPool starts it with its own modules)."""
+    (a sweep's WorkerPool starts it with its own modules); ``processes`` started already
+    (drawing_processes.StartedDrawing, make report's) start nothing more."""
 
-    def __init__(self, workers: int = FIGURE_WORKERS, *, preload: Sequence[str] = ()) -> None:
-        self.workers = max(1, min(workers, os.cpu_count() or 1))
+    def __init__(
+        self,
+        workers: int = FIGURE_WORKERS,
+        processes: ProcessPoolExecutor | None = None,
+        *,
+        preload: Sequence[str] = (),
+    ) -> None:
+        self.workers = drawing_workers(workers)
         self._preload = [__name__, *DRAWING_MODULES, *preload]
-        self._pool: ProcessPoolExecutor | None = None
+        self._pool: ProcessPoolExecutor | None = processes if self.workers >= 2 else None
+        """``processes``: started already (drawing_processes.StartedDrawing), shut down with
+        this pool."""
+        if processes is not None and self._pool is None:
+            processes.shutdown(wait=True, cancel_futures=True)
         self._started: dict[tuple[Any, ...], tuple[tuple[Any, ...], Future]] = {}
 
     def __enter__(self) -> FigurePool:
-        if self.workers >= 2:
+        if self.workers >= 2 and self._pool is None:
             self._start_server()
         return self
 
@@ -992,8 +1003,9 @@ def _drawn(jobs: Sequence[_Job], say: Say | None = None) -> list[Any]:
 
 def _draw_plain(function: Callable[..., Any], *args: Any) -> Any:
     """One drawing call with its text drawn as written (plotting.plain_text): a worker
-    process does not inherit the caller's matplotlib settings."""
-    with plain_text():
+    process does not inherit the caller's matplotlib settings), and Ctrl-C interrupts it
+    (drawing_processes.interruptible: in a process started ahead too)."""
+    with plain_text(), interruptible():
         return function(*args)
 
 
