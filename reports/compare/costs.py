@@ -42,39 +42,33 @@ REPORT = "report"
 CALL_COST_PRIOR: dict[Hashable, Rates] = {
     # Rates(fixed_s, step_s, world_step_s, cold_s), fitted by
     # `python -m hoopbench.reports.bench.call_costs fit` on the whole calls of make report's
-    # three suites (731 calls) and its map (304 calls), main at 2026-11-29 04:59 UTC (after
-    # the overlapped sweeps, the map's and PyBullet's leaner runs and the batch screen), on
-    # the project's machine (AMD EPYC, 2 cores, no GPU), nearly idle (1-min load average 2.6
-    # at the start, falling), JAX's and Warp's caches warm. A loaded or another machine (or
-    # cold caches) scales them by the machine factor.
-    "box2d": Rates(0.0095, 4e-06, 0.0, 0.0028),
-    "dart": Rates(0.012, 1e-05, 0.0, 0.04),
-    "drake": Rates(0.078, 1.7e-05, 0.0, 0.096),
-    "mjx": Rates(4.1, 0.0012, 0.00015),
-    "mujoco": Rates(0.026, 2e-06, 6.7e-06, 0.068),
-    "newton": Rates(0.0, 0.00052, 6.4e-05, 0.9),
-    "pybullet": Rates(0.017, 8.9e-06),
-    "pymunk": Rates(0.011, 2.3e-06),
-    "rapier": Rates(0.0097, 8.2e-06, 0.0, 0.0036),
-    "reference": Rates(0.049, 5.6e-07, 0.0, 0.17),
-    # Run only with a GPU (left out of make report's suites without one), not measured here:
-    # whole calls over their steps, on the default suite with a lightly loaded machine
-    # (2026-11-28 18:55 UTC): MuJoCo Warp's RK4 (tuned) against its Euler (stock), and
-    # Newton's MuJoCo solver.
-    "mjwarp": Rates(0.0, 0.012),
-    ("mjwarp", "stock", "default"): Rates(0.0, 0.0053),
-    ("mjwarp", "tuned", "default"): Rates(0.0, 0.018),
-    ("newton", "tuned", "solver=mujoco"): Rates(0.0, 0.0071),
+    # three suites (742 calls) and its map (304 calls), main at 2026-11-29 08:09 UTC (after
+    # Newton's and MuJoCo Warp's steps became Warp graphs replayed on the CPU, and MuJoCo
+    # Warp and Newton's MuJoCo solver joined the suites there), on the project's machine
+    # (AMD EPYC, 2 cores, no GPU), nearly idle (1-min load average 0.9 at the start), JAX's
+    # and Warp's caches warm. A loaded or another machine (or cold caches) scales them by the
+    # machine factor.
+    "box2d": Rates(0.0089, 4.3e-06, 0.0, 0.012),
+    "dart": Rates(0.018, 1e-05, 0.0, 0.012),
+    "drake": Rates(0.08, 1.7e-05, 0.0, 0.12),
+    "mjwarp": Rates(0.086, 0.00012, 0.0, 0.32),
+    "mjx": Rates(1.3, 0.0014, 0.00015, 3.2),
+    "mujoco": Rates(0.025, 2.6e-06, 7.1e-06, 0.054),
+    "newton": Rates(0.14, 0.0, 5e-06, 0.36),
+    "pybullet": Rates(0.016, 9.2e-06),
+    "pymunk": Rates(0.012, 2.5e-06),
+    "rapier": Rates(0.011, 8.2e-06, 0.0, 0.019),
+    "reference": Rates(0.045, 5.1e-07, 0.0, 0.17),
     # The map's (make report's: 10 x 10, MuJoCo in 4 batches of 25, 1e-4 s; its runs stop
     # at their first impact, so a step of its window costs less than a suite's): its 304
     # calls of the same idle make report. MuJoCo's 4 calls over their world-steps.
-    (MAP, "reference"): Rates(0.025, 0.0, 0.0, 0.046),
-    (MAP, "mujoco"): Rates(0.0, 0.0, 6.9e-06, 1.9),
-    (MAP, "pybullet"): Rates(0.0, 5.6e-06, 0.0, 0.13),
-    (MAP, "pymunk"): Rates(0.0, 1.7e-06, 0.0, 0.0093),
-    # `hoopbench report` of the three suites, the map, the shipped searches and bench (make
-    # report's last step): 21 s on the same make report.
-    REPORT: Rates(21.0, 0.0),
+    (MAP, "reference"): Rates(0.028, 0.0, 0.0, 0.037),
+    (MAP, "mujoco"): Rates(0.0, 0.0, 6.4e-06, 1.5),
+    (MAP, "pybullet"): Rates(0.0, 5.2e-06, 0.0, 0.14),
+    (MAP, "pymunk"): Rates(0.0, 1.6e-06, 0.0, 0.042),
+    # The report of the three suites, the map, the shipped searches and bench (make report's
+    # last step, in report-runs' own process): 16 s on the same make report.
+    REPORT: Rates(16.0, 0.0),
 }
 """A kind's whole call (:class:`~hoopbench.reports.sweep.eta.Rates`) before any call of it
 has finished here: by engine, by engine, profile and variant where those differ, by the
