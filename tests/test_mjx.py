@@ -18,6 +18,9 @@ the window. Measured on mujoco 4.0.0 / mujoco-mjx 3.17.0 / jax 0.10.2, CPU:
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
+
 import mujoco
 import numpy as np
 import pytest
@@ -39,6 +42,24 @@ def _run(engine: str, scene=SCENE, **options):
 @pytest.fixture(scope="module")
 def mujoco_c():
     return _run("mujoco")
+
+
+@contextmanager
+def _traced() -> Iterator[list[str]]:
+    """The names of the functions JAX traces inside the block, in order."""
+    import jax
+
+    traced: list[str] = []
+
+    def listen(event: str, duration: float, **kwargs) -> None:
+        if event == "/jax/core/compile/jaxpr_trace_duration":
+            traced.append(kwargs.get("fun_name", "?"))
+
+    jax.monitoring.register_event_duration_secs_listener(listen)
+    try:
+        yield traced
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listen)
 
 
 def test_float64_is_mujoco_c(mujoco_c):
@@ -159,7 +180,6 @@ def test_settings_that_change_only_arrays_share_one_compile():
     the precision) trace anew. Euler, the cheapest compile. Cost: about 10 CPU-s (a trace
     and a compile, two 20-step runs)."""
     _mjx()
-    import jax
 
     engine = get_engine("mjx")
     first = RunSettings(timestep=7e-4, options={"integrator": "Euler"})
@@ -174,20 +194,11 @@ def test_settings_that_change_only_arrays_share_one_compile():
     )
     runs = engine.simulate_batch([SCENE.with_(t_end=20 * first.timestep)], first)
     assert runs[0].info.status is RunStatus.OK, runs[0].info.message
-    traced: list[str] = []
-
-    def listen(event: str, duration: float, **kwargs) -> None:
-        if event == "/jax/core/compile/jaxpr_trace_duration":
-            traced.append(kwargs.get("fun_name", "?"))
-
-    jax.monitoring.register_event_duration_secs_listener(listen)
-    try:
+    with _traced() as traced:
         # Another radius too (the stability suite's 1 cm hoop): MJX's heightfield bounds,
         # static, follow it; a call led by such a world traced anew (about 3.5 s).
         scene = get_scene("high-spin").with_(a=0.01, t_end=20 * other.timestep)
         runs = engine.simulate_batch([scene], other)
-    finally:
-        jax.monitoring.unregister_event_duration_listener(listen)
     assert runs[0].info.status is RunStatus.OK, runs[0].info.message
     assert "world" not in traced, traced
 
@@ -237,7 +248,6 @@ def test_a_return_to_a_precision_finds_its_compiled_chunk():
     trace), to the same numbers bit for bit. Euler, the cheapest trace. Cost: about 15 CPU-s
     on loaded cores (two traces and cached compiles, three 20-step runs)."""
     _mjx()
-    import jax
 
     engine = get_engine("mjx")
     scene = SCENE.with_(t_end=20 * 7e-4)
@@ -249,17 +259,8 @@ def test_a_return_to_a_precision_finds_its_compiled_chunk():
     }
     first = engine.simulate(scene, settings["float32"])
     assert engine.simulate(scene, settings["float64"]).info.status is RunStatus.OK
-    traced: list[str] = []
-
-    def listen(event: str, duration: float, **kwargs) -> None:
-        if event == "/jax/core/compile/jaxpr_trace_duration":
-            traced.append(kwargs.get("fun_name", "?"))
-
-    jax.monitoring.register_event_duration_secs_listener(listen)
-    try:
+    with _traced() as traced:
         again = engine.simulate(scene, settings["float32"])
-    finally:
-        jax.monitoring.unregister_event_duration_listener(listen)
     assert again.info.status is RunStatus.OK, again.info.message
     assert "world" not in traced, traced
     for column in ("X", "Y", "theta", "normal_force"):
