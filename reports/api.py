@@ -112,6 +112,7 @@ __all__ = [
     "judgement",
     "map_spec",
     "report",
+    "results_folders",
     "run",
     "run_hop_map",
     "run_settings",
@@ -953,6 +954,27 @@ def hop_map(
 
 
 # --------------------------------------------------------------------------- report
+def results_folders(option: str, value: Any) -> list[Path]:
+    """The folders a report reads (of ``compare``, ``hop_map``, ``tune`` or bench), each
+    holding results and none named twice (its runs would be counted twice); OptionError
+    naming ``option`` otherwise. make report checks its searches with it before its sweeps."""
+    folders = _check_folders(option, value)
+    for folder in folders:
+        if not (
+            (folder / "runs").is_dir() or is_tune_folder(folder) or is_batch_cost_folder(folder)
+        ):
+            raise OptionError(
+                option,
+                f"{{option}} {str(folder)!r} holds no results (no runs/ folder): "
+                "run hoopbench compare first",
+            )
+    for k, folder in enumerate(folders):
+        same = [f for f in folders[:k] if f.resolve() == folder.resolve()]
+        if same:
+            raise OptionError(option, f"{{option}} names the folder {str(same[0])!r} twice")
+    return folders
+
+
 def report(
     results: str | Path | Sequence[str | Path],
     out: str | Path | None = None,
@@ -966,22 +988,9 @@ def report(
     An existing report.md is replaced only with ``force=True``. ``say`` hears what the
     report is doing, a line a step (the command line prints them on stderr).
     """
-    folders = _check_folders("results", results)
+    folders = results_folders("results", results)
     if not folders:
         raise OptionError("results", "{option} must name at least one results folder")
-    for folder in folders:
-        if not (
-            (folder / "runs").is_dir() or is_tune_folder(folder) or is_batch_cost_folder(folder)
-        ):
-            raise OptionError(
-                "results",
-                f"{{option}} {str(folder)!r} holds no results (no runs/ folder): "
-                "run hoopbench compare first",
-            )
-    for k, folder in enumerate(folders):  # its runs would be counted twice
-        same = [f for f in folders[:k] if f.resolve() == folder.resolve()]
-        if same:
-            raise OptionError("results", f"{{option}} names the folder {str(same[0])!r} twice")
     target = _check_out("out", out) if out is not None else folders[0]
     force = _check_flag("force", force)
     if target.exists() and not target.is_dir():

@@ -893,6 +893,9 @@ def _cmd_report_runs(args: argparse.Namespace) -> int:
     )
     if args.report is None:
         return _run_steps(plan, steps, args.calls)
+    from hoopbench.reports.api import results_folders
+
+    results_folders("report", args.report)  # a bad folder refused now, not after the sweeps
     from hoopbench.reports.report.drawing_processes import StartedDrawing, started_drawing
 
     # The report's drawing processes start beside the map's last runs (drawing_processes).

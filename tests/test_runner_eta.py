@@ -449,12 +449,15 @@ def test_report_runs_then_writes_the_report_with_its_drawing_processes_started(
 
     monkeypatch.setattr(cli, "main", fake_main)
     out = tmp_path / "r"
+    given = [tmp_path / "searches" / "a", tmp_path / "bench"]
+    for folder in given:  # folders that hold results (checked before the steps)
+        (folder / "runs").mkdir(parents=True)
     args = argparse.Namespace(out=str(out), map="--grid 2x2 --engines pymunk", calls=None,
-                              report=["searches/a", "bench"])  # fmt: skip
+                              report=[str(folder) for folder in given])  # fmt: skip
     assert cli._cmd_report_runs(args) == 0
     assert seen[-1][0] == ["report", "--results", *(str(out / n) for n in
                            ("default", "finer", "stability", "map")),
-                           "searches/a", "bench", "--out", str(out)]  # fmt: skip
+                           *map(str, given), "--out", str(out)]  # fmt: skip
     started = seen[-1][1]
     assert starts == [started] and started is not None
     assert all(step_started is started for _, step_started in seen)  # the map's figures too
@@ -463,3 +466,22 @@ def test_report_runs_then_writes_the_report_with_its_drawing_processes_started(
     failing["map"] = 3
     assert cli._cmd_report_runs(args) == 3
     assert [argv[0] for argv, _ in seen] == ["compare", "compare", "compare", "map"]
+
+
+def test_report_runs_refuses_a_report_folder_without_results_before_any_step(
+    tmp_path, monkeypatch, capsys
+):
+    """make report's searches are checked as `hoopbench report` checks them, before the
+    sweeps: a folder that holds no results is one line and exit 2, not an error minutes
+    later, and nothing is written."""
+    from hoopbench.reports import cli
+
+    ran: list[str] = []
+    monkeypatch.setattr(cli, "_run_steps", lambda *a, **k: ran.append("steps") or 0)
+    out, missing = tmp_path / "r", tmp_path / "no-such-search"
+    argv = ["report-runs", "--out", str(out), "--map=", "--report", str(missing)]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"hoopbench: error: --report {str(missing)!r} holds no results (no runs/ "
+                   "folder): run hoopbench compare first"]  # fmt: skip
+    assert ran == [] and not out.exists()
