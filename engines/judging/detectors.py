@@ -262,7 +262,127 @@ def detect_phases(
     first onset); slipping turns back into rolling when |s| stays below restick_threshold for
     restick_sustain (start of that quiet stretch); a slip reverses when s goes beyond the
     threshold on the other side without such a quiet stretch (at the zero crossing).
+
+    The samples are not visited one by one: each mode jumps to the next sample that can end
+    it (:class:`_Marks`), with the comparisons of a sample-by-sample walk on the same doubles,
+    so the phases are those of that walk (:func:`_phases_sample_by_sample`, which takes times
+    that are not finite or ever decrease: the quiet stretch's bisection needs them ordered).
+    The walk cost 0.21 us of CPU a sample, the jumps 0.027 (the default suite's 407 stored
+    trajectories, 2026-11-29): a sixth of judging a long run of a cheap engine.
     """
+    # The walk compares Python floats: the marks and the times are read as doubles too.
+    times = np.asarray(t[:end], dtype=float)
+    if not np.isfinite(times).all() or (np.diff(times) < 0).any():
+        return _phases_sample_by_sample(t, s, end, cfg)
+    magnitude = np.abs(s[:end])
+    marks = _Marks(np.asarray(s[:end], dtype=float), cfg)
+    phases: list[tuple[PhaseKind, float, int | None]] = []
+    if end > 0 and not marks.above(0):
+        phases.append((PhaseKind.ROLL, float(t[0]), None))
+    k = 0
+    while k < end:
+        k = marks.next_above(k)  # rolling: the first sample above the slip threshold
+        if k >= end:
+            break
+        start = float(t[0]) if k == 0 else refined_onset(t, magnitude, k, cfg.slip_threshold)
+        start = max(start, phases[-1][1] if phases else float(t[0]))
+        sigma = 1 if float(s[k]) > 0 else -1
+        phases.append((PhaseKind.SLIP, start, sigma))
+        k = _slip_until_restick(t, s, times, k + 1, sigma, marks, phases, cfg)
+    return phases
+
+
+def _slip_until_restick(
+    t: NDArray,
+    s: NDArray,
+    times: NDArray,
+    k: int,
+    sigma: int,
+    marks: _Marks,
+    phases: list[tuple[PhaseKind, float, int | None]],
+    cfg: DetectorSettings,
+) -> int:
+    """Slipping in direction ``sigma`` from sample ``k``: append its reversals and its
+    re-stick, if one is decided before the last sample, to ``phases``; the sample after
+    that decision (rolling again from there), else the end."""
+    end = marks.end
+    while True:
+        k = marks.next_event(k, sigma)  # a reversal, or a sample below the re-stick threshold
+        if k >= end:
+            return end
+        if marks.reverses(k, sigma):
+            sigma = -sigma
+            phases.append((PhaseKind.SLIP, _zero_crossing(t, s, k, -sigma), sigma))
+            k += 1
+            continue
+        quiet_since = k
+        stretch_end = marks.next_break(k, sigma)  # first sample that ends the quiet stretch
+        held = _first_held(times, quiet_since, stretch_end, cfg.restick_sustain)
+        if held is not None:
+            phases.append((PhaseKind.ROLL, float(t[quiet_since]), None))
+            return held + 1
+        k = stretch_end
+
+
+def _first_held(times: NDArray, since: int, stop: int, sustain: float) -> int | None:
+    """The first sample m in [since, stop) with times[m] - times[since] >= sustain (the
+    walk's test on the same doubles), or None. The times (float64) are finite and never
+    decrease, and neither does a difference rounded from them: a bisection finds it."""
+    if not times[stop - 1] - times[since] >= sustain:
+        return None
+    lo, hi = since, stop - 1  # the test holds at hi
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if times[mid] - times[since] >= sustain:
+            hi = mid
+        else:
+            lo = mid + 1
+    return lo
+
+
+class _Marks:
+    """The samples where :func:`detect_phases`' tests hold, as sorted indices, and the next
+    one of each at or after a sample: the same comparisons a sample-by-sample walk makes."""
+
+    def __init__(self, s: NDArray, cfg: DetectorSettings) -> None:
+        """``s``: the slip velocities, m/s, as doubles."""
+        self.end = len(s)
+        magnitude = np.abs(s)
+        above = magnitude > cfg.slip_threshold
+        # sigma * s < -slip_threshold, for sigma = 1 and -1 (negating a double is exact)
+        backward = {1: s < -cfg.slip_threshold, -1: -s < -cfg.slip_threshold}
+        quiet = magnitude < cfg.restick_threshold
+        self._above_mask = above
+        self._backward = backward
+        self._above = np.flatnonzero(above)
+        self._event = {d: np.flatnonzero(backward[d] | quiet) for d in (1, -1)}
+        self._break = {d: np.flatnonzero(backward[d] | ~quiet) for d in (1, -1)}
+
+    def above(self, k: int) -> bool:
+        return bool(self._above_mask[k])
+
+    def reverses(self, k: int, sigma: int) -> bool:
+        return bool(self._backward[sigma][k])
+
+    def next_above(self, k: int) -> int:
+        return self._next(self._above, k)
+
+    def next_event(self, k: int, sigma: int) -> int:
+        return self._next(self._event[sigma], k)
+
+    def next_break(self, k: int, sigma: int) -> int:
+        """The first sample after ``k`` that reverses or is not quiet."""
+        return self._next(self._break[sigma], k + 1)
+
+    def _next(self, marks: NDArray, k: int) -> int:
+        i = int(np.searchsorted(marks, k))
+        return int(marks[i]) if i < marks.size else self.end
+
+
+def _phases_sample_by_sample(
+    t: NDArray, s: NDArray, end: int, cfg: DetectorSettings
+) -> list[tuple[PhaseKind, float, int | None]]:
+    """:func:`detect_phases` as a walk over every sample (its definition)."""
     magnitude = np.abs(s[:end])
     # The loop reads Python floats (the same doubles): indexing a NumPy array element by
     # element made this loop a tenth of judging a run.
