@@ -76,7 +76,7 @@ def test_a_slip_its_reversal_an_interrupted_quiet_stretch_and_the_restick() -> N
     s[8:10] = -2e-3  # reverses at 8
     s[10:13] = 0.0  # quiet for 3 samples: too short
     s[13] = -1.5e-3  # still sliding backward (no reversal, not quiet)
-    s[14:] = 0.0  # quiet from 14: re-sticks once 5 ms have passed (sample 19)
+    s[14:] = 0.0  # quiet from 14: re-sticks there, decided at sample 20 (19 is 5 ms - 1 ulp on)
     phases = detect_phases(t, s, len(t), CFG)
     assert [(kind, sigma) for kind, _, sigma in phases] == [
         (PhaseKind.ROLL, None),
