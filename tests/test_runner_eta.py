@@ -385,6 +385,23 @@ def test_the_fit_finds_the_fixed_and_per_step_parts():
     assert json.loads(json.dumps(calls[0]))["kinds"] == ["x"]
 
 
+def test_the_fit_finds_what_a_workers_first_call_of_the_engine_pays():
+    """MuJoCo Warp with warm caches: a worker's first call of the engine loads its kernels
+    (about 2 s), a kind's first call on a worker that has them pays 0.1 s more."""
+    calls = [
+        {"kinds": [[k], "x"], "steps": s, "worlds": 1, "cold": c, "first": f,
+         "seconds": 0.3 + 2e-5 * s + 0.1 * c + 2.0 * f}
+        for k, s, c, f in (("a", 1000, True, True), ("b", 1000, True, False),
+                           ("a", 3000, False, False), ("b", 6000, False, False),
+                           ("b", 9000, True, True), ("a", 2000, True, False),
+                           ("a", 500, False, False))
+    ]  # fmt: skip
+    rates = fit(calls)["x"]
+    assert rates.first_s == pytest.approx(2.0)
+    assert rates.cold_s == pytest.approx(0.1)
+    assert rates.fixed_s == pytest.approx(0.3)
+
+
 def test_the_accuracy_is_read_from_a_stamped_log():
     """Lines at 10 % and 50 % of a suite: ETA over the real time left until its last line;
     the overall one's until the log's last (the report step after the runs)."""

@@ -14,11 +14,13 @@ Nothing here asserts a time. Three parts:
   its rounding nearest the time left (the map's 2-s classification said 'eta 1s' with
   0.48 s left: 2.08 by the printed second, 1.04 within its rounding).
 * ``fit CALLS``: the rates that fit the whole calls ``hoopbench report-runs --calls CALLS``
-  wrote (one JSON object a line: kinds, steps, worlds, seconds, cold), by each call's most
+  wrote (one JSON object a line: kinds, steps, worlds, seconds, cold, first, new: the
+  :class:`~hoopbench.reports.sweep.eta.Took`'s), by each call's most
   general kind: non-negative least squares of each call's seconds, relative to them (a 0.3 s
   call weighs as much as a 60 s one; none more than a call of the kind's mean), on a fixed
-  part, a part per step, per world-step (an engine whose calls have several worlds) and a
-  worker's first call's extra (a kind with cold calls). Printed as the Python of
+  part, a part per step, per world-step (an engine whose calls have several worlds), a
+  worker's first call's extra (a kind with cold calls) and a worker's first call of the
+  engine's (where its cold calls were not all that). Printed as the Python of
   CALL_COST_PRIOR, with the machine and load.
 """
 
@@ -147,12 +149,16 @@ def fit(records: Iterable[dict[str, object]]) -> dict[Hashable, Rates]:
         steps = np.array([float(c["steps"]) for c in calls])  # type: ignore[arg-type]
         worlds = np.array([float(c["worlds"]) for c in calls])  # type: ignore[arg-type]
         cold = np.array([1.0 if c["cold"] else 0.0 for c in calls])
-        columns = [np.ones_like(took), steps, steps * worlds, cold]
+        first = np.array([1.0 if c.get("first") else 0.0 for c in calls])
+        columns = [np.ones_like(took), steps, steps * worlds, cold, first]
         used = [
             True,
             bool(steps.any()),
             bool((worlds > 1).any()),
             bool(cold.any() and not cold.all()),
+            # Apart from the cold part only where some cold calls were not the worker's first
+            # of the engine (the kind's own first calls on a worker that had the engine).
+            bool(first.any() and not first.all() and (cold != first).any()),
         ]
         a = np.column_stack([c for c, u in zip(columns, used, strict=True) if u])
         # Relative to each call's seconds, but none weighs more than a call of the kind's
@@ -161,8 +167,8 @@ def fit(records: Iterable[dict[str, object]]) -> dict[Hashable, Rates]:
         weight = 1.0 / np.maximum(took, took.mean())
         solution, _ = nnls(a * weight[:, None], took * weight)
         values = iter(solution)
-        fixed, step, world_step, extra = (float(next(values)) if u else 0.0 for u in used)
-        rates[kind] = Rates(fixed, step, world_step, extra)
+        fixed, step, world_step, extra, once = (float(next(values)) if u else 0.0 for u in used)
+        rates[kind] = Rates(fixed, step, world_step, extra, once)
     return rates
 
 
@@ -190,10 +196,12 @@ def print_fit(path: Path) -> None:
     for kind, r in sorted(rates.items(), key=lambda item: str(item[0])):
         n = sum(1 for rec in records if _kind(rec["kinds"][-1]) == kind)
         parts = [_number(r.fixed_s), _number(r.step_s)]
-        if r.world_step_s or r.cold_s:
+        if r.world_step_s or r.cold_s or r.first_s:
             parts.append(_number(r.world_step_s))
-        if r.cold_s:
+        if r.cold_s or r.first_s:
             parts.append(_number(r.cold_s))
+        if r.first_s:
+            parts.append(_number(r.first_s))
         print(f"    {kind!r}: Rates({', '.join(parts)}),  # {n} calls")
 
 
