@@ -269,6 +269,27 @@ def test_a_calls_firsts_are_its_workers_and_the_machines():
     )
 
 
+def _engine_x(tasks):
+    return CallCost(kinds=((tasks[0].kind, "x"), "x"), steps=1)
+
+
+def test_the_runner_records_each_calls_firsts_on_its_worker(tmp_path):
+    """One worker runs an 'ok' call, a 'sleep' call and an 'ok' call, both kinds of engine
+    x: the first is the worker's first of its kind and of the engine and the machine's
+    first of its kind; the second only of its kind and the machine's; the third none. About
+    1 s (one worker process)."""
+    plan = Plan("make report", [PlannedSweep("default", 3, ())], {"x": Rates(0.01, 0.0)}, 1)
+    jobs = [Job("ok-0"), Job("sleep-1", "sleep"), Job("ok-2")]
+    token = current_plan.set(plan)
+    try:
+        run_tasks(jobs, job_worker, tmp_path / "out", jobs=1, max_in_flight=1, quiet=True,
+                  failure_row=job_failure_row, costing=Costing(_engine_x, plan.prior))  # fmt: skip
+    finally:
+        current_plan.reset(token)
+    firsts = [(d.cold, d.first, d.new) for d in plan.finished]
+    assert firsts == [(True, True, True), (True, False, True), (False, False, False)]
+
+
 def test_a_compile_is_no_sample_of_a_kinds_cold_calls():
     """Issue 34, caches cold: MuJoCo Warp's stock call compiled Warp's kernels in its worker
     (32.8 s, 80 times what its prior says a call pays once); that kind's first call on the
