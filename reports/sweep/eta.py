@@ -228,16 +228,17 @@ def once_factors(
     """Most specific kind -> for its finished cold calls: what they took beyond their steps
     at the ``machine`` factor, over what their priors say a call pays once (the fixed part
     and the cold part), at least 0. A kind whose priors say nothing of such a part is left
-    out. Only the most specific, and only calls that were neither their worker's first of
-    the engine nor the machine's first of the kind: with cold caches MuJoCo Warp's first
-    call in a worker compiled Warp's kernels (80 times its once-part), which that kind's
+    out. Only the most specific, and only calls whose priors say no compile (a worker's
+    first call of the engine, the machine's first of the kind: :meth:`Rates.once`): with
+    cold caches MuJoCo Warp's first call in a worker compiled Warp's kernels (80 times its
+    once-part, when the priors knew no compile), which that kind's
     first call in the other worker, whose kernels were compiled, then did not pay (0.3 s:
     this factor had said 32 s, the default suite's ETA 2.0 times the time left)."""
     took: dict[Hashable, float] = {}
     once: dict[Hashable, float] = {}
     for done in finished:
         rates = prior_rates(done.call, prior)
-        if not done.cold or done.first or done.new or rates is None:
+        if not done.cold or rates is None or rates.once(done.first, done.new) > 0:
             continue
         fixed = rates.fixed_s + rates.cold_s
         stepping = rates.seconds(done.call) - rates.fixed_s
