@@ -78,7 +78,8 @@ map's engine and the report."""
 COLD_CACHE_S: dict[Hashable, float] = {
     # s more: make report with a new HOOPBENCH_CACHE against make report with warm caches,
     # the same calls (2026-11-29 08:17 and 08:22 UTC, idle, 2 cores; /tmp/mr11 against
-    # /tmp/mr10), where the compile is paid:
+    # /tmp/mr10; `python -m hoopbench.reports.bench.call_costs compile COLD WARM` prints
+    # them call by call), where the compile is paid:
     # - an engine: its first call in each worker, whichever kind it is. Both workers
     #   compiled Warp's kernels at once, as make report starts the engine on both: MuJoCo
     #   Warp's first calls took 18.5 and 32.8 s (warm 2.4 and 2.8), then its other kind's
