@@ -19,6 +19,7 @@ from hoopbench.reports.bench.call_costs import (
     rounding,
     seconds_of,
 )
+from hoopbench.reports.bench.eta_replay import _Recorded
 from hoopbench.reports.compare.costs import (
     CALL_COST_PRIOR,
     COLD_CACHE_S,
@@ -651,3 +652,12 @@ def test_report_runs_refuses_a_report_folder_without_results_before_any_step(
     assert err == [f"hoopbench: error: --report {str(missing)!r} holds no results (no runs/ "
                    "folder): run hoopbench compare first"]  # fmt: skip
     assert ran == [] and not out.exists()
+
+
+def test_the_replay_gives_a_workers_first_call_of_the_engine_the_longest_recorded():
+    """eta_replay: of two recorded calls of one kind, steps and worlds (32.8 s, where a cold
+    cache compiled, and 0.3 s), a worker's first call of the engine takes the compile."""
+    record = {"kinds": [["mjwarp", "stock", "default"], "mjwarp"], "steps": 3000, "worlds": 2}
+    recorded = _Recorded([{**record, "seconds": 0.3}, {**record, "seconds": 32.8}])
+    assert recorded.take(MJW_STOCK, first=True) == 32.8
+    assert recorded.take(MJW_STOCK, first=False) == 0.3
