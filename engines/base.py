@@ -407,8 +407,9 @@ class Engine(ABC):
     that step one world in C or Rust (about 10 us: MuJoCo RK4, PyBullet)."""
     compiled_cache: ClassVar[str | None] = None
     """The folder under :func:`cache_folder` where the engine keeps the code it compiles
-    between processes (None: it compiles nothing). While it holds nothing, a kind's first
-    call compiles (the ETA's priors know: reports/compare/costs.py, COLD_CACHE_S)."""
+    between processes (None: it compiles nothing). While it holds nothing, a worker's first
+    call of the engine or the machine's first call of a kind compiles (the ETA's priors
+    know which: reports/compare/costs.py, COLD_CACHE_S)."""
     gpu_only: ClassVar[str | None] = None
     """Why the engine's runs pay off only on a GPU (None: they pay off on a CPU too): a suite
     sized to the machine (``sized_to_machine``) runs them only where a GPU is present, and

@@ -946,6 +946,8 @@ def _write_calls(finished: Sequence[Any], path: Path) -> None:
                 "worlds": d.call.worlds,
                 "seconds": d.seconds,
                 "cold": d.cold,
+                "first": d.first,
+                "new": d.new,
             }
         )
         for d in finished

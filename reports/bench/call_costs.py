@@ -14,12 +14,20 @@ Nothing here asserts a time. Three parts:
   its rounding nearest the time left (the map's 2-s classification said 'eta 1s' with
   0.48 s left: 2.08 by the printed second, 1.04 within its rounding).
 * ``fit CALLS``: the rates that fit the whole calls ``hoopbench report-runs --calls CALLS``
-  wrote (one JSON object a line: kinds, steps, worlds, seconds, cold), by each call's most
+  wrote (one JSON object a line: kinds, steps, worlds, seconds, cold, first, new: the
+  :class:`~hoopbench.reports.sweep.eta.Took`'s), by each call's most
   general kind: non-negative least squares of each call's seconds, relative to them (a 0.3 s
   call weighs as much as a 60 s one; none more than a call of the kind's mean), on a fixed
-  part, a part per step, per world-step (an engine whose calls have several worlds) and a
-  worker's first call's extra (a kind with cold calls). Printed as the Python of
+  part, a part per step, per world-step (an engine whose calls have several worlds), a
+  worker's first call's extra (a kind with cold calls) and a worker's first call of the
+  engine's (where its cold calls were not all that). Printed as the Python of
   CALL_COST_PRIOR, with the machine and load.
+* ``compile COLD WARM``: what the calls of a make report with cold caches (``--calls`` of a
+  run with a new HOOPBENCH_CACHE) took more than the same calls with warm caches, by kinds,
+  steps and worlds, where it is more than half a second, with how many of the cold run's
+  were their worker's first of the engine and the machine's first of the kind: what
+  :data:`~hoopbench.reports.compare.costs.COLD_CACHE_S` says (an engine's compile where
+  only its first calls paid, a kind's where its new ones did).
 """
 
 from __future__ import annotations
@@ -32,6 +40,7 @@ import sys
 import time
 from collections.abc import Hashable, Iterable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from scipy.optimize import nnls
@@ -147,12 +156,16 @@ def fit(records: Iterable[dict[str, object]]) -> dict[Hashable, Rates]:
         steps = np.array([float(c["steps"]) for c in calls])  # type: ignore[arg-type]
         worlds = np.array([float(c["worlds"]) for c in calls])  # type: ignore[arg-type]
         cold = np.array([1.0 if c["cold"] else 0.0 for c in calls])
-        columns = [np.ones_like(took), steps, steps * worlds, cold]
+        first = np.array([1.0 if c.get("first") else 0.0 for c in calls])
+        columns = [np.ones_like(took), steps, steps * worlds, cold, first]
         used = [
             True,
             bool(steps.any()),
             bool((worlds > 1).any()),
             bool(cold.any() and not cold.all()),
+            # Apart from the cold part only where some cold calls were not the worker's first
+            # of the engine (the kind's own first calls on a worker that had the engine).
+            bool(first.any() and not first.all() and (cold != first).any()),
         ]
         a = np.column_stack([c for c, u in zip(columns, used, strict=True) if u])
         # Relative to each call's seconds, but none weighs more than a call of the kind's
@@ -161,9 +174,49 @@ def fit(records: Iterable[dict[str, object]]) -> dict[Hashable, Rates]:
         weight = 1.0 / np.maximum(took, took.mean())
         solution, _ = nnls(a * weight[:, None], took * weight)
         values = iter(solution)
-        fixed, step, world_step, extra = (float(next(values)) if u else 0.0 for u in used)
-        rates[kind] = Rates(fixed, step, world_step, extra)
+        fixed, step, world_step, extra, once = (float(next(values)) if u else 0.0 for u in used)
+        rates[kind] = Rates(fixed, step, world_step, extra, once)
     return rates
+
+
+CallKey = tuple[Hashable, float, int]
+
+
+def compile_costs(
+    cold: Iterable[dict[str, Any]], warm: Iterable[dict[str, Any]], least_s: float = 0.5
+) -> list[tuple[CallKey, int, float, float, int, int]]:
+    """(kinds, steps, worlds), calls, warm s, cold s, first calls, new calls in the cold run,
+    for each group of calls whose cold seconds exceed the warm ones by more than
+    ``least_s`` (module docstring)."""
+    sums: list[dict[CallKey, list[float]]] = [{}, {}]
+    for run, records in zip(sums, (cold, warm), strict=True):
+        for r in records:
+            key = (_kind(r["kinds"]), float(r["steps"]), int(r["worlds"]))
+            found = run.setdefault(key, [0.0, 0.0, 0.0, 0.0])
+            found[0] += 1
+            found[1] += float(r["seconds"])
+            found[2] += bool(r.get("first"))
+            found[3] += bool(r.get("new"))
+    out = []
+    for key, (n, took, first, new) in sums[0].items():
+        before = sums[1].get(key, [0.0, 0.0])[1]
+        if took - before > least_s:
+            out.append((key, int(n), before, took, int(first), int(new)))
+    return sorted(out, key=lambda row: str(row[0]))
+
+
+def print_compile(cold: Path, warm: Path) -> None:
+    rows = compile_costs(_records(cold), _records(warm))
+    print("kinds | steps | worlds | calls | warm s | cold s | more s | first | new")
+    for (kinds, steps, worlds), n, before, took, first, new in rows:
+        print(
+            f"{kinds!r} | {steps:g} | {worlds} | {n} | {before:.2f} | {took:.2f} | "
+            f"{took - before:.2f} | {first} | {new}"
+        )
+
+
+def _records(path: Path) -> list[dict[str, Any]]:
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
 
 
 def _cpu_model() -> str:
@@ -190,10 +243,12 @@ def print_fit(path: Path) -> None:
     for kind, r in sorted(rates.items(), key=lambda item: str(item[0])):
         n = sum(1 for rec in records if _kind(rec["kinds"][-1]) == kind)
         parts = [_number(r.fixed_s), _number(r.step_s)]
-        if r.world_step_s or r.cold_s:
+        if r.world_step_s or r.cold_s or r.first_s:
             parts.append(_number(r.world_step_s))
-        if r.cold_s:
+        if r.cold_s or r.first_s:
             parts.append(_number(r.cold_s))
+        if r.first_s:
+            parts.append(_number(r.first_s))
         print(f"    {kind!r}: Rates({', '.join(parts)}),  # {n} calls")
 
 
@@ -218,11 +273,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     sub.add_parser("stamp", help="stdin to stdout, each line after its time")
     sub.add_parser("accuracy", help="the ETAs' accuracy in a stamped log").add_argument("log")
     sub.add_parser("fit", help="the rates of report-runs --calls").add_argument("calls")
+    compiled = sub.add_parser("compile", help="what cold caches cost more, call by call")
+    compiled.add_argument("cold")
+    compiled.add_argument("warm")
     args = parser.parse_args(argv)
     if args.part == "stamp":
         stamp(sys.stdin)
     elif args.part == "accuracy":
         print_accuracy(Path(args.log))
+    elif args.part == "compile":
+        print_compile(Path(args.cold), Path(args.warm))
     else:
         print_fit(Path(args.calls))
     return 0

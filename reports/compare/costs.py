@@ -76,20 +76,34 @@ map's engine and the report."""
 
 
 COLD_CACHE_S: dict[Hashable, float] = {
-    # s more than its cold part: a make report with a new HOOPBENCH_CACHE against one with
-    # warm caches, the same calls (2026-11-29 04:50 and 04:59 UTC, idle, 2 cores). A kind's
-    # first call compiled its traced chunk with XLA where the warm run loaded it. Newton's
-    # first call in each worker paid 7-17 s more whichever kind it was (its Warp kernels
-    # serve every kind), which no kind's part can say: left out.
-    ("mjx", "stock", "default"): 5.3,
-    ("mjx", "tuned", "default"): 18.4,
-    ("mjx", "tuned", "precision=float64"): 17.9,
-    ("mjx", "tuned", "cone=pyramidal"): 10.7,
+    # s more: make report with a new HOOPBENCH_CACHE against make report with warm caches,
+    # the same calls (2026-11-29 08:17 and 08:22 UTC, idle, 2 cores; /tmp/mr11 against
+    # /tmp/mr10; `python -m hoopbench.reports.bench.call_costs compile COLD WARM` prints
+    # them call by call), where the compile is paid:
+    # - an engine: its first call in each worker, whichever kind it is. Both workers
+    #   compiled Warp's kernels at once, as make report starts the engine on both: MuJoCo
+    #   Warp's first calls took 18.5 and 32.8 s (warm 2.4 and 2.8), then its other kind's
+    #   first call in each worker 0.3-0.7 s; Newton's 16.1 and 16.1 (warm 3.2 and 2.6).
+    "mjwarp": 23.0,
+    "newton": 13.2,
+    # - a kind: its first call on the machine, on any worker (the compile lands in the
+    #   cache the other workers read): MJX's XLA program of the kind (the finer suite's
+    #   tuned call on the other worker took 10.8 s, warm 10.6), Newton's solvers' own
+    #   kernels (each solver ran one call).
+    ("mjx", "stock", "default"): 6.2,
+    ("mjx", "tuned", "default"): 18.2,
+    ("mjx", "tuned", "precision=float64"): 17.1,
+    ("mjx", "tuned", "cone=pyramidal"): 13.2,
+    ("newton", "tuned", "solver=semi_implicit"): 2.7,
+    ("newton", "tuned", "solver=featherstone"): 4.0,
+    ("newton", "tuned", "solver=mujoco"): 11.6,
 }
-"""Most specific kind -> what its first call in a worker pays more while its engine's
-compiled-code cache (``Engine.compiled_cache``) is empty: nothing else tells the ETA that
-the caches are cold before those calls end (a cold make report's default suite: 0.58 of the
-time left at 10 % of its runs with the warm priors)."""
+"""An engine, or a most specific kind -> what its calls pay more while its engine's
+compiled-code cache (``Engine.compiled_cache``) is empty: an engine's on its first call in
+each worker (``Rates.first_s``), a kind's on its first call on the machine
+(``Rates.new_s``). Nothing else tells the ETA that the caches are cold before those calls
+end (a cold make report's default suite: 0.57 of the time left at 10 % of its runs with
+the warm priors and only MJX's kinds here)."""
 
 
 def cold_caches() -> frozenset[str]:
@@ -109,15 +123,26 @@ def _holds_a_file(folder: Path) -> bool:
 
 
 def priors(cold: Collection[str] = ()) -> dict[Hashable, Rates]:
-    """:data:`CALL_COST_PRIOR`, with each kind of :data:`COLD_CACHE_S` whose engine is in
-    ``cold`` paying its seconds more on its cold calls."""
+    """:data:`CALL_COST_PRIOR`, with what :data:`COLD_CACHE_S` says of each engine in
+    ``cold`` and of its kinds: an engine's on the first call of it in a worker (on every
+    kind of it that has a prior), a kind's on its first call on the machine."""
     found = dict(CALL_COST_PRIOR)
-    for kind, more in COLD_CACHE_S.items():
-        engine = kind[0] if isinstance(kind, tuple) else kind
-        if engine in cold:
-            rates = CALL_COST_PRIOR.get(kind, CALL_COST_PRIOR[engine])
-            found[kind] = replace(rates, cold_s=rates.cold_s + more)
+    said = {kind: more for kind, more in COLD_CACHE_S.items() if _engine(kind) in cold}
+    for kind, more in said.items():  # the kinds' first: they take their engine's rates
+        if kind != _engine(kind):
+            rates = found.get(kind, CALL_COST_PRIOR[_engine(kind)])
+            found[kind] = replace(rates, new_s=rates.new_s + more)
+    for engine, more in said.items():
+        if engine == _engine(engine):
+            for kind, rates in found.items():
+                if _engine(kind) == engine:
+                    found[kind] = replace(rates, first_s=rates.first_s + more)
     return found
+
+
+def _engine(kind: Hashable) -> Hashable:
+    """A suite's kind's engine: its first part (the kind itself for an engine)."""
+    return kind[0] if isinstance(kind, tuple) else kind
 
 
 def suite_costing() -> Costing:

@@ -18,7 +18,23 @@ What the priors say is then scaled by what the finished calls measured: by a kin
 factor (its finished warm calls' seconds over what the priors said of them, the most
 specific kind that has any), else by the machine's (:func:`machine_factor`: the median
 engine's warm calls' seconds over what the priors said of them; a loaded or slower machine
-scales every kind not measured yet alike).
+scales every kind not measured yet alike). A kind's own factor counts :data:`KIND_CREDIBLE_S`
+(a second, the progress lines' interval) of said seconds more at the machine's factor: a
+kind whose calls have said less than about a second is measured on a few calls, whose cost
+spreads far more than the machine's speed does (the map's classification: points that
+solve their window, 60-80 ms, came first, then points that return at once, 2-4 ms; its
+factor from the first 41 of 100 points said 1.6 s left of a 3.6-s step where 0.95 s were,
+1.66 times the time left, while the machine's factor said 0.81 s). A kind measured on many
+seconds is its own.
+
+Some calls pay once what the others do not (:class:`Rates`): a worker's first call of a
+kind (cold: imports, MJX's tracing), a worker's first call of an engine whichever kind it
+is (first: Warp's kernels, compiled by each worker into an empty cache), and the machine's
+first call of a kind on any worker (new: MJX's XLA program, compiled once into the cache
+every worker reads). The calls left are laid out with each of these where it falls (the
+first pending calls of a kind or an engine, one per worker that has not run it; the first
+of a kind no worker has run), and what a first or new call pays more is taken at the
+machine's factor: it is a compile, not a sample of the kind (nor, below, of its cold calls).
 
 A cold call (its worker's first of its kind) is no sample of a kind's stepping: with cold
 caches MJX's first calls of 3,000 steps were mostly compiling (2-3 times their prior), and
@@ -40,19 +56,23 @@ from __future__ import annotations
 import heapq
 import statistics
 from collections import Counter
-from collections.abc import Callable, Hashable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Collection, Hashable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
 __all__ = [
+    "KIND_CREDIBLE_S",
     "CallCost",
     "Costing",
     "Rates",
     "Took",
     "call_ends",
+    "call_firsts",
     "kind_factors",
     "machine_factor",
     "once_factors",
+    "ran",
     "remaining_seconds",
+    "warm_counts",
 ]
 
 
@@ -82,11 +102,30 @@ class Rates:
     """s per step of each world of a batch (0 for an engine that steps one world)."""
     cold_s: float = 0.0
     """s a worker's first call of the kind pays more (imports, MJX's tracing and compiling)."""
+    first_s: float = 0.0
+    """s a worker's first call of the engine (the most general kind), whichever kind it is,
+    pays more: what every kind of the engine shares (Warp's kernels, compiled into an empty
+    cache by each worker that runs the engine)."""
+    new_s: float = 0.0
+    """s the machine's first call of the kind (on any worker) pays more: a compile that
+    lands in a cache every worker reads (MJX's XLA program of the kind)."""
 
-    def seconds(self, call: CallCost, cold: bool = False) -> float:
-        """The call's seconds by these rates."""
+    def seconds(
+        self, call: CallCost, cold: bool = False, first: bool = False, new: bool = False
+    ) -> float:
+        """The call's seconds by these rates (``first`` and ``new`` calls are also cold)."""
+        return self.per_call(call, cold) + self.once(first, new)
+
+    def per_call(self, call: CallCost, cold: bool = False) -> float:
+        """The call's seconds but what a worker's first call of the engine and the machine's
+        first call of the kind pay more."""
         per_step = self.step_s + call.worlds * self.world_step_s
         return self.fixed_s + call.steps * per_step + (self.cold_s if cold else 0.0)
+
+    def once(self, first: bool, new: bool) -> float:
+        """What a worker's first call of the engine (``first``) and the machine's first call
+        of the kind (``new``) pay more."""
+        return (self.first_s if first else 0.0) + (self.new_s if new else 0.0)
 
 
 @dataclass(frozen=True)
@@ -107,6 +146,10 @@ class Took:
     seconds: float
     cold: bool = False
     """Its worker had run no call of its most specific kind before (module docstring)."""
+    first: bool = False
+    """Its worker had run no call of its engine (most general kind) before: also cold."""
+    new: bool = False
+    """No worker had run a call of its most specific kind before: also cold."""
 
 
 def prior_rates(call: CallCost, prior: Mapping[Hashable, Rates]) -> Rates | None:
@@ -115,37 +158,54 @@ def prior_rates(call: CallCost, prior: Mapping[Hashable, Rates]) -> Rates | None
 
 
 def prior_seconds(
-    call: CallCost, prior: Mapping[Hashable, Rates], cold: bool = False
+    call: CallCost,
+    prior: Mapping[Hashable, Rates],
+    cold: bool = False,
+    first: bool = False,
+    new: bool = False,
 ) -> float | None:
     """The call's seconds by the prior of its most specific kind that has one; None without."""
     rates = prior_rates(call, prior)
-    return None if rates is None else rates.seconds(call, cold)
+    return None if rates is None else rates.seconds(call, cold, first, new)
 
 
 def _said(finished: Iterable[Took], prior: Mapping[Hashable, Rates]) -> list[tuple[Took, float]]:
     """The finished calls a prior knows, each with what the prior said of it (> 0)."""
-    pairs = [(done, prior_seconds(done.call, prior, done.cold)) for done in finished]
+    pairs = [
+        (done, prior_seconds(done.call, prior, done.cold, done.first, done.new))
+        for done in finished
+    ]
     return [(done, said) for done, said in pairs if said is not None and said > 0]
 
 
-def _ratios(pairs: Iterable[tuple[Took, float]]) -> dict[Hashable, float]:
+def _ratios(
+    pairs: Iterable[tuple[Took, float]], machine: float = 1.0, credible_s: float = 0.0
+) -> dict[Hashable, float]:
     """Kind -> its calls' seconds over what was said of them, over every call that has
-    the kind at any level."""
+    the kind at any level, ``credible_s`` more said seconds taken at ``machine``."""
     took: dict[Hashable, float] = {}
     said: dict[Hashable, float] = {}
     for done, expected in pairs:
         for kind in done.call.kinds:
             took[kind] = took.get(kind, 0.0) + done.seconds
             said[kind] = said.get(kind, 0.0) + expected
-    return {kind: took[kind] / said[kind] for kind in said}
+    return {kind: (took[kind] + credible_s * machine) / (said[kind] + credible_s) for kind in said}
+
+
+KIND_CREDIBLE_S = 1.0
+"""s of a kind's calls (as its priors say them) that count as much as what its finished
+calls measured: a kind's factor is its calls' seconds and this many more at the machine's
+factor, over what the priors said of them and this many more (module docstring)."""
 
 
 def kind_factors(
-    finished: Iterable[Took], prior: Mapping[Hashable, Rates]
+    finished: Iterable[Took], prior: Mapping[Hashable, Rates], machine: float = 1.0
 ) -> dict[Hashable, float]:
     """Kind -> its finished warm calls' seconds over what the priors said of them, over
-    every warm call that has the kind at any level (module docstring: cold calls apart)."""
-    return _ratios((done, said) for done, said in _said(finished, prior) if not done.cold)
+    every warm call that has the kind at any level (module docstring: cold calls apart),
+    with :data:`KIND_CREDIBLE_S` more said seconds taken at the ``machine`` factor."""
+    pairs = [(done, said) for done, said in _said(finished, prior) if not done.cold]
+    return _ratios(pairs, machine, KIND_CREDIBLE_S)
 
 
 def machine_factor(finished: Sequence[Took], prior: Mapping[Hashable, Rates]) -> float:
@@ -168,14 +228,17 @@ def once_factors(
     """Most specific kind -> for its finished cold calls: what they took beyond their steps
     at the ``machine`` factor, over what their priors say a call pays once (the fixed part
     and the cold part), at least 0. A kind whose priors say nothing of such a part is left
-    out. Only the most specific: with cold caches Newton's first call compiled Warp's
-    kernels (16 times its once-part), which its worker's calls of other variants then did
-    not pay again."""
+    out. Only the most specific, and only calls whose priors say no compile (a worker's
+    first call of the engine, the machine's first of the kind: :meth:`Rates.once`): with
+    cold caches MuJoCo Warp's first call in a worker compiled Warp's kernels (80 times its
+    once-part, when the priors knew no compile), which that kind's
+    first call in the other worker, whose kernels were compiled, then did not pay (0.3 s:
+    this factor had said 32 s, the default suite's ETA 2.0 times the time left)."""
     took: dict[Hashable, float] = {}
     once: dict[Hashable, float] = {}
     for done in finished:
         rates = prior_rates(done.call, prior)
-        if not done.cold or rates is None:
+        if not done.cold or rates is None or rates.once(done.first, done.new) > 0:
             continue
         fixed = rates.fixed_s + rates.cold_s
         stepping = rates.seconds(done.call) - rates.fixed_s
@@ -193,6 +256,8 @@ class Running:
     ran: float
     """s it has run."""
     cold: bool = False
+    first: bool = False
+    new: bool = False
 
 
 class _Estimate:
@@ -200,28 +265,32 @@ class _Estimate:
 
     def __init__(self, finished: Sequence[Took], prior: Mapping[Hashable, Rates]) -> None:
         self.prior = prior
-        self.factors = kind_factors(finished, prior)
         self.machine = machine_factor(finished, prior)
+        self.factors = kind_factors(finished, prior, self.machine)
         self.once = once_factors(finished, prior, self.machine)
         steps = sum(done.call.steps for done in finished)
         # A call no prior knows: every finished call's mean seconds per step, else per call.
         self.per_step = sum(d.seconds for d in finished) / steps if steps > 0 else None
         self.per_call = sum(d.seconds for d in finished) / len(finished) if finished else None
 
-    def seconds(self, call: CallCost, cold: bool) -> float | None:
+    def seconds(
+        self, call: CallCost, cold: bool, first: bool = False, new: bool = False
+    ) -> float | None:
         rates = prior_rates(call, self.prior)
         if rates is None:
             if call.steps > 0 and self.per_step is not None:
                 return self.per_step * call.steps
             return self.per_call
+        # A compile into an empty cache is the machine's, not the kind's (module docstring).
+        once = rates.once(first, new) * self.machine
         for kind in call.kinds:  # the most specific kind measured
             if kind in self.factors:
-                return rates.seconds(call, cold) * self.factors[kind]
+                return rates.per_call(call, cold) * self.factors[kind] + once
             if cold and kind in self.once:  # measured by cold calls only (module docstring)
-                once = rates.fixed_s + rates.cold_s
-                stepping = rates.seconds(call) - rates.fixed_s
-                return once * self.once[kind] + stepping * self.machine
-        return rates.seconds(call, cold) * self.machine
+                fixed = rates.fixed_s + rates.cold_s
+                stepping = rates.per_call(call) - rates.fixed_s
+                return fixed * self.once[kind] + stepping * self.machine + once
+        return rates.per_call(call, cold) * self.machine + once
 
 
 def remaining_seconds(
@@ -234,9 +303,11 @@ def remaining_seconds(
 ) -> float | None:
     """Seconds until the sweep ends: ``pending`` calls (in submission order) and the
     ``running`` ones laid out on ``workers`` workers, each at its expected seconds (module
-    docstring). ``warm``: most specific kind -> workers that have run a call of it; the
-    first pending calls of a kind, one per worker that has not, are cold. None when a call
-    has no prior and no call has finished yet."""
+    docstring). ``warm``: kind (at every level, :func:`warm_counts`) -> workers that have
+    run a call of it; the first pending calls of a most specific kind, one per worker that
+    has not, are cold, those of an engine (the most general kind) first, and the first of a
+    kind no worker has run new (:class:`Took`). None when a call has no prior and no call
+    has finished yet."""
     ends = call_ends(pending, running, finished, workers, prior, warm)
     return None if ends is None else max([0.0, *ends[0], *ends[1]])
 
@@ -255,10 +326,11 @@ def call_ends(
     estimate = _Estimate(finished, prior)
     workers = max(workers, 1)
     cold_left = Counter({kind: workers - n for kind, n in (warm or {}).items()})
+    seen = {kind for kind, n in (warm or {}).items() if n > 0}
     free = [0.0] * workers  # when each worker is next free, s from now
     running_ends: list[float] = []
     for run in running:
-        expected = estimate.seconds(run.call, run.cold)
+        expected = estimate.seconds(run.call, run.cold, run.first, run.new)
         if expected is None:
             return None
         # A call past its expected cost has an unknown rest: a tenth of what it has run.
@@ -268,13 +340,47 @@ def call_ends(
     pending_ends: list[float] = []
     for call in pending:
         kind = call.kinds[0] if call.kinds else None
-        if kind not in cold_left:
-            cold_left[kind] = workers
-        cold = cold_left[kind] > 0
-        cold_left[kind] -= 1
-        expected = estimate.seconds(call, cold)
+        cold = _first_of(kind, cold_left, workers)
+        # The engine's: its first pending calls, one per worker that has not run it.
+        first = _first_of(call.kinds[-1], cold_left, workers) if len(call.kinds) > 1 else cold
+        new = kind not in seen
+        seen.add(kind)
+        expected = estimate.seconds(call, cold, first and cold, new and cold)
         if expected is None:
             return None
         pending_ends.append(free[0] + expected)
         heapq.heapreplace(free, pending_ends[-1])
     return running_ends, pending_ends
+
+
+def _first_of(kind: Hashable, cold_left: Counter[Hashable], workers: int) -> bool:
+    """Whether the next pending call of ``kind`` is the first of it on a worker (of
+    ``workers``, ``cold_left[kind]`` of which have not run it), counting it as run."""
+    if kind not in cold_left:
+        cold_left[kind] = workers
+    cold_left[kind] -= 1
+    return cold_left[kind] >= 0
+
+
+def call_firsts(
+    call: CallCost, worker: Hashable, warm: Collection[tuple[Hashable, Hashable]]
+) -> tuple[bool, bool, bool]:
+    """(cold, first, new) of ``call`` on ``worker`` (:class:`Took`), after the calls whose
+    (worker, kind) at every level of their kinds are ``warm`` (:func:`ran`)."""
+    kind = call.kinds[0] if call.kinds else None
+    engine = call.kinds[-1] if call.kinds else None
+    cold = (worker, kind) not in warm
+    first = (worker, engine) not in warm
+    new = all(other != kind for _, other in warm)
+    return cold, first and cold, new and cold
+
+
+def ran(call: CallCost, worker: Hashable) -> set[tuple[Hashable, Hashable]]:
+    """(worker, kind) at every level of ``call``'s kinds: what a worker that has run it is
+    warm for (:func:`call_firsts`)."""
+    return {(worker, kind) for kind in call.kinds} if call.kinds else {(worker, None)}
+
+
+def warm_counts(warm: Iterable[tuple[Hashable, Hashable]]) -> Counter[Hashable]:
+    """Kind (at any level) -> workers that have run a call of it: ``call_ends``' ``warm``."""
+    return Counter(kind for _, kind in warm)

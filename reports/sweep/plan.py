@@ -60,8 +60,8 @@ class Active(Protocol):
         """Runs it has done."""
 
     def left(self) -> tuple[list[Running], list[CallCost], Counter[Hashable]] | None:
-        """Its calls running, its calls not started (in submission order), and most
-        specific kind -> workers warm for it; None without costs."""
+        """Its calls running, its calls not started (in submission order), and kind (at
+        every level) -> workers warm for it; None without costs."""
 
 
 class Plan:
@@ -86,8 +86,8 @@ class Plan:
         """What runs once the sweeps are done, one after the other (the report)."""
         self.finished: list[Took] = []
         """Every finished call of every sweep so far."""
-        self.warm: set[tuple[int | None, Hashable]] = set()
-        """(worker pid, most specific kind) of every call run: on a shared pool a worker
+        self.warm: set[tuple[Hashable, Hashable]] = set()
+        """(worker pid, kind) at every level of every call run: on a shared pool a worker
         stays warm from one sweep to the next."""
         self.index = -1
         """The last sweep begun."""

@@ -83,7 +83,10 @@ from hoopbench.reports.sweep.eta import (
     Rates,
     Running,
     Took,
+    call_firsts,
+    ran,
     remaining_seconds,
+    warm_counts,
 )
 from hoopbench.reports.sweep.folder_files import read_folder_text
 from hoopbench.reports.sweep.plan import Plan, current_plan, duration_text
@@ -1504,8 +1507,8 @@ class _Calls:
         self._costs: dict[int, CallCost] = {}
         self.prior: Mapping[Hashable, Rates] = {}
         """The Costing's priors (and a plan's: its other sweeps' kinds scale the machine)."""
-        self._warm: set[tuple[int | None, Hashable]] = set()
-        """(worker pid, most specific kind) of the calls run: a worker's next is warm."""
+        self._warm: set[tuple[Hashable, Hashable]] = set()
+        """(worker pid, kind) at every level of the calls run: a worker's next is warm."""
         self.plan: Plan | None = None
         """The plan whose shared pool this sweep's calls run on, else None (its own)."""
         self.plan_index = 0
@@ -1528,10 +1531,10 @@ class _Calls:
             call = self._cost(attempt.task)
         except Exception:  # a cost model's bug must not stop a sweep: the ETA counts runs
             return
-        worker = (getattr(future, "worker_pid", None), call.kinds[0] if call.kinds else None)
-        cold = worker not in self._warm
-        self._warm.add(worker)
-        self.finished.append(Took(call, time.monotonic() - start, cold))
+        worker = getattr(future, "worker_pid", None)
+        cold, first, new = call_firsts(call, worker, self._warm)
+        self._warm |= ran(call, worker)
+        self.finished.append(Took(call, time.monotonic() - start, cold, first, new))
 
     def remaining(self) -> float | None:
         """Seconds left (eta.remaining_seconds): the calls in flight that have started, then
@@ -1550,20 +1553,19 @@ class _Calls:
             return None
         now = time.monotonic()
         running, waiting = [], []
-        warm = Counter(kind for _, kind in self._warm)
-        # list(): another sweep's thread may read these (a plan's layout) as they change.
+        warm = set(self._warm)  # list(), set(): another sweep's thread may read these
         for future, attempt in list(self.in_flight.items()):
             start = self._started(future, attempt)
             call = self._cost(attempt.task)
             if start is None:
                 waiting.append(call)
                 continue
-            worker = (getattr(future, "worker_pid", None), call.kinds[0] if call.kinds else None)
-            cold = worker not in self._warm
-            warm[worker[1]] += cold  # its worker is warm for the calls after it
-            running.append(Running(call, now - start, cold))
+            worker = getattr(future, "worker_pid", None)
+            cold, first, new = call_firsts(call, worker, self._warm)
+            warm |= ran(call, worker)  # its worker is warm for the calls after it
+            running.append(Running(call, now - start, cold, first, new))
         pending = waiting + [self._cost(attempt.task) for attempt in list(self.queue)]
-        return running, pending, warm
+        return running, pending, warm_counts(warm)
 
     @property
     def done(self) -> int:

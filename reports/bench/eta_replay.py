@@ -1,0 +1,220 @@
+"""Measure: make report's ETAs replayed from the calls a real one recorded (``hoopbench
+report-runs --calls CALLS``), without running anything.
+
+make report's plan (its three suites and its map, as :func:`report_plan` works them out)
+runs again on ``--workers`` simulated workers: each sweep begins once the one before has no
+more than twice the workers' calls left to start (as the pool's queue takes them; the map's
+engine runs once its classification has ended), a free worker takes the next call of the
+earliest sweep, and each call lasts the seconds a recorded call of its kinds, steps and
+worlds took (a worker's first call of an engine takes the longest such recorded call: it is
+where a cold cache compiled; the others in the order they were recorded). After each call
+the sweep's and the overall ETA are worked out by :class:`~hoopbench.reports.sweep.plan.Plan`
+as the progress lines would, and printed as ETA over the simulated time left at 10, 25, 50
+and 75 % of each step's runs, read as the stamped log's are
+(:mod:`hoopbench.reports.bench.call_costs` ``accuracy``: within the printed second).
+
+A replay tells how the ETA's model reads calls that cost what they cost, in an order close
+to the real one; it does not reproduce the real run's timing (no gaps between calls, no
+drawing). ``--cold`` takes the engines whose compiled-code caches were empty (make report
+with a new HOOPBENCH_CACHE: ``mjx newton mjwarp``).
+
+    python -m hoopbench.reports.bench.eta_replay /tmp/mr11-calls.jsonl --cold mjx newton mjwarp
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections import deque
+from collections.abc import Hashable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from hoopbench.reports.bench.call_costs import FRACTIONS, _kind, _ratios
+from hoopbench.reports.compare.costs import priors
+from hoopbench.reports.compare.suite import DEFAULT_BATCH_SIZE
+from hoopbench.reports.hop_map.spec import MapSpec
+from hoopbench.reports.report_runs import MAP_STEP, REPORT_SUITES, report_plan
+from hoopbench.reports.sweep.eta import CallCost, Running, Took, call_firsts, ran, warm_counts
+from hoopbench.reports.sweep.plan import Plan, duration_text
+
+MAP = MapSpec(nx=10, ny=10, engines=("mujoco", "pybullet", "pymunk"))
+"""make report's map (the Makefile's MAP_ARGS: --grid 10x10 --engines mujoco pybullet
+pymunk)."""
+
+LINE_INTERVAL_S = 1.0
+"""The runner's plain progress lines: at most one a second (and the last)."""
+
+Key = tuple[tuple[Hashable, ...], float, int]
+
+
+@dataclass(frozen=True)
+class _InFlight:
+    """A call a simulated worker runs."""
+
+    call: CallCost
+    start: float
+    flags: tuple[bool, bool, bool]
+    """(cold, first, new): :func:`~hoopbench.reports.sweep.eta.call_firsts`."""
+    seconds: float
+
+
+@dataclass
+class _Sweep:
+    """A planned sweep as the replay runs it (the plan's :class:`Active`)."""
+
+    queue: deque[CallCost]
+    done: int = 0
+    running: dict[int, _InFlight] = field(default_factory=dict)
+    """Worker -> the call it runs."""
+    warm: set[tuple[Hashable, Hashable]] = field(default_factory=set)
+    now: float = 0.0
+    line: float = -float("inf")
+    """When its last progress line was printed."""
+
+    def left(self) -> tuple[list[Running], list[CallCost], object]:
+        warm = set(self.warm)
+        running = []
+        for worker, flight in self.running.items():
+            running.append(Running(flight.call, self.now - flight.start, *flight.flags))
+            warm |= ran(flight.call, worker)
+        return running, list(self.queue), warm_counts(warm)
+
+
+class _Recorded:
+    """The recorded calls' seconds by kinds, steps and worlds."""
+
+    def __init__(self, records: Sequence[dict[str, Any]]) -> None:
+        self.left: dict[Key, list[float]] = {}
+        for record in records:
+            kinds = tuple(_kind(k) for k in record["kinds"])
+            key = (kinds, float(record["steps"]), int(record["worlds"]))
+            self.left.setdefault(key, []).append(float(record["seconds"]))
+
+    def take(self, call: CallCost, first: bool) -> float:
+        found = self.left.get((tuple(call.kinds), float(call.steps), call.worlds))
+        if not found:
+            raise KeyError(f"no recorded call of {call}")
+        pick = max(range(len(found)), key=found.__getitem__) if first else 0
+        return found.pop(pick)
+
+
+def replay(
+    records: Sequence[dict[str, Any]], cold: Sequence[str], workers: int, report_s: float
+) -> dict[str, list[float | None]]:
+    """Step name (and 'overall') -> ETA / time left at FRACTIONS (module docstring)."""
+    suites = [name for name, _ in REPORT_SUITES]
+    planned = report_plan(suites, MAP, workers, DEFAULT_BATCH_SIZE)
+    plan = Plan("make report", planned.sweeps, priors(cold), workers, after=planned.after)
+    recorded = _Recorded(records)
+    sweeps = [_Sweep(deque(s.calls), warm=plan.warm) for s in plan.sweeps]
+    names = [_name(k, s.step) for k, s in enumerate(plan.sweeps)]
+    points: dict[str, list[tuple[float, float, str]]] = {name: [] for name in names}
+    ends: dict[str, float] = {}
+    overall: list[tuple[float, float, str]] = []
+    free = dict.fromkeys(range(workers), 0.0)
+    begun = -1
+    now = 0.0
+    while True:
+        begun = _begin(plan, sweeps, begun, workers)
+        _start_calls(sweeps, free, now, plan.warm, recorded, begun)
+        busy = [(f.start + f.seconds, k, w) for k, s in enumerate(sweeps)
+                for w, f in s.running.items()]  # fmt: skip
+        if not busy:
+            break
+        now, k, worker = min(busy)
+        sweep = sweeps[k]
+        flight = sweep.running.pop(worker)
+        call = flight.call
+        plan.finished.append(Took(call, flight.seconds, *flight.flags))
+        plan.warm |= ran(call, worker)
+        free[worker] = now
+        sweep.done += call.worlds
+        if not sweep.queue and not sweep.running:
+            plan.end(k, sweep.done)
+        for s in sweeps:
+            s.now = now
+        if now - sweep.line < LINE_INTERVAL_S and (sweep.queue or sweep.running):
+            continue  # the runner's plain lines: at most one a second, and the last
+        sweep.line = now
+        own = plan.sweep_left(k)
+        whole = plan.seconds_left()
+        if own is not None:
+            points[names[k]].append((sweep.done / plan.sweeps[k].runs, now, duration_text(own)))
+            ends[names[k]] = now
+        if whole is not None:
+            runs = sum(s.done for s in sweeps)
+            overall.append((runs / plan.total, now, duration_text(whole)))
+    out = {name: _ratios(pts, ends[name]) for name, pts in points.items() if pts}
+    out["overall"] = _ratios(overall, now + report_s)
+    return out
+
+
+def _begin(plan: Plan, sweeps: list[_Sweep], begun: int, workers: int) -> int:
+    """Begin the sweeps whose turn has come (the one before has at most twice the workers'
+    calls left to start; the map's engine runs once its classification has ended)."""
+    while begun + 1 < len(sweeps):
+        before = sweeps[begun] if begun >= 0 else None
+        if before is not None and len(before.queue) > 2 * workers:
+            break
+        is_map_engines = begun >= 0 and plan.sweeps[begun].step == MAP_STEP
+        if is_map_engines and (before is None or before.queue or before.running):
+            break
+        begun += 1
+        plan.attach(plan.begin(plan.sweeps[begun].runs), sweeps[begun])  # type: ignore[arg-type]
+    return begun
+
+
+def _start_calls(
+    sweeps: list[_Sweep],
+    free: dict[int, float],
+    now: float,
+    warm: set[tuple[Hashable, Hashable]],
+    recorded: _Recorded,
+    begun: int,
+) -> None:
+    """Each idle worker takes the next call of the earliest begun sweep with one left."""
+    busy = {w for s in sweeps for w in s.running}
+    for worker in sorted(free):
+        if worker in busy:
+            continue
+        k = next((k for k in range(begun + 1) if sweeps[k].queue), None)
+        if k is None:
+            return
+        call = sweeps[k].queue.popleft()
+        taken = set(warm)
+        for s in sweeps:
+            for w, flight in s.running.items():
+                taken |= ran(flight.call, w)
+        flags = call_firsts(call, worker, taken)
+        sweeps[k].running[worker] = _InFlight(call, now, flags, recorded.take(call, flags[1]))
+
+
+def _name(index: int, step: str) -> str:
+    """A sweep's name as the accuracy table names its step."""
+    if step != MAP_STEP:
+        return step
+    return "map (reference)" if index == len(REPORT_SUITES) else "map"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("calls", help="report-runs --calls' file")
+    parser.add_argument("--cold", nargs="*", default=[], help="engines whose caches were cold")
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--report-s", type=float, default=17.0, help="the report step's s")
+    args = parser.parse_args(argv)
+    lines = Path(args.calls).read_text().splitlines()
+    records = [json.loads(line) for line in lines if line.strip()]
+    table = replay(records, args.cold, args.workers, args.report_s)
+    print("step | " + " | ".join(f"{f:.0%}" for f in FRACTIONS))
+    for name, ratios in table.items():
+        cells = ["—" if r is None else f"{r:.2f}" for r in ratios]
+        print(f"{name} | " + " | ".join(cells))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
