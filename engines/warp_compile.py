@@ -102,6 +102,8 @@ def share_compiles(wp: ModuleType) -> None:
     module_class = wp.Module
     if getattr(module_class, "_shares_compiles", False):
         return
+    if not callable(getattr(module_class, "_compile", None)):  # another Warp: as Warp does
+        return
     module_class._compile = _locked(module_class._compile)
     module_class._shares_compiles = True
 
@@ -124,6 +126,8 @@ def load_modules(wp: ModuleType, device: Any, names: Sequence[str]) -> list[str]
     ones another process is compiling last (module doc). A module is imported first (as the
     engine would import it on its first step); a name that cannot be (another version of
     the engine) is left out. Returns the names in the order they were loaded."""
+    if not callable(getattr(wp, "load_module", None)):  # another Warp: loaded at launch
+        return []
     known = [name for name in names if _imported(name)]
     later, done = [], []
     _WAITS.skip = True
