@@ -42,6 +42,7 @@ from hoopbench.engines.run import BatchCost, Run, RunInfo, RunResult, RunStatus
 from hoopbench.engines.settings import BYTES_PER_STEP, MAX_STEPS, RunSettings
 from hoopbench.engines.standalone import EXPORT_GEOMETRY, standalone_script
 from hoopbench.engines.stopping import StopMonitor, StopReason, StopRule
+from hoopbench.engines.warp_compile import share_compiles
 from hoopbench.models import kinematics
 from hoopbench.models.events import Events
 from hoopbench.models.scene import Scene
@@ -1218,8 +1219,9 @@ def _loads(library: str) -> bool:
 
 def import_warp() -> ModuleType:
     """NVIDIA Warp, quiet (its start-up banner would go to stdout, which ``--json`` output
-    owns) and with its kernel cache under :func:`cache_folder`; EngineUnavailableError if
-    it cannot be imported."""
+    owns), with its kernel cache under :func:`cache_folder` and each module compiled by one
+    process at a time (engines/warp_compile.py); EngineUnavailableError if it cannot be
+    imported."""
     wp = import_engine("warp")
     # hoopbench never takes a gradient: no kernel's adjoint is compiled (Warp's documented
     # switch; a module takes it when created, so before the engine's package is imported).
@@ -1228,4 +1230,5 @@ def import_warp() -> ModuleType:
         wp.config.kernel_cache_dir = str(cache_folder(WARP_CACHE))
     wp.config.quiet = True
     wp.config.log_level = max(wp.config.log_level, wp.LOG_WARNING)  # no per-module timings
+    share_compiles(wp)  # one process compiles a module, the others load it (warp_compile)
     return wp

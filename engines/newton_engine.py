@@ -114,6 +114,7 @@ from hoopbench.engines.options import (
 )
 from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
+from hoopbench.engines.warp_compile import load_modules
 from hoopbench.models import kinematics
 from hoopbench.models.mjcf import INERTIA_PAD
 from hoopbench.models.scene import Scene
@@ -144,6 +145,47 @@ CONTACT_KD = 2.0 * CONTACT_MASS / CONTACT_TIME
 """N s/m: kd = 2 M / tc."""
 UNIT_ROUNDOFF = 2.0**-24
 """float32's unit roundoff u: a rounded result is within u |x| of the exact x."""
+WARP_MODULES = (
+    "newton._src.sim.articulation",
+    "newton._src.sim.collide",
+    "newton._src.geometry.bvh",
+    "newton._src.geometry.narrow_phase",
+    "newton._src.geometry.broad_phase_nxn",
+)
+"""Newton's modules (of all its kernels but those made per call, ``module="unique"``) that
+every solver's call loads, the dearest first (compiled on the CPU, 2026-11-29: 2.6, 1.5,
+1.2, 0.8 and 0.6 CPU-s of the 17.5 a cold XPBD process pays): loaded before the model
+is built, where two cold processes split them (engines/warp_compile.py)."""
+
+SOLVER_MODULES: dict[str, tuple[str, ...]] = {
+    "xpbd": ("newton._src.solvers.xpbd.kernels", "newton._src.solvers.solver"),
+    "featherstone": (
+        "newton._src.solvers.featherstone.kernels",
+        "newton._src.solvers.semi_implicit.kernels_contact",
+    ),
+    "semi_implicit": (
+        "newton._src.solvers.semi_implicit.kernels_body",
+        "newton._src.solvers.semi_implicit.kernels_contact",
+        "newton._src.solvers.solver",
+    ),
+    "mujoco": (
+        "mujoco_warp._src.forward",
+        "newton._src.solvers.mujoco.kernels",
+        "mujoco_warp._src.smooth",
+        "mujoco_warp._src.passive",
+        "mujoco_warp._src.derivative",
+        "mujoco_warp._src.set_const",
+        "mujoco_warp._src.solver",
+        "mujoco_warp._src.support",
+        "mujoco_warp._src.constraint",
+    ),
+}
+"""The Warp modules each solver's call adds, the dearest first (CPU-s on a cold cache,
+2026-11-29: XPBD 4.8, 0.4; Featherstone 6.7, 1.3; SemiImplicit 2.9, 1.2, 0.4; MuJoCo 5.5-5.8
+each for MuJoCo Warp's forward and Newton's MuJoCo kernels, then 4.1, 2.8, 1.9, 1.0, 0.7,
+0.3, 0.1), loaded with :data:`WARP_MODULES`. MuJoCo Warp's modules are the same binaries
+the mjwarp adapter loads (one hash each), shared through the cache."""
+
 ROUNDINGS: dict[str, int] = {"xpbd": 2, "semi_implicit": 2, "featherstone": 16, "mujoco": 16}
 """Per solver, the roundings N a velocity Newton stores may carry per step (module doc,
 Force): 2 where the solver integrates the body's velocity itself (v + a dt, one rounding per
@@ -296,6 +338,7 @@ class NewtonEngine(WorldsEngine):
             # SolverMuJoCo warns that it was built against mujoco 3.17 (here: 4.0).
             warnings.filterwarnings("ignore", message="MuJoCo dependency version mismatch")
             mus = [self.mu_for(scene, settings) for scene in scenes]
+            load_modules(wp, wp.get_device(), (*SOLVER_MODULES[options["solver"]], *WARP_MODULES))
             model = _build(newton, wp, scenes, mus, options)
             built = _built(newton, wp, model, options, settings.timestep)
             batch = _Batch(

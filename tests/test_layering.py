@@ -35,6 +35,7 @@ RANKS = {
         "stopping": 2,
         "settings": 3,
         "standalone": 3,
+        "warp_compile": 3,
         "base": 4,
         "registry": 5,
         "adapters": 6,  # every *_engine.py: each registers itself in the registry

@@ -10,12 +10,15 @@ velocities 1e-2, rolling normal force 1e-2 g.
 
 from __future__ import annotations
 
+from collections import OrderedDict
+
 import numpy as np
 import pytest
 from worlds_runs import (
     DT,
     STATE_COLUMNS,
     batched_differences,
+    launched_warp_modules,
     run_ok,
     same_run,
     skip_without_a_warp_gpu,
@@ -141,3 +144,18 @@ def test_a_row_is_the_same_alone_and_in_any_batch_on_a_gpu():
     skip_without_a_warp_gpu()
     settings = RunSettings(timestep=DT, options={"device": "gpu"})
     assert not batched_differences("mjwarp", _catalogue(), settings, ORDERS)
+
+
+def test_the_modules_loaded_before_the_first_step_are_ones_it_launches(monkeypatch):
+    """The modules the adapter loads ahead of a new build's first step, where two cold
+    processes split them (``WARP_MODULES``, engines/warp_compile.py), all exist and are all
+    launched by a stock and a tuned run: none compiled for nothing. Steps launched from
+    Python (a captured graph launches nothing), kept objects built anew: 0.01 s windows."""
+    monkeypatch.setattr(mjwarp_engine, "CAPTURE_STEPS", False)
+    monkeypatch.setattr(mjwarp_engine, "_KEPT", OrderedDict())
+    launched = launched_warp_modules(monkeypatch, "mjwarp")
+    engine = get_engine("mjwarp")
+    for profile in ("stock", "tuned"):
+        run = engine.simulate(SCENE.with_(t_end=0.01), RunSettings(timestep=DT, profile=profile))
+        assert run.info.status is RunStatus.OK, run.info.message
+    assert set(mjwarp_engine.WARP_MODULES) <= launched

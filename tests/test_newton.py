@@ -22,6 +22,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from collections import OrderedDict
 
 import numpy as np
 import pytest
@@ -30,6 +31,7 @@ from worlds_runs import (
     DT,
     STATE_COLUMNS,
     batched_differences,
+    launched_warp_modules,
     run_ok,
     same_run,
     skip_without_a_warp_gpu,
@@ -266,3 +268,17 @@ def test_a_second_call_on_a_gpu_replays_the_captured_steps():
     for a, b in zip(first, second, strict=True):
         assert a.info.status is RunStatus.OK, a.info.message
         assert same_run(a, b) is None, same_run(a, b)
+
+
+@pytest.mark.parametrize("solver", sorted(SLIP_AT_0_1_S))
+def test_the_modules_loaded_before_the_first_step_are_ones_it_launches(monkeypatch, solver):
+    """The modules the adapter loads ahead of a new build, where two cold processes split
+    them (``WARP_MODULES`` and the solver's ``SOLVER_MODULES``, engines/warp_compile.py),
+    all exist and are all launched by the solver's run: none compiled for nothing. Steps
+    launched from Python (a captured graph launches nothing), built anew: 0.01 s windows."""
+    monkeypatch.setattr(newton_engine, "CAPTURE_STEPS", False)
+    monkeypatch.setattr(newton_engine, "_BUILT", OrderedDict())
+    launched = launched_warp_modules(monkeypatch, "newton")
+    run_ok("newton", SEED.with_(t_end=0.01), solver=solver)
+    listed = {*newton_engine.WARP_MODULES, *newton_engine.SOLVER_MODULES[solver]}
+    assert listed <= launched

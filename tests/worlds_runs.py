@@ -1,7 +1,7 @@
 """What the batched engines' tests (test_mjx.py, test_mjwarp.py, test_newton.py) share: a
 run that must come back ok (a skip when its optional engine is missing), the largest
-difference between two trajectories, and the runs of a batch that are not their lone runs
-bit for bit."""
+difference between two trajectories, the runs of a batch that are not their lone runs
+bit for bit, and the Warp modules a run launches."""
 
 from __future__ import annotations
 
@@ -81,3 +81,23 @@ def batched_differences(
         )
         if (found := same_run(run, alone[i]))
     ]
+
+
+def launched_warp_modules(monkeypatch: pytest.MonkeyPatch, engine: str) -> set[str]:
+    """The names of the Warp modules whose kernels ``wp.launch`` launches from now on in
+    this test (the set fills as runs launch; MuJoCo Warp and Newton launch through it); a
+    skip when ``engine``'s Warp is missing."""
+    try:
+        import warp as wp
+    except ImportError as exc:
+        engine_unavailable(engine, str(exc))
+
+    launched: set[str] = set()
+    launch = wp.launch
+
+    def recording(kernel, *args, **kwargs):
+        launched.add(kernel.module.name)
+        return launch(kernel, *args, **kwargs)
+
+    monkeypatch.setattr(wp, "launch", recording)
+    return launched
