@@ -36,6 +36,7 @@ takes about 20 s on 2 CPU cores, a cached one about 1 s. A process keeps its com
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -128,6 +129,7 @@ class MjxEngine(WorldsEngine, MjcfEngine):
         )
 
     def _import(self) -> ModuleType:
+        _one_xla_thread()
         module = super()._import()
         import jax
 
@@ -332,6 +334,26 @@ def simulate():
     return {{**com, "normal_force": force[:, 2] / M, "friction_force": force[:, 0] / M}}
 '''
 """MJX's part of a standalone script (engines/standalone.py), as an MJX user writes it."""
+
+
+XLA_THREADS_VARIABLES = ("PJRT_NPROC", "NPROC")
+"""The environment variables XLA's CPU client reads, in this order, for the size of its thread
+pool when JAX creates it (``xla/pjrt/cpu/cpu_client.cc``); unset, the pool has a thread per
+schedulable core."""
+
+
+def _one_xla_thread() -> None:
+    """One thread in XLA's CPU pool (``PJRT_NPROC=1``) unless the user chose a size: set
+    before JAX creates its CPU client (a process whose client exists keeps its pool). A batch
+    step runs thousands of small kernels (XLA thunks: RK4's four solves, each solver
+    iteration a 50-iteration line search of 90), and with a thread per core XLA's thunk
+    executor hands ready ones between its threads: the hand-offs (work stealing, task
+    switches) cost CPU time, while ``make report``'s workers, one per core, keep every core
+    busy. The finer suite's call (8 worlds, 30,000 steps at dt 1e-4) stepped in 6.6-7.6 %
+    less CPU time, with the same rows bit for bit (docs/engines.md, MJX); a lone run on idle
+    cores takes longer on the wall clock."""
+    if not any(os.environ.get(name) for name in XLA_THREADS_VARIABLES):
+        os.environ[XLA_THREADS_VARIABLES[0]] = "1"
 
 
 def _device(jax: ModuleType, choice: str) -> Any:

@@ -18,8 +18,12 @@ the window. Measured on mujoco 4.0.0 / mujoco-mjx 3.17.0 / jax 0.10.2, CPU:
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -27,6 +31,7 @@ import pytest
 from conftest import engine_unavailable
 from worlds_runs import DT, batched_differences, run_ok, worst
 
+from hoopbench.engines.mjx_engine import XLA_THREADS_VARIABLES
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.run import RunStatus
 from hoopbench.engines.settings import RunSettings
@@ -292,3 +297,41 @@ def test_compiled_functions_keep_the_last_used(monkeypatch):
     assert compiled(1) is first
     assert compiled(2) is not second  # the least recently used, dropped
     assert np.array_equal(compiled(2)(np.zeros(2)), np.ones(2))
+
+
+_XLA_THREADS = """
+import os
+from hoopbench.engines.registry import get_engine
+get_engine("mjx")._import()
+import jax
+jax.block_until_ready(jax.numpy.ones(3) + 1)
+tasks = os.listdir("/proc/self/task")
+print(sum("XLAEigen" in open(f"/proc/self/task/{t}/comm").read() for t in tasks))
+"""
+
+
+def _xla_threads(**environment: str) -> int:
+    """The threads of XLA's CPU pool in a fresh interpreter that imports MJX as a run does,
+    with none of XLA's thread-count variables set but ``environment``."""
+    env = {k: v for k, v in os.environ.items() if k not in XLA_THREADS_VARIABLES}
+    done = subprocess.run(
+        [sys.executable, "-c", _XLA_THREADS],
+        env=env | environment,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    return int(done.stdout.split()[-1])
+
+
+@pytest.mark.skipif(
+    not Path("/proc/self/task").is_dir() or len(os.sched_getaffinity(0)) < 2,
+    reason="needs Linux's /proc and 2 cores (with one, XLA's pool has one thread anyway)",
+)
+def test_xla_steps_on_one_thread_unless_the_user_chose():
+    """MJX's runs get one XLA thread (the hand-offs of a thread per core cost CPU time,
+    MjxEngine._import), and a size the user set is kept. About 5 CPU-s (two interpreters)."""
+    _mjx()
+    assert _xla_threads() == 1
+    assert _xla_threads(PJRT_NPROC="2") == 2
