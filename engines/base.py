@@ -54,6 +54,7 @@ __all__ = [
     "DEVICE",
     "DEVICES",
     "MAX_STEPS",
+    "POOL_WORKERS_VARIABLE",
     "RUN_ALONE",
     "STATE_KEYS",
     "WARP_CACHE",
@@ -68,6 +69,7 @@ __all__ = [
     "call_repeatedly",
     "check_divergence",
     "check_steps",
+    "cores_per_process",
     "equilibrium_depth",
     "import_engine",
     "import_warp",
@@ -1164,6 +1166,24 @@ DEVICE = Option(
     outside_search="where the worlds run: it changes the cost, and the events only by round-off",
 )
 """The ``device`` option of the batched engines (MJX, MuJoCo Warp, Newton)."""
+
+
+POOL_WORKERS_VARIABLE = "HOOPBENCH_POOL_WORKERS"
+"""Set in each worker of a pool of processes (reports/sweep/runner.py) to the pool's size: the
+workers share the machine's cores, and an engine with a thread pool of its own sizes it to its
+process's share (:func:`cores_per_process`)."""
+
+
+def cores_per_process() -> int:
+    """This process's share of the machine's cores: all of them for a process alone, ``cores //
+    workers`` (at least 1) for a worker of a pool, where more threads than cores would only hand
+    work between threads that the other workers' calls are waiting for."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    try:
+        workers = max(1, int(os.environ.get(POOL_WORKERS_VARIABLE, "1")))
+    except ValueError:
+        workers = 1
+    return max(1, (cores or 1) // workers)
 
 
 WARP_CACHE = "warp"

@@ -46,7 +46,13 @@ from typing import Any
 
 import numpy as np
 
-from hoopbench.engines.base import CHUNK_STEPS, DEVICE, WorldsEngine, cache_folder
+from hoopbench.engines.base import (
+    CHUNK_STEPS,
+    DEVICE,
+    WorldsEngine,
+    cache_folder,
+    cores_per_process,
+)
 from hoopbench.engines.mujoco_engine import MjcfEngine, MujocoEngine
 from hoopbench.engines.options import Option, Variant, choice, one_of
 from hoopbench.engines.registry import register
@@ -129,7 +135,7 @@ class MjxEngine(WorldsEngine, MjcfEngine):
         )
 
     def _import(self) -> ModuleType:
-        _one_xla_thread()
+        _xla_threads_per_share()
         module = super()._import()
         import jax
 
@@ -342,18 +348,18 @@ pool when JAX creates it (``xla/pjrt/cpu/cpu_client.cc``); unset, the pool has a
 schedulable core."""
 
 
-def _one_xla_thread() -> None:
-    """One thread in XLA's CPU pool (``PJRT_NPROC=1``) unless the user chose a size: set
-    before JAX creates its CPU client (a process whose client exists keeps its pool). A batch
-    step runs thousands of small kernels (XLA thunks: RK4's four solves, each solver
-    iteration a 50-iteration line search of 90), and with a thread per core XLA's thunk
-    executor hands ready ones between its threads: the hand-offs (work stealing, task
-    switches) cost CPU time, while ``make report``'s workers, one per core, keep every core
-    busy. The finer suite's call (8 worlds, 30,000 steps at dt 1e-4) stepped in 6.6-7.6 %
-    less CPU time, with the same rows bit for bit (docs/engines.md, MJX); a lone run on idle
-    cores takes longer on the wall clock."""
+def _xla_threads_per_share() -> None:
+    """XLA's CPU pool sized to this process's share of the cores (``PJRT_NPROC``,
+    :func:`cores_per_process`: one in each of ``make report``'s two workers on 2 cores, every
+    core for a run alone) unless the user chose a size; set before JAX creates its CPU client
+    (a process whose client exists keeps its pool). A batch step runs thousands of small
+    kernels (XLA thunks: RK4's four solves, each solver iteration a 50-iteration line search of
+    90), and with more threads than its share XLA's thunk executor hands ready ones between
+    threads the other workers need: the finer suite's call (8 worlds, 30,000 steps at dt 1e-4)
+    stepped in 6.6-7.6 % less CPU time with one thread per worker, the same rows bit for bit
+    (docs/engines.md, MJX)."""
     if not any(os.environ.get(name) for name in XLA_THREADS_VARIABLES):
-        os.environ[XLA_THREADS_VARIABLES[0]] = "1"
+        os.environ[XLA_THREADS_VARIABLES[0]] = str(cores_per_process())
 
 
 def _device(jax: ModuleType, choice: str) -> Any:

@@ -31,6 +31,7 @@ import pytest
 from conftest import engine_unavailable
 from worlds_runs import DT, batched_differences, run_ok, worst
 
+from hoopbench.engines.base import POOL_WORKERS_VARIABLE
 from hoopbench.engines.mjx_engine import XLA_THREADS_VARIABLES
 from hoopbench.engines.registry import get_engine
 from hoopbench.engines.run import RunStatus
@@ -312,8 +313,9 @@ print(sum("XLAEigen" in open(f"/proc/self/task/{t}/comm").read() for t in tasks)
 
 def _xla_threads(**environment: str) -> int:
     """The threads of XLA's CPU pool in a fresh interpreter that imports MJX as a run does,
-    with none of XLA's thread-count variables set but ``environment``."""
-    env = {k: v for k, v in os.environ.items() if k not in XLA_THREADS_VARIABLES}
+    with none of XLA's thread-count variables (nor the pool's size) set but ``environment``."""
+    unset = {*XLA_THREADS_VARIABLES, POOL_WORKERS_VARIABLE}
+    env = {k: v for k, v in os.environ.items() if k not in unset}
     done = subprocess.run(
         [sys.executable, "-c", _XLA_THREADS],
         env=env | environment,
@@ -329,9 +331,12 @@ def _xla_threads(**environment: str) -> int:
     not Path("/proc/self/task").is_dir() or len(os.sched_getaffinity(0)) < 2,
     reason="needs Linux's /proc and 2 cores (with one, XLA's pool has one thread anyway)",
 )
-def test_xla_steps_on_one_thread_unless_the_user_chose():
-    """MJX's runs get one XLA thread (the hand-offs of a thread per core cost CPU time,
-    MjxEngine._import), and a size the user set is kept. About 5 CPU-s (two interpreters)."""
+def test_xla_threads_are_the_process_share_of_the_cores_unless_the_user_chose():
+    """A worker of a pool of as many workers as cores gets one XLA thread (the hand-offs of a
+    thread per core cost CPU time the other workers need, MjxEngine._import); a run alone keeps
+    every core; a size the user set is kept. About 8 CPU-s (three interpreters)."""
     _mjx()
-    assert _xla_threads() == 1
-    assert _xla_threads(PJRT_NPROC="2") == 2
+    cores = len(os.sched_getaffinity(0))
+    assert _xla_threads(**{POOL_WORKERS_VARIABLE: str(cores)}) == 1
+    assert _xla_threads() == cores
+    assert _xla_threads(PJRT_NPROC="2", **{POOL_WORKERS_VARIABLE: str(cores)}) == 2

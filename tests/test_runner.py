@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from hoopbench.engines.base import POOL_WORKERS_VARIABLE, cores_per_process
 from hoopbench.engines.run import RunStatus
 from hoopbench.reports.sweep import results
 from hoopbench.reports.sweep.results import TIMING_COLUMNS, read_runs
@@ -596,6 +597,17 @@ def test_a_foreign_thread_pool_times_out_by_abandoning_the_call(tmp_path):
     rows = by_run_id(tmp_path / "out")
     assert rows["slow"]["status"] == "timeout" and rows["slow"]["label"] == "label-slow"
     assert summary.counts == {RunStatus.OK: 3, RunStatus.TIMEOUT: 1}
+
+
+def test_a_worker_knows_the_pool_size_and_its_share_of_the_cores():
+    """Engines with a thread pool (MJX's XLA) size it to the worker's share of the cores."""
+    with WorkerPool(3) as pool:
+        seen = pool.submit(os.getenv, POOL_WORKERS_VARIABLE).result(timeout=30)
+        share = pool.submit(cores_per_process).result(timeout=30)
+    assert seen == "3"
+    cores = len(os.sched_getaffinity(0))
+    assert share == max(1, cores // 3)
+    assert cores_per_process() == cores  # this process is no pool's worker
 
 
 def test_worker_pool_is_an_executor_that_kills_one_call_and_replaces_dead_workers():

@@ -74,6 +74,7 @@ from typing import Any, Protocol, TextIO, TypeVar
 # on a terminal; off a terminal it is disabled and we print plain, throttled lines instead.
 from tqdm import tqdm
 
+from hoopbench.engines.base import POOL_WORKERS_VARIABLE
 from hoopbench.engines.run import RunStatus
 from hoopbench.reports.sweep import results
 from hoopbench.reports.sweep.control_chars import terminal_text
@@ -187,8 +188,11 @@ def _worker_main(
     lifeline: multiprocessing.connection.Connection,
     lifeline_parent_end: multiprocessing.connection.Connection,
     preload: Sequence[str],
+    workers: int = 1,
 ) -> None:
-    """A worker process: run calls one at a time until told to stop or orphaned."""
+    """A worker process: run calls one at a time until told to stop or orphaned; ``workers``,
+    the pool's size, is left in the environment for engines that size thread pools."""
+    os.environ[POOL_WORKERS_VARIABLE] = str(workers)
     # Ctrl-C reaches the whole process group; the parent decides what stops and when.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     lifeline_parent_end.close()  # only a forked child has it open; the parent must hold the last
@@ -475,7 +479,13 @@ class WorkerPool(Executor):
         # Every context has Process; typeshed declares it on the concrete contexts only.
         process = self._ctx.Process(  # type: ignore[attr-defined]
             target=_worker_main,
-            args=(child_conn, self._lifeline_r, self._lifeline_w, self._preload),
+            args=(
+                child_conn,
+                self._lifeline_r,
+                self._lifeline_w,
+                self._preload,
+                self._max_workers,
+            ),
             name="hoopbench-worker",
             daemon=True,
         )
