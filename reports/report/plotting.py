@@ -29,7 +29,16 @@ from typing import Any
 from hoopbench.models.whole_files import write_whole
 from hoopbench.reports.sweep.control_chars import visible_controls
 
-__all__ = ["Draw", "draw_now", "plain_text", "plain_tick_label", "pyplot", "save", "written_whole"]
+__all__ = [
+    "Draw",
+    "draw_now",
+    "laid_out",
+    "plain_text",
+    "plain_tick_label",
+    "pyplot",
+    "save",
+    "written_whole",
+]
 
 Draw = Callable[..., object]
 """Where a report section's figure is drawn: called with the drawing function and its
@@ -123,7 +132,40 @@ def save(
             axis.set_major_formatter(_plain_formatter(axis.get_major_formatter()))
             axis.set_minor_formatter(_plain_formatter(axis.get_minor_formatter()))
     try:
-        extra = {} if metadata is None else {"metadata": metadata}
+        laid_out(fig, dpi)
+        extra: dict[str, Any] = {} if metadata is None else {"metadata": metadata}
         return written_whole(out, lambda tmp: fig.savefig(tmp, dpi=dpi, **extra))
     finally:
         pyplot().close(fig)
+
+
+def laid_out(fig: Any, dpi: float) -> None:
+    """``fig`` laid out by its layout engine at ``dpi`` (the file's), the engine then
+    dropped: savefig draws a figure with an engine twice, once to lay it out (nothing
+    rendered, yet every text laid out and every tick and line transformed) and once to render
+    it; laid out here, it draws once. A figure laid out already (``tight_layout()`` leaves a
+    placeholder engine, for which savefig draws twice too) draws once. The same pixels:
+    savefig's first draw runs the engine at the file's dpi, as here, and its second draw
+    runs without the engine (tests/test_plotting.py)."""
+    import matplotlib
+    from matplotlib.layout_engine import PlaceHolderLayoutEngine
+
+    engine = fig.get_layout_engine()
+    get_renderer = getattr(fig.canvas, "get_renderer", None)  # Agg's canvases (the PNG's)
+    if engine is None or get_renderer is None:
+        return
+    if fig.axes and not isinstance(engine, PlaceHolderLayoutEngine):
+        shown_dpi = fig.dpi
+        fig.dpi = dpi
+        try:  # the engine measures text with the canvas's renderer, of the figure's dpi
+            engine.execute(fig)
+        except ValueError:  # as Figure.draw, which savefig's first draw ran it in, lets it
+            pass
+        finally:
+            fig.dpi = shown_dpi
+    # None, not "none": savefig draws a figure twice for a placeholder engine too; and None
+    # whatever the rcParams, which would make None a new engine
+    with matplotlib.rc_context(
+        {"figure.autolayout": False, "figure.constrained_layout.use": False}
+    ):
+        fig.set_layout_engine(None)
