@@ -105,3 +105,27 @@ def test_a_laid_out_figure_is_drawn_once_to_savefig_s_pixels(tmp_path, monkeypat
                 theirs = plotting.save(fig, tmp_path / f"theirs-{k}.png", dpi=110)
                 mine = np.asarray(Image.open(files[k]).convert("RGBA"))
                 assert np.array_equal(mine, np.asarray(Image.open(theirs).convert("RGBA")))
+
+
+def test_a_category_tick_label_s_control_characters_are_drawn_as_their_codes(tmp_path):
+    """A category's name from a file (a scene's) on an axis: the axis writes its tick labels
+    when drawn, from its formatter (save() wraps it); the label is drawn as visible_controls
+    writes it, as the figure's other texts (a title, a legend's)."""
+    import numpy as np
+    from PIL import Image
+
+    from hoopbench.reports.report import plotting
+    from hoopbench.reports.sweep.control_chars import visible_controls
+
+    plt = plotting.pyplot()
+    drawn = []
+    with plotting.plain_text():
+        for names in (["hop\x07top", "seed"], [visible_controls("hop\x07top"), "seed"]):
+            fig, ax = plt.subplots(figsize=(3.0, 2.0))
+            ax.bar(names, [1.0, 2.0], label=names[0])
+            ax.set_title(names[0])  # texts not ticks': save() writes them before drawing
+            ax.legend()
+            path = plotting.save(fig, tmp_path / f"{len(drawn)}.png", dpi=80)
+            drawn.append(np.asarray(Image.open(path)))
+    assert visible_controls("hop\x07top") != "hop\x07top"
+    assert np.array_equal(drawn[0], drawn[1])

@@ -89,14 +89,15 @@ def plain_tick_label(label: str) -> str:
 
 
 def _plain_formatter(formatter: Any) -> Any:
-    """``formatter``, its tick labels passed through :func:`plain_tick_label` (matplotlib
-    draws tick labels from ``format_ticks``; wrapped once, on the instance)."""
+    """``formatter``, its tick labels passed through :func:`plain_tick_label` and their
+    control characters as their codes (visible_controls: a category's name from a file);
+    matplotlib draws tick labels from ``format_ticks``; wrapped once, on the instance."""
     if getattr(formatter, "_hoopbench_plain", False):
         return formatter
     ticks = formatter.format_ticks
 
     def format_ticks(values: Any) -> list[str]:
-        return [plain_tick_label(label) for label in ticks(values)]
+        return [visible_controls(plain_tick_label(label)) for label in ticks(values)]
 
     setattr(formatter, "format_ticks", format_ticks)  # noqa: B010 - an instance's method
     setattr(formatter, "_hoopbench_plain", True)  # noqa: B010
@@ -123,9 +124,7 @@ def save(
     their codes (visible_controls): matplotlib has no glyph for them and its "Glyph missing"
     warning would carry them to the terminal raw. ``metadata``: text entries of the PNG
     (map_section's figure key), none by default."""
-    from matplotlib.text import Text
-
-    for text in fig.findobj(Text):
+    for text in _texts(fig):
         text.set_text(visible_controls(text.get_text()))
     for ax in fig.axes:
         for axis in (ax.xaxis, ax.yaxis):
@@ -137,6 +136,21 @@ def save(
         return written_whole(out, lambda tmp: fig.savefig(tmp, dpi=dpi, **extra))
     finally:
         pyplot().close(fig)
+
+
+def _texts(artist: Any) -> Iterator[Any]:
+    """Every text of ``artist`` and its children but the tick labels, which each axis writes
+    from its formatter when drawn (:func:`_plain_formatter`): ``findobj`` made every axis's
+    ticks and their labels to visit them, and the drawing wrote over them."""
+    from matplotlib.axis import Axis
+    from matplotlib.text import Text
+
+    if isinstance(artist, Text):
+        yield artist
+    for child in (
+        [artist.label, artist.offsetText] if isinstance(artist, Axis) else artist.get_children()
+    ):
+        yield from _texts(child)
 
 
 def laid_out(fig: Any, dpi: float) -> None:
