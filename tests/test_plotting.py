@@ -50,3 +50,82 @@ def test_the_first_figure_chooses_the_backend(env, backend):
         **env,
     )
     assert out == ["False", f"True {backend}", "True"]
+
+
+def _figures_to_save(plt) -> list:
+    """Figures as the report makes them: constrained layout (panels of equal aspect, a log
+    axis, a legend placed "best", a colour bar, a title over all), and tight_layout()."""
+    import numpy as np
+
+    fig, ((a, b), (c, d)) = plt.subplots(2, 2, figsize=(6.0, 4.5), constrained_layout=True)
+    t = np.linspace(0.0, 2.0, 400)
+    a.plot(t, np.sin(5 * t), label="sin")
+    a.plot(t, np.cos(3 * t), label="cos")
+    a.legend()
+    b.loglog(t[1:], t[1:] ** 3, "o-", ms=2)
+    c.plot(np.cos(t * 3), np.sin(t * 3))
+    c.set_aspect("equal")
+    mesh = d.pcolormesh(np.arange(12.0).reshape(3, 4))
+    fig.colorbar(mesh, ax=d, label="value")
+    fig.suptitle("a title over every panel")
+    tight, ax = plt.subplots(figsize=(4.0, 3.0))
+    ax.semilogy(t, np.exp(t))
+    ax.set_ylabel("exp")
+    tight.tight_layout()
+    return [fig, tight]
+
+
+def test_a_laid_out_figure_is_drawn_once_to_savefig_s_pixels(tmp_path, monkeypatch):
+    """save() lays a figure out at the file's dpi before savefig (plotting.laid_out), which
+    then draws it once, not twice (once to lay it out, once to render it), to the same
+    pixels as savefig's two draws."""
+    import numpy as np
+    from matplotlib.figure import Figure
+    from PIL import Image
+
+    from hoopbench.reports.report import plotting
+
+    plt = plotting.pyplot()
+    draw = Figure.draw
+    draws: list[Figure] = []
+
+    def counted(fig: Figure, renderer) -> None:
+        draws.append(fig)
+        draw(fig, renderer)
+
+    monkeypatch.setattr(Figure, "draw", counted)
+    files = {}
+    with plotting.plain_text():
+        for k, fig in enumerate(_figures_to_save(plt)):  # at another dpi than the figure's
+            files[k] = plotting.save(fig, tmp_path / f"ours-{k}.png", dpi=110)
+        assert len(draws) == 2, "one draw a figure"
+        with monkeypatch.context() as m:
+            m.setattr(plotting, "laid_out", lambda fig, dpi: None)  # savefig lays it out
+            for k, fig in enumerate(_figures_to_save(plt)):
+                theirs = plotting.save(fig, tmp_path / f"theirs-{k}.png", dpi=110)
+                mine = np.asarray(Image.open(files[k]).convert("RGBA"))
+                assert np.array_equal(mine, np.asarray(Image.open(theirs).convert("RGBA")))
+
+
+def test_a_category_tick_label_s_control_characters_are_drawn_as_their_codes(tmp_path):
+    """A category's name from a file (a scene's) on an axis: the axis writes its tick labels
+    when drawn, from its formatter (save() wraps it); the label is drawn as visible_controls
+    writes it, as the figure's other texts (a title, a legend's)."""
+    import numpy as np
+    from PIL import Image
+
+    from hoopbench.reports.report import plotting
+    from hoopbench.reports.sweep.control_chars import visible_controls
+
+    plt = plotting.pyplot()
+    drawn = []
+    with plotting.plain_text():
+        for names in (["hop\x07top", "seed"], [visible_controls("hop\x07top"), "seed"]):
+            fig, ax = plt.subplots(figsize=(3.0, 2.0))
+            ax.bar(names, [1.0, 2.0], label=names[0])
+            ax.set_title(names[0])  # texts not ticks': save() writes them before drawing
+            ax.legend()
+            path = plotting.save(fig, tmp_path / f"{len(drawn)}.png", dpi=80)
+            drawn.append(np.asarray(Image.open(path)))
+    assert visible_controls("hop\x07top") != "hop\x07top"
+    assert np.array_equal(drawn[0], drawn[1])

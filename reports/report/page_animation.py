@@ -149,15 +149,39 @@ def _axes(k: int) -> dict[str, str]:
     return {"xaxis": "x" if k == 0 else f"x{k + 1}", "yaxis": "y" if k == 0 else f"y{k + 1}"}
 
 
-def _dynamic(motion: HoopMotion, t: float, a: float, frame_times: np.ndarray) -> list:
-    """A panel's moving traces at time t: hoop and spoke, weight, path so far, events, label.
+@dataclass(frozen=True)
+class _AtFrames:
+    """A run's samples shown at each frame, and its centre of mass there rounded, found once:
+    each frame's path so far repeats the frames before it (80 frames: 160 numbers of a run
+    rounded once, not 3,360 found and rounded frame by frame)."""
+
+    index: np.ndarray
+    """The sample shown at each frame (HoopMotion.at)."""
+    X: list[float | None]
+    Y: list[float | None]
+
+    @classmethod
+    def of(cls, motion: HoopMotion, frame_times: np.ndarray) -> _AtFrames:
+        shown = np.searchsorted(motion.t, frame_times, side="right")
+        index = np.minimum(shown, len(motion.t)) - 1
+        return cls(index, rounded(motion.X[index], _DIGITS), rounded(motion.Y[index], _DIGITS))
+
+
+def _dynamic(
+    motion: HoopMotion, k: int, a: float, frame_times: np.ndarray, shown: _AtFrames
+) -> list:
+    """A panel's moving traces at frame k: hoop and spoke, weight, path so far, events, label.
     Their axes are the first frame's (a frame repeats only what moves)."""
-    i = motion.at(t)
+    t = float(frame_times[k])
+    i = int(shown.index[k])
     x, y = motion.x[i], motion.y[i]
     hoop_x = [*(x + a * np.cos(_CIRCLE)), None, x, motion.wx[i]]
     hoop_y = [*(y + a * np.sin(_CIRCLE)), None, y, motion.wy[i]]
-    # the path so far through every other frame: half the numbers, still smooth
-    past = [motion.at(s) for s in [*frame_times[frame_times < t][::2], t]]
+    # the path so far through every other frame before t, then t: half the numbers, still
+    # smooth
+    before = int(np.searchsorted(frame_times, t, side="left"))  # the frames before t
+    past_x = [*shown.X[:before:2], shown.X[k]]
+    past_y = [*shown.Y[:before:2], shown.Y[k]]
     happened = [e for e in motion.events if e[1] <= t]
     marks = [motion.at(e[1]) for e in happened]
     label = " · ".join(f"{name} {when:.3f} s" for name, when, _ in happened)
@@ -173,7 +197,7 @@ def _dynamic(motion: HoopMotion, t: float, a: float, frame_times: np.ndarray) ->
             "line": {"color": ENDED_COLOUR if ended else HOOP_COLOUR, "width": 2},
         },
         {"x": rounded([motion.wx[i]], _DIGITS), "y": rounded([motion.wy[i]], _DIGITS)},
-        {"x": rounded(motion.X[past], _DIGITS), "y": rounded(motion.Y[past], _DIGITS)},
+        {"x": past_x, "y": past_y},
         {
             "x": rounded(motion.X[marks], _DIGITS),
             "y": rounded(motion.Y[marks], _DIGITS),
@@ -282,11 +306,12 @@ def animation_figure(scene: Scene, motions: list[HoopMotion]) -> dict[str, Any]:
     clear = np.concatenate([m.clearance for m in motions]) * 1e3
     low, high = float(np.nanmin(clear)), float(np.nanmax(clear))
     moving = list(range(len(static), len(static) + 5 * len(motions) + 1))
+    shown = [_AtFrames.of(motion, times) for motion in motions]
     frames = []
-    for t in times:
+    for k, t in enumerate(times):
         data = []
-        for motion in motions:
-            dynamic = _dynamic(motion, float(t), a, times)
+        for motion, at_frames in zip(motions, shown, strict=True):
+            dynamic = _dynamic(motion, k, a, times, at_frames)
             dynamic[4] = _label_place(dynamic[4], bounds)
             data += dynamic
         data.append(_cursor(float(t), low, high))

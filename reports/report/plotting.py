@@ -29,7 +29,16 @@ from typing import Any
 from hoopbench.models.whole_files import write_whole
 from hoopbench.reports.sweep.control_chars import visible_controls
 
-__all__ = ["Draw", "draw_now", "plain_text", "plain_tick_label", "pyplot", "save", "written_whole"]
+__all__ = [
+    "Draw",
+    "draw_now",
+    "laid_out",
+    "plain_text",
+    "plain_tick_label",
+    "pyplot",
+    "save",
+    "written_whole",
+]
 
 Draw = Callable[..., object]
 """Where a report section's figure is drawn: called with the drawing function and its
@@ -80,14 +89,15 @@ def plain_tick_label(label: str) -> str:
 
 
 def _plain_formatter(formatter: Any) -> Any:
-    """``formatter``, its tick labels passed through :func:`plain_tick_label` (matplotlib
-    draws tick labels from ``format_ticks``; wrapped once, on the instance)."""
+    """``formatter``, its tick labels passed through :func:`plain_tick_label` and their
+    control characters as their codes (visible_controls: a category's name from a file);
+    matplotlib draws tick labels from ``format_ticks``; wrapped once, on the instance."""
     if getattr(formatter, "_hoopbench_plain", False):
         return formatter
     ticks = formatter.format_ticks
 
     def format_ticks(values: Any) -> list[str]:
-        return [plain_tick_label(label) for label in ticks(values)]
+        return [visible_controls(plain_tick_label(label)) for label in ticks(values)]
 
     setattr(formatter, "format_ticks", format_ticks)  # noqa: B010 - an instance's method
     setattr(formatter, "_hoopbench_plain", True)  # noqa: B010
@@ -114,16 +124,62 @@ def save(
     their codes (visible_controls): matplotlib has no glyph for them and its "Glyph missing"
     warning would carry them to the terminal raw. ``metadata``: text entries of the PNG
     (map_section's figure key), none by default."""
-    from matplotlib.text import Text
-
-    for text in fig.findobj(Text):
+    for text in _texts(fig):
         text.set_text(visible_controls(text.get_text()))
     for ax in fig.axes:
         for axis in (ax.xaxis, ax.yaxis):
             axis.set_major_formatter(_plain_formatter(axis.get_major_formatter()))
             axis.set_minor_formatter(_plain_formatter(axis.get_minor_formatter()))
     try:
-        extra = {} if metadata is None else {"metadata": metadata}
+        laid_out(fig, dpi)
+        extra: dict[str, Any] = {} if metadata is None else {"metadata": metadata}
         return written_whole(out, lambda tmp: fig.savefig(tmp, dpi=dpi, **extra))
     finally:
         pyplot().close(fig)
+
+
+def _texts(artist: Any) -> Iterator[Any]:
+    """Every text of ``artist`` and its children but the tick labels, which each axis writes
+    from its formatter when drawn (:func:`_plain_formatter`): ``findobj`` made every axis's
+    ticks and their labels to visit them, and the drawing wrote over them."""
+    from matplotlib.axis import Axis
+    from matplotlib.text import Text
+
+    if isinstance(artist, Text):
+        yield artist
+    for child in (
+        [artist.label, artist.offsetText] if isinstance(artist, Axis) else artist.get_children()
+    ):
+        yield from _texts(child)
+
+
+def laid_out(fig: Any, dpi: float) -> None:
+    """``fig`` laid out by its layout engine at ``dpi`` (the file's), the engine then
+    dropped: savefig draws a figure with an engine twice, once to lay it out (nothing
+    rendered, yet every text laid out and every tick and line transformed) and once to render
+    it; laid out here, it draws once. A figure laid out already (``tight_layout()`` leaves a
+    placeholder engine, for which savefig draws twice too) draws once. The same pixels:
+    savefig's first draw runs the engine at the file's dpi, as here, and its second draw
+    runs without the engine (tests/test_plotting.py)."""
+    import matplotlib
+    from matplotlib.layout_engine import PlaceHolderLayoutEngine
+
+    engine = fig.get_layout_engine()
+    get_renderer = getattr(fig.canvas, "get_renderer", None)  # Agg's canvases (the PNG's)
+    if engine is None or get_renderer is None:
+        return
+    if fig.axes and not isinstance(engine, PlaceHolderLayoutEngine):
+        shown_dpi = fig.dpi
+        fig.dpi = dpi
+        try:  # the engine measures text with the canvas's renderer, of the figure's dpi
+            engine.execute(fig)
+        except ValueError:  # as Figure.draw, which savefig's first draw ran it in, lets it
+            pass
+        finally:
+            fig.dpi = shown_dpi
+    # None, not "none": savefig draws a figure twice for a placeholder engine too; and None
+    # whatever the rcParams, which would make None a new engine
+    with matplotlib.rc_context(
+        {"figure.autolayout": False, "figure.constrained_layout.use": False}
+    ):
+        fig.set_layout_engine(None)
