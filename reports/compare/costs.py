@@ -40,35 +40,34 @@ REPORT = "report"
 """The kind of `hoopbench report` run after make report's sweeps (reports/report_runs.py)."""
 
 CALL_COST_PRIOR: dict[Hashable, Rates] = {
-    # Rates(fixed_s, step_s, world_step_s, cold_s), fitted by
+    # Rates(fixed_s, step_s, world_step_s, cold_s, first_s), fitted by
     # `python -m hoopbench.reports.bench.call_costs fit` on the whole calls of make report's
-    # three suites (742 calls) and its map (304 calls), main at 2026-11-29 08:09 UTC (after
-    # Newton's and MuJoCo Warp's steps became Warp graphs replayed on the CPU, and MuJoCo
-    # Warp and Newton's MuJoCo solver joined the suites there), on the project's machine
-    # (AMD EPYC, 2 cores, no GPU), nearly idle (1-min load average 0.9 at the start), JAX's
-    # and Warp's caches warm. A loaded or another machine (or cold caches) scales them by the
-    # machine factor.
-    "box2d": Rates(0.0089, 4.3e-06, 0.0, 0.012),
-    "dart": Rates(0.018, 1e-05, 0.0, 0.012),
-    "drake": Rates(0.08, 1.7e-05, 0.0, 0.12),
-    "mjwarp": Rates(0.086, 0.00012, 0.0, 0.32),
-    "mjx": Rates(1.3, 0.0014, 0.00015, 3.2),
-    "mujoco": Rates(0.025, 2.6e-06, 7.1e-06, 0.054),
-    "newton": Rates(0.14, 0.0, 5e-06, 0.36),
-    "pybullet": Rates(0.016, 9.2e-06),
-    "pymunk": Rates(0.012, 2.5e-06),
-    "rapier": Rates(0.011, 8.2e-06, 0.0, 0.019),
-    "reference": Rates(0.045, 5.1e-07, 0.0, 0.17),
+    # three suites (742 calls) and its map (304 calls), main at 2026-11-29 11:13 UTC (after
+    # MJX's XLA pool of one thread per worker, the judge's phase jumps and Warp's shared
+    # compiles), on the project's machine (AMD EPYC, 2 cores, no GPU), nearly idle (1-min
+    # load average 2.3 at the start, falling), JAX's and Warp's caches warm. A loaded or
+    # another machine (or cold caches) scales them by the machine factor.
+    "box2d": Rates(0.014, 3.9e-06, 0.0, 1.5e-05, 0.012),
+    "dart": Rates(0.014, 9.6e-06, 0.0, 0.0, 0.12),
+    "drake": Rates(0.074, 1.7e-05, 0.0, 0.11, 0.3),
+    "mjwarp": Rates(0.12, 9.8e-05, 0.0, 0.39, 0.046),
+    "mjx": Rates(1.4, 0.0013, 0.00012, 2.1),
+    "mujoco": Rates(0.028, 2.6e-06, 6.5e-06, 0.063, 0.057),
+    "newton": Rates(0.088, 4.9e-05, 0.0, 0.1, 3.3),
+    "pybullet": Rates(0.017, 8.8e-06, 0.0, 0.0, 0.034),
+    "pymunk": Rates(0.011, 2.3e-06, 0.0, 0.0011, 0.028),
+    "rapier": Rates(0.01, 7.7e-06, 0.0, 0.0015, 0.011),
+    "reference": Rates(0.041, 4.5e-07, 0.0, 0.21),
     # The map's (make report's: 10 x 10, MuJoCo in 4 batches of 25, 1e-4 s; its runs stop
     # at their first impact, so a step of its window costs less than a suite's): its 304
     # calls of the same idle make report. MuJoCo's 4 calls over their world-steps.
-    (MAP, "reference"): Rates(0.028, 0.0, 0.0, 0.037),
-    (MAP, "mujoco"): Rates(0.0, 0.0, 6.4e-06, 1.5),
-    (MAP, "pybullet"): Rates(0.0, 5.2e-06, 0.0, 0.14),
-    (MAP, "pymunk"): Rates(0.0, 1.6e-06, 0.0, 0.042),
+    (MAP, "mujoco"): Rates(0.0, 0.0, 5.9e-06, 1.6),
+    (MAP, "pybullet"): Rates(0.0, 4.8e-06, 0.0, 0.13),
+    (MAP, "pymunk"): Rates(0.0, 1.5e-06, 0.0, 0.05),
+    (MAP, "reference"): Rates(0.028, 0.0, 0.0, 0.04),
     # The report of the three suites, the map, the shipped searches and bench (make report's
-    # last step, in report-runs' own process): 16 s on the same make report.
-    REPORT: Rates(16.0, 0.0),
+    # last step, in report-runs' own process): 13 s on the same make report.
+    REPORT: Rates(13.0, 0.0),
 }
 """A kind's whole call (:class:`~hoopbench.reports.sweep.eta.Rates`) before any call of it
 has finished here: by engine, by engine, profile and variant where those differ, by the
@@ -77,26 +76,26 @@ map's engine and the report."""
 
 COLD_CACHE_S: dict[Hashable, float] = {
     # s more: make report with a new HOOPBENCH_CACHE against make report with warm caches,
-    # the same calls (2026-11-29 08:17 and 08:22 UTC, idle, 2 cores; /tmp/mr11 against
-    # /tmp/mr10; `python -m hoopbench.reports.bench.call_costs compile COLD WARM` prints
+    # the same calls (2026-11-29 11:08 and 11:13 UTC, idle, 2 cores; /tmp/mr12 against
+    # /tmp/mr13; `python -m hoopbench.reports.bench.call_costs compile COLD WARM` prints
     # them call by call), where the compile is paid:
-    # - an engine: its first call in each worker, whichever kind it is. Both workers
-    #   compiled Warp's kernels at once, as make report starts the engine on both: MuJoCo
-    #   Warp's first calls took 18.5 and 32.8 s (warm 2.4 and 2.8), then its other kind's
-    #   first call in each worker 0.3-0.7 s; Newton's 16.1 and 16.1 (warm 3.2 and 2.6).
-    "mjwarp": 23.0,
-    "newton": 13.2,
+    # - an engine: its first call in each worker, whichever kind it is. Both workers start
+    #   the engine at once and share its Warp modules' compiles (engines/warp_compile.py):
+    #   MuJoCo Warp's first calls took 27.1 and 15.4 s more than warm, Newton's 8.3 and
+    #   10.9 more.
+    "mjwarp": 21.2,
+    "newton": 9.6,
     # - a kind: its first call on the machine, on any worker (the compile lands in the
-    #   cache the other workers read): MJX's XLA program of the kind (the finer suite's
-    #   tuned call on the other worker took 10.8 s, warm 10.6), Newton's solvers' own
-    #   kernels (each solver ran one call).
-    ("mjx", "stock", "default"): 6.2,
-    ("mjx", "tuned", "default"): 18.2,
-    ("mjx", "tuned", "precision=float64"): 17.1,
-    ("mjx", "tuned", "cone=pyramidal"): 13.2,
-    ("newton", "tuned", "solver=semi_implicit"): 2.7,
+    #   cache the other workers read): MJX's XLA program of the kind (the stability
+    #   suite's tuned call on the other worker took 0.95 s more, the finer one 1.2),
+    #   Newton's solvers' own kernels (each solver ran one call).
+    ("mjx", "stock", "default"): 6.9,
+    ("mjx", "tuned", "default"): 21.9,
+    ("mjx", "tuned", "precision=float64"): 20.6,
+    ("mjx", "tuned", "cone=pyramidal"): 11.6,
+    ("newton", "tuned", "solver=semi_implicit"): 2.1,
     ("newton", "tuned", "solver=featherstone"): 4.0,
-    ("newton", "tuned", "solver=mujoco"): 11.6,
+    ("newton", "tuned", "solver=mujoco"): 6.7,
 }
 """An engine, or a most specific kind -> what its calls pay more while its engine's
 compiled-code cache (``Engine.compiled_cache``) is empty: an engine's on its first call in
