@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import pytest
 from test_runner import Job, job_failure_row, job_worker
 
+from hoopbench.engines.warp_compile import LOCKS
 from hoopbench.reports.bench.call_costs import (
     accuracy,
     compile_costs,
@@ -214,6 +215,21 @@ def test_cold_caches_are_the_engines_whose_compiled_code_folder_is_empty(tmp_pat
     (tmp_path / "jax" / "sub" / "entry").write_bytes(b"x")
     assert "mjx" not in cold_caches()
     assert "pymunk" not in cold_caches()  # compiles nothing: never cold
+    # a run killed mid-compile leaves Warp's compile locks and nothing compiled
+    locks = tmp_path / "warp" / "1.0" / LOCKS
+    locks.mkdir(parents=True)
+    (locks / "module_abc.lock").write_bytes(b"")
+    assert "newton" in cold_caches()
+    (tmp_path / "warp" / "1.0" / "module_abc").mkdir()
+    (tmp_path / "warp" / "1.0" / "module_abc" / "module.o").write_bytes(b"x")
+    assert "newton" not in cold_caches()
+
+
+def test_a_cache_under_a_folder_named_like_the_locks_is_read_as_any_other(tmp_path, monkeypatch):
+    monkeypatch.setenv("HOOPBENCH_CACHE", str(tmp_path / LOCKS))
+    (tmp_path / LOCKS / "warp" / "module_abc").mkdir(parents=True)
+    (tmp_path / LOCKS / "warp" / "module_abc" / "module.o").write_bytes(b"x")
+    assert "newton" not in cold_caches()
 
 
 MJW_TUNED = CallCost(kinds=(("mjwarp", "tuned", "default"), "mjwarp"), steps=3000, worlds=2)

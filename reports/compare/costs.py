@@ -19,6 +19,7 @@ from typing import Any
 
 from hoopbench.engines.base import cache_folder
 from hoopbench.engines.registry import engine_classes
+from hoopbench.engines.warp_compile import LOCKS
 from hoopbench.reports.sweep.eta import CallCost, Costing, Rates
 
 __all__ = [
@@ -115,8 +116,13 @@ def cold_caches() -> frozenset[str]:
 
 
 def _holds_a_file(folder: Path) -> bool:
+    """Whether a compiled-code cache holds compiled code: a file outside Warp's compile locks
+    (engines/warp_compile.py), which a cold run killed mid-compile leaves with nothing else."""
     try:
-        return any(path.is_file() for path in folder.rglob("*"))
+        return any(
+            path.is_file() and LOCKS not in path.relative_to(folder).parts
+            for path in folder.rglob("*")
+        )
     except OSError:  # unreadable: nothing known of it, so taken as cold
         return False
 
