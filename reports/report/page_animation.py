@@ -85,7 +85,11 @@ class HoopMotion:
 
     def at(self, t: float) -> int:
         """The sample shown at time t (the last one after the run's end)."""
-        return min(int(np.searchsorted(self.t, t, side="right")), len(self.t)) - 1
+        return int(self.at_times(np.asarray(t)))
+
+    def at_times(self, times: np.ndarray) -> np.ndarray:
+        """The samples shown at each of ``times`` (:meth:`at`)."""
+        return np.minimum(np.searchsorted(self.t, times, side="right"), len(self.t)) - 1
 
 
 def _event_times(row: pd.Series | None, exact: bool) -> tuple[tuple[str, float, str], ...]:
@@ -156,14 +160,13 @@ class _AtFrames:
     rounded once, not 3,360 found and rounded frame by frame)."""
 
     index: np.ndarray
-    """The sample shown at each frame (HoopMotion.at)."""
+    """The sample shown at each frame (HoopMotion.at_times)."""
     X: list[float | None]
     Y: list[float | None]
 
     @classmethod
     def of(cls, motion: HoopMotion, frame_times: np.ndarray) -> _AtFrames:
-        shown = np.searchsorted(motion.t, frame_times, side="right")
-        index = np.minimum(shown, len(motion.t)) - 1
+        index = motion.at_times(frame_times)
         return cls(index, rounded(motion.X[index], _DIGITS), rounded(motion.Y[index], _DIGITS))
 
 
