@@ -1573,9 +1573,26 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_USAGE
 
 
+_QUOTED_SHOWN = 200
+"""Characters of a quoted value an error line shows whole (a long path among them); a longer
+one (a pasted file, a runaway shell expansion) is shown by its start, its end and its length,
+so that the line stays readable."""
+
+_QUOTED = re.compile(r"(?<!\w)('[^'\n]*'|\"[^\"\n]*\")(?!\w)")
+"""A quoted value as repr writes it; a quote after a letter is prose (the engine's)."""
+
+
+def _short_quote(match: re.Match[str]) -> str:
+    quote, value = match.group(0)[0], match.group(0)[1:-1]
+    if len(value) <= _QUOTED_SHOWN:
+        return match.group(0)
+    return f"{quote}{value[:100]}...{value[-40:]}{quote} ({len(value):,} characters)"
+
+
 def _error(text: str) -> None:
-    """One line on stderr; whatever it quotes from files or names shown, never obeyed."""
-    _say(text)
+    """One line on stderr; whatever it quotes from files or names shown, never obeyed, and a
+    quoted value of more than _QUOTED_SHOWN characters shortened."""
+    _say(_QUOTED.sub(_short_quote, text))
 
 
 def _say(text: str) -> None:
