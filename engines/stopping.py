@@ -198,13 +198,22 @@ class StopMonitor:
         t = np.concatenate((self._open_t, t))
         clear = np.concatenate((self._open_clear, clear))
         starts, stops = _runs(clear > self.limits.floor_level)
-        for start, stop in zip(starts, stops, strict=True):
-            if stop == len(clear):  # still in the air: look again with the next chunk
-                self._open_t, self._open_clear = t[start:], clear[start:]
-                return False
-            if self._is_hop(t[start:stop], clear[start:stop]):
+        if not starts.size:
+            self._open_t, self._open_clear = np.empty(0), np.empty(0)
+            return False
+        # Every excursion's peak at once (from its start to the next one's: the samples
+        # between are on the floor, below it): only one above hop_clearance can be a hop,
+        # and an engine whose contact flickers has hundreds of one-step excursions a chunk
+        # (a loop over them was most of the monitor's time: pymunk at 1e-4 s, 0.24 ms a chunk).
+        closed = stops < len(clear)
+        peaks = np.maximum.reduceat(clear, starts)
+        for k in np.flatnonzero(closed & (peaks > self.limits.hop_clearance)):
+            if self._is_hop(t[starts[k] : stops[k]], clear[starts[k] : stops[k]]):
                 return True
-        self._open_t, self._open_clear = np.empty(0), np.empty(0)
+        if closed[-1]:
+            self._open_t, self._open_clear = np.empty(0), np.empty(0)
+        else:  # still in the air: look again with the next chunk
+            self._open_t, self._open_clear = t[starts[-1] :], clear[starts[-1] :]
         return False
 
     def _is_hop(self, t: NDArray, clear: NDArray) -> bool:

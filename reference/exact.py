@@ -20,8 +20,8 @@ from __future__ import annotations
 
 import math
 import numbers
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
 from enum import Enum
 from typing import Protocol, cast
 
@@ -50,6 +50,7 @@ __all__ = [
     "WorkBudgetError",
     "flight_phase",
     "solve_exact",
+    "solve_exact_settled",
 ]
 
 MIN_RTOL = 100 * float(np.finfo(float).eps)
@@ -321,9 +322,11 @@ class _EventFunction(Protocol):
     def __call__(self, t: float, y: NDArray, /) -> float: ...
 
 
-def _event(fun: Callable[[float, NDArray], float], direction: float) -> _EventFunction:
+def _event(
+    fun: Callable[[float, NDArray], float], direction: float, terminal: bool = True
+) -> _EventFunction:
     event = cast(_EventFunction, fun)  # the same function, now carrying its options
-    event.terminal = True
+    event.terminal = terminal
     event.direction = direction
     return event
 
@@ -333,6 +336,9 @@ class _PhaseEnd:
     t: float
     state: State
     reason: EventReason
+    turned: Segment | None = None
+    """A roll phase that turned theta a full turn without ending (``_roll_phase``'s
+    ``note``): the phase as a ``settle`` solve ends it, at that turn."""
 
 
 @dataclass(frozen=True)
@@ -382,7 +388,7 @@ def _integrate(
         return [unit * v for v in rhs(s * unit, y)]
 
     def scaled_event(event: _EventFunction) -> _EventFunction:
-        return _event(lambda s, y: event(s * unit, y), event.direction)
+        return _event(lambda s, y: event(s * unit, y), event.direction, event.terminal)
 
     # solve_ivp looks for event sign changes only at step ends; the step cap keeps an event
     # function from dipping below zero and back inside one long, smooth rolling step.
@@ -408,15 +414,20 @@ def _integrate(
     )
 
 
-def _which_event(sol: _Solved, names: list[EventReason]) -> EventReason:
+def _which_event(sol: _Solved, names: Sequence[EventReason | None]) -> EventReason:
     """The event that ended the integration: the earliest one (ties: first in ``names``).
 
-    ``names`` lists the physical events; the budget event that :func:`_integrate` appends is
-    last.
+    ``names`` lists the physical events, None for one that does not end it (non-terminal);
+    the budget event that :func:`_integrate` appends is last.
     """
     if sol.status == 1:
-        fired = [(times[0], k) for k, times in enumerate(sol.t_events) if len(times)]
-        return [*names, EventReason.BUDGET][min(fired)[1]]
+        reasons = [*names, EventReason.BUDGET]
+        fired = [
+            (times[0], k)
+            for k, times in enumerate(sol.t_events)
+            if len(times) and reasons[k] is not None
+        ]
+        return cast(EventReason, reasons[min(fired)[1]])
     if sol.status < 0:
         raise IntegrationError(f"integration failed: {sol.message}")
     return EventReason.END
@@ -431,7 +442,12 @@ def _roll_phase(
     budget: _StepBudget,
     *,
     settle: bool = False,
+    note: bool = False,
 ) -> tuple[Segment, _PhaseEnd]:
+    """A roll phase from ``t0``: to ``t_end``, a slip or lift-off event, or the step budget's
+    end; with ``settle``, to a full turn of theta too. With ``note`` (not with ``settle``),
+    a full turn does not end it, but the phase as ``settle`` would end it there comes with
+    its end (``_PhaseEnd.turned``)."""
     x0 = state[0] - scene.com_offset * math.sin(state[2])
     theta_start = state[2]
 
@@ -449,18 +465,33 @@ def _roll_phase(
         return abs(y[0] - theta_start) - 2.0 * math.pi
 
     # The full-turn event comes after the physical ones, so that they win ties; without
-    # ``settle`` the event list, and so every step and number, is exactly as before.
-    names = [EventReason.SLIP, EventReason.LIFT]
+    # ``settle`` the event list, and so every step and number, is exactly as before. Noted
+    # (not terminal), it changes no step either: solve_ivp only locates its root.
+    names: list[EventReason | None] = [EventReason.SLIP, EventReason.LIFT]
     events = [_event(slip, -1), _event(lift, -1)]
-    if settle:
-        names.append(EventReason.SETTLED)
-        events.append(_event(turned, 1))
+    if settle or note:
+        names.append(EventReason.SETTLED if settle else None)
+        events.append(_event(turned, 1, terminal=settle))
     sol = _integrate(rhs, [state[2], state[5]], t0, t_end, events, opts, "aw", budget)
     reason = _which_event(sol, names)
     motion = _Rolling(scene, sol.sol, x0, theta_start)
     t1 = float(sol.t[-1])
     seg = Segment(PhaseKind.ROLL, t0, t1, None, motion.states, motion.forces, motion.together)
-    return seg, _PhaseEnd(t1, tuple(motion.states(np.array([t1]))[:, 0]), reason)
+    end = _PhaseEnd(t1, tuple(motion.states(np.array([t1]))[:, 0]), reason)
+    if note and len(sol.t_events[2]):
+        end = _turned_end(end, t0, sol, motion)
+    return seg, end
+
+
+def _turned_end(end: _PhaseEnd, t0: float, sol: _Solved, motion: _Rolling) -> _PhaseEnd:
+    """``end`` with the roll phase as a ``settle`` solve ends it, at the first full turn of
+    ``sol`` (a ``note`` solve's). Up to the turn that solve took the same steps, and the step
+    it ended in had the same interpolant, which solve_ivp ends at the event's root: this
+    phase's dense output gives its numbers at every time up to the turn (a segment's are
+    read within its own span, ExactSolution._evaluate)."""
+    t_turn = float(sol.t_events[2][0])
+    states, forces, together = motion.states, motion.forces, motion.together
+    return replace(end, turned=Segment(PhaseKind.ROLL, t0, t_turn, None, states, forces, together))
 
 
 @dataclass(frozen=True)
@@ -909,22 +940,65 @@ def solve_exact(
     ends at that turn, :attr:`ExactSolution.t_settled`.
     """
     opts = _checked_options(scene, rtol, atol, method, max_step, (max_steps, max_phases))
+    solve = _solved(scene, opts, max_steps, max_phases, settle=stop_when_settled)
+    return solve.solution()
+
+
+def solve_exact_settled(
+    scene: Scene,
+    *,
+    rtol: float = DEFAULT_RTOL,
+    atol: float = DEFAULT_ATOL,
+    method: str = "DOP853",
+    max_step: float | None = None,
+    max_steps: int = DEFAULT_MAX_STEPS,
+    max_phases: int = DEFAULT_MAX_PHASES,
+) -> tuple[ExactSolution, ExactSolution]:
+    """``(solve_exact(scene, stop_when_settled=True), solve_exact(scene))``, bit for bit,
+    from one integration of the whole window (a hop map classifies its points with the first
+    and judges its engines against the second): the full turn that ends the first is noted
+    on the way (an event that locates its root and ends nothing), and the first is the
+    second cut there. The same object twice where nothing settled; the first solved on its
+    own where the integrator failed before a turn was noted (the failed phase may have
+    turned first)."""
+    opts = _checked_options(scene, rtol, atol, method, max_step, (max_steps, max_phases))
+    solve = _solved(scene, opts, max_steps, max_phases, note=True)
+    whole = solve.solution()
+    if solve.settled is not None:
+        return solve.settled, whole
+    if solve.undetermined:
+        settled = _solved(scene, opts, max_steps, max_phases, settle=True).solution()
+        return settled, whole
+    return whole, whole
+
+
+def _solved(
+    scene: Scene,
+    opts: _Options,
+    max_steps: int,
+    max_phases: int,
+    *,
+    settle: bool = False,
+    note: bool = False,
+) -> _Solve:
+    """A solve of ``scene``, run."""
     mode, sigma = _rolling_start(scene) if scene.rolls_at_start else _sliding_start(scene)
     solve = _Solve(
         scene,
         opts,
         _StepBudget(max_steps),
         max_phases,
-        stop_when_settled,
+        settle,
         mode=mode,
         sigma=sigma,
         state=scene.initial_state(),
+        note_settled=note,
     )
     # Scales near the floats' end (g = 1e308) overflow on the way to an integrator failure,
     # which the solution then says (Outcome.ERROR): its warnings would only repeat it.
     with np.errstate(over="ignore", invalid="ignore"):
         solve.run()
-    return solve.solution()
+    return solve
 
 
 @dataclass
@@ -953,6 +1027,15 @@ class _Solve:
     flips: int = 0
     """Wrong-way slips in a row that ended at once: two mean neither direction holds."""
     t_settled: float | None = None
+    note_settled: bool = False
+    """Solve on past the first full turn of a roll phase, keeping what ``settle`` would have
+    returned there (:attr:`settled`; :func:`solve_exact_settled`)."""
+    settled: ExactSolution | None = None
+    """With ``note_settled``: the solution a ``settle`` solve returns, once a roll phase has
+    turned a full turn (``_PhaseEnd.turned``)."""
+    undetermined: bool = False
+    """With ``note_settled``: where a ``settle`` solve would have stopped cannot be told (a
+    phase failed before a turn was noted: it may have turned first)."""
 
     def run(self) -> None:
         """Phase after phase, until the window ends, the hoop lands or the solve stops."""
@@ -966,6 +1049,13 @@ class _Solve:
                 break
 
     def solution(self) -> ExactSolution:
+        return self._solution(self.segments, self.phases, self.t_settled)
+
+    def _solution(
+        self, segments: list[Segment], phases: list[Phase], t_settled: float | None
+    ) -> ExactSolution:
+        """The solution with these segments, phases and settling time, and the events found
+        so far (copied: a noted solve goes on finding)."""
         outcome = self.outcome
         if outcome is None:
             outcome = Outcome.SLIPS if "t_slip" in self.found else Outcome.ROLLS
@@ -979,17 +1069,15 @@ class _Solve:
             t_lift=found.get("t_lift"),
             hop_height=found.get("hop_height"),
             t_impact=found.get("t_impact"),
-            phases=tuple(self.phases),
+            phases=tuple(phases),
             message=self.message,
-            extra=self.extra,
+            extra=dict(self.extra),
         )
         # Nothing integrable (Painlevé or degenerate at t = 0): one frozen segment, so that
         # the solution can still be sampled at t = 0.
-        segments = self.segments or [_frozen_segment(self.scene, self.state)]
+        segments = segments or [_frozen_segment(self.scene, self.state)]
         opts = self.opts
-        return ExactSolution(
-            self.scene, events, tuple(segments), opts.rtol, opts.atol, self.t_settled
-        )
+        return ExactSolution(self.scene, events, tuple(segments), opts.rtol, opts.atol, t_settled)
 
     # ------------------------------------------------------------------ one phase
     def _step(self) -> bool:
@@ -1002,6 +1090,7 @@ class _Solve:
         try:
             phase = self._roll() if self.mode is Mode.ROLL else self._slip()
         except IntegrationError as exc:  # an answer it cannot give, said as one
+            self.undetermined = self.undetermined or (self.note_settled and self.settled is None)
             return self._stop(Outcome.ERROR, f"{exc} (at t = {self.t:.6g} s)")
         return phase is not None and self._after(*phase)
 
@@ -1022,8 +1111,16 @@ class _Solve:
 
     def _roll(self) -> tuple[Segment, _PhaseEnd]:
         scene = self.scene
+        note = self.note_settled and self.settled is None
         return _roll_phase(
-            scene, self.t, self.state, scene.t_end, self.opts, self.budget, settle=self.settle
+            scene,
+            self.t,
+            self.state,
+            scene.t_end,
+            self.opts,
+            self.budget,
+            settle=self.settle,
+            note=note,
         )
 
     def _slip(self) -> tuple[Segment, _PhaseEnd] | None:
@@ -1060,6 +1157,9 @@ class _Solve:
 
     def _after(self, seg: Segment, end: _PhaseEnd) -> bool:
         """Keep a contact phase and choose the mode after it; False once the solve is over."""
+        if end.turned is not None:  # as a settle solve would end here (_settled)
+            phases = [*self.phases, self._settled_phase(end.turned)]
+            self.settled = self._solution([*self.segments, end.turned], phases, end.turned.t_end)
         self.segments.append(seg)
         if end.reason is EventReason.SETTLED:
             self._settled(seg, end)
@@ -1121,12 +1221,15 @@ class _Solve:
         self.state = (X, Y, th, Xdot - s, Ydot, thd)
 
     def _settled(self, seg: Segment, end: _PhaseEnd) -> None:
+        self.phases.append(self._settled_phase(seg))
+        self.t_settled = end.t
+
+    def _settled_phase(self, seg: Segment) -> Phase:
         # Nothing happens any more: the phase runs to the window's end, to the very number
         # an unstopped integration ends on (solve_ivp stops exactly at t_end / unit).
         units = self.opts.units
         t_window = self.scene.t_end / units.time * units.time
-        self.phases.append(Phase(seg.kind, seg.t_start, t_window, seg.sigma))
-        self.t_settled = end.t
+        return Phase(seg.kind, seg.t_start, t_window, seg.sigma)
 
     # ------------------------------------------------------------------ helpers
     def _slip_sigma(self) -> int:

@@ -19,13 +19,14 @@ from scipy.optimize import brentq
 
 from hoopbench.models.events import Events, Outcome, PhaseKind
 from hoopbench.models.scene import Scene
-from hoopbench.reference.exact import ExactSolution, solve_exact
+from hoopbench.reference.exact import ExactSolution, solve_exact, solve_exact_settled
 
 __all__ = [
     "Regime",
     "RegimePoint",
     "classify",
     "classify_solved",
+    "classify_whole",
     "max_slip_speed",
     "settled_time",
 ]
@@ -200,10 +201,26 @@ def classify_solved(
     copy of it for the report's page)."""
     start = time.perf_counter()
     solution = solve_exact(scene, stop_when_settled=stop_when_settled)
+    return _classified(solution, start), solution
+
+
+def classify_whole(scene: Scene) -> tuple[RegimePoint, ExactSolution, ExactSolution]:
+    """:func:`classify_solved` (stopped when settled) and the solution of the whole window,
+    ``solve_exact(scene)``, from one integration
+    (:func:`~hoopbench.reference.exact.solve_exact_settled`): the point, the solution it
+    classified and the whole one (a hop map judges its engines against it). The point's
+    solve time is that of both."""
+    start = time.perf_counter()
+    settled, whole = solve_exact_settled(scene)
+    return _classified(settled, start), settled, whole
+
+
+def _classified(solution: ExactSolution, start: float) -> RegimePoint:
+    """The point of a solution solved since ``start`` (time.perf_counter())."""
     events = solution.events
     regime = regime_of(events)
     hops = regime in (Regime.HOPS, Regime.LIFTS_AT_START)
-    point = RegimePoint(
+    return RegimePoint(
         regime=regime,
         events=events,
         n_slips=_n_slips(events),
@@ -212,4 +229,3 @@ def classify_solved(
         solve_time_s=time.perf_counter() - start,
         max_slip_speed=max_slip_speed(solution),
     )
-    return point, solution

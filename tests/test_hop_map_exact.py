@@ -1,13 +1,16 @@
 """A hop map's exact solutions (reports/hop_map/stages.py): stage 1 classifies each point and
 stores the exact solution its engine runs are judged against; stage 2's workers read it
 instead of solving it again. What they read must be what they would have solved, bit for bit.
+The classification and the whole window come from one integration
+(reference/exact.py solve_exact_settled): both must be what their own solves give.
 
-About 1 s in all: a few solves of one roll, one hop and the catalogue's slip reversal.
+About 4 s in all: a few solves of one roll, one hop and the catalogue's slip reversal.
 """
 
 from __future__ import annotations
 
 import pickle
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -15,10 +18,11 @@ import pytest
 from hoopbench.engines.judging import comparison
 from hoopbench.engines.judging.comparison import exact_solution
 from hoopbench.models.catalogue import SCENES
-from hoopbench.models.events import PhaseKind
+from hoopbench.models.events import Outcome, PhaseKind
 from hoopbench.models.scene import Scene
-from hoopbench.reference.exact import ExactSolution, solve_exact
-from hoopbench.reference.regimes import classify_solved
+from hoopbench.reference import exact
+from hoopbench.reference.exact import ExactSolution, solve_exact, solve_exact_settled
+from hoopbench.reference.regimes import classify_solved, classify_whole
 from hoopbench.reports.hop_map.spec import MapPoint, MapSpec
 from hoopbench.reports.hop_map.stages import (
     EXACT_SUFFIX,
@@ -41,8 +45,11 @@ def _point(spec: MapSpec, ix: int, iy: int) -> MapPoint:
 
 
 def _same(a: ExactSolution, b: ExactSolution) -> bool:
-    """The same events and window, and the same numbers at 3,001 times across it."""
+    """The same events, window and phases, and the same numbers at 3,001 times across it."""
     if a.events != b.events or a.t_final != b.t_final or a.t_settled != b.t_settled:
+        return False
+    spans = [[(s.kind, s.sigma, s.t_start, s.t_end) for s in x.segments] for x in (a, b)]
+    if spans[0] != spans[1]:
         return False
     t = np.linspace(0.0, a.t_final, 3001)
     x, y = a.sample(t), b.sample(t)
@@ -83,15 +90,65 @@ def test_a_phase_evaluates_its_states_and_forces_together_as_apart(name):
 
 @pytest.mark.parametrize(("ix", "iy", "settles"), [(0, 0, True), (0, 1, False)])
 def test_the_point_is_judged_against_its_whole_window_solve(ix, iy, settles):
-    """The classification's solve (stop_when_settled) is the judging one where it did not
-    stop early; where it settled, the whole window is solved."""
+    """The classification (stopped where it settles) and the whole window the engine runs
+    are judged against come from one integration, each as its own solve gives it."""
     scene = _point(SPEC, ix, iy).scene()
-    _, classified = classify_solved(scene)
+    point, classified, whole = classify_whole(scene)
     assert (classified.t_settled is not None) == settles
-    judging = _judging_solution(scene, classified)
-    assert (judging is classified) == (not settles)
+    assert (whole is classified) == (not settles)
+    assert point == replace(classify_solved(scene)[0], solve_time_s=point.solve_time_s)
+    assert _same(classified, solve_exact(scene, stop_when_settled=True))
+    judging = _judging_solution(scene, whole)
+    assert judging is whole
     assert _same(judging, solve_exact(scene.with_(mus=scene.mus, muk=scene.mus)))
     assert exact_solution.holds(scene, scene.mus)
+
+
+def _settling_scenes() -> list[Scene]:
+    """A point that settles, the same at a quarter of the size (its time unit 0.5 s, not
+    1 s) and a point that hops."""
+    rolls = _point(SPEC, 0, 0).scene()
+    return [rolls, rolls.with_(a=0.25), _point(SPEC, 0, 1).scene()]
+
+
+@pytest.mark.parametrize("index", [0, 1, 2])
+def test_one_integration_gives_the_settled_and_the_whole_solve(index):
+    scene = _settling_scenes()[index]
+    settled, whole = solve_exact_settled(scene)
+    assert _same(settled, solve_exact(scene, stop_when_settled=True))
+    assert _same(whole, solve_exact(scene))
+    assert (settled.t_settled is not None) == (index < 2)
+
+
+@pytest.mark.parametrize("more", [-5, 5])
+def test_a_whole_window_out_of_steps_still_gives_the_settled_solve(more):
+    """The step budget runs out before the full turn (both solves fail alike) or after it
+    (the settled solve does not fail; the whole one does)."""
+    scene = _point(SPEC, 0, 0).scene()
+    steps = 232 + more  # the settled solve's integrator steps
+    settled, whole = solve_exact_settled(scene, max_steps=steps)
+    assert _same(settled, solve_exact(scene, stop_when_settled=True, max_steps=steps))
+    assert _same(whole, solve_exact(scene, max_steps=steps))
+    assert (settled.events.outcome is Outcome.ERROR) == (more < 0)
+    assert whole.events.outcome is Outcome.ERROR
+
+
+def test_a_failed_integration_is_solved_again_for_the_settled_solve(monkeypatch):
+    """The integrator fails in the phase that turns (it would not have failed had the phase
+    ended at the turn): the settled solve is solved on its own."""
+    scene = _point(SPEC, 0, 0).scene()
+    settled, _ = solve_exact_settled(scene)
+    which = exact._which_event
+
+    def failing_where_it_turns(sol, names):
+        if None in names and len(sol.t_events[2]):
+            raise exact.IntegrationError("failed after the turn")
+        return which(sol, names)
+
+    monkeypatch.setattr(exact, "_which_event", failing_where_it_turns)
+    alone, whole = solve_exact_settled(scene)
+    assert whole.events.outcome is Outcome.ERROR
+    assert _same(alone, settled)
 
 
 def _refuse_to_solve(*args, **kwargs):
@@ -134,3 +191,19 @@ def test_a_worker_without_the_folder_solves(tmp_path):
     task = _engine_task(SPEC, point, "pymunk", {}, None, str(missing))
     scene = point.scene()
     assert _same(_point_solution(task, scene), solve_exact(scene))
+
+
+def test_a_noted_turn_does_not_end_the_phase():
+    """The full turn's event, only noted (None among the reasons), is not why a phase ends,
+    even where it fired first: here the step budget ended it."""
+    turn, budget = np.array([0.5]), np.array([0.7])
+    ended = exact._Solved(
+        t=np.array([0.0, 0.7]),
+        y=np.zeros((2, 2)),
+        t_events=[np.empty(0), np.empty(0), turn, budget],
+        status=1,
+        message="",
+        sol=None,  # type: ignore[arg-type]
+    )
+    names = [exact.EventReason.SLIP, exact.EventReason.LIFT, None]
+    assert exact._which_event(ended, names) is exact.EventReason.BUDGET

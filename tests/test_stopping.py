@@ -122,6 +122,60 @@ def test_no_impact_without_a_hop():
     assert _feed(_monitor(StopRule()), states, 1000) == [None] * 6
 
 
+class _LoopMonitor(StopMonitor):
+    """The monitor with its impact check as it was written first, an excursion at a time:
+    the definition the vectorised check must follow."""
+
+    def _impact(self, t, clear):
+        t = np.concatenate((self._open_t, t))
+        clear = np.concatenate((self._open_clear, clear))
+        mask = np.concatenate(([0], (clear > self.limits.floor_level).astype(np.int8), [0]))
+        edges = np.flatnonzero(np.diff(mask))
+        for start, stop in zip(edges[::2], edges[1::2], strict=True):
+            if stop == len(clear):
+                self._open_t, self._open_clear = t[start:], clear[start:]
+                return False
+            if self._is_hop(t[start:stop], clear[start:stop]):
+                return True
+        self._open_t, self._open_clear = np.empty(0), np.empty(0)
+        return False
+
+
+def _flickering(rng: np.random.Generator, n: int) -> np.ndarray:
+    """A clearance that flickers off the floor for a step or a few (contact noise, some of
+    it above hop_clearance), with a hop now and then; some samples exactly on the floor."""
+    clear = np.where(rng.random(n + 1) < 0.3, rng.random(n + 1) * 3 * LIMITS.hop_clearance, 0.0)
+    clear[rng.random(n + 1) < 0.05] = -1e-6  # below the floor
+    for _ in range(rng.integers(0, 3)):
+        lift = int(rng.integers(0, n))
+        clear = np.maximum(clear, _flight(n, lift, float(rng.uniform(0.001, 0.05)), 0.01))
+    return clear
+
+
+def test_impact_is_the_excursion_by_excursion_check():
+    """On 100 flickering records fed in chunks of random sizes (about 0.6 s): the same
+    reason after every chunk and the same open excursion carried to the next, as checking
+    one excursion at a time gives."""
+    rng = np.random.default_rng(34)
+    stops = 0
+    for _ in range(100):
+        states = _record(1000, clearance=_flickering(rng, 1000))
+        fast, slow = _monitor(StopRule()), _LoopMonitor(SYNTHETIC, StopRule(), DT, detectors=LIMITS)
+        done = 0
+        while done < 1000:
+            last = min(done + int(rng.integers(1, 300)), 1000)
+            rows = {k: v[done + 1 : last + 1] for k, v in states.items()}
+            reason = fast.feed(rows, last)
+            assert reason == slow.feed(rows, last)
+            assert np.array_equal(fast._open_t, slow._open_t)
+            assert np.array_equal(fast._open_clear, slow._open_clear)
+            done = last
+            if reason:
+                stops += 1
+                break
+    assert 20 < stops < 80, stops  # hops found, and records without one
+
+
 def test_thresholds_scale_with_the_hoop():
     """On a 1 cm hoop the judge's hop threshold is 10 um (DetectorSettings.for_scene): a
     0.5 mm hop, contact noise on the 1 m hoop, is a hop there."""

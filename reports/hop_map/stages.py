@@ -15,9 +15,11 @@ the one runs dataset ``DIR/runs/``:
    verdict columns that ``compare`` gives (the same functions build them).
 
 Each point's exact solution over its whole window (what the engine runs are judged against:
-their detection floor, RMS and force columns) is solved once, in stage 1, and stored in a
-private temporary folder of this session's; stage 2's workers read it instead of solving it
-again (a worker that cannot reach the folder, or a resumed map's, solves it as before).
+their detection floor, RMS and force columns) is solved once, in stage 1, by the
+classification's own integration (which notes where the point settles on its way instead of
+stopping there, then solving the window again), and stored in a private temporary folder of
+this session's; stage 2's workers read it instead of solving it again (a worker that cannot
+reach the folder, or a resumed map's, solves it as before).
 
 Its table (columns :data:`MAP_COLUMNS`) is read by :mod:`hoopbench.reports.hop_map.table`.
 """
@@ -64,7 +66,7 @@ from hoopbench.engines.stopping import StopRule
 from hoopbench.models.events import Outcome
 from hoopbench.models.scene import DegenerateSceneError, Scene
 from hoopbench.reference.exact import ExactSolution
-from hoopbench.reference.regimes import classify_solved
+from hoopbench.reference.regimes import classify_solved, classify_whole
 from hoopbench.reports.compare.costs import MAP_COSTING
 from hoopbench.reports.compare.suite import TIMEOUT_NOTE, batch_least, run_timeout
 from hoopbench.reports.hop_map.display import write_display, write_exact_display
@@ -289,11 +291,13 @@ def _ordered(row: Mapping[str, Any]) -> dict[str, Any]:
 
 def _reference_row(task: MapTask) -> dict[str, Any]:
     scene = task.point.scene()
-    point, solution = classify_solved(scene)
+    if task.exact_dir is not None:
+        point, solution, whole = classify_whole(scene)
+        _store_solution(task, _judging_solution(scene, whole))
+    else:
+        point, solution = classify_solved(scene)
     if task.display_dir is not None:
         write_exact_display(solution, task.display_dir, task.run_id)
-    if task.exact_dir is not None:
-        _store_solution(task, _judging_solution(scene, solution))
     return _ordered(
         {
             **_task_columns(task),
@@ -312,16 +316,15 @@ EXACT_SUFFIX = ".exact.pickle"
 """A stored exact solution's file in a task's exact_dir: the point's name, then this."""
 
 
-def _judging_solution(scene: Scene, classified: ExactSolution) -> ExactSolution:
+def _judging_solution(scene: Scene, whole: ExactSolution) -> ExactSolution:
     """The solution an engine run at ``scene`` is judged against, ``exact_solution(scene,
-    scene.mus)`` (kept in this worker from now on), given the one the classification solved
-    (stop_when_settled). That one is it when the solve did not stop early: the settle event
-    only ends a roll phase, it changes no step of a solve it does not end
-    (tests/test_hop_map_exact.py); otherwise the whole window is solved here."""
+    scene.mus)`` (kept in this worker from now on), given ``solve_exact(scene)``, the whole
+    window the classification solved on its way (``classify_whole``: a settled point's is
+    not solved a second time). That one is it where mus = muk; otherwise it is solved here."""
     mu = scene.mus
-    if classified.t_settled is None and classified.scene == scene.with_(mus=mu, muk=mu):
-        exact_solution.keep(scene, mu, classified)
-        return classified
+    if whole.t_settled is None and whole.scene == scene.with_(mus=mu, muk=mu):
+        exact_solution.keep(scene, mu, whole)
+        return whole
     return exact_solution(scene, mu)
 
 
