@@ -109,7 +109,8 @@ def test_warp_script_compiles_no_backward_pass(engine):
     """As the adapter (tests/test_newton.py), the script turns Warp's backward pass off
     (base.WARP_ENABLE_BACKWARD) before it imports the engine, whose modules take the setting
     when they are made: the script compiles the adapter's kernels, no adjoints (about half a
-    cold Newton compile). 0.1 CPU-s: the script's text alone."""
+    cold Newton compile). The script's text alone: about 1 s for the first engine (importing
+    the adapters), 0.01 s for the second."""
     import hoopbench as hb
 
     body = ast.parse(hb.export(engine, "seed-mu", timestep=1e-3)).body
