@@ -58,6 +58,7 @@ __all__ = [
     "RUN_ALONE",
     "STATE_KEYS",
     "WARP_CACHE",
+    "WARP_ENABLE_BACKWARD",
     "Chunk",
     "DivergenceLimits",
     "DivergenceScreen",
@@ -1189,6 +1190,15 @@ def cores_per_process() -> int:
 WARP_CACHE = "warp"
 """NVIDIA Warp's kernel cache, under :func:`cache_folder` (Newton's and MuJoCo Warp's)."""
 
+# hoopbench never takes a gradient, and Warp otherwise generates and compiles every kernel's
+# adjoint beside it: off, a cold Newton call compiles in about half the CPU time, with the
+# same forward code (trajectories bit for bit; docs/engines.md, Compile caches).
+WARP_ENABLE_BACKWARD = False
+"""``wp.config.enable_backward`` for MuJoCo Warp and Newton, in the adapters (set by
+:func:`import_warp`) and in their exported scripts: Warp's own documented option for users
+who need no gradients (no backward kernels generated or compiled). A Warp module takes it
+when it is created, at its package's import, so it is set before the engine is imported."""
+
 
 def cache_folder(engine: str) -> Path:
     """Where an engine keeps its compiled code between processes: ``$HOOPBENCH_CACHE/<engine>``,
@@ -1239,13 +1249,11 @@ def _loads(library: str) -> bool:
 
 def import_warp() -> ModuleType:
     """NVIDIA Warp, quiet (its start-up banner would go to stdout, which ``--json`` output
-    owns), with its kernel cache under :func:`cache_folder` and each module compiled by one
-    process at a time (engines/warp_compile.py); EngineUnavailableError if it cannot be
-    imported."""
+    owns), with its kernel cache under :func:`cache_folder`, no backward kernels
+    (:data:`WARP_ENABLE_BACKWARD`) and each module compiled by one process at a time
+    (engines/warp_compile.py); EngineUnavailableError if it cannot be imported."""
     wp = import_engine("warp")
-    # hoopbench never takes a gradient: no kernel's adjoint is compiled (Warp's documented
-    # switch; a module takes it when created, so before the engine's package is imported).
-    wp.config.enable_backward = False
+    wp.config.enable_backward = WARP_ENABLE_BACKWARD  # before the engine's package is imported
     if not wp.config.kernel_cache_dir:
         wp.config.kernel_cache_dir = str(cache_folder(WARP_CACHE))
     wp.config.quiet = True

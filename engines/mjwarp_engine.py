@@ -49,6 +49,7 @@ import numpy as np
 from hoopbench.engines.base import (
     DEVICE,
     WARP_CACHE,
+    WARP_ENABLE_BACKWARD,
     WorldsEngine,
     import_warp,
     warp_device,
@@ -109,6 +110,7 @@ class MjwarpEngine(WorldsEngine, MjcfEngine):
             device_text="a GPU if Warp sees one, else the CPU" if device == "auto" else device,
             integrator=options["integrator"],
             integrate=_SCRIPT_INTEGRATE[options["integrator"]],
+            enable_backward=WARP_ENABLE_BACKWARD,
         )
 
     def _import(self) -> ModuleType:
@@ -163,8 +165,10 @@ class MjwarpEngine(WorldsEngine, MjcfEngine):
 
 _SCRIPT = '''
 import mujoco
-import mujoco_warp as mjw
 import warp as wp
+
+wp.config.enable_backward = {enable_backward}  # no gradients: no backward kernels compiled
+import mujoco_warp as mjw  # after the line above: its modules take the setting when made
 
 {model}
 

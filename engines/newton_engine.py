@@ -97,6 +97,7 @@ from hoopbench.engines.base import (
     CHUNK_STEPS,
     DEVICE,
     WARP_CACHE,
+    WARP_ENABLE_BACKWARD,
     WorldsEngine,
     import_warp,
     warp_device,
@@ -317,6 +318,7 @@ class NewtonEngine(WorldsEngine):
             chunk=CHUNK_STEPS,
             roundings=ROUNDINGS[solver],
             unit_roundoff=UNIT_ROUNDOFF,
+            enable_backward=WARP_ENABLE_BACKWARD,
         )
 
     def _import(self) -> ModuleType:
@@ -760,10 +762,11 @@ def _start_velocity(scene: Scene) -> list[float]:
 
 
 _SCRIPT = '''
-import newton
 import warp as wp
 
 wp.config.quiet = True
+wp.config.enable_backward = {enable_backward}  # no gradients: no backward kernels compiled
+import newton  # after the line above: its modules take the setting when made
 
 # Newton's contact settings of both shapes (the sphere and the ground plane).
 SHAPE = dict(

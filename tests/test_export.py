@@ -100,6 +100,38 @@ def test_script_imports_only_the_engine(engine):
     assert imported <= {"sys", "math", "os", "tempfile", "numpy", *engine_packages}, imported
 
 
+WARP_PACKAGES = {"mjwarp": "mujoco_warp", "newton": "newton"}
+"""The package on NVIDIA Warp whose import makes an engine's Warp modules."""
+
+
+@pytest.mark.parametrize("engine", sorted(WARP_PACKAGES))
+def test_warp_script_compiles_no_backward_pass(engine):
+    """As the adapter (tests/test_newton.py), the script turns Warp's backward pass off
+    (base.WARP_ENABLE_BACKWARD) before it imports the engine, whose modules take the setting
+    when they are made: the script compiles the adapter's kernels, no adjoints (about half a
+    cold Newton compile). The script's text alone: about 1 s for the first engine (importing
+    the adapters), 0.01 s for the second."""
+    import hoopbench as hb
+
+    body = ast.parse(hb.export(engine, "seed-mu", timestep=1e-3)).body
+    setting = [
+        i
+        for i, node in enumerate(body)
+        if isinstance(node, ast.Assign)
+        and [ast.unparse(target) for target in node.targets] == ["wp.config.enable_backward"]
+        and isinstance(node.value, ast.Constant)
+        and node.value.value is False
+    ]
+    engine_import = next(
+        i
+        for i, node in enumerate(body)
+        if isinstance(node, ast.Import)
+        and any(alias.name.split(".")[0] == WARP_PACKAGES[engine] for alias in node.names)
+    )
+    assert setting, "the script leaves Warp's backward pass on"
+    assert setting[0] < engine_import, "the script sets enable_backward after the engine's import"
+
+
 def test_script_states_the_run(tmp_path, capsys):
     """The header names the engine, its release, the scene and every setting of the run."""
     out = tmp_path / "run.py"
