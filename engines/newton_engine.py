@@ -117,6 +117,7 @@ from hoopbench.engines.registry import register
 from hoopbench.engines.settings import RunSettings
 from hoopbench.engines.warp_compile import load_modules
 from hoopbench.models import kinematics
+from hoopbench.models.checks import check_real
 from hoopbench.models.mjcf import INERTIA_PAD
 from hoopbench.models.scene import Scene
 
@@ -296,6 +297,19 @@ class NewtonEngine(WorldsEngine):
         for solver in SOLVERS
         if solver != "xpbd"  # the default
     )
+
+    def _check(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> None:
+        """Restitution != 0 raises ValueError before a run: none of the solvers here takes
+        it as the other engines do (the run used to ignore it and report restitution 0's)."""
+        value = check_real("restitution", settings.restitution, low=0.0, high=1.0)
+        if value != 0.0:
+            raise ValueError(
+                f"restitution must be 0 for Newton, got {settings.restitution}: its XPBD "
+                "solver applies restitution only when built with enable_restitution=True "
+                "(after the positional solve), its Featherstone and SemiImplicit contacts are "
+                "penalty springs (ke, kd) and its MuJoCo solver has no coefficient; hoopbench "
+                "builds Newton's hoop without restitution"
+            )
 
     def _script(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
         solver = options["solver"]

@@ -69,6 +69,7 @@ BAD: list[tuple[list[str], str]] = [
     (sim("pymunk", "--mu", "nan"), "got nan"),
     (sim("pymunk", "--restitution", "2"), "restitution must be a number in [0, 1], got 2"),
     (sim("mujoco", "--restitution", "0.5"), "restitution must be 0 for MuJoCo, got 0.5"),
+    (sim("newton", "--restitution", "0.5"), "restitution must be 0 for Newton, got 0.5"),
     (sim("pybullet", "--mu", "20"), "mu must be <= 10.0 for pybullet"),
     (sim("pybullet", "--M", "1e-9"), "M must be >= 1e-08 kg for pybullet, got 1e-09"),
     # ----- geometries and engine options
