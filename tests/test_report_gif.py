@@ -97,3 +97,19 @@ def test_the_gif_renders_each_glyph_once_with_the_matplotlib_installed():
     hoop_gif._cache_glyphs(renderer)
     pyplot().close(fig)
     assert "_draw_text_glyphs_and_boxes" in vars(renderer)  # the instance's own, kept glyphs
+
+
+def test_the_gif_lays_out_each_line_of_text_once_with_the_matplotlib_installed():
+    """hoop_gif._keep_layouts repeats matplotlib 3.11's draw_text from a kept layout (the
+    frame test above checks its pixels, with labels that change from frame to frame); with
+    3.11 installed the GIF's renderer must use it (about 1 CPU-s of the GIF's 6)."""
+    import matplotlib
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    if not matplotlib.__version__.startswith("3.11."):
+        pytest.skip(f"matplotlib {matplotlib.__version__}: its own text drawing")
+    fig = pyplot().figure()
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    hoop_gif._cache_glyphs(renderer)
+    pyplot().close(fig)
+    assert "draw_text" in vars(renderer)  # the instance's own, kept layouts
