@@ -129,3 +129,39 @@ def test_a_category_tick_label_s_control_characters_are_drawn_as_their_codes(tmp
             drawn.append(np.asarray(Image.open(path)))
     assert visible_controls("hop\x07top") != "hop\x07top"
     assert np.array_equal(drawn[0], drawn[1])
+
+
+def test_save_draws_text_with_kept_glyphs_to_the_same_pixels(tmp_path, monkeypatch):
+    """save() draws text with each glyph rendered once and each line laid out once
+    (glyph_cache.with_kept_glyphs), to the pixels matplotlib's own text drawing gives: text at
+    several sizes and angles (a rotated label, a text at 30 degrees, math with its rules), the
+    same glyphs at many places (tick labels). Cost: about 1 s."""
+    import matplotlib
+    import numpy as np
+    from PIL import Image
+
+    from hoopbench.reports.report import plotting
+
+    plt = plotting.pyplot()
+
+    def figures() -> list:
+        fig, ax = plt.subplots(figsize=(4.0, 3.0), constrained_layout=True)
+        ax.plot([0.0, 1.0], [0.0, 1.0])
+        ax.set_ylabel("clearance (mm), rotated")
+        ax.text(0.2, 0.5, "at 30 degrees: 0.123 s", rotation=30, fontsize=11)
+        ax.text(0.1, 0.8, r"$\frac{1}{2}\sqrt{x}$ math", parse_math=True)
+        return [fig, *_figures_to_save(plt)]
+
+    kept = []
+    with plotting.plain_text():
+        for k, fig in enumerate(figures()):
+            canvas = fig.canvas  # pyplot.close gives the figure another
+            plotting.save(fig, tmp_path / f"kept-{k}.png", dpi=90)
+            kept.append("_draw_text_glyphs_and_boxes" in vars(canvas.renderer))
+        monkeypatch.setattr(plotting, "with_kept_glyphs", lambda canvas: None)
+        for k, fig in enumerate(figures()):
+            plain = plotting.save(fig, tmp_path / f"plain-{k}.png", dpi=90)
+            mine = np.asarray(Image.open(tmp_path / f"kept-{k}.png"))
+            assert np.array_equal(mine, np.asarray(Image.open(plain))), k
+    if matplotlib.__version__.startswith("3.11."):
+        assert all(kept)  # drawn with it, not quietly as before

@@ -13,6 +13,7 @@ import pytest
 
 from hoopbench.models.catalogue import get_scene
 from hoopbench.reports.report import hoop_gif
+from hoopbench.reports.report.glyph_cache import cache_glyphs
 from hoopbench.reports.report.page_animation import EXACT_LABEL, HoopMotion
 from hoopbench.reports.report.plotting import plain_text, pyplot
 
@@ -84,7 +85,7 @@ def test_the_gif_has_its_frames_at_its_pace(tmp_path):
 
 
 def test_the_gif_renders_each_glyph_once_with_the_matplotlib_installed():
-    """hoop_gif._cache_glyphs repeats matplotlib 3.11's glyph drawing (the frame test above
+    """cache_glyphs repeats matplotlib 3.11's glyph drawing (the frame test above
     checks its pixels); with 3.11 installed the GIF's renderer must use it, not quietly draw
     as before (a third more of the GIF's CPU time)."""
     import matplotlib
@@ -94,6 +95,22 @@ def test_the_gif_renders_each_glyph_once_with_the_matplotlib_installed():
         pytest.skip(f"matplotlib {matplotlib.__version__}: its own glyph drawing")
     fig = pyplot().figure()
     renderer = FigureCanvasAgg(fig).get_renderer()
-    hoop_gif._cache_glyphs(renderer)
+    cache_glyphs(renderer)
     pyplot().close(fig)
     assert "_draw_text_glyphs_and_boxes" in vars(renderer)  # the instance's own, kept glyphs
+
+
+def test_the_gif_lays_out_each_line_of_text_once_with_the_matplotlib_installed():
+    """glyph_cache._keep_layouts repeats matplotlib 3.11's draw_text from a kept layout (the
+    frame test above checks its pixels, with labels that change from frame to frame); with
+    3.11 installed the GIF's renderer must use it (about 1 CPU-s of the GIF's 6)."""
+    import matplotlib
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    if not matplotlib.__version__.startswith("3.11."):
+        pytest.skip(f"matplotlib {matplotlib.__version__}: its own text drawing")
+    fig = pyplot().figure()
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    cache_glyphs(renderer)
+    pyplot().close(fig)
+    assert "draw_text" in vars(renderer)  # the instance's own, kept layouts

@@ -347,6 +347,20 @@ def test_the_map_has_a_key_for_every_colour_it_draws(page):
     assert figure["data"][0]["showscale"] is False
 
 
+def test_the_map_cells_read_from_their_columns_as_from_the_whole_table(page, monkeypatch):
+    """page_map._cells groups the columns a cell reads (_CELL_COLUMNS), not the table's
+    hundred: its hovers, keys and runs are those of the whole table's groups."""
+    from hoopbench.reports.report import page_map
+
+    folder = page.parent.parent / "map"
+    frame = map_frame(folder)
+    grid = page_map.map_grid(frame)
+    assert len(frame.columns) > len(page_map._CELL_COLUMNS)
+    read = page_map._cells(frame, grid, folder)
+    monkeypatch.setattr(page_map, "_CELL_COLUMNS", tuple(frame.columns))
+    assert script_json(read) == script_json(page_map._cells(frame, grid, folder))
+
+
 def test_the_animation_is_a_grid_with_its_controls_on_top_and_says_when_a_run_ended(page):
     from hoopbench.reports.report.page_animation import GRID_COLUMNS
 

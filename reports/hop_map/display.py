@@ -123,6 +123,8 @@ def read_display(out: str | Path, run_id: str) -> DisplayRun | None:
     if path is None:
         return None
     # Arrow's table, not pandas': a page reads every run of a map (400 for make report's),
-    # and the DataFrame between took half of each read.
-    table = pq.read_table(path, columns=list(DISPLAY_COLUMNS))
+    # and the DataFrame between took half of each read. One file's reader, not read_table's
+    # dataset: the same table for a third of the CPU time (0.08 against 0.22 s for 400).
+    with pq.ParquetFile(path) as stored:
+        table = stored.read(columns=list(DISPLAY_COLUMNS))
     return DisplayRun(*(table.column(name).to_numpy() for name in DISPLAY_COLUMNS))

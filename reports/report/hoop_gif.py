@@ -7,7 +7,6 @@ its label above it, and a key of the marks below the panels.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -16,6 +15,7 @@ import numpy as np
 
 from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.models.scene import Scene
+from hoopbench.reports.report.glyph_cache import cache_glyphs
 from hoopbench.reports.report.page_animation import EVENTS, EXACT_LABEL, HoopMotion
 from hoopbench.reports.report.palette import (
     ENDED_COLOUR,
@@ -192,7 +192,7 @@ def gif_frames(fig: Figure, frame: Callable[[int], None], n: int) -> list[Image.
     for ax in panels:
         ax.set_visible(True)
     renderer = canvas.get_renderer()
-    _cache_glyphs(renderer)
+    cache_glyphs(renderer)
     frames = []
     for k in range(n):
         frame(k)
@@ -201,69 +201,6 @@ def gif_frames(fig: Figure, frame: Callable[[int], None], n: int) -> list[Image.
             ax.draw(renderer)
         frames.append(_frame_image(canvas))
     return frames
-
-
-_GLYPHS_AS_IN = "3.11."
-"""The matplotlib whose RendererAgg._draw_text_glyphs_and_boxes :func:`_cache_glyphs` repeats
-(rendered a glyph at a time; earlier ones drew a text's glyphs in one bitmap)."""
-
-
-def _cache_glyphs(renderer: Any) -> None:
-    """``renderer`` renders each glyph once at each position within a pixel and keeps it: the
-    frames' labels are two thirds of their drawing and repeat the same glyphs at the same
-    places (a run's name, "t = ", the digits, its events). The same pixels: FreeType renders a
-    glyph moved by whole pixels as the same bitmap moved by as many (its outlines are in
-    1/64 px), and a glyph is blended into the canvas as matplotlib does it; each font is left
-    as matplotlib leaves it (its size and the last glyph's transform). With any other
-    matplotlib the renderer is left as it is (tests/test_report_gif.py compares each frame
-    with a whole figure's drawing)."""
-    import matplotlib
-
-    draw_glyphs = getattr(renderer, "_draw_text_glyphs_and_boxes", None)
-    if draw_glyphs is None or not matplotlib.__version__.startswith(_GLYPHS_AS_IN):
-        return
-    from matplotlib.backends.backend_agg import get_hinting_flag
-    from matplotlib.ft2font import RenderMode
-
-    kept: dict[tuple[Any, ...], tuple[np.ndarray, int, int]] = {}
-
-    def draw(gc: Any, x: float, y: float, angle: float, glyphs: Any, boxes: Any) -> None:
-        cos, sin = math.cos(math.radians(angle)), math.sin(math.radians(angle))
-        load_flags = get_hinting_flag()
-        antialiased = gc.get_antialiased()
-        fonts: dict[Any, tuple] = {}  # each font's state after its last glyph
-        for font, size, glyph_index, slant, extend, dx, dy in glyphs:  # dy is upwards
-            matrix = (
-                (0x10000 * np.array([[cos, -sin], [sin, cos]]) @ [[extend, extend * slant], [0, 1]])
-                .round()
-                .astype(int)
-            )
-            tx = round(0x40 * (x + dx * cos - dy * sin))  # 1/64 px; FreeType's y is upwards
-            ty = round(0x40 * (renderer.height - y + dx * sin + dy * cos))
-            key: tuple[Any, ...] = (font, size, glyph_index, matrix.tobytes(), tx & 63, ty & 63)
-            key += (load_flags, antialiased)
-            if key not in kept:
-                font.set_size(size, renderer.dpi)
-                font._set_transform(matrix, [tx & 63, ty & 63])
-                mode = RenderMode.NORMAL if antialiased else RenderMode.MONO
-                bitmap = font._render_glyph(glyph_index, load_flags, mode)
-                buffer = np.array(bitmap.buffer)
-                if not antialiased:
-                    buffer *= 0xFF
-                kept[key] = (buffer, bitmap.left, bitmap.top)
-            buffer, left, top = kept[key]
-            left, top = left + (tx >> 6), top + (ty >> 6)
-            # draw_text_image's y is downwards and the bitmap's bottom side
-            renderer._renderer.draw_text_image(
-                buffer, left, int(renderer.height) - top + buffer.shape[0], 0, gc
-            )
-            fonts[font] = (size, matrix, [tx, ty])
-        for font, (size, matrix, delta) in fonts.items():
-            font.set_size(size, renderer.dpi)
-            font._set_transform(matrix, delta)
-        draw_glyphs(gc, x, y, angle, (), boxes)  # the boxes (mathtext's rules) as before
-
-    renderer._draw_text_glyphs_and_boxes = draw
 
 
 def _frame_image(canvas: Any) -> Image.Image:

@@ -30,7 +30,7 @@ from hoopbench.reference.regimes import Regime
 from hoopbench.reports.compare.selection import engine_rows, reference_rows
 from hoopbench.reports.hop_map.spec import AXES, MAP_FILE, Axis, MapSpec, load_spec
 from hoopbench.reports.hop_map.table import ALL_REGIMES, agreement_table, map_frame
-from hoopbench.reports.report import map_figures, plotting
+from hoopbench.reports.report import glyph_cache, map_figures, plotting
 from hoopbench.reports.report.escaping import escape_cell, escape_text
 from hoopbench.reports.report.map_figures import (
     FIGURE_KEY,
@@ -326,12 +326,12 @@ def _agreement_cell(count: int, judged: int, pct: float) -> str:
 
 def figure_key(frame: pd.DataFrame, name: str) -> str:
     """What a map figure is drawn from, as a sha256: the figure's name, the frame's every
-    value, the drawing code (map_figures.py, plotting.py) and matplotlib's version. Two
-    figures of one key are the same picture."""
+    value, the drawing code (map_figures.py, plotting.py, glyph_cache.py) and matplotlib's
+    version. Two figures of one key are the same picture."""
     import matplotlib
 
     digest = hashlib.sha256(f"{name}\0{matplotlib.__version__}\0".encode())
-    for module in (map_figures, plotting):
+    for module in (map_figures, plotting, glyph_cache):
         try:
             digest.update(Path(str(module.__file__)).read_bytes())
         except OSError:  # code not readable as a file (a zipped install): a key never reused

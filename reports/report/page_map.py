@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from hoopbench.engines.judging.columns import Col
 from hoopbench.engines.judging.verdict import Verdict
 from hoopbench.reference.regimes import Regime
 from hoopbench.reports.compare.selection import reference_rows
@@ -40,6 +41,11 @@ __all__ = ["map_cell_key", "map_fragment", "run_samples"]
 
 _PARAMETERS = ("lam", "chi", "mu", "eps", "theta0_deg")
 """The scene parameters a cell's hover lists (the map's columns)."""
+_CELL_COLUMNS = (
+    "ix", "iy", "x", "y", *_PARAMETERS, Col.ENGINE, Col.RUN_ID, Col.STATUS, "verdict",
+    "verdict_reason", "regime", "exact_hop_height",
+)  # fmt: skip
+"""What :func:`_cells` reads of a point's rows (its hover and its runs)."""
 
 PAGE_SAMPLES = 400_000
 """Samples of all the map's runs together that the page embeds for the clicks (each sample
@@ -190,7 +196,9 @@ def _cells(frame: pd.DataFrame, grid: MapGrid, out: Path) -> tuple[list, list, d
     keys = [["" for _ in range(nx)] for _ in range(ny)]
     runs: dict[str, Any] = {}
     samples = run_samples(len(frame))
-    for (ix, iy), point in frame.groupby(["ix", "iy"], sort=True):
+    # The columns a cell reads, not the table's hundred: a group is a copy of its columns.
+    read = [name for name in _CELL_COLUMNS if name in frame.columns]
+    for (ix, iy), point in frame[read].groupby(["ix", "iy"], sort=True):
         key = map_cell_key(int(ix), int(iy))
         hover[int(iy)][int(ix)] = _hover(point)
         keys[int(iy)][int(ix)] = key

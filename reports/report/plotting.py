@@ -27,6 +27,7 @@ from types import ModuleType
 from typing import Any
 
 from hoopbench.models.whole_files import write_whole
+from hoopbench.reports.report.glyph_cache import with_kept_glyphs
 from hoopbench.reports.sweep.control_chars import visible_controls
 
 __all__ = [
@@ -123,7 +124,8 @@ def save(
     Every text's control characters (a scene's or a setting's name from a file) are drawn as
     their codes (visible_controls): matplotlib has no glyph for them and its "Glyph missing"
     warning would carry them to the terminal raw. ``metadata``: text entries of the PNG
-    (map_section's figure key), none by default."""
+    (map_section's figure key), none by default. Its text is drawn with each glyph rendered
+    once (glyph_cache.with_kept_glyphs: the same pixels)."""
     for text in _texts(fig):
         text.set_text(visible_controls(text.get_text()))
     for ax in fig.axes:
@@ -131,6 +133,7 @@ def save(
             axis.set_major_formatter(_plain_formatter(axis.get_major_formatter()))
             axis.set_minor_formatter(_plain_formatter(axis.get_minor_formatter()))
     try:
+        with_kept_glyphs(fig.canvas)
         laid_out(fig, dpi)
         extra: dict[str, Any] = {} if metadata is None else {"metadata": metadata}
         return written_whole(out, lambda tmp: fig.savefig(tmp, dpi=dpi, **extra))
