@@ -32,7 +32,12 @@ from hoopbench.reports.compare.costs import (
     map_call_cost,
     priors,
 )
-from hoopbench.reports.compare.suite import batch_key, batch_least, run_task_batch
+from hoopbench.reports.compare.suite import (
+    batch_affinity,
+    batch_key,
+    batch_least,
+    run_task_batch,
+)
 from hoopbench.reports.compare.suite_file import load_suite, suite_path
 from hoopbench.reports.hop_map.spec import MapSpec
 from hoopbench.reports.hop_map.stages import (
@@ -70,7 +75,9 @@ def suite_sweep(name: str, jobs: int, batch_size: int) -> PlannedSweep:
     suite = load_suite(suite_path(name))
     tasks, _ = suite.for_machine(suite.tasks(None), warp_sees_gpu)
     batching = (
-        Batching(run_task_batch, batch_key, batch_size, batch_least) if batch_size > 1 else None
+        Batching(run_task_batch, batch_key, batch_size, batch_least, batch_affinity)
+        if batch_size > 1
+        else None
     )
     calls = tuple(call_cost(_tasks(unit)) for unit in _units(tasks, batching, jobs))
     return PlannedSweep(name, len(tasks), calls)
@@ -80,7 +87,9 @@ def map_sweeps(spec: MapSpec, jobs: int, batch_size: int) -> list[PlannedSweep]:
     """The map's two sweeps (the exact classification of its points, then its engines')."""
     refs, engine_tasks = planned_tasks(spec)
     batching = (
-        Batching(run_map_batch, map_batch_key, batch_size, batch_least) if batch_size > 1 else None
+        Batching(run_map_batch, map_batch_key, batch_size, batch_least, batch_affinity)
+        if batch_size > 1
+        else None
     )
     units = _units(engine_tasks, batching, jobs)
     return [

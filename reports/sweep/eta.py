@@ -150,6 +150,12 @@ class Took:
     """Its worker had run no call of its engine (most general kind) before: also cold."""
     new: bool = False
     """No worker had run a call of its most specific kind before: also cold."""
+    worker: Hashable = None
+    """Which worker ran it (a WorkerPool's: its pid), where known."""
+    started: float | None = None
+    """time.monotonic() when it started, where known."""
+    cpu_s: float | None = None
+    """CPU s its worker spent on it, where known (:attr:`PoolFuture.cpu_s`)."""
 
 
 def prior_rates(call: CallCost, prior: Mapping[Hashable, Rates]) -> Rates | None:
