@@ -182,9 +182,14 @@ def test_a_keys_batches_keep_to_one_worker_and_the_other_runs_the_rest(tmp_path,
     with WorkerPool(2) as pool:
         # Both workers free at once (this module imported), every call queued.
         hold_workers(pool, scratch / "go", wait_here)
-        # The workers come free once the 6 batches and the 2 calls in flight are queued.
-        queued = lambda: len(pool._pending) >= 8  # noqa: E731
-        opener = threading.Thread(target=lambda: wait_until(queued) and (scratch / "go").touch())
+
+        # The workers come free once the 6 batches and the 2 calls in flight are queued
+        # (or after 20 s: a runner that holds the batches back fails below, not hangs).
+        def open_when_queued() -> None:
+            wait_until(lambda: len(pool._pending) >= 8)
+            (scratch / "go").touch()
+
+        opener = threading.Thread(target=open_when_queued)
         opener.start()
         summary = run_tasks(
             tasks, job_worker, tmp_path / "out", executor=pool, batching=batching, quiet=True

@@ -7,7 +7,7 @@ from __future__ import annotations
 import io
 import json
 from collections import Counter
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import pytest
 from test_runner import Job, job_failure_row, job_worker
@@ -37,6 +37,7 @@ from hoopbench.reports.sweep.eta import (
     Rates,
     Running,
     Took,
+    call_ends,
     call_firsts,
     kind_factors,
     machine_factor,
@@ -257,6 +258,27 @@ def test_a_cold_cache_compiles_an_engines_kernels_once_a_worker_whichever_kind()
     both = remaining_seconds([MJW_TUNED, MJW_STOCK], [], [], 2, cold)
     alone = remaining_seconds([MJW_STOCK], [], [], 1, CALL_COST_PRIOR)
     assert both == pytest.approx(alone + compile_s)
+
+
+def test_calls_that_keep_to_one_worker_pay_an_engines_first_call_once():
+    """A batched engine's calls keep to the worker that has run one (the runner's batch
+    affinity): two workers, MuJoCo Warp's two kinds on a cold cache compile its kernels once
+    (on the first call), as on one worker; the calls that spread compile them twice."""
+    cold = priors({"mjwarp"})
+    first_s = cold["mjwarp"].first_s  # the kernels compiled (and loaded)
+    tuned, stock = replace(MJW_TUNED, affine=True), replace(MJW_STOCK, affine=True)
+    spread = call_ends([MJW_TUNED, MJW_STOCK], [], [], 2, cold)
+    kept = call_ends([tuned, stock], [], [], 2, cold)
+    assert spread is not None and kept is not None
+    # Each call on a worker of its own, starting now: its end is its seconds.
+    one_worker = remaining_seconds([MJW_TUNED, MJW_STOCK], [], [], 1, cold)
+    assert sum(kept[1]) == pytest.approx(one_worker)
+    assert sum(spread[1]) == pytest.approx(one_worker + first_s)
+    # A worker has run the engine: no worker's first call is left to pay.
+    warm = {"mjwarp": 1, MJW_TUNED.kinds[0]: 1}
+    assert remaining_seconds([stock], [], [], 2, cold, warm) == pytest.approx(
+        remaining_seconds([stock], [], [], 2, CALL_COST_PRIOR, warm)
+    )
 
 
 def test_a_cold_cache_compiles_a_kinds_program_once_on_the_machine():

@@ -87,6 +87,10 @@ class CallCost:
     nothing, as the exact classification of a map's point, pays its fixed part)."""
     worlds: int = 1
     """Worlds stepped together (a batch's runs; 1 for a run alone)."""
+    affine: bool = False
+    """Its calls keep to the worker that has run one (the runner's batch affinity): what a
+    worker's first call of its kind or engine pays is laid out as paid on one worker, not
+    on each."""
 
 
 @dataclass(frozen=True)
@@ -332,6 +336,7 @@ def call_ends(
     estimate = _Estimate(finished, prior)
     workers = max(workers, 1)
     cold_left = Counter({kind: workers - n for kind, n in (warm or {}).items()})
+    affine_left = Counter({kind: 1 - n for kind, n in (warm or {}).items()})
     seen = {kind for kind, n in (warm or {}).items() if n > 0}
     free = [0.0] * workers  # when each worker is next free, s from now
     running_ends: list[float] = []
@@ -346,9 +351,12 @@ def call_ends(
     pending_ends: list[float] = []
     for call in pending:
         kind = call.kinds[0] if call.kinds else None
-        cold = _first_of(kind, cold_left, workers)
+        # A kind's first pending calls, one per worker that has not run it (one in all for
+        # calls that keep to one worker).
+        left, spread = (affine_left, 1) if call.affine else (cold_left, workers)
+        cold = _first_of(kind, left, spread)
         # The engine's: its first pending calls, one per worker that has not run it.
-        first = _first_of(call.kinds[-1], cold_left, workers) if len(call.kinds) > 1 else cold
+        first = _first_of(call.kinds[-1], left, spread) if len(call.kinds) > 1 else cold
         new = kind not in seen
         seen.add(kind)
         expected = estimate.seconds(call, cold, first and cold, new and cold)

@@ -1621,7 +1621,10 @@ class _Calls:
         assert self.costing is not None
         found = self._costs.get(id(unit))
         if found is None:
-            found = self._costs[id(unit)] = self.costing.cost(_tasks_of(unit))
+            found = self.costing.cost(_tasks_of(unit))
+            if self._affinity(unit) is not None:
+                found = replace(found, affine=True)
+            self._costs[id(unit)] = found
         return found
 
     def _took(self, future: Future, attempt: _Attempt, start: float | None) -> None:
