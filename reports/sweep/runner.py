@@ -38,7 +38,10 @@ rows``, so that a simulator stepping many worlds at once pays its start-up once.
 one call in every respect: one worker process, one time limit (the sum of its tasks'), one
 retry after a crash, and every task of it gets a row (its own, or the batch's timeout,
 crash or error row; ``attempts`` and ``elapsed_s`` are the batch's); a resumed sweep groups
-the tasks still to run afresh.
+the tasks still to run afresh. On a :class:`WorkerPool`, the batches of one affinity key
+(:attr:`Batching.affinity`; for hoopbench, the engine) keep to the worker that has run one
+while the other workers take the calls queued behind them, and are submitted past the
+calls-in-flight limit so that those other calls are there (:meth:`WorkerPool.submit_keyed`).
 """
 
 from __future__ import annotations
