@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import io
 import json
-from collections import Counter
+from collections import Counter, deque
 from dataclasses import dataclass, replace
 
 import pytest
@@ -20,7 +20,8 @@ from hoopbench.reports.bench.call_costs import (
     rounding,
     seconds_of,
 )
-from hoopbench.reports.bench.eta_replay import _Recorded
+from hoopbench.reports.bench.eta_replay import _next_call, _Recorded
+from hoopbench.reports.bench.eta_replay import _Sweep as _ReplaySweep
 from hoopbench.reports.compare.costs import (
     CALL_COST_PRIOR,
     COLD_CACHE_S,
@@ -699,3 +700,16 @@ def test_the_replay_gives_a_workers_first_call_of_the_engine_the_longest_recorde
     recorded = _Recorded([{**record, "seconds": 0.3}, {**record, "seconds": 32.8}])
     assert recorded.take(MJW_STOCK, first=True) == 32.8
     assert recorded.take(MJW_STOCK, first=False) == 0.3
+
+
+def test_the_replay_hands_a_batched_engines_calls_to_the_worker_that_ran_it():
+    """eta_replay takes calls as the pool does: worker 2 passes over MJX's calls that worker
+    1 has begun and takes the call of no affinity behind them, unless nothing else is left."""
+    mjx = replace(MJX_TUNED, affine=True)
+    sweep = _ReplaySweep(deque([mjx, mjx, MJW_TUNED]))
+    taken = ran(mjx, 1)
+    assert _next_call([sweep], 2, taken, steal=False) == (0, 2)
+    assert _next_call([sweep], 1, taken, steal=False) == (0, 0)
+    alone = _ReplaySweep(deque([mjx]))
+    assert _next_call([alone], 2, taken, steal=False) is None
+    assert _next_call([alone], 2, taken, steal=True) == (0, 0)
