@@ -32,9 +32,11 @@ kind (cold: imports, MJX's tracing), a worker's first call of an engine whicheve
 is (first: Warp's kernels, compiled by each worker into an empty cache), and the machine's
 first call of a kind on any worker (new: MJX's XLA program, compiled once into the cache
 every worker reads). The calls left are laid out with each of these where it falls (the
-first pending calls of a kind or an engine, one per worker that has not run it; the first
-of a kind no worker has run), and what a first or new call pays more is taken at the
-machine's factor: it is a compile, not a sample of the kind (nor, below, of its cold calls).
+first pending calls of a kind or an engine, one per worker that has not run it, or one in
+all for calls that keep to the worker that has run one, :attr:`CallCost.affine`: a batched
+engine's; the first of a kind no worker has run), and what a first or new call pays more
+is taken at the machine's factor: it is a compile, not a sample of the kind (nor, below,
+of its cold calls).
 
 A cold call (its worker's first of its kind) is no sample of a kind's stepping: with cold
 caches MJX's first calls of 3,000 steps were mostly compiling (2-3 times their prior), and
