@@ -937,7 +937,11 @@ def _ready_to_draw() -> None:
 
 
 def _write_calls(finished: Sequence[Any], path: Path) -> None:
-    """Each finished call a JSON line (report-runs --calls)."""
+    """Each finished call a JSON line (report-runs --calls): its kinds, steps, worlds, wall
+    seconds and flags, its worker's pid, when it started (s after the first call started)
+    and the CPU s its worker spent on it (None where unknown)."""
+    starts = [d.started for d in finished if d.started is not None]
+    zero = min(starts, default=0.0)
     lines = [
         json.dumps(
             {
@@ -948,6 +952,9 @@ def _write_calls(finished: Sequence[Any], path: Path) -> None:
                 "cold": d.cold,
                 "first": d.first,
                 "new": d.new,
+                "worker": d.worker,
+                "started": None if d.started is None else d.started - zero,
+                "cpu_s": d.cpu_s,
             }
         )
         for d in finished

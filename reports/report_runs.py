@@ -22,7 +22,7 @@ import signal
 import threading
 from collections import deque
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from hoopbench.engines.base import warp_sees_gpu
 from hoopbench.reports.compare.costs import (
@@ -32,7 +32,12 @@ from hoopbench.reports.compare.costs import (
     map_call_cost,
     priors,
 )
-from hoopbench.reports.compare.suite import batch_key, batch_least, run_task_batch
+from hoopbench.reports.compare.suite import (
+    batch_affinity,
+    batch_key,
+    batch_least,
+    run_task_batch,
+)
 from hoopbench.reports.compare.suite_file import load_suite, suite_path
 from hoopbench.reports.hop_map.spec import MapSpec
 from hoopbench.reports.hop_map.stages import (
@@ -65,14 +70,24 @@ def _tasks(unit: object) -> Sequence[object]:
     return unit.tasks if isinstance(unit, TaskBatch) else (unit,)
 
 
+def _cost(unit: object, cost: Callable[[Sequence[object]], CallCost]) -> CallCost:
+    """A call's cost as the runner works it out: keeping to one worker where it has an
+    affinity key (the shared pool is a WorkerPool)."""
+    call = cost(_tasks(unit))
+    affine = isinstance(unit, TaskBatch) and unit.affinity is not None
+    return replace(call, affine=True) if affine else call
+
+
 def suite_sweep(name: str, jobs: int, batch_size: int) -> PlannedSweep:
     """A shipped suite's runs and calls as ``compare`` will run them on this machine."""
     suite = load_suite(suite_path(name))
     tasks, _ = suite.for_machine(suite.tasks(None), warp_sees_gpu)
     batching = (
-        Batching(run_task_batch, batch_key, batch_size, batch_least) if batch_size > 1 else None
+        Batching(run_task_batch, batch_key, batch_size, batch_least, batch_affinity)
+        if batch_size > 1
+        else None
     )
-    calls = tuple(call_cost(_tasks(unit)) for unit in _units(tasks, batching, jobs))
+    calls = tuple(_cost(unit, call_cost) for unit in _units(tasks, batching, jobs))
     return PlannedSweep(name, len(tasks), calls)
 
 
@@ -80,12 +95,14 @@ def map_sweeps(spec: MapSpec, jobs: int, batch_size: int) -> list[PlannedSweep]:
     """The map's two sweeps (the exact classification of its points, then its engines')."""
     refs, engine_tasks = planned_tasks(spec)
     batching = (
-        Batching(run_map_batch, map_batch_key, batch_size, batch_least) if batch_size > 1 else None
+        Batching(run_map_batch, map_batch_key, batch_size, batch_least, batch_affinity)
+        if batch_size > 1
+        else None
     )
     units = _units(engine_tasks, batching, jobs)
     return [
         PlannedSweep(MAP_STEP, len(refs), tuple(map_call_cost([ref]) for ref in refs)),
-        PlannedSweep(MAP_STEP, len(engine_tasks), tuple(map_call_cost(_tasks(u)) for u in units)),
+        PlannedSweep(MAP_STEP, len(engine_tasks), tuple(_cost(u, map_call_cost) for u in units)),
     ]
 
 

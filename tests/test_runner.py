@@ -17,6 +17,7 @@ import sys
 import threading
 import time
 import uuid
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -629,6 +630,77 @@ def test_worker_pool_is_an_executor_that_kills_one_call_and_replaces_dead_worker
         assert pool.submit(pow, 3, 2).result(timeout=30) == 9  # a new worker took over
         pids = pool.pids
     assert pids and not any(alive(p) for p in pids)
+
+
+def wait_for_file(path: str) -> int:
+    """A call that holds its worker until ``path`` exists; its worker's pid."""
+    while not os.path.exists(path):
+        time.sleep(0.01)
+    return os.getpid()
+
+
+def sleep_pid(seconds: float) -> int:
+    time.sleep(seconds)
+    return os.getpid()
+
+
+def burn_pid(seconds: float) -> int:
+    """Spend ``seconds`` of this process's CPU time."""
+    end = time.process_time() + seconds
+    while time.process_time() < end:
+        pass
+    return os.getpid()
+
+
+def hold_workers(pool: WorkerPool, gate: Path, wait: Callable[[str], int] = wait_for_file) -> None:
+    """Every worker of ``pool`` started and busy (in ``wait``) until ``gate`` exists: the
+    calls submitted meanwhile are all queued when the workers come free together."""
+    held = [pool.submit(wait, str(gate)) for _ in range(pool.max_workers)]
+    assert wait_until(lambda: all(f.worker_pid is not None for f in held), timeout=60)
+
+
+def test_calls_of_a_key_keep_to_one_worker_while_the_other_takes_the_rest(tmp_path):
+    """A key's calls (a batched engine's) run where the first of them ran, while the other
+    worker takes the calls queued behind them (0.7 s of sleeps, about 2 s of CPU)."""
+    with WorkerPool(2) as pool:
+        hold_workers(pool, tmp_path / "go")
+        keyed = [pool.submit_keyed("mjx", sleep_pid, 0.1) for _ in range(4)]
+        plain = [pool.submit(sleep_pid, 0.1) for _ in range(6)]
+        (tmp_path / "go").touch()
+        keyed_pids = {f.result(timeout=30) for f in keyed}
+        first_plain = plain[0].result(timeout=30)
+        assert all(f.result(timeout=30) for f in plain)
+    assert len(keyed_pids) == 1
+    assert first_plain not in keyed_pids  # taken while the key's calls waited for theirs
+
+
+def test_a_worker_with_no_call_of_its_own_takes_anothers_key_rather_than_idle(tmp_path):
+    """Affinity is a preference: a worker idles only when nothing is queued. With only one
+    key's calls queued and its worker busy, the other worker runs them."""
+    with WorkerPool(2) as pool:
+        hold_workers(pool, tmp_path / "go")
+        long = pool.submit_keyed("mjx", sleep_pid, 2.0)
+        short = [pool.submit_keyed("mjx", sleep_pid, 0.0) for _ in range(3)]
+        (tmp_path / "go").touch()
+        assert all(f.result(timeout=30) != long.worker_pid for f in short)
+        assert long.result(timeout=30)
+        assert long.started_at is not None
+        assert all(f.started_at is not None and f.started_at < long.started_at + 1.5 for f in short)
+
+
+def test_a_call_knows_the_cpu_time_its_worker_spent_on_it():
+    """PoolFuture.cpu_s, where /proc tells: a call that spins, not one that sleeps
+    (about 0.8 s of CPU)."""
+    with WorkerPool(1) as pool:
+        burning = pool.submit(burn_pid, 0.3)
+        burning.result(timeout=30)
+        sleeping = pool.submit(sleep_pid, 0.3)
+        sleeping.result(timeout=30)
+    if not os.path.exists(f"/proc/{os.getpid()}/stat"):
+        assert burning.cpu_s is None
+        return
+    assert burning.cpu_s is not None and 0.25 <= burning.cpu_s < 1.0
+    assert sleeping.cpu_s is not None and sleeping.cpu_s < 0.1
 
 
 # ------------------------------------------------------------------ one sweep per folder

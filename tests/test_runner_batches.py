@@ -5,18 +5,28 @@ after a crash, a row for every task, resume. Real worker processes, as tests/tes
 
 from __future__ import annotations
 
+import os
 import threading
 from pathlib import Path
 
 import pytest
-from test_runner import Job, by_run_id, calls, job_failure_row, job_worker
+from test_runner import (
+    Job,
+    by_run_id,
+    calls,
+    hold_workers,
+    job_failure_row,
+    job_worker,
+    wait_for_file,
+    wait_until,
+)
 
 from hoopbench.engines.base import Engine
 from hoopbench.engines.mjx_engine import WORLDS_PER_CALL
 from hoopbench.engines.registry import engine_class
 from hoopbench.engines.run import RunStatus
 from hoopbench.reports.compare.suite import batch_least
-from hoopbench.reports.sweep.runner import Batching, RunSummary, TaskBatch, run_tasks
+from hoopbench.reports.sweep.runner import Batching, RunSummary, TaskBatch, WorkerPool, run_tasks
 
 
 @pytest.fixture
@@ -149,3 +159,43 @@ def test_a_resumed_sweep_batches_what_is_left(tmp_path, scratch):
     second = run(tasks, tmp_path / "out", resume=True)
     assert batches(scratch) == [["bx-0", "bx-1", "bx-flaky"]]  # bx-3 was stored: skipped
     assert second.skipped == 1 and second.counts == {RunStatus.OK: 3}
+
+
+def wait_here(path: str) -> int:
+    """test_runner's wait_for_file, from this module: its worker imports it meanwhile."""
+    return wait_for_file(path)
+
+
+def job_batch_worker_pids(jobs: list[Job]) -> list[dict]:
+    """job_batch_worker, each row with its worker's pid."""
+    return [{**row, "pid": os.getpid()} for row in job_batch_worker(jobs)]
+
+
+def test_a_keys_batches_keep_to_one_worker_and_the_other_runs_the_rest(tmp_path, scratch):
+    """The batches of one affinity key run in the worker that ran the first, though they are
+    more than the calls in flight: the runner submits them past its limit, so that the pool
+    has other calls for the other worker (about 1.5 s of sleeps, 3 s of CPU)."""
+    s = str(scratch)
+    tasks = [Job(f"bx-{i}", "sleep", 0.1, s) for i in range(6)]
+    tasks += [Job(f"a-{i}", "sleep", 0.1, s) for i in range(12)]
+    batching = Batching(job_batch_worker_pids, job_key, 1, affinity=lambda key: "x-engine")
+    with WorkerPool(2) as pool:
+        # Both workers free at once (this module imported), every call queued.
+        hold_workers(pool, scratch / "go", wait_here)
+
+        # The workers come free once the 6 batches and the 2 calls in flight are queued
+        # (or after 20 s: a runner that holds the batches back fails below, not hangs).
+        def open_when_queued() -> None:
+            wait_until(lambda: len(pool._pending) >= 8)
+            (scratch / "go").touch()
+
+        opener = threading.Thread(target=open_when_queued)
+        opener.start()
+        summary = run_tasks(
+            tasks, job_worker, tmp_path / "out", executor=pool, batching=batching, quiet=True
+        )
+    opener.join()
+    assert summary.counts == {RunStatus.OK: 18}
+    rows = by_run_id(tmp_path / "out")
+    assert len({rows[f"bx-{i}"]["pid"] for i in range(6)}) == 1
+    assert [line for line in batches(scratch)] == [[f"bx-{i}"] for i in range(6)]

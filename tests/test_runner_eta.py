@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import io
 import json
-from collections import Counter
-from dataclasses import dataclass
+from collections import Counter, deque
+from dataclasses import dataclass, replace
 
 import pytest
 from test_runner import Job, job_failure_row, job_worker
@@ -20,7 +20,8 @@ from hoopbench.reports.bench.call_costs import (
     rounding,
     seconds_of,
 )
-from hoopbench.reports.bench.eta_replay import _Recorded
+from hoopbench.reports.bench.eta_replay import _next_call, _Recorded
+from hoopbench.reports.bench.eta_replay import _Sweep as _ReplaySweep
 from hoopbench.reports.compare.costs import (
     CALL_COST_PRIOR,
     COLD_CACHE_S,
@@ -37,6 +38,7 @@ from hoopbench.reports.sweep.eta import (
     Rates,
     Running,
     Took,
+    call_ends,
     call_firsts,
     kind_factors,
     machine_factor,
@@ -257,6 +259,27 @@ def test_a_cold_cache_compiles_an_engines_kernels_once_a_worker_whichever_kind()
     both = remaining_seconds([MJW_TUNED, MJW_STOCK], [], [], 2, cold)
     alone = remaining_seconds([MJW_STOCK], [], [], 1, CALL_COST_PRIOR)
     assert both == pytest.approx(alone + compile_s)
+
+
+def test_calls_that_keep_to_one_worker_pay_an_engines_first_call_once():
+    """A batched engine's calls keep to the worker that has run one (the runner's batch
+    affinity): two workers, MuJoCo Warp's two kinds on a cold cache compile its kernels once
+    (on the first call), as on one worker; the calls that spread compile them twice."""
+    cold = priors({"mjwarp"})
+    first_s = cold["mjwarp"].first_s  # the kernels compiled (and loaded)
+    tuned, stock = replace(MJW_TUNED, affine=True), replace(MJW_STOCK, affine=True)
+    spread = call_ends([MJW_TUNED, MJW_STOCK], [], [], 2, cold)
+    kept = call_ends([tuned, stock], [], [], 2, cold)
+    assert spread is not None and kept is not None
+    # Each call on a worker of its own, starting now: its end is its seconds.
+    one_worker = remaining_seconds([MJW_TUNED, MJW_STOCK], [], [], 1, cold)
+    assert sum(kept[1]) == pytest.approx(one_worker)
+    assert sum(spread[1]) == pytest.approx(one_worker + first_s)
+    # A worker has run the engine: no worker's first call is left to pay.
+    warm = {"mjwarp": 1, MJW_TUNED.kinds[0]: 1}
+    assert remaining_seconds([stock], [], [], 2, cold, warm) == pytest.approx(
+        remaining_seconds([stock], [], [], 2, CALL_COST_PRIOR, warm)
+    )
 
 
 def test_a_cold_cache_compiles_a_kinds_program_once_on_the_machine():
@@ -677,3 +700,16 @@ def test_the_replay_gives_a_workers_first_call_of_the_engine_the_longest_recorde
     recorded = _Recorded([{**record, "seconds": 0.3}, {**record, "seconds": 32.8}])
     assert recorded.take(MJW_STOCK, first=True) == 32.8
     assert recorded.take(MJW_STOCK, first=False) == 0.3
+
+
+def test_the_replay_hands_a_batched_engines_calls_to_the_worker_that_ran_it():
+    """eta_replay takes calls as the pool does: worker 2 passes over MJX's calls that worker
+    1 has begun and takes the call of no affinity behind them, unless nothing else is left."""
+    mjx = replace(MJX_TUNED, affine=True)
+    sweep = _ReplaySweep(deque([mjx, mjx, MJW_TUNED]))
+    taken = ran(mjx, 1)
+    assert _next_call([sweep], 2, taken, steal=False) == (0, 2)
+    assert _next_call([sweep], 1, taken, steal=False) == (0, 0)
+    alone = _ReplaySweep(deque([mjx]))
+    assert _next_call([alone], 2, taken, steal=False) is None
+    assert _next_call([alone], 2, taken, steal=True) == (0, 0)

@@ -175,21 +175,40 @@ def _start_calls(
     recorded: _Recorded,
     begun: int,
 ) -> None:
-    """Each idle worker takes the next call of the earliest begun sweep with one left."""
+    """Each idle worker takes the next call of the earliest begun sweep with one left, as
+    the pool hands them: first a call of its own (of no affinity, of an engine it has run or
+    no other worker has), else the first (the pool's wait of 0.2 s before it is left out)."""
     busy = {w for s in sweeps for w in s.running}
-    for worker in sorted(free):
-        if worker in busy:
-            continue
-        k = next((k for k in range(begun + 1) if sweeps[k].queue), None)
-        if k is None:
-            return
-        call = sweeps[k].queue.popleft()
-        taken = set(warm)
-        for s in sweeps:
-            for w, flight in s.running.items():
-                taken |= ran(flight.call, w)
-        flags = call_firsts(call, worker, taken)
-        sweeps[k].running[worker] = _InFlight(call, now, flags, recorded.take(call, flags[1]))
+    for steal in (False, True):
+        for worker in sorted(free):
+            if worker in busy:
+                continue
+            taken = set(warm)
+            for s in sweeps:
+                for w, flight in s.running.items():
+                    taken |= ran(flight.call, w)
+            found = _next_call(sweeps[: begun + 1], worker, taken, steal)
+            if found is None:
+                continue
+            k, index = found
+            call = sweeps[k].queue[index]
+            del sweeps[k].queue[index]
+            flags = call_firsts(call, worker, taken)
+            sweeps[k].running[worker] = _InFlight(call, now, flags, recorded.take(call, flags[1]))
+            busy.add(worker)
+
+
+def _next_call(
+    sweeps: Sequence[_Sweep], worker: int, taken: set[tuple[Hashable, Hashable]], steal: bool
+) -> tuple[int, int] | None:
+    """(sweep, index in its queue) of the call ``worker`` takes (:func:`_start_calls`)."""
+    for k, sweep in enumerate(sweeps):
+        for index, call in enumerate(sweep.queue):
+            engine = call.kinds[-1] if call.kinds else None
+            others = any(kind == engine and w != worker for w, kind in taken)
+            if steal or not call.affine or (worker, engine) in taken or not others:
+                return k, index
+    return None
 
 
 def _name(index: int, step: str) -> str:

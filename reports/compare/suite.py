@@ -220,6 +220,15 @@ def batch_least(key: Hashable) -> int:
     return engine_class(key[0]).worlds_per_call
 
 
+def batch_affinity(key: Hashable) -> Hashable:
+    """The affinity key of a batch of ``key`` (:func:`batch_key`'s, or the map's: the engine
+    first): its engine. An engine that batches pays its imports, kernel loads and compiled
+    programs once per process, whatever the settings, so its batches keep to the worker that
+    has run one (the runner's Batching affinity)."""
+    assert isinstance(key, tuple)
+    return key[0]
+
+
 def run_task_batch(tasks: list[RunTask]) -> list[dict[str, Any]]:
     """The batch worker: the tasks' scenes in one engine call (``Engine.run_batch``), their
     rows in order, each as :func:`run_task` would give it. If the engine refuses the batch
@@ -413,7 +422,7 @@ def compare(
             resume=resume,
             meta=meta,
             quiet=quiet,
-            batching=Batching(run_task_batch, batch_key, batch_size, batch_least)
+            batching=Batching(run_task_batch, batch_key, batch_size, batch_least, batch_affinity)
             if batch_size > 1
             else None,
             costing=suite_costing(),

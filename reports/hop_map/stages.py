@@ -68,7 +68,12 @@ from hoopbench.models.scene import DegenerateSceneError, Scene
 from hoopbench.reference.exact import ExactSolution
 from hoopbench.reference.regimes import classify_solved, classify_whole
 from hoopbench.reports.compare.costs import MAP_COSTING
-from hoopbench.reports.compare.suite import TIMEOUT_NOTE, batch_least, run_timeout
+from hoopbench.reports.compare.suite import (
+    TIMEOUT_NOTE,
+    batch_affinity,
+    batch_least,
+    run_timeout,
+)
 from hoopbench.reports.hop_map.display import write_display, write_exact_display
 from hoopbench.reports.hop_map.spec import (
     MAP_FILE,
@@ -672,7 +677,9 @@ def _run_map(
         for name in (results.CSV_NAME, results.META_NAME):
             (out / name).unlink(missing_ok=True)
     batching = (
-        Batching(run_map_batch, map_batch_key, batch_size, batch_least) if batch_size > 1 else None
+        Batching(run_map_batch, map_batch_key, batch_size, batch_least, batch_affinity)
+        if batch_size > 1
+        else None
     )
     second = run_tasks(tasks, run_map_task, out, batching=batching, **common)
     summary = _summary(spec, out, [first, second], n_refs)

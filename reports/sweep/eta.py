@@ -32,9 +32,11 @@ kind (cold: imports, MJX's tracing), a worker's first call of an engine whicheve
 is (first: Warp's kernels, compiled by each worker into an empty cache), and the machine's
 first call of a kind on any worker (new: MJX's XLA program, compiled once into the cache
 every worker reads). The calls left are laid out with each of these where it falls (the
-first pending calls of a kind or an engine, one per worker that has not run it; the first
-of a kind no worker has run), and what a first or new call pays more is taken at the
-machine's factor: it is a compile, not a sample of the kind (nor, below, of its cold calls).
+first pending calls of a kind or an engine, one per worker that has not run it, or one in
+all for calls that keep to the worker that has run one, :attr:`CallCost.affine`: a batched
+engine's; the first of a kind no worker has run), and what a first or new call pays more
+is taken at the machine's factor: it is a compile, not a sample of the kind (nor, below,
+of its cold calls).
 
 A cold call (its worker's first of its kind) is no sample of a kind's stepping: with cold
 caches MJX's first calls of 3,000 steps were mostly compiling (2-3 times their prior), and
@@ -87,6 +89,10 @@ class CallCost:
     nothing, as the exact classification of a map's point, pays its fixed part)."""
     worlds: int = 1
     """Worlds stepped together (a batch's runs; 1 for a run alone)."""
+    affine: bool = False
+    """Its calls keep to the worker that has run one (the runner's batch affinity): what a
+    worker's first call of its kind or engine pays is laid out as paid on one worker, not
+    on each."""
 
 
 @dataclass(frozen=True)
@@ -150,6 +156,12 @@ class Took:
     """Its worker had run no call of its engine (most general kind) before: also cold."""
     new: bool = False
     """No worker had run a call of its most specific kind before: also cold."""
+    worker: Hashable = None
+    """Which worker ran it (a WorkerPool's: its pid), where known."""
+    started: float | None = None
+    """time.monotonic() when it started, where known."""
+    cpu_s: float | None = None
+    """CPU s its worker spent on it, where known (:attr:`PoolFuture.cpu_s`)."""
 
 
 def prior_rates(call: CallCost, prior: Mapping[Hashable, Rates]) -> Rates | None:
@@ -326,6 +338,7 @@ def call_ends(
     estimate = _Estimate(finished, prior)
     workers = max(workers, 1)
     cold_left = Counter({kind: workers - n for kind, n in (warm or {}).items()})
+    affine_left = Counter({kind: 1 - n for kind, n in (warm or {}).items()})
     seen = {kind for kind, n in (warm or {}).items() if n > 0}
     free = [0.0] * workers  # when each worker is next free, s from now
     running_ends: list[float] = []
@@ -340,9 +353,12 @@ def call_ends(
     pending_ends: list[float] = []
     for call in pending:
         kind = call.kinds[0] if call.kinds else None
-        cold = _first_of(kind, cold_left, workers)
+        # A kind's first pending calls, one per worker that has not run it (one in all for
+        # calls that keep to one worker).
+        left, spread = (affine_left, 1) if call.affine else (cold_left, workers)
+        cold = _first_of(kind, left, spread)
         # The engine's: its first pending calls, one per worker that has not run it.
-        first = _first_of(call.kinds[-1], cold_left, workers) if len(call.kinds) > 1 else cold
+        first = _first_of(call.kinds[-1], left, spread) if len(call.kinds) > 1 else cold
         new = kind not in seen
         seen.add(kind)
         expected = estimate.seconds(call, cold, first and cold, new and cold)

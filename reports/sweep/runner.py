@@ -38,7 +38,10 @@ rows``, so that a simulator stepping many worlds at once pays its start-up once.
 one call in every respect: one worker process, one time limit (the sum of its tasks'), one
 retry after a crash, and every task of it gets a row (its own, or the batch's timeout,
 crash or error row; ``attempts`` and ``elapsed_s`` are the batch's); a resumed sweep groups
-the tasks still to run afresh.
+the tasks still to run afresh. On a :class:`WorkerPool`, the batches of one affinity key
+(:attr:`Batching.affinity`; for hoopbench, the engine) keep to the worker that has run one
+while the other workers take the calls queued behind them, and are submitted past the
+calls-in-flight limit so that those other calls are there (:meth:`WorkerPool.submit_keyed`).
 """
 
 from __future__ import annotations
@@ -47,6 +50,7 @@ import contextlib
 import errno
 import fcntl
 import json
+import math
 import multiprocessing
 import multiprocessing.connection
 import os
@@ -151,13 +155,38 @@ class RemoteTracebackError(Exception):
 
 
 class PoolFuture(Future):
-    """A Future that also tells when its call started on a worker, and on which."""
+    """A Future that also tells when its call started on a worker, on which, and the CPU
+    time that worker spent on it."""
 
-    def __init__(self) -> None:
+    def __init__(self, key: Hashable | None = None) -> None:
         super().__init__()
+        self.key = key
+        """The call's affinity key (:meth:`WorkerPool.submit_keyed`), else None."""
         self.started_at: float | None = None
         """time.monotonic() when the call was handed to an idle, started worker."""
         self.worker_pid: int | None = None
+        self.cpu_s: float | None = None
+        """CPU s (user and system, all its threads) its worker spent from the call's start
+        to its reply, where the system tells (Linux's /proc), else None."""
+        self._cpu_at_start: float | None = None
+
+
+def _cpu_seconds(pid: int | None) -> float | None:
+    """The CPU s (user and system) process ``pid`` has spent so far, from Linux's
+    /proc/PID/stat; None elsewhere or when it cannot be read."""
+    if pid is None:
+        return None
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as stat_file:
+            text = stat_file.read()
+        # The name field may hold spaces and parentheses: the fields follow its last ')'.
+        fields = text[text.rindex(b")") + 2 :].split()
+        return (int(fields[11]) + int(fields[12])) / _CLOCK_TICKS
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+_CLOCK_TICKS = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
 
 
 _STOP = b""
@@ -243,6 +272,10 @@ class _Worker:
     future: PoolFuture | None = None
     killed: bool = False
     conn_open: bool = True
+    keys: set[Hashable] = field(default_factory=set)
+    """The affinity keys of the calls this process has run (:meth:`WorkerPool.submit_keyed`)."""
+    idle_since: float = 0.0
+    """time.monotonic() when it last came free (or ready)."""
 
 
 def _default_context() -> BaseContext:
@@ -321,6 +354,13 @@ class WorkerPool(Executor):
     docstring) instead of leaving its futures pending for ever.
     """
 
+    STEAL_AFTER_S = 0.2
+    """s a worker stays idle before it takes a queued call of a key another worker has run
+    (:meth:`submit_keyed`): the caller refills the queue with calls of no key as calls end,
+    and a worker that took another key's call in that moment would pay what the key costs
+    once per process (a batched engine's imports and compiled programs: seconds) for
+    nothing."""
+
     START_RETRY_DELAYS: tuple[float, ...] = (0.2, 1.0, 3.0)
     """Seconds before each new try to start a worker after a failed start; the failure after
     the last breaks the pool. A SIGKILLed fork server refuses connections for a moment before
@@ -381,8 +421,19 @@ class WorkerPool(Executor):
             return [w.process.pid for w in self._workers if w.process.pid is not None]
 
     def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> PoolFuture:
+        return self.submit_keyed(None, fn, *args, **kwargs)
+
+    def submit_keyed(
+        self, key: Hashable | None, fn: Callable[..., Any], /, *args: Any, **kwargs: Any
+    ) -> PoolFuture:
+        """:meth:`submit` a call with an affinity ``key`` (None: none): an idle worker takes
+        the first queued call that has no key, or a key it has run, or a key no other live
+        worker has run; only when no queued call is such, for :attr:`STEAL_AFTER_S`, does it
+        take the first queued call (no worker idles while calls wait). So the calls of a key
+        run in the process that has paid what the key costs once per process (an engine's
+        imports, compiled programs loaded) while other calls keep the other workers busy."""
         data = pickle.dumps((fn, args, kwargs))  # an unpicklable call fails here, not later
-        future = PoolFuture()
+        future = PoolFuture(key)
         with self._lock:
             if self._broken is not None:
                 raise self._broken
@@ -523,34 +574,66 @@ class WorkerPool(Executor):
 
     def _dispatch(self) -> list[PoolFuture]:
         """Hand queued calls to idle workers and start workers as needed (lock held).
-        Returns the futures found cancelled, to be dropped."""
-        dropped = []
-        for worker in self._workers:
-            if not self._pending:
+        Returns the futures found cancelled, to be dropped. Each idle worker first takes its
+        own (:meth:`submit_keyed`); then any idle worker left takes the first call queued."""
+        dropped: list[PoolFuture] = []
+        now = time.monotonic()
+        steal_at: float | None = None
+        for steal in (False, True):
+            for worker in self._workers:
+                if not self._pending:
+                    break
+                if not worker.ready or worker.future is not None or worker.killed:
+                    continue
+                if steal and now < worker.idle_since + self.STEAL_AFTER_S:
+                    steal_at = min(steal_at or math.inf, worker.idle_since + self.STEAL_AFTER_S)
+                    continue
+                self._hand(worker, steal, dropped)
+        starting = sum(1 for w in self._workers if not w.ready and not w.killed)
+        missing = min(len(self._pending) - starting, self._max_workers - len(self._workers))
+        self._wake_at = steal_at  # the manager wakes to let an idle worker take another's
+        for _ in range(max(0, missing)):
+            if not self._start_worker_or_later():
+                wake = [t for t in (steal_at, self._retry_at) if t is not None]
+                self._wake_at = min(wake) if wake else None  # and to try again
                 break
-            if not worker.ready or worker.future is not None or worker.killed:
-                continue
-            future, data = self._pending.popleft()
+        return dropped
+
+    def _hand(self, worker: _Worker, steal: bool, dropped: list[PoolFuture]) -> None:
+        """Send ``worker`` (idle) the first queued call that is its own, or (``steal``) the
+        first queued call; cancelled ones met on the way go to ``dropped`` (lock held)."""
+        while True:
+            index = 0 if steal else self._own_call(worker)
+            if index is None or index >= len(self._pending):
+                return
+            future, data = self._pending[index]
+            del self._pending[index]
             if not _claimed(future):
                 dropped.append(future)
                 continue
             try:
                 worker.conn.send_bytes(data)
             except OSError:  # died between calls: its sentinel will tell; call goes back
-                self._pending.appendleft((future, data))
+                self._pending.insert(index, (future, data))
                 worker.killed = True
-                continue
+                return
             future.started_at = time.monotonic()
             future.worker_pid = worker.pid
+            future._cpu_at_start = _cpu_seconds(worker.pid)
             worker.future = future
-        starting = sum(1 for w in self._workers if not w.ready and not w.killed)
-        missing = min(len(self._pending) - starting, self._max_workers - len(self._workers))
-        self._wake_at = None
-        for _ in range(max(0, missing)):
-            if not self._start_worker_or_later():
-                self._wake_at = self._retry_at  # the manager wakes to try again
-                break
-        return dropped
+            if future.key is not None:
+                worker.keys.add(future.key)
+            return
+
+    def _own_call(self, worker: _Worker) -> int | None:
+        """The index of the first queued call that ``worker`` should take before any other
+        (:meth:`submit_keyed`), else None (lock held)."""
+        others = {key for w in self._workers if w is not worker and not w.killed for key in w.keys}
+        for index, (future, _) in enumerate(self._pending):
+            key = future.key
+            if key is None or key in worker.keys or key not in others:
+                return index
+        return None
 
     def _receive(self, worker: _Worker) -> tuple[PoolFuture, Any, bool] | None:
         """Read one message from a worker: ready, or a call's outcome to set on its future."""
@@ -559,6 +642,7 @@ class WorkerPool(Executor):
         except (EOFError, OSError):
             worker.conn_open = False
             return None
+        worker.idle_since = time.monotonic()
         if not worker.ready:
             worker.pid = pickle.loads(data)
             worker.ready = True
@@ -567,6 +651,9 @@ class WorkerPool(Executor):
         future, worker.future = worker.future, None
         if future is None:  # killed meanwhile: the future already has its exception
             return None
+        cpu = _cpu_seconds(worker.pid)
+        if cpu is not None and future._cpu_at_start is not None:
+            future.cpu_s = cpu - future._cpu_at_start
         try:
             ok, value, tb = pickle.loads(data)
         except Exception as exc:
@@ -754,6 +841,12 @@ class Batching:
     """The fewest tasks of a key that a batch is cut to when the key's tasks are spread
     over the calls in flight (an engine that pads every call to a fixed number of worlds
     gains nothing from smaller batches). Called here."""
+    affinity: Callable[[Hashable], Hashable | None] = lambda key: key
+    """A batch key -> the affinity key of its batches (None: none): on a :class:`WorkerPool`
+    the batches of one affinity key run in the worker that has run one, while other calls
+    keep the other workers busy (:meth:`WorkerPool.submit_keyed`), so that what a batch
+    pays once per process (a simulator's imports and compiled programs) is paid in few
+    processes. By default each batch key is its own. Called here."""
 
     def __post_init__(self) -> None:
         if isinstance(self.size, bool) or not isinstance(self.size, int) or self.size < 1:
@@ -779,11 +872,11 @@ class Batching:
             members = open_batches.get(key)
             if members is None:
                 members = open_batches[key] = []
-                units.append(members)
+                units.append((members, self.affinity(key)))
             members.append(task)
             if len(members) == sizes[key]:
                 del open_batches[key]
-        return [TaskBatch(tuple(u)) if isinstance(u, list) else u for u in units]
+        return [TaskBatch(tuple(u[0]), u[1]) if isinstance(u, tuple) else u for u in units]
 
 
 @dataclass(frozen=True)
@@ -791,6 +884,8 @@ class TaskBatch:
     """Tasks run in one call of a batch worker."""
 
     tasks: tuple[Any, ...]
+    affinity: Hashable | None = None
+    """Its affinity key (:attr:`Batching.affinity`), else None."""
 
     @property
     def run_id(self) -> str:
@@ -1529,7 +1624,10 @@ class _Calls:
         assert self.costing is not None
         found = self._costs.get(id(unit))
         if found is None:
-            found = self._costs[id(unit)] = self.costing.cost(_tasks_of(unit))
+            found = self.costing.cost(_tasks_of(unit))
+            if self._affinity(unit) is not None:
+                found = replace(found, affine=True)
+            self._costs[id(unit)] = found
         return found
 
     def _took(self, future: Future, attempt: _Attempt, start: float | None) -> None:
@@ -1544,7 +1642,9 @@ class _Calls:
         worker = getattr(future, "worker_pid", None)
         cold, first, new = call_firsts(call, worker, self._warm)
         self._warm |= ran(call, worker)
-        self.finished.append(Took(call, time.monotonic() - start, cold, first, new))
+        seconds = time.monotonic() - start
+        cpu = getattr(future, "cpu_s", None)
+        self.finished.append(Took(call, seconds, cold, first, new, worker, start, cpu))
 
     def remaining(self) -> float | None:
         """Seconds left (eta.remaining_seconds): the calls in flight that have started, then
@@ -1658,7 +1758,9 @@ class _Calls:
                 del self.in_flight[future]
 
     def _submit(self, flag: StopFlag) -> None:
-        while self.queue and len(self.in_flight) < self.limit and flag.signal is None:
+        while self.queue and flag.signal is None:
+            if self._affinity(self.queue[0].task) is None and self._open() >= self.limit:
+                break
             attempt = self.queue.popleft()
             attempt.limit = self.sweep.limit(attempt.task)
             attempt.submitted_at = time.monotonic()
@@ -1673,9 +1775,27 @@ class _Calls:
         if not self.queue and self.plan is not None:
             self.plan.drained(self.plan_index)  # the next sweep's calls queue behind these
 
+    def _affinity(self, unit: Any) -> Hashable | None:
+        """The call's affinity key where the pool heeds it (a WorkerPool's), else None."""
+        if not isinstance(self.pool, WorkerPool) or self.batch_worker is None:
+            return None
+        return unit.affinity if isinstance(unit, TaskBatch) else None
+
+    def _open(self) -> int:
+        """Calls in flight without an affinity key: those count against ``limit``. A call
+        with one is submitted past it, so that the pool sees the calls of a key that wait
+        for their worker beside ``limit`` calls that any worker may take (the calls of a
+        key come together: a sweep's batches are where their first tasks are)."""
+        return sum(1 for a in self.in_flight.values() if self._affinity(a.task) is None)
+
     def _submit_one(self, unit: Any) -> Future:
-        """Submit a task to the worker, or a batch to the batch worker."""
+        """Submit a task to the worker, or a batch to the batch worker (with its affinity
+        key on a WorkerPool)."""
         if isinstance(unit, TaskBatch) and self.batch_worker is not None:
+            key = self._affinity(unit)
+            if key is not None:
+                assert isinstance(self.pool, WorkerPool)
+                return self.pool.submit_keyed(key, self.batch_worker, list(unit.tasks))
             return self.pool.submit(self.batch_worker, list(unit.tasks))
         return self.pool.submit(self.sweep.worker, unit)
 

@@ -39,6 +39,7 @@ from hoopbench.engines.settings import DEFAULT_BATCH_SIZE, DEFAULT_TIMESTEP
 from hoopbench.models.scene import Scene
 from hoopbench.reports.compare.rows import FORMAT_VERSION
 from hoopbench.reports.compare.suite import (
+    batch_affinity,
     batch_key,
     batch_least,
     failure_row,
@@ -262,7 +263,7 @@ def run_settings(
         "engine_versions": {runner.engine: engine_class(runner.engine)().version()},
     }
     limit = run_timeout if runner.run_timeout_s is None else runner.run_timeout_s
-    batching = Batching(run_task_batch, batch_key, runner.batch_size, batch_least)
+    batching = Batching(run_task_batch, batch_key, runner.batch_size, batch_least, batch_affinity)
     summary = run_tasks(
         tasks,
         run_task,
