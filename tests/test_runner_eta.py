@@ -282,6 +282,30 @@ def test_calls_that_keep_to_one_worker_pay_an_engines_first_call_once():
     )
 
 
+def test_a_batched_engines_calls_queue_on_its_worker_while_others_take_the_other():
+    """The pool keeps a batched engine's calls on the worker that runs it and hands the other
+    worker the calls behind them (WorkerPool.submit_keyed): a cold make report's map
+    classification started with three of MuJoCo's 5-s stability calls left, ran on the other
+    worker at once and ended in 3.4 s, where an ETA that laid MuJoCo's calls on either worker
+    said 5-8 s. Here: one such call in flight (5 s left) and two pending, then ten cheap
+    calls that keep to no worker."""
+    batch = Rates(fixed_s=5.0, step_s=0.0)
+    prior = {"mujoco": batch, "pymunk": Rates(fixed_s=0.1, step_s=0.0)}
+    mujoco = CallCost(kinds=(("mujoco", "tuned", "default"), "mujoco"), steps=0, affine=True)
+    point = CallCost(kinds=(("pymunk", "tuned", "default"), "pymunk"), steps=0)
+    running = [Running(mujoco, ran=0.0)]
+    ends = call_ends([mujoco, mujoco, *[point] * 10], running, [], 2, prior)
+    assert ends is not None
+    assert ends[0] == [pytest.approx(5.0)]
+    assert ends[1][2:] == [pytest.approx(0.1 * k) for k in range(1, 11)]
+    # Then, nothing else left, the other worker takes the engine's next call (as the pool
+    # does after STEAL_AFTER_S) while its own worker runs the last.
+    assert ends[1][:2] == [pytest.approx(1.0 + 5.0), pytest.approx(10.0)]
+    # Nothing else pending: no worker idles in the layout either.
+    ends = call_ends([mujoco, mujoco], running, [], 2, prior)
+    assert ends is not None and sorted(ends[1]) == [pytest.approx(5.0), pytest.approx(10.0)]
+
+
 def test_a_cold_cache_compiles_a_kinds_program_once_on_the_machine():
     """MJX's XLA program of a kind lands in the cache every worker reads: the finer suite's
     tuned call on the other worker took 10.8 s, as warm (10.6)."""

@@ -46,8 +46,10 @@ that a call pays once (fixed and cold) times what the kind's cold calls took bey
 steps at the machine's factor (:func:`once_factors`), plus its steps at the machine's
 factor; a warm call of such a kind at a more general kind's factor, else the machine's.
 
-The calls left are then laid out on the workers in the order they are submitted (a call
-in flight keeps its worker for what it has left), and the ETA is when the last one ends.
+The calls left are then handed out in the order they are submitted, as the pool hands them
+(a call in flight keeps its worker for what it has left): the worker free first takes the
+first call that is its own, a batched engine's only on a worker that runs that engine (or
+that none runs yet) unless nothing else is left, and the ETA is when the last one ends.
 
 The runner knows nothing of engines: the caller gives each call's kinds, steps, worlds and
 the priors (:class:`Costing`).
@@ -55,7 +57,6 @@ the priors (:class:`Costing`).
 
 from __future__ import annotations
 
-import heapq
 import statistics
 from collections import Counter
 from collections.abc import Callable, Collection, Hashable, Iterable, Mapping, Sequence
@@ -341,6 +342,7 @@ def call_ends(
     affine_left = Counter({kind: 1 - n for kind, n in (warm or {}).items()})
     seen = {kind for kind, n in (warm or {}).items() if n > 0}
     free = [0.0] * workers  # when each worker is next free, s from now
+    owners: dict[Hashable, set[int]] = {}  # an affine engine -> the workers that run it
     running_ends: list[float] = []
     for run in running:
         expected = estimate.seconds(run.call, run.cold, run.first, run.new)
@@ -348,9 +350,12 @@ def call_ends(
             return None
         # A call past its expected cost has an unknown rest: a tenth of what it has run.
         rest = expected - run.ran if expected > run.ran else 0.1 * run.ran
-        running_ends.append(free[0] + rest)
-        heapq.heapreplace(free, running_ends[-1])
-    pending_ends: list[float] = []
+        worker = free.index(min(free))
+        free[worker] += rest
+        running_ends.append(free[worker])
+        if run.call.affine:
+            owners.setdefault(_engine(run.call), set()).add(worker)
+    expected_pending: list[float] = []
     for call in pending:
         kind = call.kinds[0] if call.kinds else None
         # A kind's first pending calls, one per worker that has not run it (one in all for
@@ -364,9 +369,41 @@ def call_ends(
         expected = estimate.seconds(call, cold, first and cold, new and cold)
         if expected is None:
             return None
-        pending_ends.append(free[0] + expected)
-        heapq.heapreplace(free, pending_ends[-1])
-    return running_ends, pending_ends
+        expected_pending.append(expected)
+    return running_ends, _laid_out(pending, expected_pending, free, owners)
+
+
+def _engine(call: CallCost) -> Hashable:
+    return call.kinds[-1] if call.kinds else None
+
+
+def _laid_out(
+    pending: Sequence[CallCost],
+    expected: Sequence[float],
+    free: list[float],
+    owners: dict[Hashable, set[int]],
+) -> list[float]:
+    """When each pending call ends, handed out as the pool hands them (WorkerPool.submit_keyed):
+    the worker free first takes the first pending call that is its own (one that keeps to no
+    worker, or whose engine it runs, or that no worker runs yet), else the first pending call
+    (it would not idle). So a batched engine's calls queue on its worker while the others'
+    calls go to the other workers."""
+    ends = [0.0] * len(pending)
+    left = list(range(len(pending)))
+    while left:
+        worker = free.index(min(free))
+        pick = next((j for j, i in enumerate(left) if _own(pending[i], worker, owners)), 0)
+        i = left.pop(pick)
+        if pending[i].affine:
+            owners.setdefault(_engine(pending[i]), set()).add(worker)
+        free[worker] += expected[i]
+        ends[i] = free[worker]
+    return ends
+
+
+def _own(call: CallCost, worker: int, owners: Mapping[Hashable, set[int]]) -> bool:
+    runners = owners.get(_engine(call)) if call.affine else None
+    return not runners or worker in runners
 
 
 def _first_of(kind: Hashable, cold_left: Counter[Hashable], workers: int) -> bool:
