@@ -84,19 +84,26 @@ def test_the_gif_has_its_frames_at_its_pace(tmp_path):
         assert image.size == (int(width), int(height))  # as matplotlib sizes a canvas
 
 
-def test_the_gif_renders_each_glyph_once_with_the_matplotlib_installed():
-    """cache_glyphs repeats matplotlib 3.11's glyph drawing (the frame test above
-    checks its pixels); with 3.11 installed the GIF's renderer must use it, not quietly draw
-    as before (a third more of the GIF's CPU time)."""
+def _renderer_with_kept_glyphs(skipped: str):
+    """A new figure's Agg renderer after cache_glyphs; the test skipped (saying ``skipped``)
+    with a matplotlib other than the one cache_glyphs repeats."""
     import matplotlib
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     if not matplotlib.__version__.startswith("3.11."):
-        pytest.skip(f"matplotlib {matplotlib.__version__}: its own glyph drawing")
+        pytest.skip(f"matplotlib {matplotlib.__version__}: {skipped}")
     fig = pyplot().figure()
     renderer = FigureCanvasAgg(fig).get_renderer()
     cache_glyphs(renderer)
     pyplot().close(fig)
+    return renderer
+
+
+def test_the_gif_renders_each_glyph_once_with_the_matplotlib_installed():
+    """cache_glyphs repeats matplotlib 3.11's glyph drawing (the frame test above
+    checks its pixels); with 3.11 installed the GIF's renderer must use it, not quietly draw
+    as before (a third more of the GIF's CPU time)."""
+    renderer = _renderer_with_kept_glyphs("its own glyph drawing")
     assert "_draw_text_glyphs_and_boxes" in vars(renderer)  # the instance's own, kept glyphs
 
 
@@ -104,13 +111,5 @@ def test_the_gif_lays_out_each_line_of_text_once_with_the_matplotlib_installed()
     """glyph_cache._keep_layouts repeats matplotlib 3.11's draw_text from a kept layout (the
     frame test above checks its pixels, with labels that change from frame to frame); with
     3.11 installed the GIF's renderer must use it (about 1 CPU-s of the GIF's 6)."""
-    import matplotlib
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-    if not matplotlib.__version__.startswith("3.11."):
-        pytest.skip(f"matplotlib {matplotlib.__version__}: its own text drawing")
-    fig = pyplot().figure()
-    renderer = FigureCanvasAgg(fig).get_renderer()
-    cache_glyphs(renderer)
-    pyplot().close(fig)
+    renderer = _renderer_with_kept_glyphs("its own text drawing")
     assert "draw_text" in vars(renderer)  # the instance's own, kept layouts

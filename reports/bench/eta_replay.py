@@ -37,7 +37,15 @@ from hoopbench.reports.compare.costs import priors
 from hoopbench.reports.compare.suite import DEFAULT_BATCH_SIZE
 from hoopbench.reports.hop_map.spec import MapSpec
 from hoopbench.reports.report_runs import MAP_STEP, REPORT_SUITES, report_plan
-from hoopbench.reports.sweep.eta import CallCost, Running, Took, call_firsts, ran, warm_counts
+from hoopbench.reports.sweep.eta import (
+    CallCost,
+    Running,
+    Took,
+    call_firsts,
+    own_call,
+    ran,
+    warm_counts,
+)
 from hoopbench.reports.sweep.plan import Plan, duration_text
 
 MAP = MapSpec(nx=10, ny=10, engines=("mujoco", "pybullet", "pymunk"))
@@ -202,11 +210,12 @@ def _next_call(
     sweeps: Sequence[_Sweep], worker: int, taken: set[tuple[Hashable, Hashable]], steal: bool
 ) -> tuple[int, int] | None:
     """(sweep, index in its queue) of the call ``worker`` takes (:func:`_start_calls`)."""
+    owners: dict[Hashable, set[Hashable]] = {}  # a kind (an engine among them) -> who ran it
+    for w, kind in taken:
+        owners.setdefault(kind, set()).add(w)
     for k, sweep in enumerate(sweeps):
         for index, call in enumerate(sweep.queue):
-            engine = call.kinds[-1] if call.kinds else None
-            others = any(kind == engine and w != worker for w, kind in taken)
-            if steal or not call.affine or (worker, engine) in taken or not others:
+            if steal or own_call(call, worker, owners):
                 return k, index
     return None
 

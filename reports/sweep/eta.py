@@ -73,6 +73,7 @@ __all__ = [
     "kind_factors",
     "machine_factor",
     "once_factors",
+    "own_call",
     "ran",
     "remaining_seconds",
     "warm_counts",
@@ -392,7 +393,7 @@ def _laid_out(
     left = list(range(len(pending)))
     while left:
         worker = free.index(min(free))
-        pick = next((j for j, i in enumerate(left) if _own(pending[i], worker, owners)), 0)
+        pick = next((j for j, i in enumerate(left) if own_call(pending[i], worker, owners)), 0)
         i = left.pop(pick)
         if pending[i].affine:
             owners.setdefault(_engine(pending[i]), set()).add(worker)
@@ -401,7 +402,10 @@ def _laid_out(
     return ends
 
 
-def _own(call: CallCost, worker: int, owners: Mapping[Hashable, set[int]]) -> bool:
+def own_call(call: CallCost, worker: Hashable, owners: Mapping[Hashable, Collection]) -> bool:
+    """Whether ``worker`` takes ``call`` before any other queued call, as the pool hands
+    them (WorkerPool.submit_keyed): one that keeps to no worker, or whose engine it runs,
+    or whose engine no worker runs yet (``owners``: engine -> the workers that run it)."""
     runners = owners.get(_engine(call)) if call.affine else None
     return not runners or worker in runners
 
@@ -421,7 +425,7 @@ def call_firsts(
     """(cold, first, new) of ``call`` on ``worker`` (:class:`Took`), after the calls whose
     (worker, kind) at every level of their kinds are ``warm`` (:func:`ran`)."""
     kind = call.kinds[0] if call.kinds else None
-    engine = call.kinds[-1] if call.kinds else None
+    engine = _engine(call)
     cold = (worker, kind) not in warm
     first = (worker, engine) not in warm
     new = all(other != kind for _, other in warm)
