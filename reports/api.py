@@ -143,8 +143,9 @@ class OptionError(ValueError):
         super().__init__(self.spelled(shown or option))
 
     def spelled(self, name: str) -> str:
-        """The message with the option called ``name``."""
-        return self.template.replace("{option}", name)
+        """The message with the option called ``name`` (the first ``{option}`` only: the
+        templates name the option before the value, and a value may hold that text)."""
+        return self.template.replace("{option}", name, 1)
 
 
 def _checked(option: str, check: Any, value: Any) -> Any:
@@ -319,7 +320,7 @@ def scene(
         checked = check_real("theta0_deg", theta0_deg, low=-limit, high=limit, unit="deg")
         changes["theta0"] = math.radians(checked)
     if name is not None:
-        return _catalogue_scene(get_scene(name), changes, chi, thetadot0)
+        return _catalogue_scene(_named_scene(name), changes, chi, thetadot0)
     missing = [key for key in ("lam", "mus") if key not in changes]
     if chi is None and thetadot0 is None:
         missing.append("chi or thetadot0")
@@ -334,6 +335,14 @@ def scene(
         return Scene.from_chi(chi, **changes)
     assert thetadot0 is not None  # else missing names "chi or thetadot0" above
     return Scene(thetadot0=thetadot0, **changes)
+
+
+def _named_scene(name: str) -> Scene:
+    """The catalogue scene ``name``; OptionError naming the option (the CLI's --scene)."""
+    try:
+        return get_scene(name)
+    except ValueError as exc:  # the catalogue's message names the name "name"
+        raise OptionError("name", "{option}" + str(exc).removeprefix("name")) from None
 
 
 def _catalogue_scene(

@@ -49,6 +49,10 @@ BAD: list[tuple[list[str], str]] = [
     (["simulate", "--engine", "pymunk", *SEED, "--xdot0", "inf"], "xdot0 must be finite"),
     (["simulate", "--engine", "pymunk", "--lam", "0.9"], "missing: mus, chi or thetadot0"),
     (["simulate", "--engine", "pymunk", "--scene", "nope"], "'nope'"),
+    # the error named the API's keyword ("name must be ...") instead of the option
+    (["reference", "--scene", "nope"], "--scene NAME must be a catalogue scene"),
+    # a value holding the option's placeholder stays the value
+    (["reference", "--scene", "{option}"], "got '{option}'"),
     (["simulate", "--engine", "pymunk", *SEED, "--chi", "0.1", "--thetadot0", "1"], "--chi"),
     # ----- engine choice and common settings
     (["simulate", "--engine", "nope", *SEED], "'nope'"),
