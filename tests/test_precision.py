@@ -5,6 +5,7 @@ from __future__ import annotations
 import pandas as pd
 
 from hoopbench.reports.report.precision import (
+    COST,
     METRICS,
     cheapest_runs,
     pareto_front,
@@ -15,7 +16,7 @@ from hoopbench.reports.report.precision import (
 def test_the_front_keeps_only_runs_no_cheaper_run_beats():
     points = pd.DataFrame(
         {
-            "wall_time_s": [1.0, 2.0, 3.0, 4.0, 0.5],
+            COST: [1.0, 2.0, 3.0, 4.0, 0.5],
             "error": [5.0, 6.0, 1.0, 1.0, 9.0],
             "name": ["a", "b", "c", "d", "e"],
         }
@@ -57,7 +58,19 @@ def test_the_cheapest_engine_run_within_the_target_is_named():
     row = table[(table["metric"] == "slip-onset time") & (table["scene"] == "seed-mu")].iloc[0]
     # pymunk at 1e-4 (0.2 s, 0.9 ms) beats mujoco at 1e-4 (0.5 s): the reference never counts.
     assert row["run"] == "pymunk tuned default dt=0.0001"
-    assert row["wall_time_s"] == 0.2 and row["target"] == "2 ms"  # the tight tolerance
+    assert row[COST] == 0.2 and row["target"] == "2 ms"  # the tight tolerance (wall: no CPU)
+
+
+def test_the_cheapest_run_is_the_cheapest_by_cpu_time_where_the_rows_carry_it():
+    """Ranked by wall time, a run that waited for a loaded core lost to one that did not:
+    mujoco at 1e-4 took 0.5 s of wall and 0.1 of CPU, pymunk at 1e-4 0.2 and 0.19."""
+    cpu = {("mujoco", 1e-3): 0.04, ("mujoco", 1e-4): 0.1, ("pymunk", 1e-4): 0.19}
+    frame = runs()
+    frame["cpu_time_s"] = [cpu.get((e, t), w) for e, t, w in
+                           zip(frame["engine"], frame["timestep"], frame["wall_time_s"])]  # fmt: skip
+    frame["cpu_us_per_step"] = frame["cpu_time_s"] * 1e3
+    row = cheapest_runs(frame).iloc[0]
+    assert (row["run"], row[COST]) == ("mujoco tuned default dt=0.0001", 0.1)
 
 
 def test_no_run_within_the_target_says_so():
@@ -75,6 +88,6 @@ def test_an_event_only_the_reference_has_draws_an_empty_front(tmp_path):
     event, the reference alone has its error. The figure is drawn (it raised KeyError)."""
     frame = runs()
     only_reference = frame[frame["engine"] == "reference"]
-    empty = pareto_front(pd.DataFrame({"wall_time_s": [], "error": [], "name": []}))
-    assert empty.empty and "wall_time_s" in empty.columns
+    empty = pareto_front(pd.DataFrame({COST: [], "error": [], "name": []}))
+    assert empty.empty and COST in empty.columns
     assert precision_figure(only_reference, tmp_path / "p.png").stat().st_size > 0

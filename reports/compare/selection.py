@@ -9,6 +9,7 @@ from __future__ import annotations
 import pandas as pd
 
 from hoopbench.engines.judging.columns import Col
+from hoopbench.engines.judging.score import CostClock
 from hoopbench.engines.options import Profile
 from hoopbench.engines.run import REFERENCE_ENGINE, RunStatus
 from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
@@ -20,6 +21,7 @@ __all__ = [
     "ok_rows",
     "profile_of",
     "reference_rows",
+    "run_cost_clock",
     "step_cost_column",
 ]
 
@@ -66,3 +68,11 @@ def step_cost_column(frame: pd.DataFrame) -> Col:
         return Col.US_PER_STEP
     measured = pd.to_numeric(frame[Col.CPU_US_PER_STEP], errors="coerce").notna().any()
     return Col.CPU_US_PER_STEP if measured else Col.US_PER_STEP
+
+
+def run_cost_clock(frame: pd.DataFrame) -> CostClock:
+    """The clock a run's whole stepping time is read by: the process's CPU time
+    (Col.CPU_TIME_S) where the rows carry it, as :func:`step_cost_column` ranks, else the
+    wall time (a table stored before issue 34)."""
+    cpu = step_cost_column(frame) == Col.CPU_US_PER_STEP
+    return CostClock.CPU if cpu else CostClock.WALL

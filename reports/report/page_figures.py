@@ -18,8 +18,15 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from hoopbench.engines.judging.columns import Col
+from hoopbench.engines.judging.score import CostClock
 from hoopbench.reference.exact import solve_exact
-from hoopbench.reports.compare.selection import default_rows, engine_rows, reference_rows
+from hoopbench.reports.compare.selection import (
+    default_rows,
+    engine_rows,
+    reference_rows,
+    run_cost_clock,
+)
 from hoopbench.reports.report.force_figures import CONE_YLIM, ForcePanel
 from hoopbench.reports.report.page_html import rounded, text
 from hoopbench.reports.report.palette import (
@@ -31,7 +38,9 @@ from hoopbench.reports.report.palette import (
     profile_style,
 )
 from hoopbench.reports.report.precision import (
+    COST,
     ZERO_LABEL,
+    cost_label,
     error_floor,
     figure_panels,
     metric_runs,
@@ -57,7 +66,7 @@ _COLUMNS = 3
 _HOVER = (
     "<b>%{customdata[0]}</b> %{customdata[1]}, %{customdata[2]}<br>"
     "dt %{customdata[3]} s<br>|error| %{y:.4g} %{customdata[4]}<br>"
-    "wall time %{x:.4g} s, %{customdata[5]} us/step<extra></extra>"
+    "%{customdata[6]} time %{x:.4g} s, %{customdata[5]} us/step<extra></extra>"
 )
 
 
@@ -65,7 +74,12 @@ def _axis_name(kind: str, k: int) -> str:
     return kind if k == 0 else f"{kind}{k + 1}"
 
 
-def _point_data(group: pd.DataFrame, unit: str) -> list[list[str]]:
+_PER_STEP = {CostClock.CPU: Col.CPU_US_PER_STEP, CostClock.WALL: Col.US_PER_STEP}
+"""The per-step column of a clock's time (the hover's us/step)."""
+
+
+def _point_data(group: pd.DataFrame, unit: str, clock: CostClock) -> list[list[str]]:
+    per_step = pd.to_numeric(group[_PER_STEP[clock]], errors="coerce")
     return [
         [
             text(row["engine"]),
@@ -73,19 +87,22 @@ def _point_data(group: pd.DataFrame, unit: str) -> list[list[str]]:
             text(row["variant"]),
             f"{row['timestep']:g}",
             text(unit),
-            f"{row['us_per_step']:.3g}" if pd.notna(row["us_per_step"]) else "-",
+            f"{step:.3g}" if pd.notna(step) else "-",
+            clock.label,
         ]
-        for _, row in group.iterrows()
+        for (_, row), step in zip(group.iterrows(), per_step, strict=True)
     ]
 
 
-def _family_traces(points: pd.DataFrame, unit: str, k: int, shown: set[str], floor: float) -> list:
+def _family_traces(
+    points: pd.DataFrame, unit: str, k: int, shown: set[str], floor: float, clock: CostClock
+) -> list:
     """One line per settings family of one panel, grouped in the legend by engine: the
     engine's colour (palette.py), the profile's dash and symbol; a family's legend entry is
     the first panel's (``shown``: the families with one)."""
     traces = []
     for family, group in engine_rows(points).groupby("family", sort=True):
-        group = group.sort_values("wall_time_s")
+        group = group.sort_values(COST)
         engine = str(group["engine"].iloc[0])
         first = str(family) not in shown
         shown.add(str(family))
@@ -95,9 +112,9 @@ def _family_traces(points: pd.DataFrame, unit: str, k: int, shown: set[str], flo
             {
                 "type": "scatter",
                 "mode": "lines+markers",
-                "x": rounded(group["wall_time_s"]),
+                "x": rounded(group[COST]),
                 "y": rounded(group["error"].clip(lower=floor)),  # a zero on the edge
-                "customdata": _point_data(group, unit),
+                "customdata": _point_data(group, unit, clock),
                 "hovertemplate": _HOVER,
                 "name": text(family),
                 "legendgroup": text(engine),
@@ -126,7 +143,7 @@ def _panel_extras(
             "mode": "lines",
             "line": {"shape": "hv", "color": FRONT_COLOUR, "width": FRONT_WIDTH},
             "opacity": FRONT_ALPHA,
-            "x": rounded(front["wall_time_s"]),
+            "x": rounded(front[COST]),
             "y": rounded(front["error"].clip(lower=floor)),
             "name": "Pareto front",
             "legendgroup": "front",
@@ -145,7 +162,7 @@ def _panel_extras(
                 "text": [ZERO_LABEL],
                 "textposition": "top right",
                 "cliponaxis": False,  # on the edge, whole
-                "x": [float(reference["wall_time_s"].min())],
+                "x": [float(reference[run_cost_clock(runs).column].min())],
                 "y": [floor],
                 "name": "exact reference (error 0: on the bottom edge)",
                 "legendgroup": "reference",
@@ -186,16 +203,17 @@ def precision_page_figure(runs: pd.DataFrame) -> Figure | None:
         "shapes": [],
     }
     shown: set[str] = set()
+    clock = run_cost_clock(runs)
     for k, (metric, scene) in enumerate(panels):
         points = metric_runs(runs, metric, scene)
         floor = error_floor(engine_rows(points)["error"])
         # the front first: drawn under the runs
         traces += _panel_extras(runs, points, scene, k, floor)
-        traces += _family_traces(points, metric.unit, k, shown, floor)
+        traces += _family_traces(points, metric.unit, k, shown, floor, clock)
         x, y = _axis_name("xaxis", k), _axis_name("yaxis", k)
         # powers of ten, as the PNG's axes (plotly's default writes 1µ for 1e-6)
         log = {"type": "log", "exponentformat": "power"}
-        layout[x] = {**log, "title": {"text": "wall time of the run (s)"}}
+        layout[x] = {**log, "title": {"text": cost_label(clock)}}
         top = max(float(points["error"].max()), metric.target, floor) * 3.0
         layout[y] = {**log, "title": {"text": f"|error| ({metric.unit})"},
                      "range": [float(np.log10(floor)), float(np.log10(top))]}  # fmt: skip

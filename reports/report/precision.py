@@ -1,4 +1,6 @@
-"""Work against precision: every run's error on each event against its wall time.
+"""Work against precision: every run's error on each event against its stepping time, the
+process's CPU time where the rows carry it (the answer's clock: the machine's load moves it
+far less than the wall time, which drew and ranked these before), else the wall time.
 
 One curve per settings family (engine, profile, variant) with the timesteps along it, the
 Pareto front over all runs (no cheaper run is as accurate), and the cheapest run that meets
@@ -16,6 +18,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from hoopbench.engines.judging.score import CostClock
 from hoopbench.engines.judging.tolerances import Tier, event_tolerances
 from hoopbench.reports.compare.selection import (
     default_rows,
@@ -23,6 +26,7 @@ from hoopbench.reports.compare.selection import (
     ok_rows,
     profile_of,
     reference_rows,
+    run_cost_clock,
 )
 from hoopbench.reports.report.palette import (
     FRONT_ALPHA,
@@ -35,11 +39,13 @@ from hoopbench.reports.report.palette import (
 from hoopbench.reports.report.plotting import pyplot, save
 
 __all__ = [
+    "COST",
     "FLOOR",
     "METRICS",
     "ZERO_LABEL",
     "Metric",
     "cheapest_runs",
+    "cost_label",
     "error_floor",
     "figure_panels",
     "metric_runs",
@@ -79,6 +85,10 @@ hoop radius on the catalogue's 1 m hoops."""
 FIGURE_SCENES = ("seed-mu", "hop-top", "hop-bottom")
 """Scenes the figure prefers, in order, for each metric."""
 
+COST = "cost_s"
+"""A panel's runs' column: each run's stepping time by the runs' clock
+(:func:`~hoopbench.reports.compare.selection.run_cost_clock`), s."""
+
 FLOOR = 1e-6
 """A panel's bottom edge when it has no error above zero (:func:`error_floor`)."""
 
@@ -102,16 +112,25 @@ def _family(frame: pd.DataFrame) -> pd.Series:
     return frame["engine"] + " " + profile.astype(str) + " " + frame["variant"]
 
 
+def cost_label(clock: CostClock) -> str:
+    """The time axis's words for runs timed by ``clock``."""
+    return f"{clock.label} time of the run's stepping (s)"
+
+
 def _metric_runs(runs: pd.DataFrame, metric: Metric, scene: str) -> pd.DataFrame:
-    """The runs of a scene with a measured error and a wall time, |error| in ``error``."""
-    rows = runs[(runs["scene"] == scene) & runs["wall_time_s"].notna()]
+    """The runs of a scene with a measured error and a time by the clock of ``runs``:
+    |error| in ``error``, the time in :data:`COST`."""
+    cost = pd.to_numeric(runs[run_cost_clock(runs).column], errors="coerce")
+    rows = runs.assign(**{COST: cost})
+    rows = rows[(rows["scene"] == scene) & rows[COST].notna()]
     rows = ok_rows(rows[rows[metric.column].notna()])
     return rows.assign(error=rows[metric.column].astype(float).abs(), family=_family(rows))
 
 
 def pareto_front(points: pd.DataFrame) -> pd.DataFrame:
-    """The runs no cheaper run beats: sorted by wall time, each more accurate than all before."""
-    ordered = points.sort_values(["wall_time_s", "error"])
+    """The runs no cheaper run beats: sorted by :data:`COST`, each more accurate than all
+    before."""
+    ordered = points.sort_values([COST, "error"])
     best = np.minimum.accumulate(ordered["error"].to_numpy())
     if not len(ordered):
         return ordered  # no engine measured this event: an empty front, its columns kept
@@ -132,7 +151,7 @@ def cheapest_runs(runs: pd.DataFrame) -> pd.DataFrame:
     for metric in METRICS:
         for scene in _scenes(engines, metric):
             points = _metric_runs(engines, metric, scene)
-            good = points[points["error"] <= metric.target].sort_values("wall_time_s")
+            good = points[points["error"] <= metric.target].sort_values([COST, "error"])
             row: dict[str, Any] = {
                 "metric": metric.label,
                 "scene": scene,
@@ -142,11 +161,11 @@ def cheapest_runs(runs: pd.DataFrame) -> pd.DataFrame:
                 best = good.iloc[0]
                 row.update(
                     run=f"{best['family']} dt={best['timestep']:g}",
-                    wall_time_s=best["wall_time_s"],
+                    **{COST: best[COST]},
                     error=best["error"],
                 )
             else:
-                row.update(run="none within the target", wall_time_s=None, error=None)
+                row.update(run="none within the target", **{COST: None}, error=None)
             rows.append(row)
     return pd.DataFrame(rows)
 
@@ -164,13 +183,14 @@ def figure_panels(runs: pd.DataFrame) -> list[tuple[Metric, str]]:
 
 
 def metric_runs(runs: pd.DataFrame, metric: Metric, scene: str) -> pd.DataFrame:
-    """The runs of one panel: those of ``scene`` with a measured error and a wall time, with
-    |error| in ``error`` and the settings family (engine, profile, variant) in ``family``."""
+    """The runs of one panel: those of ``scene`` with a measured error and a time, with
+    |error| in ``error``, the time in :data:`COST` and the settings family (engine,
+    profile, variant) in ``family``."""
     return _metric_runs(runs, metric, scene)
 
 
 def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
-    """One panel per (metric, scene): error against wall time, families and the front."""
+    """One panel per (metric, scene): error against the runs' time, families and the front."""
     plt = pyplot()
     from matplotlib.ticker import NullFormatter
 
@@ -184,6 +204,7 @@ def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
         nrows, cols, figsize=(5.0 * cols, 3.8 * nrows), squeeze=False, constrained_layout=True
     )
     colours = engine_colours(engine_rows(runs)["engine"])  # one colour an engine, every panel
+    clock = run_cost_clock(runs)
     profiles: set[str] = set()
     for ax, (metric, scene) in zip(axes.ravel(), panels, strict=False):
         points = _metric_runs(runs, metric, scene)
@@ -191,10 +212,10 @@ def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
         floor = error_floor(engines["error"])
         profiles |= set(engines["profile"].astype(str))
         for family, group in engines.groupby("family", sort=True):
-            group = group.sort_values("wall_time_s")
+            group = group.sort_values(COST)
             style = profile_style(str(group["profile"].iloc[0]))
             ax.plot(
-                group["wall_time_s"],
+                group[COST],
                 group["error"].clip(lower=floor),  # a zero on the edge: none is below
                 color=colours[str(group["engine"].iloc[0])],
                 ls=style.matplotlib_dash,
@@ -205,10 +226,10 @@ def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
             )
         reference = reference_rows(runs[runs["scene"] == scene])
         if len(reference):
-            _zero_point(ax, float(reference["wall_time_s"].min()), floor)
+            _zero_point(ax, float(reference[clock.column].min()), floor)
         front = pareto_front(engines)
         ax.step(
-            front["wall_time_s"],
+            front[COST],
             front["error"].clip(lower=floor),
             where="post",
             color=FRONT_COLOUR,
@@ -224,7 +245,7 @@ def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
         ax.set_ylim(bottom=floor)
         # A narrow range labels its minor ticks too, and they overlap: majors only.
         ax.xaxis.set_minor_formatter(NullFormatter())
-        ax.set_xlabel("wall time of the run (s)")
+        ax.set_xlabel(cost_label(clock))
         ax.set_ylabel(f"|error| ({metric.unit})")
         ax.set_title(f"{scene}: {metric.label}", fontsize=9)
     for ax in axes.ravel()[len(panels) :]:
@@ -238,11 +259,11 @@ def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
     return save(fig, out, dpi=100)
 
 
-def _zero_point(ax, wall_time_s: float, floor: float) -> None:
+def _zero_point(ax, time_s: float, floor: float) -> None:
     """The exact reference's star: error zero, on the panel's bottom edge (``floor``), not
     clipped by it, and labelled so (a log axis has no zero)."""
-    ax.plot(wall_time_s, floor, "*", color=REFERENCE_COLOUR, ms=11, clip_on=False, zorder=5)
-    ax.annotate(ZERO_LABEL, (wall_time_s, floor), xytext=(7, 4), textcoords="offset points",
+    ax.plot(time_s, floor, "*", color=REFERENCE_COLOUR, ms=11, clip_on=False, zorder=5)
+    ax.annotate(ZERO_LABEL, (time_s, floor), xytext=(7, 4), textcoords="offset points",
                 fontsize=7, va="bottom")  # fmt: skip
 
 
