@@ -1026,8 +1026,8 @@ def _engine_options(p: argparse.ArgumentParser, engines: Sequence[str]) -> None:
         type=_number,
         default=0.0,
         help="coefficient of restitution of the hoop-floor pair, 0 to 1 (default 0, every "
-        "suite's; MuJoCo, MJX, MuJoCo Warp, Drake and Box2D refuse any other value; the "
-        "reference, whose window ends at the first impact, and Newton's adapter ignore it)",
+        "suite's; MuJoCo, MJX, MuJoCo Warp, Drake, Box2D and Newton refuse any other "
+        "value; the reference, whose window ends at the first impact, ignores it)",
     )
     p.add_argument(
         "--geometry", default="sphere", help=f"contact geometry: {', '.join(geometries)}"
