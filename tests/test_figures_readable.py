@@ -196,3 +196,22 @@ def test_the_pareto_front_is_not_drawn_as_the_exact_reference_and_the_star_sits_
         axis = page["layout"][trace["yaxis"].replace("y", "yaxis", 1)]
         assert np.log10(trace["y"][0]) == pytest.approx(axis["range"][0])
         assert trace["text"] == [ZERO_LABEL]
+
+
+def test_no_figure_places_a_legend_by_searching_its_data(suite, tmp_path, monkeypatch):
+    """The events, force and seed-delta figures place their legends where they are told:
+    matplotlib's "best" searched every sample of every curve on each draw (about 2.3 CPU-s
+    of the report step, and a warning on a slow machine)."""
+    from matplotlib.legend import Legend
+
+    from hoopbench.reports.report.figures import events_figure
+    from hoopbench.reports.report.force_figures import force_figure
+    from hoopbench.reports.report.seed_reproduction import delta_figure
+
+    def searched(*args, **kwargs):
+        raise AssertionError('a legend placed at loc="best"')
+
+    monkeypatch.setattr(Legend, "_find_best_position", searched)
+    events_figure(drawn_trajectories(suite, "hop-top"), tmp_path / "e.png", title="hop-top")
+    force_figure([p for p in force_panels(suite) if p.name == "hop-top"], tmp_path / "f.png")
+    delta_figure(tmp_path / "d.png")
