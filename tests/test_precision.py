@@ -66,8 +66,8 @@ def test_the_cheapest_run_is_the_cheapest_by_cpu_time_where_the_rows_carry_it():
     mujoco at 1e-4 took 0.5 s of wall and 0.1 of CPU, pymunk at 1e-4 0.2 and 0.19."""
     cpu = {("mujoco", 1e-3): 0.04, ("mujoco", 1e-4): 0.1, ("pymunk", 1e-4): 0.19}
     frame = runs()
-    frame["cpu_time_s"] = [cpu.get((e, t), w) for e, t, w in
-                           zip(frame["engine"], frame["timestep"], frame["wall_time_s"])]  # fmt: skip
+    keys = zip(frame["engine"], frame["timestep"], frame["wall_time_s"], strict=True)
+    frame["cpu_time_s"] = [cpu.get((engine, dt), wall) for engine, dt, wall in keys]
     frame["cpu_us_per_step"] = frame["cpu_time_s"] * 1e3
     row = cheapest_runs(frame).iloc[0]
     assert (row["run"], row[COST]) == ("mujoco tuned default dt=0.0001", 0.1)
