@@ -21,11 +21,10 @@ Stepping. A ``Simulator`` advances the diagram in chunks of ``CHUNK_STEPS`` step
 (q = (x, y - a, -theta), v = their rates, of the hoop centre) and the hoop's generalized
 contact forces (the force along world x and z and the torque about the centre, from the planar
 joint's frame), joined by a ``Multiplexer``. Against a bare ``AdvanceTo`` of the same plant
-this costs about 1.2x (``make bench``). A discrete plant's force port is sampled: the force
-logged at t_(i+1) is the one the solver applied over the step from t_i, so row i of the
-trajectory gets it (the state it was computed from), and one extra step gives the last row its
-force. A continuous plant's
-force is that of the logged state itself.
+this costs 1.06-1.12x (docs/engines.md, Drake, Cost; ``make bench``). A discrete plant's force
+port is sampled: the force logged at t_(i+1) is the one the solver applied over the step from
+t_i, so row i of the trajectory gets it (the state it was computed from), and one extra step
+gives the last row its force. A continuous plant's force is that of the logged state itself.
 
 Soft contact start. Drake's point contact is a spring: a hoop started exactly touching gets no
 force in its first step and rings. As for MuJoCo, the hoop starts at the penetration where the
