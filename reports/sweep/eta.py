@@ -66,10 +66,12 @@ __all__ = [
     "KIND_CREDIBLE_S",
     "CallCost",
     "Costing",
+    "Key",
     "Rates",
     "Took",
     "call_ends",
     "call_firsts",
+    "key_holders",
     "kind_factors",
     "machine_factor",
     "once_factors",
@@ -272,6 +274,9 @@ class Running:
     cold: bool = False
     first: bool = False
     new: bool = False
+    worker: Hashable = None
+    """Which worker runs it (a WorkerPool's: its pid), where known: the calls laid out after
+    it queue on that worker, which holds the affinity keys it has run (:func:`key_holders`)."""
 
 
 class _Estimate:
@@ -314,15 +319,17 @@ def remaining_seconds(
     workers: int,
     prior: Mapping[Hashable, Rates],
     warm: Mapping[Hashable, int] | None = None,
+    holders: Mapping[Hashable, Collection[Hashable]] | None = None,
 ) -> float | None:
     """Seconds until the sweep ends: ``pending`` calls (in submission order) and the
     ``running`` ones laid out on ``workers`` workers, each at its expected seconds (module
     docstring). ``warm``: kind (at every level, :func:`warm_counts`) -> workers that have
     run a call of it; the first pending calls of a most specific kind, one per worker that
     has not, are cold, those of an engine (the most general kind) first, and the first of a
-    kind no worker has run new (:class:`Took`). None when a call has no prior and no call
-    has finished yet."""
-    ends = call_ends(pending, running, finished, workers, prior, warm)
+    kind no worker has run new (:class:`Took`). ``holders``: engine -> the workers that
+    hold its affinity key (:func:`key_holders`), which its affine calls keep to. None when
+    a call has no prior and no call has finished yet."""
+    ends = call_ends(pending, running, finished, workers, prior, warm, holders)
     return None if ends is None else max([0.0, *ends[0], *ends[1]])
 
 
@@ -333,6 +340,7 @@ def call_ends(
     workers: int,
     prior: Mapping[Hashable, Rates],
     warm: Mapping[Hashable, int] | None = None,
+    holders: Mapping[Hashable, Collection[Hashable]] | None = None,
 ) -> tuple[list[float], list[float]] | None:
     """When each of the ``running`` calls and each of the ``pending`` ones is expected to
     end, s from now, laid out as :func:`remaining_seconds` lays them (sweeps that share the
@@ -343,7 +351,13 @@ def call_ends(
     affine_left = Counter({kind: 1 - n for kind, n in (warm or {}).items()})
     seen = {kind for kind, n in (warm or {}).items() if n > 0}
     free = [0.0] * workers  # when each worker is next free, s from now
-    owners: dict[Hashable, set[int]] = {}  # an affine engine -> the workers that run it
+    slots = _slots(running, holders or {}, workers)
+    # An affine engine -> the workers that hold its key: those that have run one of its
+    # calls, not only those running one now (the pool's worker.keys).
+    owners = {
+        engine: {slots[w] for w in ran_by if w in slots}
+        for engine, ran_by in (holders or {}).items()
+    }
     running_ends: list[float] = []
     for run in running:
         expected = estimate.seconds(run.call, run.cold, run.first, run.new)
@@ -351,7 +365,7 @@ def call_ends(
             return None
         # A call past its expected cost has an unknown rest: a tenth of what it has run.
         rest = expected - run.ran if expected > run.ran else 0.1 * run.ran
-        worker = free.index(min(free))
+        worker = slots.get(run.worker, free.index(min(free)))
         free[worker] += rest
         running_ends.append(free[worker])
         if run.call.affine:
@@ -376,6 +390,21 @@ def call_ends(
 
 def _engine(call: CallCost) -> Hashable:
     return call.kinds[-1] if call.kinds else None
+
+
+def _slots(
+    running: Sequence[Running], holders: Mapping[Hashable, Collection[Hashable]], workers: int
+) -> dict[Hashable, int]:
+    """Worker -> its place (0 .. ``workers`` - 1) in the layout: first the workers of the
+    running calls, then the others that hold a key. A worker past ``workers`` is left out
+    (one that died and was replaced: the pool heeds only its live workers' keys)."""
+    known = [run.worker for run in running if run.worker is not None]
+    known += sorted((w for ran_by in holders.values() for w in ran_by), key=repr)
+    slots: dict[Hashable, int] = {}
+    for worker in known:
+        if worker not in slots and len(slots) < workers:
+            slots[worker] = len(slots)
+    return slots
 
 
 def _laid_out(
@@ -432,10 +461,29 @@ def call_firsts(
     return cold, first and cold, new and cold
 
 
+@dataclass(frozen=True)
+class Key:
+    """The affinity key a worker holds once it has run an affine call (the pool's
+    ``worker.keys``, :meth:`WorkerPool.submit_keyed`): the call's engine."""
+
+    engine: Hashable
+
+
 def ran(call: CallCost, worker: Hashable) -> set[tuple[Hashable, Hashable]]:
     """(worker, kind) at every level of ``call``'s kinds: what a worker that has run it is
-    warm for (:func:`call_firsts`)."""
-    return {(worker, kind) for kind in call.kinds} if call.kinds else {(worker, None)}
+    warm for (:func:`call_firsts`); and (worker, :class:`Key`) for an affine call."""
+    pairs = {(worker, kind) for kind in call.kinds} if call.kinds else {(worker, None)}
+    return pairs | ({(worker, Key(_engine(call)))} if call.affine else set())
+
+
+def key_holders(warm: Iterable[tuple[Hashable, Hashable]]) -> dict[Hashable, set[Hashable]]:
+    """Engine -> the workers that hold its affinity key, from what they ran (:func:`ran`):
+    ``call_ends``' ``holders``, and the replay's pool."""
+    holders: dict[Hashable, set[Hashable]] = {}
+    for worker, kind in warm:
+        if isinstance(kind, Key):
+            holders.setdefault(kind.engine, set()).add(worker)
+    return holders
 
 
 def warm_counts(warm: Iterable[tuple[Hashable, Hashable]]) -> Counter[Hashable]:
