@@ -2,12 +2,14 @@
 report-runs --calls CALLS``), without running anything.
 
 make report's plan (its three suites and its map, as :func:`report_plan` works them out)
-runs again on ``--workers`` simulated workers: each sweep begins once the one before has no
-more than twice the workers' calls left to start (as the pool's queue takes them; the map's
-engine runs once its classification has ended), a free worker takes the next call of the
-earliest sweep, and each call lasts the seconds a recorded call of its kinds, steps and
-worlds took (a worker's first call of an engine takes the longest such recorded call: it is
-where a cold cache compiled; the others in the order they were recorded). After each call
+runs again on ``--workers`` simulated workers: each sweep begins once the runner has
+submitted every call of the one before (its calls with an affinity key whenever they come,
+the others while fewer than twice the workers' are in flight: runner._Calls._submit; the
+map's engine runs once its classification has ended), a free worker takes the first call
+submitted that is its own, as the pool hands them (eta.own_call), and each call lasts the
+seconds a recorded call of its kinds, steps and worlds took (a worker's first call of an
+engine takes the longest such recorded call: it is where a cold cache compiled; the others
+in the order they were recorded). After each call
 the sweep's and the overall ETA are worked out by :class:`~hoopbench.reports.sweep.plan.Plan`
 as the progress lines would, and printed as ETA over the simulated time left at 10, 25, 50
 and 75 % of each step's runs, read as the stamped log's are

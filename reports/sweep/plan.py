@@ -15,8 +15,10 @@ and a worker the earlier sweep's tail would leave idle runs them. The ETA then l
 every running sweep's calls (theirs in flight, then theirs waiting, in plan order), then
 the calls of the sweeps not begun, on the shared workers
 (:func:`hoopbench.reports.sweep.eta.call_ends`); a sweep's own ETA is when the last of its
-calls ends in that layout, the overall one when the last of all ends, and after them what
-runs without workers (the report: ``after``).
+calls ends in the layout of the running sweeps' calls (a later sweep's calls queue behind
+its own, but a worker takes them first where its own are a batched engine's that keeps to
+the other worker), the overall one when the last of all ends, and after them what runs
+without workers (the report: ``after``).
 """
 
 from __future__ import annotations
