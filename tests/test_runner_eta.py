@@ -20,7 +20,7 @@ from hoopbench.reports.bench.call_costs import (
     rounding,
     seconds_of,
 )
-from hoopbench.reports.bench.eta_replay import _next_call, _Recorded
+from hoopbench.reports.bench.eta_replay import _begin, _InFlight, _next_call, _Recorded
 from hoopbench.reports.bench.eta_replay import _Sweep as _ReplaySweep
 from hoopbench.reports.compare.costs import (
     CALL_COST_PRIOR,
@@ -415,9 +415,11 @@ class ActiveSweep:
     done: int = 0
     running: tuple[Running, ...] = ()
     pending: tuple[CallCost, ...] = ()
+    warm: frozenset = frozenset()
+    """(worker, kind) of the calls its workers have run (eta.ran)."""
 
     def left(self):
-        return list(self.running), list(self.pending), Counter()
+        return list(self.running), list(self.pending), set(self.warm)
 
 
 def _plan() -> Plan:
@@ -732,8 +734,65 @@ def test_the_replay_hands_a_batched_engines_calls_to_the_worker_that_ran_it():
     mjx = replace(MJX_TUNED, affine=True)
     sweep = _ReplaySweep(deque([mjx, mjx, MJW_TUNED]))
     taken = ran(mjx, 1)
-    assert _next_call([sweep], 2, taken, steal=False) == (0, 2)
-    assert _next_call([sweep], 1, taken, steal=False) == (0, 0)
+    assert _next_call([sweep], 2, taken, False, 4) == (0, 2)
+    assert _next_call([sweep], 1, taken, False, 4) == (0, 0)
     alone = _ReplaySweep(deque([mjx]))
-    assert _next_call([alone], 2, taken, steal=False) is None
-    assert _next_call([alone], 2, taken, steal=True) == (0, 0)
+    assert _next_call([alone], 2, taken, False, 4) is None
+    assert _next_call([alone], 2, taken, True, 4) == (0, 0)
+
+
+def test_a_batched_engines_calls_keep_to_the_worker_that_holds_its_key_between_its_calls():
+    """The pool keeps a batched engine's calls on the worker that has run one, whether or
+    not it runs one now (WorkerPool._own_call: the worker's keys). A cold make report's map
+    classification (100 points, 6 s on one worker) began while worker 1, which had run
+    MJX's calls, ran MuJoCo's 5.9-s stability call with one of MJX's 5.6-s calls queued
+    behind it: the layout that knew only the running calls' engines handed MJX's call to
+    worker 2, the classification's, and said 13 s of a 6-s stage (2.6-14 times the time
+    left). Here: MuJoCo's call 2 s from its end on worker 1, a point just begun on worker
+    2, then MJX's call and 30 points: they end on worker 2 in 3.1 s, MJX's on worker 1 in
+    7 s (the layout that gave MJX's call to worker 2: the points in 5 s)."""
+    mujoco = CallCost(kinds=(("mujoco", "tuned", "default"), "mujoco"), steps=0, affine=True)
+    mjx = CallCost(kinds=(("mjx", "tuned", "default"), "mjx"), steps=0, affine=True)
+    point = CallCost(kinds=(("map", "reference"),), steps=0)
+    prior = {
+        "mujoco": Rates(5.0, 0.0),
+        "mjx": Rates(5.0, 0.0),
+        ("map", "reference"): Rates(0.1, 0.0),
+    }
+    warm = ran(mjx, 1) | ran(mujoco, 1) | ran(point, 2)
+    assert eta.key_holders(warm) == {"mjx": {1}, "mujoco": {1}}
+    sweeps = [PlannedSweep("stability", 2, (mujoco, mjx)), PlannedSweep("map", 31, (point,) * 31)]
+    plan = Plan("make report", sweeps, prior, 2)
+    running = (Running(mujoco, ran=3.0, worker=1),)
+    plan.attach(plan.begin(2), ActiveSweep(running=running, pending=(mjx,), warm=warm))
+    running = (Running(point, ran=0.0, worker=2),)
+    plan.attach(plan.begin(31), ActiveSweep(running=running, pending=(point,) * 30))
+    assert plan.sweep_left(1) == pytest.approx(3.1)
+    assert plan.sweep_left(0) == pytest.approx(2.0 + 5.0)
+    # The runner's layout of its own calls: the same rule (the workers' keys, eta.ran).
+    holders = eta.key_holders(warm)
+    running = (Running(mujoco, ran=3.0, worker=1), Running(point, ran=0.0, worker=2))
+    left = remaining_seconds([mjx, *[point] * 30], running, [], 2, prior, None, holders)
+    assert left == pytest.approx(7.0)
+
+
+def test_the_replay_begins_a_sweep_once_the_runner_has_submitted_the_one_before():
+    """A sweep's calls with an affinity key go to the pool past the runner's limit of calls
+    in flight (runner._Calls._submit), so the next sweep begins, and queues behind them,
+    while they wait: a cold make report's map began with MuJoCo's and MJX's stability calls
+    still queued. The replay that began it once the sweep before had 4 calls left to start
+    ran those first and read the map's classification ETA 1.07-1.12 where the real one was
+    2.6-14 times off."""
+    mjx = replace(MJX_TUNED, affine=True)
+    sweep = _ReplaySweep(deque([mjx, *[CHEAP] * 4, mjx, mjx, CHEAP]))
+    assert sweep.submitted(4) == 7 and not sweep.drained(4)
+    stability = _ReplaySweep(deque([*[mjx] * 6, CHEAP, CHEAP]))
+    plan = Plan("make report", [PlannedSweep("stability", 8, tuple(stability.queue)),
+                                PlannedSweep("map", 1, (CHEAP,))], PRIOR, 2)  # fmt: skip
+    assert _begin(plan, [stability, _ReplaySweep(deque([CHEAP]))], -1, workers=2) == 1
+    # What the runner has not submitted, the pool cannot hand out: worker 2 finds none of
+    # its own calls while the runner's one call of no key in flight (the limit) runs.
+    flight = _InFlight(CHEAP, 0.0, (False, False, False), 1.0)
+    sweep = _ReplaySweep(deque([mjx, CHEAP]), running={1: flight})
+    assert sweep.submitted(1) == 1
+    assert _next_call([sweep], 2, ran(mjx, 1), False, 1) is None

@@ -2,12 +2,14 @@
 report-runs --calls CALLS``), without running anything.
 
 make report's plan (its three suites and its map, as :func:`report_plan` works them out)
-runs again on ``--workers`` simulated workers: each sweep begins once the one before has no
-more than twice the workers' calls left to start (as the pool's queue takes them; the map's
-engine runs once its classification has ended), a free worker takes the next call of the
-earliest sweep, and each call lasts the seconds a recorded call of its kinds, steps and
-worlds took (a worker's first call of an engine takes the longest such recorded call: it is
-where a cold cache compiled; the others in the order they were recorded). After each call
+runs again on ``--workers`` simulated workers: each sweep begins once the runner has
+submitted every call of the one before (its calls with an affinity key whenever they come,
+the others while fewer than twice the workers' are in flight: runner._Calls._submit; the
+map's engine runs once its classification has ended), a free worker takes the first call
+submitted that is its own, as the pool hands them (eta.own_call), and each call lasts the
+seconds a recorded call of its kinds, steps and worlds took (a worker's first call of an
+engine takes the longest such recorded call: it is where a cold cache compiled; the others
+in the order they were recorded). After each call
 the sweep's and the overall ETA are worked out by :class:`~hoopbench.reports.sweep.plan.Plan`
 as the progress lines would, and printed as ETA over the simulated time left at 10, 25, 50
 and 75 % of each step's runs, read as the stamped log's are
@@ -42,9 +44,9 @@ from hoopbench.reports.sweep.eta import (
     Running,
     Took,
     call_firsts,
+    key_holders,
     own_call,
     ran,
-    warm_counts,
 )
 from hoopbench.reports.sweep.plan import Plan, duration_text
 
@@ -82,13 +84,30 @@ class _Sweep:
     line: float = -float("inf")
     """When its last progress line was printed."""
 
-    def left(self) -> tuple[list[Running], list[CallCost], object]:
+    def left(self) -> tuple[list[Running], list[CallCost], set[tuple[Hashable, Hashable]]]:
         warm = set(self.warm)
         running = []
         for worker, flight in self.running.items():
-            running.append(Running(flight.call, self.now - flight.start, *flight.flags))
+            ran_s = self.now - flight.start
+            running.append(Running(flight.call, ran_s, *flight.flags, worker=worker))
             warm |= ran(flight.call, worker)
-        return running, list(self.queue), warm_counts(warm)
+        return running, list(self.queue), warm
+
+    def submitted(self, limit: int) -> int:
+        """How many of its calls not started the runner has submitted to the pool
+        (runner._Calls._submit: in order, a call with an affinity key whenever it comes, one
+        without while fewer than ``limit`` such are in flight, queued or running)."""
+        open_ = sum(1 for flight in self.running.values() if not flight.call.affine)
+        for index, call in enumerate(self.queue):
+            if not call.affine:
+                if open_ >= limit:
+                    return index
+                open_ += 1
+        return len(self.queue)
+
+    def drained(self, limit: int) -> bool:
+        """Whether the runner has submitted all its calls (the next sweep may begin)."""
+        return self.submitted(limit) == len(self.queue)
 
 
 class _Recorded:
@@ -161,17 +180,17 @@ def replay(
 
 
 def _begin(plan: Plan, sweeps: list[_Sweep], begun: int, workers: int) -> int:
-    """Begin the sweeps whose turn has come (the one before has at most twice the workers'
-    calls left to start; the map's engine runs once its classification has ended)."""
+    """Begin the sweeps whose turn has come (the one before has submitted all its calls:
+    Plan.wait_turn; the map's engine runs once its classification has ended)."""
     while begun + 1 < len(sweeps):
         before = sweeps[begun] if begun >= 0 else None
-        if before is not None and len(before.queue) > 2 * workers:
+        if before is not None and not before.drained(_limit(workers)):
             break
         is_map_engines = begun >= 0 and plan.sweeps[begun].step == MAP_STEP
         if is_map_engines and (before is None or before.queue or before.running):
             break
         begun += 1
-        plan.attach(plan.begin(plan.sweeps[begun].runs), sweeps[begun])  # type: ignore[arg-type]
+        plan.attach(plan.begin(plan.sweeps[begun].runs), sweeps[begun])
     return begun
 
 
@@ -195,7 +214,7 @@ def _start_calls(
             for s in sweeps:
                 for w, flight in s.running.items():
                     taken |= ran(flight.call, w)
-            found = _next_call(sweeps[: begun + 1], worker, taken, steal)
+            found = _next_call(sweeps[: begun + 1], worker, taken, steal, _limit(len(free)))
             if found is None:
                 continue
             k, index = found
@@ -207,17 +226,26 @@ def _start_calls(
 
 
 def _next_call(
-    sweeps: Sequence[_Sweep], worker: int, taken: set[tuple[Hashable, Hashable]], steal: bool
+    sweeps: Sequence[_Sweep],
+    worker: int,
+    taken: set[tuple[Hashable, Hashable]],
+    steal: bool,
+    limit: int,
 ) -> tuple[int, int] | None:
-    """(sweep, index in its queue) of the call ``worker`` takes (:func:`_start_calls`)."""
-    owners: dict[Hashable, set[Hashable]] = {}  # a kind (an engine among them) -> who ran it
-    for w, kind in taken:
-        owners.setdefault(kind, set()).add(w)
+    """(sweep, index in its queue) of the call ``worker`` takes (:func:`_start_calls`), of
+    those the runner has submitted to the pool."""
+    owners = key_holders(taken)  # an engine -> the workers that hold its key
     for k, sweep in enumerate(sweeps):
-        for index, call in enumerate(sweep.queue):
-            if steal or own_call(call, worker, owners):
+        for index in range(sweep.submitted(limit)):
+            if steal or own_call(sweep.queue[index], worker, owners):
                 return k, index
     return None
+
+
+def _limit(workers: int) -> int:
+    """Calls without an affinity key a sweep has in flight at most on the plan's pool
+    (runner._pool_for: twice the workers)."""
+    return 2 * workers
 
 
 def _name(index: int, step: str) -> str:

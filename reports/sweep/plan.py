@@ -15,20 +15,31 @@ and a worker the earlier sweep's tail would leave idle runs them. The ETA then l
 every running sweep's calls (theirs in flight, then theirs waiting, in plan order), then
 the calls of the sweeps not begun, on the shared workers
 (:func:`hoopbench.reports.sweep.eta.call_ends`); a sweep's own ETA is when the last of its
-calls ends in that layout, the overall one when the last of all ends, and after them what
-runs without workers (the report: ``after``).
+calls ends in the layout of the running sweeps' calls (a later sweep's calls queue behind
+its own, but a worker takes them first where its own are a batched engine's that keeps to
+the other worker), the overall one when the last of all ends, and after them what runs
+without workers (the report: ``after``).
 """
 
 from __future__ import annotations
 
 import threading
-from collections import Counter, deque
+from collections import deque
 from collections.abc import Hashable, Mapping, Sequence
 from contextvars import ContextVar
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from hoopbench.reports.sweep.eta import CallCost, Rates, Running, Took, call_ends, remaining_seconds
+from hoopbench.reports.sweep.eta import (
+    CallCost,
+    Rates,
+    Running,
+    Took,
+    call_ends,
+    key_holders,
+    remaining_seconds,
+    warm_counts,
+)
 
 __all__ = [
     "Active",
@@ -59,9 +70,12 @@ class Active(Protocol):
     def done(self) -> int:
         """Runs it has done."""
 
-    def left(self) -> tuple[list[Running], list[CallCost], Counter[Hashable]] | None:
-        """Its calls running, its calls not started (in submission order), and kind (at
-        every level) -> workers warm for it; None without costs."""
+    def left(
+        self,
+    ) -> tuple[list[Running], list[CallCost], set[tuple[Hashable, Hashable]]] | None:
+        """Its calls running, its calls not started (in submission order), and (worker,
+        kind) at every level of the calls run (:func:`~hoopbench.reports.sweep.eta.ran`);
+        None without costs."""
 
 
 class Plan:
@@ -178,17 +192,15 @@ class Plan:
             return 0.0
         return remaining_seconds(self.after, [], self.finished, 1, self.prior)
 
-    def _ends(self, upto: int | None) -> dict[int, float] | None:
+    def _ends(self, later: bool) -> dict[int, float] | None:
         """Sweep index -> when its last call is expected to end, s from now: the running
-        sweeps' calls (up to ``upto``; all, and then those not begun, without it) laid out
-        on the shared workers in plan order."""
+        sweeps' calls (and then, ``later``, those of the sweeps not begun) laid out on the
+        shared workers in plan order."""
         running: list[Running] = []
         pending: list[CallCost] = []
         owners: tuple[list[int], list[int]] = ([], [])
-        warm: Counter[Hashable] = Counter()
+        warm: set[tuple[Hashable, Hashable]] = set()
         for k in sorted(self._active):
-            if upto is not None and k > upto:
-                break
             left = self._active[k].left()
             if left is None:
                 return None
@@ -197,12 +209,13 @@ class Plan:
             owners[0].extend([k] * len(left[0]))
             owners[1].extend([k] * len(left[1]))
             warm |= left[2]
-        if upto is None:
+        if later:
             for k, sweep in enumerate(self.sweeps):
                 if k not in self._begun:
                     pending += sweep.calls
                     owners[1].extend([k] * len(sweep.calls))
-        ends = call_ends(pending, running, self.finished, self.workers, self.prior, warm)
+        counts, holders = warm_counts(warm), key_holders(warm)
+        ends = call_ends(pending, running, self.finished, self.workers, self.prior, counts, holders)
         if ends is None:
             return None
         last: dict[int, float] = {}
@@ -211,16 +224,17 @@ class Plan:
         return last
 
     def sweep_left(self, index: int) -> float | None:
-        """Seconds until sweep ``index``'s last call ends, the sweeps before it sharing
-        the workers (the later ones queue behind it)."""
+        """Seconds until sweep ``index``'s last call ends, the running sweeps sharing the
+        workers: the later ones' calls queue behind its own, but for those a worker takes
+        first because its own are another worker's (a batched engine's, eta.own_call)."""
         with self.lock:
-            ends = self._ends(index)
+            ends = self._ends(later=False)
         return None if ends is None else ends.get(index, 0.0)
 
     def seconds_left(self) -> float | None:
         """Seconds until every sweep and what comes after them have ended."""
         with self.lock:
-            ends = self._ends(None)
+            ends = self._ends(later=True)
             after = self._after_seconds()
         if ends is None or after is None:
             return None

@@ -89,6 +89,7 @@ from hoopbench.reports.sweep.eta import (
     Running,
     Took,
     call_firsts,
+    key_holders,
     ran,
     remaining_seconds,
     warm_counts,
@@ -1653,12 +1654,20 @@ class _Calls:
         if left is None:
             return None
         running, pending, warm = left
-        return remaining_seconds(pending, running, self.finished, self.workers, self.prior, warm)
+        return remaining_seconds(
+            pending,
+            running,
+            self.finished,
+            self.workers,
+            self.prior,
+            warm_counts(warm),
+            key_holders(warm),
+        )
 
-    def left(self) -> tuple[list[Running], list[CallCost], Counter[Hashable]] | None:
+    def left(self) -> tuple[list[Running], list[CallCost], set[tuple[Hashable, Hashable]]] | None:
         """The calls in flight that have started, the others in the order they are
-        submitted, and most specific kind -> workers warm for it (those running one
-        count); None without a Costing."""
+        submitted, and (worker, kind) at every level of the calls run (eta.ran; those
+        running count); None without a Costing."""
         if self.costing is None:
             return None
         now = time.monotonic()
@@ -1673,9 +1682,9 @@ class _Calls:
             worker = getattr(future, "worker_pid", None)
             cold, first, new = call_firsts(call, worker, self._warm)
             warm |= ran(call, worker)  # its worker is warm for the calls after it
-            running.append(Running(call, now - start, cold, first, new))
+            running.append(Running(call, now - start, cold, first, new, worker))
         pending = waiting + [self._cost(attempt.task) for attempt in list(self.queue)]
-        return running, pending, warm_counts(warm)
+        return running, pending, warm
 
     @property
     def done(self) -> int:
