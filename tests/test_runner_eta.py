@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import io
 import json
+import random
 from collections import Counter, deque
 from dataclasses import dataclass, replace
 
@@ -726,6 +727,33 @@ def test_the_replay_gives_a_workers_first_call_of_the_engine_the_longest_recorde
     recorded = _Recorded([{**record, "seconds": 0.3}, {**record, "seconds": 32.8}])
     assert recorded.take(MJW_STOCK, first=True) == 32.8
     assert recorded.take(MJW_STOCK, first=False) == 0.3
+
+
+def test_the_replays_shuffle_reorders_the_maps_engine_runs_alone():
+    """eta_replay --shuffle-map: the map's engine runs alone take their recorded seconds in a
+    seeded random order (the grid's first points, rolling starts, cost several times the
+    later ones, which lift off and stop at their first impact); the map's batches, its
+    classification and the suites' calls keep the recorded order."""
+
+    def records(kinds: list[object], worlds: int) -> list[dict[str, object]]:
+        return [
+            {"kinds": kinds, "steps": 30000, "worlds": worlds, "seconds": float(k)}
+            for k in range(20)
+        ]
+
+    run = [["map", "pybullet", "tuned", 1e-4], ["map", "pybullet"]]
+    batch = [["map", "mujoco", "tuned", 1e-4], ["map", "mujoco"]]
+    point = [["map", "reference", "None", None], ["map", "reference"]]
+    suite = [["pybullet", "tuned", "default"], "pybullet"]
+    recorded = _Recorded(
+        records(run, 1) + records(batch, 25) + records(point, 1) + records(suite, 1),
+        random.Random(1),
+    )
+    in_order = [float(k) for k in range(20)]
+    runs, *others = recorded.left.values()
+    assert sorted(runs) == in_order and runs != in_order
+    assert others == [in_order] * 3
+    assert list(_Recorded(records(run, 1)).left.values()) == [in_order]
 
 
 def test_the_replay_hands_a_batched_engines_calls_to_the_worker_that_ran_it():

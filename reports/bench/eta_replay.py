@@ -18,7 +18,12 @@ and 75 % of each step's runs, read as the stamped log's are
 A replay tells how the ETA's model reads calls that cost what they cost, in an order close
 to the real one; it does not reproduce the real run's timing (no gaps between calls, no
 drawing). ``--cold`` takes the engines whose compiled-code caches were empty (make report
-with a new HOOPBENCH_CACHE: ``mjx newton mjwarp``).
+with a new HOOPBENCH_CACHE: ``mjx newton mjwarp``). ``--shuffle-map SEED`` hands the map's
+engine runs alone (not its batches, not its classification) their recorded seconds in a
+seeded random order instead of the grid's (x outer, y inner), each worker's first call still
+the longest: it tells what of the map's ETA comes from the grid order, whose first points
+(rolling and slipping starts) cost several times the later ones (most lifting off at once),
+so that a kind's factor measured on them says too much of the rest (docs/cli.md).
 
     python -m hoopbench.reports.bench.eta_replay /tmp/mr11-calls.jsonl --cold mjx newton mjwarp
 """
@@ -27,6 +32,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import random
 import sys
 from collections import deque
 from collections.abc import Hashable, Sequence
@@ -34,7 +40,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.reports.bench.call_costs import FRACTIONS, _kind, _ratios
+from hoopbench.reports.compare.costs import MAP as MAP_KIND
 from hoopbench.reports.compare.costs import priors
 from hoopbench.reports.compare.suite import DEFAULT_BATCH_SIZE
 from hoopbench.reports.hop_map.spec import MapSpec
@@ -111,14 +119,20 @@ class _Sweep:
 
 
 class _Recorded:
-    """The recorded calls' seconds by kinds, steps and worlds."""
+    """The recorded calls' seconds by kinds, steps and worlds; with ``shuffle``, the map's
+    engine runs alone in its random order (module docstring)."""
 
-    def __init__(self, records: Sequence[dict[str, Any]]) -> None:
+    def __init__(
+        self, records: Sequence[dict[str, Any]], shuffle: random.Random | None = None
+    ) -> None:
         self.left: dict[Key, list[float]] = {}
         for record in records:
             kinds = tuple(_kind(k) for k in record["kinds"])
             key = (kinds, float(record["steps"]), int(record["worlds"]))
             self.left.setdefault(key, []).append(float(record["seconds"]))
+        for key, seconds in self.left.items():
+            if shuffle is not None and _map_engine_run(key):
+                shuffle.shuffle(seconds)
 
     def take(self, call: CallCost, first: bool) -> float:
         found = self.left.get((tuple(call.kinds), float(call.steps), call.worlds))
@@ -128,14 +142,27 @@ class _Recorded:
         return found.pop(pick)
 
 
+def _map_engine_run(key: Key) -> bool:
+    """Whether calls of ``key`` are the map's engine runs alone (kind ('map', engine))."""
+    engine = key[0][-1] if key[0] else None
+    if not isinstance(engine, tuple) or len(engine) != 2 or engine[0] != MAP_KIND:
+        return False
+    return engine[1] != REFERENCE_ENGINE and key[2] == 1
+
+
 def replay(
-    records: Sequence[dict[str, Any]], cold: Sequence[str], workers: int, report_s: float
+    records: Sequence[dict[str, Any]],
+    cold: Sequence[str],
+    workers: int,
+    report_s: float,
+    shuffle_map: int | None = None,
 ) -> dict[str, list[float | None]]:
-    """Step name (and 'overall') -> ETA / time left at FRACTIONS (module docstring)."""
+    """Step name (and 'overall') -> ETA / time left at FRACTIONS (module docstring;
+    ``shuffle_map``: the seed of ``--shuffle-map``)."""
     suites = [name for name, _ in REPORT_SUITES]
     planned = report_plan(suites, MAP, workers, DEFAULT_BATCH_SIZE)
     plan = Plan("make report", planned.sweeps, priors(cold), workers, after=planned.after)
-    recorded = _Recorded(records)
+    recorded = _Recorded(records, None if shuffle_map is None else random.Random(shuffle_map))
     sweeps = [_Sweep(deque(s.calls), warm=plan.warm) for s in plan.sweeps]
     names = [_name(k, s.step) for k, s in enumerate(plan.sweeps)]
     points: dict[str, list[tuple[float, float, str]]] = {name: [] for name in names}
@@ -261,10 +288,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--cold", nargs="*", default=[], help="engines whose caches were cold")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--report-s", type=float, default=17.0, help="the report step's s")
+    parser.add_argument(
+        "--shuffle-map", type=int, metavar="SEED", help="the map's runs' seconds in random order"
+    )
     args = parser.parse_args(argv)
     lines = Path(args.calls).read_text().splitlines()
     records = [json.loads(line) for line in lines if line.strip()]
-    table = replay(records, args.cold, args.workers, args.report_s)
+    table = replay(records, args.cold, args.workers, args.report_s, args.shuffle_map)
     print("step | " + " | ".join(f"{f:.0%}" for f in FRACTIONS))
     for name, ratios in table.items():
         cells = ["—" if r is None else f"{r:.2f}" for r in ratios]
