@@ -18,10 +18,11 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from types import MappingProxyType
+from typing import Any
 
 from hoopbench.models.scene import Scene
 
-__all__ = ["SCENES", "get_scene", "scene_names"]
+__all__ = ["SCENES", "check_scene_name", "get_scene", "scene_names"]
 
 _SEED = Scene.from_chi(
     0.1,
@@ -196,12 +197,21 @@ def scene_names() -> tuple[str, ...]:
     return tuple(SCENES)
 
 
+def check_scene_name(name: Any) -> str:
+    """``name``, if the catalogue has a scene of that name; else ValueError naming the valid
+    names, its message without the checked value's own name, for the caller to put in
+    front ("name" here, the CLI's "--scene NAME")."""
+    if isinstance(name, str) and name in SCENES:
+        return name
+    raise ValueError(f"must be a catalogue scene ({', '.join(SCENES)}), got {name!r}")
+
+
 def get_scene(name: str) -> Scene:
     """The catalogue scene called ``name``.
 
     Raises ValueError naming the valid scene names when there is no such scene.
     """
-    scene = SCENES.get(name) if isinstance(name, str) else None
-    if scene is None:
-        raise ValueError(f"name must be a catalogue scene ({', '.join(SCENES)}), got {name!r}")
-    return scene
+    try:
+        return SCENES[check_scene_name(name)]
+    except ValueError as exc:
+        raise ValueError(f"name {exc}") from None

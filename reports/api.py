@@ -41,7 +41,7 @@ from hoopbench.engines.options import Profile, check_profile
 from hoopbench.engines.registry import engine_class, engine_names
 from hoopbench.engines.run import REFERENCE_ENGINE, RunResult, RunStatus
 from hoopbench.engines.settings import DEFAULT_BATCH_SIZE, DEFAULT_TIMESTEP, RunSettings
-from hoopbench.models.catalogue import get_scene, scene_names
+from hoopbench.models.catalogue import check_scene_name, get_scene, scene_names
 from hoopbench.models.checks import check_real
 from hoopbench.models.events import Events, Outcome
 from hoopbench.models.scene import THETA0_LIMIT_DEG, Scene
@@ -320,7 +320,8 @@ def scene(
         checked = check_real("theta0_deg", theta0_deg, low=-limit, high=limit, unit="deg")
         changes["theta0"] = math.radians(checked)
     if name is not None:
-        return _catalogue_scene(_named_scene(name), changes, chi, thetadot0)
+        base = get_scene(_checked("name", check_scene_name, name))  # named as the caller names it
+        return _catalogue_scene(base, changes, chi, thetadot0)
     missing = [key for key in ("lam", "mus") if key not in changes]
     if chi is None and thetadot0 is None:
         missing.append("chi or thetadot0")
@@ -335,14 +336,6 @@ def scene(
         return Scene.from_chi(chi, **changes)
     assert thetadot0 is not None  # else missing names "chi or thetadot0" above
     return Scene(thetadot0=thetadot0, **changes)
-
-
-def _named_scene(name: str) -> Scene:
-    """The catalogue scene ``name``; OptionError naming the option (the CLI's --scene)."""
-    try:
-        return get_scene(name)
-    except ValueError as exc:  # the catalogue's message names the name "name"
-        raise OptionError("name", "{option}" + str(exc).removeprefix("name")) from None
 
 
 def _catalogue_scene(
