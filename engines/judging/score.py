@@ -200,6 +200,11 @@ class CostClock(StrEnum):
         return Col.CPU_TIME_S if self is CostClock.CPU else Col.WALL_TIME_S
 
     @property
+    def step_column(self) -> str:
+        """The runs-table column of the stepping's time by this clock per step, us."""
+        return Col.CPU_US_PER_STEP if self is CostClock.CPU else Col.US_PER_STEP
+
+    @property
     def label(self) -> str:
         """As the report says it: "CPU" or "wall" (the answer's Answer.clock words)."""
         return "CPU" if self is CostClock.CPU else "wall"

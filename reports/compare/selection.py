@@ -64,15 +64,13 @@ def step_cost_column(frame: pd.DataFrame) -> Col:
     (Col.CPU_US_PER_STEP, which the machine's load moves far less than the wall time) where
     the rows carry it, else the wall time per step (Col.US_PER_STEP: a table stored before
     issue 34)."""
-    if Col.CPU_US_PER_STEP not in frame.columns:
-        return Col.US_PER_STEP
-    measured = pd.to_numeric(frame[Col.CPU_US_PER_STEP], errors="coerce").notna().any()
-    return Col.CPU_US_PER_STEP if measured else Col.US_PER_STEP
+    return Col(run_cost_clock(frame).step_column)
 
 
 def run_cost_clock(frame: pd.DataFrame) -> CostClock:
-    """The clock a run's whole stepping time is read by: the process's CPU time
-    (Col.CPU_TIME_S) where the rows carry it, as :func:`step_cost_column` ranks, else the
-    wall time (a table stored before issue 34)."""
-    cpu = step_cost_column(frame) == Col.CPU_US_PER_STEP
-    return CostClock.CPU if cpu else CostClock.WALL
+    """The clock runs' costs are read by: the process's CPU time where the rows carry it
+    (Col.CPU_US_PER_STEP measured), else the wall time (a table stored before issue 34)."""
+    if Col.CPU_US_PER_STEP not in frame.columns:
+        return CostClock.WALL
+    measured = pd.to_numeric(frame[Col.CPU_US_PER_STEP], errors="coerce").notna().any()
+    return CostClock.CPU if measured else CostClock.WALL

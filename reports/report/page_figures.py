@@ -18,7 +18,6 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from hoopbench.engines.judging.columns import Col
 from hoopbench.engines.judging.score import CostClock
 from hoopbench.reference.exact import solve_exact
 from hoopbench.reports.compare.selection import (
@@ -74,12 +73,8 @@ def _axis_name(kind: str, k: int) -> str:
     return kind if k == 0 else f"{kind}{k + 1}"
 
 
-_PER_STEP = {CostClock.CPU: Col.CPU_US_PER_STEP, CostClock.WALL: Col.US_PER_STEP}
-"""The per-step column of a clock's time (the hover's us/step)."""
-
-
 def _point_data(group: pd.DataFrame, unit: str, clock: CostClock) -> list[list[str]]:
-    per_step = pd.to_numeric(group[_PER_STEP[clock]], errors="coerce")
+    per_step = pd.to_numeric(group[clock.step_column], errors="coerce")
     return [
         [
             text(row["engine"]),
@@ -131,7 +126,7 @@ def _family_traces(
 
 
 def _panel_extras(
-    runs: pd.DataFrame, points: pd.DataFrame, scene: str, k: int, floor: float
+    runs: pd.DataFrame, points: pd.DataFrame, scene: str, k: int, floor: float, clock: CostClock
 ) -> list[dict]:
     """The Pareto front (palette.FRONT_COLOUR's band, under the runs) and the exact
     reference's star (error 0: on the panel's bottom edge, ``floor``) of one panel."""
@@ -162,7 +157,7 @@ def _panel_extras(
                 "text": [ZERO_LABEL],
                 "textposition": "top right",
                 "cliponaxis": False,  # on the edge, whole
-                "x": [float(reference[run_cost_clock(runs).column].min())],
+                "x": [float(reference[clock.column].min())],
                 "y": [floor],
                 "name": "exact reference (error 0: on the bottom edge)",
                 "legendgroup": "reference",
@@ -208,7 +203,7 @@ def precision_page_figure(runs: pd.DataFrame) -> Figure | None:
         points = metric_runs(runs, metric, scene)
         floor = error_floor(engine_rows(points)["error"])
         # the front first: drawn under the runs
-        traces += _panel_extras(runs, points, scene, k, floor)
+        traces += _panel_extras(runs, points, scene, k, floor, clock)
         traces += _family_traces(points, metric.unit, k, shown, floor, clock)
         x, y = _axis_name("xaxis", k), _axis_name("yaxis", k)
         # powers of ten, as the PNG's axes (plotly's default writes 1µ for 1e-6)
