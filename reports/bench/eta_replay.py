@@ -57,6 +57,7 @@ from hoopbench.reports.sweep.eta import (
     ran,
 )
 from hoopbench.reports.sweep.plan import Plan, duration_text
+from hoopbench.reports.sweep.runner import IN_FLIGHT_PER_WORKER
 
 MAP = MapSpec(nx=10, ny=10, engines=("mujoco", "pybullet", "pymunk"))
 """make report's map (the Makefile's MAP_ARGS: --grid 10x10 --engines mujoco pybullet
@@ -271,8 +272,8 @@ def _next_call(
 
 def _limit(workers: int) -> int:
     """Calls without an affinity key a sweep has in flight at most on the plan's pool
-    (runner._pool_for: twice the workers)."""
-    return 2 * workers
+    (runner._pool_for)."""
+    return IN_FLIGHT_PER_WORKER * workers
 
 
 def _name(index: int, step: str) -> str:

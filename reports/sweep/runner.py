@@ -99,6 +99,7 @@ from hoopbench.reports.sweep.plan import Plan, current_plan, duration_text
 
 __all__ = [
     "IDENTITY_NAME",
+    "IN_FLIGHT_PER_WORKER",
     "LOCK_NAME",
     "Batching",
     "Costing",
@@ -1557,6 +1558,11 @@ def _resumed_statuses(out: Path, note: Callable[[str], None]) -> dict[str, str]:
     return results.stored_statuses(out)
 
 
+IN_FLIGHT_PER_WORKER = 2
+"""Calls (of no affinity key) a sweep submits to its WorkerPool at once, per worker: one
+queued in the pool for each running, ready the moment a worker is free."""
+
+
 def _pool_for(
     worker: Worker, executor: Executor | None, jobs: int | None, max_in_flight: int | None
 ) -> tuple[Executor, int]:
@@ -1564,13 +1570,12 @@ def _pool_for(
     running plan's shared one) and how many calls may be submitted at once."""
     plan = current_plan.get()
     if executor is None and plan is not None and isinstance(plan.pool, WorkerPool):
-        return plan.pool, max_in_flight or 2 * plan.pool.max_workers
+        return plan.pool, max_in_flight or IN_FLIGHT_PER_WORKER * plan.pool.max_workers
     if executor is None:
         module = getattr(worker, "__module__", None)
         preload = [module] if module and module not in ("__main__", "__mp_main__") else []
         local = WorkerPool(jobs, preload=preload)
-        # Twice the workers: a call is queued in the pool, ready the moment a worker is free.
-        return local, max_in_flight or 2 * local.max_workers
+        return local, max_in_flight or IN_FLIGHT_PER_WORKER * local.max_workers
     # A public max_workers (WorkerPool, the Dask cluster's threads) or the stdlib pools'.
     guess = getattr(executor, "max_workers", None) or getattr(executor, "_max_workers", None)
     return executor, max_in_flight or guess or jobs or os.cpu_count() or 1
