@@ -1,7 +1,8 @@
 """Figures a newcomer can read (issue 35): every engine that ran is drawn and the captions say
 at which timestep, the stability matrix fits a screen with its timesteps on top, the
 animation's labels clear of lines and its marks keyed (page and gif), the Pareto front in a
-style of its own and the exact star on the axis edge, labelled. Synthetic rows, the exact
+style of its own and the exact star on the axis edge, labelled, and every log axis two
+labelled ticks apart, whatever its range (log_ticks). Synthetic rows, the exact
 hop-top under each engine's name: no engine runs (about 15 s, mostly the figures' drawing).
 """
 
@@ -9,6 +10,7 @@ from __future__ import annotations
 
 import json
 import re
+from pathlib import Path
 
 import matplotlib.figure
 import numpy as np
@@ -215,3 +217,106 @@ def test_no_figure_places_a_legend_by_searching_its_data(suite, tmp_path, monkey
     events_figure(drawn_trajectories(suite, "hop-top"), tmp_path / "e.png", title="hop-top")
     force_figure([p for p in force_panels(suite) if p.name == "hop-top"], tmp_path / "f.png")
     delta_figure(tmp_path / "d.png")
+
+
+def _log_axes(fig: matplotlib.figure.Figure) -> list:
+    """The log axes of ``fig`` that show tick labels (label_outer hides the inner panels')."""
+    return [
+        axis
+        for ax in fig.axes
+        if ax.get_visible()
+        for axis in (ax.xaxis, ax.yaxis)
+        if axis.get_scale() == "log" and any(t.label1.get_visible() for t in axis.get_major_ticks())
+    ]
+
+
+def _labelled_in_view(axis) -> list:
+    """The tick labels, major and minor, ``axis`` drew inside its view, non-empty (after
+    save, as drawn)."""
+    low, high = sorted(axis.get_view_interval())
+    major, minor = axis.get_majorticklocs(), axis.get_minorticklocs()
+    ticks = [*zip(axis.get_major_ticks(len(major)), major, strict=True),
+             *zip(axis.get_minor_ticks(len(minor)), minor, strict=True)]  # fmt: skip
+    return [
+        tick.label1
+        for tick, loc in ticks
+        if low <= loc <= high and tick.label1.get_visible() and tick.label1.get_text().strip()
+    ]
+
+
+def _assert_readable(fig: matplotlib.figure.Figure) -> None:
+    """Each log axis of ``fig`` shows two labelled ticks in view, their labels apart."""
+    axes = _log_axes(fig)
+    assert axes
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(fig)  # save closed the figure: drawn again, as laid out
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    for axis in axes:
+        labels = _labelled_in_view(axis)
+        texts = [label.get_text() for label in labels]
+        assert len(labels) >= 2, (axis.axes.get_title(), axis.get_view_interval(), texts)
+        boxes = [label.get_window_extent(renderer) for label in labels]
+        for k, box in enumerate(boxes):
+            assert not any(box.overlaps(other) for other in boxes[k + 1 :]), texts
+
+
+def _saved(monkeypatch) -> list[matplotlib.figure.Figure]:
+    drawn: list[matplotlib.figure.Figure] = []
+    original = matplotlib.figure.Figure.savefig
+    monkeypatch.setattr(
+        matplotlib.figure.Figure,
+        "savefig",
+        lambda self, *a, **k: drawn.append(self) or original(self, *a, **k),
+    )
+    return drawn
+
+
+def test_error_against_time_labels_two_ticks_on_every_log_axis_under_a_decade(
+    tmp_path, monkeypatch
+):
+    """The quick suite's seed-mu panels: CPU times 0.135-0.66 s, no power of ten in view, and
+    no number on the time axis before (minor labels off, majors only)."""
+    rows = _precision_rows()
+    rows["cpu_time_s"] = np.geomspace(0.135, 0.66, len(rows))
+    rows["cpu_us_per_step"] = rows["cpu_time_s"] * 1e3
+    rows.loc[rows["engine"] != REFERENCE_ENGINE, "err_t_slip_ms"] = np.linspace(2.1, 6.5, 14)
+    drawn = _saved(monkeypatch)
+    with plain_text():
+        precision_figure(rows, tmp_path / "p.png")
+    _assert_readable(drawn[0])
+
+
+@pytest.mark.parametrize(
+    "low, high",
+    [(0.135, 0.66), (0.08, 0.6), (2.5, 9.0), (6.0, 9.5), (0.55, 0.58), (1.001, 1.002),
+     (3e-7, 4e-6), (1e-9, 1e3)],
+)  # fmt: skip
+def test_every_saved_log_axis_labels_two_ticks_apart_whatever_its_range(
+    low, high, tmp_path, monkeypatch
+):
+    """plotting.save's rule for any figure: both axes log over [low, high], a narrow panel."""
+    from hoopbench.reports.report.plotting import pyplot, save
+
+    drawn = _saved(monkeypatch)
+    fig, ax = pyplot().subplots(figsize=(3.0, 2.5), constrained_layout=True)
+    ax.plot([low, high], [low, high], "o")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    with plain_text():
+        save(fig, tmp_path / "f.png", dpi=100)
+    _assert_readable(drawn[0])
+
+
+def test_a_shipped_search_figure_labels_two_ticks_on_its_held_out_cost_axis(tmp_path, monkeypatch):
+    """newton's held-out costs span 0.16-6 s per simulated s: one power of ten in view, which
+    was its only label; its figure is laid out by tight_layout before save (the rule first)."""
+    from hoopbench.reports.report.best_settings import _figure, best_settings
+
+    drawn = _saved(monkeypatch)
+    searches = Path(__file__).resolve().parents[1] / "reports" / "tune" / "searches"
+    (best,) = best_settings([searches / "newton"])
+    with plain_text():
+        _figure(best, tmp_path / "b.png")
+    _assert_readable(drawn[0])

@@ -24,6 +24,7 @@ import pandas as pd
 from hoopbench.engines.judging.score import CostClock
 from hoopbench.reports.compare.settings_file import TIER_CHOICES, TierChoice
 from hoopbench.reports.report.escaping import escape_cell, escape_text, file_stem
+from hoopbench.reports.report.log_ticks import readable_log_axes
 from hoopbench.reports.report.palette import engine_colours, profile_style
 from hoopbench.reports.report.plotting import Draw, draw_now, pyplot, save
 from hoopbench.reports.sweep.folder_files import (
@@ -387,10 +388,13 @@ def _summary(best: BestSettings) -> str:
 
 
 def _plain_log_axis(axis: Any) -> None:
+    """Plain numbers (``0.2``, ``1,000``), not powers; which ticks are labelled is
+    plotting.save's rule (log_ticks)."""
     from matplotlib.ticker import FuncFormatter
 
-    axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:,.0f}" if v >= 1 else f"{v:g}"))
-    axis.set_minor_formatter(FuncFormatter(lambda v, _: ""))
+    axis.set_major_formatter(
+        FuncFormatter(lambda v, _: f"{v:,.0f}" if v >= 1 and float(v).is_integer() else f"{v:g}")
+    )
 
 
 def _positive(values: Any) -> bool:
@@ -451,6 +455,7 @@ def _figure(best: BestSettings, path: Path) -> Path:
     _panel(axes[1], best, "heldout")
     axes[0].legend(loc="best", fontsize=8)
     fig.suptitle(f"{best.engine}: error against cost")
+    readable_log_axes(fig)  # as save labels them, before tight_layout makes room for labels
     fig.tight_layout()
     return save(fig, path, dpi=110)  # whole or not at all, plain tick labels
 

@@ -28,6 +28,7 @@ from typing import Any
 
 from hoopbench.models.whole_files import write_whole
 from hoopbench.reports.report.glyph_cache import with_kept_glyphs
+from hoopbench.reports.report.log_ticks import readable_log_axes
 from hoopbench.reports.sweep.control_chars import visible_controls
 
 __all__ = [
@@ -125,7 +126,9 @@ def save(
     their codes (visible_controls): matplotlib has no glyph for them and its "Glyph missing"
     warning would carry them to the terminal raw. ``metadata``: text entries of the PNG
     (map_section's figure key), none by default. Its text is drawn with each glyph rendered
-    once (glyph_cache.with_kept_glyphs: the same pixels)."""
+    once (glyph_cache.with_kept_glyphs: the same pixels). Every log axis shows at least two
+    labelled ticks (log_ticks.readable_log_axes)."""
+    readable_log_axes(fig)
     for text in _texts(fig):
         text.set_text(visible_controls(text.get_text()))
     for ax in fig.axes:

@@ -192,8 +192,6 @@ def metric_runs(runs: pd.DataFrame, metric: Metric, scene: str) -> pd.DataFrame:
 def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
     """One panel per (metric, scene): error against the runs' time, families and the front."""
     plt = pyplot()
-    from matplotlib.ticker import NullFormatter
-
     runs = default_rows(runs)
     panels = figure_panels(runs)
     if not panels:
@@ -243,8 +241,6 @@ def precision_figure(runs: pd.DataFrame, out: str | Path) -> Path | None:
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_ylim(bottom=floor)
-        # A narrow range labels its minor ticks too, and they overlap: majors only.
-        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel(cost_label(clock))
         ax.set_ylabel(f"|error| ({metric.unit})")
         ax.set_title(f"{scene}: {metric.label}", fontsize=9)
