@@ -8,13 +8,14 @@ matplotlib's default on such a narrow axis, but all of them or a fixed subset, w
 on a narrow panel (precision.py switched them off for that). The rule here, for every log
 axis of every figure (:func:`plotting.save` applies it, one place): the minor ticks are never
 labelled; the major ticks are the axis's own where :data:`LABELLED_TICKS` of them lie in view,
-else the sparsest set of :data:`SUB_DECADES` (1 and 3, then 1, 2 and 5, ...) that puts that
-many in view, else, on an axis narrower than the gap between two of 1, 2, ... 9 times a power,
-the fewest round numbers of a linear scale (``MaxNLocator``) that do. The sparsest set keeps
-the labels apart.
+else the sparsest set of :data:`SUB_DECADES` (1 and 3, then 1, 2 and 5, then 1, 2, 3 and 5
+times a power) that puts that many in view, else (an axis such as 6-9.5 or 0.55-0.58) the
+fewest round numbers of a linear scale (``MaxNLocator``) that do: 6 and 8, not 6, 7, 8 and 9.
+The sparsest set keeps the labels apart.
 A tick that is not a power of ten is written as the axis's own formatter writes it where that
 is not a log formatter (best_settings' plain numbers), else as ``2×10⁻¹`` (matplotlib's own
-way of writing a labelled minor tick), with as many digits as tell the labels apart.
+way of writing a labelled minor tick; ``3``, not ``3×10⁰``), with as many digits as tell the
+labels apart.
 """
 
 from __future__ import annotations
@@ -34,7 +35,6 @@ SUB_DECADES: tuple[tuple[float, ...], ...] = (
     (1.0, 3.0),
     (1.0, 2.0, 5.0),
     (1.0, 2.0, 3.0, 5.0),
-    (1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0),
 )
 """The multiples of each power of ten tried in turn, sparsest first, on an axis whose own
 ticks leave fewer than :data:`LABELLED_TICKS` in view."""
@@ -103,11 +103,14 @@ def _is_decade(value: float) -> bool:
 
 def _sci(value: float, digits: int) -> str:
     """``value`` as matplotlib writes a labelled minor tick: ``$\\mathdefault{2\\times10^{-1}}$``
-    (plotting.save writes it as ``2×10⁻¹``), its mantissa to ``digits`` significant digits."""
+    (plotting.save writes it as ``2×10⁻¹``), its mantissa to ``digits`` significant digits;
+    between 1 and 10 the mantissa alone."""
     exponent = math.floor(math.log10(value))
     mantissa = f"{value / 10.0**exponent:.{digits}g}"
     if mantissa == "10":  # rounded up to the next power
         mantissa, exponent = "1", exponent + 1
+    if exponent == 0:  # 3, not 3×10⁰
+        return rf"$\mathdefault{{{mantissa}}}$"
     return rf"$\mathdefault{{{mantissa}\times10^{{{exponent}}}}}$"
 
 
