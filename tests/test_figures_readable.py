@@ -226,8 +226,13 @@ def _log_axes(fig: matplotlib.figure.Figure) -> list:
         for ax in fig.axes
         if ax.get_visible()
         for axis in (ax.xaxis, ax.yaxis)
-        if axis.get_scale() == "log" and any(t.label1.get_visible() for t in axis.get_major_ticks())
+        if axis.get_scale() == "log" and any(_shown(t) for t in axis.get_major_ticks())
     ]
+
+
+def _shown(tick) -> list:
+    """The labels of ``tick`` that are drawn: left or bottom, right or top (a colour bar's)."""
+    return [label for label in (tick.label1, tick.label2) if label.get_visible()]
 
 
 def _labelled_in_view(axis) -> list:
@@ -238,9 +243,11 @@ def _labelled_in_view(axis) -> list:
     ticks = [*zip(axis.get_major_ticks(len(major)), major, strict=True),
              *zip(axis.get_minor_ticks(len(minor)), minor, strict=True)]  # fmt: skip
     return [
-        tick.label1
+        label
         for tick, loc in ticks
-        if low <= loc <= high and tick.label1.get_visible() and tick.label1.get_text().strip()
+        if low <= loc <= high
+        for label in _shown(tick)
+        if label.get_text().strip()
     ]
 
 
@@ -319,4 +326,20 @@ def test_a_shipped_search_figure_labels_two_ticks_on_its_held_out_cost_axis(tmp_
     (best,) = best_settings([searches / "newton"])
     with plain_text():
         _figure(best, tmp_path / "b.png")
+    _assert_readable(drawn[0])
+
+
+def test_a_log_colour_bar_under_a_decade_labels_two_ticks(tmp_path, monkeypatch):
+    """The map's hop heights take a log colour bar (map_figures): 0.02-0.05 m held no power
+    of ten."""
+    from matplotlib.colors import LogNorm
+
+    from hoopbench.reports.report.plotting import pyplot, save
+
+    drawn = _saved(monkeypatch)
+    fig, ax = pyplot().subplots(figsize=(4.0, 3.0), layout="constrained")
+    mesh = ax.pcolormesh(np.geomspace(0.02, 0.05, 12).reshape(3, 4), norm=LogNorm(0.02, 0.05))
+    fig.colorbar(mesh, ax=ax)
+    with plain_text():
+        save(fig, tmp_path / "c.png", dpi=100)
     _assert_readable(drawn[0])
