@@ -77,6 +77,7 @@ __all__ = [
     "n_steps_for",
     "states_and_step_forces",
     "steps_in",
+    "steps_to_stop",
     "warp_device",
 ]
 
@@ -1078,6 +1079,18 @@ def call_repeatedly(step: Callable[..., object], times: int, *args: object) -> N
 def n_steps_for(scene: Scene, timestep: float) -> int:
     """Steps a run takes: the whole steps that fit in [0, scene.t_end] (never past it)."""
     return steps_in(scene.t_end, timestep)
+
+
+def steps_to_stop(scene: Scene, timestep: float, t_stop: float | None) -> int:
+    """Steps a run takes whose StopMonitor decides at ``t_stop`` (s; None: it never does):
+    to the end of that chunk, as the stepping loop feeds the monitor a chunk at a time and
+    chunks end at multiples of CHUNK_STEPS (``_step_chunks``, a batch's loop alike); at most
+    the window's steps."""
+    window = n_steps_for(scene, timestep)
+    if t_stop is None:
+        return window
+    chunks = max(1, math.ceil(t_stop / timestep / CHUNK_STEPS))  # the deciding step's chunk
+    return min(window, chunks * CHUNK_STEPS)
 
 
 def steps_in(t_end: float, timestep: float) -> int:

@@ -73,6 +73,17 @@ class StopRule:
                 raise ValueError(f"settle_after must be >= 0 s, got {value}")
             object.__setattr__(self, "settle_after", float(value))
 
+    def stop_time(self, first_impact: float | None) -> float | None:
+        """When this rule ends a run that follows a known motion (the exact reference's), s,
+        given the motion's first impact (None: it has none): the earliest of that impact
+        (at_first_impact) and settle_after (the reference's t_settled, when that motion has
+        rolled the full turn the rule waits for); None: the run steps its whole window.
+        An engine's run stops where its own trajectory meets the rule (the monitor's
+        samples), so this is what its steps are expected to be, not a bound."""
+        impact = first_impact if self.at_first_impact else None
+        times = [t for t in (impact, self.settle_after) if t is not None]
+        return min(times, default=None)
+
     def to_dict(self) -> dict[str, bool | float | None]:
         return {"at_first_impact": self.at_first_impact, "settle_after": self.settle_after}
 

@@ -41,6 +41,7 @@ from hoopbench.reports.compare.suite import (
 from hoopbench.reports.compare.suite_file import load_suite, suite_path
 from hoopbench.reports.hop_map.spec import MapSpec
 from hoopbench.reports.hop_map.stages import (
+    MapTask,
     map_batch_key,
     planned_tasks,
     run_map_batch,
@@ -91,9 +92,14 @@ def suite_sweep(name: str, jobs: int, batch_size: int) -> PlannedSweep:
     return PlannedSweep(name, len(tasks), calls)
 
 
-def map_sweeps(spec: MapSpec, jobs: int, batch_size: int) -> list[PlannedSweep]:
-    """The map's two sweeps (the exact classification of its points, then its engines')."""
-    refs, engine_tasks = planned_tasks(spec)
+def map_sweeps(
+    spec: MapSpec, jobs: int, batch_size: int, engine_tasks: Sequence[MapTask] | None = None
+) -> list[PlannedSweep]:
+    """The map's two sweeps (the exact classification of its points, then its engines':
+    ``engine_tasks`` if given, e.g. those of ``stages.classified_tasks``, else as planned
+    before the classification, each costed by its window)."""
+    refs, planned = planned_tasks(spec)
+    engine_tasks = planned if engine_tasks is None else engine_tasks
     batching = (
         Batching(run_map_batch, map_batch_key, batch_size, batch_least, batch_affinity)
         if batch_size > 1
@@ -106,13 +112,20 @@ def map_sweeps(spec: MapSpec, jobs: int, batch_size: int) -> list[PlannedSweep]:
     ]
 
 
-def report_plan(suites: Sequence[str], spec: MapSpec | None, jobs: int, batch_size: int) -> Plan:
+def report_plan(
+    suites: Sequence[str],
+    spec: MapSpec | None,
+    jobs: int,
+    batch_size: int,
+    map_tasks: Sequence[MapTask] | None = None,
+) -> Plan:
     """The plan of make report's sweeps: ``suites`` (shipped names), then the map of
-    ``spec`` if any, then the report (its prior). Their batches are the runner's: sized for
-    its calls in flight, twice the workers."""
+    ``spec`` if any (its engine tasks ``map_tasks``: :func:`map_sweeps`), then the report
+    (its prior). Their batches are the runner's: sized for its calls in flight, twice the
+    workers."""
     sweeps = [suite_sweep(name, 2 * jobs, batch_size) for name in suites]
     if spec is not None:
-        sweeps += map_sweeps(spec, 2 * jobs, batch_size)
+        sweeps += map_sweeps(spec, 2 * jobs, batch_size, map_tasks)
     report = CallCost(kinds=(REPORT,), steps=0)
     return Plan("make report", sweeps, priors(cold_caches()), jobs, after=(report,))
 

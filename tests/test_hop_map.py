@@ -44,7 +44,14 @@ from hoopbench.reports.hop_map.spec import (
     MapSpecMismatchError,
     load_spec,
 )
-from hoopbench.reports.hop_map.stages import MAP_COLUMNS, reference_tasks, run_map, run_map_task
+from hoopbench.reports.hop_map.stages import (
+    MAP_COLUMNS,
+    _stage_two_tasks,
+    classified_tasks,
+    reference_tasks,
+    run_map,
+    run_map_task,
+)
 from hoopbench.reports.hop_map.table import agreement_table, map_frame
 from hoopbench.reports.sweep import results
 from hoopbench.reports.sweep.runner import OutputDirNotEmptyError, RunnerError
@@ -105,6 +112,18 @@ def test_the_default_lam_range_stops_below_the_massless_ring():
     low, high = AXES[Axis.LAM].default_range
     assert low < high < 1.0
     assert max(MapSpec(nx=10).axis_values(Axis.LAM)) < 1.0
+
+
+def test_classified_tasks_carry_what_stage_two_reads(tiny):
+    """eta_replay costs the map's engine runs by classified_tasks: the same tasks, with the
+    same exact columns (so the same expected steps), as stage 2 builds from the stored
+    reference rows."""
+    stage_two, _ = _stage_two_tasks(TINY, tiny, str(tiny))
+    stored = {t.run_id: t for t in stage_two if t.engine != REFERENCE}
+    classified = classified_tasks(TINY)
+    assert [t.run_id for t in classified] == list(stored)
+    assert all(t.exact and t.exact == stored[t.run_id].exact for t in classified)
+    assert [t.expected_steps for t in classified] == [t.expected_steps for t in stored.values()]
 
 
 def test_defaults_come_from_the_axes_table():

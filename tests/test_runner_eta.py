@@ -13,6 +13,7 @@ from dataclasses import dataclass, replace
 import pytest
 from test_runner import Job, job_failure_row, job_worker
 
+from hoopbench.engines.base import CHUNK_STEPS
 from hoopbench.engines.warp_compile import LOCKS
 from hoopbench.reports.bench.call_costs import (
     accuracy,
@@ -30,8 +31,11 @@ from hoopbench.reports.compare.costs import (
     REPORT,
     call_cost,
     cold_caches,
+    map_call_cost,
     priors,
 )
+from hoopbench.reports.hop_map.spec import MapSpec
+from hoopbench.reports.hop_map.stages import MapTask
 from hoopbench.reports.sweep import eta
 from hoopbench.reports.sweep.eta import (
     CallCost,
@@ -197,6 +201,39 @@ def test_a_batch_counts_once_at_its_longest_world_with_its_worlds():
     assert call.steps == 3000
     assert call.worlds == 2
     assert call.kinds == (("mjx", "tuned", "default"), "mjx")
+
+
+def _map_run(**exact: float | None) -> MapTask:
+    """A map engine run at 1e-4 s over a 3-s window (30000 steps) carrying these exact
+    columns (none: planned before its point is classified)."""
+    spec = MapSpec(nx=2, ny=1, engines=("pybullet",), timestep=1e-4, t_end=3.0)
+    point = spec.points()[0]
+    return MapTask("p", point, "pybullet", 1e-4, spec.profile, tuple(exact.items()))
+
+
+def test_a_map_call_costs_the_steps_to_where_its_stop_rule_ends_it():
+    """Issue 34: a map's engine run stops at its first impact or once settled (its
+    StopRule); costed by its whole window, the grid's first rows (rocking or slipping the
+    whole window, up to 0.68 CPU-s a PyBullet point) and its later ones (lifting off at
+    once, 0.04-0.09) looked alike, and the factor the first measured made the ETA 1.2-1.5
+    times the time left. Its steps are those to the chunk in which the rule stops a run
+    that follows the exact motion."""
+    rocks = _map_run(exact_t_impact=None, exact_t_settled=None)
+    window = rocks.n_steps
+    assert window == 30000
+    assert map_call_cost([rocks]).steps == window
+    lifts = _map_run(exact_t_impact=0.0731, exact_t_settled=None)
+    assert map_call_cost([lifts]).steps == CHUNK_STEPS  # its impact's chunk: 0.1 s
+    settles = _map_run(exact_t_impact=None, exact_t_settled=1.234)
+    assert map_call_cost([settles]).steps == 13 * CHUNK_STEPS
+    both = _map_run(exact_t_impact=2.05, exact_t_settled=1.234)  # the earlier ends it
+    assert map_call_cost([both]).steps == 13 * CHUNK_STEPS
+    assert map_call_cost([_map_run()]).steps == window  # not classified yet: its window
+    assert map_call_cost([lifts, rocks]).steps == window  # a batch: its longest world's
+    assert map_call_cost([_map_run()]).kinds == (
+        (MAP, "pybullet", "tuned", 1e-4),
+        (MAP, "pybullet"),
+    )
 
 
 def test_every_engine_the_map_and_the_report_have_a_prior():

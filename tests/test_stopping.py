@@ -224,6 +224,17 @@ def test_settled_counts_from_the_last_slip_or_lift(what):
     assert len(reasons) == math.ceil((20005 + turn) / 1000)
 
 
+def test_stop_time_on_a_known_motion():
+    """Where the rule ends a run that follows the exact motion (a map run's cost): the
+    earlier of its first impact (when asked) and settle_after; None: its whole window."""
+    assert StopRule().stop_time(0.4) == 0.4
+    assert StopRule().stop_time(None) is None
+    assert StopRule(at_first_impact=False).stop_time(0.4) is None
+    assert StopRule(settle_after=1.5).stop_time(0.4) == 0.4
+    assert StopRule(settle_after=1.5).stop_time(2.0) == 1.5
+    assert StopRule(at_first_impact=False, settle_after=1.5).stop_time(0.4) == 1.5
+
+
 def test_rule_checks():
     for bad in (-1.0, math.nan, math.inf, "1", True):
         with pytest.raises(ValueError, match="settle_after"):

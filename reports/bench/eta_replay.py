@@ -17,7 +17,11 @@ and 75 % of each step's runs, read as the stamped log's are
 
 A replay tells how the ETA's model reads calls that cost what they cost, in an order close
 to the real one; it does not reproduce the real run's timing (no gaps between calls, no
-drawing). ``--cold`` takes the engines whose compiled-code caches were empty (make report
+drawing). The map's engine runs are costed as the runner costs them, by the steps to where
+each stops on its point's exact motion: the replay classifies the map's points first (about
+5 CPU-s). A calls file written before that costing (by the window) finds no recorded call
+of them: ``--map-by-window`` replays one with the map's runs costed as it was, at today's
+priors. ``--cold`` takes the engines whose compiled-code caches were empty (make report
 with a new HOOPBENCH_CACHE: ``mjx newton mjwarp``). ``--shuffle-map SEED`` hands the map's
 engine runs alone (not its batches, not its classification) their recorded seconds in a
 seeded random order instead of the grid's (x outer, y inner), each worker's first call still
@@ -46,6 +50,7 @@ from hoopbench.reports.compare.costs import MAP as MAP_KIND
 from hoopbench.reports.compare.costs import priors
 from hoopbench.reports.compare.suite import DEFAULT_BATCH_SIZE
 from hoopbench.reports.hop_map.spec import MapSpec
+from hoopbench.reports.hop_map.stages import classified_tasks
 from hoopbench.reports.report_runs import MAP_STEP, REPORT_SUITES, report_plan
 from hoopbench.reports.sweep.eta import (
     CallCost,
@@ -157,11 +162,15 @@ def replay(
     workers: int,
     report_s: float,
     shuffle_map: int | None = None,
+    map_by_window: bool = False,
 ) -> dict[str, list[float | None]]:
     """Step name (and 'overall') -> ETA / time left at FRACTIONS (module docstring;
-    ``shuffle_map``: the seed of ``--shuffle-map``)."""
+    ``shuffle_map``: the seed of ``--shuffle-map``; ``map_by_window``: the map's engine
+    runs costed by their window, as calls files written before their stop was read)."""
     suites = [name for name, _ in REPORT_SUITES]
-    planned = report_plan(suites, MAP, workers, DEFAULT_BATCH_SIZE)
+    # The map's engine runs as the runner costs them, from their points' exact columns.
+    tasks = None if map_by_window else classified_tasks(MAP)
+    planned = report_plan(suites, MAP, workers, DEFAULT_BATCH_SIZE, tasks)
     plan = Plan("make report", planned.sweeps, priors(cold), workers, after=planned.after)
     recorded = _Recorded(records, None if shuffle_map is None else random.Random(shuffle_map))
     sweeps = [_Sweep(deque(s.calls), warm=plan.warm) for s in plan.sweeps]
@@ -292,10 +301,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--shuffle-map", type=int, metavar="SEED", help="the map's runs' seconds in random order"
     )
+    parser.add_argument(
+        "--map-by-window",
+        action="store_true",
+        help="the map's engine runs costed by their window (a calls file from before their stop)",
+    )
     args = parser.parse_args(argv)
     lines = Path(args.calls).read_text().splitlines()
     records = [json.loads(line) for line in lines if line.strip()]
-    table = replay(records, args.cold, args.workers, args.report_s, args.shuffle_map)
+    table = replay(
+        records, args.cold, args.workers, args.report_s, args.shuffle_map, args.map_by_window
+    )
     print("step | " + " | ".join(f"{f:.0%}" for f in FRACTIONS))
     for name, ratios in table.items():
         cells = ["—" if r is None else f"{r:.2f}" for r in ratios]

@@ -5,7 +5,9 @@ A call (one run, or a batch of one batching engine and one settings) costs a fix
 part per step (a batch: per step of its longest world) and, for a batch, a part per
 world-step (:class:`~hoopbench.reports.sweep.eta.Rates`), by its kind: its engine, profile
 and variant, else its engine. A map's runs stop at their first impact and classify their
-point without stepping: their kinds are the map's own (``("map", engine)``). The runner
+point without stepping: their kinds are the map's own (``("map", engine)``), and an engine
+run's steps are those to where its stop rule ends it on the exact motion
+(:func:`map_call_cost`). The runner
 scales these by what the finished calls measured; until an engine has a finished call,
 they are :data:`CALL_COST_PRIOR`'s scaled by the machine's factor.
 """
@@ -59,12 +61,17 @@ CALL_COST_PRIOR: dict[Hashable, Rates] = {
     "pymunk": Rates(0.011, 2.3e-06, 0.0, 0.0011, 0.028),
     "rapier": Rates(0.01, 7.7e-06, 0.0, 0.0015, 0.011),
     "reference": Rates(0.041, 4.5e-07, 0.0, 0.21),
-    # The map's (make report's: 10 x 10, MuJoCo in 4 batches of 25, 1e-4 s; its runs stop
-    # at their first impact, so a step of its window costs less than a suite's): its 304
-    # calls of the same idle make report. MuJoCo's 4 calls over their world-steps.
-    (MAP, "mujoco"): Rates(0.0, 0.0, 5.9e-06, 1.6),
-    (MAP, "pybullet"): Rates(0.0, 4.8e-06, 0.0, 0.13),
-    (MAP, "pymunk"): Rates(0.0, 1.5e-06, 0.0, 0.05),
+    # The map's (make report's: 10 x 10, MuJoCo in 4 batches of 25, 1e-4 s), its engine
+    # runs' by the steps they take to their stop (map_call_cost): the 300 engine calls of
+    # make report's map run alone (2026-11-29 19:36 UTC, this costing), fitted
+    # on each call's CPU s (the machine was shared: load 3-5), on the project's other machine
+    # (Intel Xeon 2.1 GHz, 2 cores), then divided by that machine's factor against these
+    # priors, 1.85 (eta.machine_factor, the median engine's, of the warm make report's
+    # calls in CPU s on it, 17:52 UTC), to stand with the others. MuJoCo's
+    # 4 calls over their world-steps. The classification's: the idle make report's.
+    (MAP, "mujoco"): Rates(0.0, 0.0, 5.9e-06, 1.0),
+    (MAP, "pybullet"): Rates(0.016, 8.1e-06, 0.0, 0.051),
+    (MAP, "pymunk"): Rates(0.007, 2.2e-06, 0.0, 0.0092),
     (MAP, "reference"): Rates(0.028, 0.0, 0.0, 0.04),
     # The report of the three suites, the map, the shipped searches and bench (make report's
     # last step, in report-runs' own process): 13 s on the same make report.
@@ -167,11 +174,12 @@ def call_cost(tasks: Sequence[Any]) -> CallCost:
 
 def map_call_cost(tasks: Sequence[Any]) -> CallCost:
     """A map call's kinds (map, engine, profile and timestep; then map and engine), steps
-    (its window's: an early stop only shortens it) and worlds."""
+    (those its runs are expected to take, ``MapTask.expected_steps``: to where their stop
+    rule ends them on the exact motion; a batch's longest) and worlds."""
     first = tasks[0]
     engine = first.engine
     specific = (MAP, engine, str(first.profile), first.timestep)
-    steps = max(task.n_steps for task in tasks)
+    steps = max(task.expected_steps for task in tasks)
     return CallCost(kinds=(specific, (MAP, engine)), steps=steps, worlds=len(tasks))
 
 

@@ -40,7 +40,7 @@ from functools import partial
 from pathlib import Path
 from typing import Any, TextIO
 
-from hoopbench.engines.base import n_steps_for
+from hoopbench.engines.base import n_steps_for, steps_to_stop
 from hoopbench.engines.judging.columns import (
     BATCH_COLUMNS,
     CPU_COLUMNS,
@@ -107,6 +107,7 @@ __all__ = [
     "MAP_COLUMNS",
     "ROWS_FORMAT_VERSION",
     "MapTask",
+    "classified_tasks",
     "map_batch_key",
     "map_failure_row",
     "planned_tasks",
@@ -182,6 +183,19 @@ class MapTask:
     def n_steps(self) -> int:
         """Steps of the whole window (sizes the time limit; an early stop only shortens it)."""
         return 0 if self.timestep is None else n_steps_for(self.point.scene(), self.timestep)
+
+    @property
+    def expected_steps(self) -> int:
+        """Steps the run is expected to take (its cost, for the ETA): where its own stop rule
+        (:func:`_task_stop`) ends a run that follows the exact motion, from the exact columns
+        it carries (first impact, t_settled); its whole window where it carries none
+        (planned before stage 1, or its reference failed). A point that lifts off at once
+        stops within a tenth of its window; one that rocks or slips steps all of it."""
+        exact = dict(self.exact)
+        if self.timestep is None or Col.EXACT_T_IMPACT not in exact:
+            return self.n_steps  # 0 for a reference task
+        t_stop = _task_stop(self).stop_time(exact[Col.EXACT_T_IMPACT])
+        return steps_to_stop(self.point.scene(), self.timestep, t_stop)
 
 
 def reference_tasks(
@@ -369,14 +383,11 @@ def _point_solution(task: MapTask, scene: Scene) -> ExactSolution:
     return exact_solution(scene, mu)
 
 
-def _engine_settings(task: MapTask, t_settled: float | None) -> RunSettings:
-    """The run ends shortly after its first impact, where the exact window ends too, or once
-    it has rolled a full turn after the reference's last event (t_settled), when nothing new
-    can happen; mu is the scene's (mus = muk)."""
-    if task.timestep is None or task.profile is None:  # a reference task's: not an engine's
-        raise ValueError(f"{task.run_id}: an engine run needs a timestep and a profile")
-    stop = StopRule(at_first_impact=True, settle_after=t_settled)
-    return RunSettings(timestep=task.timestep, profile=task.profile, stop=stop)
+def _task_stop(task: MapTask) -> StopRule:
+    """An engine run's stop rule (its settings'): it ends shortly after its first impact,
+    where the exact window ends too, or once it has rolled a full turn after the
+    reference's last event (the t_settled it carries), when nothing new can happen."""
+    return StopRule(at_first_impact=True, settle_after=dict(task.exact).get(Col.EXACT_T_SETTLED))
 
 
 def _engine_row(task: MapTask) -> dict[str, Any]:
@@ -388,7 +399,11 @@ def _engine_row(task: MapTask) -> dict[str, Any]:
 
 
 def _task_settings(task: MapTask) -> RunSettings:
-    return _engine_settings(task, dict(task.exact).get(Col.EXACT_T_SETTLED))
+    """An engine run's settings: its timestep and profile, and :func:`_task_stop`; mu is the
+    scene's (mus = muk)."""
+    if task.timestep is None or task.profile is None:  # a reference task's: not an engine's
+        raise ValueError(f"{task.run_id}: an engine run needs a timestep and a profile")
+    return RunSettings(timestep=task.timestep, profile=task.profile, stop=_task_stop(task))
 
 
 def _not_run_row(task: MapTask) -> dict[str, Any] | None:
@@ -550,6 +565,19 @@ def planned_tasks(spec: MapSpec) -> tuple[list[MapTask], list[MapTask]]:
         _engine_task(spec, ref.point, engine, {}, None) for ref in refs for engine in spec.engines
     ]
     return refs, engine_tasks
+
+
+def classified_tasks(spec: MapSpec) -> list[MapTask]:
+    """Stage 2's engine tasks, each with the exact columns its point's classification gives
+    (as stage 2 reads them from the stored reference rows), the points classified here one
+    after another: the calls the runner costs stage 2 by, for a replay of its ETA
+    (reports/bench/eta_replay.py), which :func:`planned_tasks` can only cost by window."""
+    tasks: list[MapTask] = []
+    for ref in reference_tasks(spec):
+        row = run_map_task(ref)
+        exact = _stored_exact(row) if row[Col.STATUS] == RunStatus.OK else {}
+        tasks += [_engine_task(spec, ref.point, engine, exact, None) for engine in spec.engines]
+    return tasks
 
 
 def _stage_two_tasks(spec: MapSpec, out: Path, exact_dir: str) -> tuple[list[MapTask], int]:
