@@ -447,6 +447,40 @@ def test_write_map_outputs_draws_the_same_figures_where_it_is_told(map_dir, tmp_
         assert a.read_bytes() == b.read_bytes(), a.name
 
 
+def test_write_map_outputs_starts_the_figures_before_the_text(map_dir, tmp_path, monkeypatch):
+    """report-runs --report: the map's figures are submitted to the drawing processes before
+    the section's text is made (drawn while it is made, not after), and the agreement table
+    and the frame's CSV (the figures' keys) are made once, not once a use."""
+    folder = tmp_path / "map"  # no figures drawn yet
+    shutil.copytree(map_dir, folder, ignore=shutil.ignore_patterns("*.png", "map.md"))
+    made: Counter[str] = Counter()
+    drawn_by_then: list[list[str]] = []
+    findings, table, to_csv = (
+        map_section_module.map_findings,
+        map_section_module.agreement_table,
+        pd.DataFrame.to_csv,
+    )
+
+    def counted(name, function):
+        def call(*args, **kwargs):
+            made[name] += 1
+            return function(*args, **kwargs)
+
+        return call
+
+    def findings_seen(*args, **kwargs):
+        drawn_by_then.append(list(processes.drawn))
+        return findings(*args, **kwargs)
+
+    monkeypatch.setattr(map_section_module, "map_findings", findings_seen)
+    monkeypatch.setattr(map_section_module, "agreement_table", counted("table", table))
+    monkeypatch.setattr(pd.DataFrame, "to_csv", counted("csv", to_csv))
+    with _Recording() as processes:
+        write_map_outputs(folder, processes)
+    assert drawn_by_then == [["regime_figure", "verdict_figure", "hop_error_figure"]]
+    assert made == {"table": 1, "csv": 1}
+
+
 def test_report_of_a_map_folder(map_dir, tmp_path, capsys):
     out = tmp_path / "report"
     assert main(["report", "--results", str(map_dir), "--out", str(out)]) == 0

@@ -48,6 +48,7 @@ __all__ = [
     "agreement_markdown",
     "drawn_key",
     "figure_key",
+    "figure_keys",
     "is_map_folder",
     "map_findings",
     "map_prefixes",
@@ -230,12 +231,13 @@ def _stop_sentence(frame: pd.DataFrame) -> str:
     )
 
 
-def map_findings(frame: pd.DataFrame) -> list[str]:
-    """The map's findings, one sentence each, every one filled from the frame's numbers."""
+def map_findings(frame: pd.DataFrame, table: pd.DataFrame | None = None) -> list[str]:
+    """The map's findings, one sentence each, every one filled from the frame's numbers.
+    ``table``: the frame's agreement_table if the caller made it already (made here if not)."""
     sentences = [_regime_sentence(frame)]
     engines = engines_of(frame)
     if engines:
-        table = agreement_table(frame)
+        table = agreement_table(frame) if table is None else table
         sentences += [_ranking_sentence(table), _hardest_regime_sentence(table)]
         sentences += [_worst_regime_sentence(frame, table, e) for e in engines]
         sentences += [_hop_sentence(frame, e) for e in engines]
@@ -328,16 +330,28 @@ def figure_key(frame: pd.DataFrame, name: str) -> str:
     """What a map figure is drawn from, as a sha256: the figure's name, the frame's every
     value, the drawing code (map_figures.py, plotting.py, glyph_cache.py) and matplotlib's
     version. Two figures of one key are the same picture."""
+    return figure_keys(frame, [name])[name]
+
+
+def figure_keys(frame: pd.DataFrame, names: Sequence[str]) -> dict[str, str]:
+    """:func:`figure_key` of each name: the frame's values (as CSV: 0.1 CPU-s for a 10 x 10
+    map of three engines) and the code read once for them all, not once a figure."""
     import matplotlib
 
-    digest = hashlib.sha256(f"{name}\0{matplotlib.__version__}\0".encode())
+    drawn_from = []
     for module in (map_figures, plotting, glyph_cache):
         try:
-            digest.update(Path(str(module.__file__)).read_bytes())
+            drawn_from.append(Path(str(module.__file__)).read_bytes())
         except OSError:  # code not readable as a file (a zipped install): a key never reused
-            digest.update(os.urandom(16))
-    digest.update(frame.to_csv(index=False).encode())  # floats as repr: every digit
-    return digest.hexdigest()
+            drawn_from.append(os.urandom(16))
+    drawn_from.append(frame.to_csv(index=False).encode())  # floats as repr: every digit
+    keys = {}
+    for name in names:
+        digest = hashlib.sha256(f"{name}\0{matplotlib.__version__}\0".encode())
+        for part in drawn_from:
+            digest.update(part)
+        keys[name] = digest.hexdigest()
+    return keys
 
 
 def drawn_key(folder: Path, name: str) -> str | None:
@@ -373,13 +387,14 @@ def write_map_figures(
     folder ``drawn_in``'s own (``hoopbench map`` drew it), is kept or copied, not drawn."""
     out = Path(out)
     has_engines = bool(engines_of(frame))
+    drawn = [name for name, (_, _, engines) in _FIGURES.items() if has_engines or not engines]
+    keys = figure_keys(frame, drawn)
     paths = []
-    for name, (figure, _, needs_engines) in _FIGURES.items():
-        if needs_engines and not has_engines:
-            continue
+    for name in drawn:
+        figure = _FIGURES[name][0]
         path = out / f"{prefix}_{name}.png"
         paths.append(path)
-        key = figure_key(frame, name)
+        key = keys[name]
         if drawn_key(out, path.name) == key:
             continue
         if drawn_in is not None and drawn_key(drawn_in, f"map_{name}.png") == key:
@@ -405,21 +420,24 @@ def _section(
     lines += [escape_text(_spec_text(spec)), "", escape_text(_status_text(frame)) + ".", ""]
     if frame.empty:
         return "\n".join([*lines, "No runs stored yet.", ""]), []
-    lines += [f"{h}# Findings", ""]
-    lines += [f"- {escape_text(s)}" for s in map_findings(frame)]
-    lines += ["", f"{h}# Figures", ""]
+    # The figures first: drawn elsewhere (write_map_outputs' processes), they are drawn
+    # while the text below is made, not after it.
     figures = write_map_figures(frame, out, prefix=prefix, draw=draw, drawn_in=results_dir)
+    table = agreement_table(frame) if engines_of(frame) else None  # made once, read twice
+    lines += [f"{h}# Findings", ""]
+    lines += [f"- {escape_text(s)}" for s in map_findings(frame, table)]
+    lines += ["", f"{h}# Figures", ""]
     for path in figures:
         alt = _FIGURES[path.stem.removeprefix(f"{prefix}_")][1]
         lines += [f"![{alt}]({path.name})", ""]
     lines += [f"{h}# Exact regimes", "", _regime_table(frame), ""]
-    if engines_of(frame):
+    if table is not None:
         lines += [f"{h}# Agreement with the exact reference", ""]
         lines += [
             "Per engine and exact regime: judged points (those with an exact answer) whose "
             "outcome agrees, and whose verdict is agrees (the phases too).",
             "",
-            agreement_markdown(agreement_table(frame)),
+            agreement_markdown(table),
         ]
     return "\n".join(lines).rstrip() + "\n", figures
 
