@@ -231,3 +231,30 @@ def test_drawing_processes_started_ahead_ignore_ctrl_c_until_they_draw(tmp_path)
             os.kill(pid, signal.SIGINT)
         assert running.result(timeout=15.0) == "interrupted"
     started.close()  # taken: nothing to shut down
+
+
+def test_a_section_s_figures_start_as_the_section_is_made(tmp_path, monkeypatch):
+    """build.py: the searches' (and maps') figures are submitted when their section is made,
+    so that a process the animation leaves free draws them while the report makes its next
+    sections, not once report.md's own are queued. One process: each drawn as submitted."""
+    from hoopbench.reports.report import build
+
+    pools: list[RecordingPool] = []
+
+    def recording(*args, **kwargs):
+        pools.append(RecordingPool(1))
+        return pools[-1]
+
+    made_by_then: list[list[str]] = []
+    write = build.write_markdown
+
+    def markdown_seen(*args, **kwargs):
+        made_by_then.append(list(pools[0].made))
+        return write(*args, **kwargs)
+
+    monkeypatch.setattr(build, "FigurePool", recording)
+    monkeypatch.setattr(build, "write_markdown", markdown_seen)
+    search = Path(__file__).parents[1] / "reports" / "tune" / "searches" / "pymunk"
+    build.build_report([search], tmp_path / "out")
+    assert made_by_then == [["_figure"]]  # the Best settings figure, drawn already
+    assert (tmp_path / "out" / "best-settings-pymunk.png").stat().st_size > 0

@@ -124,19 +124,21 @@ def build_report(
             f"{len(maps)} map(s), {len(benches)} bench folder(s)")  # fmt: skip
     generated = datetime.now(UTC).isoformat(timespec="seconds")
     # Two reports into one folder would mix their figures: the sweeps' lock serves.
-    # The figures are drawn in a FigurePool beside the tables, with report.md's own, the
-    # dearest first; each as written (FigurePool.submit), none in this process. The pool's
-    # fork server imports the drawing modules once (FigurePool's preload); drawing processes
-    # started ahead (report-runs --report) are taken once the lock is held.
+    # The figures are drawn in a FigurePool beside the tables, each as written
+    # (FigurePool.submit), none in this process: the sections' own (the maps', the
+    # searches') as soon as each section is made, so that the process the GIF leaves free
+    # draws them while this one makes the next sections; then report.md's, the dearest
+    # first. The pool's fork server imports the drawing modules once (FigurePool's
+    # preload); drawing processes started ahead (report-runs --report) are taken once the
+    # lock is held.
     started = started_drawing.get()
     take = started.take if started is not None else lambda: None
     with sweep_lock(out), FigurePool(processes=take(), preload=[__name__]) as pool:
         _check_out(out, dirs, force)  # again, under the lock: one may have just finished
-        drawing: list[tuple[Callable[..., Any], tuple[Any, ...]]] = []
         awaited: list[Future] = []
 
         def draw(function: Callable[..., Any], *args: Any) -> None:
-            drawing.append((function, args))
+            awaited.append(pool.submit(function, *args))
 
         # The animation, the dearest drawing, started now: a drawing process works on it
         # while the sections below are made. report.md waits for it (its Files section
@@ -169,7 +171,6 @@ def build_report(
             say=say,
             pool=pool,
             awaited=awaited,
-            drawings=drawing,
             then=list(page_jobs(fragments).values()),
         )
         write_page(
