@@ -763,14 +763,18 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
 def _report_steps() -> Callable[[str], None] | None:
     """The report's progress: what it is doing, a line a step on stderr with the time since
-    it began, as a suite's progress lines; on a terminal only (None elsewhere), so that a
+    it began, as a suite's progress lines; on a terminal, or as make report's last step
+    (report-runs --report, which sets started_drawing: its log holds the sweeps' progress
+    lines, and its 20-odd seconds of report were silent there); None elsewhere, so that a
     refused input stays the one line a script or a log reads."""
     import time
 
+    from hoopbench.reports.report.drawing_processes import started_drawing
     from hoopbench.reports.sweep.control_chars import terminal_text
 
     isatty = getattr(sys.stderr, "isatty", None)
-    if isatty is None or not isatty():
+    terminal = isatty is not None and isatty()
+    if not terminal and started_drawing.get() is None:
         return None
     start = time.monotonic()
 

@@ -258,3 +258,18 @@ def test_a_section_s_figures_start_as_the_section_is_made(tmp_path, monkeypatch)
     build.build_report([search], tmp_path / "out")
     assert made_by_then == [["_figure"]]  # the Best settings figure, drawn already
     assert (tmp_path / "out" / "best-settings-pymunk.png").stat().st_size > 0
+
+
+def test_make_report_s_report_says_what_it_is_doing_in_a_log(monkeypatch):
+    """report-runs --report (make report, its stderr a log): the report's lines follow the
+    sweeps' progress lines there too; `hoopbench report` alone says them on a terminal only."""
+    from hoopbench.reports.cli import _report_steps
+    from hoopbench.reports.report.drawing_processes import started_drawing
+
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: False)
+    assert _report_steps() is None
+    token = started_drawing.set(StartedDrawing(_ready, workers=1))  # as report-runs sets it
+    try:
+        assert _report_steps() is not None
+    finally:
+        started_drawing.reset(token)
