@@ -127,6 +127,29 @@ def test_a_kind_measured_scales_its_own_prior_the_others_scale_by_the_machine(ra
     assert machine_factor([], PRIOR) == 1.0
 
 
+def test_a_line_makes_its_estimate_once_and_anew_once_a_call_has_ended(monkeypatch):
+    """A progress line lays out the calls three times over the same finished calls (the
+    sweep's ETA, the plan's, the report after them): the estimate from them is made once,
+    and made again once another call has finished (else the ETA would not move)."""
+    made: list[int] = []
+
+    class Counted(eta._Estimate):
+        def __init__(self, finished, prior):
+            made.append(len(finished))
+            super().__init__(finished, prior)
+
+    monkeypatch.setattr(eta, "_Estimate", Counted)
+    finished = [Took(CHEAP, 0.63), Took(CHEAP, 0.63)]
+    warm = {DEAR.kinds[0]: 1}
+    before = remaining_seconds([DEAR], [], finished, 1, PRIOR, warm)
+    assert remaining_seconds([DEAR, CHEAP], [], finished, 2, PRIOR, warm) is not None
+    assert made == [2]
+    finished.append(Took(DEAR, 1.5 * 11.8))
+    after = remaining_seconds([DEAR], [], finished, 1, PRIOR, warm)
+    assert made == [2, 3]
+    assert after != before  # the DEAR call measured moves it
+
+
 def test_the_most_specific_kind_with_a_prior_or_a_measure_wins(raw_factors):
     solver = CallCost(kinds=(("newton", "tuned", "solver=mujoco"), "newton"), steps=100)
     plain = CallCost(kinds=(("newton", "tuned", "default"), "newton"), steps=100)
