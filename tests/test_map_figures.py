@@ -579,6 +579,22 @@ def test_a_report_copies_the_maps_own_figures_of_the_same_data(tmp_path):
     assert drawn == [names[0]]
 
 
+def test_a_figure_key_is_the_same_for_the_same_map_run_again():
+    """What a run cost and when it finished differ between two runs of one map and no figure
+    draws them: the keys (and so the PNGs' bytes) are the same; a drawn value is not."""
+    from hoopbench.reports.report.map_section import UNDRAWN_COLUMNS, figure_keys
+
+    frame = synthetic_frame(4, 3)
+    names = ["map_regimes.png", "map_verdicts.png"]
+    again = frame.copy()
+    for column in UNDRAWN_COLUMNS:
+        again[column] = np.arange(len(again), dtype=float) + 0.5
+    assert figure_keys(again, names) == figure_keys(frame, names)
+    changed = frame.copy()
+    changed.loc[changed.index[-1], "verdict"] = str(Verdict.FALSE_HOP)
+    assert figure_keys(changed, names)[names[1]] != figure_keys(frame, names)[names[1]]
+
+
 def test_every_text_of_the_hop_error_figure_lies_within_it(tmp_path, monkeypatch):
     """The colour bar's label was clipped at the figure's edge (its one line was longer than
     the bar): every title and axis label, the bar's included, lies within the figure."""

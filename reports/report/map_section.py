@@ -24,6 +24,7 @@ from typing import Any
 
 import pandas as pd
 
+from hoopbench.engines.judging.columns import COST_COLUMNS
 from hoopbench.engines.judging.tolerances import Tier, event_tolerances
 from hoopbench.engines.judging.verdict import Verdict
 from hoopbench.reference.regimes import Regime
@@ -45,6 +46,7 @@ from hoopbench.reports.sweep.folder_files import MAX_DATA_BYTES, FolderFileError
 
 __all__ = [
     "MAP_MARKDOWN",
+    "UNDRAWN_COLUMNS",
     "agreement_markdown",
     "drawn_key",
     "figure_key",
@@ -326,10 +328,17 @@ def _agreement_cell(count: int, judged: int, pct: float) -> str:
     return f"{count}/{judged} ({pct:.0f} %)" if judged else "-"
 
 
+UNDRAWN_COLUMNS = (*COST_COLUMNS, *results.TIMING_COLUMNS)
+"""The map rows' columns no map figure draws and no two runs of one map share (what a run
+cost, when it finished): left out of :func:`figure_key`, so that a map run again, or a report
+of it, copies its figures rather than drawing them anew with a new key in the same pixels."""
+
+
 def figure_key(frame: pd.DataFrame, name: str) -> str:
     """What a map figure is drawn from, as a sha256: the figure's name, the frame's every
-    value, the drawing code (map_figures.py, plotting.py, glyph_cache.py) and matplotlib's
-    version. Two figures of one key are the same picture."""
+    value but what the run cost and when it ran (:data:`UNDRAWN_COLUMNS`), the drawing code
+    (map_figures.py, plotting.py, glyph_cache.py) and matplotlib's version. Two figures of
+    one key are the same picture."""
     return figure_keys(frame, [name])[name]
 
 
@@ -344,7 +353,8 @@ def figure_keys(frame: pd.DataFrame, names: Sequence[str]) -> dict[str, str]:
             drawn_from.append(Path(str(module.__file__)).read_bytes())
         except OSError:  # code not readable as a file (a zipped install): a key never reused
             drawn_from.append(os.urandom(16))
-    drawn_from.append(frame.to_csv(index=False).encode())  # floats as repr: every digit
+    drawn = frame.drop(columns=[c for c in UNDRAWN_COLUMNS if c in frame.columns])
+    drawn_from.append(drawn.to_csv(index=False).encode())  # floats as repr: every digit
     keys = {}
     for name in names:
         digest = hashlib.sha256(f"{name}\0{matplotlib.__version__}\0".encode())
