@@ -114,13 +114,7 @@ def test_the_stability_matrix_fits_a_screen_with_its_timesteps_on_top(tmp_path, 
         for dt in (1e-2, 1e-3, 1e-4, 1e-5)
     ]  # fmt: skip
     frame = pd.DataFrame(rows)
-    drawn: list[matplotlib.figure.Figure] = []
-    original = matplotlib.figure.Figure.savefig
-    monkeypatch.setattr(
-        matplotlib.figure.Figure,
-        "savefig",
-        lambda self, *a, **k: drawn.append(self) or original(self, *a, **k),
-    )
+    drawn = _saved(monkeypatch)
     with plain_text():
         path = stability_figure(frame, tmp_path / "s.png")
     from PIL import Image
@@ -163,13 +157,7 @@ def _precision_rows() -> pd.DataFrame:
 def test_the_pareto_front_is_not_drawn_as_the_exact_reference_and_the_star_sits_on_the_edge(
     tmp_path, monkeypatch
 ):
-    drawn: list[matplotlib.figure.Figure] = []
-    original = matplotlib.figure.Figure.savefig
-    monkeypatch.setattr(
-        matplotlib.figure.Figure,
-        "savefig",
-        lambda self, *a, **k: drawn.append(self) or original(self, *a, **k),
-    )
+    drawn = _saved(monkeypatch)
     rows = _precision_rows()
     with plain_text():
         precision_figure(rows, tmp_path / "p.png")
