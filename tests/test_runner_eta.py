@@ -24,6 +24,7 @@ from hoopbench.reports.bench.call_costs import (
 )
 from hoopbench.reports.bench.eta_replay import _begin, _InFlight, _next_call, _Recorded
 from hoopbench.reports.bench.eta_replay import _Sweep as _ReplaySweep
+from hoopbench.reports.bench.eta_replay import main as replay_main
 from hoopbench.reports.compare.costs import (
     CALL_COST_PRIOR,
     COLD_CACHE_S,
@@ -787,6 +788,32 @@ def test_the_replay_gives_a_workers_first_call_of_the_engine_the_longest_recorde
     recorded = _Recorded([{**record, "seconds": 0.3}, {**record, "seconds": 32.8}])
     assert recorded.take(MJW_STOCK, first=True) == 32.8
     assert recorded.take(MJW_STOCK, first=False) == 0.3
+
+
+@pytest.mark.parametrize(
+    ("text", "said"),
+    [
+        (None, "is not a readable calls file"),
+        ("not json\n", "is not a readable calls file"),
+        ("[1, 2]\n", "holds a line that is no call record: [1, 2]"),
+        (  # a record of no call make report makes: an older file, or other suites
+            '{"kinds": [["mujoco", "stock", "default"], "mujoco"], "steps": 7, "worlds": 1, '
+            '"seconds": 0.1}\n',
+            "no recorded call of CallCost",
+        ),
+    ],
+)
+def test_the_replay_refuses_a_calls_file_it_cannot_replay_in_one_line(tmp_path, capsys, text, said):
+    """eta_replay FILE: a file it cannot read, or that lacks a call make report makes (a
+    calls file from before the map's runs were costed by their stop, without
+    --map-by-window), is exit 2 and one line naming the file, not a traceback."""
+    calls = tmp_path / "calls.jsonl"
+    if text is not None:
+        calls.write_text(text)
+    assert replay_main([str(calls), "--map-by-window"]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and len(err.splitlines()) == 1, err
+    assert err.startswith(f"eta_replay: calls {str(calls)!r}") and said in err, err
 
 
 def test_the_replays_shuffle_reorders_the_maps_engine_runs_alone():

@@ -124,6 +124,17 @@ class _Sweep:
         return self.submitted(limit) == len(self.queue)
 
 
+class MissingCallError(LookupError):
+    """A call the replay's plan makes that the calls file does not hold."""
+
+
+MISSING_HINT = (
+    "a calls file recorded before the map's engine runs were costed by their stop "
+    "(2026-11-29) needs --map-by-window; else it is of other suites or another map"
+)
+"""What :func:`main` says of a :class:`MissingCallError`."""
+
+
 class _Recorded:
     """The recorded calls' seconds by kinds, steps and worlds; with ``shuffle``, the map's
     engine runs alone in its random order (module docstring)."""
@@ -143,7 +154,7 @@ class _Recorded:
     def take(self, call: CallCost, first: bool) -> float:
         found = self.left.get((tuple(call.kinds), float(call.steps), call.worlds))
         if not found:
-            raise KeyError(f"no recorded call of {call}")
+            raise MissingCallError(f"no recorded call of {call}")
         pick = max(range(len(found)), key=found.__getitem__) if first else 0
         return found.pop(pick)
 
@@ -292,6 +303,28 @@ def _name(index: int, step: str) -> str:
     return "map (reference)" if index == len(REPORT_SUITES) else "map"
 
 
+RECORD_KEYS = ("kinds", "steps", "worlds", "seconds")
+"""What the replay reads of a calls file's record (report-runs --calls writes more)."""
+
+
+class BadCallsError(ValueError):
+    """A calls file the replay cannot read: the one line :func:`main` prints."""
+
+
+def read_records(path: str) -> list[dict[str, Any]]:
+    """The records of a ``report-runs --calls`` file (BadCallsError naming it if it holds none)."""
+    try:
+        lines = Path(path).read_text().splitlines()
+        records = [json.loads(line) for line in lines if line.strip()]
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise BadCallsError(f"calls {path!r} is not a readable calls file: {exc}") from None
+    for record in records:
+        if not (isinstance(record, dict) and all(key in record for key in RECORD_KEYS)):
+            text = f"{record!r:.80}"
+            raise BadCallsError(f"calls {path!r} holds a line that is no call record: {text}")
+    return records
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("calls", help="report-runs --calls' file")
@@ -307,11 +340,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="the map's engine runs costed by their window (a calls file from before their stop)",
     )
     args = parser.parse_args(argv)
-    lines = Path(args.calls).read_text().splitlines()
-    records = [json.loads(line) for line in lines if line.strip()]
-    table = replay(
-        records, args.cold, args.workers, args.report_s, args.shuffle_map, args.map_by_window
-    )
+    try:
+        records = read_records(args.calls)
+        table = replay(
+            records, args.cold, args.workers, args.report_s, args.shuffle_map, args.map_by_window
+        )
+    except BadCallsError as exc:
+        print(f"eta_replay: {exc}", file=sys.stderr)
+        return 2
+    except MissingCallError as exc:
+        print(f"eta_replay: calls {args.calls!r}: {exc}: {MISSING_HINT}", file=sys.stderr)
+        return 2
     print("step | " + " | ".join(f"{f:.0%}" for f in FRACTIONS))
     for name, ratios in table.items():
         cells = ["—" if r is None else f"{r:.2f}" for r in ratios]
