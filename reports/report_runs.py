@@ -49,7 +49,13 @@ from hoopbench.reports.hop_map.stages import (
 )
 from hoopbench.reports.sweep.eta import CallCost
 from hoopbench.reports.sweep.plan import Plan, PlannedSweep, current_lane, current_plan
-from hoopbench.reports.sweep.runner import Batching, StopFlag, TaskBatch, WorkerPool
+from hoopbench.reports.sweep.runner import (
+    IN_FLIGHT_PER_WORKER,
+    Batching,
+    StopFlag,
+    TaskBatch,
+    WorkerPool,
+)
 
 __all__ = ["MAP_STEP", "REPORT_SUITES", "Step", "report_plan", "run_steps"]
 
@@ -121,11 +127,12 @@ def report_plan(
 ) -> Plan:
     """The plan of make report's sweeps: ``suites`` (shipped names), then the map of
     ``spec`` if any (its engine tasks ``map_tasks``: :func:`map_sweeps`), then the report
-    (its prior). Their batches are the runner's: sized for its calls in flight, twice the
-    workers."""
-    sweeps = [suite_sweep(name, 2 * jobs, batch_size) for name in suites]
+    (its prior). Their batches are the runner's: sized for its calls in flight
+    (runner.IN_FLIGHT_PER_WORKER a worker)."""
+    in_flight = IN_FLIGHT_PER_WORKER * jobs
+    sweeps = [suite_sweep(name, in_flight, batch_size) for name in suites]
     if spec is not None:
-        sweeps += map_sweeps(spec, 2 * jobs, batch_size, map_tasks)
+        sweeps += map_sweeps(spec, in_flight, batch_size, map_tasks)
     report = CallCost(kinds=(REPORT,), steps=0)
     return Plan("make report", sweeps, priors(cold_caches()), jobs, after=(report,))
 
