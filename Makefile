@@ -44,8 +44,12 @@ $(TUNE_STAMP): pyproject.toml $(FILES)
 	$(BIN)/python -m pip install --quiet -e ".[engines,tune]" --config-settings editable_mode=strict
 	touch $(TUNE_STAMP)
 
+# pytest on every core, a test module to a process (its module fixtures made once): on the
+# project's 2 cores the suite took 15 min so, 27 min in one process. PYTEST_ARGS= runs it in one.
+PYTEST_ARGS ?= -n auto --dist loadfile
+
 test: lint
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest $(PYTEST_ARGS)
 
 # The shipped searches of `hoopbench tune` (compact: tune.json, front.csv, trials.csv and
 # settings.toml of each, no runs), one folder per engine: the report's Best settings section.
