@@ -304,6 +304,51 @@ def test_every_saved_log_axis_labels_two_ticks_apart_whatever_its_range(
     _assert_readable(drawn[0])
 
 
+_POWERS = "⁻⁰¹²³⁴⁵⁶⁷⁸⁹"
+_SUPERSCRIPTS = str.maketrans(_POWERS, "-0123456789")
+
+
+def _value(label: str) -> float:
+    """The number a drawn tick label writes: ``0.575``, ``10⁻⁶``, ``3×10⁻⁶``."""
+    if not any(c in _POWERS for c in label):
+        return float(label)
+    mantissa, _, power = label.partition("10")
+    return float(mantissa.rstrip("×") or 1) * 10.0 ** int(power.translate(_SUPERSCRIPTS))
+
+
+@pytest.mark.parametrize(
+    "low, high",
+    [(0.5, 4.0), (0.7, 1.5), (2.0, 40.0), (0.55, 0.58), (0.135, 0.66), (3e-7, 4e-6),
+     (1e-9, 1e3), (0.2, 30.0)],
+)  # fmt: skip
+def test_a_log_axis_writes_its_ticks_in_one_notation_each_as_its_value(
+    low, high, tmp_path, monkeypatch
+):
+    """An axis from 0.5 to 4 read ``10⁰`` beside ``3``, and one from 0.55 to 0.58 labelled its
+    tick at 0.575 ``5.8×10⁻¹``: every label in view is now its tick's value, and plain
+    numbers and powers of ten are not mixed on one axis."""
+    from hoopbench.reports.report.plotting import pyplot, save
+
+    drawn = _saved(monkeypatch)
+    fig, ax = pyplot().subplots(figsize=(3.0, 2.5), constrained_layout=True)
+    ax.plot([low, high], [low, high], "o")
+    ax.set_xscale("log")
+    with plain_text():
+        save(fig, tmp_path / "f.png", dpi=100)
+    axis = drawn[0].axes[0].xaxis
+    view_low, view_high = sorted(axis.get_view_interval())
+    locs = axis.get_majorticklocs()
+    shown = [(loc, tick.label1.get_text())
+             for tick, loc in zip(axis.get_major_ticks(len(locs)), locs, strict=True)
+             if view_low <= loc <= view_high]  # fmt: skip
+    texts = [text for _, text in shown]
+    assert len(shown) >= 2, texts
+    for loc, text in shown:
+        assert _value(text) == pytest.approx(loc, rel=1e-9), texts
+    powers = {any(c in _POWERS for c in text) for text in texts}
+    assert len(powers) == 1, texts
+
+
 def test_a_shipped_search_figure_labels_two_ticks_on_its_held_out_cost_axis(tmp_path, monkeypatch):
     """newton's held-out costs span 0.16-6 s per simulated s: one power of ten in view, which
     was its only label; its figure is laid out by tight_layout before save (the rule first)."""

@@ -12,10 +12,12 @@ else the sparsest set of :data:`SUB_DECADES` (1 and 3, then 1, 2 and 5, then 1, 
 times a power) that puts that many in view, else (an axis such as 6-9.5 or 0.55-0.58) the
 fewest round numbers of a linear scale (``MaxNLocator``) that do: 6 and 8, not 6, 7, 8 and 9.
 The sparsest set keeps the labels apart.
-A tick that is not a power of ten is written as the axis's own formatter writes it where that
-is not a log formatter (best_settings' plain numbers), else as ``2×10⁻¹`` (matplotlib's own
-way of writing a labelled minor tick; ``3``, not ``3×10⁰``), with as many digits as tell the
-labels apart.
+On an axis whose ticks the rule chose, one notation for every label in view (``10⁰`` beside
+``3`` read as two kinds of number): where the axis's own formatter is not a log formatter
+(best_settings' plain numbers), its own; else plain numbers (``0.5``, ``1``, ``3``) where every
+tick in view lies from :data:`PLAIN_LOW` to below :data:`PLAIN_HIGH`, else matplotlib's
+notation for a log axis (``10⁻⁶`` and ``3×10⁻⁶``). Each label is the tick's value, with the
+fewest digits that write it exactly (``0.575``, not ``0.58``).
 """
 
 from __future__ import annotations
@@ -43,6 +45,12 @@ LINEAR_BINS = 5
 """The most ``MaxNLocator`` bins tried on an axis too narrow for :data:`SUB_DECADES` (the
 fewest that put two ticks in view are taken): at 5 its step is at most twice a fifth of the
 range (its steps 1, 2, 2.5, 5, 10 are at most a factor 2 apart), so two ticks lie in view."""
+
+PLAIN_LOW = 0.01
+"""The smallest tick written as a plain number (``0.01``) on an axis whose ticks the rule chose."""
+
+PLAIN_HIGH = 1000.0
+"""Ticks from here up are written as powers of ten (``10³``), not plain numbers."""
 
 _MAX_DIGITS = 6
 """The most significant digits a tick's mantissa is written with (labels that still match
@@ -103,15 +111,27 @@ def _is_decade(value: float) -> bool:
 
 def _sci(value: float, digits: int) -> str:
     """``value`` as matplotlib writes a labelled minor tick: ``$\\mathdefault{2\\times10^{-1}}$``
-    (plotting.save writes it as ``2×10⁻¹``), its mantissa to ``digits`` significant digits;
-    between 1 and 10 the mantissa alone."""
+    (plotting.save writes it as ``2×10⁻¹``), its mantissa to ``digits`` significant digits; a
+    power of ten as ``10^{-1}``."""
     exponent = math.floor(math.log10(value))
     mantissa = f"{value / 10.0**exponent:.{digits}g}"
     if mantissa == "10":  # rounded up to the next power
         mantissa, exponent = "1", exponent + 1
-    if exponent == 0:  # 3, not 3×10⁰
-        return rf"$\mathdefault{{{mantissa}}}$"
+    if mantissa == "1":
+        return rf"$\mathdefault{{10^{{{exponent}}}}}$"
     return rf"$\mathdefault{{{mantissa}\times10^{{{exponent}}}}}$"
+
+
+def _plain(value: float, digits: int) -> str:
+    """``value`` as a plain number to ``digits`` significant digits: ``0.575``, ``3``, ``30``."""
+    text = np.format_float_positional(value, precision=digits, fractional=False, trim="-")
+    return rf"$\mathdefault{{{text}}}$"
+
+
+def _writes_exactly(value: float, digits: int) -> bool:
+    """Whether ``digits`` significant digits write ``value`` as itself (a tick at 0.575 is not
+    labelled 0.58)."""
+    return math.isclose(float(f"{value:.{digits - 1}e}"), value, rel_tol=1e-9)
 
 
 @cache
@@ -143,25 +163,37 @@ def _classes() -> tuple[type, type]:
         place of a log formatter (which writes them blank or rounded), as ``2×10⁻¹``."""
 
         def __init__(self, own: Formatter, sci: bool) -> None:
-            self.own, self.sci, self.digits = own, sci, 1
+            self.own, self.sci, self.digits, self.write = own, sci, 1, _sci
+            self.chosen = False  # the rule chose the ticks: not all powers of ten
 
         def set_locs(self, locs: Any) -> None:
             self.own.set_locs(locs)
-            self.digits = _digits(list(locs))
+            shown = _in_view(list(locs), self.axis)
+            self.chosen = not all(_is_decade(v) for v in shown)
+            self.digits = _digits(shown)
+            plain = all(PLAIN_LOW <= v < PLAIN_HIGH for v in shown)
+            self.write = _plain if plain else _sci
 
         def __call__(self, x: float, pos: int | None = None) -> str:
-            if _is_decade(x) or not self.sci:
+            if not (self.sci and self.chosen) or x <= 0:
                 return str(self.own(x, pos))
-            return _sci(x, self.digits)
+            return self.write(x, self.digits)
 
     return ReadableLocator, ReadableFormatter
 
 
+def _in_view(locs: list[float], axis: Any) -> list[float]:
+    """The positive ticks of ``locs`` in ``axis``'s view (all of them without an axis)."""
+    if axis is None:
+        return [v for v in locs if v > 0]
+    low, high = sorted(axis.get_view_interval())
+    return [v for v in locs if v > 0 and low <= v <= high]
+
+
 def _digits(locs: list[float]) -> int:
     """The fewest significant digits (to :data:`_MAX_DIGITS`) that write every tick of
-    ``locs`` that is not a power of ten differently."""
-    values = [v for v in locs if v > 0 and not _is_decade(v)]
+    ``locs`` as itself."""
     for digits in range(1, _MAX_DIGITS):
-        if len({_sci(v, digits) for v in values}) == len(values):
+        if all(_writes_exactly(v, digits) for v in locs):
             return digits
     return _MAX_DIGITS
