@@ -89,15 +89,15 @@ def _figure(out: Path) -> Path:
     return Path(out).joinpath("best-settings.png")
 
 
-def test_the_drawings_start_dearest_first_the_report_s_own_among_them(tmp_path):
+def test_report_md_s_drawings_start_dearest_first_and_the_page_s_after_them(tmp_path):
     pool = RecordingPool(1)  # one process: each call drawn as it is submitted
-    drawings = [(_figure, (tmp_path,)), (write_gif, (tmp_path,))]
-    write_markdown(rows(), tmp_path, generated="now", pool=pool, drawings=drawings)
+    then = [(_figure, (tmp_path,)), (write_gif, (tmp_path,))]  # as the page's figures
+    write_markdown(rows(), tmp_path, generated="now", pool=pool, then=then)
     assert pool.made == [
-        "write_gif",
         "_force_section",
         "_seed_section",
         "_stability_matrix_section",
+        "write_gif",
         "_figure",
     ]
 

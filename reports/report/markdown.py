@@ -1048,7 +1048,6 @@ def write_markdown(
     say: Say | None = None,
     pool: FigurePool | None = None,
     awaited: Sequence[Future] = (),
-    drawings: Sequence[_Job] = (),
     then: Sequence[_Job] = (),
 ) -> Path:
     """Write out/report.md with tables and PNG figures; return its path. ``frame`` is unchanged.
@@ -1061,25 +1060,24 @@ def write_markdown(
     ``out`` holds once the figures are drawn. ``say`` hears what it is doing, a line a step
     (:data:`Say`). ``pool``: where the figures are drawn, beside the tables (default: a
     FigurePool of their own); ``awaited``: other drawings of the report (its GIF, the maps'
-    and the searches' figures) to finish before the Files section lists the folder;
-    ``drawings``: such drawings not yet started, drawn with the figures, dearest first;
-    ``then``: drawings report.md does not wait for (the page's figures), started after all
-    of its own, dearest first (asked for again, ``pool`` returns their futures).
+    and the searches' figures, submitted by their makers) to finish before the Files section
+    lists the folder; ``then``: drawings report.md does not wait for (the page's figures),
+    started after all of its own, dearest first (asked for again, ``pool`` returns their
+    futures).
     """
     if pool is None:
         with FigurePool() as own:
             return write_markdown(
                 frame, out, generated=generated, extra=extra, searches=searches,
                 machines=machines, results_dirs=results_dirs, say=say, pool=own,
-                awaited=awaited, drawings=drawings, then=then,
+                awaited=awaited, then=then,
             )  # fmt: skip
     out = Path(out)
     if frame.empty:  # hop maps alone: no runs table to make sections of
         when = f"Generated {generated} on {platform.platform()}."
         text = "\n".join([_section("# hoopbench report", "", when), *extra])
-        mine = _submitted(drawings, pool, None)
         _submitted(then, pool, None)
-        for future in [*awaited, *mine]:
+        for future in awaited:
             future.result()
         return results.atomic_write(out / "report.md", lambda tmp: tmp.write_text(text))
     everything = with_optional_columns(frame)
@@ -1104,16 +1102,15 @@ def write_markdown(
     # The engines' releases (compare --engine-version): their own section, figure included.
     releases = [(releases_figure, (releases_runs, out))] if len(releases_runs) else []
     jobs = [*head, *both, *releases, *tail]
-    # The other drawings in the same queue: the dearest of all first; the page's after them.
-    futures = _submitted([*drawings, *jobs], pool, say)
+    # report.md's own drawings, the dearest first; the page's after them.
+    futures = _submitted(jobs, pool, say)
     _submitted(then, pool, None)
-    others, futures = futures[: len(drawings)], futures[len(drawings) :]
     # The tables while the figures are drawn: the tables need none of them.
     if say is not None:
         say("tables: the answer, the findings and the sections of report.md")
     tables = _tables(runs, everything, searches, out)
     drawn = _gathered(jobs, futures, say)
-    for future in [*awaited, *others]:
+    for future in awaited:
         future.result()
     (seed, _), (stability, _), (forces, _) = drawn[len(head) : len(head) + 3]
     released = drawn[len(head) + 3] if releases else []
