@@ -40,6 +40,16 @@ def test_under_ci_a_skip_fails_the_session_with_one_line_naming_it(pytester, mon
     assert lines == ["CI is set and 1 test(s) skipped: test_made_up.py::test_skips"]
 
 
+def test_under_ci_a_skip_fails_the_session_on_every_core_too(pytester, monkeypatch):
+    """`make test` runs pytest-xdist's workers, which report their skips to the session."""
+    monkeypatch.setenv("CI", "true")
+    pytester.makepyfile(test_also_made_up='import pytest\n\npytest.importorskip("no_such_one")\n')
+    result = run(pytester, TESTS, "-n", "2", "--dist", "loadfile")
+    result.assert_outcomes(passed=1, skipped=2, xfailed=1)
+    assert result.ret == pytest.ExitCode.TESTS_FAILED
+    result.stdout.fnmatch_lines(["CI is set and 2 test(s) skipped: *"])
+
+
 def test_under_ci_a_module_skipped_at_import_fails_too(pytester, monkeypatch):
     monkeypatch.setenv("CI", "true")
     result = run(pytester, 'import pytest\n\npytest.importorskip("no_such_module_here")\n')
