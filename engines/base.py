@@ -393,6 +393,13 @@ class Engine(ABC):
     batches: ClassVar[bool] = False
     """True: the engine steps many worlds in one call (the batch hooks), and the runner
     groups a suite's or a map's runs of one settings into batches for it."""
+    steps_worlds_apart: ClassVar[bool] = False
+    """A batching engine that steps only the worlds still running (MuJoCo: a rollout of the
+    active worlds), so that a batch costs its worlds' own steps summed, each to its own end
+    (a map's point stops at its own stop rule). False: each call steps all of its worlds
+    until its last one ends (MJX's vmap of a call of 8 worlds, MuJoCo Warp's and Newton's
+    device step of every world), a batch's cost its longest world's steps times its worlds.
+    The ETA's costing reads it (reports/compare/costs.py, batch_world_steps)."""
     worlds_per_call: ClassVar[int] = 1
     """Worlds a batching engine's call costs the same for, whatever the batch's size (MJX pads
     every call to it; a Newton step on a CPU is its kernel launches): the runner splits no

@@ -274,6 +274,7 @@ class MujocoEngine(MjcfEngine):
     distribution = "mujoco"
     modules = ("mujoco", "mujoco.rollout")  # and mujoco.batch for a batch (_open_batch)
     batches = True
+    steps_worlds_apart = True  # _batch_advance rolls out the active worlds only
     last_force_in_chunk = True  # mujoco.batch steps any count in one rollout, nothing compiled
     geometries = MJCF_GEOMETRIES
     options = (

@@ -942,8 +942,9 @@ def _ready_to_draw() -> None:
 
 def _write_calls(finished: Sequence[Any], path: Path) -> None:
     """Each finished call a JSON line (report-runs --calls): its kinds, steps, worlds, wall
-    seconds and flags, its worker's pid, when it started (s after the first call started)
-    and the CPU s its worker spent on it (None where unknown)."""
+    seconds and flags, its worker's pid, when it started (s after the first call started),
+    the CPU s its worker spent on it and the world-steps its rows say it took (the
+    priors' fit reads them: costs.batch_world_steps; None where unknown)."""
     starts = [d.started for d in finished if d.started is not None]
     zero = min(starts, default=0.0)
     lines = [
@@ -959,6 +960,7 @@ def _write_calls(finished: Sequence[Any], path: Path) -> None:
                 "worker": d.worker,
                 "started": None if d.started is None else d.started - zero,
                 "cpu_s": d.cpu_s,
+                "world_steps": d.world_steps,
             }
         )
         for d in finished

@@ -10,10 +10,12 @@ import random
 from collections import Counter, deque
 from dataclasses import dataclass, replace
 
+import numpy as np
 import pytest
 from test_runner import Job, job_failure_row, job_worker
 
 from hoopbench.engines.base import CHUNK_STEPS
+from hoopbench.engines.judging.columns import Col
 from hoopbench.engines.warp_compile import LOCKS
 from hoopbench.reports.bench.call_costs import (
     accuracy,
@@ -34,6 +36,7 @@ from hoopbench.reports.compare.costs import (
     cold_caches,
     map_call_cost,
     priors,
+    taken_world_steps,
 )
 from hoopbench.reports.hop_map.spec import MapSpec
 from hoopbench.reports.hop_map.stages import MapTask
@@ -225,14 +228,69 @@ def test_a_batch_counts_once_at_its_longest_world_with_its_worlds():
     assert call.steps == 3000
     assert call.worlds == 2
     assert call.kinds == (("mjx", "tuned", "default"), "mjx")
+    # MJX steps a call's worlds together until its last ends: the longest's, twice.
+    assert call.world_steps == call.paid_world_steps == 6000
 
 
-def _map_run(**exact: float | None) -> MapTask:
+def test_a_mujoco_batch_costs_its_worlds_own_steps_summed():
+    """MuJoCo's batch steps only its worlds still running: the stability suite's batch of
+    three windows (150000, 100000 and 15000 steps) steps 265000 world-steps, not
+    3 x 150000."""
+    call = call_cost([SuiteLike("mujoco", n) for n in (150000, 100000, 15000)])
+    assert (call.steps, call.worlds, call.world_steps) == (150000, 3, 265000)
+    assert call_cost([SuiteLike("mujoco", 3000)]).world_steps == 3000
+
+
+def test_a_call_that_says_no_world_steps_pays_its_longest_worlds_times_its_worlds():
+    """A CallCost without world-steps (a calls file recorded before them): steps x worlds."""
+    assert DEAR.world_steps is None and DEAR.paid_world_steps == 8000
+    said = replace(DEAR, world_steps=2000)
+    assert PRIOR["mjx"].seconds(said) == pytest.approx(10.0 + 1000 * 1e-3 + 2000 * 1e-4)
+
+
+def _map_run(engine: str = "pybullet", **exact: float | None) -> MapTask:
     """A map engine run at 1e-4 s over a 3-s window (30000 steps) carrying these exact
     columns (none: planned before its point is classified)."""
-    spec = MapSpec(nx=2, ny=1, engines=("pybullet",), timestep=1e-4, t_end=3.0)
+    spec = MapSpec(nx=2, ny=1, engines=(engine,), timestep=1e-4, t_end=3.0)
     point = spec.points()[0]
-    return MapTask("p", point, "pybullet", 1e-4, spec.profile, tuple(exact.items()))
+    return MapTask("p", point, engine, 1e-4, spec.profile, tuple(exact.items()))
+
+
+def test_a_map_batch_of_mujoco_worlds_costs_their_expected_steps_summed():
+    """Issue 34: each world of a MuJoCo batch of the map's points stops at its own stop rule
+    (MuJoCo steps only the worlds still running), so the batch costs about its worlds'
+    expected steps summed: make report's 4 batches of 25 points, 345k-478k world-steps,
+    were costed 750k each (their longest world's times 25), and the map's ETA at 75 % of
+    its runs, its last batch (345k) left, read 1.26-1.31 times the time left. An engine
+    that steps all of a call's worlds until the last ends (MJX) keeps the longest's."""
+    lifts = _map_run("mujoco", exact_t_impact=0.0731, exact_t_settled=None)
+    settles = _map_run("mujoco", exact_t_impact=None, exact_t_settled=1.234)
+    rocks = _map_run("mujoco", exact_t_impact=None, exact_t_settled=None)
+    batch = map_call_cost([lifts, settles, rocks])
+    assert (batch.steps, batch.worlds) == (30000, 3)
+    assert batch.world_steps == CHUNK_STEPS + 13 * CHUNK_STEPS + 30000  # 44000, not 90000
+    rates = CALL_COST_PRIOR[(MAP, "mujoco")]
+    assert rates.seconds(batch) == pytest.approx(
+        rates.fixed_s + 30000 * rates.step_s + 44000 * rates.world_step_s
+    )
+    # Two batches: the one of worlds that stop early costs less, at the same longest world.
+    cheap = map_call_cost([lifts, lifts, rocks])
+    assert cheap.steps == batch.steps and rates.seconds(cheap) < rates.seconds(batch)
+    mjx = [_map_run("mjx", **dict(task.exact)) for task in (lifts, settles, rocks)]
+    assert map_call_cost(mjx).world_steps == 3 * 30000
+
+
+def test_a_finished_calls_world_steps_are_its_rows_steps_by_the_same_rule():
+    """What a finished call took (report-runs --calls' world_steps, the priors' fit): its
+    rows' steps, summed for MuJoCo, the longest's times its worlds for MJX; unknown where a
+    row records none."""
+    rows = [{Col.N_STEPS: 1000}, {Col.N_STEPS: np.int64(30000)}, {Col.N_STEPS: 13000}]
+    mujoco = [_map_run("mujoco")] * 3
+    assert taken_world_steps(mujoco, rows) == 44000
+    assert taken_world_steps([_map_run("mjx")] * 3, rows) == 90000
+    assert taken_world_steps(mujoco, [*rows[:2], {Col.N_STEPS: None}]) is None
+    assert taken_world_steps(mujoco, [*rows[:2], {Col.N_STEPS: float("nan")}]) is None
+    assert taken_world_steps(mujoco, rows[:2]) is None
 
 
 def test_a_map_call_costs_the_steps_to_where_its_stop_rule_ends_it():
@@ -538,6 +596,52 @@ def test_the_fit_finds_the_fixed_and_per_step_parts():
     assert rates.step_s == pytest.approx(2e-5)
     assert rates.cold_s == pytest.approx(2.0)
     assert json.loads(json.dumps(calls[0]))["kinds"] == ["x"]
+
+
+def test_the_fit_reads_the_world_steps_a_call_took_else_its_steps_times_its_worlds():
+    """A MuJoCo map batch's seconds follow the world-steps its rows took (3 us each, 0.5 s
+    a call), not its longest world's times its worlds; a calls file recorded before world
+    steps were gives steps x worlds (the ETA's CallCost.paid_world_steps)."""
+    taken = ((3000, 25000), (2000, 18000), (3000, 60000), (1000, 9000), (3000, 41000))
+    calls = [
+        {"kinds": ["x"], "steps": s, "worlds": 20, "seconds": 0.5 + 3e-6 * w,
+         "cold": False, "world_steps": w}
+        for s, w in taken
+    ]  # fmt: skip
+    rates = fit(calls)["x"]
+    assert rates.fixed_s == pytest.approx(0.5)
+    assert rates.step_s == pytest.approx(0.0, abs=1e-12)
+    assert rates.world_step_s == pytest.approx(3e-6)
+    old = [{k: v for k, v in c.items() if k != "world_steps"} for c in calls[:2]]
+    old += [{**c, "world_steps": None} for c in calls[2:]]
+    old[0]["steps"], old[1]["steps"], old[2]["worlds"] = 1000, 5000, 3
+    said = [c["steps"] * c["worlds"] for c in old]
+    rates = fit([{**c, "seconds": 0.5 + 3e-6 * w} for c, w in zip(old, said, strict=True)])["x"]
+    assert rates.world_step_s == pytest.approx(3e-6)
+
+
+def test_the_runner_records_the_world_steps_each_calls_rows_say(tmp_path):
+    """Costing.taken reads a finished call's rows; report-runs --calls writes it."""
+    plan = Plan("make report", [PlannedSweep("default", 3, ())], {"x": Rates(0.01, 0.0)}, 1)
+    token = current_plan.set(plan)
+    try:
+        run_tasks([Job(f"ok-{k}") for k in (1, 2, 3)], job_worker, tmp_path / "out", jobs=1,
+                  quiet=True, failure_row=job_failure_row,
+                  costing=Costing(_engine_x, plan.prior, taken=_rows_n))  # fmt: skip
+    finally:
+        current_plan.reset(token)
+    assert sorted(d.world_steps for d in plan.finished) == [100.0, 200.0, 300.0]
+    from hoopbench.reports.cli import _write_calls
+
+    _write_calls(plan.finished, tmp_path / "calls.jsonl")
+    written = [json.loads(line) for line in (tmp_path / "calls.jsonl").read_text().splitlines()]
+    assert sorted(r["world_steps"] for r in written) == [100.0, 200.0, 300.0]
+
+
+def _rows_n(tasks, rows):
+    """A Costing's taken: a hundred world-steps per unit of the rows' n (job_worker's)."""
+    assert len(tasks) == len(rows)
+    return 100.0 * sum(row["n"] for row in rows)
 
 
 def test_the_fit_finds_what_a_workers_first_call_of_the_engine_pays():

@@ -14,11 +14,13 @@ Nothing here asserts a time. Three parts:
   its rounding nearest the time left (the map's 2-s classification said 'eta 1s' with
   0.48 s left: 2.08 by the printed second, 1.04 within its rounding).
 * ``fit CALLS``: the rates that fit the whole calls ``hoopbench report-runs --calls CALLS``
-  wrote (one JSON object a line: kinds, steps, worlds, seconds, cold, first, new: the
-  :class:`~hoopbench.reports.sweep.eta.Took`'s), by each call's most
+  wrote (one JSON object a line: kinds, steps, worlds, seconds, cold, first, new and
+  world_steps: the :class:`~hoopbench.reports.sweep.eta.Took`'s), by each call's most
   general kind: non-negative least squares of each call's seconds, relative to them (a 0.3 s
   call weighs as much as a 60 s one; none more than a call of the kind's mean), on a fixed
-  part, a part per step, per world-step (an engine whose calls have several worlds), a
+  part, a part per step, per world-step (an engine whose calls have several worlds: the
+  world-steps the call took, as the ETA costs them, costs.batch_world_steps; a calls file
+  recorded before them, steps times worlds: CallCost.paid_world_steps), a
   worker's first call's extra (a kind with cold calls) and a worker's first call of the
   engine's (where its cold calls were not all that). Printed as the Python of
   CALL_COST_PRIOR, with the machine and load.
@@ -46,7 +48,7 @@ import numpy as np
 from scipy.optimize import nnls
 
 from hoopbench.reports.report_runs import MAP_STEP
-from hoopbench.reports.sweep.eta import Rates
+from hoopbench.reports.sweep.eta import CallCost, Rates
 
 FRACTIONS = (0.10, 0.25, 0.50, 0.75)
 _DURATION = re.compile(r"(?:(\d+)h)?(?:(\d+)m)?(?:(\d+)s)?$")
@@ -155,9 +157,10 @@ def fit(records: Iterable[dict[str, object]]) -> dict[Hashable, Rates]:
         took = np.array([float(c["seconds"]) for c in calls])  # type: ignore[arg-type]
         steps = np.array([float(c["steps"]) for c in calls])  # type: ignore[arg-type]
         worlds = np.array([float(c["worlds"]) for c in calls])  # type: ignore[arg-type]
+        world_steps = np.array([_world_steps(c) for c in calls])
         cold = np.array([1.0 if c["cold"] else 0.0 for c in calls])
         first = np.array([1.0 if c.get("first") else 0.0 for c in calls])
-        columns = [np.ones_like(took), steps, steps * worlds, cold, first]
+        columns = [np.ones_like(took), steps, world_steps, cold, first]
         used = [
             True,
             bool(steps.any()),
@@ -177,6 +180,15 @@ def fit(records: Iterable[dict[str, object]]) -> dict[Hashable, Rates]:
         fixed, step, world_step, extra, once = (float(next(values)) if u else 0.0 for u in used)
         rates[kind] = Rates(fixed, step, world_step, extra, once)
     return rates
+
+
+def _world_steps(record: dict[str, Any]) -> float:
+    """A recorded call's world-steps: those it took, else (a calls file recorded before
+    them) its steps times its worlds, as the ETA reads a call that says none."""
+    taken = record.get("world_steps")
+    world_steps = None if taken is None else float(taken)
+    call = CallCost((), float(record["steps"]), int(record["worlds"]), world_steps)
+    return call.paid_world_steps
 
 
 CallKey = tuple[Hashable, float, int]

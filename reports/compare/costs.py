@@ -4,23 +4,32 @@
 A call (one run, or a batch of one batching engine and one settings) costs a fixed part, a
 part per step (a batch: per step of its longest world) and, for a batch, a part per
 world-step (:class:`~hoopbench.reports.sweep.eta.Rates`), by its kind: its engine, profile
-and variant, else its engine. A map's runs stop at their first impact and classify their
+and variant, else its engine. A batch's world-steps are its worlds' steps as its engine
+pays them (:func:`batch_world_steps`, the one rule for what a call is expected to take and
+what a finished one took): MuJoCo steps each world to its own end, so its worlds' steps
+summed; an engine that steps all of a call's worlds until the last ends, its longest
+world's times its worlds. A map's runs stop at their first impact and classify their
 point without stepping: their kinds are the map's own (``("map", engine)``), and an engine
 run's steps are those to where its stop rule ends it on the exact motion
-(:func:`map_call_cost`). The runner
+(:func:`map_call_cost`; a MuJoCo batch of the map's points stops each at its own, and cost
+its longest world's steps times its worlds, the ETA of its last batches read 1.26-1.31
+times the time left). The runner
 scales these by what the finished calls measured; until an engine has a finished call,
 they are :data:`CALL_COST_PRIOR`'s scaled by the machine's factor.
 """
 
 from __future__ import annotations
 
-from collections.abc import Collection, Hashable, Sequence
+import math
+from collections.abc import Collection, Hashable, Mapping, Sequence
 from dataclasses import replace
+from numbers import Real
 from pathlib import Path
 from typing import Any
 
 from hoopbench.engines.base import cache_folder
-from hoopbench.engines.registry import engine_classes
+from hoopbench.engines.judging.columns import Col
+from hoopbench.engines.registry import engine_class, engine_classes
 from hoopbench.engines.warp_compile import LOCKS
 from hoopbench.reports.sweep.eta import CallCost, Costing, Rates
 
@@ -30,11 +39,13 @@ __all__ = [
     "MAP",
     "MAP_COSTING",
     "REPORT",
+    "batch_world_steps",
     "call_cost",
     "cold_caches",
     "map_call_cost",
     "priors",
     "suite_costing",
+    "taken_world_steps",
 ]
 
 MAP = "map"
@@ -68,8 +79,11 @@ CALL_COST_PRIOR: dict[Hashable, Rates] = {
     # (Intel Xeon 2.1 GHz, 2 cores), then divided by that machine's factor against these
     # priors, 1.85 (eta.machine_factor, the median engine's, of the warm make report's
     # calls in CPU s on it, 17:52 UTC), to stand with the others. MuJoCo's
-    # 4 calls over their world-steps. The classification's: the idle make report's.
-    (MAP, "mujoco"): Rates(0.0, 0.0, 5.9e-06, 1.0),
+    # 4 calls over their world-steps (batch_world_steps: its worlds' own steps summed,
+    # 478k, 423k, 488k and 363k as their rows took them, where longest x worlds said 750k
+    # each and 5.9e-06), refitted on the CPU s of both such map runs (19:35 and 19:44 UTC,
+    # 8 calls). The classification's: the idle make report's.
+    (MAP, "mujoco"): Rates(0.0, 0.0, 1.1e-05, 0.3),
     (MAP, "pybullet"): Rates(0.016, 8.1e-06, 0.0, 0.051),
     (MAP, "pymunk"): Rates(0.007, 2.2e-06, 0.0, 0.0092),
     (MAP, "reference"): Rates(0.028, 0.0, 0.0, 0.04),
@@ -159,29 +173,65 @@ def _engine(kind: Hashable) -> Hashable:
 
 def suite_costing() -> Costing:
     """The Costing of a suite's runs, with this machine's caches as they are now."""
-    return Costing(cost=call_cost, prior=priors(cold_caches()))
+    return Costing(cost=call_cost, prior=priors(cold_caches()), taken=taken_world_steps)
+
+
+def batch_world_steps(engine: str, steps: Sequence[float]) -> float:
+    """A call's world-steps as ``engine`` pays them, from each of its worlds' steps: their
+    sum where the engine steps only the worlds still running (``Engine.steps_worlds_apart``:
+    MuJoCo's batch, each world to its own end), else its longest world's times its worlds
+    (every world steps until the last one ends). A call of one world: its steps."""
+    if len(steps) <= 1:
+        return float(sum(steps))
+    if engine_class(engine).steps_worlds_apart:
+        return float(sum(steps))
+    return float(max(steps)) * len(steps)
 
 
 def call_cost(tasks: Sequence[Any]) -> CallCost:
-    """A call's kinds (engine, profile and variant; then engine), steps (a batch's worlds
-    step together: its longest world's) and worlds."""
+    """A call's kinds (engine, profile and variant; then engine), steps (a batch: its
+    longest world's), worlds and world-steps (:func:`batch_world_steps` of its worlds'
+    windows)."""
     first = tasks[0]
     engine = first.engine
     specific = (engine, str(getattr(first, "profile", "")), getattr(first, "variant", ""))
-    steps = max(task.n_steps for task in tasks)
-    return CallCost(kinds=(specific, engine), steps=steps, worlds=len(tasks))
+    each = [task.n_steps for task in tasks]
+    return CallCost(
+        kinds=(specific, engine),
+        steps=max(each),
+        worlds=len(tasks),
+        world_steps=batch_world_steps(engine, each),
+    )
 
 
 def map_call_cost(tasks: Sequence[Any]) -> CallCost:
     """A map call's kinds (map, engine, profile and timestep; then map and engine), steps
     (those its runs are expected to take, ``MapTask.expected_steps``: to where their stop
-    rule ends them on the exact motion; a batch's longest) and worlds."""
+    rule ends them on the exact motion; a batch's longest), worlds and world-steps
+    (:func:`batch_world_steps` of its worlds' expected steps: a MuJoCo batch's summed)."""
     first = tasks[0]
     engine = first.engine
     specific = (MAP, engine, str(first.profile), first.timestep)
-    steps = max(task.expected_steps for task in tasks)
-    return CallCost(kinds=(specific, (MAP, engine)), steps=steps, worlds=len(tasks))
+    each = [task.expected_steps for task in tasks]
+    return CallCost(
+        kinds=(specific, (MAP, engine)),
+        steps=max(each),
+        worlds=len(tasks),
+        world_steps=batch_world_steps(engine, each),
+    )
 
 
-MAP_COSTING = Costing(cost=map_call_cost, prior=CALL_COST_PRIOR)
+def taken_world_steps(tasks: Sequence[Any], rows: Sequence[Any]) -> float | None:
+    """The world-steps a finished call took (:func:`batch_world_steps` of the steps its
+    rows record, ``Col.N_STEPS``: a batched run's share of its ``BatchCost.world_steps``);
+    None where a row records none (a run that failed before stepping, the classification
+    of a map's point)."""
+    each = [row.get(Col.N_STEPS) if isinstance(row, Mapping) else None for row in rows]
+    steps = [float(n) for n in each if isinstance(n, Real) and math.isfinite(n)]
+    if not steps or len(steps) != len(tasks):
+        return None
+    return batch_world_steps(tasks[0].engine, steps)
+
+
+MAP_COSTING = Costing(cost=map_call_cost, prior=CALL_COST_PRIOR, taken=taken_world_steps)
 """The Costing of a map's runs (both stages)."""

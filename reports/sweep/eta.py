@@ -6,11 +6,13 @@ first. An ETA from the count of calls finished (elapsed / done * left) is then 5
 off (issue 34).
 
 Here each call has kinds (from the most specific, e.g. an engine and its settings, to the
-most general, the engine), a number of steps (a batch: its longest world's, as its worlds
-step together) and of worlds, and a prior for its most specific kind that has one
-(:class:`Rates`): a fixed part that every call pays whatever its steps (a worker's imports,
-model building, tracing and compiling, the exact solve, judging), a part per step and, for
-a batch, a part per world-step, and what a worker's first call of the kind pays once more.
+most general, the engine), a number of steps (a batch: its longest world's), of worlds and
+of world-steps (a batch's worlds' steps as its engine pays them, the caller's rule: summed
+where each world stops at its own end, else its longest world's times its worlds), and a
+prior for its most specific kind that has one (:class:`Rates`): a fixed part that every
+call pays whatever its steps (a worker's imports, model building, tracing and compiling,
+the exact solve, judging), a part per step and, for a batch, a part per world-step, and
+what a worker's first call of the kind pays once more.
 A call at 1e-4 s is mostly stepping and one at 1e-3 s mostly its fixed part: a prior per
 step alone, measured on the one, is 2-5 times off on the other.
 
@@ -107,23 +109,35 @@ class CallCost:
     nothing, as the exact classification of a map's point, pays its fixed part)."""
     worlds: int = 1
     """Worlds stepped together (a batch's runs; 1 for a run alone)."""
+    world_steps: float | None = None
+    """Its worlds' steps as its engine pays them (the caller's rule: a MuJoCo batch stops
+    stepping each world at its own end, so its worlds' steps summed); None: ``steps``
+    times ``worlds``, every world stepping to the longest's end (:attr:`paid_world_steps`)."""
     affine: bool = False
     """Its calls keep to the worker that has run one (the runner's batch affinity): what a
     worker's first call of its kind or engine pays is laid out as paid on one worker, not
     on each."""
 
+    @property
+    def paid_world_steps(self) -> float:
+        """:attr:`world_steps`, else ``steps`` times ``worlds`` (a calls file recorded
+        before world-steps were: report-runs --calls)."""
+        return self.steps * self.worlds if self.world_steps is None else self.world_steps
+
 
 @dataclass(frozen=True)
 class Rates:
-    """A kind's whole call in s: ``fixed_s + steps * (step_s + worlds * world_step_s)``, and
-    ``cold_s`` more for a worker's first call of its most specific kind."""
+    """A kind's whole call in s: ``fixed_s + steps * step_s + world_steps * world_step_s``
+    (:attr:`CallCost.paid_world_steps`), and ``cold_s`` more for a worker's first call of
+    its most specific kind."""
 
     fixed_s: float
     """s a call pays whatever its steps (model building, the exact solve, judging)."""
     step_s: float
     """s per step (a batch: per step of all its worlds at once)."""
     world_step_s: float = 0.0
-    """s per step of each world of a batch (0 for an engine that steps one world)."""
+    """s per world-step of a batch (:attr:`CallCost.paid_world_steps`; 0 for an engine that
+    steps one world)."""
     cold_s: float = 0.0
     """s a worker's first call of the kind pays more (imports, MJX's tracing and compiling)."""
     first_s: float = 0.0
@@ -143,8 +157,8 @@ class Rates:
     def per_call(self, call: CallCost, cold: bool = False) -> float:
         """The call's seconds but what a worker's first call of the engine and the machine's
         first call of the kind pay more."""
-        per_step = self.step_s + call.worlds * self.world_step_s
-        return self.fixed_s + call.steps * per_step + (self.cold_s if cold else 0.0)
+        stepping = call.steps * self.step_s + call.paid_world_steps * self.world_step_s
+        return self.fixed_s + stepping + (self.cold_s if cold else 0.0)
 
     def once(self, first: bool, new: bool) -> float:
         """What a worker's first call of the engine (``first``) and the machine's first call
@@ -160,6 +174,9 @@ class Costing:
     """The tasks of one call (one task, or a batch's) -> its kinds, steps and worlds."""
     prior: Mapping[Hashable, Rates]
     """A kind's rates before any call of it has finished here."""
+    taken: Callable[[Sequence[object], Sequence[object]], float | None] | None = None
+    """The tasks of a finished call and its rows (one per task) -> the world-steps it took
+    (None: not known), by the same rule as ``cost``'s; None: not measured."""
 
 
 @dataclass(frozen=True)
@@ -180,6 +197,9 @@ class Took:
     """time.monotonic() when it started, where known."""
     cpu_s: float | None = None
     """CPU s its worker spent on it, where known (:attr:`PoolFuture.cpu_s`)."""
+    world_steps: float | None = None
+    """The world-steps it took, as its rows say them (:attr:`Costing.taken`), where known:
+    what the priors are fitted on (report-runs --calls); the ETA reads ``call``'s."""
 
 
 def prior_rates(call: CallCost, prior: Mapping[Hashable, Rates]) -> Rates | None:

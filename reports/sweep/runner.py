@@ -1636,13 +1636,17 @@ class _Calls:
             self._costs[id(unit)] = found
         return found
 
-    def _took(self, future: Future, attempt: _Attempt, start: float | None) -> None:
+    def _took(
+        self, future: Future, attempt: _Attempt, start: float | None, value: Any = None
+    ) -> None:
         """A call has ended after running since ``start``: a sample of its kind's cost,
-        cold if its worker (known on a local pool) had run none of its kind before."""
+        cold if its worker (known on a local pool) had run none of its kind before, with
+        the world-steps its result ``value`` (a row, or a batch's rows) says it took."""
         if self.costing is None or start is None:
             return
         try:
             call = self._cost(attempt.task)
+            taken = self._taken(attempt.task, value)
         except Exception:  # a cost model's bug must not stop a sweep: the ETA counts runs
             return
         worker = getattr(future, "worker_pid", None)
@@ -1650,7 +1654,17 @@ class _Calls:
         self._warm |= ran(call, worker)
         seconds = time.monotonic() - start
         cpu = getattr(future, "cpu_s", None)
-        self.finished.append(Took(call, seconds, cold, first, new, worker, start, cpu))
+        self.finished.append(Took(call, seconds, cold, first, new, worker, start, cpu, taken))
+
+    def _taken(self, unit: Any, value: Any) -> float | None:
+        """The world-steps a finished call took (the Costing's ``taken``), None unknown."""
+        measure = None if self.costing is None else self.costing.taken
+        if measure is None or value is None:
+            return None
+        rows = value if isinstance(unit, TaskBatch) else [value]
+        if not isinstance(rows, Sequence):  # a batch worker's bad value: its own row says so
+            return None
+        return measure(_tasks_of(unit), rows)
 
     def remaining(self) -> float | None:
         """Seconds left (eta.remaining_seconds): the calls in flight that have started, then
@@ -1862,8 +1876,9 @@ class _Calls:
             return
         exc = future.exception()
         if exc is None:
-            self._took(future, attempt, self._started(future, attempt))
-            self.sweep.record_value(attempt, future.result(), self._started(future, attempt))
+            value = future.result()
+            self._took(future, attempt, self._started(future, attempt), value)
+            self.sweep.record_value(attempt, value, self._started(future, attempt))
         elif stopping:
             return
         elif isinstance(exc, BrokenExecutor):  # the executor's failure, not the run's
