@@ -513,7 +513,8 @@ def _means(
     count = (hi - lo).astype(float)
 
     def mean(values: NDArray) -> NDArray:
-        sums = np.concatenate(([0.0], np.cumsum(values, dtype=float)))
+        sums = np.zeros(len(values) + 1)
+        np.cumsum(values, dtype=float, out=sums[1:])  # summed in place: no copy behind a 0
         return (sums[hi] - sums[lo]) / count
 
     n_on = np.where(touching, n, 0.0)
@@ -641,7 +642,11 @@ def _slipping(
     modes then move its start back over the samples just before it that slide under the
     slip law themselves (:func:`_refined_start`)."""
     fast = np.abs(means.slip) > cfg.slip_threshold
-    hold = _holds(means, mu, cfg)  # a step without force inside a slip is the slip's
+    averaged = _averaged(means)
+    # The window means' law at cone_hold and demand_tolerance: read by the slip law and by
+    # the entry's short demand alike, made once.
+    cannot_roll = averaged.cannot_roll(mu, cfg.cone_hold, cfg.demand_tolerance)
+    hold = _holds(means, mu, cfg, cannot_roll)  # a step without force inside a slip is the slip's
     demand_short = own.cannot_roll(mu, cfg.cone_tolerance, cfg.demand_tolerance)
     fast_own = np.abs(own.slip) > cfg.creep_speed
     # Only friction that cannot give the demand starts a slip, in the window's mean and in the
@@ -649,13 +654,12 @@ def _slipping(
     # demand inside the cone starts one only once the rim slides beyond the slip threshold: a
     # soft friction lags a demand that ramps up (MuJoCo stock: 4-8 % of the cone below it,
     # the rim creeping at 0.1-0.4 mm/s, in the 7 ms before its friction reaches the cone).
-    averaged = _averaged(means)
     at_cone = averaged.cannot_roll(mu, cfg.cone_hold, math.inf)
     # A chattering window's mean friction is no law's level (at the cone on some steps, the
     # demand on others): PyBullet's cylinder, creeping at 1.0-1.1 mm/s, sits 4 % short of the
     # demand on average for 5 ms before its slip, its slide flat.
     steady = means.cone_share < cfg.chatter_share
-    short = averaged.cannot_roll(mu, cfg.cone_hold, cfg.demand_tolerance) & fast & steady
+    short = cannot_roll & fast & steady
     starts = at_cone | short | (np.abs(means.slip) > cfg.creep_speed)
     enter = hold & starts & touching & (demand_short | fast_own)
     out = np.zeros(len(touching), dtype=bool)
@@ -672,15 +676,16 @@ def _slipping(
     return out
 
 
-def _holds(means: _Means, mu: float, cfg: ContactSettings) -> NDArray:
+def _holds(means: _Means, mu: float, cfg: ContactSettings, cannot_roll: NDArray) -> NDArray:
     """Window means under the slip law: sliding against the friction, and the friction at or
-    beyond the cone (within ``cone_hold``), unable to give the rolling demand or away from it
-    (either side, by more than ``demand_tolerance`` of the cone: a friction that saturates
+    beyond the cone (within ``cone_hold``), unable to give the rolling demand (``cannot_roll``:
+    the means' ``_Contact.cannot_roll`` at ``cone_hold`` and ``demand_tolerance``) or away from
+    it (either side, by more than ``demand_tolerance`` of the cone: a friction that saturates
     below mu, or one above the demand that brakes a slide), or the slide faster than
     ``creep_speed`` (fast sliding is never creep)."""
     averaged = _averaged(means)
     law = (
-        averaged.cannot_roll(mu, cfg.cone_hold, cfg.demand_tolerance)
+        cannot_roll
         | averaged.off_demand(mu, cfg.demand_tolerance)
         | (np.abs(means.slip) > cfg.creep_speed)
     )
