@@ -25,13 +25,14 @@ __all__ = [
 
 def rolling_thetaddot(scene: Scene, theta: ArrayLike, thetadot: ArrayLike) -> NDArray:
     """Angular acceleration while rolling without slip, rad/s^2 (any theta0)."""
+    return _rolling_thetaddot(scene, np.sin(theta), np.cos(theta), np.asarray(thetadot) ** 2)
+
+
+def _rolling_thetaddot(scene: Scene, s: NDArray, c: NDArray, w2: NDArray) -> NDArray:
+    """:func:`rolling_thetaddot` from sin(theta), cos(theta) and thetadot^2, taken once by
+    :func:`rolling_forces` for both (a run's reading computes them for every sample)."""
     lam = scene.lam
-    return (
-        lam
-        * np.sin(theta)
-        * (scene.g / scene.a + np.asarray(thetadot) ** 2)
-        / (2.0 + lam * scene.eps + 2.0 * lam * np.cos(theta))
-    )
+    return lam * s * (scene.g / scene.a + w2) / (2.0 + lam * scene.eps + 2.0 * lam * c)
 
 
 def rolling_forces(scene: Scene, theta: ArrayLike, thetadot: ArrayLike) -> tuple[NDArray, NDArray]:
@@ -39,7 +40,7 @@ def rolling_forces(scene: Scene, theta: ArrayLike, thetadot: ArrayLike) -> tuple
     lam, a = scene.lam, scene.a
     s, c = np.sin(theta), np.cos(theta)
     w2 = np.asarray(thetadot) ** 2
-    alpha = rolling_thetaddot(scene, theta, thetadot)
+    alpha = _rolling_thetaddot(scene, s, c, w2)
     f = a * ((1.0 + lam * c) * alpha - lam * s * w2)
     n = scene.g - a * lam * (s * alpha + c * w2)
     return f, n

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from hoopbench.models.catalogue import get_scene
 from hoopbench.models.events import Outcome, PhaseKind
 from hoopbench.models.scene import Scene
 from hoopbench.reference import dynamics
@@ -179,3 +180,22 @@ def test_curtate_cycloid_offsets():
     assert Y[0] == pytest.approx(2.0 * (1.0 + 0.6 * math.cos(0.5)))
     with pytest.raises(ValueError, match=r"lam must be in \[0, 1\], got 1.5"):
         curtate_cycloid(0.0, 1.5, 1.0)
+
+
+@pytest.mark.parametrize("resized", [False, True])
+def test_rolling_forces_take_rolling_thetaddot_s_numbers(resized):
+    """rolling_forces takes sin, cos and thetadot^2 once for itself and for the angular
+    acceleration (a run's reading computes them for every sample): the same floats, bit for
+    bit, as with rolling_thetaddot's own, on arrays and on single numbers."""
+    scene = get_scene("hop-top")
+    if resized:
+        scene = scene.with_(a=0.25, g=3.0, eps=0.3)
+    rng = np.random.default_rng(5)
+    theta, thetadot = rng.uniform(-20.0, 20.0, 3_000), rng.uniform(-15.0, 15.0, 3_000)
+    lam, a = scene.lam, scene.a
+    for th, w in ((theta, thetadot), (float(theta[0]), float(thetadot[0]))):
+        s, c, w2 = np.sin(th), np.cos(th), np.asarray(w) ** 2
+        alpha = dynamics.rolling_thetaddot(scene, th, w)
+        f, n = dynamics.rolling_forces(scene, th, w)
+        assert np.array_equal(f, a * ((1.0 + lam * c) * alpha - lam * s * w2))
+        assert np.array_equal(n, scene.g - a * lam * (s * alpha + c * w2))

@@ -491,3 +491,33 @@ def test_the_flights_of_whole_arrays_are_those_read_one_by_one():
         with np.errstate(divide="ignore", invalid="ignore"):  # a NaN force's crossing
             one_by_one = _flights_one_by_one(t, n, clearance, touching, cfg)
         assert repr(whole) == repr(one_by_one)
+
+
+def _grids() -> dict[str, np.ndarray]:
+    """Time grids a run is read on: an engine's even steps, the reference's (its last
+    instant the impact, off the grid), an uneven one, repeated times, and the shortest."""
+    even = np.arange(30_001) * 1e-4
+    rng = np.random.default_rng(3)
+    return {
+        "even": even,
+        "impact": np.unique(np.minimum(np.append(np.arange(2_861) * 1e-3, 2.86052), 2.86052)),
+        "uneven": np.cumsum(rng.uniform(1e-5, 3e-4, 5_000)),
+        "repeats": np.repeat(even[:2_000], 2),
+        "short": np.array([0.0, 1e-3]),
+        "one": np.array([0.5]),
+    }
+
+
+@pytest.mark.parametrize("grid", list(_grids()))
+@pytest.mark.parametrize("side", ["left", "right"])
+def test_the_window_ends_are_searchsorted_s(grid, side):
+    """_searched (the window's ends, by a guessed shift checked against its neighbours)
+    gives np.searchsorted's indices on every kind of grid, at the reading's window and one
+    wider than the record, and keys with a NaN."""
+    t = _grids()[grid]
+    for shift in (-0.002 - 1e-12, 0.002 + 1e-12, 5.0, 0.0):
+        keys = t + shift
+        assert np.array_equal(contact._searched(t, keys, side), np.searchsorted(t, keys, side))
+    keys = t.copy()
+    keys[len(keys) // 2] = np.nan
+    assert np.array_equal(contact._searched(t, keys, side), np.searchsorted(t, keys, side))

@@ -8,12 +8,15 @@ from dataclasses import fields
 
 import numpy as np
 import pytest
+from scipy.integrate import OdeSolution
 
 from hoopbench.engines.judging import exact_samples
 from hoopbench.engines.judging.comparison import KEPT_SOLUTIONS, exact_solution
 from hoopbench.engines.judging.exact_samples import exact_sample
 from hoopbench.models.catalogue import get_scene
 from hoopbench.models.trajectory import Trajectory
+from hoopbench.reference import exact
+from hoopbench.reference.exact import ExactSolution, solve_exact
 
 
 @pytest.fixture(autouse=True)
@@ -123,3 +126,37 @@ def test_a_worker_keeps_the_last_kept_solutions_exact_solutions_and_no_more():
     for mu in mus[1:]:  # KEPT_SOLUTIONS others used since: the first is the oldest, gone
         exact_solution(scene, mu)
     assert exact_solution(scene, mus[0]) is not first
+
+
+def _dense_outputs(solution: ExactSolution) -> list[OdeSolution]:
+    """The phases' dense outputs (in the scene's time unit), where they have one."""
+    found = []
+    for segment in solution.segments:
+        dense = getattr(getattr(segment.states, "__self__", None), "dense", None)
+        if dense is not None:
+            found.append(dense.solution)
+    return found
+
+
+@pytest.mark.parametrize("name", ["seed-mu", "hop-top", "slip-reversal", "painleve", "massless"])
+def test_the_dense_output_gives_odesolution_s_numbers(name, monkeypatch):
+    """ExactSolution.sample evaluates DOP853's dense output for all times at once
+    (reference/exact.py _dop853_at): the same numbers, bit for bit, as OdeSolution's own call
+    on a run's grid, on times out of order and repeated, and at the integrator's step
+    starts."""
+    solution = solve_exact(get_scene(name))
+    end = solution.t_final
+    rng = np.random.default_rng(7)
+    grid = np.unique(np.minimum(np.append(np.arange(int(end / 1e-4) + 1) * 1e-4, end), end))
+    shuffled = rng.permutation(np.concatenate((grid[::7], grid[::11])))
+    cases = [grid, shuffled, np.array([0.0, end])]
+    at_once = [solution.sample(t) for t in cases]
+    dense = _dense_outputs(solution)
+    assert dense or name == "massless"
+    for output in dense:  # each step's start and end, where two steps' polynomials meet
+        ts = np.asarray(output.ts)
+        for t in (ts, ts[::-1], np.repeat(ts, 2)):
+            assert np.array_equal(exact._dop853_at(output, t), output(t))
+    monkeypatch.setattr(exact, "_dop853_at", lambda dense, t: dense(t))
+    for t, sample in zip(cases, at_once, strict=True):
+        assert _same(sample, solution.sample(t))

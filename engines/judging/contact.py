@@ -72,6 +72,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from functools import cached_property
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -300,11 +302,12 @@ def read_contact(
     cfg = settings or ContactSettings()
     t, n = traj.t, traj.normal_force
     touching = n > cfg.contact_level * cfg.g
-    means = _means(t, n, traj.friction_force, traj.slip_velocity, touching, mu, cfg, rolling_demand)
     own = _own(traj, rolling_demand)
+    means = _means(t, n, traj.friction_force, traj.slip_velocity, touching, mu, cfg, own.demand)
     slipping = _slipping(means, own, touching, mu, cfg) & touching
     flights = _flights(t, n, traj.clearance, touching, cfg)
-    hops = [fl for fl in flights if _is_hop(fl, t, cfg)]
+    is_hop = [_is_hop(fl, t, cfg) for fl in flights]
+    hops = [fl for fl, hop in zip(flights, is_hop, strict=True) if hop]
     end = math.inf if window_end is None else window_end
     hop = max((h for h in hops if h.t_start <= end), key=lambda h: h.max_clearance, default=None)
     labels = _labels(touching, slipping, means.friction, _inside(t, hops) & ~touching)
@@ -318,7 +321,9 @@ def read_contact(
     creep = rest.creep(traj, means, mu, cfg, exact_lift)
     chattering = _chattering(means, mu, cfg) & rest.mask
     chattering_time = rest.time(chattering)
-    chatter = [fl for fl in flights if fl not in hops]
+    # The flights that are not hops (a flight equal to a hop is one: hop or not is read from
+    # its own values), without comparing each with every hop (pymunk: 2,000 flights a run).
+    chatter = [fl for fl, hop in zip(flights, is_hop, strict=True) if not hop]
     t_slip, t_restick = _slip_events(modes)
     return ContactReading(
         t_slip=t_slip,
@@ -351,15 +356,18 @@ class _Rest:
     t: NDArray
     mask: NDArray
 
+    @cached_property
+    def step(self) -> NDArray:
+        """Each sample's step to the next (0 for the last): the weight of its time."""
+        return np.diff(self.t, append=self.t[-1])
+
     def time(self, where: NDArray, rate: NDArray | None = None) -> float:
         """s spent where ``where`` holds (with ``rate``: its integral there)."""
-        step = np.diff(self.t, append=self.t[-1])
-        return float(np.sum((step if rate is None else step * rate)[where]))
+        return float(np.sum((self.step if rate is None else self.step * rate)[where]))
 
     def longest(self, where: NDArray) -> float:
         """s: the longest stretch where ``where`` holds."""
-        step = np.diff(self.t, append=self.t[-1])
-        return max((float(np.sum(step[i:j])) for i, j in _runs(where)), default=0.0)
+        return max((float(np.sum(self.step[i:j])) for i, j in _runs(where)), default=0.0)
 
     def creep(
         self,
@@ -495,16 +503,18 @@ def _means(
     touching: NDArray,
     mu: float,
     cfg: ContactSettings,
-    rolling_demand: tuple[NDArray, NDArray] | None = None,
+    own_demand: _Demand | None = None,
 ) -> _Means:
-    """Centred window means (the samples within W/2 of each sample's time)."""
+    """Centred window means (the samples within W/2 of each sample's time); ``own_demand``:
+    each sample's own rolling demand (:meth:`_Demand.at`), averaged alike."""
     half = 0.5 * cfg.window
-    lo = np.searchsorted(t, t - half - 1e-12, side="left")
-    hi = np.searchsorted(t, t + half + 1e-12, side="right")
+    lo = _searched(t, t - half - 1e-12, "left")
+    hi = _searched(t, t + half + 1e-12, "right")
     count = (hi - lo).astype(float)
 
     def mean(values: NDArray) -> NDArray:
-        sums = np.concatenate(([0.0], np.cumsum(values, dtype=float)))
+        sums = np.zeros(len(values) + 1)
+        np.cumsum(values, dtype=float, out=sums[1:])  # summed in place: no copy behind a 0
         return (sums[hi] - sums[lo]) / count
 
     n_on = np.where(touching, n, 0.0)
@@ -513,14 +523,40 @@ def _means(
     forced = mean(touching.astype(float))
     share = np.divide(mean(at_cone.astype(float)), forced, out=np.zeros(len(t)), where=forced > 0)
     demand = None
-    if rolling_demand is not None:
+    if own_demand is not None:
         # Averaged as the forces are, over the samples with a force: an intermittent contact
         # (one step in thirty) transmits the demand of those steps alone.
-        own = _Demand.at(*rolling_demand)
+        own = own_demand
         demand = _Demand(
             *(mean(np.where(touching, x, 0.0)) for x in (own.friction, own.normal, own.step_change))
         )
     return _Means(mean(f_on), mean(n_on), mean(slip), share, demand)
+
+
+def _searched(t: NDArray, keys: NDArray, side: Literal["left", "right"]) -> NDArray:
+    """``np.searchsorted(t, keys, side)``, the same indices, for keys that are ``t`` shifted by
+    a constant: on an even grid the index of key i is i plus one shift. That guess is checked
+    against its neighbours for every key (with -inf and +inf beyond the ends, the one index
+    searchsorted returns on increasing ``t``: left, t[r-1] < key <= t[r]; right, t[r-1] <= key
+    < t[r]) and searched for where it fails (an uneven step, the grid's ends, a NaN). A binary
+    search per key was a sixth of reading a run."""
+    n = len(t)
+    if n < 2 or len(keys) != n or not bool(np.all(t[1:] >= t[:-1])):
+        return np.searchsorted(t, keys, side=side)
+    mid = n // 2
+    shift = int(np.searchsorted(t, keys[mid : mid + 1], side=side)[0]) - mid
+    pad = abs(shift) + 1
+    padded = np.concatenate((np.full(pad, -np.inf), t, np.full(pad, np.inf)))
+    below = padded[pad - 1 + shift : pad - 1 + shift + n]  # t[r - 1] at r = i + shift
+    above = padded[pad + shift : pad + shift + n]  # t[r]
+    left = side == "left"
+    found = ((below < keys) if left else (below <= keys)) & (
+        (keys <= above) if left else (keys < above)
+    )
+    index = np.arange(n) + shift
+    missed = np.nonzero(~found)[0]
+    index[missed] = np.searchsorted(t, keys[missed], side=side)
+    return index
 
 
 @dataclass(frozen=True)
@@ -606,7 +642,11 @@ def _slipping(
     modes then move its start back over the samples just before it that slide under the
     slip law themselves (:func:`_refined_start`)."""
     fast = np.abs(means.slip) > cfg.slip_threshold
-    hold = _holds(means, mu, cfg)  # a step without force inside a slip is the slip's
+    averaged = _averaged(means)
+    # The window means' law at cone_hold and demand_tolerance: read by the slip law and by
+    # the entry's short demand alike, made once.
+    cannot_roll = averaged.cannot_roll(mu, cfg.cone_hold, cfg.demand_tolerance)
+    hold = _holds(means, mu, cfg, cannot_roll)  # a step without force inside a slip is the slip's
     demand_short = own.cannot_roll(mu, cfg.cone_tolerance, cfg.demand_tolerance)
     fast_own = np.abs(own.slip) > cfg.creep_speed
     # Only friction that cannot give the demand starts a slip, in the window's mean and in the
@@ -614,13 +654,12 @@ def _slipping(
     # demand inside the cone starts one only once the rim slides beyond the slip threshold: a
     # soft friction lags a demand that ramps up (MuJoCo stock: 4-8 % of the cone below it,
     # the rim creeping at 0.1-0.4 mm/s, in the 7 ms before its friction reaches the cone).
-    averaged = _averaged(means)
     at_cone = averaged.cannot_roll(mu, cfg.cone_hold, math.inf)
     # A chattering window's mean friction is no law's level (at the cone on some steps, the
     # demand on others): PyBullet's cylinder, creeping at 1.0-1.1 mm/s, sits 4 % short of the
     # demand on average for 5 ms before its slip, its slide flat.
     steady = means.cone_share < cfg.chatter_share
-    short = averaged.cannot_roll(mu, cfg.cone_hold, cfg.demand_tolerance) & fast & steady
+    short = cannot_roll & fast & steady
     starts = at_cone | short | (np.abs(means.slip) > cfg.creep_speed)
     enter = hold & starts & touching & (demand_short | fast_own)
     out = np.zeros(len(touching), dtype=bool)
@@ -637,15 +676,16 @@ def _slipping(
     return out
 
 
-def _holds(means: _Means, mu: float, cfg: ContactSettings) -> NDArray:
+def _holds(means: _Means, mu: float, cfg: ContactSettings, cannot_roll: NDArray) -> NDArray:
     """Window means under the slip law: sliding against the friction, and the friction at or
-    beyond the cone (within ``cone_hold``), unable to give the rolling demand or away from it
-    (either side, by more than ``demand_tolerance`` of the cone: a friction that saturates
+    beyond the cone (within ``cone_hold``), unable to give the rolling demand (``cannot_roll``:
+    the means' ``_Contact.cannot_roll`` at ``cone_hold`` and ``demand_tolerance``) or away from
+    it (either side, by more than ``demand_tolerance`` of the cone: a friction that saturates
     below mu, or one above the demand that brakes a slide), or the slide faster than
     ``creep_speed`` (fast sliding is never creep)."""
     averaged = _averaged(means)
     law = (
-        averaged.cannot_roll(mu, cfg.cone_hold, cfg.demand_tolerance)
+        cannot_roll
         | averaged.off_demand(mu, cfg.demand_tolerance)
         | (np.abs(means.slip) > cfg.creep_speed)
     )
