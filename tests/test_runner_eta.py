@@ -24,7 +24,13 @@ from hoopbench.reports.bench.call_costs import (
     rounding,
     seconds_of,
 )
-from hoopbench.reports.bench.eta_replay import _begin, _InFlight, _next_call, _Recorded
+from hoopbench.reports.bench.eta_replay import (
+    _begin,
+    _InFlight,
+    _next_call,
+    _Recorded,
+    recorded_keys,
+)
 from hoopbench.reports.bench.eta_replay import _Sweep as _ReplaySweep
 from hoopbench.reports.bench.eta_replay import main as replay_main
 from hoopbench.reports.compare.costs import (
@@ -993,6 +999,55 @@ def test_a_batched_engines_calls_keep_to_the_worker_that_holds_its_key_between_i
     running = (Running(mujoco, ran=3.0, worker=1), Running(point, ran=0.0, worker=2))
     left = remaining_seconds([mjx, *[point] * 30], running, [], 2, prior, None, holders)
     assert left == pytest.approx(7.0)
+
+
+def test_a_steps_eta_counts_the_later_steps_calls_that_keep_the_other_worker_busy():
+    """A cold make report (2026-11-29 23:48 UTC): one worker held MuJoCo's and MJX's keys
+    and ran the stability suite's last calls of both one after the other (344-390 s) while
+    the other ran the map's, a step not begun when the stability suite's ETA was made: the
+    layout of the running steps alone had the other worker take the batched calls ("it
+    would not idle") and said 34 s of 53 (0.66). Laid out with the later steps' calls, the
+    other worker takes those, its own. Here: MuJoCo's call 2 s from its end on worker 1,
+    two more of 5 s pending, a cheap call ending on worker 2; then the map's 100 points."""
+    mujoco = CallCost(kinds=(("mujoco", "tuned", "default"), "mujoco"), steps=0, affine=True)
+    point = CallCost(kinds=(("map", "reference"),), steps=0)
+    prior = {"mujoco": Rates(5.0, 0.0), ("map", "reference"): Rates(0.1, 0.0)}
+    warm = ran(mujoco, 1) | ran(point, 2)
+    sweeps = [
+        PlannedSweep("stability", 4, (mujoco, mujoco, mujoco, point)),
+        PlannedSweep("map", 100, (point,) * 100),
+    ]
+    plan = Plan("make report", sweeps, prior, 2)
+    running = (Running(mujoco, ran=3.0, worker=1), Running(point, ran=0.0, worker=2))
+    plan.attach(plan.begin(4), ActiveSweep(running=running, pending=(mujoco, mujoco), warm=warm))
+    assert plan.sweep_left(0) == pytest.approx(2.0 + 5.0 + 5.0)  # not 7.0: stolen at 0.1 s
+
+
+def test_the_replay_can_put_each_batched_engines_key_where_the_recorded_run_held_it():
+    """eta_replay --keys-as-recorded: the worker that ran an engine's first batch in the
+    recorded run holds its key from the start (workers numbered as their first calls
+    started), so that a free worker does not take that engine's calls as its own. The
+    replay of that cold make report with the keys apart read its stability suite 1.03 at
+    75 %, where its log read 0.66; with the keys as recorded, 0.65."""
+    records = [
+        {"kinds": [["pymunk", "tuned", "default"], "pymunk"], "worlds": 1, "worker": 900,
+         "started": 0.0},
+        {"kinds": [["mjx", "tuned", "default"], "mjx"], "worlds": 8, "worker": 100,
+         "started": 1.0},
+        {"kinds": [["mujoco", "tuned", "default"], "mujoco"], "worlds": 2, "worker": 100,
+         "started": 2.0},
+        {"kinds": [["map", "mujoco", "tuned", 1e-4], ["map", "mujoco"]], "worlds": 25,
+         "worker": 900, "started": 3.0},
+        {"kinds": [["mujoco", "tuned", "default"], "mujoco"], "worlds": 3, "worker": 900,
+         "started": 4.0},
+    ]  # fmt: skip
+    keys = recorded_keys(records, workers=2)
+    assert keys == {"mjx": {1}, "mujoco": {1}, ("map", "mujoco"): {0}}
+    mujoco = CallCost(kinds=(("mujoco", "tuned", "default"), "mujoco"), steps=0, affine=True)
+    sweep = _ReplaySweep(deque([mujoco, CHEAP]))
+    assert _next_call([sweep], 0, set(), False, 4, keys) == (0, 1)  # not its key: the cheap one
+    assert _next_call([sweep], 1, set(), False, 4, keys) == (0, 0)
+    assert _next_call([sweep], 0, set(), False, 4) == (0, 0)  # no key held: anyone's
 
 
 def test_the_replay_begins_a_sweep_once_the_runner_has_submitted_the_one_before():

@@ -28,6 +28,11 @@ seeded random order instead of the grid's (x outer, y inner), each worker's firs
 the longest: it tells what of the map's ETA comes from the grid order, whose first points
 (rolling and slipping starts) cost several times the later ones (most lifting off at once),
 so that a kind's factor measured on them says too much of the rest (docs/cli.md).
+``--keys-as-recorded`` gives each batched engine's affinity key to the worker that ran its
+first call in the recorded run (the file's ``worker``, workers numbered as their first calls
+started), not to the simulated worker that happens to be free first: where one worker held
+both MuJoCo's and MJX's keys, their last calls ran one after the other on it while the other
+worker ran the map's, which a replay with the keys apart does not show.
 
     python -m hoopbench.reports.bench.eta_replay /tmp/mr11-calls.jsonl --cold mjx newton mjwarp
 """
@@ -174,10 +179,12 @@ def replay(
     report_s: float,
     shuffle_map: int | None = None,
     map_by_window: bool = False,
+    keys_as_recorded: bool = False,
 ) -> dict[str, list[float | None]]:
     """Step name (and 'overall') -> ETA / time left at FRACTIONS (module docstring;
     ``shuffle_map``: the seed of ``--shuffle-map``; ``map_by_window``: the map's engine
-    runs costed by their window, as calls files written before their stop was read)."""
+    runs costed by their window, as calls files written before their stop was read;
+    ``keys_as_recorded``: ``--keys-as-recorded``)."""
     suites = [name for name, _ in REPORT_SUITES]
     # The map's engine runs as the runner costs them, from their points' exact columns.
     tasks = None if map_by_window else classified_tasks(MAP)
@@ -190,11 +197,12 @@ def replay(
     ends: dict[str, float] = {}
     overall: list[tuple[float, float, str]] = []
     free = dict.fromkeys(range(workers), 0.0)
+    pinned = recorded_keys(records, workers) if keys_as_recorded else {}
     begun = -1
     now = 0.0
     while True:
         begun = _begin(plan, sweeps, begun, workers)
-        _start_calls(sweeps, free, now, plan.warm, recorded, begun)
+        _start_calls(sweeps, free, now, plan.warm, recorded, begun, pinned)
         busy = [(f.start + f.seconds, k, w) for k, s in enumerate(sweeps)
                 for w, f in s.running.items()]  # fmt: skip
         if not busy:
@@ -249,6 +257,7 @@ def _start_calls(
     warm: set[tuple[Hashable, Hashable]],
     recorded: _Recorded,
     begun: int,
+    pinned: dict[Hashable, set[int]] | None = None,
 ) -> None:
     """Each idle worker takes the next call of the earliest begun sweep with one left, as
     the pool hands them: first a call of its own (of no affinity, of an engine it has run or
@@ -262,7 +271,8 @@ def _start_calls(
             for s in sweeps:
                 for w, flight in s.running.items():
                     taken |= ran(flight.call, w)
-            found = _next_call(sweeps[: begun + 1], worker, taken, steal, _limit(len(free)))
+            limit = _limit(len(free))
+            found = _next_call(sweeps[: begun + 1], worker, taken, steal, limit, pinned)
             if found is None:
                 continue
             k, index = found
@@ -279,10 +289,13 @@ def _next_call(
     taken: set[tuple[Hashable, Hashable]],
     steal: bool,
     limit: int,
+    pinned: dict[Hashable, set[int]] | None = None,
 ) -> tuple[int, int] | None:
     """(sweep, index in its queue) of the call ``worker`` takes (:func:`_start_calls`), of
-    those the runner has submitted to the pool."""
-    owners = key_holders(taken)  # an engine -> the workers that hold its key
+    those the runner has submitted to the pool; ``pinned``: an engine -> the worker that
+    holds its key before any has run its calls (:func:`recorded_keys`)."""
+    owners: dict[Hashable, set[Hashable]] = {engine: set(w) for engine, w in (pinned or {}).items()}
+    owners.update(key_holders(taken))  # an engine -> the workers that hold its key
     for k, sweep in enumerate(sweeps):
         for index in range(sweep.submitted(limit)):
             if steal or own_call(sweep.queue[index], worker, owners):
@@ -301,6 +314,23 @@ def _name(index: int, step: str) -> str:
     if step != MAP_STEP:
         return step
     return "map (reference)" if index == len(REPORT_SUITES) else "map"
+
+
+def recorded_keys(records: Sequence[dict[str, Any]], workers: int) -> dict[Hashable, set[int]]:
+    """An engine whose calls keep to one worker (its batches: more than one world, or the
+    recorded run's) -> the worker that ran its first such call in the recorded run, workers
+    numbered 0 .. ``workers`` - 1 as their first calls started (records without a
+    ``worker``: none)."""
+    order: dict[Any, int] = {}
+    keys: dict[Hashable, set[int]] = {}
+    for record in sorted(records, key=lambda r: float(r.get("started") or 0.0)):
+        worker = record.get("worker")
+        if worker is None:
+            continue
+        slot = order.setdefault(worker, len(order) % max(workers, 1))
+        if int(record["worlds"]) > 1:
+            keys.setdefault(_kind(record["kinds"][-1]), {slot})
+    return keys
 
 
 RECORD_KEYS = ("kinds", "steps", "worlds", "seconds")
@@ -339,12 +369,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         action="store_true",
         help="the map's engine runs costed by their window (a calls file from before their stop)",
     )
+    parser.add_argument(
+        "--keys-as-recorded",
+        action="store_true",
+        help="each batched engine's key on the worker that held it in the recorded run",
+    )
     args = parser.parse_args(argv)
     try:
         records = read_records(args.calls)
         table = replay(
-            records, args.cold, args.workers, args.report_s, args.shuffle_map, args.map_by_window
-        )
+            records, args.cold, args.workers, args.report_s, args.shuffle_map,
+            args.map_by_window, args.keys_as_recorded,
+        )  # fmt: skip
     except BadCallsError as exc:
         print(f"eta_replay: {exc}", file=sys.stderr)
         return 2
