@@ -23,6 +23,7 @@ import numbers
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from enum import Enum
+from functools import cached_property
 from typing import Protocol, cast
 
 import numpy as np
@@ -364,15 +365,17 @@ class _Dense:
 
     def __call__(self, t: ArrayLike) -> NDArray:
         scaled = np.asarray(t, dtype=float) / self.unit
-        interpolants = self.solution.interpolants
-        if (
-            scaled.ndim != 1
-            or not scaled.size
-            or not all(hasattr(self.solution, name) for name in _STEP_LOOKUP)
-            or any(type(i) is not Dop853DenseOutput for i in interpolants)
-        ):
+        steps = self._steps
+        # One time is one step's polynomial either way: OdeSolution's own call has no loop
+        # to save there, and is the quicker (a root finder's calls).
+        if scaled.ndim != 1 or scaled.size < 2 or steps is None:
             return cast(NDArray, self.solution(scaled))
-        return _dop853_at(self.solution, scaled)
+        return steps.at(scaled)
+
+    @cached_property
+    def _steps(self) -> _Dop853Steps | None:
+        # Stacked once per phase, not at every call: a phase is sampled on several grids.
+        return _Dop853Steps.of(self.solution)
 
 
 _STEP_LOOKUP = ("ts_sorted", "side", "ascending", "n_segments")
@@ -380,37 +383,64 @@ _STEP_LOOKUP = ("ts_sorted", "side", "ascending", "n_segments")
 that names them otherwise, its own call is used)."""
 
 
-def _dop853_at(solution: OdeSolution, t: NDArray) -> NDArray:
-    """``solution(t)`` for DOP853's dense output (solve_ivp's default, the exact solver's),
-    the same floats, with every integrator step's polynomial evaluated at once: OdeSolution
-    groups the times by step and calls each step's interpolant in a Python loop (300-3,000
-    steps a phase), most of sampling a solution (20-40 ms for 30,000 times, once per scene
-    and timestep in a worker, 300,000 at 1e-5 s). Each time's step is the one OdeSolution
-    picks, and its value is Dop853DenseOutput's arithmetic, operation for operation:
-    x = (t - t_old) / h, then over the coefficients F in reverse y += f and y *= x or 1 - x
-    in turn, then y += y_old (tests/test_exact_samples.py)."""
-    steps = solution.n_segments
-    index = np.searchsorted(solution.ts_sorted, t, side=solution.side) - 1
-    index = np.clip(index, 0, steps - 1)
-    if not solution.ascending:
-        index = steps - 1 - index
-    interpolants = solution.interpolants
-    t_old = np.array([i.t_old for i in interpolants])[index]
-    h = np.array([i.h for i in interpolants])[index]
-    # Laid out (powers, states, steps): each power's numbers at the times are one gather
-    # along the steps, and y comes out (states, times) in C order, as OdeSolution's.
-    coefficients = np.stack([i.F for i in interpolants], axis=-1)
-    y_old = np.stack([i.y_old for i in interpolants], axis=-1)
-    x = (t - t_old) / h
-    y = np.zeros((y_old.shape[0], len(t)), dtype=y_old.dtype)
-    for power, f in enumerate(coefficients[::-1]):
-        y += f[:, index]
-        if power % 2 == 0:
-            y *= x
-        else:
-            y *= 1 - x
-    y += y_old[:, index]
-    return y
+@dataclass(frozen=True)
+class _Dop853Steps:
+    """DOP853's dense output (solve_ivp's default, the exact solver's) with every integrator
+    step's polynomial stacked, so that :meth:`at` evaluates it at all times at once, the same
+    floats as ``solution(t)``: OdeSolution groups the times by step and calls each step's
+    interpolant in a Python loop (300-3,000 steps a phase), most of sampling a solution
+    (20-40 ms for 30,000 times, once per scene and timestep in a worker, 300,000 at 1e-5 s).
+    """
+
+    solution: OdeSolution
+    t_old: NDArray
+    """Each step's start, in the solution's time unit."""
+    h: NDArray
+    """Each step's length."""
+    coefficients: NDArray
+    """(powers, states, steps): each power's numbers at the times are one gather along the
+    steps, and a value comes out (states, times) in C order, as OdeSolution's."""
+    y_old: NDArray
+    """(states, steps): each step's starting state."""
+
+    @classmethod
+    def of(cls, solution: OdeSolution) -> _Dop853Steps | None:
+        """The steps of ``solution``; None where OdeSolution's own call is used (another
+        interpolant, or a SciPy that finds a time's step by other names)."""
+        interpolants = solution.interpolants
+        if not all(hasattr(solution, name) for name in _STEP_LOOKUP) or any(
+            type(i) is not Dop853DenseOutput for i in interpolants
+        ):
+            return None
+        return cls(
+            solution,
+            t_old=np.array([i.t_old for i in interpolants]),
+            h=np.array([i.h for i in interpolants]),
+            coefficients=np.stack([i.F for i in interpolants], axis=-1),
+            y_old=np.stack([i.y_old for i in interpolants], axis=-1),
+        )
+
+    def at(self, t: NDArray) -> NDArray:
+        """``solution(t)``, ``t`` one-dimensional. Each time's step is the one OdeSolution
+        picks, and its value is Dop853DenseOutput's arithmetic, operation for operation:
+        x = (t - t_old) / h, then over the coefficients F in reverse y += f and y *= x or
+        1 - x in turn, then y += y_old (tests/test_exact_samples.py)."""
+        solution = self.solution
+        steps = solution.n_segments
+        index = np.searchsorted(solution.ts_sorted, t, side=solution.side) - 1
+        index = np.clip(index, 0, steps - 1)
+        if not solution.ascending:
+            index = steps - 1 - index
+        x = (t - self.t_old[index]) / self.h[index]
+        y = np.zeros((self.y_old.shape[0], len(t)), dtype=self.y_old.dtype)
+        for power, f in enumerate(self.coefficients[::-1]):
+            y += f[:, index]
+            if power % 2 == 0:
+                y *= x
+            else:
+                y *= 1 - x
+        y += self.y_old[:, index]
+        return y
 
 
 def _integrate(

@@ -141,7 +141,7 @@ def _dense_outputs(solution: ExactSolution) -> list[OdeSolution]:
 @pytest.mark.parametrize("name", ["seed-mu", "hop-top", "slip-reversal", "painleve", "massless"])
 def test_the_dense_output_gives_odesolution_s_numbers(name, monkeypatch):
     """ExactSolution.sample evaluates DOP853's dense output for all times at once
-    (reference/exact.py _dop853_at): the same numbers, bit for bit, as OdeSolution's own call
+    (reference/exact.py _Dop853Steps): the same numbers, bit for bit, as OdeSolution's own call
     on a run's grid, on times out of order and repeated, and at the integrator's step
     starts."""
     solution = solve_exact(get_scene(name))
@@ -156,7 +156,9 @@ def test_the_dense_output_gives_odesolution_s_numbers(name, monkeypatch):
     for output in dense:  # each step's start and end, where two steps' polynomials meet
         ts = np.asarray(output.ts)
         for t in (ts, ts[::-1], np.repeat(ts, 2)):
-            assert np.array_equal(exact._dop853_at(output, t), output(t))
-    monkeypatch.setattr(exact, "_dop853_at", lambda dense, t: dense(t))
+            steps = exact._Dop853Steps.of(output)
+            assert steps is not None
+            assert np.array_equal(steps.at(t), output(t))
+    monkeypatch.setattr(exact._Dop853Steps, "at", lambda steps, t: steps.solution(t))
     for t, sample in zip(cases, at_once, strict=True):
         assert _same(sample, solution.sample(t))
