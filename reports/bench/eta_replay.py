@@ -317,10 +317,10 @@ def _name(index: int, step: str) -> str:
 
 
 def recorded_keys(records: Sequence[dict[str, Any]], workers: int) -> dict[Hashable, set[int]]:
-    """An engine whose calls keep to one worker (its batches: more than one world, or the
-    recorded run's) -> the worker that ran its first such call in the recorded run, workers
-    numbered 0 .. ``workers`` - 1 as their first calls started (records without a
-    ``worker``: none)."""
+    """A batching engine (the most general kind of a recorded call of more than one world,
+    as the ETA's layout keys it) -> the worker that ran its first such call in the recorded
+    run, workers numbered 0 .. ``workers`` - 1 as their first calls started (records
+    without a ``worker`` are passed over)."""
     order: dict[Any, int] = {}
     keys: dict[Hashable, set[int]] = {}
     for record in sorted(records, key=lambda r: float(r.get("started") or 0.0)):

@@ -11,9 +11,9 @@ summed; an engine that steps all of a call's worlds until the last ends, its lon
 world's times its worlds. A map's runs stop at their first impact and classify their
 point without stepping: their kinds are the map's own (``("map", engine)``), and an engine
 run's steps are those to where its stop rule ends it on the exact motion
-(:func:`map_call_cost`; a MuJoCo batch of the map's points stops each at its own: costed
-as its longest world's steps times its worlds, the map's ETA at 75 % of its runs read
-1.26-1.31 times the time left). The runner
+(:func:`map_call_cost`; a MuJoCo batch of the map's points, each stopped at its own, was
+costed as its longest world's steps times its worlds until 2026-11-29, when the map's ETA
+at 75 % of its runs read 1.26-1.31 times the time left). The runner
 scales these by what the finished calls measured; until an engine has a finished call,
 they are :data:`CALL_COST_PRIOR`'s scaled by the machine's factor.
 """

@@ -159,8 +159,9 @@ def _classes() -> tuple[type, type]:
             return sub_decade_ticks(vmin, vmax)
 
     class ReadableFormatter(Formatter):
-        """Powers of ten as the axis's own formatter writes them; other ticks so too, or, in
-        place of a log formatter (which writes them blank or rounded), as ``2×10⁻¹``."""
+        """The axis's own formatter's labels where its ticks are all powers of ten, or where
+        it is not a log formatter; else, on ticks the rule chose, one notation for all of
+        them (:func:`_plain` or :func:`_sci`), each written exactly (the module docstring)."""
 
         def __init__(self, own: Formatter, sci: bool) -> None:
             self.own, self.sci, self.digits, self.write = own, sci, 1, _sci
