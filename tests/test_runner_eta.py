@@ -906,6 +906,16 @@ def test_the_replay_gives_a_workers_first_call_of_the_engine_the_longest_recorde
         (None, "is not a readable calls file"),
         ("not json\n", "is not a readable calls file"),
         ("[1, 2]\n", "holds a line that is no call record: [1, 2]"),
+        (  # a field the replay reads that is no number
+            '{"kinds": [["mujoco", "stock", "default"], "mujoco"], "steps": 7, "worlds": "many", '
+            '"seconds": 0.1}\n',
+            "holds a line that is no call record",
+        ),
+        (  # when it started (--keys-as-recorded orders the workers by it)
+            '{"kinds": [["mujoco", "stock", "default"], "mujoco"], "steps": 7, "worlds": 1, '
+            '"seconds": 0.1, "started": "soon"}\n',
+            "holds a line that is no call record",
+        ),
         (  # a record of no call make report makes: an older file, or other suites
             '{"kinds": [["mujoco", "stock", "default"], "mujoco"], "steps": 7, "worlds": 1, '
             '"seconds": 0.1}\n',

@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import random
 import sys
 from collections import deque
@@ -336,6 +337,10 @@ def recorded_keys(records: Sequence[dict[str, Any]], workers: int) -> dict[Hasha
 RECORD_KEYS = ("kinds", "steps", "worlds", "seconds")
 """What the replay reads of a calls file's record (report-runs --calls writes more)."""
 
+RECORD_NUMBERS = ("steps", "worlds", "seconds", "started")
+"""The record's fields the replay reads as numbers (``started``, --keys-as-recorded's, may be
+null or absent)."""
+
 
 class BadCallsError(ValueError):
     """A calls file the replay cannot read: the one line :func:`main` prints."""
@@ -349,10 +354,22 @@ def read_records(path: str) -> list[dict[str, Any]]:
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise BadCallsError(f"calls {path!r} is not a readable calls file: {exc}") from None
     for record in records:
-        if not (isinstance(record, dict) and all(key in record for key in RECORD_KEYS)):
+        if not _is_record(record):
             text = f"{record!r:.80}"
             raise BadCallsError(f"calls {path!r} holds a line that is no call record: {text}")
     return records
+
+
+def _is_record(record: object) -> bool:
+    """Whether ``record`` holds what the replay reads: RECORD_KEYS, its kinds a list and
+    RECORD_NUMBERS finite numbers (``started`` null or absent too)."""
+    if not (isinstance(record, dict) and all(key in record for key in RECORD_KEYS)):
+        return False
+    numbers = [record.get(key) for key in RECORD_NUMBERS]
+    numbers[-1] = 0.0 if numbers[-1] is None else numbers[-1]
+    return isinstance(record["kinds"], list) and all(
+        isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) for v in numbers
+    )
 
 
 def main(argv: Sequence[str] | None = None) -> int:
