@@ -307,7 +307,12 @@ def test_a_folder_of_another_search_is_refused(
         (lambda t: t.replace("iterations =", "iteratons ="), "unknown pymunk setting"),
         (lambda t: t.replace('engine = "pymunk"', 'engine = "mujoco"'), "unknown mujoco setting"),
         (lambda t: "foo = 1\n" + t, "unknown key"),
-        (lambda t: t.replace("[[settings]]", "[[setting]]"), "unknown key"),
+        # Its tables too: a front of several settings with options stays TOML, one key
+        # unknown, whatever the search found (a front of two made it "not TOML").
+        (
+            lambda t: t.replace("[[settings]]", "[[setting]]").replace("[settings.", "[setting."),
+            "unknown key",
+        ),
     ],
 )
 def test_a_bad_settings_file_is_one_line_and_exit_2(
