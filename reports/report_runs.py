@@ -81,8 +81,7 @@ def _cost(unit: object, cost: Callable[[Sequence[object]], CallCost]) -> CallCos
     """A call's cost as the runner works it out: keeping to one worker where it has an
     affinity key (the shared pool is a WorkerPool)."""
     call = cost(_tasks(unit))
-    affine = isinstance(unit, TaskBatch) and unit.affinity is not None
-    return replace(call, affine=True) if affine else call
+    return replace(call, affinity=unit.affinity) if isinstance(unit, TaskBatch) else call
 
 
 def suite_sweep(name: str, jobs: int, batch_size: int) -> PlannedSweep:

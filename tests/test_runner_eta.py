@@ -46,6 +46,7 @@ from hoopbench.reports.compare.costs import (
 )
 from hoopbench.reports.hop_map.spec import MapSpec
 from hoopbench.reports.hop_map.stages import MapTask
+from hoopbench.reports.report_runs import report_plan
 from hoopbench.reports.sweep import eta
 from hoopbench.reports.sweep.eta import (
     CallCost,
@@ -55,6 +56,7 @@ from hoopbench.reports.sweep.eta import (
     Took,
     call_ends,
     call_firsts,
+    key_holders,
     kind_factors,
     machine_factor,
     ran,
@@ -393,7 +395,7 @@ def test_calls_that_keep_to_one_worker_pay_an_engines_first_call_once():
     (on the first call), as on one worker; the calls that spread compile them twice."""
     cold = priors({"mjwarp"})
     first_s = cold["mjwarp"].first_s  # the kernels compiled (and loaded)
-    tuned, stock = replace(MJW_TUNED, affine=True), replace(MJW_STOCK, affine=True)
+    tuned, stock = replace(MJW_TUNED, affinity="mjwarp"), replace(MJW_STOCK, affinity="mjwarp")
     spread = call_ends([MJW_TUNED, MJW_STOCK], [], [], 2, cold)
     kept = call_ends([tuned, stock], [], [], 2, cold)
     assert spread is not None and kept is not None
@@ -417,7 +419,7 @@ def test_a_batched_engines_calls_queue_on_its_worker_while_others_take_the_other
     calls that keep to no worker."""
     batch = Rates(fixed_s=5.0, step_s=0.0)
     prior = {"mujoco": batch, "pymunk": Rates(fixed_s=0.1, step_s=0.0)}
-    mujoco = CallCost(kinds=(("mujoco", "tuned", "default"), "mujoco"), steps=0, affine=True)
+    mujoco = CallCost(kinds=(("mujoco", "tuned", "default"), "mujoco"), steps=0, affinity="mujoco")
     point = CallCost(kinds=(("pymunk", "tuned", "default"), "pymunk"), steps=0)
     running = [Running(mujoco, ran=0.0)]
     ends = call_ends([mujoco, mujoco, *[point] * 10], running, [], 2, prior)
@@ -579,6 +581,27 @@ def test_the_overall_line_counts_every_sweeps_runs_and_time(tmp_path):
     ), lines[0]
     assert "; make report: step 2 of 2 (finer), runs 5/5, eta " in lines[-1], lines
     assert len(plan.finished) == 5  # both sweeps' calls: the second learns from the first
+
+
+def test_a_progress_line_lays_out_the_calls_once(tmp_path, monkeypatch):
+    """A line shows its sweep's ETA and the plan's: both come from one layout of the calls
+    (Plan.etas), each about 8 ms on a slow machine; they were laid out once each."""
+    plan, layouts = _plan(), []
+    ends = Plan._ends
+    monkeypatch.setattr(
+        Plan, "_ends", lambda self, later: layouts.append(later) or ends(self, later)
+    )
+    log = io.StringIO()
+    token = current_plan.set(plan)
+    try:
+        run_tasks([Job("ok-0"), Job("ok-1"), Job("ok-2")], job_worker, tmp_path, jobs=1,
+                  quiet=False, stream=log, failure_row=job_failure_row,
+                  costing=Costing(cost=_kinds, prior=SLEEP_PRIOR))  # fmt: skip
+    finally:
+        current_plan.reset(token)
+    lines = [line for line in log.getvalue().splitlines() if "; make report: " in line]
+    assert len(lines) >= 2 and all(", eta " in line.split("; make report: ")[1] for line in lines)
+    assert len(layouts) == len(lines), log.getvalue()
 
 
 def test_a_later_sweep_is_expected_at_the_factor_the_finished_calls_measured():
@@ -966,7 +989,7 @@ def test_the_replays_shuffle_reorders_the_maps_engine_runs_alone():
 def test_the_replay_hands_a_batched_engines_calls_to_the_worker_that_ran_it():
     """eta_replay takes calls as the pool does: worker 2 passes over MJX's calls that worker
     1 has begun and takes the call of no affinity behind them, unless nothing else is left."""
-    mjx = replace(MJX_TUNED, affine=True)
+    mjx = replace(MJX_TUNED, affinity="mjx")
     sweep = _ReplaySweep(deque([mjx, mjx, MJW_TUNED]))
     taken = ran(mjx, 1)
     assert _next_call([sweep], 2, taken, False, 4) == (0, 2)
@@ -986,8 +1009,8 @@ def test_a_batched_engines_calls_keep_to_the_worker_that_holds_its_key_between_i
     left). Here: MuJoCo's call 2 s from its end on worker 1, a point just begun on worker
     2, then MJX's call and 30 points: they end on worker 2 in 3.1 s, MJX's on worker 1 in
     7 s (the layout that gave MJX's call to worker 2: the points in 5 s)."""
-    mujoco = CallCost(kinds=(("mujoco", "tuned", "default"), "mujoco"), steps=0, affine=True)
-    mjx = CallCost(kinds=(("mjx", "tuned", "default"), "mjx"), steps=0, affine=True)
+    mujoco = CallCost(kinds=(("mujoco", "tuned", "default"), "mujoco"), steps=0, affinity="mujoco")
+    mjx = CallCost(kinds=(("mjx", "tuned", "default"), "mjx"), steps=0, affinity="mjx")
     point = CallCost(kinds=(("map", "reference"),), steps=0)
     prior = {
         "mujoco": Rates(5.0, 0.0),
@@ -1019,7 +1042,7 @@ def test_a_steps_eta_counts_the_later_steps_calls_that_keep_the_other_worker_bus
     would not idle") and said 34 s of 53 (0.66). Laid out with the later steps' calls, the
     other worker takes those, its own. Here: MuJoCo's call 2 s from its end on worker 1,
     two more of 5 s pending, a cheap call ending on worker 2; then the map's 100 points."""
-    mujoco = CallCost(kinds=(("mujoco", "tuned", "default"), "mujoco"), steps=0, affine=True)
+    mujoco = CallCost(kinds=(("mujoco", "tuned", "default"), "mujoco"), steps=0, affinity="mujoco")
     point = CallCost(kinds=(("map", "reference"),), steps=0)
     prior = {"mujoco": Rates(5.0, 0.0), ("map", "reference"): Rates(0.1, 0.0)}
     warm = ran(mujoco, 1) | ran(point, 2)
@@ -1031,6 +1054,35 @@ def test_a_steps_eta_counts_the_later_steps_calls_that_keep_the_other_worker_bus
     running = (Running(mujoco, ran=3.0, worker=1), Running(point, ran=0.0, worker=2))
     plan.attach(plan.begin(4), ActiveSweep(running=running, pending=(mujoco, mujoco), warm=warm))
     assert plan.sweep_left(0) == pytest.approx(2.0 + 5.0 + 5.0)  # not 7.0: stolen at 0.1 s
+
+
+def test_the_maps_mujoco_batches_queue_on_the_worker_that_holds_mujocos_key():
+    """The pool keys a batch by its engine (compare.suite.batch_affinity): the map's MuJoCo
+    batches, costed as their own kind ('map', 'mujoco'), hold MuJoCo's key with the suites'.
+    The layout took that kind for the key: it handed a map batch to a worker that did not
+    hold MuJoCo's key while the one that did was busy (live, 3 of a make report's 4 map
+    batches ran on the holder). Here: worker 1 holds the key and has 1 s left, worker 2 is
+    free; a 5-s map batch, then a 3-s single run."""
+    suite = CallCost(kinds=(("mujoco", "tuned", "default"), "mujoco"), steps=0, affinity="mujoco")
+    batch = CallCost(kinds=(("map", "mujoco", "tuned", 1e-4), ("map", "mujoco")), steps=0,
+                     worlds=25, affinity="mujoco")  # fmt: skip
+    single = CallCost(kinds=(("pybullet", "tuned", "default"), "pybullet"), steps=0)
+    prior = {"mujoco": Rates(3.0, 0.0), ("map", "mujoco"): Rates(5.0, 0.0),
+             "pybullet": Rates(3.0, 0.0)}  # fmt: skip
+    warm = ran(suite, 1)
+    running = [Running(suite, ran=2.0, worker=1)]
+    ends = call_ends([batch, single], running, [], 2, prior, warm_counts(warm), key_holders(warm))
+    assert ends == ([1.0], [6.0, 3.0])  # not [5.0, 4.0]: the batch on the free worker
+
+
+def test_every_mujoco_call_of_make_report_holds_one_key():
+    """The plan's calls carry the runner's affinity key (report_runs, the runner's _cost),
+    not their most general kind: the suites' and the map's MuJoCo batches one key."""
+    plan = report_plan(["stability"], MapSpec(nx=3, ny=3, engines=("mujoco",)), 2, 8)
+    keys = {(call.kinds[-1], call.affinity) for sweep in plan.sweeps for call in sweep.calls
+            if call.worlds > 1}  # fmt: skip
+    assert ("mujoco", "mujoco") in keys and (("map", "mujoco"), "mujoco") in keys
+    assert {key for kind, key in keys if "mujoco" in str(kind)} == {"mujoco"}
 
 
 def test_the_replay_can_put_each_batched_engines_key_where_the_recorded_run_held_it():
@@ -1053,7 +1105,10 @@ def test_the_replay_can_put_each_batched_engines_key_where_the_recorded_run_held
     ]  # fmt: skip
     keys = recorded_keys(records, workers=2)
     assert keys == {"mjx": {1}, "mujoco": {1}, ("map", "mujoco"): {0}}
-    mujoco = CallCost(kinds=(("mujoco", "tuned", "default"), "mujoco"), steps=0, affine=True)
+    # The map's batches hold MuJoCo's key, as the pool keys them: the first batch of either.
+    keys = recorded_keys(records, workers=2, affinities={("map", "mujoco"): "mujoco"})
+    assert keys == {"mjx": {1}, "mujoco": {1}}
+    mujoco = CallCost(kinds=(("mujoco", "tuned", "default"), "mujoco"), steps=0, affinity="mujoco")
     sweep = _ReplaySweep(deque([mujoco, CHEAP]))
     assert _next_call([sweep], 0, set(), False, 4, keys) == (0, 1)  # not its key: the cheap one
     assert _next_call([sweep], 1, set(), False, 4, keys) == (0, 0)
@@ -1067,7 +1122,7 @@ def test_the_replay_begins_a_sweep_once_the_runner_has_submitted_the_one_before(
     still queued. The replay that began it once the sweep before had 4 calls left to start
     ran those first and read the map's classification ETA 1.07-1.12 where the real one was
     2.6-14 times off."""
-    mjx = replace(MJX_TUNED, affine=True)
+    mjx = replace(MJX_TUNED, affinity="mjx")
     sweep = _ReplaySweep(deque([mjx, *[CHEAP] * 4, mjx, mjx, CHEAP]))
     assert sweep.submitted(4) == 7 and not sweep.drained(4)
     stability = _ReplaySweep(deque([*[mjx] * 6, CHEAP, CHEAP]))

@@ -45,7 +45,7 @@ import math
 import random
 import sys
 from collections import deque
-from collections.abc import Hashable, Sequence
+from collections.abc import Hashable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -198,7 +198,7 @@ def replay(
     ends: dict[str, float] = {}
     overall: list[tuple[float, float, str]] = []
     free = dict.fromkeys(range(workers), 0.0)
-    pinned = recorded_keys(records, workers) if keys_as_recorded else {}
+    pinned = recorded_keys(records, workers, _affinities(plan)) if keys_as_recorded else {}
     begun = -1
     now = 0.0
     while True:
@@ -223,8 +223,7 @@ def replay(
         if now - sweep.line < LINE_INTERVAL_S and (sweep.queue or sweep.running):
             continue  # the runner's plain lines: at most one a second, and the last
         sweep.line = now
-        own = plan.sweep_left(k)
-        whole = plan.seconds_left()
+        own, whole = plan.etas(k)  # as a progress line does
         if own is not None:
             points[names[k]].append((sweep.done / plan.sweeps[k].runs, now, duration_text(own)))
             ends[names[k]] = now
@@ -293,10 +292,10 @@ def _next_call(
     pinned: dict[Hashable, set[int]] | None = None,
 ) -> tuple[int, int] | None:
     """(sweep, index in its queue) of the call ``worker`` takes (:func:`_start_calls`), of
-    those the runner has submitted to the pool; ``pinned``: an engine -> the worker that
-    holds its key before any has run its calls (:func:`recorded_keys`)."""
-    owners: dict[Hashable, set[Hashable]] = {engine: set(w) for engine, w in (pinned or {}).items()}
-    owners.update(key_holders(taken))  # an engine -> the workers that hold its key
+    those the runner has submitted to the pool; ``pinned``: an affinity key -> the worker
+    that holds it before any has run its calls (:func:`recorded_keys`)."""
+    owners: dict[Hashable, set[Hashable]] = {key: set(w) for key, w in (pinned or {}).items()}
+    owners.update(key_holders(taken))  # an affinity key -> the workers that hold it
     for k, sweep in enumerate(sweeps):
         for index in range(sweep.submitted(limit)):
             if steal or own_call(sweep.queue[index], worker, owners):
@@ -317,11 +316,26 @@ def _name(index: int, step: str) -> str:
     return "map (reference)" if index == len(REPORT_SUITES) else "map"
 
 
-def recorded_keys(records: Sequence[dict[str, Any]], workers: int) -> dict[Hashable, set[int]]:
-    """A batching engine (the most general kind of a recorded call of more than one world,
-    as the ETA's layout keys it) -> the worker that ran its first such call in the recorded
-    run, workers numbered 0 .. ``workers`` - 1 as their first calls started (records
-    without a ``worker`` are passed over)."""
+def _affinities(plan: Plan) -> dict[Hashable, Hashable]:
+    """A call's most general kind -> the affinity key of its calls, in ``plan``'s calls."""
+    return {
+        call.kinds[-1]: call.affinity
+        for sweep in plan.sweeps
+        for call in sweep.calls
+        if call.kinds and call.affine
+    }
+
+
+def recorded_keys(
+    records: Sequence[dict[str, Any]],
+    workers: int,
+    affinities: Mapping[Hashable, Hashable] | None = None,
+) -> dict[Hashable, set[int]]:
+    """An affinity key (``affinities``' of the most general kind of a recorded call of more
+    than one world, else that kind) -> the worker that ran its first such call in the
+    recorded run, workers numbered 0 .. ``workers`` - 1 as their first calls started
+    (records without a ``worker`` are passed over). The map's MuJoCo batches, kind
+    ('map', 'mujoco'), hold MuJoCo's key, as the suites' do."""
     order: dict[Any, int] = {}
     keys: dict[Hashable, set[int]] = {}
     for record in sorted(records, key=lambda r: float(r.get("started") or 0.0)):
@@ -330,7 +344,8 @@ def recorded_keys(records: Sequence[dict[str, Any]], workers: int) -> dict[Hasha
             continue
         slot = order.setdefault(worker, len(order) % max(workers, 1))
         if int(record["worlds"]) > 1:
-            keys.setdefault(_kind(record["kinds"][-1]), {slot})
+            kind = _kind(record["kinds"][-1])
+            keys.setdefault((affinities or {}).get(kind, kind), {slot})
     return keys
 
 

@@ -59,7 +59,7 @@ less than their priors at the machine's factor scale its warm calls
 
 The calls left are then handed out in the order they are submitted, as the pool hands them
 (a call in flight keeps its worker for what it has left): the worker free first takes the
-first call that is its own, a batched engine's only on a worker that holds the engine's key
+first call that is its own, a batched engine's only on a worker that holds its affinity key
 (has run one of its calls, running one now or not: :func:`key_holders`; or that no worker
 holds it yet) unless nothing else is left, and the ETA is when the last one ends. A cold make
 report's map classification (100 points, 6 s on one worker) read 2.6-14 times the time left
@@ -113,10 +113,17 @@ class CallCost:
     """Its worlds' steps as its engine pays them (the caller's rule: a MuJoCo batch stops
     stepping each world at its own end, so its worlds' steps summed); None: ``steps``
     times ``worlds``, every world stepping to the longest's end (:attr:`paid_world_steps`)."""
-    affine: bool = False
-    """Its calls keep to the worker that has run one (the runner's batch affinity): what a
+    affinity: Hashable | None = None
+    """The pool's affinity key of its calls (the runner's ``Batching.affinity``), else None:
+    its calls keep to the worker that holds the key (that has run a call of it), and what a
     worker's first call of its kind or engine pays is laid out as paid on one worker, not
-    on each."""
+    on each. The key, not the engine: the map's MuJoCo batches, costed as their own kind
+    (('map', 'mujoco')), hold the same key as the suites' ('mujoco')."""
+
+    @property
+    def affine(self) -> bool:
+        """Whether its calls keep to the worker that holds their key (:attr:`affinity`)."""
+        return self.affinity is not None
 
     @property
     def paid_world_steps(self) -> float:
@@ -423,7 +430,7 @@ def remaining_seconds(
     docstring). ``warm``: kind (at every level, :func:`warm_counts`) -> workers that have
     run a call of it; the first pending calls of a most specific kind, one per worker that
     has not, are cold, those of an engine (the most general kind) first, and the first of a
-    kind no worker has run new (:class:`Took`). ``holders``: engine -> the workers that
+    kind no worker has run new (:class:`Took`). ``holders``: affinity key -> the workers that
     hold its affinity key (:func:`key_holders`), which its affine calls keep to. None when
     a call has no prior and no call has finished yet."""
     ends = call_ends(pending, running, finished, workers, prior, warm, holders)
@@ -449,11 +456,10 @@ def call_ends(
     seen = {kind for kind, n in (warm or {}).items() if n > 0}
     free = [0.0] * workers  # when each worker is next free, s from now
     slots = _slots(running, holders or {}, workers)
-    # An affine engine -> the workers that hold its key: those that have run one of its
+    # An affinity key -> the workers that hold it: those that have run one of its
     # calls, not only those running one now (the pool's worker.keys).
     owners = {
-        engine: {slots[w] for w in ran_by if w in slots}
-        for engine, ran_by in (holders or {}).items()
+        key: {slots[w] for w in ran_by if w in slots} for key, ran_by in (holders or {}).items()
     }
     running_ends: list[float] = []
     for run in running:
@@ -466,7 +472,7 @@ def call_ends(
         free[worker] += rest
         running_ends.append(free[worker])
         if run.call.affine:
-            owners.setdefault(_engine(run.call), set()).add(worker)
+            owners.setdefault(run.call.affinity, set()).add(worker)
     expected_pending: list[float] = []
     for call in pending:
         kind = call.kinds[0] if call.kinds else None
@@ -512,7 +518,7 @@ def _laid_out(
 ) -> list[float]:
     """When each pending call ends, handed out as the pool hands them (WorkerPool.submit_keyed):
     the worker free first takes the first pending call that is its own (one that keeps to no
-    worker, or whose engine's key it holds, or that no worker holds yet), else the first
+    worker, or whose affinity key it holds, or that no worker holds yet), else the first
     pending call (it would not idle). So a batched engine's calls queue on its worker while
     the others' calls go to the other workers."""
     ends = [0.0] * len(pending)
@@ -522,7 +528,7 @@ def _laid_out(
         pick = next((j for j, i in enumerate(left) if own_call(pending[i], worker, owners)), 0)
         i = left.pop(pick)
         if pending[i].affine:
-            owners.setdefault(_engine(pending[i]), set()).add(worker)
+            owners.setdefault(pending[i].affinity, set()).add(worker)
         free[worker] += expected[i]
         ends[i] = free[worker]
     return ends
@@ -530,10 +536,10 @@ def _laid_out(
 
 def own_call(call: CallCost, worker: Hashable, owners: Mapping[Hashable, Collection]) -> bool:
     """Whether ``worker`` takes ``call`` before any other queued call, as the pool hands
-    them (WorkerPool.submit_keyed): one that keeps to no worker, or whose engine's key it
-    holds, or whose engine's key no worker holds yet (``owners``: engine -> the workers
-    that hold its key, :func:`key_holders`)."""
-    runners = owners.get(_engine(call)) if call.affine else None
+    them (WorkerPool.submit_keyed): one that keeps to no worker, or whose affinity key it
+    holds, or whose key no worker holds yet (``owners``: affinity key -> the workers that
+    hold it, :func:`key_holders`)."""
+    runners = owners.get(call.affinity) if call.affine else None
     return not runners or worker in runners
 
 
@@ -562,25 +568,25 @@ def call_firsts(
 @dataclass(frozen=True)
 class Key:
     """The affinity key a worker holds once it has run an affine call (the pool's
-    ``worker.keys``, :meth:`WorkerPool.submit_keyed`): the call's engine."""
+    ``worker.keys``, :meth:`WorkerPool.submit_keyed`): the call's :attr:`CallCost.affinity`."""
 
-    engine: Hashable
+    name: Hashable
 
 
 def ran(call: CallCost, worker: Hashable) -> set[tuple[Hashable, Hashable]]:
     """(worker, kind) at every level of ``call``'s kinds: what a worker that has run it is
     warm for (:func:`call_firsts`); and (worker, :class:`Key`) for an affine call."""
     pairs = {(worker, kind) for kind in call.kinds} if call.kinds else {(worker, None)}
-    return pairs | ({(worker, Key(_engine(call)))} if call.affine else set())
+    return pairs | ({(worker, Key(call.affinity))} if call.affine else set())
 
 
 def key_holders(warm: Iterable[tuple[Hashable, Hashable]]) -> dict[Hashable, set[Hashable]]:
-    """Engine -> the workers that hold its affinity key, from what they ran (:func:`ran`):
+    """Affinity key -> the workers that hold it, from what they ran (:func:`ran`):
     ``call_ends``' ``holders``, and the replay's pool."""
     holders: dict[Hashable, set[Hashable]] = {}
     for worker, kind in warm:
         if isinstance(kind, Key):
-            holders.setdefault(kind.engine, set()).add(worker)
+            holders.setdefault(kind.name, set()).add(worker)
     return holders
 
 

@@ -975,6 +975,8 @@ class _Progress:
         """The sweeps run in a row that this one is part of: its line ends with theirs."""
         self.plan_index = 0
         """Which of the plan's sweeps this is."""
+        self.plan_etas = False
+        """Whether its ETA is the plan's layout of it (:meth:`use_plan_estimate`)."""
         isatty = getattr(stream, "isatty", None)
         self.bar = None
         if not quiet and total and isatty is not None and isatty():
@@ -986,27 +988,43 @@ class _Progress:
         if self.bar is not None:
             self.bar.bar_format = "{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}{postfix}]"
 
+    def use_plan_estimate(self) -> None:
+        """The ETA from the plan's layout of the calls (:attr:`plan`, set first): a line's
+        ETA and its plan's from one layout (Plan.etas)."""
+        assert self.plan is not None
+        plan, index = self.plan, self.plan_index
+        self.use_estimate(lambda: plan.sweep_left(index))
+        self.plan_etas = True
+
     def seconds_left(self, elapsed: float) -> float:
         """The time left: from the calls' expected costs when known, else by count."""
+        return self._lefts(elapsed)[0]
+
+    def _lefts(self, elapsed: float) -> tuple[float, float | None]:
+        """(:meth:`seconds_left`, the plan's seconds left when worked out with it, else
+        None): on a plan, both from one layout of the calls."""
+        seconds = whole = None
+        with contextlib.suppress(Exception):  # a cost model's bug must not stop a sweep
+            if self.plan_etas and self.plan is not None:
+                seconds, whole = self.plan.etas(self.plan_index)
+            elif self.estimate is not None:
+                seconds = self.estimate()
         left = self.total - self.done
         if not left:
-            return 0.0
-        seconds = None
-        if self.estimate is not None:
-            with contextlib.suppress(Exception):  # a cost model's bug must not stop a sweep
-                seconds = self.estimate()
-        return elapsed / self.done * left if seconds is None else seconds
+            return 0.0, whole
+        return (elapsed / self.done * left if seconds is None else seconds), whole
 
     def eta(self, elapsed: float) -> str:
         return _duration(self.seconds_left(elapsed))
 
-    def _plan_text(self, left: float) -> str:
-        """'; make report: step 2 of 4 (finer), runs 500/1244, eta 3m10s', or ''."""
+    def _plan_text(self, whole: float | None) -> str:
+        """'; make report: step 2 of 4 (finer), runs 500/1244, eta 3m10s', or '' (``whole``:
+        the plan's seconds left if worked out, :meth:`_lefts`)."""
         if self.plan is None:
             return ""
         text = ""
         with contextlib.suppress(Exception):  # a cost model's bug must not stop a sweep
-            text = f"; {self.plan.text(self.plan_index)}"
+            text = f"; {self.plan.text(self.plan_index, left=whole)}"
         return text
 
     def note(self, text: str) -> None:
@@ -1038,8 +1056,8 @@ class _Progress:
         if self.bar is not None:
             self.bar.update(1)
             if self.estimate is not None:  # tqdm's own ETA is the count's
-                left = self.seconds_left(time.monotonic() - self.start)
-                text = f"{self._failures_text()}, eta {_duration(left)}{self._plan_text(left)}"
+                left, whole = self._lefts(time.monotonic() - self.start)
+                text = f"{self._failures_text()}, eta {_duration(left)}{self._plan_text(whole)}"
                 self.bar.set_postfix_str(text, refresh=False)
             elif status is not RunStatus.OK:
                 self.bar.set_postfix_str(self._failures_text(), refresh=False)
@@ -1050,11 +1068,11 @@ class _Progress:
             return
         self.last_line = now
         elapsed = now - self.start
-        left = self.seconds_left(elapsed)
+        left, whole = self._lefts(elapsed)
         print(
             f"[{self.done}/{self.total}] {terminal_text(label)}: {status.value}; "
             f"{self._failures_text()}; elapsed {_duration(elapsed)}, eta {_duration(left)}"
-            f"{self._plan_text(left)}",
+            f"{self._plan_text(whole)}",
             file=self.stream,
             flush=True,
         )
@@ -1630,9 +1648,7 @@ class _Calls:
         assert self.costing is not None
         found = self._costs.get(id(unit))
         if found is None:
-            found = self.costing.cost(_tasks_of(unit))
-            if self._affinity(unit) is not None:
-                found = replace(found, affine=True)
+            found = replace(self.costing.cost(_tasks_of(unit)), affinity=self._affinity(unit))
             self._costs[id(unit)] = found
         return found
 
@@ -2030,7 +2046,7 @@ def _join_plan(calls: _Calls | None, progress: _Progress | None) -> None:
     progress.plan, progress.plan_index = plan, index
     plan.attach(index, calls)
     if calls.costing is not None:
-        progress.use_estimate(lambda: plan.sweep_left(index))
+        progress.use_plan_estimate()
 
 
 def _drive(calls: _Calls, handle_signals: bool, tick: float) -> signal.Signals | None:
