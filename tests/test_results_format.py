@@ -436,6 +436,18 @@ def test_a_trajectory_records_its_version(trajectory, tmp_path):
     assert csv.read_text().startswith("# hoopbench trajectory format 1; SI units\n")
 
 
+def test_a_parquet_trajectory_is_compressed_and_reads_back_bit_for_bit(trajectory, tmp_path):
+    """Each float column split into byte streams, then zstd: this 3,001-sample run takes 0.59
+    of its doubles' 8 bytes a sample, where snappy alone took 0.80 (a make report's 407
+    trajectories: 378 MB with snappy, 241 MB so written)."""
+    written = Trajectory.read(trajectory)
+    frame = written.to_frame()
+    path = written.write(tmp_path / "t.parquet")
+    size, raw = path.stat().st_size, frame.memory_usage(index=False).sum()
+    assert size < 0.7 * raw, (size, raw)
+    pd.testing.assert_frame_equal(Trajectory.read(path).to_frame(), frame, check_exact=True)
+
+
 def test_trajectories_without_a_version_are_read_as_the_oldest(trajectory, tmp_path):
     expected = Trajectory.read(trajectory).to_frame()
     bare = pd.read_parquet(trajectory)
