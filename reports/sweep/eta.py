@@ -397,9 +397,10 @@ _last_estimate = None
 def _estimate(finished: Sequence[Took], prior: Mapping[Hashable, Rates]) -> _Estimate:
     """``_Estimate(finished, prior)``, made once for the same ``finished`` (an append-only
     list: the same object, length and last call) and the same ``prior`` object: a progress
-    line of ``make report`` lays out its calls three times (the sweep's ETA, the plan's,
-    and the report after them) over the same finished calls, and making the estimate went
-    through all of them each time (4.6 of the parent's 26 CPU-s on a loaded run)."""
+    line of ``make report`` costs its calls twice over the same finished calls (their
+    layout, Plan.etas, and the report after them; three times when the sweep's ETA and the
+    plan's were laid out apart), and making the estimate went through all of them each time
+    (4.6 of the parent's 26 CPU-s on a loaded run)."""
     global _last_estimate
     last = finished[-1] if finished else None
     kept = _last_estimate
