@@ -50,6 +50,7 @@ __all__ = [
     "Mode",
     "Segment",
     "WorkBudgetError",
+    "first_flight_impact",
     "flight_phase",
     "solve_exact",
     "solve_exact_settled",
@@ -895,6 +896,25 @@ def flight_phase(
     height = _hop_height(clear, grid, (j, best), tau_impact, units.time) if i > 0 else 0.0
     t_impact = t0 + float(tau_impact)
     return _flight_segment(scene, t0, state, t_impact), t_impact, height
+
+
+def first_flight_impact(scene: Scene) -> float | None:
+    """When the exact motion first lands, s, if its first mode (as :func:`solve_exact`
+    chooses it) is a flight, the hoop leaving the floor at t = 0; None for any other start,
+    whose first impact only the whole solution finds. The flight is ballistic
+    (:func:`flight_phase`), so this integrates nothing: a cost estimate's shortcut (the hop
+    map's runs stop at their first impact) before the solution is known. None too where
+    the flight's scan would exceed its work budget."""
+    if scene.is_degenerate:
+        return None
+    mode, _ = _rolling_start(scene) if scene.rolls_at_start else _sliding_start(scene)
+    if mode is not Mode.FLIGHT:
+        return None
+    try:
+        _, t_impact, _ = flight_phase(scene, 0.0, scene.initial_state())
+    except WorkBudgetError:
+        return None
+    return t_impact
 
 
 # --------------------------------------------------------------------------- driver

@@ -30,7 +30,7 @@ from physics_scenes import (
 from hoopbench.models.events import Outcome, PhaseKind
 from hoopbench.models.scene import Scene
 from hoopbench.reference import dynamics
-from hoopbench.reference.exact import ExactSolution, solve_exact
+from hoopbench.reference.exact import ExactSolution, first_flight_impact, solve_exact
 
 
 def top_energy_scene(mus: float) -> Scene:
@@ -214,6 +214,21 @@ def test_contact_forces_respect_the_friction_cone(scene):
             assert np.abs(np.abs(f) - scene.muk * n).max() <= 1e-9 * g
             # Friction opposes the slip: on the cone edge, on the right side of it.
             assert np.all(f * traj.slip_velocity <= 1e-12 * g * math.sqrt(g * scene.a))
+
+
+@pytest.mark.parametrize("lam", [0.3, 0.6, 0.9])
+@pytest.mark.parametrize("chi", [0.5, 1.2, 2.0, 4.0])
+def test_the_first_flights_landing_is_the_solutions_first_impact(lam, chi):
+    """first_flight_impact, the hop map's cost shortcut, integrates nothing: where the
+    solution starts with a flight it gives that flight's landing, the solution's first
+    impact, and None wherever the solution starts otherwise."""
+    scene = Scene.from_chi(chi, lam=lam, mus=0.8, muk=0.8, eps=0.01, theta0=0.0, t_end=2.0)
+    solution = solve_exact(scene)
+    t_impact = first_flight_impact(scene)
+    if solution.segments[0].kind is PhaseKind.FLIGHT and solution.segments[0].t_start == 0:
+        assert t_impact == pytest.approx(solution.events.t_impact, abs=1e-12)
+    else:
+        assert t_impact is None
 
 
 def test_flight_has_no_contact_force():

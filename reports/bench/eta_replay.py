@@ -19,20 +19,23 @@ A replay tells how the ETA's model reads calls that cost what they cost, in an o
 to the real one; it does not reproduce the real run's timing (no gaps between calls, no
 drawing). The map's engine runs are costed as the runner costs them, by the steps to where
 each stops on its point's exact motion: the replay classifies the map's points first (about
-5 CPU-s). A calls file written before that costing (by the window) finds no recorded call
-of them: ``--map-by-window`` replays one with the map's runs costed as it was, at today's
-priors. ``--cold`` takes the engines whose compiled-code caches were empty (make report
-with a new HOOPBENCH_CACHE: ``mjx newton mjwarp``). ``--shuffle-map SEED`` hands the map's
-engine runs alone (not its batches, not its classification) their recorded seconds in a
-seeded random order instead of the grid's (x outer, y inner), each worker's first call still
-the longest: it tells what of the map's ETA comes from the grid order, whose first points
-(rolling and slipping starts) cost several times the later ones (most lifting off at once),
-so that a kind's factor measured on them says too much of the rest (docs/cli.md).
-``--keys-as-recorded`` gives each batched engine's affinity key to the worker that ran its
-first call in the recorded run (the file's ``worker``, workers numbered as their first calls
-started), not to the simulated worker that happens to be free first: where one worker held
-both MuJoCo's and MJX's keys, their last calls ran one after the other on it while the other
-worker ran the map's, which a replay with the keys apart does not show.
+5 CPU-s). Until they begin, its plan costs them as make report's does, without the exact
+columns (``MapTask.expected_steps``): so the ETA of the steps before reads as it read live,
+the map's part of it too long by what the classification then finds. A calls file written
+before that costing (by the window) finds no recorded call of them: ``--map-by-window``
+replays one with the map's runs costed as it was, at today's priors. ``--cold`` takes the
+engines whose compiled-code caches were empty (make report with a new HOOPBENCH_CACHE: ``mjx
+newton mjwarp``). ``--shuffle-map SEED`` hands the map's engine runs alone (not its batches,
+not its classification) their recorded seconds in a seeded random order instead of the
+grid's (x outer, y inner), each worker's first call still the longest: it tells what of the
+map's ETA comes from the grid order, whose first points (rolling and slipping starts) cost
+several times the later ones (most lifting off at once), so that a kind's factor measured on
+them says too much of the rest (docs/cli.md). ``--keys-as-recorded`` gives each batched
+engine's affinity key to the worker that ran its first call in the recorded run (the file's
+``worker``, workers numbered as their first calls started), not to the simulated worker that
+happens to be free first: where one worker held both MuJoCo's and MJX's keys, their last
+calls ran one after the other on it while the other worker ran the map's, which a replay
+with the keys apart does not show.
 
     python -m hoopbench.reports.bench.eta_replay /tmp/mr11-calls.jsonl --cold mjx newton mjwarp
 """
@@ -46,17 +49,18 @@ import random
 import sys
 from collections import deque
 from collections.abc import Hashable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from hoopbench.engines.judging.columns import Col
 from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.reports.bench.call_costs import FRACTIONS, _kind, _ratios
 from hoopbench.reports.compare.costs import MAP as MAP_KIND
 from hoopbench.reports.compare.costs import priors
 from hoopbench.reports.compare.suite import DEFAULT_BATCH_SIZE
 from hoopbench.reports.hop_map.spec import MapSpec
-from hoopbench.reports.hop_map.stages import classified_tasks
+from hoopbench.reports.hop_map.stages import MapTask, classified_tasks, planned_tasks
 from hoopbench.reports.report_runs import MAP_STEP, REPORT_SUITES, report_plan
 from hoopbench.reports.sweep.eta import (
     CallCost,
@@ -187,12 +191,15 @@ def replay(
     runs costed by their window, as calls files written before their stop was read;
     ``keys_as_recorded``: ``--keys-as-recorded``)."""
     suites = [name for name, _ in REPORT_SUITES]
-    # The map's engine runs as the runner costs them, from their points' exact columns.
-    tasks = None if map_by_window else classified_tasks(MAP)
-    planned = report_plan(suites, MAP, workers, DEFAULT_BATCH_SIZE, tasks)
-    plan = Plan("make report", planned.sweeps, priors(cold), workers, after=planned.after)
+    # The calls run: the map's engine runs as the runner costs them once its points are
+    # classified, from their exact columns. The plan costs them as make report's does before
+    # that, without them (MapTask.expected_steps): its layout of the steps not begun.
+    window = _by_window(planned_tasks(MAP)[1]) if map_by_window else None
+    run = report_plan(suites, MAP, workers, DEFAULT_BATCH_SIZE, window or classified_tasks(MAP))
+    ahead = report_plan(suites, MAP, workers, DEFAULT_BATCH_SIZE, window)
+    plan = Plan("make report", ahead.sweeps, priors(cold), workers, after=ahead.after)
     recorded = _Recorded(records, None if shuffle_map is None else random.Random(shuffle_map))
-    sweeps = [_Sweep(deque(s.calls), warm=plan.warm) for s in plan.sweeps]
+    sweeps = [_Sweep(deque(s.calls), warm=plan.warm) for s in run.sweeps]
     names = [_name(k, s.step) for k, s in enumerate(plan.sweeps)]
     points: dict[str, list[tuple[float, float, str]]] = {name: [] for name in names}
     ends: dict[str, float] = {}
@@ -233,6 +240,12 @@ def replay(
     out = {name: _ratios(pts, ends[name]) for name, pts in points.items() if pts}
     out["overall"] = _ratios(overall, now + report_s)
     return out
+
+
+def _by_window(tasks: Sequence[MapTask]) -> list[MapTask]:
+    """The map's engine tasks each costed by its whole window (--map-by-window): exact
+    columns that say no impact and no settling, so that its stop rule never ends it."""
+    return [replace(task, exact=((Col.EXACT_T_IMPACT, None),)) for task in tasks]
 
 
 def _begin(plan: Plan, sweeps: list[_Sweep], begun: int, workers: int) -> int:

@@ -65,7 +65,7 @@ from hoopbench.engines.settings import DEFAULT_BATCH_SIZE, RunSettings
 from hoopbench.engines.stopping import StopRule
 from hoopbench.models.events import Outcome
 from hoopbench.models.scene import DegenerateSceneError, Scene
-from hoopbench.reference.exact import ExactSolution
+from hoopbench.reference.exact import ExactSolution, first_flight_impact
 from hoopbench.reference.regimes import classify_solved, classify_whole
 from hoopbench.reports.compare.costs import MAP_COSTING
 from hoopbench.reports.compare.suite import (
@@ -188,14 +188,23 @@ class MapTask:
     def expected_steps(self) -> int:
         """Steps the run is expected to take (its cost, for the ETA): where its own stop rule
         (:func:`_task_stop`) ends a run that follows the exact motion, from the exact columns
-        it carries (first impact, t_settled); its whole window where it carries none
-        (planned before stage 1, or its reference failed). A point that lifts off at once
-        stops within a tenth of its window; one that rocks or slips steps all of it."""
+        it carries (first impact, t_settled). Where it carries none (planned before stage 1,
+        or its reference failed), a point whose hoop leaves the floor at once stops at its
+        ballistic landing (:func:`first_flight_impact`, no integration: 31 of the default
+        map's 100 points, within a tenth of their window) and any other steps its whole
+        window: the default map's runs so planned take 0.74 of their windows where their
+        classification says 0.57 (all planned by window: 1.0)."""
         exact = dict(self.exact)
-        if self.timestep is None or Col.EXACT_T_IMPACT not in exact:
+        if self.timestep is None:
             return self.n_steps  # 0 for a reference task
-        t_stop = _task_stop(self).stop_time(exact[Col.EXACT_T_IMPACT])
-        return steps_to_stop(self.point.scene(), self.timestep, t_stop)
+        scene = self.point.scene()
+        if Col.EXACT_T_IMPACT in exact:
+            t_impact = exact[Col.EXACT_T_IMPACT]
+        else:
+            t_impact = first_flight_impact(scene)
+            if t_impact is None:
+                return self.n_steps
+        return steps_to_stop(scene, self.timestep, _task_stop(self).stop_time(t_impact))
 
 
 def reference_tasks(
