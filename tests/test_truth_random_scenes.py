@@ -513,3 +513,38 @@ def test_the_checker_reads_the_phase_codes(near_drawn, near_exact, regime, phase
     assert kind not in _kinds(frame, labels, e, mu, hoop)
     lied = dataclasses.replace(labels, phases=phases, verdict="wrong-phases")
     assert kind in _kinds(frame, lied, e, mu, hoop)
+
+
+BRAKED = Scene(
+    lam=0.8933763038492488,
+    thetadot0=2.570064666465523,
+    mus=0.3423239219300248,
+    muk=0.3423239219300248,
+    eps=0.03245061302574129,
+    theta0=5.689820109105772,
+    t_end=T_END,
+    name="random-27",
+)
+"""A hop drawn at random (seed 7,301,130, a draw of this test's QUOTA), on which DART stock
+creeps and then brakes before its slip (below)."""
+
+
+@pytest.mark.slow
+def test_a_friction_above_the_demand_starts_no_slip_in_the_checker():
+    """The canonical reading: a friction above the rolling demand brakes a slide already
+    going but starts none. DART stock creeps on this hop from 0.52 s, its friction saturated
+    1-2 % of the cone short of the demand (the tolerance is 3 %) and the rim reaching
+    6.5 mm/s, then up to 7 % above the demand as it falls, braking the rim to rest at
+    0.60 s, 0.3 mm in all; its first slip, at the cone, is read at 0.687 s (exact 0.674 s).
+    The checker called the braking a clear slip (3 contradictions at dt 1e-3); it still
+    contradicts a row that reads no slip at all."""
+    run = hb.run("dart", BRAKED, timestep=1e-3, profile="stock")
+    if run.status is RunStatus.UNAVAILABLE:
+        engine_unavailable("dart", run.row.get("message"))
+    labels = Labels.from_row(run.row, CANONICAL_NAMES)
+    hoop = Hoop(BRAKED.a, BRAKED.g, BRAKED)
+    exact = Exact.from_solution(hb.exact(BRAKED), Hoop(BRAKED.a, BRAKED.g))
+    mu = run.row["mu"]
+    assert contradictions(run.trajectory, labels, exact, mu=mu, hoop=hoop, loose=loose()) == []
+    none = dataclasses.replace(labels, t_slip=None, phases=("R",), verdict="missed-slip")
+    assert Kind.SLIP_LABEL in _kinds(run.trajectory, none, exact, mu, hoop)

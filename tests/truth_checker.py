@@ -24,9 +24,9 @@ times with sqrt(a / g), speeds with sqrt(g a), as the project's thresholds do):
   |F_roll| >= mu N_roll, or N_roll <= 0), or |mean f| departs from |mean F_roll| by more
   than DEMAND_TOLERANCE (3 %) of mu n on either side (short of it: a friction that saturates
   below mu, as DART stock's at 0.65-0.83 mu n; above it while sliding: a decelerating
-  slide), or the rim slides faster than FAST_SLIDE = 0.1 sqrt(g a) (0.31 m/s: fast sliding
-  is never creep). The **slip onset** is where the slip starts sliding under that law,
-  samples beyond the cone included;
+  slide, which keeps a slip going but starts none), or the rim slides faster than
+  FAST_SLIDE = 0.1 sqrt(g a) (0.31 m/s: fast sliding is never creep). The **slip onset**
+  is where the slip starts sliding under that law, samples beyond the cone included;
 - **creep**: slow sliding (above the slip threshold, below FAST_SLIDE) against a friction that
   follows the rolling demand inside the cone: never a slip, counted only in contact and
   before the exact solution's lift-off. **Stick outside the cone** (|mean f| above the cone
@@ -634,6 +634,9 @@ class Windows:
     as a share of the run's cone (F_roll counted on the samples in contact, as f is)."""
     depart: NDArray | None = None
     """| |mean f| - |mean F_roll| | / (mu mean n): the same without the signs (no larger)."""
+    shortfall: NDArray | None = None
+    """(|mean F_roll| - |mean f|) / (mu mean n): the friction short of what rolling needs
+    (> 0) or above it (< 0)."""
     lag: NDArray | None = None
     """The mean change of F_roll over one step, either side, / (mu mean n): how far the
     demand a friction follows may be from ours by the step convention alone (row i holds
@@ -661,7 +664,7 @@ class Windows:
             at_cone = run.touching & (np.abs(run.f) >= (1 - CONE_CLEAR) * run.mu * run.n)
             share = mean(at_cone.astype(float)) / mean(run.touching.astype(float))
         ends = run.t[m - 1 :]
-        demand = follow = depart = lag = noise = None
+        demand = follow = depart = shortfall = lag = noise = None
         if run.demand is not None:
             need = mean(np.where(run.touching, run.demand[0], 0.0))
             change = np.abs(np.diff(run.demand[0]))
@@ -672,7 +675,8 @@ class Windows:
                     rolling_cone > 0, np.abs(mean(run.demand[0])) / rolling_cone, np.inf
                 )
                 follow = np.abs(mean_f - need) / cone
-                depart = np.abs(np.abs(mean_f) - np.abs(need)) / cone
+                shortfall = (np.abs(need) - np.abs(mean_f)) / cone
+                depart = np.abs(shortfall)
                 lag = mean(np.where(np.isfinite(step), step, np.inf)) / cone
                 gap = run.f - np.where(run.touching, run.demand[0], 0.0)
                 spread = np.sqrt(np.maximum(mean(gap**2) - mean(gap) ** 2, 0.0))
@@ -690,6 +694,7 @@ class Windows:
             demand=demand,
             follow=follow,
             depart=depart,
+            shortfall=shortfall,
             lag=lag,
             noise=noise,
         )
@@ -761,7 +766,30 @@ class Windows:
         with np.errstate(invalid="ignore"):
             law = self.slip_law(hoop, clearly=True)
             each = self.in_region & self.all_touching & law & sliding
-        return _sustained(each, self.length)
+        clear = _sustained(each, self.length)
+        # A friction above the rolling demand brakes a slide already going but starts none:
+        # a clear stretch none of whose windows could start a slip is no slip (a saturating
+        # friction short of the demand by less than the tolerance, then above it as the
+        # demand falls: DART stock's rim creeps 6 mm/s at most, 0.3 mm).
+        starts = each & self.could_start(hoop)
+        for first, stop in _runs(clear):
+            if not starts[first : stop + self.length - 1].any():
+                clear[first:stop] = False
+        return clear
+
+    def could_start(self, hoop: Hoop) -> NDArray:
+        """Windows whose friction clearly cannot give what rolling needs, or whose rim
+        slides clearly fast: at the cone, the demand beyond its cone, the friction clearly
+        short of the demand (not above it: that only brakes a slide), or fast."""
+        fast = FAST_SLIDE * hoop.speed * FAST_CLEAR
+        with np.errstate(invalid="ignore"):
+            out = (self.ratio >= 1 - CONE_CLEAR) | (np.abs(self.mean_s) >= fast)
+            if self.demand is not None:
+                out |= self.demand >= 1 + DEMAND_MARGIN
+            if self.shortfall is not None and self.lag is not None and self.noise is not None:
+                slack = FOLLOW_MARGIN + self.lag + self.noise
+                out |= self.shortfall >= DEMAND_TOLERANCE + slack
+        return out
 
     def clear_roll(self, hoop: Hoop) -> NDArray:
         """Clearly in no slip, sustained as :meth:`clear_slip`: in contact throughout, and the

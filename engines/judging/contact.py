@@ -26,7 +26,10 @@ and so does its rolling demand):
   the demand along it by more than ``demand_tolerance`` of the cone mu mean n (a friction
   law that saturates below mu, as DART stock's does at 0.56-0.87 mu n), or |mean s| above
   ``creep_speed`` (fast sliding is never creep). A friction away from the demand on the
-  other side (above it) keeps a slide going (it brakes it), but starts none;
+  other side (above it) keeps a slide going (it brakes it), but starts none; where the
+  demand passes the level of such a friction while the rim slides on (short of it, then
+  above it), the slip goes on through: the friction lies near the demand there without
+  following it;
 - **slip**: a stretch sliding against friction under the slip law, one way (a reversal is a
   new slip), in which |mean s| exceeds ``slip_threshold`` somewhere after its entry. It is
   entered where the window's friction is at the cone, rolling cannot go on, or the slide is
@@ -70,6 +73,7 @@ detection floor measured in tests/test_contact_reading.py; shorter phases are ab
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, replace
 from functools import cached_property
@@ -647,6 +651,7 @@ def _slipping(
     # the entry's short demand alike, made once.
     cannot_roll = averaged.cannot_roll(mu, cfg.cone_hold, cfg.demand_tolerance)
     hold = _holds(means, mu, cfg, cannot_roll)  # a step without force inside a slip is the slip's
+    hold = _through_crossings(hold, averaged, mu, cfg)
     demand_short = own.cannot_roll(mu, cfg.cone_tolerance, cfg.demand_tolerance)
     fast_own = np.abs(own.slip) > cfg.creep_speed
     # Only friction that cannot give the demand starts a slip, in the window's mean and in the
@@ -673,6 +678,32 @@ def _slipping(
         if not fast[entry:stop].any():
             continue
         out[entry:stop] = True
+    return out
+
+
+def _through_crossings(hold: NDArray, means: _Contact, mu: float, cfg: ContactSettings) -> NDArray:
+    """``hold`` on through each stretch where the rolling demand passes the level of the
+    friction while the rim slides on one way: short of the demand before it, above it after
+    (each by more than ``demand_tolerance`` of the cone). A friction that saturates below mu
+    (DART stock's) slides the rim while the demand exceeds it and brakes it once the demand
+    has fallen below it; in between, it lies within the tolerance of the demand without
+    following it (it stays at its level while the demand sweeps through), and the rim
+    slides on at its fastest: one slip, not a slip, a creep and no re-stick."""
+    if means.demand is None:
+        return hold
+    need, slack = means.demand.friction, means.demand.step_change
+    band = cfg.demand_tolerance * mu * means.normal + slack
+    with np.errstate(invalid="ignore"):
+        along = np.sign(need) * (need - means.friction)
+    short, above = along > band, along < -band
+    out = hold.copy()
+    sliding = means.sliding(cfg.slip_floor) & (means.normal > 0.0)
+    for sign in (-1.0, 1.0):
+        for start, stop in _runs(sliding & (np.sign(means.friction) == sign)):
+            pieces = [(start + a, start + b) for a, b in _runs(hold[start:stop])]
+            for (_, end), (begin, _) in itertools.pairwise(pieces):
+                if short[end - 1] and above[begin]:
+                    out[end:begin] = True
     return out
 
 
