@@ -26,10 +26,10 @@ and so does its rolling demand):
   the demand along it by more than ``demand_tolerance`` of the cone mu mean n (a friction
   law that saturates below mu, as DART stock's does at 0.56-0.87 mu n), or |mean s| above
   ``creep_speed`` (fast sliding is never creep). A friction away from the demand on the
-  other side (above it) keeps a slide going (it brakes it), but starts none; where the
-  demand passes the level of such a friction while the rim slides on (short of it, then
-  above it), the slip goes on through: the friction lies near the demand there without
-  following it;
+  other side (above it) keeps a slide going (it brakes it), but starts none; and a slip
+  goes on where the demand passes the level of its friction while the rim slides on (short
+  of it, then above it, the friction's share of the cone held within
+  ``demand_tolerance``): the friction lies near the demand there without following it;
 - **slip**: a stretch sliding against friction under the slip law, one way (a reversal is a
   new slip), in which |mean s| exceeds ``slip_threshold`` somewhere after its entry. It is
   entered where the window's friction is at the cone, rolling cannot go on, or the slide is
@@ -651,7 +651,6 @@ def _slipping(
     # the entry's short demand alike, made once.
     cannot_roll = averaged.cannot_roll(mu, cfg.cone_hold, cfg.demand_tolerance)
     hold = _holds(means, mu, cfg, cannot_roll)  # a step without force inside a slip is the slip's
-    hold = _through_crossings(hold, averaged, mu, cfg)
     demand_short = own.cannot_roll(mu, cfg.cone_tolerance, cfg.demand_tolerance)
     fast_own = np.abs(own.slip) > cfg.creep_speed
     # Only friction that cannot give the demand starts a slip, in the window's mean and in the
@@ -678,32 +677,44 @@ def _slipping(
         if not fast[entry:stop].any():
             continue
         out[entry:stop] = True
-    return out
+    return _through_crossings(out, hold, averaged, mu, cfg)
 
 
-def _through_crossings(hold: NDArray, means: _Contact, mu: float, cfg: ContactSettings) -> NDArray:
-    """``hold`` on through each stretch where the rolling demand passes the level of the
-    friction while the rim slides on one way: short of the demand before it, above it after
-    (each by more than ``demand_tolerance`` of the cone). A friction that saturates below mu
-    (DART stock's) slides the rim while the demand exceeds it and brakes it once the demand
-    has fallen below it; in between, it lies within the tolerance of the demand without
-    following it (it stays at its level while the demand sweeps through), and the rim
-    slides on at its fastest: one slip, not a slip, a creep and no re-stick."""
+def _through_crossings(
+    slipping: NDArray, hold: NDArray, means: _Contact, mu: float, cfg: ContactSettings
+) -> NDArray:
+    """``slipping`` on from a slip through each stretch where the rolling demand passes the
+    level of its friction while the rim slides on one way (short of the demand at the
+    slip's end, above it where the slide next holds the slip law, each by more than
+    ``demand_tolerance`` of the cone), and through the braking after it. A friction that
+    saturates below mu (DART stock's) slides the rim while the demand exceeds it and brakes
+    it once the demand has fallen below it; in between, it lies within the tolerance of the
+    demand without following it (it stays at its level while the demand sweeps past), and
+    the rim slides on at its fastest: one slip, not a slip, a creep and no re-stick. Only a
+    slip goes on so: the stretches it joins start none."""
     if means.demand is None:
-        return hold
+        return slipping
     need, slack = means.demand.friction, means.demand.step_change
     band = cfg.demand_tolerance * mu * means.normal + slack
     with np.errstate(invalid="ignore"):
         along = np.sign(need) * (need - means.friction)
     short, above = along > band, along < -band
-    out = hold.copy()
+    with np.errstate(divide="ignore", invalid="ignore"):
+        share = means.friction / (mu * means.normal)
+    out = slipping.copy()
     sliding = means.sliding(cfg.slip_floor) & (means.normal > 0.0)
     for sign in (-1.0, 1.0):
         for start, stop in _runs(sliding & (np.sign(means.friction) == sign)):
             pieces = [(start + a, start + b) for a, b in _runs(hold[start:stop])]
-            for (_, end), (begin, _) in itertools.pairwise(pieces):
-                if short[end - 1] and above[begin]:
-                    out[end:begin] = True
+            for (_, end), (begin, after) in itertools.pairwise(pieces):
+                crossed = short[end - 1] and above[begin]
+                # The demand passes through the band around the friction's level: the
+                # friction's share of the cone, which a law that saturates holds while n
+                # changes, held within the tolerance. Not a friction that flickers across a
+                # still demand (Newton's float32 noise) or one catching up with it.
+                held = abs(share[begin] - share[end - 1]) < cfg.demand_tolerance
+                if out[end - 1] and crossed and held:
+                    out[end:after] = True
     return out
 
 
