@@ -686,7 +686,8 @@ def _through_crossings(
     """``slipping`` on from a slip through each stretch where the rolling demand passes the
     level of its friction while the rim slides on one way (short of the demand at the
     slip's end, above it where the slide next holds the slip law, each by more than
-    ``demand_tolerance`` of the cone), and through the braking after it. A friction that
+    ``demand_tolerance`` of the cone; its share of the cone held within that tolerance
+    across the stretch), and through the braking after it. A friction that
     saturates below mu (DART stock's) slides the rim while the demand exceeds it and brakes
     it once the demand has fallen below it; in between, it lies within the tolerance of the
     demand without following it (it stays at its level while the demand sweeps past), and
