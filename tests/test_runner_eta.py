@@ -588,9 +588,7 @@ def test_a_progress_line_lays_out_the_calls_once(tmp_path, monkeypatch):
     (Plan.etas), each about 8 ms on a slow machine; they were laid out once each."""
     plan, layouts = _plan(), []
     ends = Plan._ends
-    monkeypatch.setattr(
-        Plan, "_ends", lambda self, later: layouts.append(later) or ends(self, later)
-    )
+    monkeypatch.setattr(Plan, "_ends", lambda self: layouts.append(self) or ends(self))
     log = io.StringIO()
     token = current_plan.set(plan)
     try:

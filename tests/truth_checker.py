@@ -705,20 +705,16 @@ class Windows:
         state (the demand at or beyond its cone), or the friction away from the rolling
         demand by more than DEMAND_TOLERANCE of the cone (either side), or the rim sliding
         faster than FAST_SLIDE (fast sliding is never creep)."""
-        cone = 1 - (CONE_CLEAR if clearly else CONE_INSIDE)
-        fast = FAST_SLIDE * hoop.speed * (FAST_CLEAR if clearly else 1 / FAST_CLEAR)
+        if clearly:
+            return self._clear_law(hoop, self.depart)
+        fast = FAST_SLIDE * hoop.speed * (1 / FAST_CLEAR)
         with np.errstate(invalid="ignore"):
-            law = (self.ratio >= cone) | (np.abs(self.mean_s) >= fast)
+            law = (self.ratio >= 1 - CONE_INSIDE) | (np.abs(self.mean_s) >= fast)
             if self.demand is not None:
-                law |= self.demand >= 1 + (DEMAND_MARGIN if clearly else -DEMAND_MARGIN)
-            if self.follow is not None and self.depart is not None:
-                # Clearly away from the demand even without the signs, a step's lag and the
-                # friction's scatter; not clearly near it even with them.
-                if clearly and self.lag is not None and self.noise is not None:
-                    slack = FOLLOW_MARGIN + self.lag + self.noise
-                    law |= self.depart >= DEMAND_TOLERANCE + slack
-                else:
-                    law |= self.follow >= DEMAND_TOLERANCE - FOLLOW_MARGIN
+                law |= self.demand >= 1 - DEMAND_MARGIN
+            if self.follow is not None:
+                # Not clearly near the demand even with a step's lag and the scatter.
+                law |= self.follow >= DEMAND_TOLERANCE - FOLLOW_MARGIN
         return law
 
     def follows_demand(self, hoop: Hoop) -> NDArray:
@@ -781,15 +777,22 @@ class Windows:
         """Windows whose friction clearly cannot give what rolling needs, or whose rim
         slides clearly fast: at the cone, the demand beyond its cone, the friction clearly
         short of the demand (not above it: that only brakes a slide), or fast."""
+        return self._clear_law(hoop, self.shortfall)
+
+    def _clear_law(self, hoop: Hoop, away: NDArray | None) -> NDArray:
+        """Clearly under the slip law: at the cone, the demand beyond its cone, the rim
+        clearly fast, or ``away`` (the friction's distance from the rolling demand as a share
+        of the cone: :attr:`depart` either side, :attr:`shortfall` short of it only) beyond
+        DEMAND_TOLERANCE even with a step's lag and the friction's scatter."""
         fast = FAST_SLIDE * hoop.speed * FAST_CLEAR
         with np.errstate(invalid="ignore"):
-            out = (self.ratio >= 1 - CONE_CLEAR) | (np.abs(self.mean_s) >= fast)
+            law = (self.ratio >= 1 - CONE_CLEAR) | (np.abs(self.mean_s) >= fast)
             if self.demand is not None:
-                out |= self.demand >= 1 + DEMAND_MARGIN
-            if self.shortfall is not None and self.lag is not None and self.noise is not None:
+                law |= self.demand >= 1 + DEMAND_MARGIN
+            if away is not None and self.lag is not None and self.noise is not None:
                 slack = FOLLOW_MARGIN + self.lag + self.noise
-                out |= self.shortfall >= DEMAND_TOLERANCE + slack
-        return out
+                law |= away >= DEMAND_TOLERANCE + slack
+        return law
 
     def clear_roll(self, hoop: Hoop) -> NDArray:
         """Clearly in no slip, sustained as :meth:`clear_slip`: in contact throughout, and the

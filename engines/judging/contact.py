@@ -585,11 +585,17 @@ class _Contact:
         cone = mu * self.normal
         out = np.abs(self.friction) >= (1.0 - cone_tolerance) * cone
         if self.demand is not None:
-            need, slack = self.demand.friction, self.demand.step_change
-            with np.errstate(invalid="ignore"):  # an infinite demand is impossible() already
-                short = np.sign(need) * (need - self.friction) > deficit * cone + slack
+            short = self.shortfall() > deficit * cone + self.demand.step_change
             out |= self.demand.impossible(mu) | short
         return out
+
+    def shortfall(self) -> NDArray:
+        """How far the friction falls short of the rolling demand, along it, m/s^2 (< 0:
+        beyond it). Needs the demand."""
+        assert self.demand is not None
+        need = self.demand.friction
+        with np.errstate(invalid="ignore"):  # an infinite demand is impossible() already
+            return np.sign(need) * (need - self.friction)
 
     def off_demand(self, mu: float, tolerance: float) -> NDArray:
         """The friction departs from the rolling demand, either side, by more than
@@ -695,10 +701,8 @@ def _through_crossings(
     slip goes on so: the stretches it joins start none."""
     if means.demand is None:
         return slipping
-    need, slack = means.demand.friction, means.demand.step_change
-    band = cfg.demand_tolerance * mu * means.normal + slack
-    with np.errstate(invalid="ignore"):
-        along = np.sign(need) * (need - means.friction)
+    band = cfg.demand_tolerance * mu * means.normal + means.demand.step_change
+    along = means.shortfall()
     short, above = along > band, along < -band
     with np.errstate(divide="ignore", invalid="ignore"):
         share = means.friction / (mu * means.normal)

@@ -195,8 +195,12 @@ def replay(
     # classified, from their exact columns. The plan costs them as make report's does before
     # that, without them (MapTask.expected_steps): its layout of the steps not begun.
     window = _by_window(planned_tasks(MAP)[1]) if map_by_window else None
-    run = report_plan(suites, MAP, workers, DEFAULT_BATCH_SIZE, window or classified_tasks(MAP))
     ahead = report_plan(suites, MAP, workers, DEFAULT_BATCH_SIZE, window)
+    run = (
+        ahead
+        if window
+        else report_plan(suites, MAP, workers, DEFAULT_BATCH_SIZE, classified_tasks(MAP))
+    )
     plan = Plan("make report", ahead.sweeps, priors(cold), workers, after=ahead.after)
     recorded = _Recorded(records, None if shuffle_map is None else random.Random(shuffle_map))
     sweeps = [_Sweep(deque(s.calls), warm=plan.warm) for s in run.sweeps]

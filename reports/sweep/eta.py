@@ -432,7 +432,7 @@ def remaining_seconds(
     run a call of it; the first pending calls of a most specific kind, one per worker that
     has not, are cold, those of an engine (the most general kind) first, and the first of a
     kind no worker has run new (:class:`Took`). ``holders``: affinity key -> the workers that
-    hold its affinity key (:func:`key_holders`), which its affine calls keep to. None when
+    hold it (:func:`key_holders`), which the calls of that key keep to. None when
     a call has no prior and no call has finished yet."""
     ends = call_ends(pending, running, finished, workers, prior, warm, holders)
     return None if ends is None else max([0.0, *ends[0], *ends[1]])

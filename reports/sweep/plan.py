@@ -15,10 +15,10 @@ and a worker the earlier sweep's tail would leave idle runs them. The ETA then l
 every running sweep's calls (theirs in flight, then theirs waiting, in plan order), then
 the calls of the sweeps not begun, on the shared workers
 (:func:`hoopbench.reports.sweep.eta.call_ends`); a sweep's own ETA is when the last of its
-calls ends in the layout of the running sweeps' calls (a later sweep's calls queue behind
-its own, but a worker takes them first where its own are a batched engine's that keeps to
-the other worker), the overall one when the last of all ends, and after them what runs
-without workers (the report: ``after``).
+calls ends in that layout (a later sweep's calls, begun or not, queue behind its own, but a
+worker takes them first where its own are a batched engine's that keeps to the other
+worker), the overall one when the last of all ends, and after them what runs without
+workers (the report: ``after``). A progress line takes both from one layout.
 """
 
 from __future__ import annotations
@@ -192,10 +192,10 @@ class Plan:
             return 0.0
         return remaining_seconds(self.after, [], self.finished, 1, self.prior)
 
-    def _ends(self, later: bool) -> dict[int, float] | None:
+    def _ends(self) -> dict[int, float] | None:
         """Sweep index -> when its last call is expected to end, s from now: the running
-        sweeps' calls (and then, ``later``, those of the sweeps not begun) laid out on the
-        shared workers in plan order."""
+        sweeps' calls, then those of the sweeps not begun, laid out on the shared workers in
+        plan order."""
         running: list[Running] = []
         pending: list[CallCost] = []
         owners: tuple[list[int], list[int]] = ([], [])
@@ -209,11 +209,10 @@ class Plan:
             owners[0].extend([k] * len(left[0]))
             owners[1].extend([k] * len(left[1]))
             warm |= left[2]
-        if later:
-            for k, sweep in enumerate(self.sweeps):
-                if k not in self._begun:
-                    pending += sweep.calls
-                    owners[1].extend([k] * len(sweep.calls))
+        for k, sweep in enumerate(self.sweeps):
+            if k not in self._begun:
+                pending += sweep.calls
+                owners[1].extend([k] * len(sweep.calls))
         counts, holders = warm_counts(warm), key_holders(warm)
         ends = call_ends(pending, running, self.finished, self.workers, self.prior, counts, holders)
         if ends is None:
@@ -229,7 +228,7 @@ class Plan:
         lines of a make report laid out twice: 2.9 of the parent's CPU-s, beside workers
         that want both cores)."""
         with self.lock:
-            ends = self._ends(later=True)
+            ends = self._ends()
             after = self._after_seconds()
         if ends is None:
             return None, None
@@ -243,18 +242,11 @@ class Plan:
         The sweeps not begun count: their calls keep a worker busy that would otherwise take
         a batched engine's calls from the worker that holds its key (a cold make report's
         stability suite said 34 s of 53 when they were left out)."""
-        with self.lock:
-            ends = self._ends(later=True)
-        return None if ends is None else ends.get(index, 0.0)
+        return self.etas(index)[0]
 
     def seconds_left(self) -> float | None:
         """Seconds until every sweep and what comes after them have ended."""
-        with self.lock:
-            ends = self._ends(later=True)
-            after = self._after_seconds()
-        if ends is None or after is None:
-            return None
-        return max([0.0, *ends.values()]) + after
+        return self.etas(0)[1]  # the whole is the same whichever sweep asks
 
     def text(self, index: int, with_eta: bool = True, left: float | None = None) -> str:
         """'make report: step 2 of 4 (finer), runs 500/1244, eta 3m10s' for a line of sweep
