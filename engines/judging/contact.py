@@ -585,7 +585,9 @@ class _Contact:
         cone = mu * self.normal
         out = np.abs(self.friction) >= (1.0 - cone_tolerance) * cone
         if self.demand is not None:
-            short = self.shortfall() > deficit * cone + self.demand.step_change
+            # An infinite deficit (no limit) on a zero cone is NaN: no shortfall exceeds it.
+            with np.errstate(invalid="ignore"):
+                short = self.shortfall() > deficit * cone + self.demand.step_change
             out |= self.demand.impossible(mu) | short
         return out
 
