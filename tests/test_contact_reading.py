@@ -224,6 +224,55 @@ def test_a_force_that_drops_out_on_the_floor_is_no_flight():
     assert reading.chatter_count == 1 and reading.chatter_max_clearance == pytest.approx(-4e-4)
 
 
+def test_a_slide_with_friction_but_no_normal_force_is_a_slip_not_a_flight():
+    """DART stock (random-10 of the truth draw 9,301,130, dt 1e-3) slides 0.16 s on the floor
+    at up to 430 mm/s with n at 1e-17 and a friction its momentum balance confirms: that
+    stretch read as samples without force, which take the mode they interrupt (a roll), and
+    the slip came 160 ms late. A friction is a contact force: the slide is a slip, the
+    contact outside the cone, and no flight is read from it but chatter (n is the flight's)."""
+    n, f, clear, slip = _rolling()
+    n[1000:1400] = 1e-17 * np.cos(np.arange(400))  # round-off either side of 0
+    f[1000:1400] = -0.2 * G  # the friction brakes the slide (+x): S+
+    slip[1000:1400] = np.linspace(0.01, 0.4, 400)
+    f[1000:1400:7] = 0.0  # steps without any force, as DART's
+    reading = read_contact(_record(n, f, clear, slip), mu=0.5)
+    assert reading.phases == "R S+ R"
+    assert reading.t_slip == pytest.approx(1000 * DT, abs=ContactSettings().window / 2)
+    assert reading.t_lift is None
+    assert reading.chatter_count == 1  # the stretch without normal force, sized
+
+
+def test_float32_quanta_of_friction_without_normal_force_are_no_contact_force():
+    """Box2D's momentum balance at dt 1e-5 leaves one velocity rounding, +-0.024 m/s^2, as
+    friction on samples with no normal force (lam-0.999 of the stability suite: 15,872 of
+    150,001 samples). Read as contact forces they broke its slip into rolls; below
+    friction_level they are samples without force, which keep the slip."""
+    n, f, clear, slip = _rolling()
+    f[1000:] = -0.5 * n[1000:]
+    slip[1000:] = 0.1
+    quiet = slice(1500, 1600)
+    n[quiet] = 0.0
+    f[quiet] = 0.024 * np.where(np.arange(100) % 3 == 0, -1.0, 1.0)
+    reading = read_contact(_record(n, f, clear, slip), mu=0.5)
+    assert ContactSettings().friction_level > 0.048
+    assert reading.phases == "R S+"
+
+
+def test_a_friction_that_outlasts_the_normal_force_leaves_the_lift_off_where_n_ends():
+    """DART stock's friction outlasts its normal force at a lift-off (random-10: 15 ms, 0.23
+    to 0.01 g, the hoop still on the floor): the flight, and so the lift-off, is the normal
+    force's, as the rigid model's (n reaches 0); the friction left is a contact outside the
+    cone inside the hop."""
+    n, f, clear, slip = _rolling()
+    air = slice(1000, 2000)
+    n[air] = f[air] = 0.0
+    clear[air] = 0.05 * np.sin(np.linspace(0, np.pi, 1000))
+    f[1000:1015] = np.linspace(0.05, 0.001, 15) * G
+    reading = read_contact(_record(n, f, clear, slip), mu=0.5)
+    assert reading.phases == "R F"
+    assert reading.t_lift == pytest.approx(1000 * DT, abs=DT)
+
+
 def test_the_hop_is_the_highest_flight_inside_the_exact_window():
     """MuJoCo stock at dt 1e-3: a 1.1 mm chatter flight came first and was taken as the hop;
     the real hop (0.37 m) came later. The hop is the highest one that starts in the window."""

@@ -548,3 +548,36 @@ def test_a_friction_above_the_demand_starts_no_slip_in_the_checker():
     assert contradictions(run.trajectory, labels, exact, mu=mu, hoop=hoop, loose=loose()) == []
     none = dataclasses.replace(labels, t_slip=None, phases=("R",), verdict="missed-slip")
     assert Kind.SLIP_LABEL in _kinds(run.trajectory, none, exact, mu, hoop)
+
+
+SLID_WITHOUT_N = Scene(
+    lam=0.888109903621521,
+    thetadot0=3.1645455094508557,
+    mus=0.776546447881074,
+    muk=0.776546447881074,
+    eps=0.022687785446562053,
+    theta0=6.227654241689828,
+    t_end=T_END,
+    name="random-10",
+)
+"""A hop drawn at random (seed 9,301,130, a draw of this test's QUOTA), on which DART stock
+slides without a normal force (below)."""
+
+
+def test_a_slide_with_friction_and_no_normal_force_is_a_slip_in_the_checker():
+    """DART stock on this hop: from 0.18 s its normal force is round-off (1e-17) while its
+    friction, 0.3-1.2 m/s^2, brakes the rim sliding up to 430 mm/s on the floor. The reading
+    took those samples as without force (a roll) and read the slip at 0.342 s; a friction is
+    a contact force, and both the reading and the checker now read the slide as the slip
+    (from 0.183 s; exact 0.148 s). The old reading's row is contradicted."""
+    run = hb.run("dart", SLID_WITHOUT_N, timestep=1e-3, profile="stock")
+    if run.status is RunStatus.UNAVAILABLE:
+        engine_unavailable("dart", run.row.get("message"))
+    labels = Labels.from_row(run.row, CANONICAL_NAMES)
+    hoop = Hoop(SLID_WITHOUT_N.a, SLID_WITHOUT_N.g, SLID_WITHOUT_N)
+    exact = Exact.from_solution(hb.exact(SLID_WITHOUT_N), Hoop(SLID_WITHOUT_N.a, SLID_WITHOUT_N.g))
+    mu = run.row["mu"]
+    assert labels.t_slip is not None and labels.t_slip < 0.2
+    assert contradictions(run.trajectory, labels, exact, mu=mu, hoop=hoop, loose=loose()) == []
+    late = dataclasses.replace(labels, t_slip=0.342)
+    assert Kind.SLIP_LABEL in _kinds(run.trajectory, late, exact, mu, hoop)

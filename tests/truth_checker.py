@@ -13,7 +13,10 @@ only a label a reader checking it against the trajectory would call false is.
 The definitions (issue 33's), for the 1 m hoop under g = 9.8 m/s^2 (lengths scale with a,
 times with sqrt(a / g), speeds with sqrt(g a), as the project's thresholds do):
 
-- **in contact** while n > 1e-6 g (forces per unit mass, as trajectories store them);
+- **in contact** while n > 1e-6 g (forces per unit mass, as trajectories store them); a
+  sample **with a contact force** has n or |f| above that level: a friction without a
+  normal force still acts on the hoop (DART stock slides 0.16 s so on a drawn scene). The
+  windows read the samples with a contact force; the flights are the normal force's;
 - **flight**: a stretch without contact; a **hop** is a flight lasting >= 5 ms whose peak
   clearance is above 1 mm; lift-off is its start, impact its end, hop height its peak;
 - **slip**: over a window of WINDOW (5 ms), the rim slides against the friction (mean slip
@@ -565,6 +568,9 @@ class Run:
     n: NDArray
     s: NDArray
     touching: NDArray
+    """n above the contact level: the flights are the stretches without it."""
+    forced: NDArray
+    """n or |f| above the contact level: the samples with a contact force."""
     flights: tuple[Flight, ...]
     hoop: Hoop
     mu: float
@@ -576,6 +582,7 @@ class Run:
         t = frame["t"].to_numpy(float)
         n = frame["normal_force"].to_numpy(float)
         touching = n > CONTACT_LEVEL * hoop.g
+        f = frame["friction_force"].to_numpy(float)
         clearance = frame["clearance"].to_numpy(float)
         flights = []
         for start, stop in _runs(~touching):
@@ -587,10 +594,11 @@ class Run:
         return cls(
             t=t,
             dt=float(np.median(np.diff(t))) if len(t) > 1 else 0.0,
-            f=frame["friction_force"].to_numpy(float),
+            f=f,
             n=n,
             s=frame["slip_velocity"].to_numpy(float),
             touching=touching,
+            forced=touching | (np.abs(f) > CONTACT_LEVEL * hoop.g),
             flights=tuple(flights),
             hoop=hoop,
             mu=mu,
@@ -621,6 +629,7 @@ class Windows:
     friction_sign: NDArray
     """sign(mean f): a slip's direction is the opposite one."""
     all_touching: NDArray
+    """Every sample of the window has a contact force (Run.forced)."""
     steps_at_cone: NDArray
     """Share of the window's contact samples with |f| >= (1 - CONE_CLEAR) mu n."""
     in_region: NDArray
@@ -661,12 +670,12 @@ class Windows:
         with np.errstate(divide="ignore", invalid="ignore"):
             cone = np.where(loaded, run.mu * mean_n, np.nan)
             ratio = np.abs(mean_f) / cone
-            at_cone = run.touching & (np.abs(run.f) >= (1 - CONE_CLEAR) * run.mu * run.n)
-            share = mean(at_cone.astype(float)) / mean(run.touching.astype(float))
+            at_cone = run.forced & (np.abs(run.f) >= (1 - CONE_CLEAR) * run.mu * run.n)
+            share = mean(at_cone.astype(float)) / mean(run.forced.astype(float))
         ends = run.t[m - 1 :]
         demand = follow = depart = shortfall = lag = noise = None
         if run.demand is not None:
-            need = mean(np.where(run.touching, run.demand[0], 0.0))
+            need = mean(np.where(run.forced, run.demand[0], 0.0))
             change = np.abs(np.diff(run.demand[0]))
             step = np.maximum(np.append(change, 0.0), np.insert(change, 0, 0.0))
             rolling_cone = run.mu * mean(run.demand[1])
@@ -678,7 +687,7 @@ class Windows:
                 shortfall = (np.abs(need) - np.abs(mean_f)) / cone
                 depart = np.abs(shortfall)
                 lag = mean(np.where(np.isfinite(step), step, np.inf)) / cone
-                gap = run.f - np.where(run.touching, run.demand[0], 0.0)
+                gap = run.f - np.where(run.forced, run.demand[0], 0.0)
                 spread = np.sqrt(np.maximum(mean(gap**2) - mean(gap) ** 2, 0.0))
                 noise = NOISE_SIGMAS * spread / math.sqrt(m) / cone
         return cls(
@@ -687,7 +696,7 @@ class Windows:
             mean_s=mean_s,
             opposes=mean_s * mean_f < 0,
             friction_sign=np.sign(mean_f),
-            all_touching=mean(run.touching.astype(float)) >= 1.0,
+            all_touching=mean(run.forced.astype(float)) >= 1.0,
             steps_at_cone=np.nan_to_num(share),
             in_region=ends <= region_end,
             length=m,
