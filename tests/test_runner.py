@@ -40,6 +40,7 @@ from hoopbench.reports.sweep.runner import (
     WorkerCrashedError,
     WorkerKilledError,
     WorkerPool,
+    _Progress,
     claim_folder,
     run_tasks,
 )
@@ -561,6 +562,28 @@ def test_progress_bar_on_a_terminal_lines_elsewhere_nothing_when_quiet(tmp_path)
     quiet = io.StringIO()
     run(tasks, tmp_path / "c", quiet=True, stream=quiet)
     assert quiet.getvalue() == ""
+
+
+class _PlanSaying:
+    """A plan whose layout says 2 min for this sweep and 5 min for all."""
+
+    def etas(self, index: int) -> tuple[float, float]:
+        return 120.0, 300.0
+
+    def text(self, index: int, with_eta: bool = True, left: float | None = None) -> str:
+        return f"make report: step 1 of 1, eta {left:.0f}s"
+
+
+def test_a_bar_on_a_plan_shows_the_plans_etas_not_tqdms():
+    """On a terminal, a sweep of make report shows the ETA of the plan's layout of its calls
+    and the plan's overall one, with no estimate function of its own."""
+    terminal = FakeTerminal()
+    progress = _Progress(10, terminal, quiet=False)
+    progress.plan = _PlanSaying()
+    progress.use_plan_estimate()
+    progress.update("a run", RunStatus.OK)
+    progress.close()
+    assert "eta 2m00s; make report: step 1 of 1, eta 300s" in terminal.getvalue()
 
 
 # ------------------------------------------------------------------ backends

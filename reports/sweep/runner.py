@@ -985,16 +985,25 @@ class _Progress:
     def use_estimate(self, estimate: Callable[[], float | None]) -> None:
         """The ETA from ``estimate`` (seconds left); the bar then shows it, not tqdm's own."""
         self.estimate = estimate
-        if self.bar is not None:
-            self.bar.bar_format = "{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}{postfix}]"
+        self._bar_shows_eta()
 
     def use_plan_estimate(self) -> None:
         """The ETA from the plan's layout of the calls (:attr:`plan`, set first): a line's
         ETA and its plan's from one layout (Plan.etas)."""
         assert self.plan is not None
-        plan, index = self.plan, self.plan_index
-        self.use_estimate(lambda: plan.sweep_left(index))
         self.plan_etas = True
+        self._bar_shows_eta()
+
+    @property
+    def costed(self) -> bool:
+        """Whether the ETA comes from the calls' expected costs (the plan's or
+        :attr:`estimate`), not from the count of runs."""
+        return self.plan_etas or self.estimate is not None
+
+    def _bar_shows_eta(self) -> None:
+        """The bar's ETA is the costed one, in its postfix: not tqdm's own."""
+        if self.bar is not None:
+            self.bar.bar_format = "{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}{postfix}]"
 
     def seconds_left(self, elapsed: float) -> float:
         """The time left: from the calls' expected costs when known, else by count."""
@@ -1055,7 +1064,7 @@ class _Progress:
             return
         if self.bar is not None:
             self.bar.update(1)
-            if self.estimate is not None:  # tqdm's own ETA is the count's
+            if self.costed:  # tqdm's own ETA is the count's
                 left, whole = self._lefts(time.monotonic() - self.start)
                 text = f"{self._failures_text()}, eta {_duration(left)}{self._plan_text(whole)}"
                 self.bar.set_postfix_str(text, refresh=False)
