@@ -38,6 +38,7 @@ from importlib.resources import files
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 from conftest import engine_unavailable
 from truth_checker import (
@@ -538,16 +539,21 @@ def test_a_friction_above_the_demand_starts_no_slip_in_the_checker():
     0.60 s, 0.3 mm in all; its first slip, at the cone, is read at 0.687 s (exact 0.674 s).
     The checker called the braking a clear slip (3 contradictions at dt 1e-3); it still
     contradicts a row that reads no slip at all."""
-    run = hb.run("dart", BRAKED, timestep=1e-3, profile="stock")
+    frame, labels, exact, mu, hoop = _dart_stock(BRAKED)
+    assert contradictions(frame, labels, exact, mu=mu, hoop=hoop, loose=loose()) == []
+    none = dataclasses.replace(labels, t_slip=None, phases=("R",), verdict="missed-slip")
+    assert Kind.SLIP_LABEL in _kinds(frame, none, exact, mu, hoop)
+
+
+def _dart_stock(scene: Scene) -> tuple[pd.DataFrame, Labels, Exact, float, Hoop]:
+    """DART stock's run of ``scene`` at dt 1e-3 as the checker reads it: its trajectory,
+    its row's labels, the exact solution, mu and the hoop."""
+    run = hb.run("dart", scene, timestep=1e-3, profile="stock")
     if run.status is RunStatus.UNAVAILABLE:
         engine_unavailable("dart", run.row.get("message"))
     labels = Labels.from_row(run.row, CANONICAL_NAMES)
-    hoop = Hoop(BRAKED.a, BRAKED.g, BRAKED)
-    exact = Exact.from_solution(hb.exact(BRAKED), Hoop(BRAKED.a, BRAKED.g))
-    mu = run.row["mu"]
-    assert contradictions(run.trajectory, labels, exact, mu=mu, hoop=hoop, loose=loose()) == []
-    none = dataclasses.replace(labels, t_slip=None, phases=("R",), verdict="missed-slip")
-    assert Kind.SLIP_LABEL in _kinds(run.trajectory, none, exact, mu, hoop)
+    exact = Exact.from_solution(hb.exact(scene), Hoop(scene.a, scene.g))
+    return run.trajectory, labels, exact, run.row["mu"], Hoop(scene.a, scene.g, scene)
 
 
 SLID_WITHOUT_N = Scene(
@@ -570,14 +576,8 @@ def test_a_slide_with_friction_and_no_normal_force_is_a_slip_in_the_checker():
     took those samples as without force (a roll) and read the slip at 0.342 s; a friction is
     a contact force, and both the reading and the checker now read the slide as the slip
     (from 0.183 s; exact 0.148 s). The old reading's row is contradicted."""
-    run = hb.run("dart", SLID_WITHOUT_N, timestep=1e-3, profile="stock")
-    if run.status is RunStatus.UNAVAILABLE:
-        engine_unavailable("dart", run.row.get("message"))
-    labels = Labels.from_row(run.row, CANONICAL_NAMES)
-    hoop = Hoop(SLID_WITHOUT_N.a, SLID_WITHOUT_N.g, SLID_WITHOUT_N)
-    exact = Exact.from_solution(hb.exact(SLID_WITHOUT_N), Hoop(SLID_WITHOUT_N.a, SLID_WITHOUT_N.g))
-    mu = run.row["mu"]
+    frame, labels, exact, mu, hoop = _dart_stock(SLID_WITHOUT_N)
     assert labels.t_slip is not None and labels.t_slip < 0.2
-    assert contradictions(run.trajectory, labels, exact, mu=mu, hoop=hoop, loose=loose()) == []
+    assert contradictions(frame, labels, exact, mu=mu, hoop=hoop, loose=loose()) == []
     late = dataclasses.replace(labels, t_slip=0.342)
-    assert Kind.SLIP_LABEL in _kinds(run.trajectory, late, exact, mu, hoop)
+    assert Kind.SLIP_LABEL in _kinds(frame, late, exact, mu, hoop)
