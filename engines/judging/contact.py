@@ -172,7 +172,8 @@ class ContactSettings:
         m/s^2 on the 1 m hoop): a smaller one moves nothing the reading can see. Below it lie
         the float32 engines' momentum-balance quanta with no normal force (Box2D at dt 1e-5:
         0.024-0.048 m/s^2, one velocity rounding over a step; Newton in flight: up to 0.006);
-        above it DART stock's friction without a normal force (0.3-2.5 m/s^2)."""
+        above it DART stock's friction without a normal force (0.3 to 61 m/s^2 in make
+        report's runs)."""
         return self.slip_threshold / self.window
 
     def for_hoop(self, a: float, g: float) -> ContactSettings:
@@ -267,7 +268,7 @@ class _Means:
     """Share of the window's samples with a force whose own friction is at the cone."""
     touched: NDArray
     """The window holds a sample with a contact force (its mean normal force may still be 0:
-    a friction without a normal force, :func:`_touching`)."""
+    a friction without a normal force, :func:`_forced`)."""
     demand: _Demand | None = None
     """The window means of the rolling demand; None without it."""
 
@@ -522,7 +523,7 @@ def _means(
     n: NDArray,
     f: NDArray,
     slip: NDArray,
-    touching: NDArray,
+    forced: NDArray,
     mu: float,
     cfg: ContactSettings,
     own_demand: _Demand | None = None,
@@ -539,20 +540,22 @@ def _means(
         np.cumsum(values, dtype=float, out=sums[1:])  # summed in place: no copy behind a 0
         return (sums[hi] - sums[lo]) / count
 
-    n_on = np.where(touching, n, 0.0)
-    f_on = np.where(touching, f, 0.0)
-    at_cone = touching & (np.abs(f) >= (1.0 - cfg.cone_tolerance) * mu * n)
-    forced = mean(touching.astype(float))
-    share = np.divide(mean(at_cone.astype(float)), forced, out=np.zeros(len(t)), where=forced > 0)
+    n_on = np.where(forced, n, 0.0)
+    f_on = np.where(forced, f, 0.0)
+    at_cone = forced & (np.abs(f) >= (1.0 - cfg.cone_tolerance) * mu * n)
+    with_force = mean(forced.astype(float))
+    share = np.divide(
+        mean(at_cone.astype(float)), with_force, out=np.zeros(len(t)), where=with_force > 0
+    )
     demand = None
     if own_demand is not None:
         # Averaged as the forces are, over the samples with a force: an intermittent contact
         # (one step in thirty) transmits the demand of those steps alone.
         own = own_demand
         demand = _Demand(
-            *(mean(np.where(touching, x, 0.0)) for x in (own.friction, own.normal, own.step_change))
+            *(mean(np.where(forced, x, 0.0)) for x in (own.friction, own.normal, own.step_change))
         )
-    return _Means(mean(f_on), mean(n_on), mean(slip), share, forced > 0, demand)
+    return _Means(mean(f_on), mean(n_on), mean(slip), share, with_force > 0, demand)
 
 
 def _searched(t: NDArray, keys: NDArray, side: Literal["left", "right"]) -> NDArray:
@@ -636,7 +639,7 @@ def _averaged(means: _Means) -> _Contact:
     return _Contact(means.friction, means.normal, means.slip, means.demand)
 
 
-def _under_slip_law(own: _Contact, touching: NDArray, mu: float, cfg: ContactSettings) -> NDArray:
+def _under_slip_law(own: _Contact, forced: NDArray, mu: float, cfg: ContactSettings) -> NDArray:
     """Samples whose own contact follows the slip law at the strict tolerances (the friction at
     the cone within ``cone_tolerance`` either side, beyond it while sliding, or short of the
     rolling demand by more than ``cone_tolerance`` of the cone; or the contact sliding against
@@ -647,22 +650,22 @@ def _under_slip_law(own: _Contact, touching: NDArray, mu: float, cfg: ContactSet
     law = own.cannot_roll(mu, cfg.cone_tolerance, cfg.cone_tolerance)
     beyond = np.abs(own.friction) > (1.0 + cfg.cone_tolerance) * mu * own.normal
     fast = own.sliding(cfg.creep_speed)
-    return touching & ((law & ~(beyond & ~own.sliding(cfg.slip_floor))) | fast)
+    return forced & ((law & ~(beyond & ~own.sliding(cfg.slip_floor))) | fast)
 
 
-def _step_labels(own: _Contact, touching: NDArray, mu: float, cfg: ContactSettings) -> NDArray:
+def _step_labels(own: _Contact, forced: NDArray, mu: float, cfg: ContactSettings) -> NDArray:
     """Each sample's own label (no window): slip + or - where it slides under the slip law
     (:func:`_under_slip_law`; the slip opposes the friction), roll where its friction is
     inside the cone by more than ``cone_hold`` and it does not, else none (-1)."""
-    slipping = _under_slip_law(own, touching, mu, cfg)
+    slipping = _under_slip_law(own, forced, mu, cfg)
     inside = np.abs(own.friction) < (1.0 - cfg.cone_hold) * mu * own.normal
-    labels = np.where(touching & inside & ~slipping, _ROLL, -1)
+    labels = np.where(forced & inside & ~slipping, _ROLL, -1)
     labels = np.where(slipping & (own.friction < 0), _SLIP_PLUS, labels)
     return np.where(slipping & (own.friction > 0), _SLIP_MINUS, labels)
 
 
 def _slipping(
-    means: _Means, own: _Contact, touching: NDArray, mu: float, cfg: ContactSettings
+    means: _Means, own: _Contact, forced: NDArray, mu: float, cfg: ContactSettings
 ) -> NDArray:
     """Samples in a slip. A slip is a stretch where the window means slide against the
     friction under the slip law (:func:`_holds`), that slides faster than the slip threshold
@@ -691,8 +694,8 @@ def _slipping(
     steady = means.cone_share < cfg.chatter_share
     short = cannot_roll & fast & steady
     starts = at_cone | short | (np.abs(means.slip) > cfg.creep_speed)
-    enter = hold & starts & touching & (demand_short | fast_own)
-    out = np.zeros(len(touching), dtype=bool)
+    enter = hold & starts & forced & (demand_short | fast_own)
+    out = np.zeros(len(forced), dtype=bool)
     # A slip slides one way: a reversal is a new slip, entered anew (at the cone on the other
     # side, as the exact reversal is).
     for start, stop in _runs(hold & (means.friction < 0)) + _runs(hold & (means.friction > 0)):
@@ -834,12 +837,12 @@ def _crossings(t: NDArray, y: NDArray, i: NDArray, level: float) -> NDArray:
 
 def _forced(touching: NDArray, f: NDArray, cfg: ContactSettings) -> NDArray:
     """The samples with a contact force: ``touching`` (n above the contact level) or a
-    friction above ``friction_level``. A friction without a normal force is no flight's: DART stock
-    (random-10 of the truth draw 9,301,130, dt 1e-3) slides 0.16 s at up to 430 mm/s on the
-    floor with n at 1e-17 and a friction of 0.3-1.2 m/s^2 that its momentum balance confirms
-    (dXdot/dt within 5 %); read as samples without force, that stretch took the mode it
-    interrupts, a roll. The flights stay the normal force's (a hop's lift-off is where the
-    floor stops pushing)."""
+    friction above ``friction_level``. A friction acts on the hoop with or without a normal
+    force: DART stock (random-10 of the truth draw 9,301,130, dt 1e-3) slides 0.16 s at up to
+    430 mm/s on the floor with n at 1e-17 and a friction of 0.3-1.2 m/s^2 that its momentum
+    balance confirms (dXdot/dt within 5 %); read as samples without force, that stretch took
+    the mode it interrupts, a roll. The flights stay the normal force's (a hop's lift-off is
+    where the floor stops pushing)."""
     return touching | (np.abs(f) > cfg.friction_level)
 
 
@@ -880,12 +883,12 @@ def _landing(t: NDArray, clearance: NDArray, start: int) -> float | None:
     return None
 
 
-def _labels(touching: NDArray, slipping: NDArray, f: NDArray, in_hop: NDArray) -> NDArray:
+def _labels(forced: NDArray, slipping: NDArray, f: NDArray, in_hop: NDArray) -> NDArray:
     """Per sample: flight (inside a hop), roll, slip + or - (the slip opposes the mean
     friction ``f``). A sample without contact force outside a hop (chatter, or a force that
     drops out for a step while the hoop stays on the floor) reads as the mode it interrupts:
     it is counted with the chatter, not as a phase."""
-    labels = np.where(touching, _ROLL, -1)
+    labels = np.where(forced, _ROLL, -1)
     labels = np.where(slipping & (f < 0), _SLIP_PLUS, labels)
     labels = np.where(slipping & (f > 0), _SLIP_MINUS, labels)
     labels = np.where(in_hop, _FLIGHT, labels)
