@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 from markdown_it import MarkdownIt
 
+from hoopbench.engines.judging.contact import ContactSettings
 from hoopbench.engines.judging.verdict import Verdict
 from hoopbench.reports.compare.suite import ROW_COLUMNS
 from hoopbench.reports.report import docs
@@ -31,6 +32,16 @@ def test_every_verdict_has_its_row():
     page = PAGE.read_text(encoding="utf-8")
     missing = [str(v) for v in Verdict if f"\n| `{v}` | " not in page]
     assert not missing, f"verdicts without a row in docs/report.md: {missing}: run make docs"
+
+
+def test_every_threshold_the_definitions_name_has_its_row():
+    """A threshold of ContactSettings that the canonical reading's definitions name (a field
+    or a property made from them, as friction_level) is in the thresholds table."""
+    named = set(re.findall(r"`(\w+)`", docs.contact_definitions()))
+    thresholds = {name for name in named if hasattr(ContactSettings, name)}
+    table = docs.contact_thresholds()
+    missing = sorted(name for name in thresholds if f"| `{name}` |" not in table)
+    assert thresholds and not missing, f"thresholds named without a row: {missing}"
 
 
 def _mentioned(page: str) -> set[str]:

@@ -172,6 +172,7 @@ _SCALES = {
     "length": ("a", "m", 1e3, "mm"),
     "speed": ("√(g a)", "m/s", 1e3, "mm/s"),
     "duration": ("√(a/g)", "s", 1e3, "ms"),
+    "acceleration": ("g", "m/s²", 1.0, "m/s²"),
 }
 """How a threshold scales: what it scales with, its SI unit, and as shown (a factor and a
 unit)."""
@@ -197,14 +198,22 @@ def _scale(value: float, moved: float, factors: Mapping[str, float], name: str) 
     raise BlockError(f"ContactSettings.{name}: for_hoop scales it by {moved / value:g}, no size")
 
 
+_DERIVED = ("friction_level",)
+"""ContactSettings' thresholds made from its fields (properties), shown after them."""
+
+
 def contact_thresholds() -> str:
     """The canonical reading's thresholds: name, value on the settings' own hoop, what it
     scales with, and its docstring."""
     base = ContactSettings()
     other = base.for_hoop(4.0 * base.a, 9.0 * base.g)  # every kind of size moves differently
-    factors = dict(zip(_SCALES, hoop_scale(other.a, other.g, base.a, base.g), strict=True))
-    docs = attribute_docs(ContactSettings)
-    names = [f.name for f in fields(base) if f.name not in ("a", "g")]
+    length, speed, duration = hoop_scale(other.a, other.g, base.a, base.g)
+    factors = dict(zip(_SCALES, (length, speed, duration, speed / duration), strict=True))
+    docs = {
+        **attribute_docs(ContactSettings),
+        **{name: inspect.getdoc(getattr(ContactSettings, name)) or "" for name in _DERIVED},
+    }
+    names = [f.name for f in fields(base) if f.name not in ("a", "g")] + list(_DERIVED)
     rows = []
     for name, doc in zip(names, _documented(docs, names, "ContactSettings field"), strict=True):
         value = float(getattr(base, name))
