@@ -840,9 +840,9 @@ def _forced(touching: NDArray, f: NDArray, cfg: ContactSettings) -> NDArray:
     friction above ``friction_level``. A friction acts on the hoop with or without a normal
     force: DART stock (random-10 of the truth draw 9,301,130, dt 1e-3) slides 0.16 s at up to
     430 mm/s on the floor with n at 1e-17 and a friction of 0.3-1.2 m/s^2 that its momentum
-    balance confirms (dXdot/dt within 5 %); read as samples without force, that stretch took
-    the mode it interrupts, a roll. The flights stay the normal force's (a hop's lift-off is
-    where the floor stops pushing)."""
+    balance confirms (dXdot/dt within 10 %, as on its steps with n); read as samples without
+    force, that stretch took the mode it interrupts, a roll. The flights stay the normal
+    force's (a hop's lift-off is where the floor stops pushing)."""
     return touching | (np.abs(f) > cfg.friction_level)
 
 
