@@ -194,7 +194,7 @@ class ContactSettings:
 
 @dataclass(frozen=True)
 class Flight:
-    """One stretch without contact force."""
+    """One stretch without a normal force (a friction may still act: :func:`_forced`)."""
 
     t_start: float
     """s: the first sample without contact (interpolated at n = contact_level g)."""
