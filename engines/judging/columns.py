@@ -235,7 +235,7 @@ class Col(StrEnum):
     """RMS of ``(f - f_exact) / g`` over the window; empty when the window holds no
     sample."""
     CONE_VIOLATION = "cone_violation"
-    """The largest ``(|f| - mu n) / g`` over the samples with a contact force (n > 0), whole
+    """The largest ``(|f| - mu n) / g`` over the samples with a normal force (n > 0), whole
     run; 0 when never above. Above 0 (beyond round-off, ~1e-14): friction outside the Coulomb
     cone."""
     DISSIPATION_VIOLATION = "dissipation_violation"
@@ -243,8 +243,8 @@ class Col(StrEnum):
     n > 0) whose friction does not oppose the slip velocity (``f * slip_velocity > 0``):
     maximum dissipation says it always opposes. Empty without such samples."""
     MAX_PENETRATION_IN_CONTACT_M = "max_penetration_in_contact_m"
-    """m: the deepest penetration, ``-clearance``, over the samples with a contact force,
-    whole run (0 when none penetrates; empty when none has a force). Unlike
+    """m: the deepest penetration, ``-clearance``, over the samples with a normal force (n >
+    0), whole run (0 when none penetrates; empty when none has one). Unlike
     ``max_penetration_m``, a sample that sinks without a force does not count."""
     ENERGY_CHANGE_BEFORE_SLIP = "energy_change_before_slip"
     """``(E(t) - E(0)) / E(0)`` at the exact first slip onset (the window's end when the

@@ -9,13 +9,16 @@ per run (engines/judging/comparison.py adds them to a suite's rows; a map's rows
   on either side of t = 0 and of every exact phase boundary there (an engine's transitions
   land a few ms from the exact ones, and its re-stick impulse is one sample of 5-27 g:
   tests/test_contact_forces.py). Empty when the window holds no sample.
-* ``cone_violation``: the largest (|f| - mu n)/g over the samples with a contact force
+* ``cone_violation``: the largest (|f| - mu n)/g over the samples with a normal force
   (n > 0), the whole run; 0 when never above (> 0: friction outside the Coulomb cone).
 * ``dissipation_violation``: the fraction of the window's slipping samples (an exact slip
   phase, n > 0) whose friction does not oppose the slip velocity (f * slip_velocity > 0);
   maximum dissipation says it always opposes. Empty without such samples.
 * ``max_penetration_in_contact_m``: the deepest penetration, -clearance, over the samples
-  with a contact force (0 when none penetrates; empty when none has a force).
+  with a normal force (0 when none penetrates; empty when none has one). Both read n > 0,
+  not the canonical reading's samples with a contact force (engines/judging/contact.py):
+  a friction without a normal force (DART stock's) counts only on the steps where its
+  round-off n is above 0.
 * ``energy_change_before_slip``: (E(t) - E(0)) / E(0) at the exact first slip onset, or the
   window's end if the exact solution never slips (E interpolated between samples): rolling
   conserves energy, so any change is the engine's. Empty when that time is past the run.
@@ -83,7 +86,7 @@ def _energy_change(traj: Trajectory, until: float | None) -> float | None:
 
 
 def _contact_columns(traj: Trajectory, mu: float, g: float) -> dict[str, Any]:
-    """The columns read over the whole run's samples with a contact force."""
+    """The columns read over the whole run's samples with a normal force (n > 0)."""
     touching = traj.normal_force > 0
     if not touching.any():
         return {Col.CONE_VIOLATION: None, Col.MAX_PENETRATION_IN_CONTACT_M: None}
