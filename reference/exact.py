@@ -899,15 +899,15 @@ def flight_phase(
 
 
 def first_flight_impact(scene: Scene) -> float | None:
-    """When the exact motion first lands, s, if its first mode (as :func:`solve_exact`
-    chooses it) is a flight, the hoop leaving the floor at t = 0; None for any other start,
-    whose first impact only the whole solution finds. The flight is ballistic
-    (:func:`flight_phase`), so this integrates nothing: a cost estimate's shortcut (the hop
-    map's runs stop at their first impact) before the solution is known. None too where
-    the flight's scan would exceed its work budget."""
+    """When the exact motion first lands, s, if its first mode (:func:`_start_mode`, as
+    :func:`solve_exact` chooses it) is a flight, the hoop leaving the floor at t = 0; None
+    for any other start, whose first impact only the whole solution finds. The flight is
+    ballistic (:func:`flight_phase`), so this integrates nothing: a cost estimate's shortcut
+    (the hop map's runs stop at their first impact) before the solution is known. None too
+    where the flight's scan would exceed its work budget."""
     if scene.is_degenerate:
         return None
-    mode, _ = _rolling_start(scene) if scene.rolls_at_start else _sliding_start(scene)
+    mode, _ = _start_mode(scene)
     if mode is not Mode.FLIGHT:
         return None
     try:
@@ -948,6 +948,11 @@ def _leave_rolling(scene: Scene, state: State, f_roll: float) -> tuple[Mode, int
     if free > 0 or (free == 0 and rising > 0):
         return Mode.FLIGHT, None
     return Mode.SLIP, _initial_slip_direction(scene, f_roll)
+
+
+def _start_mode(scene: Scene) -> tuple[Mode, int | None]:
+    """The solution's first mode and slip direction (None: no slip), from its start."""
+    return _rolling_start(scene) if scene.rolls_at_start else _sliding_start(scene)
 
 
 def _rolling_start(scene: Scene) -> tuple[Mode, int | None]:
@@ -1080,7 +1085,7 @@ def _solved(
     note: bool = False,
 ) -> _Solve:
     """A solve of ``scene``, run."""
-    mode, sigma = _rolling_start(scene) if scene.rolls_at_start else _sliding_start(scene)
+    mode, sigma = _start_mode(scene)
     solve = _Solve(
         scene,
         opts,
