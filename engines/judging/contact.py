@@ -706,16 +706,11 @@ def _slipping(
         if not fast[entry:stop].any():
             continue
         out[entry:stop] = True
-    return _through_crossings(out, hold, averaged, means.touched, mu, cfg)
+    return _through_crossings(out, hold, means, mu, cfg)
 
 
 def _through_crossings(
-    slipping: NDArray,
-    hold: NDArray,
-    means: _Contact,
-    touched: NDArray,
-    mu: float,
-    cfg: ContactSettings,
+    slipping: NDArray, hold: NDArray, windows: _Means, mu: float, cfg: ContactSettings
 ) -> NDArray:
     """``slipping`` on from a slip through each stretch where the rolling demand passes the
     level of its friction while the rim slides on one way (short of the demand at the
@@ -727,6 +722,7 @@ def _through_crossings(
     demand without following it (it stays at its level while the demand sweeps past), and
     the rim slides on at its fastest: one slip, not a slip, a creep and no re-stick. Only a
     slip goes on so: the stretches it joins start none."""
+    means = _averaged(windows)
     if means.demand is None:
         return slipping
     band = cfg.demand_tolerance * mu * means.normal + means.demand.step_change
@@ -735,7 +731,7 @@ def _through_crossings(
     with np.errstate(divide="ignore", invalid="ignore"):
         share = means.friction / (mu * means.normal)
     out = slipping.copy()
-    sliding = means.sliding(cfg.slip_floor) & touched
+    sliding = means.sliding(cfg.slip_floor) & windows.touched
     for sign in (-1.0, 1.0):
         for start, stop in _runs(sliding & (np.sign(means.friction) == sign)):
             pieces = [(start + a, start + b) for a, b in _runs(hold[start:stop])]
