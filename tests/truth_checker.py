@@ -581,7 +581,8 @@ class Run:
     def from_frame(cls, frame: pd.DataFrame, mu: float, hoop: Hoop) -> Run:
         t = frame["t"].to_numpy(float)
         n = frame["normal_force"].to_numpy(float)
-        touching = n > CONTACT_LEVEL * hoop.g
+        level = CONTACT_LEVEL * hoop.g
+        touching = n > level
         f = frame["friction_force"].to_numpy(float)
         clearance = frame["clearance"].to_numpy(float)
         flights = []
@@ -598,7 +599,7 @@ class Run:
             n=n,
             s=frame["slip_velocity"].to_numpy(float),
             touching=touching,
-            forced=touching | (np.abs(f) > CONTACT_LEVEL * hoop.g),
+            forced=touching | (np.abs(f) > level),
             flights=tuple(flights),
             hoop=hoop,
             mu=mu,
@@ -628,7 +629,7 @@ class Windows:
     """mean slip velocity and mean friction of opposite signs."""
     friction_sign: NDArray
     """sign(mean f): a slip's direction is the opposite one."""
-    all_touching: NDArray
+    all_forced: NDArray
     """Every sample of the window has a contact force (Run.forced)."""
     steps_at_cone: NDArray
     """Share of the window's contact samples with |f| >= (1 - CONE_CLEAR) mu n."""
@@ -696,7 +697,7 @@ class Windows:
             mean_s=mean_s,
             opposes=mean_s * mean_f < 0,
             friction_sign=np.sign(mean_f),
-            all_touching=mean(run.forced.astype(float)) >= 1.0,
+            all_forced=mean(run.forced.astype(float)) >= 1.0,
             steps_at_cone=np.nan_to_num(share),
             in_region=ends <= region_end,
             length=m,
@@ -770,7 +771,7 @@ class Windows:
         sliding = (np.abs(self.mean_s) >= CLEAR * SLIP_THRESHOLD * hoop.speed) & self.opposes
         with np.errstate(invalid="ignore"):
             law = self.slip_law(hoop, clearly=True)
-            each = self.in_region & self.all_touching & law & sliding
+            each = self.in_region & self.all_forced & law & sliding
         clear = _sustained(each, self.length)
         # A friction above the rolling demand brakes a slide already going but starts none:
         # a clear stretch none of whose windows could start a slip is no slip (a saturating
@@ -808,14 +809,14 @@ class Windows:
         rim still (below STILL) or its friction clearly following the rolling demand
         (:meth:`follows_demand`: a creep at most)."""
         still = np.abs(self.mean_s) < STILL * hoop.speed
-        each = self.in_region & self.all_touching & (still | self.follows_demand(hoop))
+        each = self.in_region & self.all_forced & (still | self.follows_demand(hoop))
         return _sustained(each, self.length)
 
     def stick_outside(self, hoop: Hoop) -> NDArray:
         """Clearly stuck outside the cone, sustained as :meth:`clear_slip`."""
         still = np.abs(self.mean_s) < SLIP_THRESHOLD * hoop.speed / CLEAR
         with np.errstate(invalid="ignore"):
-            each = self.in_region & self.all_touching & (self.ratio > 1 + CONE_OUTSIDE) & still
+            each = self.in_region & self.all_forced & (self.ratio > 1 + CONE_OUTSIDE) & still
         return _sustained(each, self.length)
 
     def describe(self, k: int) -> str:
