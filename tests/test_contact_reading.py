@@ -482,6 +482,29 @@ def test_a_friction_that_saturates_below_mu_slips_where_it_stops_giving_the_dema
     assert reading.slip_friction_ratio == pytest.approx(0.8)
 
 
+def test_a_friction_lagging_a_ramping_demand_while_the_rim_creeps_starts_no_slip():
+    """Box2D stock on a drawn scene (seed 6,301,130's random-37, dt 1e-3) held its friction at
+    4-6 % of the cone for 6 ms while the rolling demand ramped to 24 %, its rim creeping on
+    at 3.8-4.5 mm/s, and its friction reached the cone at 0.040 s, the exact onset (0.0399).
+    The lag read as a slip from 0.012 s (early-slip, at dt 1e-3 only). A friction short of
+    the demand inside the cone starts a slip only where the slide grows from there by the
+    slip threshold: here the slip starts where the friction reaches the cone."""
+    n, f, clear, slip = _window()
+    t = np.arange(len(n)) * DT
+    share = 5.0 * t  # the demand's share of the cone: the cone at 0.2 s
+    lag = (t >= 0.05) & (t < 0.07)  # 20 ms held at 0.25 while the demand rises to 0.35
+    f[:] = -0.5 * np.minimum(np.where(lag, 0.25, share), 1.0) * n
+    creep = 4e-3 + 0.025 * np.clip(t - 0.05, 0.0, 0.02)  # 4 mm/s, 0.5 mm/s faster after the lag
+    slip[:] = creep + np.where(t > 0.2, 5.0 * (t - 0.2) ** 2, 0.0)
+    reading = read_contact(_record(n, f, clear, slip), mu=0.5, rolling_demand=_demand(n, share))
+    assert reading.phases == "R S+"
+    assert reading.t_slip == pytest.approx(0.2, abs=ContactSettings().window / 2)
+    # Where the slide grows by more than the threshold over the lag, the lag starts a slip.
+    slip[:] += 0.1 * np.clip(t - 0.05, 0.0, 0.02)  # 2 mm/s more
+    reading = read_contact(_record(n, f, clear, slip), mu=0.5, rolling_demand=_demand(n, share))
+    assert reading.t_slip is not None and 0.05 < reading.t_slip < 0.07
+
+
 def test_the_onset_takes_a_friction_beyond_the_cone():
     """Issue 33, rule 5: where the friction overshoots the cone at the onset (pymunk, DART
     stock, Box2D: 1.02 mu n here) while the rim slides, the onset is its first sample beyond

@@ -531,6 +531,28 @@ creeps and then brakes before its slip (below)."""
 
 
 @pytest.mark.slow
+def test_the_checker_reads_a_friction_lagging_the_demand_over_a_creep_as_no_slip(
+    near_drawn, near_exact
+):
+    """A near-slip roll whose friction is made to fall 8 % of the cone short of the rolling
+    demand for 20 ms while the rim creeps on at 4 mm/s (Box2D stock's lag on a ramping
+    demand, seed 6,301,130's random-37): the slide does not grow, so it is no clear slip and
+    a row that reads a roll there stands. Where the slide grows from 4 to 8 mm/s over the
+    stretch, it is a slip, and the roll is contradicted."""
+    scene, frame, labels, mu, hoop, stretch = _near_slip_roll(near_drawn, near_exact, 0.5, 0.8)
+    lag = frame.copy()
+    sign = np.sign(lag.loc[stretch, "friction_force"])
+    lag.loc[stretch, "friction_force"] -= sign * 0.08 * mu * lag.loc[stretch, "normal_force"]
+    lag.loc[stretch, "slip_velocity"] = -sign * 4e-3
+    e = near_exact[scene.name]
+    assert labels.t_slip is None
+    assert Kind.SLIDE_AS_ROLL not in _kinds(lag, labels, e, mu, hoop)
+    grows = lag.copy()
+    t = grows.loc[stretch, "t"]
+    grows.loc[stretch, "slip_velocity"] = -sign * (4e-3 + 4e-3 * (t - t.iloc[0]) / np.ptp(t))
+    assert Kind.SLIDE_AS_ROLL in _kinds(grows, labels, e, mu, hoop)
+
+
 def test_a_friction_above_the_demand_starts_no_slip_in_the_checker():
     """The canonical reading: a friction above the rolling demand brakes a slide already
     going but starts none. DART stock creeps on this hop from 0.52 s, its friction saturated

@@ -39,7 +39,10 @@ and so does its rolling demand):
   entered where the window's friction is at the cone, rolling cannot go on, or the slide is
   fast, or where the friction is short of the demand once |mean s| exceeds the slip
   threshold (a soft friction lags a demand that ramps up: short of it while the rim barely
-  moves is no slip), at a sample whose own contact cannot roll or slides fast. Its
+  moves is no slip) and the slide grows from there by more than the slip threshold before
+  the friction reaches the cone (a friction that saturates short of the demand lets the
+  slide run away; one that lags the demand leaves the rim creeping at its speed, and the
+  slip starts at the cone), at a sample whose own contact cannot roll or slides fast. Its
   direction is opposite the friction: S+ where mean f < 0;
 - **creep**: outside the slips, in contact before the exact lift-off (after it the exact hoop
   has no contact to creep on), |s| above the slip threshold and at most ``creep_speed``
@@ -671,9 +674,10 @@ def _slipping(
     friction under the slip law (:func:`_holds`), that slides faster than the slip threshold
     somewhere after its entry. It is entered at the stretch's first sample whose own contact
     slides and cannot roll (at the cone within ``cone_tolerance`` or beyond it, or short of
-    the rolling demand by ``demand_tolerance``) or slides faster than ``creep_speed``; the
-    modes then move its start back over the samples just before it that slide under the
-    slip law themselves (:func:`_refined_start`)."""
+    the rolling demand by ``demand_tolerance``) or slides faster than ``creep_speed``, short
+    of the demand only where the slide then grows (:func:`_entry`); the modes then move its
+    start back over the samples just before it that slide under the slip law themselves
+    (:func:`_refined_start`)."""
     fast = np.abs(means.slip) > cfg.slip_threshold
     averaged = _averaged(means)
     # The window means' law at cone_hold and demand_tolerance: read by the slip law and by
@@ -684,29 +688,51 @@ def _slipping(
     fast_own = np.abs(own.slip) > cfg.creep_speed
     # Only friction that cannot give the demand starts a slip, in the window's mean and in the
     # sample's own; friction above the demand only brakes a slide already going. Short of the
-    # demand inside the cone starts one only once the rim slides beyond the slip threshold: a
-    # soft friction lags a demand that ramps up (MuJoCo stock: 4-8 % of the cone below it,
-    # the rim creeping at 0.1-0.4 mm/s, in the 7 ms before its friction reaches the cone).
+    # demand inside the cone starts one only once the rim slides beyond the slip threshold, and
+    # the slide grows (_entry): a soft friction lags a demand that ramps up (MuJoCo stock: 4-8
+    # % of the cone below it, the rim creeping at 0.1-0.4 mm/s, in the 7 ms before its
+    # friction reaches the cone).
     at_cone = averaged.cannot_roll(mu, cfg.cone_hold, math.inf)
     # A chattering window's mean friction is no law's level (at the cone on some steps, the
     # demand on others): PyBullet's cylinder, creeping at 1.0-1.1 mm/s, sits 4 % short of the
     # demand on average for 5 ms before its slip, its slide flat.
     steady = means.cone_share < cfg.chatter_share
     short = cannot_roll & fast & steady
-    starts = at_cone | short | (np.abs(means.slip) > cfg.creep_speed)
-    enter = hold & starts & forced & (demand_short | fast_own)
+    coulomb = at_cone | (np.abs(means.slip) > cfg.creep_speed)
+    enter = hold & (coulomb | short) & forced & (demand_short | fast_own)
     out = np.zeros(len(forced), dtype=bool)
     # A slip slides one way: a reversal is a new slip, entered anew (at the cone on the other
     # side, as the exact reversal is).
     for start, stop in _runs(hold & (means.friction < 0)) + _runs(hold & (means.friction > 0)):
-        hits = np.nonzero(enter[start:stop])[0]
-        if not hits.size:
+        entry = _entry(enter[start:stop], coulomb[start:stop], np.abs(means.slip[start:stop]), cfg)
+        if entry is None or not fast[start + entry : stop].any():
             continue
-        entry = start + int(hits[0])
-        if not fast[entry:stop].any():
-            continue
-        out[entry:stop] = True
+        out[start + entry : stop] = True
     return _through_crossings(out, hold, means, mu, cfg)
+
+
+def _entry(enter: NDArray, coulomb: NDArray, speed: NDArray, cfg: ContactSettings) -> int | None:
+    """Where a stretch under the slip law enters its slip (an index into it), or None: its
+    first entry at the cone or fast (``coulomb``), or an earlier one short of the rolling
+    demand inside the cone from which the slide (``speed``: |mean s|, m/s) grows by more than
+    the slip threshold before that. A friction that saturates short of the demand lets the
+    slide run away; one that lags a demand ramping up while the rim creeps leaves the slide
+    at its creeping speed (Box2D stock at dt 1e-3 held its friction at 4-6 % of the cone for
+    6 ms while the demand ramped to 24 %, its rim creeping on at 3.8-4.5 mm/s: no slip)."""
+    hits = np.nonzero(enter)[0]
+    if not hits.size:
+        return None
+    firm = hits[coulomb[hits]]
+    until = int(firm[0]) if firm.size else len(enter)
+    early = hits[hits < until]
+    if early.size:
+        # The fastest slide from each early entry up to ``until``: the running maximum, read
+        # backwards from there.
+        ahead = np.maximum.accumulate(speed[early[0] : until][::-1])[::-1]
+        grows = ahead[early - early[0]] - speed[early] > cfg.slip_threshold
+        if grows.any():
+            return int(early[np.argmax(grows)])
+    return until if firm.size else None
 
 
 def _through_crossings(
