@@ -783,13 +783,13 @@ class Windows:
         # A friction short of the demand inside the cone starts a slip only where the slide
         # grows: one that lags a demand ramping up leaves the rim creeping at its speed
         # (Box2D stock: 4-6 % of the cone for 6 ms, the rim on at 3.8-4.5 mm/s).
-        coulomb = each & self._clear_law(hoop, None)
+        firm = each & self._clear_law(hoop, None)  # at the cone, rolling impossible, or fast
         speed = np.abs(self.mean_s)
         for first, stop in _runs(clear):
             span = slice(first, stop + self.length - 1)
             if not starts[span].any():
                 clear[first:stop] = False
-            elif not coulomb[span].any():
+            elif not firm[span].any():
                 k = first + int(np.argmax(starts[span]))
                 grown = speed[k : span.stop].max() - speed[k]
                 if grown < CLEAR * SLIP_THRESHOLD * hoop.speed:

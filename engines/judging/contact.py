@@ -698,22 +698,23 @@ def _slipping(
     # demand on average for 5 ms before its slip, its slide flat.
     steady = means.cone_share < cfg.chatter_share
     short = cannot_roll & fast & steady
-    coulomb = at_cone | (np.abs(means.slip) > cfg.creep_speed)
-    enter = hold & (coulomb | short) & forced & (demand_short | fast_own)
+    firm = at_cone | (np.abs(means.slip) > cfg.creep_speed)
+    enter = hold & (firm | short) & forced & (demand_short | fast_own)
     out = np.zeros(len(forced), dtype=bool)
     # A slip slides one way: a reversal is a new slip, entered anew (at the cone on the other
     # side, as the exact reversal is).
     for start, stop in _runs(hold & (means.friction < 0)) + _runs(hold & (means.friction > 0)):
-        entry = _entry(enter[start:stop], coulomb[start:stop], np.abs(means.slip[start:stop]), cfg)
+        entry = _entry(enter[start:stop], firm[start:stop], np.abs(means.slip[start:stop]), cfg)
         if entry is None or not fast[start + entry : stop].any():
             continue
         out[start + entry : stop] = True
     return _through_crossings(out, hold, means, mu, cfg)
 
 
-def _entry(enter: NDArray, coulomb: NDArray, speed: NDArray, cfg: ContactSettings) -> int | None:
+def _entry(enter: NDArray, firm: NDArray, speed: NDArray, cfg: ContactSettings) -> int | None:
     """Where a stretch under the slip law enters its slip (an index into it), or None: its
-    first entry at the cone or fast (``coulomb``), or an earlier one short of the rolling
+    first entry where the window's friction is at the cone, rolling cannot go on or the slide
+    is faster than ``creep_speed`` (``firm``), or an earlier one short of the rolling
     demand inside the cone from which the slide (``speed``: |mean s|, m/s) grows by more than
     the slip threshold before that. A friction that saturates short of the demand lets the
     slide run away; one that lags a demand ramping up while the rim creeps leaves the slide
@@ -722,8 +723,8 @@ def _entry(enter: NDArray, coulomb: NDArray, speed: NDArray, cfg: ContactSetting
     hits = np.nonzero(enter)[0]
     if not hits.size:
         return None
-    firm = hits[coulomb[hits]]
-    until = int(firm[0]) if firm.size else len(enter)
+    firm_hits = hits[firm[hits]]
+    until = int(firm_hits[0]) if firm_hits.size else len(enter)
     early = hits[hits < until]
     if early.size:
         # The fastest slide from each early entry up to ``until``: the running maximum, read
@@ -732,7 +733,7 @@ def _entry(enter: NDArray, coulomb: NDArray, speed: NDArray, cfg: ContactSetting
         grows = ahead[early - early[0]] - speed[early] > cfg.slip_threshold
         if grows.any():
             return int(early[np.argmax(grows)])
-    return until if firm.size else None
+    return until if firm_hits.size else None
 
 
 def _through_crossings(
