@@ -147,13 +147,30 @@ def test_friction_with_the_slip_is_counted():
 
 
 def test_penetration_counts_only_with_a_contact_force():
-    """1 mm deep with a force, 5 mm deep without: 1 mm."""
+    """1 mm deep with a force, 5 mm deep without (no normal force, no friction), 4 mm deep
+    with a round-off normal force (1e-9 g, below the contact level) and no friction: 1 mm."""
     traj = sampled()
+    g = exact().scene.g
     clearance, n = traj.clearance.copy(), traj.normal_force.copy()
-    clearance[1000], clearance[2000] = -1e-3, -5e-3
-    n[2000] = 0.0
-    got = columns(with_forces(traj, clearance=clearance, normal_force=n))
+    f = traj.friction_force.copy()
+    clearance[1000], clearance[2000], clearance[2500] = -1e-3, -5e-3, -4e-3
+    n[2000], n[2500] = 0.0, 1e-9 * g
+    f[2000] = f[2500] = 0.0
+    got = columns(with_forces(traj, clearance=clearance, normal_force=n, friction_force=f))
     assert got[Col.MAX_PENETRATION_IN_CONTACT_M] == pytest.approx(1e-3)
+
+
+def test_a_friction_without_a_normal_force_is_a_cone_violation_of_its_whole_size():
+    """A friction of 0.5 g where the normal force is 0 (DART stock's, up to 6 g, the
+    canonical reading's contact force): cone violation 0.5, and the penetration there counts."""
+    traj = sampled()
+    g = exact().scene.g
+    clearance, n = traj.clearance.copy(), traj.normal_force.copy()
+    f = traj.friction_force.copy()
+    n[1500], f[1500], clearance[1500] = 0.0, -0.5 * g, -2e-3
+    got = columns(with_forces(traj, clearance=clearance, normal_force=n, friction_force=f))
+    assert got[Col.CONE_VIOLATION] == pytest.approx(0.5, rel=1e-9)
+    assert got[Col.MAX_PENETRATION_IN_CONTACT_M] == pytest.approx(2e-3)
 
 
 def test_energy_gained_before_the_slip():

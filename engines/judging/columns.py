@@ -235,16 +235,18 @@ class Col(StrEnum):
     """RMS of ``(f - f_exact) / g`` over the window; empty when the window holds no
     sample."""
     CONE_VIOLATION = "cone_violation"
-    """The largest ``(|f| - mu n) / g`` over the samples with a normal force (n > 0), whole
-    run; 0 when never above. Above 0 (beyond round-off, ~1e-14): friction outside the Coulomb
-    cone."""
+    """The largest ``(|f| - mu n) / g`` over the samples with a contact force (the canonical
+    reading's: n above its contact level, or a friction above its friction level), whole run;
+    0 when never above. Above 0 (beyond round-off, ~1e-14): friction outside the Coulomb cone;
+    a friction without a normal force counts whole (DART stock's, up to 6 g)."""
     DISSIPATION_VIOLATION = "dissipation_violation"
     """The fraction of the window's slipping samples (an exact slip phase, the engine's
-    n > 0) whose friction does not oppose the slip velocity (``f * slip_velocity > 0``):
-    maximum dissipation says it always opposes. Empty without such samples."""
+    samples with a contact force) whose friction does not oppose the slip velocity
+    (``f * slip_velocity > 0``): maximum dissipation says it always opposes. Empty without
+    such samples."""
     MAX_PENETRATION_IN_CONTACT_M = "max_penetration_in_contact_m"
-    """m: the deepest penetration, ``-clearance``, over the samples with a normal force (n >
-    0), whole run (0 when none penetrates; empty when none has one). Unlike
+    """m: the deepest penetration, ``-clearance``, over the samples with a contact force,
+    whole run (0 when none penetrates; empty when none has one). Unlike
     ``max_penetration_m``, a sample that sinks without a force does not count."""
     ENERGY_CHANGE_BEFORE_SLIP = "energy_change_before_slip"
     """``(E(t) - E(0)) / E(0)`` at the exact first slip onset (the window's end when the

@@ -100,6 +100,7 @@ __all__ = [
     "ContactSettings",
     "Flight",
     "canonical_events",
+    "contact_masks",
     "read_contact",
     "read_run",
 ]
@@ -178,6 +179,11 @@ class ContactSettings:
         above it DART stock's friction without a normal force (0.3 to 61 m/s^2 in make
         report's runs)."""
         return self.slip_threshold / self.window
+
+    @classmethod
+    def for_scene(cls, scene: Scene) -> ContactSettings:
+        """The default thresholds carried to ``scene``'s hoop (its radius and gravity)."""
+        return cls().for_hoop(scene.a, scene.g)
 
     def for_hoop(self, a: float, g: float) -> ContactSettings:
         """These thresholds carried to a hoop of radius ``a`` (m) under ``g`` (m/s^2)."""
@@ -326,8 +332,7 @@ def read_contact(
     """
     cfg = settings or ContactSettings()
     t, n = traj.t, traj.normal_force
-    touching = n > cfg.contact_level * cfg.g
-    forced = _forced(touching, traj.friction_force, cfg)
+    touching, forced = contact_masks(traj, cfg)
     own = _own(traj, rolling_demand)
     means = _means(t, n, traj.friction_force, traj.slip_velocity, forced, mu, cfg, own.demand)
     slipping = _slipping(means, own, forced, mu, cfg) & forced
@@ -464,7 +469,7 @@ def read_run(
     carried to the scene's hoop and the rolling demand at the run's own states. Every
     reader of a run (the row, ``hb.run(...).events``, ``simulate``) reads it through this."""
     demand = rolling_forces(scene, traj.theta, traj.thetadot)
-    settings = ContactSettings().for_hoop(scene.a, scene.g)
+    settings = ContactSettings.for_scene(scene)
     return read_contact(
         traj, mu, settings, window_end=window_end, rolling_demand=demand, exact_lift=exact_lift
     )
@@ -856,6 +861,14 @@ def _crossings(t: NDArray, y: NDArray, i: NDArray, level: float) -> NDArray:
     # Python's min(max(frac, 0), 1) keeps a NaN, as np.minimum(np.maximum(...)) does.
     inside = t[prev] + np.minimum(np.maximum(frac, 0.0), 1.0) * (t[i] - t[prev])
     return np.where(flat, t[i], inside)
+
+
+def contact_masks(traj: Trajectory, settings: ContactSettings) -> tuple[NDArray, NDArray]:
+    """The samples in contact (n above the contact level) and those with a contact force
+    (:func:`_forced`: in contact, or a friction above ``friction_level``), as the canonical
+    reading reads them (module doc); the force columns read the second too."""
+    touching = traj.normal_force > settings.contact_level * settings.g
+    return touching, _forced(touching, traj.friction_force, settings)
 
 
 def _forced(touching: NDArray, f: NDArray, cfg: ContactSettings) -> NDArray:

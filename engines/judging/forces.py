@@ -9,16 +9,19 @@ per run (engines/judging/comparison.py adds them to a suite's rows; a map's rows
   on either side of t = 0 and of every exact phase boundary there (an engine's transitions
   land a few ms from the exact ones, and its re-stick impulse is one sample of 5-27 g:
   tests/test_contact_forces.py). Empty when the window holds no sample.
-* ``cone_violation``: the largest (|f| - mu n)/g over the samples with a normal force
-  (n > 0), the whole run; 0 when never above (> 0: friction outside the Coulomb cone).
+* ``cone_violation``: the largest (|f| - mu n)/g over the samples with a contact force, the
+  whole run; 0 when never above (> 0: friction outside the Coulomb cone).
 * ``dissipation_violation``: the fraction of the window's slipping samples (an exact slip
-  phase, n > 0) whose friction does not oppose the slip velocity (f * slip_velocity > 0);
-  maximum dissipation says it always opposes. Empty without such samples.
+  phase, with a contact force) whose friction does not oppose the slip velocity
+  (f * slip_velocity > 0); maximum dissipation says it always opposes. Empty without such
+  samples.
 * ``max_penetration_in_contact_m``: the deepest penetration, -clearance, over the samples
-  with a normal force (0 when none penetrates; empty when none has one). Both read n > 0,
-  not the canonical reading's samples with a contact force (engines/judging/contact.py):
-  a friction without a normal force (DART stock's) counts only on the steps where its
-  round-off n is above 0.
+  with a contact force (0 when none penetrates; empty when none has one).
+
+The samples with a contact force are the canonical reading's (engines/judging/contact.py,
+``contact_masks``): a normal force above its contact level, or a friction above its friction
+level. So a friction without a normal force (DART stock's, up to 6 g) is a cone violation of
+its whole size, and round-off normal forces without friction count for none of the three.
 * ``energy_change_before_slip``: (E(t) - E(0)) / E(0) at the exact first slip onset, or the
   window's end if the exact solution never slips (E interpolated between samples): rolling
   conserves energy, so any change is the engine's. Empty when that time is past the run.
@@ -32,6 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hoopbench.engines.judging.columns import Col
+from hoopbench.engines.judging.contact import ContactSettings, contact_masks
 from hoopbench.engines.judging.exact_samples import exact_sample
 from hoopbench.models.events import Phase, PhaseKind
 from hoopbench.models.trajectory import Trajectory
@@ -85,15 +89,14 @@ def _energy_change(traj: Trajectory, until: float | None) -> float | None:
     return float((np.interp(until, traj.t, traj.energy) - e0) / e0)
 
 
-def _contact_columns(traj: Trajectory, mu: float, g: float) -> dict[str, Any]:
-    """The columns read over the whole run's samples with a normal force (n > 0)."""
-    touching = traj.normal_force > 0
-    if not touching.any():
+def _contact_columns(traj: Trajectory, forced: NDArray, mu: float, g: float) -> dict[str, Any]:
+    """The columns read over the whole run's samples with a contact force (``forced``)."""
+    if not forced.any():
         return {Col.CONE_VIOLATION: None, Col.MAX_PENETRATION_IN_CONTACT_M: None}
-    n, f = traj.normal_force[touching], traj.friction_force[touching]
+    n, f = traj.normal_force[forced], traj.friction_force[forced]
     return {
         Col.CONE_VIOLATION: max(0.0, float(np.max((np.abs(f) - mu * n) / g))),
-        Col.MAX_PENETRATION_IN_CONTACT_M: max(0.0, float(np.max(-traj.clearance[touching]))),
+        Col.MAX_PENETRATION_IN_CONTACT_M: max(0.0, float(np.max(-traj.clearance[forced]))),
     }
 
 
@@ -103,6 +106,7 @@ def force_columns(
     """The contact-force columns of a run (module doc) against ``exact``, the exact solution
     of its scene and ``mu``; ``engine_phases`` is the run's contact-reading phase code."""
     g = exact.scene.g
+    _, forced = contact_masks(traj, ContactSettings.for_scene(exact.scene))
     phases = exact.events.phases
     end = force_window_end(phases, engine_phases)
     if end is not None:
@@ -113,13 +117,13 @@ def force_columns(
         ref = exact_sample(exact, traj.t[rows])
         columns[Col.FORCE_RMS_N_G] = _rms((traj.normal_force[rows] - ref.normal_force) / g)
         columns[Col.FORCE_RMS_F_G] = _rms((traj.friction_force[rows] - ref.friction_force) / g)
-    slipping = rows[(sigma[rows] != 0) & (traj.normal_force[rows] > 0)]
+    slipping = rows[(sigma[rows] != 0) & forced[rows]]
     columns[Col.DISSIPATION_VIOLATION] = (
         float(np.mean(traj.friction_force[slipping] * traj.slip_velocity[slipping] > 0))
         if len(slipping)
         else None
     )
-    columns.update(_contact_columns(traj, mu, g))
+    columns.update(_contact_columns(traj, forced, mu, g))
     t_slip = exact.events.t_slip
     columns[Col.ENERGY_CHANGE_BEFORE_SLIP] = _energy_change(
         traj, t_slip if t_slip is not None else end
