@@ -44,7 +44,7 @@ def test_on_the_exact_solution_it_reads_the_exact_events(name):
     solution = _exact(name)
     scene, events = solution.scene, solution.events
     reading = read_contact(
-        solution.sample_uniform(DT), scene.mus, ContactSettings().for_hoop(scene.a, scene.g)
+        solution.sample_uniform(DT), scene.mus, ContactSettings().for_scene(scene)
     )
     assert reading.phases == events.phase_code
     assert _close(reading.t_slip, events.t_slip)
@@ -342,7 +342,7 @@ def test_the_detection_floor_is_half_a_millisecond_plus_a_step(dt):
         reading = read_contact(
             solution.sample_uniform(dt),
             scene.mus,
-            ContactSettings().for_hoop(scene.a, scene.g),
+            ContactSettings().for_scene(scene),
             window_end=events.t_impact,
         )
         assert reading.phases == events.phase_code, (name, dt)

@@ -180,10 +180,10 @@ class ContactSettings:
         report's runs)."""
         return self.slip_threshold / self.window
 
-    @classmethod
-    def for_scene(cls, scene: Scene) -> ContactSettings:
-        """The default thresholds carried to ``scene``'s hoop (its radius and gravity)."""
-        return cls().for_hoop(scene.a, scene.g)
+    def for_scene(self, scene: Scene) -> ContactSettings:
+        """These thresholds carried to the scene's hoop (:meth:`for_hoop` with its a and g),
+        as ``DetectorSettings.for_scene``."""
+        return self.for_hoop(scene.a, scene.g)
 
     def for_hoop(self, a: float, g: float) -> ContactSettings:
         """These thresholds carried to a hoop of radius ``a`` (m) under ``g`` (m/s^2)."""
@@ -469,7 +469,7 @@ def read_run(
     carried to the scene's hoop and the rolling demand at the run's own states. Every
     reader of a run (the row, ``hb.run(...).events``, ``simulate``) reads it through this."""
     demand = rolling_forces(scene, traj.theta, traj.thetadot)
-    settings = ContactSettings.for_scene(scene)
+    settings = ContactSettings().for_scene(scene)
     return read_contact(
         traj, mu, settings, window_end=window_end, rolling_demand=demand, exact_lift=exact_lift
     )

@@ -106,7 +106,7 @@ def force_columns(
     """The contact-force columns of a run (module doc) against ``exact``, the exact solution
     of its scene and ``mu``; ``engine_phases`` is the run's contact-reading phase code."""
     g = exact.scene.g
-    _, forced = contact_masks(traj, ContactSettings.for_scene(exact.scene))
+    _, forced = contact_masks(traj, ContactSettings().for_scene(exact.scene))
     phases = exact.events.phases
     end = force_window_end(phases, engine_phases)
     if end is not None:
