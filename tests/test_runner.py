@@ -29,6 +29,7 @@ import pytest
 from hoopbench.engines.base import POOL_WORKERS_VARIABLE, cores_per_process
 from hoopbench.engines.run import RunStatus
 from hoopbench.reports.sweep import results
+from hoopbench.reports.sweep import runner as runner_module
 from hoopbench.reports.sweep.results import TIMING_COLUMNS, read_runs
 from hoopbench.reports.sweep.runner import (
     LOCK_NAME,
@@ -390,6 +391,29 @@ def test_a_non_empty_directory_is_refused_without_resume(tmp_path, scratch):
 
 
 # ------------------------------------------------------------------ interrupts
+def test_a_signal_after_the_last_run_goes_to_the_handler_it_restores(
+    tmp_path, scratch, monkeypatch
+):
+    """A SIGTERM that comes while a sweep whose runs have all ended flushes its rows stops
+    nothing of it (it ran to its end), and is passed on to the handler the sweep restores:
+    a caller between sweeps (tune's next trial) hears it. It was dropped."""
+    heard: list[int] = []
+    previous = signal.signal(signal.SIGTERM, lambda signum, frame: heard.append(signum))
+    close = runner_module._Sweep.close
+
+    def close_with_a_signal(self, failed):
+        os.kill(os.getpid(), signal.SIGTERM)
+        close(self, failed)
+
+    monkeypatch.setattr(runner_module._Sweep, "close", close_with_a_signal)
+    try:
+        summary = run([Job(f"ok-{i}", scratch=str(scratch)) for i in range(2)], tmp_path / "out")
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    assert summary.interrupted is None and summary.total == 2
+    assert heard == [signal.SIGTERM]
+
+
 def test_sigterm_stops_the_sweep_keeps_finished_rows_and_restores_handlers(tmp_path, scratch):
     out = tmp_path / "out"
     tasks = [Job(f"run-{i:02d}", "sleep", 0.1, str(scratch)) for i in range(40)]

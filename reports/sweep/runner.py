@@ -2076,4 +2076,10 @@ def _drive(calls: _Calls, handle_signals: bool, tick: float) -> signal.Signals |
             calls.sweep.close(failed)
             if plan is not None:
                 plan.end(calls.sweep.progress.plan_index, calls.sweep.progress.done)
+    if stopped_by is None and own_flag.signal is not None:
+        # The signal came once every call had run, while the workers stopped and the rows were
+        # flushed: it stopped nothing here, so the handler just restored gets it. Dropped, a
+        # search between two trials' sweeps went on to its next trial (tune's Ctrl-C test,
+        # timed out in CI with 2 cores loaded: the flush is when such a sweep spends longest).
+        signal.raise_signal(own_flag.signal)
     return stopped_by
