@@ -289,6 +289,27 @@ def test_an_outcome_failure_does_not_hide_the_other_checks():
     )
 
 
+def test_a_run_that_never_slips_where_the_exact_hoop_slips_then_hops_slips_late():
+    """DART stock on a drawn scene (seed 5,701,130's random-45) stuck outside the cone and
+    rolled to its end where the exact hoop slipped at 0.0117 s and hopped: its flags said
+    missed-hop and wrong-phases, nothing of the slip it never made."""
+    rolls = {**HOP_ROW, "outcome": "rolls", "t_slip": None, "t_lift": None, "hop_height": None}
+    rolls |= {"max_clearance": 0.0, "phases": "R", "t_final": 1.5}
+    judgement = classify(rolls)
+    assert judgement.flags == (Verdict.MISSED_HOP, Verdict.LATE_SLIP, Verdict.WRONG_PHASES)
+    assert judgement.verdict is Verdict.MISSED_HOP
+    hops = {**HOP_ROW, "t_slip": None, "phases": "R F", "t_final": 2.0}  # lifts off rolling
+    judgement = classify(hops)
+    assert judgement.flags == (Verdict.LATE_SLIP, Verdict.WRONG_PHASES)
+    assert judgement.reason == "never slips up to its end at 2 s (exact slip onset 0.4 s)"
+    assert judgement.outcome_agrees is True  # it hops as the exact hoop does
+    # A run whose window ends within the loose tolerance of the exact onset is not late.
+    assert Verdict.LATE_SLIP not in classify({**rolls, "t_final": 0.405}).flags
+    # Where the exact hoop only slips, the outcome check says it, once.
+    missed = classify({**SLIP_ROW, "outcome": "rolls", "t_slip": None, "phases": "R"})
+    assert missed.flags == (Verdict.MISSED_SLIP, Verdict.WRONG_PHASES)
+
+
 def test_a_slip_onset_error_keeps_the_outcome():
     judgement = classify({**SLIP_ROW, "t_slip": 0.38})
     assert judgement.reason == "slip onset 20 ms early (0.38 s against 0.4 s, loose 10 ms)"

@@ -29,7 +29,9 @@ every failed check is a flag (``verdict_flags``):
 - where both hop: the hop height (``hop-too-low``, ``hop-too-high``; a run that ends in the
   air can only be too high), the lift-off (``early-lift-off``, ``late-lift-off``) and the
   impact (``early-impact``, ``late-impact``);
-- where both slip: the first slip onset (``early-slip``, ``late-slip``);
+- the first slip onset (``early-slip``, ``late-slip``): where both slip, its time; a run that
+  has not slipped by its end where the exact run slipped (and hops, so that the outcome
+  check does not say it) slips late, as a run still in the air at its end lands late;
 - the phase sequence (``wrong-phases``; the reason names the first phase that differs);
 - every later transition (``early-transition``, ``late-transition``; the reason names it):
   each re-stick, later slip onset and slip reversal of the run paired with the exact one
@@ -156,7 +158,9 @@ class Verdict(StrEnum):
     """Both slip (the reference as read at the run's timestep, and short of a Painlevé point);
     the engine's first slip onset is earlier than the loose tolerance allows."""
     LATE_SLIP = "late-slip"
-    """Both slip; the engine's first slip onset is later than the loose tolerance allows."""
+    """Both slip; the engine's first slip onset is later than the loose tolerance allows (or,
+    where the reference slips and then hops, the engine has not slipped that long after the
+    exact onset when its run ends)."""
     WRONG_PHASES = "wrong-phases"
     """The phase sequence differs from the exact one read at the run's timestep
     (``floor_phases``); the reason names the first phase that differs."""
@@ -623,14 +627,27 @@ def _impact_checks(
 
 
 def _slip_checks(row: Mapping[str, Any], checks: _Checks) -> None:
-    """Both slip: the first slip onset against the exact one."""
+    """The first slip onset against the exact one: where both slip, its time; where only
+    the exact run slips and the outcome check has not said so (it hops, and the run does
+    not slip before its own hop or at all), a run that has not slipped by its last sample,
+    more than the loose tolerance after the exact onset, slips late, as a run still in the
+    air slips its impact late."""
     limits, floor = _row_thresholds(row), _floor_s(row, Col.FLOOR_ERR_T_SLIP_MS)
+    t_slip = number_or_none(row.get(Col.T_SLIP))
+    t0 = number_or_none(row.get(Col.EXACT_T_SLIP))
+    if t_slip is None and t0 is not None:
+        end = number_or_none(row.get(Col.T_FINAL))
+        said = any(kind is Verdict.MISSED_SLIP for kind, _ in checks.failures)
+        if not said and end is not None and end - t0 > limits.loose.t_slip + floor:
+            text = f"never slips up to its end at {end:.6g} s (exact slip onset {t0:.6g} s)"
+            checks.failures.append((Verdict.LATE_SLIP, text))
+        return
     _timing(
         checks,
         "slip onset",
         (Verdict.EARLY_SLIP, Verdict.LATE_SLIP),
-        number_or_none(row.get(Col.T_SLIP)),
-        number_or_none(row.get(Col.EXACT_T_SLIP)),
+        t_slip,
+        t0,
         limits.tight.t_slip + floor,
         limits.loose.t_slip + floor,
     )
