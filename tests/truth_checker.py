@@ -573,6 +573,8 @@ class Run:
     """n above the contact level: the flights are the stretches without it."""
     forced: NDArray
     """n or |f| above the contact level: the samples with a contact force."""
+    down: NDArray
+    """The clearance at most the hop threshold: no hop could be under way."""
     flights: tuple[Flight, ...]
     hoop: Hoop
     mu: float
@@ -602,6 +604,7 @@ class Run:
             s=frame["slip_velocity"].to_numpy(float),
             touching=touching,
             forced=touching | (np.abs(f) > level),
+            down=clearance <= HOP_CLEARANCE * hoop.length,
             flights=tuple(flights),
             hoop=hoop,
             mu=mu,
@@ -638,6 +641,11 @@ class Windows:
     in_region: NDArray
     """The window ends before the region's end (see :func:`_region_end`)."""
     length: int
+    unread: NDArray
+    """Not LOADED while the hoop is down throughout: its friction law cannot be read (the
+    contact force near round-off, or none while the rim slides: pymunk's solver returns no
+    impulse at all for some slipping contacts, adapter's docstring), so nothing there says
+    that the rim, if it slides, does not slip."""
     """m, samples per window."""
     demand: NDArray | None = None
     """|mean F_roll| / (mu mean N_roll) (inf where rolling needs a pull); None without it."""
@@ -703,6 +711,7 @@ class Windows:
             steps_at_cone=np.nan_to_num(share),
             in_region=ends <= region_end,
             length=m,
+            unread=~loaded & (mean((~run.down).astype(float)) == 0),
             demand=demand,
             follow=follow,
             depart=depart,
@@ -716,12 +725,13 @@ class Windows:
         or not clearly not): at or beyond the cone, or rolling cannot go on at the run's
         state (the demand at or beyond its cone), or the friction away from the rolling
         demand by more than DEMAND_TOLERANCE of the cone (either side), or the rim sliding
-        faster than FAST_SLIDE (fast sliding is never creep)."""
+        faster than FAST_SLIDE (fast sliding is never creep); not clearly not where the
+        window is :attr:`unread`."""
         if clearly:
             return self._clear_law(hoop, self.depart)
         fast = FAST_SLIDE * hoop.speed * (1 / FAST_CLEAR)
         with np.errstate(invalid="ignore"):
-            law = (self.ratio >= 1 - CONE_INSIDE) | (np.abs(self.mean_s) >= fast)
+            law = (self.ratio >= 1 - CONE_INSIDE) | (np.abs(self.mean_s) >= fast) | self.unread
             if self.demand is not None:
                 law |= self.demand >= 1 - DEMAND_MARGIN
             if self.follow is not None:
@@ -745,8 +755,10 @@ class Windows:
 
     def sliding(self, hoop: Hoop) -> NDArray:
         """The rim is not clearly still: it slides at half the slip threshold against the
-        friction, averaged over the window."""
-        return (np.abs(self.mean_s) >= SLIP_THRESHOLD * hoop.speed / CLEAR) & self.opposes
+        friction, averaged over the window (against whatever friction an :attr:`unread`
+        window has)."""
+        fast = np.abs(self.mean_s) >= SLIP_THRESHOLD * hoop.speed / CLEAR
+        return fast & (self.opposes | self.unread)
 
     def slides_soon(self, hoop: Hoop) -> NDArray:
         """:meth:`sliding` in one of the SLIDE_HORIZON windows that start from here."""
