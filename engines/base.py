@@ -38,7 +38,7 @@ import numpy as np
 from hoopbench.engines.judging.detectors import DetectorSettings
 from hoopbench.engines.judging.judge import judge
 from hoopbench.engines.options import Option, Profile, Variant, choice
-from hoopbench.engines.run import BatchCost, Run, RunInfo, RunResult, RunStatus
+from hoopbench.engines.run import BatchCost, Divergence, Run, RunInfo, RunResult, RunStatus
 from hoopbench.engines.settings import BYTES_PER_STEP, MAX_STEPS, RunSettings
 from hoopbench.engines.standalone import EXPORT_GEOMETRY, standalone_script
 from hoopbench.engines.stopping import StopMonitor, StopReason, StopRule
@@ -149,16 +149,16 @@ def check_divergence(
     """
     for name, values in traj_state.items():
         if not np.isfinite(values).all():
-            return f"non-finite {name}"
+            return f"{Divergence.NON_FINITE} {name}"
     energy = kinematics.energy_per_mass(
         scene, traj_state["Y"], traj_state["Xdot"], traj_state["Ydot"], traj_state["thetadot"]
     )
     e0, most = scene.energy_per_mass, energy.max()
     if most > e0 * (1.0 + limits.energy_rise):
-        return f"energy rose to {most / e0:.3g} times its initial value"
+        return f"{Divergence.ENERGY_RISE} to {most / e0:.3g} times its initial value"
     least = kinematics.clearance(scene, traj_state["Y"], traj_state["theta"], shape).min()
     if least < -limits.penetration * scene.a:
-        return f"penetration {-least:.3g} m exceeds {limits.penetration} a"
+        return f"{Divergence.PENETRATION} {-least:.3g} m exceeds {limits.penetration} a"
     return None
 
 

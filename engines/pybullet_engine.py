@@ -85,6 +85,7 @@ from hoopbench.engines.options import (
     optional,
 )
 from hoopbench.engines.registry import register
+from hoopbench.engines.run import Divergence
 from hoopbench.engines.settings import RunSettings
 from hoopbench.models import kinematics
 from hoopbench.models.kinematics import Polygon
@@ -522,7 +523,7 @@ def _out_of_plane(run: _Run) -> str | None:
     (_, y, _), (qx, _, qz, _) = p.getBasePositionAndOrientation(run.hoop, run.cid)
     tilt = 2.0 * max(abs(qx), abs(qz))
     if abs(y) > OUT_OF_PLANE * run.scene.a or tilt > OUT_OF_PLANE:
-        return f"the free body left the x-z plane (y {y:.3g} m, tilt {tilt:.3g} rad)"
+        return f"{Divergence.OUT_OF_PLANE} (y {y:.3g} m, tilt {tilt:.3g} rad)"
     return None
 
 

@@ -11,7 +11,15 @@ from typing import Any
 from hoopbench.models.events import Events
 from hoopbench.models.trajectory import Trajectory
 
-__all__ = ["REFERENCE_ENGINE", "BatchCost", "Run", "RunInfo", "RunResult", "RunStatus"]
+__all__ = [
+    "REFERENCE_ENGINE",
+    "BatchCost",
+    "Divergence",
+    "Run",
+    "RunInfo",
+    "RunResult",
+    "RunStatus",
+]
 
 REFERENCE_ENGINE = "reference"
 """The engine name of the exact reference's runs and rows (engines/reference_engine.py)."""
@@ -34,6 +42,29 @@ class RunStatus(StrEnum):
     def is_final(self) -> bool:
         """True for statuses a resumed suite keeps; timeout and crashed are tried again."""
         return self not in (RunStatus.TIMEOUT, RunStatus.CRASHED)
+
+
+class Divergence(StrEnum):
+    """Why a run was stopped as diverged, where the harness knows it: each value begins the
+    message of its status (``message`` of a diverged row), so a stored row tells its cause.
+    An engine's own reason (MuJoCo's reset of a bad state, Rapier's quarantined body) has
+    none of these beginnings."""
+
+    NON_FINITE = "non-finite"
+    """A state or force is NaN or infinite."""
+    ENERGY_RISE = "energy rose"
+    """The energy rose past DivergenceLimits.energy_rise (engines/base.py)."""
+    PENETRATION = "penetration"
+    """The hoop sank into the floor past DivergenceLimits.penetration: a contact too soft or
+    too slow to push it out, not necessarily an unstable one."""
+    OUT_OF_PLANE = "the free body left the x-z plane"
+    """PyBullet's free body, no longer of the planar model."""
+
+    @classmethod
+    def of(cls, message: object) -> Divergence | None:
+        """The cause a diverged row's message begins with, or None (an engine's own)."""
+        text = str(message or "")
+        return next((cause for cause in cls if text.startswith(cause)), None)
 
 
 @dataclass(frozen=True)

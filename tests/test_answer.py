@@ -4,10 +4,14 @@ timestep limits. Rows made by hand, so that each number is known."""
 
 from __future__ import annotations
 
+import numpy as np
 import pandas as pd
 import pytest
 
+import hoopbench as hb
+from hoopbench.engines.base import DivergenceLimits, check_divergence
 from hoopbench.engines.judging.score import CostClock
+from hoopbench.engines.run import Divergence
 from hoopbench.reports.report.answer import (
     ACCURACY_TIERS,
     answer,
@@ -16,6 +20,7 @@ from hoopbench.reports.report.answer import (
     best_search,
     timestep_limits,
 )
+from hoopbench.reports.report.answer_files import write_answer_files
 from hoopbench.reports.report.best_settings import BestSettings
 from hoopbench.reports.tune.tiers import cheapest_by_tier
 
@@ -125,6 +130,48 @@ def test_an_engine_meeting_no_tier_everywhere_shows_its_best_and_what_it_always_
     assert pymunk.settings_tried == 3
     assert "tuned, default, dt 0.0001 (only 2/3 scenes)" in answer_markdown(result)
     assert "hop-top (blows up, misses the hop)" in answer_markdown(result)
+
+
+def test_a_diverged_run_is_said_by_its_cause(tmp_path):
+    """MuJoCo stock's soft contact lets the landing hoop of high-spin sink 5.2 cm (dt 1e-4),
+    past the divergence limit: the run is stopped, but it does not blow up. The words say the
+    cause the message begins with; the files keep the verdict's name."""
+    rows = pd.DataFrame(
+        [
+            *setting("mujoco", ["agrees", "diverged", "early-slip"]),
+            *setting("box2d", ["agrees"] * 3),
+        ]
+    )
+    rows["message"] = [None, "penetration 0.052 m exceeds 0.05 a", *[None] * 4]
+    result = answer(rows)
+    assert "hop-top (sinks deep into the floor)" in answer_markdown(result)
+    assert "blows up" not in answer_markdown(result)
+    write_answer_files(result, tmp_path)
+    table = pd.read_csv(tmp_path / "answer.csv").set_index("engine")
+    assert table.loc["mujoco", "wrong_everywhere"] == "hop-top: diverged; low-friction: early-slip"
+    words = {
+        "energy rose to 11.1 times its initial value": "gains energy",
+        "non-finite X, Y": "blows up",
+        "the free body left the x-z plane (y 2e-05 m, tilt 0.001 rad)": "leaves the plane",
+        "MuJoCo mjWARN_BADQACC, the engine reset its state": "blows up",  # the engine's own
+    }
+    for message, said in words.items():
+        rows["message"] = [None, message, *[None] * 4]
+        assert f"hop-top ({said})" in answer_markdown(answer(rows)), message
+
+
+def test_the_divergence_checks_messages_begin_with_their_cause():
+    """check_divergence's messages are what the answer's words read the cause from."""
+    scene = hb.scene("hop-top")
+    rest = scene.a * (1 + scene.lam)  # the centre of mass, the weight on top
+    still = {"X": np.zeros(2), "Y": np.full(2, rest), "Xdot": np.zeros(2)}
+    still |= {"Ydot": np.zeros(2), "theta": np.zeros(2), "thetadot": np.zeros(2)}
+    sunk = {**still, "Y": np.array([rest, rest - 0.5 * scene.a])}
+    fast = {**still, "Xdot": np.array([0.0, 1e3])}
+    nan = {**still, "X": np.array([0.0, np.nan])}
+    limits = DivergenceLimits()
+    causes = [Divergence.of(check_divergence(scene, s, limits)) for s in (sunk, fast, nan)]
+    assert causes == [Divergence.PENETRATION, Divergence.ENERGY_RISE, Divergence.NON_FINITE]
 
 
 def test_a_scene_every_engine_fails_until_a_finer_timestep_is_the_timesteps_limit():

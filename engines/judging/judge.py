@@ -13,7 +13,7 @@ import numpy as np
 
 from hoopbench.engines.judging.detectors import DetectorSettings
 from hoopbench.engines.judging.event_checks import checked_events
-from hoopbench.engines.run import Run, RunResult, RunStatus
+from hoopbench.engines.run import Divergence, Run, RunResult, RunStatus
 from hoopbench.models.events import Outcome
 from hoopbench.models.scene import Scene
 from hoopbench.models.trajectory import COLUMNS, Trajectory
@@ -46,7 +46,9 @@ def judge(
         return RunResult(trajectory, None, info, run.exact_events)
     bad = non_finite_columns(trajectory)
     if bad and info.status is RunStatus.OK:
-        info = replace(info, status=RunStatus.DIVERGED, message=f"non-finite {', '.join(bad)}")
+        info = replace(
+            info, status=RunStatus.DIVERGED, message=f"{Divergence.NON_FINITE} {', '.join(bad)}"
+        )
     if bad:
         return RunResult(trajectory, None, info, run.exact_events)
     try:

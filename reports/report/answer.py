@@ -59,7 +59,7 @@ from hoopbench.reports.compare.selection import (
 from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
 from hoopbench.reports.report.best_settings import BestSettings
 from hoopbench.reports.report.escaping import escape_cell, escape_text
-from hoopbench.reports.report.verdict_words import plain_verdicts
+from hoopbench.reports.report.verdict_words import plain_verdicts, verdict_token
 
 __all__ = [
     "ACCURACY_TIERS",
@@ -344,7 +344,7 @@ class _Judged:
     rows: pd.DataFrame
     scene: list[str]
     verdict: list[str]
-    """The verdicts as text."""
+    """The verdicts as text, a diverged run's with its cause (verdict_words.verdict_token)."""
     meets: tuple[np.ndarray, ...]
     """Per tier of ACCURACY_TIERS: whether each row's verdict is of it."""
     cost: np.ndarray
@@ -370,7 +370,7 @@ def _judged_rows(rows: pd.DataFrame) -> _Judged:
     return _Judged(
         rows,
         rows[Col.SCENE].tolist(),
-        rows[Col.VERDICT].astype(str).tolist(),
+        _verdict_tokens(rows),
         tuple(rows[Col.VERDICT].isin(tier.verdicts).to_numpy() for tier in ACCURACY_TIERS),
         pd.to_numeric(cost, errors="coerce").to_numpy(dtype=float),
         _changed_options(rows),
@@ -378,6 +378,13 @@ def _judged_rows(rows: pd.DataFrame) -> _Judged:
         clock,
         dict(rows.groupby(_KEYS).indices) if len(rows) else {},
     )
+
+
+def _verdict_tokens(rows: pd.DataFrame) -> list[str]:
+    """Each row's verdict, a diverged one with the cause its message tells."""
+    messages = rows[Col.MESSAGE] if Col.MESSAGE in rows.columns else [None] * len(rows)
+    verdicts = rows[Col.VERDICT].astype(str)
+    return [verdict_token(v, m) for v, m in zip(verdicts, messages, strict=True)]
 
 
 def _changed_options(rows: pd.DataFrame) -> list[int]:

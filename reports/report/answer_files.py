@@ -24,6 +24,7 @@ from hoopbench.reports.report.answer import (
     ranked,
 )
 from hoopbench.reports.report.answer_words import answer_sentences
+from hoopbench.reports.report.verdict_words import verdict_name
 from hoopbench.reports.sweep import results
 
 __all__ = [
@@ -81,8 +82,13 @@ def _number(value: float) -> float | None:
 
 
 def _scene_verdicts(pairs: tuple[tuple[str, tuple[str, ...]], ...]) -> str:
-    """'hop-top: hop-too-low missed-hop; high-spin: diverged' ('not-run' for none)."""
-    return "; ".join(f"{scene}: {' '.join(verdicts) or 'not-run'}" for scene, verdicts in pairs)
+    """'hop-top: hop-too-low missed-hop; high-spin: diverged' ('not-run' for none): the
+    verdicts' names, without a diverged run's cause (the answer's words say it)."""
+    return "; ".join(f"{scene}: {_names(verdicts) or 'not-run'}" for scene, verdicts in pairs)
+
+
+def _names(tokens: tuple[str, ...]) -> str:
+    return " ".join(dict.fromkeys(verdict_name(token) for token in tokens))
 
 
 def _tier_cells(tier: str, choice: Choice | None) -> dict[str, Any]:

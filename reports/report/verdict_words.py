@@ -8,8 +8,9 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 
 from hoopbench.engines.judging.verdict import Verdict
+from hoopbench.engines.run import Divergence
 
-__all__ = ["PLAIN_VERDICTS", "plain_verdicts"]
+__all__ = ["PLAIN_DIVERGENCES", "PLAIN_VERDICTS", "plain_verdicts", "verdict_name", "verdict_token"]
 
 PLAIN_VERDICTS: Mapping[str, str] = {
     Verdict.AGREES: "right within the tight tolerances",
@@ -34,10 +35,43 @@ PLAIN_VERDICTS: Mapping[str, str] = {
     Verdict.DIVERGED: "blows up",
     Verdict.FAILED: "gives no result",
 }
-"""Each verdict (engines/judging/verdict.Verdict) in a few plain words."""
+"""Each verdict (engines/judging/verdict.Verdict) in a few plain words; a diverged run whose
+cause the harness knows says that cause instead (:data:`PLAIN_DIVERGENCES`)."""
+
+PLAIN_DIVERGENCES: Mapping[Divergence, str] = {
+    Divergence.NON_FINITE: "blows up",
+    Divergence.ENERGY_RISE: "gains energy",
+    Divergence.PENETRATION: "sinks deep into the floor",
+    Divergence.OUT_OF_PLANE: "leaves the plane",
+}
+"""A diverged run's cause in plain words: MuJoCo's stock soft contact that lets a landing
+hoop sink 5.2 cm is stopped, but it does not blow up."""
+
+_CAUSE = ":"
+"""Joins a verdict's name and its cause in a token (:func:`verdict_token`)."""
+
+
+def verdict_token(verdict: str, message: object) -> str:
+    """The verdict's name, with the cause of a diverged run where its message tells one:
+    'diverged:PENETRATION' (:func:`plain_verdicts` says it; :func:`verdict_name` gives the
+    name back)."""
+    cause = Divergence.of(message) if verdict == Verdict.DIVERGED else None
+    return verdict if cause is None else f"{verdict}{_CAUSE}{cause.name}"
+
+
+def verdict_name(token: str) -> str:
+    """The verdict's name of a :func:`verdict_token`."""
+    return token.partition(_CAUSE)[0]
 
 
 def plain_verdicts(verdicts: Iterable[str]) -> str:
-    """'hops too low, misses the hop': the words of each verdict (a name the table does not
-    know, from a table of another version, as it is)."""
-    return ", ".join(PLAIN_VERDICTS.get(v, v) for v in dict.fromkeys(verdicts))
+    """'hops too low, misses the hop': the words of each verdict or :func:`verdict_token` (a
+    name the table does not know, from a table of another version, as it is)."""
+    return ", ".join(dict.fromkeys(_plain(v) for v in verdicts))
+
+
+def _plain(token: str) -> str:
+    name, _, cause = token.partition(_CAUSE)
+    if cause in Divergence.__members__:
+        return PLAIN_DIVERGENCES[Divergence[cause]]
+    return PLAIN_VERDICTS.get(name, name)
