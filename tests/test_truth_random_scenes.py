@@ -2,8 +2,9 @@
 reading on, no label of any engine's row contradicts the run's own trajectory and contact
 force.
 
-Eight scenes are drawn with a seed of their own (reference/random_scenes.py: two rolls, two
-slips, a slip reversal, three hops). Each is run by the reference and the seven engines,
+Nine scenes are drawn with a seed of their own (reference/random_scenes.py: two rolls, two
+slips, a slip reversal, three hops, and a hoop the floor cannot hold at t = 0, which hops
+from there: lifts-at-start, added 2026-11-30). Each is run by the reference and the seven engines,
 stock and tuned, at dt 1e-3 and 1e-4, through ``hb.run`` as a user runs one, and every row
 is checked by the independent checker of tests/truth_checker.py, which reads the canonical
 events from their definitions and does not call the judging code. Both profiles and both
@@ -62,7 +63,13 @@ from hoopbench.reference.regimes import Regime
 
 SEED = 2_411_026
 """Not a seed the project used before: the scenes are new to every reading."""
-QUOTA = {Regime.ROLLS: 2, Regime.SLIPS: 2, Regime.SLIP_REVERSAL: 1, Regime.HOPS: 3}
+QUOTA = {
+    Regime.ROLLS: 2,
+    Regime.SLIPS: 2,
+    Regime.SLIP_REVERSAL: 1,
+    Regime.HOPS: 3,
+    Regime.LIFTS_AT_START: 1,
+}
 ENGINES = ("reference", "mujoco", "pybullet", "pymunk", "drake", "box2d", "rapier", "dart")
 PROFILES = ("tuned", "stock")
 TIMESTEPS = (1e-3, 1e-4)
@@ -258,7 +265,9 @@ def _kinds(frame, labels, exact, mu, hoop) -> set[Kind]:
     return {c.kind for c in contradictions(frame, labels, exact, mu=mu, hoop=hoop)}
 
 
-@pytest.mark.parametrize("regime", [Regime.HOPS, Regime.ROLLS, Regime.SLIP_REVERSAL])
+@pytest.mark.parametrize(
+    "regime", [Regime.HOPS, Regime.ROLLS, Regime.SLIP_REVERSAL, Regime.LIFTS_AT_START]
+)
 def test_the_checker_accepts_the_exact_events(drawn, exact, regime):
     scene = _first(drawn, regime)
     frame, labels, mu, hoop = _truth(scene, exact[scene.name])

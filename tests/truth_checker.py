@@ -466,7 +466,8 @@ class Exact:
         events, record_end = solution.events, solution.scene.t_end
         slips = [p for p in events.phases if p.kind is PhaseKind.SLIP and p.t_start < record_end]
         t_slip = slips[0].t_start if slips and _seen(solution, slips[0], hoop) else None
-        hops = events.outcome is Outcome.HOPS and events.t_lift is not None
+        # A hoop the floor cannot hold at t = 0 hops from there (lifts-at-start, t_lift 0).
+        hops = events.outcome in _HOPS and events.t_lift is not None
         unresolved = hops and not _clear_in_record(solution, hoop)
         keep = hops and not unresolved
         phases = tuple(
@@ -491,6 +492,10 @@ class Exact:
             hop_height=events.hop_height if keep else None,
             hop_unresolved=unresolved,
         )
+
+
+_HOPS = (Outcome.HOPS, Outcome.LIFTS_AT_START)
+"""The exact outcomes with a hop: lifts-at-start's from t = 0."""
 
 
 def _seen(solution: ExactSolution, slip: Phase, hoop: Hoop) -> bool:
