@@ -112,7 +112,10 @@ def test_a_batched_sweep_writes_the_rows_of_an_unbatched_one(tmp_path, scratch):
     assert {k: [row[c] for c in kept] for k, row in batched.items()} == {
         k: [row[c] for c in kept] for k, row in alone.items()
     }
-    assert batches(scratch) == [["bx-0", "bx-1", "bx-2"], ["bx-3", "bx-4", "bx-diverges"]]
+    # Grouped in order, but not always logged in order: a keyed batch may pass the in-flight
+    # limit, and an idle worker takes it (WorkerPool.submit_keyed), so on loaded cores the
+    # second batch has ended first (a clean-clone CI, 2026-11-30).
+    assert sorted(batches(scratch)) == [["bx-0", "bx-1", "bx-2"], ["bx-3", "bx-4", "bx-diverges"]]
     assert summary.counts == {RunStatus.OK: 6, RunStatus.DIVERGED: 1}
 
 
