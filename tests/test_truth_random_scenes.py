@@ -570,18 +570,20 @@ def test_a_friction_above_the_demand_starts_no_slip_in_the_checker():
     0.60 s, 0.3 mm in all; its first slip, at the cone, is read at 0.687 s (exact 0.674 s).
     The checker called the braking a clear slip (3 contradictions at dt 1e-3); it still
     contradicts a row that reads no slip at all."""
-    frame, labels, exact, mu, hoop = _dart_stock(BRAKED)
+    frame, labels, exact, mu, hoop = _checked_run(BRAKED)
     assert contradictions(frame, labels, exact, mu=mu, hoop=hoop, loose=loose()) == []
     none = dataclasses.replace(labels, t_slip=None, phases=("R",), verdict="missed-slip")
     assert Kind.SLIP_LABEL in _kinds(frame, none, exact, mu, hoop)
 
 
-def _dart_stock(scene: Scene) -> tuple[pd.DataFrame, Labels, Exact, float, Hoop]:
-    """DART stock's run of ``scene`` at dt 1e-3 as the checker reads it: its trajectory,
-    its row's labels, the exact solution, mu and the hoop."""
-    run = hb.run("dart", scene, timestep=1e-3, profile="stock")
+def _checked_run(
+    scene: Scene, engine: str = "dart", profile: str = "stock"
+) -> tuple[pd.DataFrame, Labels, Exact, float, Hoop]:
+    """The engine's run of ``scene`` at dt 1e-3 (DART stock's by default) as the checker
+    reads it: its trajectory, its row's labels, the exact solution, mu and the hoop."""
+    run = hb.run(engine, scene, timestep=1e-3, profile=profile)
     if run.status is RunStatus.UNAVAILABLE:
-        engine_unavailable("dart", run.row.get("message"))
+        engine_unavailable(engine, run.row.get("message"))
     labels = Labels.from_row(run.row, CANONICAL_NAMES)
     exact = Exact.from_solution(hb.exact(scene), Hoop(scene.a, scene.g))
     return run.trajectory, labels, exact, run.row["mu"], Hoop(scene.a, scene.g, scene)
@@ -607,7 +609,7 @@ def test_a_slide_with_friction_and_no_normal_force_is_a_slip_in_the_checker():
     took those samples as without force (a roll) and read the slip at 0.342 s; a friction is
     a contact force, and both the reading and the checker now read the slide as the slip
     (from 0.183 s; exact 0.148 s). The old reading's row is contradicted."""
-    frame, labels, exact, mu, hoop = _dart_stock(SLID_WITHOUT_N)
+    frame, labels, exact, mu, hoop = _checked_run(SLID_WITHOUT_N)
     assert labels.t_slip is not None and labels.t_slip < 0.2
     assert contradictions(frame, labels, exact, mu=mu, hoop=hoop, loose=loose()) == []
     late = dataclasses.replace(labels, t_slip=0.342)
@@ -636,11 +638,7 @@ def test_a_slide_the_checker_cannot_read_is_not_clearly_no_slip():
     borders): the checker, which cannot read a friction law there, called that a slip read
     without a slip, and the slip late (2 contradictions). With the hoop 5 mm up over those
     samples they are a flight, which no slip may be read in."""
-    run = hb.run("pymunk", SLIPS_WITHOUT_IMPULSE, timestep=1e-3, profile="tuned")
-    scene = SLIPS_WITHOUT_IMPULSE
-    labels = Labels.from_row(run.row, CANONICAL_NAMES)
-    exact = Exact.from_solution(hb.exact(scene), Hoop(scene.a, scene.g))
-    frame, mu, hoop = run.trajectory, run.row["mu"], Hoop(scene.a, scene.g, scene)
+    frame, labels, exact, mu, hoop = _checked_run(SLIPS_WITHOUT_IMPULSE, "pymunk", "tuned")
     free = (frame["t"] < 0.23).to_numpy()
     assert labels.t_slip == 0.0 and np.all(frame.loc[free, "normal_force"].abs() < 1e-9)
     assert contradictions(frame, labels, exact, mu=mu, hoop=hoop, loose=loose()) == []

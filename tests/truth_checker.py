@@ -646,12 +646,12 @@ class Windows:
     in_region: NDArray
     """The window ends before the region's end (see :func:`_region_end`)."""
     length: int
+    """m, samples per window."""
     unread: NDArray
     """Not LOADED while the hoop is down throughout: its friction law cannot be read (the
     contact force near round-off, or none while the rim slides: pymunk's solver returns no
     impulse at all for some slipping contacts, adapter's docstring), so nothing there says
     that the rim, if it slides, does not slip."""
-    """m, samples per window."""
     demand: NDArray | None = None
     """|mean F_roll| / (mu mean N_roll) (inf where rolling needs a pull); None without it."""
     follow: NDArray | None = None
