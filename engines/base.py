@@ -463,6 +463,18 @@ class Engine(ABC):
         values = {**cls.defaults(settings.profile), **settings.options}
         return {name: declared[name].check(name, value) for name, value in values.items()}
 
+    gpu_finder: ClassVar[str] = "NVIDIA Warp"
+    """What finds the GPU the engine's runs pick by default (:meth:`sees_gpu`), for the
+    report's sentence on runs left out for want of one."""
+
+    @classmethod
+    def sees_gpu(cls) -> bool:
+        """Whether the device the engine's runs pick by default is a GPU on this machine: the
+        question a suite sized to the machine asks of an engine with runs that pay off only
+        on one. NVIDIA Warp's CUDA device (:func:`warp_sees_gpu`) unless the engine says
+        otherwise (MJX: JAX's)."""
+        return warp_sees_gpu()
+
     @classmethod
     def gpu_only_reason(cls, options: Mapping[str, Any]) -> str | None:
         """Why runs with these full option values (:meth:`resolve`'s) pay off only on a GPU,

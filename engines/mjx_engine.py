@@ -37,10 +37,14 @@ takes about 20 s on 2 CPU cores, a cached one about 1 s. A process keeps its com
 from __future__ import annotations
 
 import os
+import pkgutil
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import cache
+from importlib import import_module
+from importlib.metadata import entry_points
+from importlib.util import find_spec
 from types import ModuleType
 from typing import Any
 
@@ -49,9 +53,11 @@ import numpy as np
 from hoopbench.engines.base import (
     CHUNK_STEPS,
     DEVICE,
+    EngineUnavailableError,
     WorldsEngine,
     cache_folder,
     cores_per_process,
+    import_engine,
 )
 from hoopbench.engines.mujoco_engine import MjcfEngine, MujocoEngine
 from hoopbench.engines.options import Option, Variant, choice, one_of
@@ -116,6 +122,20 @@ class MjxEngine(WorldsEngine, MjcfEngine):
         Variant("precision=float64", options={"precision": "float64"}),
         Variant("cone=pyramidal", options={"cone": "pyramidal"}),
     )
+
+    gpu_finder = "JAX"
+
+    @classmethod
+    def sees_gpu(cls) -> bool:
+        """Whether JAX's default device, which ``device`` auto picks, is a GPU: never without
+        a JAX GPU plugin installed (JAX is not imported then: a second of the parent's CPU)."""
+        if not _jax_gpu_plugins():
+            return False
+        try:
+            jax = import_engine("jax")
+        except EngineUnavailableError:
+            return False
+        return bool(jax.devices()[0].platform != "cpu")
 
     def _script(self, scene: Scene, settings: RunSettings, options: dict[str, Any]) -> str:
         # The run's model has no name (see _batch): the same text, the same model.
@@ -360,6 +380,17 @@ def _xla_threads_per_share() -> None:
     (docs/engines.md, MJX)."""
     if not any(os.environ.get(name) for name in XLA_THREADS_VARIABLES):
         os.environ[XLA_THREADS_VARIABLES[0]] = str(cores_per_process())
+
+
+def _jax_gpu_plugins() -> list[str]:
+    """The JAX GPU plugins installed (``jax-cuda12-plugin`` and the like): JAX finds them as
+    ``jax_plugins`` entry points or modules of that namespace package (``jax._src.xla_bridge
+    .discover_pjrt_plugins``); without one JAX has only its CPU."""
+    found = [entry.name for entry in entry_points(group="jax_plugins")]
+    if find_spec("jax_plugins") is not None:
+        namespace = import_module("jax_plugins")
+        found += [module.name for module in pkgutil.iter_modules(namespace.__path__)]
+    return found
 
 
 def _device(jax: ModuleType, choice: str) -> Any:

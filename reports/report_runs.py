@@ -24,7 +24,6 @@ from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
-from hoopbench.engines.base import warp_sees_gpu
 from hoopbench.reports.compare.costs import (
     REPORT,
     call_cost,
@@ -87,7 +86,7 @@ def _cost(unit: object, cost: Callable[[Sequence[object]], CallCost]) -> CallCos
 def suite_sweep(name: str, jobs: int, batch_size: int) -> PlannedSweep:
     """A shipped suite's runs and calls as ``compare`` will run them on this machine."""
     suite = load_suite(suite_path(name))
-    tasks, _ = suite.for_machine(suite.tasks(None), warp_sees_gpu)
+    tasks, _ = suite.for_machine(suite.tasks(None))
     batching = (
         Batching(run_task_batch, batch_key, batch_size, batch_least, batch_affinity)
         if batch_size > 1

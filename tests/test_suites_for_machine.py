@@ -6,13 +6,16 @@ graphs replayed on a CPU too: the tests give MuJoCo Warp a reason for the time o
 from __future__ import annotations
 
 import json
+from types import SimpleNamespace
 
 import pytest
 
+from hoopbench.engines import mjx_engine
 from hoopbench.engines.mjwarp_engine import MjwarpEngine
+from hoopbench.engines.mjx_engine import MjxEngine
 from hoopbench.engines.registry import engine_class, engine_names
 from hoopbench.reports.compare import suite as suite_module
-from hoopbench.reports.compare.suite import LEFT_OUT_KEY, compare, runs_frame
+from hoopbench.reports.compare.suite import LEFT_OUT_KEY, compare, left_out_text, runs_frame
 from hoopbench.reports.compare.suite_file import (
     LeftOut,
     SuiteError,
@@ -45,7 +48,7 @@ def gpu_only_mjwarp(monkeypatch):
     monkeypatch.setattr(MjwarpEngine, "gpu_only", REASON)
 
 
-def _no_question() -> bool:
+def _no_question(engine: str) -> bool:
     raise AssertionError("a suite that runs everything everywhere asks for no GPU")
 
 
@@ -62,7 +65,7 @@ def test_no_shipped_engine_pays_off_only_on_a_gpu():
 def test_without_a_gpu_a_sized_suite_leaves_the_gpu_only_runs_out(gpu_only_mjwarp):
     suite = parse_suite(SIZED)
     tasks = suite.tasks()
-    kept, left_out = suite.for_machine(tasks, lambda: False)
+    kept, left_out = suite.for_machine(tasks, lambda engine: False)
     assert {(t.engine, t.variant) for t in kept} == {
         ("reference", "default"),
         ("newton", "default"),
@@ -78,7 +81,7 @@ def test_without_a_gpu_a_sized_suite_leaves_the_gpu_only_runs_out(gpu_only_mjwar
 def test_with_a_gpu_or_unsized_every_run_runs(gpu_only_mjwarp):
     suite = parse_suite(SIZED)
     tasks = suite.tasks()
-    assert suite.for_machine(tasks, lambda: True) == (tasks, ())
+    assert suite.for_machine(tasks, lambda engine: True) == (tasks, ())
     unsized = parse_suite({**SIZED, "sized_to_machine": False})
     assert unsized.for_machine(unsized.tasks(), _no_question) == (unsized.tasks(), ())
     assert suite.with_engines(["reference", "mjwarp"]).sized_to_machine
@@ -93,7 +96,7 @@ def test_the_shipped_suites_run_every_engine_without_a_gpu():
     for name in ("default", "stability"):
         suite = load_suite(builtin_suite(name))
         assert suite.sized_to_machine
-        kept, left_out = suite.for_machine(suite.tasks(), lambda: False)
+        kept, left_out = suite.for_machine(suite.tasks(), lambda engine: False)
         assert left_out == ()
         assert {"mjwarp", "newton"} <= {task.engine for task in kept}
     default = load_suite(builtin_suite("default")).tasks()
@@ -116,7 +119,7 @@ def test_compare_without_a_gpu_records_and_the_report_says_what_it_left_out(
         'name = "sized"\nengines = ["reference", "mjwarp"]\ntimesteps = [1e-3]\n'
         'scenes = ["seed-mu"]\nsized_to_machine = true\n'
     )
-    monkeypatch.setattr(suite_module, "warp_sees_gpu", lambda: False)
+    monkeypatch.setattr(MjwarpEngine, "sees_gpu", classmethod(lambda cls: False))
     out = tmp_path / "out"
     compare(suite_file, out, jobs=1, quiet=True)
     assert set(runs_frame(out)["engine"]) == {"reference"}
@@ -154,3 +157,64 @@ def test_newtons_runs_of_one_settings_go_in_one_batch_of_up_to_eight():
         if isinstance(unit, TaskBatch) and unit.tasks[0].engine == "newton"
     ]
     assert sizes == [8]
+
+
+def test_the_finer_suite_runs_mjx_only_where_jax_sees_a_gpu():
+    """MJX's 8 runs at 1e-4 s, make report's dearest call on a CPU (about 100 CPU-s), are the
+    finer suite's [engine_gpu_only]: left out without a GPU, said with the suite's reason, and
+    run by the full suite everywhere; every other run of the suite is kept."""
+    finer = load_suite(builtin_suite("finer"))
+    tasks = finer.tasks()
+    asked = []
+    kept, left_out = finer.for_machine(tasks, lambda engine: asked.append(engine) or False)
+    assert asked == ["mjx"]  # only the engine with such runs is asked
+    assert kept == [t for t in tasks if t.engine != "mjx"]
+    ((item),) = left_out
+    assert (item.engine, item.variant, item.runs) == ("mjx", "default", 8)
+    assert item.reason == finer.engine_gpu_only["mjx"] and "CPU-s" in item.reason
+    assert "no GPU here (JAX sees none), so 8 runs" in left_out_text(left_out)
+    assert finer.for_machine(tasks, lambda engine: True) == (tasks, ())
+    full = load_suite(builtin_suite("full")).tasks()
+    in_full = {(t.scene, t.profile, t.timestep) for t in full if t.engine == "mjx"}
+    assert {(t.scene, t.profile, t.timestep) for t in tasks if t.engine == "mjx"} <= in_full
+
+
+def test_a_sized_suite_asks_the_engine_itself_by_default(monkeypatch):
+    finer = load_suite(builtin_suite("finer"))
+    monkeypatch.setattr(MjxEngine, "sees_gpu", classmethod(lambda cls: True))
+    assert finer.for_machine(finer.tasks()) == (finer.tasks(), ())
+    monkeypatch.setattr(MjxEngine, "sees_gpu", classmethod(lambda cls: False))
+    assert {t.engine for t in finer.for_machine(finer.tasks())[0]} == set(finer.engines) - {"mjx"}
+
+
+def test_mjx_sees_a_gpu_only_through_a_jax_gpu_plugin(monkeypatch):
+    """Without a plugin JAX is not even imported; with one, JAX's default device decides."""
+
+    def no_import(name):
+        raise AssertionError(f"{name} imported")
+
+    assert isinstance(mjx_engine._jax_gpu_plugins(), list)  # the real one runs here
+
+    monkeypatch.setattr(mjx_engine, "_jax_gpu_plugins", lambda: [])
+    monkeypatch.setattr(mjx_engine, "import_engine", no_import)
+    assert MjxEngine.sees_gpu() is False
+    monkeypatch.setattr(mjx_engine, "_jax_gpu_plugins", lambda: ["xla_cuda12"])
+    for platform, sees in (("gpu", True), ("cpu", False)):
+        device = SimpleNamespace(platform=platform)
+        fake = SimpleNamespace(devices=lambda device=device: [device])
+        monkeypatch.setattr(mjx_engine, "import_engine", lambda name, fake=fake: fake)
+        assert MjxEngine.sees_gpu() is sees
+
+
+@pytest.mark.parametrize(
+    ("table", "sized", "message"),
+    [
+        ({"mjwarp": "slow"}, False, "engine_gpu_only needs sized_to_machine = true"),
+        ({"mujoco": "slow"}, True, "engine_gpu_only.mujoco: 'mujoco' is not one of"),
+        ({"mjwarp": " "}, True, "engine_gpu_only.mjwarp must be a non-empty reason"),
+        (["mjwarp"], True, "engine_gpu_only must be a table"),
+    ],
+)
+def test_a_bad_engine_gpu_only_table_is_named(table, sized, message):
+    with pytest.raises(SuiteError, match=message):
+        parse_suite({**SIZED, "sized_to_machine": sized, "engine_gpu_only": table})

@@ -21,7 +21,7 @@ from typing import Any, Protocol
 
 import pandas as pd
 
-from hoopbench.engines.base import warp_sees_gpu
+from hoopbench.engines.base import Engine
 from hoopbench.engines.judging.columns import (
     BATCH_COLUMNS,
     CPU_COLUMNS,
@@ -285,11 +285,22 @@ def left_out_text(left_out: Sequence[LeftOut]) -> str:
         for item in left_out
     )
     many = runs != 1
+    finders = sorted({_gpu_finder(item.engine) for item in left_out})
+    seen = f"{' and '.join(finders)} {'sees' if len(finders) == 1 else 'see'} none"
     return (
-        f"no GPU here (NVIDIA Warp sees none), so {runs} run{'s' if many else ''} that "
+        f"no GPU here ({seen}), so {runs} run{'s' if many else ''} that "
         f"{'pay' if many else 'pays'} off only on a GPU {'were' if many else 'was'} left out, "
         f"to the full suite: {parts}."
     )
+
+
+def _gpu_finder(engine: str) -> str:
+    """What finds an engine's GPU (Engine.gpu_finder); NVIDIA Warp's for an engine this
+    hoopbench does not know (a stored meta.json of a plugin's runs)."""
+    try:
+        return engine_class(engine).gpu_finder
+    except ValueError:
+        return Engine.gpu_finder
 
 
 TIMEOUT_NOTE = "the sweep's time limit: the machine's failure, not the engine's; not judged"
@@ -381,7 +392,7 @@ def compare(
     out = Path(out)
     traj_dir = out / TRAJECTORY_DIR
     tasks = suite.tasks(str(traj_dir) if trajectories != TrajectoryChoice.NONE else None)
-    tasks, left_out = suite.for_machine(tasks, warp_sees_gpu)
+    tasks, left_out = suite.for_machine(tasks)
     if trajectories == TrajectoryChoice.DEFAULT:
         tasks = [t if t.variant == DEFAULT_VARIANT else _without_trajectory(t) for t in tasks]
     say = None if quiet else control_chars.say

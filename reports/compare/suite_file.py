@@ -75,6 +75,7 @@ _TOP_KEYS = (
     "scene",
     "variant",
     "sized_to_machine",
+    "engine_gpu_only",
 )
 _SCENE_KEYS = (
     "name",
@@ -190,24 +191,29 @@ class Suite:
     too slow to run every scene (``[engine_scenes]``)."""
 
     sized_to_machine: bool = False
-    """Whether the runs that pay off only on a GPU (``Engine.gpu_only_reason``) run only on
-    a machine with one (``sized_to_machine = true``: the suites of ``make report``); else,
-    as in the full suite, every run runs everywhere."""
+    """Whether the runs that pay off only on a GPU (``Engine.gpu_only_reason``, and the
+    suite's own ``[engine_gpu_only]``) run only where the engine sees one
+    (``sized_to_machine = true``: the suites of ``make report``); else, as in the full suite,
+    every run runs everywhere."""
 
     def for_machine(
-        self, tasks: Sequence[RunTask], gpu: Callable[[], bool]
+        self, tasks: Sequence[RunTask], gpu: Callable[[str], bool] | None = None
     ) -> tuple[list[RunTask], tuple[LeftOut, ...]]:
         """The tasks this machine runs, and what it leaves out: a suite sized to the machine
-        leaves out the runs that pay off only on a GPU where ``gpu()`` (asked only if the
-        suite has such runs) says there is none. Nothing of a run it keeps changes."""
-        reasons = {}
-        if self.sized_to_machine:
-            for task in tasks:
-                reason = engine_class(task.engine).gpu_only_reason(dict(task.options))
-                if reason is not None:
-                    reasons[task.run_id] = reason
-        if not reasons or gpu():
-            return list(tasks), ()
+        leaves out the runs that pay off only on a GPU where ``gpu(engine)`` (by default the
+        engine's own ``sees_gpu``; asked only of an engine with such runs) says there is
+        none. Nothing of a run it keeps changes."""
+        only = {task.run_id: reason for task in tasks if (reason := self._gpu_only(task))}
+        sees = gpu or (lambda engine: engine_class(engine).sees_gpu())
+        answers: dict[str, bool] = {}
+        for task in tasks:
+            if task.run_id in only and task.engine not in answers:
+                answers[task.engine] = sees(task.engine)
+        reasons = {
+            task.run_id: only[task.run_id]
+            for task in tasks
+            if task.run_id in only and not answers[task.engine]
+        }
         left: dict[tuple[str, str], int] = {}
         for task in tasks:
             if task.run_id in reasons:
@@ -217,10 +223,23 @@ class Suite:
         kept = [task for task in tasks if task.run_id not in reasons]
         return kept, tuple(LeftOut(e, v, n, why[e, v]) for (e, v), n in left.items())
 
+    def _gpu_only(self, task: RunTask) -> str | None:
+        """Why this run pays off only on a GPU in this suite, or None (and always None in a
+        suite not sized to the machine)."""
+        if not self.sized_to_machine:
+            return None
+        own = self.engine_gpu_only.get(task.engine)
+        return own or engine_class(task.engine).gpu_only_reason(dict(task.options))
+
     engine_versions: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
     """Releases an engine runs on, in place of the installed one (``[engine_versions]``,
     ``compare --engine-version``): its defaults on each, as the variant ``release=VERSION``;
     its ``[[variant]]`` tables are not run (an option may not exist on an older release)."""
+
+    engine_gpu_only: Mapping[str, str] = field(default_factory=dict)
+    """Engines whose runs in this suite pay off only on a GPU, and why (``[engine_gpu_only]``,
+    engine = "reason"): in a suite sized to the machine they run only where the engine sees
+    one, as an engine's own ``gpu_only`` runs do everywhere."""
 
     def _timesteps_of(self, variant: VariantSpec) -> tuple[float, ...]:
         return variant.timesteps or self.engine_timesteps.get(variant.engine) or self.timesteps
@@ -281,6 +300,7 @@ class Suite:
         own = {e: dt for e, dt in self.engine_timesteps.items() if e in engines}
         scenes = {e: names for e, names in self.engine_scenes.items() if e in engines}
         releases = {e: r for e, r in self.engine_versions.items() if e in engines}
+        gpu_only = {e: why for e, why in self.engine_gpu_only.items() if e in engines}
         return Suite(
             self.name,
             tuple(engines),
@@ -292,6 +312,7 @@ class Suite:
             scenes,
             self.sized_to_machine,
             releases,
+            gpu_only,
         )
 
     def with_releases(self, releases: Sequence[tuple[str, str]]) -> Suite:
@@ -464,8 +485,21 @@ def parse_suite(data: Mapping[str, Any], announce: Announce | None = None) -> Su
     if not isinstance(sized, bool):
         raise SuiteError(f"sized_to_machine must be true or false, got {sized!r}")
     releases = _engine_versions(data.get("engine_versions", {}), engines)
+    gpu_only = _engine_gpu_only(data.get("engine_gpu_only", {}), engines)
+    if gpu_only and not sized:
+        raise SuiteError("engine_gpu_only needs sized_to_machine = true (else every run runs)")
     suite = Suite(
-        name, engines, timesteps, tuple(scenes), variants, profiles, own, only, sized, releases
+        name,
+        engines,
+        timesteps,
+        tuple(scenes),
+        variants,
+        profiles,
+        own,
+        only,
+        sized,
+        releases,
+        gpu_only,
     )
     count = suite.run_count
     if count > MAX_SUITE_RUNS:
@@ -535,6 +569,21 @@ def _engine_scenes(
             raise SuiteError(f"{where}: {', '.join(unknown)} not among the suite's scenes")
         out[engine] = tuple(names)
     return out
+
+
+def _engine_gpu_only(value: Any, engines: Sequence[str]) -> dict[str, str]:
+    """``[engine_gpu_only]``: engine name -> why its runs in the suite pay off only on a GPU."""
+    if not isinstance(value, Mapping):
+        raise SuiteError(f'engine_gpu_only must be a table (engine = "reason"), got {value!r}')
+    for engine, reason in value.items():
+        where = f"engine_gpu_only.{engine}"
+        if engine not in engines:
+            raise SuiteError(
+                f"{where}: {engine!r} is not one of the suite's engines ({', '.join(engines)})"
+            )
+        if not isinstance(reason, str) or not reason.strip():
+            raise SuiteError(f"{where} must be a non-empty reason, got {reason!r}")
+    return dict(value)
 
 
 def _engine_versions(value: Any, engines: Sequence[str]) -> dict[str, tuple[str, ...]]:
