@@ -14,10 +14,12 @@ from hoopbench.engines.judging.score import CostClock
 from hoopbench.engines.run import Divergence
 from hoopbench.reports.report.answer import (
     ACCURACY_TIERS,
+    RANK_RULE,
     answer,
     answer_markdown,
     at_best,
     best_search,
+    ranked,
     timestep_limits,
 )
 from hoopbench.reports.report.answer_files import write_answer_files
@@ -415,3 +417,22 @@ def test_a_run_the_time_limit_ended_is_the_machines_failure_not_the_engines():
     text = answer_markdown(result)
     assert "2 run(s) ended by the sweep's time limit, the machine's failure" in text
     assert "mjx (tuned) dt 0.001 on low-friction" in text
+
+
+def test_engines_whose_costs_are_within_the_noise_rank_by_name():
+    """DART and Drake meet the same scenes; Drake's loose cost measured 1.27-1.64 times
+    DART's over seven reports on one machine. Within the noise (COST_NOISE_FACTOR) either
+    may measure cheaper, and the table ranks them by name both ways; 3 times apart, by cost."""
+
+    def order(dart_us: float, drake_us: float) -> list[str]:
+        rows = [
+            *setting("drake", ["agrees", "close", "missed-hop"], us=drake_us),
+            *setting("dart", ["agrees", "close", "missed-hop"], us=dart_us),
+            *setting("box2d", ["agrees", "agrees", "close"], us=50.0),
+        ]
+        frame = pd.DataFrame([{**r, "cpu_us_per_step": r["us_per_step"]} for r in rows])
+        return [line.engine for line in ranked(answer(frame))]
+
+    assert order(10.0, 13.0) == order(13.0, 10.0) == ["box2d", "dart", "drake"]
+    assert order(30.0, 10.0) == ["box2d", "drake", "dart"]
+    assert "within a factor 2 of the cheapest of theirs count as equal, by name" in RANK_RULE

@@ -43,7 +43,12 @@ import numpy as np
 import pandas as pd
 
 from hoopbench.engines.judging.columns import Col
-from hoopbench.engines.judging.score import COST_NOISE_FACTOR, CostClock, cheapest_of_most
+from hoopbench.engines.judging.score import (
+    COST_NOISE_FACTOR,
+    CostClock,
+    cheapest_of_most,
+    costs_equal,
+)
 from hoopbench.engines.judging.tolerances import Tier
 from hoopbench.engines.judging.verdict import TIER_NAMES, TIER_VERDICTS, number_or_none
 from hoopbench.engines.options import Profile
@@ -654,19 +659,48 @@ def _met_by(judged: _Judged, scenes: Sequence[str]) -> tuple[tuple[str, tuple[st
 
 RANK_RULE = (
     "engines ranked by how many scenes their loose-tier setting meets (most first), then "
-    "their tight-tier setting, then the loose setting's cost (cheapest first); an engine of "
-    "the searches alone last"
+    "their tight-tier setting, then the loose setting's cost (cheapest first; costs within a "
+    f"factor {COST_NOISE_FACTOR:g} of the cheapest of theirs count as equal, by name); an "
+    "engine of the searches alone last"
 )
-"""How the answer's table orders its engines (:func:`rank_key`), in words."""
+"""How the answer's table orders its engines (:func:`rank_key`, :func:`ranked`), in words."""
+
+
+def _scenes_met(line: EngineAnswer) -> tuple[int, ...]:
+    """Minus the scenes met per tier, the loosest tier first (most first in a sort)."""
+    return tuple(-(c.scenes_met if c is not None else 0) for c in reversed(line.cheapest))
+
+
+def _loosest_cost(line: EngineAnswer) -> float:
+    loosest = line.cheapest[-1] if line.cheapest else None
+    cost = loosest.cost_per_sim_s if loosest is not None else math.inf
+    return cost if math.isfinite(cost) else math.inf
 
 
 def rank_key(line: EngineAnswer) -> tuple[bool, tuple[int, ...], float, str]:
-    """The answer table's order (RANK_RULE): the engines with runs first; then the scenes
-    met per tier, the loosest tier first; then the loosest tier's cost; then the name."""
-    met = tuple(-(c.scenes_met if c is not None else 0) for c in reversed(line.cheapest))
-    loosest = line.cheapest[-1] if line.cheapest else None
-    cost = loosest.cost_per_sim_s if loosest is not None else math.inf
-    return (line.settings_tried == 0, met, cost if math.isfinite(cost) else math.inf, line.engine)
+    """The answer table's order before its costs' noise (RANK_RULE): the engines with runs
+    first; then the scenes met per tier, the loosest tier first; then the loosest tier's
+    cost; then the name. :func:`ranked` then orders by name the costs within the noise."""
+    return (line.settings_tried == 0, _scenes_met(line), _loosest_cost(line), line.engine)
+
+
+def _by_name_within_the_noise(lines: Sequence[EngineAnswer]) -> list[EngineAnswer]:
+    """Lines in rank_key's order, where each run of lines alike in rank_key's first two
+    parts (runs or not, scenes met) whose costs are within the noise of the cheapest of them
+    (score.COST_NOISE_FACTOR) is ordered by name: two reports on one machine rank alike where
+    only the clock differs (Drake's loose cost was 1.27-1.64 times DART's in seven reports:
+    within the noise, so their order would be the clock's)."""
+    ordered: list[EngineAnswer] = []
+    group: list[EngineAnswer] = []
+    for line in lines:
+        if group and (
+            rank_key(line)[:2] != rank_key(group[0])[:2]
+            or not costs_equal(_loosest_cost(group[0]), _loosest_cost(line))
+        ):
+            ordered += sorted(group, key=lambda member: member.engine)
+            group = []
+        group.append(line)
+    return ordered + sorted(group, key=lambda member: member.engine)
 
 
 def _regimes(judged: _Judged, scenes: Sequence[str]) -> tuple[Regime, ...]:
@@ -717,14 +751,15 @@ def best_search(result: Answer, tier: int) -> SearchChoice | None:
 def ranked(result: Answer) -> tuple[EngineAnswer, ...]:
     """The engines of the answer's table, in its order (RANK_RULE): those with runs in the
     suites (an engine of the searches alone is at its best only)."""
-    return tuple(line for line in sorted(result.engines, key=rank_key) if line.settings_tried)
+    lines = sorted((line for line in result.engines if line.settings_tried), key=rank_key)
+    return tuple(_by_name_within_the_noise(lines))
 
 
 def at_best(result: Answer) -> tuple[AtBest, ...]:
     """Per engine and tier, its best of the suite's setting and the search's (AtBest), for
     every engine with either."""
     best = []
-    for line in sorted(result.engines, key=rank_key):
+    for line in _by_name_within_the_noise(sorted(result.engines, key=rank_key)):
         searched = line.searched or (None,) * len(ACCURACY_TIERS)
         for tier, suite, search in zip(ACCURACY_TIERS, line.cheapest, searched, strict=True):
             if suite is not None or search is not None:
