@@ -790,7 +790,7 @@ def _cmd_findings(args: argparse.Namespace) -> int:
     import pandas as pd
 
     from hoopbench.reports.report.best_settings import best_settings, is_tune_folder
-    from hoopbench.reports.report.build import report_frame
+    from hoopbench.reports.report.build import answer_left_out_of, report_frame
     from hoopbench.reports.report.findings import readme_markdown, update_readme
 
     searches = [folder for folder in args.results if is_tune_folder(folder)]
@@ -806,7 +806,7 @@ def _cmd_findings(args: argparse.Namespace) -> int:
         what = "is a folder" if update.is_dir() else kind
         raise UsageError(f"--update {args.update!r} {what}: give a Markdown file with the markers")
     frame = pd.concat([report_frame(Path(f)) for f in results], ignore_index=True)
-    text = readme_markdown(frame, best_settings(searches))
+    text = readme_markdown(frame, best_settings(searches), answer_left_out_of(results))
     if not args.update:
         print(text)
         return 0

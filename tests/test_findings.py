@@ -2,16 +2,22 @@
 
 from __future__ import annotations
 
+import json
+
 import pandas as pd
 import pytest
 
 from hoopbench.engines.judging.verdict import verdict_columns
+from hoopbench.reports.compare.suite import LEFT_OUT_KEY
+from hoopbench.reports.compare.suite_file import LeftOut
+from hoopbench.reports.report.build import answer_left_out_of
 from hoopbench.reports.report.findings import (
     README_BEGIN,
     README_END,
     findings,
     findings_markdown,
     findings_scoreboard,
+    readme_markdown,
     update_readme,
 )
 
@@ -357,3 +363,30 @@ def test_an_engine_sliding_off_mu_is_named_with_its_effective_coefficient():
     assert "drake" not in sentence and "pymunk" not in sentence
     calm = frame(row("drake", mu_effective_ratio=0.985))
     assert not [s for s in findings(calm) if s.startswith("Sliding friction")]
+
+
+def test_the_runs_left_out_for_want_of_a_gpu_are_said_under_the_answer(tmp_path):
+    """The finer suite leaves MJX's runs at 1e-4 s to a GPU: the README's answer (and the
+    report's, the same section) says under its table which runs a suite left out, from the
+    results folders' meta.json, as data (a reason's markup is escaped); the stability
+    suite, which the answer does not read, is not named; with nothing left out, nothing."""
+    runs = frame(row("reference"), row("mujoco"), row("mujoco", scene="hop-top"))
+    reason = "MJX on a CPU <b>costs</b> | 100 CPU-s"
+    for suite in ("finer", "stability"):
+        folder = tmp_path / suite
+        folder.mkdir()
+        item = LeftOut("mjx", "default", 8, reason).to_dict()
+        (folder / "meta.json").write_text(json.dumps({"suite": suite, LEFT_OUT_KEY: [item]}))
+    left_out = answer_left_out_of([tmp_path / "finer", tmp_path / "stability"])
+    assert left_out == [("finer", LeftOut("mjx", "default", 8, reason))]
+    text = readme_markdown(runs, (), left_out)
+    (line,) = [x for x in text.splitlines() if x.startswith("Left out on this machine")]
+    assert line.startswith(
+        "Left out on this machine for want of a GPU, so not in the rows above: mjx, 8 runs of "
+        "the finer suite (MJX on a CPU &lt;b&gt;costs&lt;/b&gt; \\| 100 CPU-s)."
+    )
+    lines = text.splitlines()
+    header = next(i for i, x in enumerate(lines) if x.startswith("| rank |"))
+    after = next(i for i in range(header, len(lines)) if not lines[i].startswith("|"))
+    assert lines[after : after + 2] == ["", line]  # right under the answer's table
+    assert "Left out on this machine" not in readme_markdown(runs)

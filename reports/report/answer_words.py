@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 from hoopbench.engines.judging.tolerances import Tier
 from hoopbench.engines.judging.verdict import TIER_NAMES
+from hoopbench.reports.compare.suite_file import LeftOut
 from hoopbench.reports.report.answer import (
     ACCURACY_TIERS,
     Answer,
@@ -31,7 +32,14 @@ from hoopbench.reports.report.answer import (
 from hoopbench.reports.report.escaping import escape_text
 from hoopbench.reports.report.verdict_words import plain_verdicts
 
-__all__ = ["FEW_ENGINES", "AnswerLine", "answer_lines", "answer_section", "answer_sentences"]
+__all__ = [
+    "FEW_ENGINES",
+    "AnswerLine",
+    "answer_lines",
+    "answer_section",
+    "answer_sentences",
+    "left_out_sentence",
+]
 
 FEW_ENGINES = 2
 """A scene within the loose tier for at most this many engines is named as one that few get
@@ -222,13 +230,35 @@ def _bullets(lines: Sequence[AnswerLine]) -> list[str]:
     return out
 
 
-def answer_section(result: Answer, *, heading: bool = True) -> str:
+def answer_section(
+    result: Answer,
+    *,
+    heading: bool = True,
+    left_out: Sequence[tuple[str, LeftOut]] = (),
+) -> str:
     """The answer's section (Markdown, ending in a blank line): the lines in words, then
-    the table and its notes (answer_markdown); its heading left out without ``heading``
-    (the README has its own); empty text when no engine run was judged."""
+    the table and its notes (answer_markdown), then what its suites left out here for want
+    of a GPU (``left_out``: suite name and LeftOut, :func:`left_out_sentence`); its heading
+    left out without ``heading`` (the README has its own); empty text when no engine run was
+    judged."""
     table = answer_markdown(result, heading=False)
     if not table:
         return ""
     title = ["## The answer: which engine, which settings, at what cost", ""] if heading else []
     words = _bullets(answer_lines(result))
-    return "\n".join([*title, *words, *([""] if words else []), table])
+    missing = [left_out_sentence(left_out), ""] if left_out else []
+    return "\n".join([*title, *words, *([""] if words else []), table, *missing])
+
+
+def left_out_sentence(left_out: Sequence[tuple[str, LeftOut]]) -> str:
+    """One sentence under the answer's table: the runs its suites did not run on this machine
+    for want of a GPU (suite name and LeftOut each), so that an engine's row is read as
+    without them."""
+    parts = "; ".join(
+        f"{item.label}, {item.runs} run{'s' if item.runs != 1 else ''} of the {suite} suite "
+        f"({item.reason})"
+        for suite, item in left_out
+    )
+    return escape_text(
+        f"Left out on this machine for want of a GPU, so not in the rows above: {parts}."
+    )

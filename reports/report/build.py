@@ -30,7 +30,13 @@ from hoopbench.reports.report.best_settings import (
 )
 from hoopbench.reports.report.drawing_processes import started_drawing
 from hoopbench.reports.report.map_section import is_map_folder, map_prefixes, map_sections
-from hoopbench.reports.report.markdown import FigurePool, Say, SuiteMachine, write_markdown
+from hoopbench.reports.report.markdown import (
+    FigurePool,
+    Say,
+    SuiteMachine,
+    answer_left_out,
+    write_markdown,
+)
 from hoopbench.reports.report.page import (
     GIF_SCENE,
     gif_runs,
@@ -48,7 +54,13 @@ from hoopbench.reports.sweep.folder_files import (
 )
 from hoopbench.reports.sweep.runner import sweep_lock
 
-__all__ = ["ReportFilesExistError", "build_report", "files_to_replace", "report_frame"]
+__all__ = [
+    "ReportFilesExistError",
+    "answer_left_out_of",
+    "build_report",
+    "files_to_replace",
+    "report_frame",
+]
 
 
 class ReportFilesExistError(ValueError):
@@ -289,6 +301,13 @@ def _suite_machine(results_dir: Path) -> SuiteMachine:
         load_end=_load(session.get("load_average_end")),
         left_out=_left_out(meta.get(LEFT_OUT_KEY)),
     )
+
+
+def answer_left_out_of(results_dirs: Sequence[Path]) -> list[tuple[str, LeftOut]]:
+    """What the answer's suites among these results folders left out for want of a GPU
+    (their meta.json), with each suite's name: ``hoopbench findings`` says it under the
+    README's answer, as the report does."""
+    return answer_left_out([_suite_machine(Path(folder)) for folder in results_dirs])
 
 
 def _left_out(value: Any) -> tuple[LeftOut, ...]:

@@ -36,7 +36,7 @@ from hoopbench.reports.compare.selection import (
     profile_of,
     step_cost_column,
 )
-from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT
+from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT, LeftOut
 from hoopbench.reports.report.answer import answer
 from hoopbench.reports.report.answer_words import answer_section
 from hoopbench.reports.report.best_settings import BestSettings
@@ -630,12 +630,18 @@ def findings_markdown(
     return "\n".join([board, "", SCOREBOARD_NOTE, *(["", *lines] if lines else [])])
 
 
-def readme_markdown(runs: pd.DataFrame, searches: Sequence[BestSettings] = ()) -> str:
+def readme_markdown(
+    runs: pd.DataFrame,
+    searches: Sequence[BestSettings] = (),
+    left_out: Sequence[tuple[str, LeftOut]] = (),
+) -> str:
     """The README's block (``hoopbench findings``): the answer (reports/report/answer.py,
-    with the shipped ``searches``) without its heading, then the scoreboard and the key
-    findings, pointing to the report for the rest."""
+    with the shipped ``searches``, and what its suites ``left_out`` for want of a GPU)
+    without its heading, then the scoreboard and the key findings, pointing to the report
+    for the rest."""
     is_stability = runs.get("suite", pd.Series("", index=runs.index)) == "stability"
-    head = answer_section(answer(runs[~is_stability], searches), heading=False).rstrip()
+    result = answer(runs[~is_stability], searches)
+    head = answer_section(result, heading=False, left_out=left_out).rstrip()
     text = findings_markdown(runs).replace(
         f'section "{MORE_FINDINGS}" below', f'section "{MORE_FINDINGS}" of the report'
     )

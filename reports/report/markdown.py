@@ -675,13 +675,25 @@ def _all_findings_section(runs: pd.DataFrame, every: Sequence[str]) -> str:
     return _section(f"## {MORE_FINDINGS}", "", text) if len(every) > KEY_FINDINGS else ""
 
 
-def _answer_section(runs: pd.DataFrame, searches: Sequence[BestSettings], out: Path) -> str:
+def _answer_section(
+    runs: pd.DataFrame,
+    searches: Sequence[BestSettings],
+    out: Path,
+    machines: Sequence[SuiteMachine] = (),
+) -> str:
     """The answer (reports/report/answer.py) of the comparison suites' rows and the shipped
-    searches, in words and as a table; the same rows as answer.csv and answer.json in
-    ``out`` (reports/report/answer_files.py)."""
+    searches, in words and as a table, with the comparison suites' runs left out for want
+    of a GPU (``machines``); the same rows as answer.csv and answer.json in ``out``
+    (reports/report/answer_files.py)."""
     result = answer(runs, searches)
     write_answer_files(result, out)
-    return answer_section(result)
+    return answer_section(result, left_out=answer_left_out(machines))
+
+
+def answer_left_out(machines: Sequence[SuiteMachine]) -> list[tuple[str, LeftOut]]:
+    """The runs the answer's suites (all but the stability suite, which it does not read)
+    left out for want of a GPU, with their suite's name."""
+    return [(m.suite, item) for m in machines if m.suite != STABILITY_SUITE for item in m.left_out]
 
 
 def _seed_section(out: Path) -> tuple[str, list[Path]]:
@@ -1015,13 +1027,17 @@ def _draw_plain(function: Callable[..., Any], *args: Any) -> Any:
 
 # --------------------------------------------------------------------------- the report
 def _tables(
-    runs: pd.DataFrame, everything: pd.DataFrame, searches: Sequence[BestSettings], out: Path
+    runs: pd.DataFrame,
+    everything: pd.DataFrame,
+    searches: Sequence[BestSettings],
+    out: Path,
+    machines: Sequence[SuiteMachine] = (),
 ) -> dict[str, str]:
     """The sections of report.md without figures, by name (those of the comparison suites'
     runs only where there are some)."""
     every = findings(everything)  # seconds of work: made once, for both sections
     tables = {
-        "answer": _answer_section(runs, searches, out),
+        "answer": _answer_section(runs, searches, out, machines),
         "findings": _findings_section(everything, every),
         "all findings": _all_findings_section(everything, every),
     }
@@ -1108,7 +1124,7 @@ def write_markdown(
     # The tables while the figures are drawn: the tables need none of them.
     if say is not None:
         say("tables: the answer, the findings and the sections of report.md")
-    tables = _tables(runs, everything, searches, out)
+    tables = _tables(runs, everything, searches, out, machines)
     drawn = _gathered(jobs, futures, say)
     for future in awaited:
         future.result()
