@@ -137,11 +137,11 @@ in the median, 1.61 at the 90th percentile, 1.76 at the 95th, 2.06 at the 99th a
 worst. 2 covers 98.5 % of those pairs, 1.5 (the factor before, from the wall times of two
 reports on an AMD EPYC) 85 %. Under KVM a worker's CPU time moves with what else runs on the
 host and on the other core (their shared L3 cache, the host's scheduling): a short call moves
-most (Newton's one call
-of 8 worlds, 3,000 steps, 18-28 ms: 5.9 to 9.2 us a step). With 1.5 the answer's cheapest
-settings differed between two of those reports in 1 of 20 choices by the clock alone
-(Newton tight: stock against tuned, 9.24 against 5.99 us a step, then 5.94 against 7.29);
-with 2 and the answer's tie rule, in none of the 20 over five reports (mr93 and mr95-98)."""
+most (Newton's one call of 8 worlds, 3,000 steps, 18-28 ms: 5.9 to 9.2 us a step). With 1.5
+the answer's cheapest settings differed between two of those reports in 1 of 20 choices by
+the clock alone (Newton tight: stock against tuned, 9.24 against 5.99 us a step, then 5.94
+against 7.29); with 2 and the answer's tie rule, in none of the 20 over eight reports on
+that machine (2026-11-29 and 30; MJX's finer rows, left to a GPU in four of them, aside)."""
 
 
 def costs_equal(a: float, b: float) -> bool:
