@@ -15,6 +15,7 @@ import json
 import math
 import os
 import tomllib
+from collections import Counter
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from enum import StrEnum
@@ -205,23 +206,14 @@ class Suite:
         none. Nothing of a run it keeps changes."""
         only = {task.run_id: reason for task in tasks if (reason := self._gpu_only(task))}
         sees = gpu or (lambda engine: engine_class(engine).sees_gpu())
-        answers: dict[str, bool] = {}
-        for task in tasks:
-            if task.run_id in only and task.engine not in answers:
-                answers[task.engine] = sees(task.engine)
-        reasons = {
-            task.run_id: only[task.run_id]
-            for task in tasks
-            if task.run_id in only and not answers[task.engine]
-        }
-        left: dict[tuple[str, str], int] = {}
-        for task in tasks:
-            if task.run_id in reasons:
-                key = (task.engine, task.variant)
-                left[key] = left.get(key, 0) + 1
-        why = {(t.engine, t.variant): reasons[t.run_id] for t in tasks if t.run_id in reasons}
-        kept = [task for task in tasks if task.run_id not in reasons]
-        return kept, tuple(LeftOut(e, v, n, why[e, v]) for (e, v), n in left.items())
+        asked = dict.fromkeys(task.engine for task in tasks if task.run_id in only)
+        blind = {engine for engine in asked if not sees(engine)}
+        left = [task for task in tasks if task.run_id in only and task.engine in blind]
+        counts = Counter((task.engine, task.variant) for task in left)
+        why = {(task.engine, task.variant): only[task.run_id] for task in left}
+        gone = {task.run_id for task in left}
+        kept = [task for task in tasks if task.run_id not in gone]
+        return kept, tuple(LeftOut(e, v, n, why[e, v]) for (e, v), n in counts.items())
 
     def _gpu_only(self, task: RunTask) -> str | None:
         """Why this run pays off only on a GPU in this suite, or None (and always None in a
