@@ -426,9 +426,8 @@ class Engine(ABC):
     """Why the engine's runs pay off only on a GPU (None: they pay off on a CPU too): a suite
     sized to the machine (``sized_to_machine``) runs them only where a GPU is present, and
     leaves them to the suites that run everything (full) otherwise, saying so. An engine
-    with one such setting says it in :meth:`gpu_only_reason` instead. No shipped engine
-    declares one since MuJoCo Warp's and Newton's steps are Warp graphs replayed on a CPU
-    too (0.05-0.5 ms a step, docs/engines.md); a plugin engine may."""
+    with one such setting says it in :meth:`gpu_only_reason` instead: MuJoCo Warp, and
+    Newton's MuJoCo solver (MuJoCo Warp inside Newton)."""
 
     def __init__(
         self,

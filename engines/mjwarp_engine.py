@@ -87,10 +87,15 @@ class MjwarpEngine(WorldsEngine, MjcfEngine):
     """6 times a lone world's step on the CPU launched from Python (34 ms, RK4, 2026-11-28;
     replayed as Warp's CPU graph a step costs under 1 ms, 8 worlds tuned: docs/engines.md)."""
     compiled_cache = WARP_CACHE
-    # Not gpu_only: replayed as Warp's CPU graph a step costs 0.05 ms for a lone world stock,
-    # 0.15 ms tuned (0.14 and 0.46 ms for 8 worlds; a 3 s run at 1e-3 s steps in 0.15-0.45 s,
-    # 2 loaded cores, 2026-11-29), and a process pays about 2.5 CPU-s to import it and load
-    # its kernels: the suites sized to the machine run it on a CPU too.
+    gpu_only = (
+        "on a CPU its rows give MJX float32's verdicts (docs/engines.md) and its Warp kernels "
+        "cost about 33 CPU-s to compile on a machine's first run"
+    )
+    # A GPU is the point of it. On a CPU its steps are Warp graphs replayed there, cheap to
+    # step (0.05 ms for a lone world stock, 0.15 ms tuned, 2026-11-29) but dear to compile:
+    # its 18 runs took 42 CPU-s in make report's first run and 9.5 in the next (2026-11-29, a
+    # Xeon at 2.1 GHz, 2 cores: 8 % of that first run's worker CPU), for rows MJX's give
+    # already. The full suite runs it everywhere.
     options = (
         *MujocoEngine.options_except("ring_segments", integrator=choice(*_MJWARP_INTEGRATORS)),
         DEVICE,

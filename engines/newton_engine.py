@@ -85,7 +85,7 @@ import math
 import operator
 import warnings
 from collections import OrderedDict
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from types import ModuleType
@@ -214,6 +214,17 @@ class NewtonEngine(WorldsEngine):
     step_cost_bound = 0.2
     """5 times a lone world's step on the CPU with its dearest solver (MuJoCo: 41 ms,
     docs/engines.md)."""
+
+    @classmethod
+    def gpu_only_reason(cls, options: Mapping[str, Any]) -> str | None:
+        """Newton's MuJoCo solver is MuJoCo Warp (its ``gpu_only``); the other solvers pay
+        off on a CPU too."""
+        if options.get("solver") != "mujoco":
+            return None
+        return (
+            "its MuJoCo solver is MuJoCo Warp, whose reason is its own (its kernels cost "
+            "about 12 CPU-s more to compile on a machine's first run)"
+        )
 
     options = (
         Option(
