@@ -117,7 +117,7 @@ COLD_CACHE_S: dict[Hashable, float] = {
     # these priors: 1.66 and 1.90), averaged. The EPYC's figures (6.9, 21.9, 20.6, 11.6)
     # had been measured while MJX's finer call ran too: at the machine's factor they said
     # 2.5 times the Xeon's compiles, and the default suite's ETA at a tenth of its runs was
-    # 1.56-1.67 times the time left on two cold runs (1.07-1.19 with these).
+    # 1.56-1.67 times the time left on two cold runs (1.09 and 1.11 replayed with these).
     ("mjx", "stock", "default"): 3.7,
     ("mjx", "tuned", "default"): 6.7,
     ("mjx", "tuned", "precision=float64"): 8.0,
