@@ -88,8 +88,8 @@ class MjwarpEngine(WorldsEngine, MjcfEngine):
     replayed as Warp's CPU graph a step costs under 1 ms, 8 worlds tuned: docs/engines.md)."""
     compiled_cache = WARP_CACHE
     gpu_only = (
-        "on a CPU its rows give MJX float32's verdicts (docs/engines.md) and its Warp kernels "
-        "cost about 33 CPU-s to compile on a machine's first run"
+        "on a CPU its rows give MJX float32's verdicts, and its Warp kernels cost about 33 "
+        "CPU-s to compile on a machine's first run"
     )
     # A GPU is the point of it. On a CPU its steps are Warp graphs replayed there, cheap to
     # step (0.05 ms for a lone world stock, 0.15 ms tuned, 2026-11-29) but dear to compile:

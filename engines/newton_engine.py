@@ -222,8 +222,8 @@ class NewtonEngine(WorldsEngine):
         if options.get("solver") != "mujoco":
             return None
         return (
-            "its MuJoCo solver is MuJoCo Warp, whose reason is its own (its kernels cost "
-            "about 12 CPU-s more to compile on a machine's first run)"
+            "its MuJoCo solver is MuJoCo Warp, whose kernels cost about 12 CPU-s more to "
+            "compile on a machine's first run"
         )
 
     options = (
