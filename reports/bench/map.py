@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import Any
 
 import pandas as pd
-import psutil  # Dask's dependency: the benchmark needs hoopbench[dask] anyway
+import psutil
 
 from hoopbench.engines.judging.columns import COST_COLUMNS
 from hoopbench.engines.options import Profile
