@@ -37,7 +37,7 @@ from hoopbench.reports.compare.suite import (
     batch_least,
     run_task_batch,
 )
-from hoopbench.reports.compare.suite_file import load_suite, suite_path
+from hoopbench.reports.compare.suite_file import STABILITY_SUITE, load_suite, suite_path
 from hoopbench.reports.hop_map.spec import MapSpec
 from hoopbench.reports.hop_map.stages import (
     MapTask,
@@ -61,7 +61,7 @@ __all__ = ["MAP_STEP", "REPORT_SUITES", "Step", "report_plan", "run_steps"]
 REPORT_SUITES: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("default", ("--trajectories", "default")),
     ("finer", ()),
-    ("stability", ()),
+    (STABILITY_SUITE, ()),
 )
 """make report's suites in order, each with its own options of ``hoopbench compare``."""
 MAP_STEP = "the hop map"

@@ -55,6 +55,10 @@ SUITES_DIR = Path(__file__).resolve().parent / "suites"
 
 DEFAULT_VARIANT = "default"
 
+STABILITY_SUITE = "stability"
+"""Name of the shipped suite of stiff and extreme scenes (suites/stability.toml): its rows make
+the report's stability matrix, and the answer does not read them."""
+
 MAX_SUITE_RUNS = 100_000
 """Most runs one suite may make. Checking a run's settings costs about 0.1 ms and a run's
 task and row some kB, so this is ten seconds of checks and some hundred MB held before the

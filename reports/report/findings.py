@@ -36,7 +36,7 @@ from hoopbench.reports.compare.selection import (
     profile_of,
     step_cost_column,
 )
-from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT, LeftOut
+from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT, STABILITY_SUITE, LeftOut
 from hoopbench.reports.report.answer import answer
 from hoopbench.reports.report.answer_words import answer_section
 from hoopbench.reports.report.best_settings import BestSettings
@@ -532,7 +532,7 @@ def findings(runs: pd.DataFrame) -> list[str]:
     profile, the stock knobs that break an outcome, agreement, where each engine breaks.
     ``runs`` holds the comparison suites' rows and, optionally, the stability suite's
     (column ``suite`` == 'stability')."""
-    is_stability = runs.get("suite", pd.Series("", index=runs.index)) == "stability"
+    is_stability = runs.get("suite", pd.Series("", index=runs.index)) == STABILITY_SUITE
     main, stability = runs[~is_stability], runs[is_stability]
     closest: list[str] = []
     transitions: list[str] = []
@@ -586,7 +586,7 @@ def findings(runs: pd.DataFrame) -> list[str]:
 def findings_scoreboard(runs: pd.DataFrame) -> pd.DataFrame:
     """The scoreboard (reports/report/scoreboard.py) of the findings' rows: the comparison
     suites' default-variant runs at the default timestep, per engine and profile."""
-    is_stability = runs.get("suite", pd.Series("", index=runs.index)) == "stability"
+    is_stability = runs.get("suite", pd.Series("", index=runs.index)) == STABILITY_SUITE
     rows = _at_default(runs[~is_stability])
     return scoreboard(rows, _profiles(rows), _engines(rows))
 
@@ -639,7 +639,7 @@ def readme_markdown(
     with the shipped ``searches``, and what its suites ``left_out`` for want of a GPU)
     without its heading, then the scoreboard and the key findings, pointing to the report
     for the rest."""
-    is_stability = runs.get("suite", pd.Series("", index=runs.index)) == "stability"
+    is_stability = runs.get("suite", pd.Series("", index=runs.index)) == STABILITY_SUITE
     result = answer(runs[~is_stability], searches)
     head = answer_section(result, heading=False, left_out=left_out).rstrip()
     text = findings_markdown(runs).replace(

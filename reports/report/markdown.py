@@ -34,7 +34,7 @@ from hoopbench.reports.compare.selection import (
     run_cost_clock,
 )
 from hoopbench.reports.compare.suite import ROW_COLUMNS, left_out_text
-from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT, LeftOut
+from hoopbench.reports.compare.suite_file import DEFAULT_VARIANT, STABILITY_SUITE, LeftOut
 from hoopbench.reports.report import seed_reproduction
 from hoopbench.reports.report.answer import answer
 from hoopbench.reports.report.answer_files import write_answer_files
@@ -84,8 +84,6 @@ migrated) and its suite's name (report_frame)."""
 
 
 # --------------------------------------------------------------------------- tables
-STABILITY_SUITE = "stability"
-"""Name of the suite whose rows make the stability matrix (compare/suites/stability.toml)."""
 
 
 def _cell(value) -> str:

@@ -24,13 +24,13 @@ from plotly.offline import get_plotlyjs
 
 from hoopbench.engines.run import REFERENCE_ENGINE
 from hoopbench.models.catalogue import get_scene, scene_names
+from hoopbench.reports.compare.suite_file import STABILITY_SUITE
 from hoopbench.reports.report.best_settings import BestSettings, figure_names
 from hoopbench.reports.report.drawn import drawn_rows, timestep_note
 from hoopbench.reports.report.files_section import PAGE_NAME
 from hoopbench.reports.report.findings import MORE_FINDINGS
 from hoopbench.reports.report.hoop_gif import GIF_SCENE, hoop_gif
 from hoopbench.reports.report.markdown import (
-    STABILITY_SUITE,
     FigurePool,
     Say,
     dearest_first,
