@@ -425,9 +425,9 @@ class Engine(ABC):
     gpu_only: ClassVar[str | None] = None
     """Why the engine's runs pay off only on a GPU (None: they pay off on a CPU too): a suite
     sized to the machine (``sized_to_machine``) runs them only where a GPU is present, and
-    leaves them to the suites that run everything (full) otherwise, saying so. An engine
-    with one such setting says it in :meth:`gpu_only_reason` instead: MuJoCo Warp, and
-    Newton's MuJoCo solver (MuJoCo Warp inside Newton)."""
+    leaves them to the suites that run everything (full) otherwise, saying so. MuJoCo Warp
+    declares it; an engine with only one such setting says it in :meth:`gpu_only_reason`
+    instead (Newton, for its MuJoCo solver: MuJoCo Warp inside Newton)."""
 
     def __init__(
         self,

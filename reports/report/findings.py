@@ -527,12 +527,17 @@ def _stability_sentence(mine: pd.DataFrame, engine: str) -> str:
     return f"{engine} fails {len(bad)} of {len(kinds)} stiff and extreme cells: {listed}."
 
 
+def _stability_rows(runs: pd.DataFrame) -> pd.Series:
+    """(rows,) bool: the stability suite's rows (none where ``runs`` has no suite column)."""
+    return runs.get("suite", pd.Series("", index=runs.index)) == STABILITY_SUITE
+
+
 def findings(runs: pd.DataFrame) -> list[str]:
     """The findings, as sentences, the most telling first: closest engine per event and
     profile, the stock knobs that break an outcome, agreement, where each engine breaks.
     ``runs`` holds the comparison suites' rows and, optionally, the stability suite's
     (column ``suite`` == 'stability')."""
-    is_stability = runs.get("suite", pd.Series("", index=runs.index)) == STABILITY_SUITE
+    is_stability = _stability_rows(runs)
     main, stability = runs[~is_stability], runs[is_stability]
     closest: list[str] = []
     transitions: list[str] = []
@@ -586,7 +591,7 @@ def findings(runs: pd.DataFrame) -> list[str]:
 def findings_scoreboard(runs: pd.DataFrame) -> pd.DataFrame:
     """The scoreboard (reports/report/scoreboard.py) of the findings' rows: the comparison
     suites' default-variant runs at the default timestep, per engine and profile."""
-    is_stability = runs.get("suite", pd.Series("", index=runs.index)) == STABILITY_SUITE
+    is_stability = _stability_rows(runs)
     rows = _at_default(runs[~is_stability])
     return scoreboard(rows, _profiles(rows), _engines(rows))
 
@@ -639,7 +644,7 @@ def readme_markdown(
     with the shipped ``searches``, and what its suites ``left_out`` for want of a GPU)
     without its heading, then the scoreboard and the key findings, pointing to the report
     for the rest."""
-    is_stability = runs.get("suite", pd.Series("", index=runs.index)) == STABILITY_SUITE
+    is_stability = _stability_rows(runs)
     result = answer(runs[~is_stability], searches)
     head = answer_section(result, heading=False, left_out=left_out).rstrip()
     text = findings_markdown(runs).replace(
